@@ -1,0 +1,94 @@
+//! Forward kinematics, geometric Jacobians and manipulability.
+
+use nalgebra::{Matrix3, Rotation3, Translation3, Vector3};
+
+use crate::{JOINTS, JointMatrix, JointVector, SerialArm, Transform};
+
+/// The rotation and origin of every link frame in the base frame: `frames[i]` is `base_from_link(i+1)`.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct LinkFrames {
+    pub rotations: [Matrix3<f64>; JOINTS],
+    pub origins: [Vector3<f64>; JOINTS],
+}
+
+impl SerialArm {
+    pub(crate) fn frames(&self, q: &JointVector) -> LinkFrames {
+        let mut rotations = [Matrix3::identity(); JOINTS];
+        let mut origins = [Vector3::zeros(); JOINTS];
+        let mut rotation = Matrix3::identity();
+        let mut origin = Vector3::zeros();
+        for (i, link) in self.links.iter().enumerate() {
+            let (s, c) = (q[i] + link.dh.offset()).sin_cos();
+            origin += rotation * link.dh.origin_in_prev(c, s);
+            rotation *= link.dh.rotation(c, s);
+            rotations[i] = rotation;
+            origins[i] = origin;
+        }
+        LinkFrames { rotations, origins }
+    }
+
+    /// Every link frame in the base frame: element `i` is `base_from_link(i+1)`; the last is the tool.
+    pub fn link_frames(&self, q: &JointVector) -> [Transform; JOINTS] {
+        let frames = self.frames(q);
+        std::array::from_fn(|i| {
+            Transform::from_parts(
+                Translation3::from(frames.origins[i]),
+                Rotation3::from_matrix_unchecked(frames.rotations[i]),
+            )
+        })
+    }
+
+    /// The tool (DH frame 6) in the base frame.
+    pub fn base_from_tool(&self, q: &JointVector) -> Transform {
+        let frames = self.frames(q);
+        Transform::from_parts(
+            Translation3::from(frames.origins[JOINTS - 1]),
+            Rotation3::from_matrix_unchecked(frames.rotations[JOINTS - 1]),
+        )
+    }
+
+    /// The geometric Jacobian in the base frame (the toolbox's `jacob0`): `[v; ω] = J q̇`, with `v` the
+    /// velocity of the tool origin and `ω` the tool's angular velocity, both in base coordinates.
+    pub fn jacobian_base(&self, q: &JointVector) -> JointMatrix {
+        let frames = self.frames(q);
+        jacobian_from_frames(&frames)
+    }
+
+    /// The geometric Jacobian in the tool frame (the toolbox's `jacobe`): the same twist in tool coordinates.
+    pub fn jacobian_tool(&self, q: &JointVector) -> JointMatrix {
+        let frames = self.frames(q);
+        let jacobian = jacobian_from_frames(&frames);
+        let tool_from_base = frames.rotations[JOINTS - 1].transpose();
+        let mut out = JointMatrix::zeros();
+        out.fixed_view_mut::<3, 6>(0, 0)
+            .copy_from(&(tool_from_base * jacobian.fixed_view::<3, 6>(0, 0)));
+        out.fixed_view_mut::<3, 6>(3, 0)
+            .copy_from(&(tool_from_base * jacobian.fixed_view::<3, 6>(3, 0)));
+        out
+    }
+
+    /// Yoshikawa's manipulability √det(J Jᵀ) of the base-frame Jacobian; 0 at a singularity.
+    pub fn manipulability(&self, q: &JointVector) -> f64 {
+        self.jacobian_base(q).determinant().abs()
+    }
+}
+
+fn jacobian_from_frames(frames: &LinkFrames) -> JointMatrix {
+    let tool_origin = frames.origins[JOINTS - 1];
+    let mut jacobian = JointMatrix::zeros();
+    for i in 0..JOINTS {
+        // joint i turns about z of frame i-1 (frame 0 is the base)
+        let (axis, origin) = if i == 0 {
+            (Vector3::z(), Vector3::zeros())
+        } else {
+            (
+                frames.rotations[i - 1].column(2).into_owned(),
+                frames.origins[i - 1],
+            )
+        };
+        let linear = axis.cross(&(tool_origin - origin));
+        jacobian.fixed_view_mut::<3, 1>(0, i).copy_from(&linear);
+        jacobian.fixed_view_mut::<3, 1>(3, i).copy_from(&axis);
+    }
+    jacobian
+}
