@@ -34,6 +34,17 @@ pub enum LimitedQuantity {
     Torque,
 }
 
+impl LimitedQuantity {
+    /// The SI unit of the quantity.
+    pub fn unit(&self) -> &'static str {
+        match self {
+            LimitedQuantity::Position => "rad",
+            LimitedQuantity::Velocity => "rad/s",
+            LimitedQuantity::Torque => "N·m",
+        }
+    }
+}
+
 impl fmt::Display for LimitedQuantity {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         f.write_str(match self {
@@ -46,7 +57,11 @@ impl fmt::Display for LimitedQuantity {
 
 /// A joint outside one of its limits (or not a finite number).
 #[derive(Debug, Clone, Copy, PartialEq, thiserror::Error)]
-#[error("joint {joint_number} {quantity} {value} is outside [{min}, {max}]", joint_number = .joint + 1)]
+#[error(
+    "joint {joint_number} {quantity} {value} {unit} is outside [{min:.4}, {max:.4}] {unit}",
+    joint_number = .joint + 1,
+    unit = .quantity.unit()
+)]
 pub struct LimitViolation {
     /// Zero-based joint index.
     pub joint: usize,

@@ -1,1 +1,53 @@
-fn main() {}
+//! # vservoctl — the vservo command-line tool
+//!
+//! Owns the user-facing commands that inspect vservo's models (and, as the project grows, its gains and a
+//! running daemon). Each subcommand lives in its own module; input errors are reported as
+//! [`UsageError`] and end with exit code 2, other failures with exit code 1.
+
+mod joint_args;
+mod model;
+mod output;
+
+use std::process::ExitCode;
+
+use clap::{Parser, Subcommand};
+
+/// Bad input from the user: printed as is, exit code 2.
+#[derive(Debug, thiserror::Error)]
+#[error("{0}")]
+pub struct UsageError(pub String);
+
+#[derive(Parser)]
+#[command(
+    name = "vservoctl",
+    version,
+    about = "Inspect and control vservo, the visual-servo controller"
+)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Kinematics, dynamics and inverse kinematics of the PUMA 560 at one joint state.
+    Model(model::ModelArgs),
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Command::Model(args) => model::run(&args),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(error) => {
+            eprintln!("vservoctl: {error:#}");
+            if error.is::<UsageError>() {
+                ExitCode::from(2)
+            } else {
+                ExitCode::FAILURE
+            }
+        }
+    }
+}

@@ -1,0 +1,119 @@
+//! `vservoctl model` as a user runs it: its JSON agrees with the arm library, bad input exits with 2.
+
+use serde_json::Value;
+use vservo_arm::{JointVector, puma560};
+use vservo_system_tests::run;
+
+fn model_json(args: &[&str]) -> Value {
+    let mut all = vec!["model", "--json"];
+    all.extend_from_slice(args);
+    let output = run("vservoctl", &all);
+    assert!(
+        output.status.success(),
+        "{}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+    serde_json::from_slice(&output.stdout).expect("one JSON object")
+}
+
+fn numbers(value: &Value) -> Vec<f64> {
+    match value {
+        Value::Array(items) => items.iter().flat_map(numbers).collect(),
+        Value::Number(n) => vec![n.as_f64().expect("a float")],
+        other => panic!("not a number or array: {other}"),
+    }
+}
+
+#[test]
+fn json_holds_every_documented_key_and_agrees_with_the_library() {
+    let q = "0.3,0.9,-2.6,0.4,0.7,-0.2";
+    let qd = "0.5,-0.4,0.3,1,-0.8,0.6";
+    let qdd = "1,2,-1.5,3,0.5,-2";
+    let json = model_json(&["--q", q, "--qd", qd, "--qdd", qdd]);
+    let arm = puma560::puma560();
+    let vector = |t: &str| {
+        JointVector::from_iterator(t.split(',').map(|v| v.parse::<f64>().expect("number")))
+    };
+    let (q, qd, qdd) = (vector(q), vector(qd), vector(qdd));
+
+    let fkine = numbers(&json["fkine"]);
+    assert_eq!(fkine.len(), 16);
+    let expected = arm.base_from_tool(&q).to_homogeneous();
+    assert!((fkine[3] - expected[(0, 3)]).abs() < 1e-12);
+    assert_eq!(numbers(&json["jacob0"]).len(), 36);
+    assert_eq!(numbers(&json["jacobe"]).len(), 36);
+    assert!(
+        (json["manipulability"].as_f64().expect("number") - arm.manipulability(&q)).abs() < 1e-12
+    );
+    for key in ["inertia", "coriolis"] {
+        assert_eq!(numbers(&json["rigid"][key]).len(), 36, "rigid.{key}");
+    }
+    let rne = numbers(&json["full"]["rne"]);
+    let expected = arm.rne(&q, &qd, &qdd);
+    assert!(
+        rne.iter()
+            .zip(expected.iter())
+            .all(|(a, b)| (a - b).abs() < 1e-9),
+        "{rne:?}"
+    );
+    assert_eq!(numbers(&json["rigid"]["gravload"]).len(), 6);
+    assert_eq!(numbers(&json["rigid"]["rne"]).len(), 6);
+    assert_eq!(numbers(&json["full"]["inertia"]).len(), 36);
+
+    let ik = json["ik"].as_array().expect("ik is an array");
+    assert_eq!(ik.len(), 8);
+    let holds_input = ik.iter().any(|s| {
+        s["q"].is_array()
+            && numbers(&s["q"])
+                .iter()
+                .zip(q.iter())
+                .all(|(a, b)| (a - b).abs() < 1e-9)
+    });
+    assert!(
+        holds_input,
+        "one IK solution is the input configuration: {ik:?}"
+    );
+    assert!(ik.iter().all(|s| s["config"].is_string()));
+}
+
+#[test]
+fn velocities_and_accelerations_default_to_zero() {
+    let json = model_json(&["--q", "qn"]);
+    let gravload = numbers(&json["rigid"]["gravload"]);
+    let rne = numbers(&json["full"]["rne"]);
+    assert!(
+        gravload
+            .iter()
+            .zip(&rne)
+            .all(|(a, b)| (a - b).abs() < 1e-12)
+    );
+    assert!(
+        numbers(&json["rigid"]["coriolis"])
+            .iter()
+            .all(|c| *c == 0.0)
+    );
+}
+
+#[test]
+fn bad_input_exits_with_2_and_says_what_is_wrong() {
+    let cases: [(&[&str], &str); 5] = [
+        (&["model", "--q", "1,2,3"], "expected 6"),
+        (&["model", "--q", "0,0.7,-3,0,zero,0"], "not a number"),
+        (&["model", "--q", "0,0,1,0,0,0"], "joint 3 position"),
+        (
+            &["model", "--q", "qn", "--qd", "0,0,0,0,0,9"],
+            "joint 6 velocity",
+        ),
+        (&["model"], "--q"),
+    ];
+    for (args, message) in cases {
+        let output = run("vservoctl", args);
+        let stderr = String::from_utf8_lossy(&output.stderr);
+        assert_eq!(output.status.code(), Some(2), "{args:?}: {stderr}");
+        assert!(
+            stderr.contains(message),
+            "{args:?}: {stderr:?} should mention {message:?}"
+        );
+        assert!(output.stdout.is_empty(), "{args:?} printed a result");
+    }
+}
