@@ -13,10 +13,7 @@ use std::process::{Command, Output};
 pub fn binary(name: &str) -> PathBuf {
     let exe = std::env::current_exe().expect("the test knows its own path");
     // target/<profile>/deps/<test>-<hash>
-    let profile_dir = exe
-        .parent()
-        .and_then(|deps| deps.parent())
-        .expect("target/<profile>/deps");
+    let profile_dir = exe.parent().and_then(|deps| deps.parent()).expect("target/<profile>/deps");
     let path = profile_dir.join(name);
     assert!(
         path.exists(),
@@ -28,8 +25,5 @@ pub fn binary(name: &str) -> PathBuf {
 
 /// Runs a workspace binary with arguments and returns its output.
 pub fn run(name: &str, args: &[&str]) -> Output {
-    Command::new(binary(name))
-        .args(args)
-        .output()
-        .expect("the binary starts")
+    Command::new(binary(name)).args(args).output().expect("the binary starts")
 }

@@ -8,11 +8,7 @@ fn model_json(args: &[&str]) -> Value {
     let mut all = vec!["model", "--json"];
     all.extend_from_slice(args);
     let output = run("vservoctl", &all);
-    assert!(
-        output.status.success(),
-        "{}",
-        String::from_utf8_lossy(&output.stderr)
-    );
+    assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stderr));
     serde_json::from_slice(&output.stdout).expect("one JSON object")
 }
 
@@ -31,9 +27,8 @@ fn json_holds_every_documented_key_and_agrees_with_the_library() {
     let qdd = "1,2,-1.5,3,0.5,-2";
     let json = model_json(&["--q", q, "--qd", qd, "--qdd", qdd]);
     let arm = puma560::puma560();
-    let vector = |t: &str| {
-        JointVector::from_iterator(t.split(',').map(|v| v.parse::<f64>().expect("number")))
-    };
+    let vector =
+        |t: &str| JointVector::from_iterator(t.split(',').map(|v| v.parse::<f64>().expect("number")));
     let (q, qd, qdd) = (vector(q), vector(qd), vector(qdd));
 
     let fkine = numbers(&json["fkine"]);
@@ -42,20 +37,13 @@ fn json_holds_every_documented_key_and_agrees_with_the_library() {
     assert!((fkine[3] - expected[(0, 3)]).abs() < 1e-12);
     assert_eq!(numbers(&json["jacob0"]).len(), 36);
     assert_eq!(numbers(&json["jacobe"]).len(), 36);
-    assert!(
-        (json["manipulability"].as_f64().expect("number") - arm.manipulability(&q)).abs() < 1e-12
-    );
+    assert!((json["manipulability"].as_f64().expect("number") - arm.manipulability(&q)).abs() < 1e-12);
     for key in ["inertia", "coriolis"] {
         assert_eq!(numbers(&json["rigid"][key]).len(), 36, "rigid.{key}");
     }
     let rne = numbers(&json["full"]["rne"]);
     let expected = arm.rne(&q, &qd, &qdd);
-    assert!(
-        rne.iter()
-            .zip(expected.iter())
-            .all(|(a, b)| (a - b).abs() < 1e-9),
-        "{rne:?}"
-    );
+    assert!(rne.iter().zip(expected.iter()).all(|(a, b)| (a - b).abs() < 1e-9), "{rne:?}");
     assert_eq!(numbers(&json["rigid"]["gravload"]).len(), 6);
     assert_eq!(numbers(&json["rigid"]["rne"]).len(), 6);
     assert_eq!(numbers(&json["full"]["inertia"]).len(), 36);
@@ -63,16 +51,9 @@ fn json_holds_every_documented_key_and_agrees_with_the_library() {
     let ik = json["ik"].as_array().expect("ik is an array");
     assert_eq!(ik.len(), 8);
     let holds_input = ik.iter().any(|s| {
-        s["q"].is_array()
-            && numbers(&s["q"])
-                .iter()
-                .zip(q.iter())
-                .all(|(a, b)| (a - b).abs() < 1e-9)
+        s["q"].is_array() && numbers(&s["q"]).iter().zip(q.iter()).all(|(a, b)| (a - b).abs() < 1e-9)
     });
-    assert!(
-        holds_input,
-        "one IK solution is the input configuration: {ik:?}"
-    );
+    assert!(holds_input, "one IK solution is the input configuration: {ik:?}");
     assert!(ik.iter().all(|s| s["config"].is_string()));
 }
 
@@ -81,17 +62,8 @@ fn velocities_and_accelerations_default_to_zero() {
     let json = model_json(&["--q", "qn"]);
     let gravload = numbers(&json["rigid"]["gravload"]);
     let rne = numbers(&json["full"]["rne"]);
-    assert!(
-        gravload
-            .iter()
-            .zip(&rne)
-            .all(|(a, b)| (a - b).abs() < 1e-12)
-    );
-    assert!(
-        numbers(&json["rigid"]["coriolis"])
-            .iter()
-            .all(|c| *c == 0.0)
-    );
+    assert!(gravload.iter().zip(&rne).all(|(a, b)| (a - b).abs() < 1e-12));
+    assert!(numbers(&json["rigid"]["coriolis"]).iter().all(|c| *c == 0.0));
 }
 
 #[test]
@@ -100,20 +72,14 @@ fn bad_input_exits_with_2_and_says_what_is_wrong() {
         (&["model", "--q", "1,2,3"], "expected 6"),
         (&["model", "--q", "0,0.7,-3,0,zero,0"], "not a number"),
         (&["model", "--q", "0,0,1,0,0,0"], "joint 3 position"),
-        (
-            &["model", "--q", "qn", "--qd", "0,0,0,0,0,9"],
-            "joint 6 velocity",
-        ),
+        (&["model", "--q", "qn", "--qd", "0,0,0,0,0,9"], "joint 6 velocity"),
         (&["model"], "--q"),
     ];
     for (args, message) in cases {
         let output = run("vservoctl", args);
         let stderr = String::from_utf8_lossy(&output.stderr);
         assert_eq!(output.status.code(), Some(2), "{args:?}: {stderr}");
-        assert!(
-            stderr.contains(message),
-            "{args:?}: {stderr:?} should mention {message:?}"
-        );
+        assert!(stderr.contains(message), "{args:?}: {stderr:?} should mention {message:?}");
         assert!(output.stdout.is_empty(), "{args:?} printed a result");
     }
 }

@@ -15,16 +15,12 @@ fn arm_model(c: &mut Criterion) {
 
     c.bench_function("fkine", |b| b.iter(|| arm.base_from_tool(black_box(&q))));
     c.bench_function("jacob0", |b| b.iter(|| arm.jacobian_base(black_box(&q))));
-    c.bench_function("rne", |b| {
-        b.iter(|| arm.rne(black_box(&q), black_box(&qd), black_box(&qdd)))
-    });
+    c.bench_function("rne", |b| b.iter(|| arm.rne(black_box(&q), black_box(&qd), black_box(&qdd))));
     c.bench_function("mass_matrix", |b| b.iter(|| arm.mass_matrix(black_box(&q))));
     c.bench_function("forward_dynamics", |b| {
         b.iter(|| arm.forward_dynamics(black_box(&q), black_box(&qd), black_box(&tau)))
     });
-    c.bench_function("ik_all_8", |b| {
-        b.iter(|| arm.inverse_kinematics(black_box(&pose)))
-    });
+    c.bench_function("ik_all_8", |b| b.iter(|| arm.inverse_kinematics(black_box(&pose))));
 }
 
 criterion_group!(benches, arm_model);

@@ -36,7 +36,7 @@ impl SerialArm {
     ) -> JointVector {
         let z = Vector3::z();
         // outward: velocities and accelerations of each link, in its own frame
-        let mut rotations = [Matrix3::identity(); JOINTS];
+        let sin_cos = self.joint_sin_cos(q);
         let mut forces = [Vector3::zeros(); JOINTS];
         let mut moments = [Vector3::zeros(); JOINTS];
         let mut omega = Vector3::zeros();
@@ -44,18 +44,14 @@ impl SerialArm {
         // a base accelerating upwards is gravity pulling down
         let mut accel = -gravity_in_base;
         for (i, link) in self.links.iter().enumerate() {
-            let (s, c) = (q[i] + link.dh.offset()).sin_cos();
-            let prev_from_this = link.dh.rotation(c, s);
-            rotations[i] = prev_from_this;
-            let this_from_prev = prev_from_this.transpose();
-            let origin = link.dh.origin_in_this();
+            let dh = &link.dh;
+            let (s, c) = sin_cos[i];
+            let origin = dh.origin_in_this();
             let joint_rate = z * qd[i];
-            let new_omega = this_from_prev * (omega + joint_rate);
-            omega_dot = this_from_prev * (omega_dot + z * qdd[i] + omega.cross(&joint_rate));
+            let new_omega = dh.to_this(c, s, &(omega + joint_rate));
+            omega_dot = dh.to_this(c, s, &(omega_dot + z * qdd[i] + omega.cross(&joint_rate)));
             omega = new_omega;
-            accel = omega_dot.cross(&origin)
-                + omega.cross(&omega.cross(&origin))
-                + this_from_prev * accel;
+            accel = omega_dot.cross(&origin) + omega.cross(&omega.cross(&origin)) + dh.to_this(c, s, &accel);
             let com = link.inertia.com_in_link;
             let com_accel = omega_dot.cross(&com) + omega.cross(&omega.cross(&com)) + accel;
             let inertia = link.inertia.inertia_about_com;
@@ -70,7 +66,9 @@ impl SerialArm {
             let link = &self.links[i];
             let origin = link.dh.origin_in_this();
             let (child_force, child_moment) = if i + 1 < JOINTS {
-                (rotations[i + 1] * force, rotations[i + 1] * moment)
+                let child = &self.links[i + 1].dh;
+                let (s, c) = sin_cos[i + 1];
+                (child.to_prev(c, s, &force), child.to_prev(c, s, &moment))
             } else {
                 (force, moment)
             };
@@ -79,9 +77,7 @@ impl SerialArm {
                 + (origin + link.inertia.com_in_link).cross(&forces[i])
                 + moments[i];
             force = child_force + forces[i];
-            // joint i turns about z of frame i-1, which in frame i is the last row of prev_from_this
-            let r = &rotations[i];
-            tau[i] = moment.x * r[(2, 0)] + moment.y * r[(2, 1)] + moment.z * r[(2, 2)];
+            tau[i] = moment.dot(&link.dh.joint_axis_in_this());
         }
         tau
     }
@@ -110,36 +106,33 @@ impl SerialArm {
     /// The rigid-body mass matrix M(q), by the composite rigid body algorithm in base coordinates.
     pub fn mass_matrix_rigid(&self, q: &JointVector) -> JointMatrix {
         let frames = self.frames(q);
+        // each joint's axis as a line: direction s and moment o × s
+        let axes: [(Vector3<f64>, Vector3<f64>); JOINTS] = std::array::from_fn(|j| {
+            let (axis, point) = joint_axis(&frames, j);
+            (axis, point.cross(&axis))
+        });
         let mut mass = JointMatrix::zeros();
-        // composite body of links j..n: its mass, first moment and inertia about the base origin
+        // the composite body of links j..n: mass, first moment and inertia about the base origin
         let mut composite_mass = 0.0;
         let mut first_moment = Vector3::zeros();
-        let mut inertia_about_origin = Matrix3::zeros();
+        let mut inertia_about_origin = SymmetricMatrix3::default();
         for j in (0..JOINTS).rev() {
             let link = &self.links[j];
             let rotation = frames.rotations[j];
             let m = link.inertia.mass_kg;
             let com = frames.origins[j] + rotation * link.inertia.com_in_link;
-            let inertia = rotation * link.inertia.inertia_about_com * rotation.transpose();
+            inertia_about_origin.add_rotated(&link.inertia.inertia_about_com, &rotation);
+            inertia_about_origin.add_point_mass(m, &com);
             composite_mass += m;
             first_moment += com * m;
-            inertia_about_origin += inertia + point_mass_inertia(m, &com);
-            let (composite_com, composite_inertia) = if composite_mass > 0.0 {
-                let c = first_moment / composite_mass;
-                (
-                    c,
-                    inertia_about_origin - point_mass_inertia(composite_mass, &c),
-                )
-            } else {
-                (Vector3::zeros(), inertia_about_origin)
-            };
+            // momentum of the composite turning at unit rate about joint j's axis (s_j through o_j):
+            // linear p = s_j × (h − M o_j), angular about the base origin A = I_O s_j − h × (s_j × o_j)
             let (axis_j, point_j) = joint_axis(&frames, j);
-            let momentum = axis_j.cross(&(composite_com - point_j)) * composite_mass;
-            let spin = composite_inertia * axis_j;
-            for i in 0..=j {
-                let (axis_i, point_i) = joint_axis(&frames, i);
-                let angular_momentum = spin + (composite_com - point_i).cross(&momentum);
-                let value = axis_i.dot(&angular_momentum);
+            let linear = axis_j.cross(&(first_moment - point_j * composite_mass));
+            let angular = inertia_about_origin * axis_j - first_moment.cross(&axis_j.cross(&point_j));
+            // the torque joint i needs for it: the axis line of joint i against the momentum
+            for (i, (axis_i, moment_i)) in axes.iter().enumerate().take(j + 1) {
+                let value = axis_i.dot(&angular) + moment_i.dot(&linear);
                 mass[(i, j)] = value;
                 mass[(j, i)] = value;
             }
@@ -216,21 +209,81 @@ impl SerialArm {
 }
 
 fn solve_mass(mass: JointMatrix, rhs: JointVector) -> Result<JointVector, DynamicsError> {
-    let cholesky = mass
-        .cholesky()
-        .ok_or(DynamicsError::MassMatrixNotPositiveDefinite)?;
+    let cholesky = mass.cholesky().ok_or(DynamicsError::MassMatrixNotPositiveDefinite)?;
     let qdd = cholesky.solve(&rhs);
-    if qdd.iter().all(|v| v.is_finite()) {
-        Ok(qdd)
-    } else {
-        Err(DynamicsError::NonFinite)
+    if qdd.iter().all(|v| v.is_finite()) { Ok(qdd) } else { Err(DynamicsError::NonFinite) }
+}
+
+/// A symmetric 3×3 matrix kept as its six distinct entries: the mass matrix's inertia sums touch half
+/// the numbers a full `Matrix3` would.
+#[derive(Debug, Clone, Copy, Default)]
+struct SymmetricMatrix3 {
+    xx: f64,
+    yy: f64,
+    zz: f64,
+    xy: f64,
+    yz: f64,
+    xz: f64,
+}
+
+impl SymmetricMatrix3 {
+    /// Adds `weight · v vᵀ`.
+    #[inline(always)]
+    fn add_outer(&mut self, weight: f64, v: &Vector3<f64>) {
+        let w = v * weight;
+        self.xx += w.x * v.x;
+        self.yy += w.y * v.y;
+        self.zz += w.z * v.z;
+        self.xy += w.x * v.y;
+        self.yz += w.y * v.z;
+        self.xz += w.x * v.z;
+    }
+
+    /// Adds `R I Rᵀ`, an inertia tensor turned into the outer frame; the common diagonal `I` (principal
+    /// axes along the link frame's) costs three outer products.
+    #[inline]
+    fn add_rotated(&mut self, inertia: &Matrix3<f64>, rotation: &Matrix3<f64>) {
+        let off_diagonal_zero = inertia[(0, 1)] == 0.0 && inertia[(0, 2)] == 0.0 && inertia[(1, 2)] == 0.0;
+        if off_diagonal_zero {
+            for k in 0..3 {
+                if inertia[(k, k)] != 0.0 {
+                    self.add_outer(inertia[(k, k)], &rotation.column(k).into_owned());
+                }
+            }
+        } else {
+            let full = rotation * inertia * rotation.transpose();
+            self.xx += full[(0, 0)];
+            self.yy += full[(1, 1)];
+            self.zz += full[(2, 2)];
+            self.xy += full[(0, 1)];
+            self.yz += full[(1, 2)];
+            self.xz += full[(0, 2)];
+        }
+    }
+
+    /// Adds the inertia of a point mass `m` at `p` about the origin: m(|p|²E − p pᵀ).
+    #[inline(always)]
+    fn add_point_mass(&mut self, m: f64, p: &Vector3<f64>) {
+        let (x2, y2, z2) = (p.x * p.x, p.y * p.y, p.z * p.z);
+        self.xx += m * (y2 + z2);
+        self.yy += m * (x2 + z2);
+        self.zz += m * (x2 + y2);
+        self.xy -= m * p.x * p.y;
+        self.yz -= m * p.y * p.z;
+        self.xz -= m * p.x * p.z;
     }
 }
 
-/// Inertia of a point mass `m` at `p` about the origin: m(|p|²E − p pᵀ).
-#[inline]
-fn point_mass_inertia(m: f64, p: &Vector3<f64>) -> Matrix3<f64> {
-    (Matrix3::identity() * p.norm_squared() - p * p.transpose()) * m
+impl std::ops::Mul<Vector3<f64>> for SymmetricMatrix3 {
+    type Output = Vector3<f64>;
+    #[inline(always)]
+    fn mul(self, v: Vector3<f64>) -> Vector3<f64> {
+        Vector3::new(
+            self.xx * v.x + self.xy * v.y + self.xz * v.z,
+            self.xy * v.x + self.yy * v.y + self.yz * v.z,
+            self.xz * v.x + self.yz * v.y + self.zz * v.z,
+        )
+    }
 }
 
 /// The axis (unit, base frame) and a point on it for joint `j`: z and origin of frame j-1.
@@ -239,9 +292,6 @@ fn joint_axis(frames: &crate::kinematics::LinkFrames, j: usize) -> (Vector3<f64>
     if j == 0 {
         (Vector3::z(), Vector3::zeros())
     } else {
-        (
-            frames.rotations[j - 1].column(2).into_owned(),
-            frames.origins[j - 1],
-        )
+        (frames.rotations[j - 1].column(2).into_owned(), frames.origins[j - 1])
     }
 }

@@ -133,9 +133,7 @@ pub struct NearestSolution {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
 pub enum IkError {
     /// The arm's DH parameters are not of the PUMA's form, so the closed form does not apply.
-    #[error(
-        "closed-form IK needs a PUMA-like arm (a1 = 0, spherical wrist at the tool origin); {0} is not"
-    )]
+    #[error("closed-form IK needs a PUMA-like arm (a1 = 0, spherical wrist at the tool origin); {0} is not")]
     UnsupportedGeometry(&'static str),
     /// The pose holds NaN or infinity.
     #[error("the pose to solve for is not finite")]
@@ -150,10 +148,7 @@ impl IkSolutions {
 
     /// The solution for a configuration.
     pub fn get(&self, config: ArmConfig) -> &IkSolution {
-        let index = ArmConfig::ALL
-            .iter()
-            .position(|c| *c == config)
-            .unwrap_or(0);
+        let index = ArmConfig::ALL.iter().position(|c| *c == config).unwrap_or(0);
         &self.0[index]
     }
 
@@ -165,13 +160,7 @@ impl IkSolutions {
             .iter()
             .filter_map(|solution| {
                 let q = shift_into_limits(arm, &solution.q?, reference)?;
-                Some((
-                    NearestSolution {
-                        config: solution.config,
-                        q,
-                    },
-                    (q - reference).norm(),
-                ))
+                Some((NearestSolution { config: solution.config, q }, (q - reference).norm()))
             })
             .min_by(|a, b| a.1.total_cmp(&b.1))
             .map(|(solution, _)| solution)
@@ -180,11 +169,7 @@ impl IkSolutions {
 
 /// Shifts each angle by a multiple of 2π to the value inside its joint's limits nearest the reference;
 /// `None` when some joint has no such value.
-pub fn shift_into_limits(
-    arm: &SerialArm,
-    q: &JointVector,
-    reference: &JointVector,
-) -> Option<JointVector> {
+pub fn shift_into_limits(arm: &SerialArm, q: &JointVector, reference: &JointVector) -> Option<JointVector> {
     let mut shifted = *q;
     for j in 0..JOINTS {
         let limits = &arm.links[j].limits;
@@ -206,21 +191,10 @@ fn is_puma_like(arm: &SerialArm) -> Result<(), IkError> {
     let close = |a: f64, b: f64| (a - b).abs() < 1e-12;
     let alphas = [FRAC_PI_2, 0.0, -FRAC_PI_2, FRAC_PI_2, -FRAC_PI_2, 0.0];
     let dh = arm.links.map(|l| l.dh);
-    if !dh
-        .iter()
-        .zip(alphas)
-        .all(|(d, alpha)| close(d.alpha(), alpha))
-    {
+    if !dh.iter().zip(alphas).all(|(d, alpha)| close(d.alpha(), alpha)) {
         return Err(IkError::UnsupportedGeometry(arm.name));
     }
-    let wrist_offsets = [
-        dh[0].a(),
-        dh[3].a(),
-        dh[4].a(),
-        dh[5].a(),
-        dh[4].d(),
-        dh[5].d(),
-    ];
+    let wrist_offsets = [dh[0].a(), dh[3].a(), dh[4].a(), dh[5].a(), dh[4].d(), dh[5].d()];
     if !wrist_offsets.iter().all(|&v| close(v, 0.0)) || close(dh[1].a(), 0.0) {
         return Err(IkError::UnsupportedGeometry(arm.name));
     }
@@ -249,11 +223,7 @@ pub fn solve(arm: &SerialArm, base_from_tool: &Transform) -> Result<IkSolutions,
             });
             shift_into_limits(arm, &q, &middle).is_some()
         });
-        IkSolution {
-            config,
-            q,
-            within_limits,
-        }
+        IkSolution { config, q, within_limits }
     });
     Ok(IkSolutions(solutions))
 }

@@ -12,16 +12,24 @@ pub(crate) struct LinkFrames {
 }
 
 impl SerialArm {
+    /// sin θ and cos θ of every joint, computed up front so that they pipeline instead of sitting
+    /// inside the serial chain of frame products.
+    #[inline]
+    pub(crate) fn joint_sin_cos(&self, q: &JointVector) -> [(f64, f64); JOINTS] {
+        std::array::from_fn(|i| self.links[i].dh.sin_cos_theta(q[i]))
+    }
+
+    #[inline]
     pub(crate) fn frames(&self, q: &JointVector) -> LinkFrames {
+        let sin_cos = self.joint_sin_cos(q);
         let mut rotations = [Matrix3::identity(); JOINTS];
         let mut origins = [Vector3::zeros(); JOINTS];
-        let mut rotation = Matrix3::identity();
+        let mut axes = [Vector3::x(), Vector3::y(), Vector3::z()];
         let mut origin = Vector3::zeros();
         for (i, link) in self.links.iter().enumerate() {
-            let (s, c) = (q[i] + link.dh.offset()).sin_cos();
-            origin += rotation * link.dh.origin_in_prev(c, s);
-            rotation *= link.dh.rotation(c, s);
-            rotations[i] = rotation;
+            let (s, c) = sin_cos[i];
+            origin += link.dh.advance_axes(c, s, &mut axes);
+            rotations[i] = Matrix3::from_columns(&axes);
             origins[i] = origin;
         }
         LinkFrames { rotations, origins }
@@ -60,10 +68,8 @@ impl SerialArm {
         let jacobian = jacobian_from_frames(&frames);
         let tool_from_base = frames.rotations[JOINTS - 1].transpose();
         let mut out = JointMatrix::zeros();
-        out.fixed_view_mut::<3, 6>(0, 0)
-            .copy_from(&(tool_from_base * jacobian.fixed_view::<3, 6>(0, 0)));
-        out.fixed_view_mut::<3, 6>(3, 0)
-            .copy_from(&(tool_from_base * jacobian.fixed_view::<3, 6>(3, 0)));
+        out.fixed_view_mut::<3, 6>(0, 0).copy_from(&(tool_from_base * jacobian.fixed_view::<3, 6>(0, 0)));
+        out.fixed_view_mut::<3, 6>(3, 0).copy_from(&(tool_from_base * jacobian.fixed_view::<3, 6>(3, 0)));
         out
     }
 
@@ -81,10 +87,7 @@ fn jacobian_from_frames(frames: &LinkFrames) -> JointMatrix {
         let (axis, origin) = if i == 0 {
             (Vector3::z(), Vector3::zeros())
         } else {
-            (
-                frames.rotations[i - 1].column(2).into_owned(),
-                frames.origins[i - 1],
-            )
+            (frames.rotations[i - 1].column(2).into_owned(), frames.origins[i - 1])
         };
         let linear = axis.cross(&(tool_origin - origin));
         jacobian.fixed_view_mut::<3, 1>(0, i).copy_from(&linear);

@@ -78,23 +78,17 @@ pub struct LimitViolation {
 impl crate::SerialArm {
     /// The first joint outside its position range, if any (NaN counts as outside).
     pub fn check_positions(&self, q: &crate::JointVector) -> Result<(), LimitViolation> {
-        self.check(q, LimitedQuantity::Position, |l| {
-            (l.position_min, l.position_max)
-        })
+        self.check(q, LimitedQuantity::Position, |l| (l.position_min, l.position_max))
     }
 
     /// The first joint faster than its velocity limit, if any.
     pub fn check_velocities(&self, qd: &crate::JointVector) -> Result<(), LimitViolation> {
-        self.check(qd, LimitedQuantity::Velocity, |l| {
-            (-l.velocity_max, l.velocity_max)
-        })
+        self.check(qd, LimitedQuantity::Velocity, |l| (-l.velocity_max, l.velocity_max))
     }
 
     /// The first joint torque beyond its limit, if any.
     pub fn check_torques(&self, tau: &crate::JointVector) -> Result<(), LimitViolation> {
-        self.check(tau, LimitedQuantity::Torque, |l| {
-            (-l.torque_max, l.torque_max)
-        })
+        self.check(tau, LimitedQuantity::Torque, |l| (-l.torque_max, l.torque_max))
     }
 
     fn check(
@@ -107,13 +101,7 @@ impl crate::SerialArm {
             let (min, max) = range(&link.limits);
             // written so that NaN fails the test
             if !(value >= min && value <= max) {
-                return Err(LimitViolation {
-                    joint,
-                    quantity,
-                    value,
-                    min,
-                    max,
-                });
+                return Err(LimitViolation { joint, quantity, value, min, max });
             }
         }
         Ok(())

@@ -14,6 +14,33 @@ pub struct DhParameters {
     offset: f64,
     cos_alpha: f64,
     sin_alpha: f64,
+    twist: Twist,
+}
+
+/// The link twist α, with the right angles that most arms use (the PUMA's are all 0 or ±π/2) kept apart:
+/// Rx(α) is then a swap of two axes, with no arithmetic on the per-tick path.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Twist {
+    Zero,
+    PlusHalfPi,
+    MinusHalfPi,
+    General,
+}
+
+impl Twist {
+    fn of(alpha: f64) -> Twist {
+        use std::f64::consts::FRAC_PI_2;
+        // only the exact values: anything else keeps its own sin and cos
+        if alpha == 0.0 {
+            Twist::Zero
+        } else if alpha == FRAC_PI_2 {
+            Twist::PlusHalfPi
+        } else if alpha == -FRAC_PI_2 {
+            Twist::MinusHalfPi
+        } else {
+            Twist::General
+        }
+    }
 }
 
 impl DhParameters {
@@ -26,8 +53,38 @@ impl DhParameters {
             offset,
             cos_alpha: alpha.cos(),
             sin_alpha: alpha.sin(),
+            twist: Twist::of(alpha),
         }
     }
+
+    /// Rx(α)ᵀ applied to (y, z): the (y, z) of a vector re-expressed in the twisted frame.
+    #[inline(always)]
+    fn untwist(&self, y: f64, z: f64) -> (f64, f64) {
+        match self.twist {
+            Twist::Zero => (y, z),
+            Twist::PlusHalfPi => (z, -y),
+            Twist::MinusHalfPi => (-z, y),
+            Twist::General => {
+                let (ca, sa) = (self.cos_alpha, self.sin_alpha);
+                (ca * y + sa * z, -sa * y + ca * z)
+            }
+        }
+    }
+
+    /// Rx(α) applied to (y, z).
+    #[inline(always)]
+    fn twist(&self, y: f64, z: f64) -> (f64, f64) {
+        match self.twist {
+            Twist::Zero => (y, z),
+            Twist::PlusHalfPi => (-z, y),
+            Twist::MinusHalfPi => (z, -y),
+            Twist::General => {
+                let (ca, sa) = (self.cos_alpha, self.sin_alpha);
+                (ca * y - sa * z, sa * y + ca * z)
+            }
+        }
+    }
+
     /// Link length a (m).
     pub fn a(&self) -> f64 {
         self.a_m
@@ -43,6 +100,71 @@ impl DhParameters {
     /// Joint angle offset (rad), added to q.
     pub fn offset(&self) -> f64 {
         self.offset
+    }
+
+    /// sin θ and cos θ of the joint angle θ = q + offset.
+    ///
+    /// `libm::sincos` shares one range reduction between the two: a third faster than `f64::sin_cos`
+    /// (which calls sin and cos apart) on the per-tick path, and the same bits on every platform, which
+    /// the lockstep simulator's bit-for-bit repeatability wants.
+    #[inline]
+    pub(crate) fn sin_cos_theta(&self, q: f64) -> (f64, f64) {
+        libm::sincos(q + self.offset)
+    }
+
+    /// `v` in the previous frame's coordinates, re-expressed in this frame: Rx(α)ᵀ Rz(θ)ᵀ v.
+    #[inline]
+    pub(crate) fn to_this(&self, cos_theta: f64, sin_theta: f64, v: &Vector3<f64>) -> Vector3<f64> {
+        let x = cos_theta * v.x + sin_theta * v.y;
+        let y = -sin_theta * v.x + cos_theta * v.y;
+        let (y, z) = self.untwist(y, v.z);
+        Vector3::new(x, y, z)
+    }
+
+    /// `v` in this frame's coordinates, re-expressed in the previous frame: Rz(θ) Rx(α) v.
+    #[inline]
+    pub(crate) fn to_prev(&self, cos_theta: f64, sin_theta: f64, v: &Vector3<f64>) -> Vector3<f64> {
+        let (y, z) = self.twist(v.y, v.z);
+        Vector3::new(cos_theta * v.x - sin_theta * y, sin_theta * v.x + cos_theta * y, z)
+    }
+
+    /// The joint axis (z of the previous frame) in this frame's coordinates: `[0, sin α, cos α]`.
+    #[inline]
+    pub(crate) fn joint_axis_in_this(&self) -> Vector3<f64> {
+        Vector3::new(0.0, self.sin_alpha, self.cos_alpha)
+    }
+
+    /// Turns the previous frame's axes (columns x, y, z in some outer frame) into this frame's, in place,
+    /// and returns the step from the previous origin to this one in the same outer frame.
+    #[inline]
+    pub(crate) fn advance_axes(
+        &self,
+        cos_theta: f64,
+        sin_theta: f64,
+        axes: &mut [Vector3<f64>; 3],
+    ) -> Vector3<f64> {
+        let [x, y, z] = *axes;
+        // Rz(θ)
+        let x1 = x * cos_theta + y * sin_theta;
+        let y1 = y * cos_theta - x * sin_theta;
+        // Tz(d) Tx(a)
+        let step = match (self.d_m == 0.0, self.a_m == 0.0) {
+            (true, true) => Vector3::zeros(),
+            (false, true) => z * self.d_m,
+            (true, false) => x1 * self.a_m,
+            (false, false) => z * self.d_m + x1 * self.a_m,
+        };
+        // Rx(α): the new y and z axes are combinations of y1 and z
+        *axes = match self.twist {
+            Twist::Zero => [x1, y1, z],
+            Twist::PlusHalfPi => [x1, z, -y1],
+            Twist::MinusHalfPi => [x1, -z, y1],
+            Twist::General => {
+                let (ca, sa) = (self.cos_alpha, self.sin_alpha);
+                [x1, y1 * ca + z * sa, z * ca - y1 * sa]
+            }
+        };
+        step
     }
 
     /// The rotation of `prev_from_this` given cos θ and sin θ.
@@ -72,16 +194,12 @@ impl DhParameters {
     /// (Luh–Walker–Paul's p*): `[a, d·sin α, d·cos α]`, independent of θ.
     #[inline]
     pub(crate) fn origin_in_this(&self) -> Vector3<f64> {
-        Vector3::new(
-            self.a_m,
-            self.d_m * self.sin_alpha,
-            self.d_m * self.cos_alpha,
-        )
+        Vector3::new(self.a_m, self.d_m * self.sin_alpha, self.d_m * self.cos_alpha)
     }
 
     /// `prev_from_this` at joint angle `q`.
     pub fn prev_from_this(&self, q: f64) -> Transform {
-        let (s, c) = (q + self.offset).sin_cos();
+        let (s, c) = self.sin_cos_theta(q);
         Transform::from_parts(
             Translation3::from(self.origin_in_prev(c, s)),
             Rotation3::from_matrix_unchecked(self.rotation(c, s)),

@@ -35,10 +35,7 @@ pub const NAMED_POSES: [(&str, JointVector); 4] = [("qz", QZ), ("qr", QR), ("qs"
 
 /// Looks up a named pose ("qz", "qr", "qs", "qn").
 pub fn named_pose(name: &str) -> Option<JointVector> {
-    NAMED_POSES
-        .iter()
-        .find(|(n, _)| *n == name)
-        .map(|(_, q)| *q)
+    NAMED_POSES.iter().find(|(n, _)| *n == name).map(|(_, q)| *q)
 }
 
 fn degrees(d: f64) -> f64 {
@@ -149,10 +146,7 @@ pub fn puma560() -> SerialArm {
 pub fn puma560_rigid() -> SerialArm {
     let mut arm = puma560();
     for link in &mut arm.links {
-        link.drive = Drive {
-            gear_ratio: link.drive.gear_ratio,
-            ..Drive::NONE
-        };
+        link.drive = Drive { gear_ratio: link.drive.gear_ratio, ..Drive::NONE };
     }
     arm
 }

@@ -10,10 +10,7 @@ fn arm() -> SerialArm {
 
 fn configuration() -> impl Strategy<Value = JointVector> {
     let limits = arm().limits();
-    let ranges: Vec<_> = limits
-        .iter()
-        .map(|l| l.position_min..l.position_max)
-        .collect();
+    let ranges: Vec<_> = limits.iter().map(|l| l.position_min..l.position_max).collect();
     ranges.prop_map(|q| JointVector::from_column_slice(&q))
 }
 
@@ -25,11 +22,8 @@ fn joint_vector(magnitude: f64) -> impl Strategy<Value = JointVector> {
 /// (sin θ · axis, accurate for the tiny angles of a finite difference, unlike acos of the trace).
 fn rotation_rate(from: &Matrix3<f64>, to: &Matrix3<f64>) -> Vector3<f64> {
     let delta = to * from.transpose();
-    Vector3::new(
-        delta[(2, 1)] - delta[(1, 2)],
-        delta[(0, 2)] - delta[(2, 0)],
-        delta[(1, 0)] - delta[(0, 1)],
-    ) * 0.5
+    Vector3::new(delta[(2, 1)] - delta[(1, 2)], delta[(0, 2)] - delta[(2, 0)], delta[(1, 0)] - delta[(0, 1)])
+        * 0.5
 }
 
 fn max_abs(values: impl IntoIterator<Item = f64>) -> f64 {
@@ -148,9 +142,7 @@ fn nearest_solution_to_the_nominal_pose_shifts_the_elbow_by_two_pi_into_its_rang
     let arm = arm();
     let pose = arm.base_from_tool(&puma560::QN);
     let solutions = arm.inverse_kinematics(&pose).expect("PUMA geometry");
-    let nearest = solutions
-        .nearest(&arm, &puma560::QN)
-        .expect("inside the limits");
+    let nearest = solutions.nearest(&arm, &puma560::QN).expect("inside the limits");
     assert_eq!(nearest.config.code(), "ruf");
     assert!((nearest.q - puma560::QN).amax() < 1e-9, "{}", nearest.q);
     assert!(arm.check_positions(&nearest.q).is_ok());
@@ -173,10 +165,7 @@ fn limits_flag_the_first_offending_joint_and_nan() {
     q[2] = 1.0; // elbow range is [-225°, 45°]
     let violation = arm.check_positions(&q).expect_err("outside");
     assert_eq!(violation.joint, 2);
-    assert!(
-        violation.to_string().contains("joint 3 position"),
-        "{violation}"
-    );
+    assert!(violation.to_string().contains("joint 3 position"), "{violation}");
     q[2] = f64::NAN;
     assert!(arm.check_positions(&q).is_err());
     let tau = JointVector::from_element(500.0);
@@ -191,10 +180,7 @@ fn forward_dynamics_refuses_a_non_finite_state() {
     let arm = arm();
     let mut qd = JointVector::zeros();
     qd[0] = f64::NAN;
-    assert!(
-        arm.forward_dynamics(&puma560::QN, &qd, &JointVector::zeros())
-            .is_err()
-    );
+    assert!(arm.forward_dynamics(&puma560::QN, &qd, &JointVector::zeros()).is_err());
 }
 
 #[test]

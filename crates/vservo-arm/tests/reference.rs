@@ -77,9 +77,7 @@ fn rows(m: &[Vec<f64>]) -> Vec<f64> {
 }
 
 fn matrix_rows<const R: usize, const C: usize>(m: &nalgebra::SMatrix<f64, R, C>) -> Vec<f64> {
-    (0..R)
-        .flat_map(|r| (0..C).map(move |c| m[(r, c)]))
-        .collect()
+    (0..R).flat_map(|r| (0..C).map(move |c| m[(r, c)])).collect()
 }
 
 fn each_case(check: impl Fn(&SerialArm, &SerialArm, &Case)) {
@@ -98,12 +96,7 @@ fn forward_kinematics_matches_the_toolbox() {
         let q = vector(&case.q);
         let tool = arm.base_from_tool(&q).to_homogeneous();
         assert_close_slices("fkine", &case.name, &matrix_rows(&tool), &rows(&case.fkine));
-        for (i, (frame, reference)) in arm
-            .link_frames(&q)
-            .iter()
-            .zip(&case.link_frames)
-            .enumerate()
-        {
+        for (i, (frame, reference)) in arm.link_frames(&q).iter().zip(&case.link_frames).enumerate() {
             let what = format!("link frame {}", i + 1);
             let ours = matrix_rows(&frame.to_homogeneous());
             assert_close_slices(&what, &case.name, &ours, &rows(reference));
@@ -137,9 +130,7 @@ fn rigid_body_dynamics_matches_the_toolbox() {
         assert_close_slices("coriolis", name, &coriolis, &rows(&case.rigid.coriolis));
         let tau = rigid.rne_rigid(&q, &qd, &qdd);
         assert_close_slices("rigid rne", name, tau.as_slice(), &case.rigid.rne);
-        let accel = rigid
-            .forward_dynamics_rigid(&q, &qd, &tau)
-            .expect("forward dynamics");
+        let accel = rigid.forward_dynamics_rigid(&q, &qd, &tau).expect("forward dynamics");
         assert_close_slices("rigid accel", name, accel.as_slice(), &case.rigid.accel);
     });
 }
@@ -150,23 +141,11 @@ fn full_model_with_armature_and_friction_matches_the_toolbox() {
         let (q, qd, qdd) = (vector(&case.q), vector(&case.qd), vector(&case.qdd));
         let name = &case.name;
         let inertia: JointMatrix = arm.mass_matrix(&q);
-        assert_close_slices(
-            "full inertia",
-            name,
-            &matrix_rows(&inertia),
-            &rows(&case.full.inertia),
-        );
+        assert_close_slices("full inertia", name, &matrix_rows(&inertia), &rows(&case.full.inertia));
         let tau = arm.rne(&q, &qd, &qdd);
         assert_close_slices("full rne", name, tau.as_slice(), &case.full.rne);
-        let accel = arm
-            .forward_dynamics(&q, &qd, &tau)
-            .expect("forward dynamics");
-        assert_close_slices(
-            "full accel",
-            name,
-            accel.as_slice(),
-            &case.full.accel_of_rne,
-        );
+        let accel = arm.forward_dynamics(&q, &qd, &tau).expect("forward dynamics");
+        assert_close_slices("full accel", name, accel.as_slice(), &case.full.accel_of_rne);
     });
 }
 

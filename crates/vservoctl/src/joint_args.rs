@@ -5,21 +5,13 @@ use vservo_arm::{JointVector, puma560};
 use crate::UsageError;
 
 /// Parses `q1,…,q6` (radians or rad/s…), or one of the PUMA 560's named poses when `allow_named`.
-pub fn parse_joint_vector(
-    option: &str,
-    text: &str,
-    allow_named: bool,
-) -> Result<JointVector, UsageError> {
+pub fn parse_joint_vector(option: &str, text: &str, allow_named: bool) -> Result<JointVector, UsageError> {
     if let Some(q) = puma560::named_pose(text.trim()).filter(|_| allow_named) {
         return Ok(q);
     }
     let parts: Vec<&str> = text.split(',').map(str::trim).collect();
     if parts.len() != 6 {
-        let named = if allow_named {
-            " or a named pose (qz, qr, qs, qn)"
-        } else {
-            ""
-        };
+        let named = if allow_named { " or a named pose (qz, qr, qs, qn)" } else { "" };
         return Err(UsageError(format!(
             "{option}: expected 6 comma-separated numbers{named}, got {} value(s) in {text:?}",
             parts.len()
@@ -27,17 +19,11 @@ pub fn parse_joint_vector(
     }
     let mut q = JointVector::zeros();
     for (i, part) in parts.iter().enumerate() {
-        let value: f64 = part.parse().map_err(|_| {
-            UsageError(format!(
-                "{option}: value {} ({part:?}) is not a number",
-                i + 1
-            ))
-        })?;
+        let value: f64 = part
+            .parse()
+            .map_err(|_| UsageError(format!("{option}: value {} ({part:?}) is not a number", i + 1)))?;
         if !value.is_finite() {
-            return Err(UsageError(format!(
-                "{option}: value {} ({part:?}) is not finite",
-                i + 1
-            )));
+            return Err(UsageError(format!("{option}: value {} ({part:?}) is not finite", i + 1)));
         }
         q[i] = value;
     }
@@ -52,10 +38,7 @@ mod tests {
     fn parses_six_numbers_and_named_poses() {
         let q = parse_joint_vector("--q", "0, 0.785, -3.5, 0, 0.785, 0", true).expect("valid");
         assert_eq!(q[2], -3.5);
-        assert_eq!(
-            parse_joint_vector("--q", "qn", true).expect("named"),
-            puma560::QN
-        );
+        assert_eq!(parse_joint_vector("--q", "qn", true).expect("named"), puma560::QN);
     }
 
     #[test]

@@ -18,11 +18,7 @@ use clap::{Parser, Subcommand};
 pub struct UsageError(pub String);
 
 #[derive(Parser)]
-#[command(
-    name = "vservoctl",
-    version,
-    about = "Inspect and control vservo, the visual-servo controller"
-)]
+#[command(name = "vservoctl", version, about = "Inspect and control vservo, the visual-servo controller")]
 struct Cli {
     #[command(subcommand)]
     command: Command,
@@ -43,11 +39,7 @@ fn main() -> ExitCode {
         Ok(()) => ExitCode::SUCCESS,
         Err(error) => {
             eprintln!("vservoctl: {error:#}");
-            if error.is::<UsageError>() {
-                ExitCode::from(2)
-            } else {
-                ExitCode::FAILURE
-            }
+            if error.is::<UsageError>() { ExitCode::from(2) } else { ExitCode::FAILURE }
         }
     }
 }

@@ -39,28 +39,12 @@ struct Report {
 pub fn run(args: &ModelArgs) -> Result<()> {
     let arm = puma560::puma560();
     let q = parse_joint_vector("--q", &args.q, true)?;
-    let qd = args
-        .qd
-        .as_deref()
-        .map(|t| parse_joint_vector("--qd", t, false))
-        .transpose()?;
-    let qdd = args
-        .qdd
-        .as_deref()
-        .map(|t| parse_joint_vector("--qdd", t, false))
-        .transpose()?;
+    let qd = args.qd.as_deref().map(|t| parse_joint_vector("--qd", t, false)).transpose()?;
+    let qdd = args.qdd.as_deref().map(|t| parse_joint_vector("--qdd", t, false)).transpose()?;
     let (qd, qdd) = (qd.unwrap_or_default(), qdd.unwrap_or_default());
-    arm.check_positions(&q)
-        .map_err(|v| UsageError(format!("--q: {v} (the PUMA 560's range)")))?;
-    arm.check_velocities(&qd)
-        .map_err(|v| UsageError(format!("--qd: {v} (the PUMA 560's speed limit)")))?;
-    let report = Report {
-        q,
-        qd,
-        qdd,
-        arm,
-        rigid: puma560::puma560_rigid(),
-    };
+    arm.check_positions(&q).map_err(|v| UsageError(format!("--q: {v} (the PUMA 560's range)")))?;
+    arm.check_velocities(&qd).map_err(|v| UsageError(format!("--qd: {v} (the PUMA 560's speed limit)")))?;
+    let report = Report { q, qd, qdd, arm, rigid: puma560::puma560_rigid() };
     if args.json {
         print_stdout(&format!("{}\n", report.json()?))?;
     } else {
@@ -71,9 +55,7 @@ pub fn run(args: &ModelArgs) -> Result<()> {
 
 impl Report {
     fn ik(&self) -> Result<vservo_arm::IkSolutions> {
-        Ok(self
-            .arm
-            .inverse_kinematics(&self.arm.base_from_tool(&self.q))?)
+        Ok(self.arm.inverse_kinematics(&self.arm.base_from_tool(&self.q))?)
     }
 
     fn json(&self) -> Result<serde_json::Value> {
@@ -119,10 +101,7 @@ impl Report {
         out += &vector_text("q", q);
         out += &vector_text("qd", qd);
         out += &vector_text("qdd", qdd);
-        out += &matrix_text(
-            "fkine (base_from_tool)",
-            &arm.base_from_tool(q).to_homogeneous(),
-        );
+        out += &matrix_text("fkine (base_from_tool)", &arm.base_from_tool(q).to_homogeneous());
         out += &matrix_text("jacob0 (base frame, rows [v; w])", &arm.jacobian_base(q));
         out += &matrix_text("jacobe (tool frame, rows [v; w])", &arm.jacobian_tool(q));
         out += &format!("manipulability: {:.6}\n", arm.manipulability(q));
@@ -136,11 +115,7 @@ impl Report {
         out += &vector_text("  rne", &arm.rne(q, qd, qdd));
         out += "inverse kinematics of fkine (all 8 configurations):\n";
         for s in self.ik()?.iter() {
-            let limits = if s.within_limits {
-                ""
-            } else {
-                "  (outside the joint limits)"
-            };
+            let limits = if s.within_limits { "" } else { "  (outside the joint limits)" };
             match &s.q {
                 Some(q) => {
                     out += &vector_text(&format!("  {} {:<15}", s.config.code(), s.config), q);

@@ -7,11 +7,7 @@ use serde_json::Value;
 
 /// A matrix as a JSON array of rows.
 pub fn matrix_json<const R: usize, const C: usize>(m: &SMatrix<f64, R, C>) -> Value {
-    Value::from(
-        (0..R)
-            .map(|r| (0..C).map(|c| m[(r, c)]).collect::<Vec<f64>>())
-            .collect::<Vec<_>>(),
-    )
+    Value::from((0..R).map(|r| (0..C).map(|c| m[(r, c)]).collect::<Vec<f64>>()).collect::<Vec<_>>())
 }
 
 /// A vector as a JSON array.
@@ -52,10 +48,7 @@ fn clean(value: f64) -> f64 {
 pub fn print_stdout(text: &str) -> std::io::Result<()> {
     use std::io::Write;
     let mut stdout = std::io::stdout().lock();
-    match stdout
-        .write_all(text.as_bytes())
-        .and_then(|()| stdout.flush())
-    {
+    match stdout.write_all(text.as_bytes()).and_then(|()| stdout.flush()) {
         Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => Ok(()),
         other => other,
     }
