@@ -48,10 +48,12 @@ impl SerialArm {
             let (s, c) = sin_cos[i];
             let origin = dh.origin_in_this();
             let joint_rate = z * qd[i];
-            let new_omega = dh.to_this(c, s, &(omega + joint_rate));
-            omega_dot = dh.to_this(c, s, &(omega_dot + z * qdd[i] + omega.cross(&joint_rate)));
+            let new_omega = dh.express_in_this(c, s, &(omega + joint_rate));
+            omega_dot = dh.express_in_this(c, s, &(omega_dot + z * qdd[i] + omega.cross(&joint_rate)));
             omega = new_omega;
-            accel = omega_dot.cross(&origin) + omega.cross(&omega.cross(&origin)) + dh.to_this(c, s, &accel);
+            accel = omega_dot.cross(&origin)
+                + omega.cross(&omega.cross(&origin))
+                + dh.express_in_this(c, s, &accel);
             let com = link.inertia.com_in_link;
             let com_accel = omega_dot.cross(&com) + omega.cross(&omega.cross(&com)) + accel;
             let inertia = link.inertia.inertia_about_com;
@@ -68,7 +70,7 @@ impl SerialArm {
             let (child_force, child_moment) = if i + 1 < JOINTS {
                 let child = &self.links[i + 1].dh;
                 let (s, c) = sin_cos[i + 1];
-                (child.to_prev(c, s, &force), child.to_prev(c, s, &moment))
+                (child.express_in_prev(c, s, &force), child.express_in_prev(c, s, &moment))
             } else {
                 (force, moment)
             };

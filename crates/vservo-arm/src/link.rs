@@ -114,7 +114,7 @@ impl DhParameters {
 
     /// `v` in the previous frame's coordinates, re-expressed in this frame: Rx(α)ᵀ Rz(θ)ᵀ v.
     #[inline]
-    pub(crate) fn to_this(&self, cos_theta: f64, sin_theta: f64, v: &Vector3<f64>) -> Vector3<f64> {
+    pub(crate) fn express_in_this(&self, cos_theta: f64, sin_theta: f64, v: &Vector3<f64>) -> Vector3<f64> {
         let x = cos_theta * v.x + sin_theta * v.y;
         let y = -sin_theta * v.x + cos_theta * v.y;
         let (y, z) = self.untwist(y, v.z);
@@ -123,7 +123,7 @@ impl DhParameters {
 
     /// `v` in this frame's coordinates, re-expressed in the previous frame: Rz(θ) Rx(α) v.
     #[inline]
-    pub(crate) fn to_prev(&self, cos_theta: f64, sin_theta: f64, v: &Vector3<f64>) -> Vector3<f64> {
+    pub(crate) fn express_in_prev(&self, cos_theta: f64, sin_theta: f64, v: &Vector3<f64>) -> Vector3<f64> {
         let (y, z) = self.twist(v.y, v.z);
         Vector3::new(cos_theta * v.x - sin_theta * y, sin_theta * v.x + cos_theta * y, z)
     }
