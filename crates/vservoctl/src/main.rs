@@ -4,9 +4,12 @@
 //! running daemon). Each subcommand lives in its own module; input errors are reported as
 //! [`UsageError`] and end with exit code 2, other failures with exit code 1.
 
+mod config_arg;
+mod gains;
 mod joint_args;
 mod model;
 mod output;
+mod stability;
 
 use std::process::ExitCode;
 
@@ -28,12 +31,18 @@ struct Cli {
 enum Command {
     /// Kinematics, dynamics and inverse kinematics of the PUMA 560 at one joint state.
     Model(model::ModelArgs),
+    /// The LQ gain the configuration gives, and its closed-loop eigenvalues with and without the delay.
+    Gains(gains::GainsArgs),
+    /// The Corollary 1 stability margins of the configured gain.
+    Stability(stability::StabilityArgs),
 }
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Model(args) => model::run(&args),
+        Command::Gains(args) => gains::run(&args),
+        Command::Stability(args) => stability::run(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -1,0 +1,129 @@
+//! # vservo-config — the configuration file
+//!
+//! This crate owns vservo's TOML schema (see `config/vservo.toml`, the default, for every key and its
+//! meaning) and turns a file into a [`Config`] whose parts cannot hold invalid values: a positive-definite
+//! R, a vision period that is a whole number of control periods, a desired pose inside the joint limits
+//! with all four marks in front of the camera and inside the image. The rest of vservo never re-checks.
+//!
+//! Errors name the file, the key and the value ([`ConfigError`]). Unknown keys are errors.
+//!
+//! ```
+//! let text = include_str!("../../../config/vservo.toml");
+//! let config = vservo_config::Config::from_toml(text, "vservo.toml").expect("the default config is valid");
+//! assert_eq!(config.timing.control_ticks_per_frame, 85);
+//! ```
+
+mod error;
+mod raw;
+mod validate;
+
+use std::path::Path;
+
+pub use error::ConfigError;
+use nalgebra::Vector3;
+use vservo_arm::JointVector;
+use vservo_control::{ControlLaw, GainsSpec, InputWeight, StateWeight};
+use vservo_scene::{Board, CameraIntrinsics, FeatureVector, IsometryMatrix3, MarkDepths};
+
+/// A validated configuration.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Config {
+    /// Where it came from (a path, or a name for text given directly), for messages.
+    pub origin: String,
+    /// The instance name: shared-memory services live under `vservo/<name>/`.
+    pub instance: String,
+    /// Periods and delays.
+    pub timing: Timing,
+    /// The camera's intrinsics.
+    pub camera: CameraIntrinsics,
+    /// Where the camera sits on the hand: camera = tool · `tool_from_camera`.
+    pub tool_from_camera: IsometryMatrix3<f64>,
+    /// The object.
+    pub board: Board,
+    /// The desired pose and what the camera sees there.
+    pub desired: Desired,
+    /// The controller's law and weights.
+    pub controller: Controller,
+}
+
+/// Periods and delays.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Timing {
+    /// The vision period T (s).
+    pub vision_period_s: f64,
+    /// Frames between an image's capture and its features reaching the servo.
+    pub pipeline_delay_frames: usize,
+    /// The interpolator's period (s).
+    pub control_period_s: f64,
+    /// Control periods per vision frame (a whole number: 85 by default).
+    pub control_ticks_per_frame: u32,
+}
+
+/// The desired pose and the image there.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Desired {
+    /// q_d (rad), inside the joint limits.
+    pub joints: JointVector,
+    /// The board in the camera frame at the desired pose.
+    pub camera_from_board: IsometryMatrix3<f64>,
+    /// ξ_d: the marks' images there (px), all inside the image.
+    pub features: FeatureVector,
+    /// Z_d: the marks' depths there (m), all positive.
+    pub depths: MarkDepths,
+}
+
+/// The controller's law and weights.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Controller {
+    /// Which law runs.
+    pub law: ControlLaw,
+    /// Q.
+    pub q: StateWeight,
+    /// R, with its unit.
+    pub r: InputWeight,
+}
+
+impl Config {
+    /// Reads and validates a configuration file.
+    pub fn load(path: impl AsRef<Path>) -> Result<Config, ConfigError> {
+        let path = path.as_ref();
+        let origin = path.display().to_string();
+        let text = std::fs::read_to_string(path)
+            .map_err(|e| ConfigError::Read { file: origin.clone(), reason: e.to_string() })?;
+        Self::from_toml(&text, &origin)
+    }
+
+    /// Validates configuration text; `origin` names it in messages.
+    pub fn from_toml(text: &str, origin: &str) -> Result<Config, ConfigError> {
+        let raw: raw::RawConfig = toml::from_str(text)
+            .map_err(|e| ConfigError::Parse { file: origin.to_string(), message: e.to_string() })?;
+        validate::validate(raw, origin)
+    }
+
+    /// The world (= arm base) pose of the board, placed so that the camera at q_d sees it as desired.
+    pub fn base_from_board(&self, arm: &vservo_arm::SerialArm) -> IsometryMatrix3<f64> {
+        arm.base_from_tool(&self.desired.joints) * self.tool_from_camera * self.desired.camera_from_board
+    }
+
+    /// What the gain design needs.
+    pub fn gains_spec(&self) -> GainsSpec {
+        GainsSpec {
+            camera: self.camera,
+            desired_features: self.desired.features,
+            desired_depths: self.desired.depths,
+            period_s: self.timing.vision_period_s,
+            delay_frames: self.timing.pipeline_delay_frames,
+            q: self.controller.q,
+            r: self.controller.r,
+            law: self.controller.law,
+        }
+    }
+}
+
+/// A pose from a translation (m) and roll-pitch-yaw angles (rad): R = Rz(yaw)·Ry(pitch)·Rx(roll).
+pub fn pose_from_rpy(translation_m: Vector3<f64>, rpy: Vector3<f64>) -> IsometryMatrix3<f64> {
+    IsometryMatrix3::from_parts(
+        translation_m.into(),
+        nalgebra::Rotation3::from_euler_angles(rpy.x, rpy.y, rpy.z),
+    )
+}

@@ -1,0 +1,267 @@
+//! From the file as written to a [`Config`]: every check, each naming its key and value.
+
+use nalgebra::{Point2, Point3, SMatrix, Vector3};
+use vservo_arm::{JointVector, puma560};
+use vservo_control::{ControlLaw, InputUnits, InputWeight, StateWeight};
+use vservo_scene::{Board, CameraIntrinsics, FEATURES, MARKS};
+
+use crate::raw::{RawConfig, RawPose};
+use crate::{Config, ConfigError, Controller, Desired, Timing, pose_from_rpy};
+
+/// Builds errors for one file.
+struct Checker<'a> {
+    file: &'a str,
+}
+
+impl Checker<'_> {
+    fn invalid(&self, key: &str, value: impl std::fmt::Display, reason: impl Into<String>) -> ConfigError {
+        ConfigError::Invalid {
+            file: self.file.to_string(),
+            key: key.to_string(),
+            value: value.to_string(),
+            reason: reason.into(),
+        }
+    }
+
+    fn positive(&self, key: &str, value: f64) -> Result<f64, ConfigError> {
+        if value.is_finite() && value > 0.0 {
+            Ok(value)
+        } else {
+            Err(self.invalid(key, value, "must be a positive number"))
+        }
+    }
+
+    fn finite<const N: usize>(&self, key: &str, values: [f64; N]) -> Result<[f64; N], ConfigError> {
+        if values.iter().all(|v| v.is_finite()) {
+            Ok(values)
+        } else {
+            Err(self.invalid(key, format!("{values:?}"), "every value must be a finite number"))
+        }
+    }
+
+    fn pose(&self, key: &str, raw: &RawPose) -> Result<nalgebra::IsometryMatrix3<f64>, ConfigError> {
+        let translation = self.finite(&format!("{key}.translation_m"), raw.translation_m)?;
+        let rpy = self.finite(&format!("{key}.rotation_rpy_deg"), raw.rotation_rpy_deg)?;
+        Ok(pose_from_rpy(Vector3::from(translation), Vector3::from(rpy.map(f64::to_radians))))
+    }
+
+    /// A weight written as a number (times I), a list of N (the diagonal) or N lists of N (full).
+    fn weight<const N: usize>(
+        &self,
+        key: &str,
+        value: &toml::Value,
+    ) -> Result<SMatrix<f64, N, N>, ConfigError> {
+        let number = |v: &toml::Value| match v {
+            toml::Value::Float(f) => Some(*f),
+            toml::Value::Integer(i) => Some(*i as f64),
+            _ => None,
+        };
+        let shape = format!("a number, a list of {N} numbers (the diagonal) or {N} lists of {N} numbers");
+        let matrix = if let Some(scalar) = number(value) {
+            SMatrix::<f64, N, N>::identity() * scalar
+        } else if let toml::Value::Array(items) = value {
+            if items.len() != N {
+                return Err(self.invalid(
+                    key,
+                    value,
+                    format!("has {} entries; expected {shape}", items.len()),
+                ));
+            }
+            if let Some(diagonal) = items.iter().map(number).collect::<Option<Vec<f64>>>() {
+                SMatrix::<f64, N, N>::from_diagonal(&nalgebra::SVector::<f64, N>::from_column_slice(
+                    &diagonal,
+                ))
+            } else {
+                let mut m = SMatrix::<f64, N, N>::zeros();
+                for (row, item) in items.iter().enumerate() {
+                    let entries = match item {
+                        toml::Value::Array(entries) if entries.len() == N => entries,
+                        _ => {
+                            return Err(self.invalid(
+                                key,
+                                value,
+                                format!("row {} is not {N} numbers; expected {shape}", row + 1),
+                            ));
+                        }
+                    };
+                    for (column, entry) in entries.iter().enumerate() {
+                        m[(row, column)] = number(entry).ok_or_else(|| {
+                            self.invalid(
+                                key,
+                                value,
+                                format!("entry ({}, {}) is not a number", row + 1, column + 1),
+                            )
+                        })?;
+                    }
+                }
+                m
+            }
+        } else {
+            return Err(self.invalid(key, value, format!("expected {shape}")));
+        };
+        Ok(matrix)
+    }
+}
+
+pub fn validate(raw: RawConfig, file: &str) -> Result<Config, ConfigError> {
+    let check = Checker { file };
+
+    // instance
+    let name = raw.instance.name.trim();
+    let name_ok = !name.is_empty()
+        && name.len() <= 64
+        && name.chars().all(|c| c.is_ascii_alphanumeric() || c == '-' || c == '_');
+    if !name_ok {
+        return Err(check.invalid(
+            "instance.name",
+            format!("{:?}", raw.instance.name),
+            "must be 1–64 letters, digits, '-' or '_' (it becomes part of shared-memory service names)",
+        ));
+    }
+
+    // timing
+    let t = &raw.timing;
+    let vision_period_s = check.positive("timing.vision_period_s", t.vision_period_s)?;
+    let control_period_s = check.positive("timing.control_period_s", t.control_period_s)?;
+    let ticks = vision_period_s / control_period_s;
+    if (ticks - ticks.round()).abs() > 1e-6 * ticks || ticks.round() < 1.0 || ticks > 1e6 {
+        return Err(check.invalid(
+            "timing.vision_period_s",
+            vision_period_s,
+            format!(
+                "must be a whole number of control periods ({control_period_s} s); it is {ticks} of them"
+            ),
+        ));
+    }
+    if !(0..=vservo_control::MAX_DELAY_FRAMES as i64).contains(&t.pipeline_delay_frames) {
+        return Err(check.invalid(
+            "timing.pipeline_delay_frames",
+            t.pipeline_delay_frames,
+            format!("must be between 0 and {}", vservo_control::MAX_DELAY_FRAMES),
+        ));
+    }
+    let timing = Timing {
+        vision_period_s,
+        pipeline_delay_frames: t.pipeline_delay_frames as usize,
+        control_period_s,
+        control_ticks_per_frame: ticks.round() as u32,
+    };
+
+    // camera
+    let c = &raw.camera;
+    let size = |key: &str, v: i64| {
+        u32::try_from(v)
+            .ok()
+            .filter(|&v| (1..=16384).contains(&v))
+            .ok_or_else(|| check.invalid(key, v, "must be a whole number of pixels between 1 and 16384"))
+    };
+    let width_px = size("camera.width_px", c.width_px)?;
+    let height_px = size("camera.height_px", c.height_px)?;
+    let principal = check.finite("camera.principal_point_px", c.principal_point_px)?;
+    let focal_px = check.positive("camera.focal_px", c.focal_px)?;
+    let camera = CameraIntrinsics::new(focal_px, Point2::from(principal), width_px, height_px)
+        .map_err(|e| check.invalid("camera", format!("{c:?}"), e.to_string()))?;
+    let tool_from_camera = check.pose("camera.tool_from_camera", &c.tool_from_camera)?;
+
+    // object
+    let o = &raw.object;
+    let mark_diameter_m = check.positive("object.mark_diameter_m", o.mark_diameter_m)?;
+    if o.marks_in_board_m.len() != MARKS {
+        return Err(check.invalid(
+            "object.marks_in_board_m",
+            format!("{:?}", o.marks_in_board_m),
+            format!("must list exactly {MARKS} marks, [x, y] each; it lists {}", o.marks_in_board_m.len()),
+        ));
+    }
+    let mut marks_in_board = [Point3::origin(); MARKS];
+    for (i, m) in o.marks_in_board_m.iter().enumerate() {
+        let [x, y] = check.finite("object.marks_in_board_m", *m)?;
+        marks_in_board[i] = Point3::new(x, y, 0.0);
+    }
+    for i in 0..MARKS {
+        for j in (i + 1)..MARKS {
+            let gap = (marks_in_board[i] - marks_in_board[j]).norm();
+            if gap <= mark_diameter_m {
+                return Err(check.invalid(
+                    "object.marks_in_board_m",
+                    format!("{:?}", o.marks_in_board_m),
+                    format!(
+                        "marks {} and {} are {gap} m apart, no more than a mark's diameter",
+                        i + 1,
+                        j + 1
+                    ),
+                ));
+            }
+        }
+    }
+    let board = Board { marks_in_board, mark_diameter_m };
+
+    // desired pose
+    let d = &raw.desired;
+    let joints_key = "desired.joints_rad";
+    if d.joints_rad.len() != 6 || !d.joints_rad.iter().all(|v| v.is_finite()) {
+        return Err(check.invalid(
+            joints_key,
+            format!("{:?}", d.joints_rad),
+            "must be 6 finite joint angles (rad)",
+        ));
+    }
+    let joints = JointVector::from_column_slice(&d.joints_rad);
+    let arm = puma560::puma560();
+    arm.check_positions(&joints).map_err(|v| {
+        check.invalid(joints_key, format!("{:?}", d.joints_rad), format!("{v} (the PUMA 560's range)"))
+    })?;
+    let camera_from_board = check.pose("desired.camera_from_board", &d.camera_from_board)?;
+    let (features, depths) = camera.project_marks_with_depths(&board, &camera_from_board).map_err(|e| {
+        check.invalid("desired.camera_from_board", format!("{:?}", d.camera_from_board), e.to_string())
+    })?;
+    for mark in 0..MARKS {
+        let pixel = Point2::new(features[2 * mark], features[2 * mark + 1]);
+        if !camera.contains(&pixel) {
+            return Err(check.invalid(
+                "desired.camera_from_board",
+                format!("{:?}", d.camera_from_board),
+                format!(
+                    "mark {} images at ({:.1}, {:.1}) px, outside the {width_px}×{height_px} image",
+                    mark + 1,
+                    pixel.x,
+                    pixel.y
+                ),
+            ));
+        }
+    }
+    let desired = Desired { joints, camera_from_board, features, depths };
+
+    // controller
+    let k = &raw.controller;
+    let law = ControlLaw::from_name(&k.law).ok_or_else(|| {
+        check.invalid("controller.law", format!("{:?}", k.law), "must be \"paper\" or \"delay-aware\"")
+    })?;
+    let units = match k.r_units.as_str() {
+        "mm-mrad" => InputUnits::MillimetreMilliradian,
+        "si" => InputUnits::Si,
+        _ => {
+            return Err(check.invalid(
+                "controller.r_units",
+                format!("{:?}", k.r_units),
+                "must be \"mm-mrad\" (mm/s and mrad/s, the paper's) or \"si\" (m/s and rad/s)",
+            ));
+        }
+    };
+    let q_matrix = check.weight::<FEATURES>("controller.q", &k.q)?;
+    let q = StateWeight::new(q_matrix).map_err(|e| check.invalid("controller.q", &k.q, e.to_string()))?;
+    let r_matrix = check.weight::<6>("controller.r", &k.r)?;
+    let r =
+        InputWeight::new(r_matrix, units).map_err(|e| check.invalid("controller.r", &k.r, e.to_string()))?;
+
+    Ok(Config {
+        origin: file.to_string(),
+        instance: name.to_string(),
+        timing,
+        camera,
+        tool_from_camera,
+        board,
+        desired,
+        controller: Controller { law, q, r },
+    })
+}

@@ -1,0 +1,107 @@
+//! The default configuration loads; each kind of bad value is refused with its key and value.
+
+use vservo_config::{Config, ConfigError};
+
+const DEFAULT: &str = include_str!("../../../config/vservo.toml");
+
+fn with(old: &str, new: &str) -> String {
+    assert!(DEFAULT.contains(old), "the default config holds {old:?}");
+    DEFAULT.replacen(old, new, 1)
+}
+
+fn refused(text: &str) -> ConfigError {
+    Config::from_toml(text, "test.toml").expect_err("refused")
+}
+
+#[test]
+fn default_config_gives_the_papers_desired_features_and_camera_direction() {
+    let config = Config::from_toml(DEFAULT, "vservo.toml").expect("valid");
+    let expected = [151.0, 168.0, 318.0, 178.0, 339.0, 75.0, 172.0, 70.0];
+    for (f, e) in config.desired.features.iter().zip(expected) {
+        assert!((f - e).abs() < 1e-9, "{}", config.desired.features);
+    }
+    assert_eq!(config.timing.control_ticks_per_frame, 85);
+    assert_eq!(config.instance, "default");
+    // at q_d the camera looks along world +x with image y down (DESIGN §5)
+    let arm = vservo_arm::puma560::puma560();
+    let base_from_camera = arm.base_from_tool(&config.desired.joints) * config.tool_from_camera;
+    let rotation = base_from_camera.rotation.matrix();
+    assert!(
+        (rotation.column(2) - nalgebra::Vector3::x()).norm() < 1e-12,
+        "optical axis {}",
+        rotation.column(2)
+    );
+    assert!((rotation.column(1) + nalgebra::Vector3::z()).norm() < 1e-12, "image y {}", rotation.column(1));
+    // the board is 0.5 m in front of the camera
+    let board = config.base_from_board(&arm);
+    let offset = board.translation.vector - base_from_camera.translation.vector;
+    assert!((offset - nalgebra::Vector3::new(0.5, 0.0, 0.0)).norm() < 1e-12);
+}
+
+#[test]
+fn unknown_keys_and_wrong_types_are_refused_with_the_file_and_line() {
+    let error = refused(&with("[timing]", "[timing]\nspeed = 3"));
+    let message = error.to_string();
+    assert!(message.starts_with("test.toml:") && message.contains("speed"), "{message}");
+    let error = refused(&with("focal_px = 500.0", "focal_px = \"long\""));
+    assert!(error.to_string().contains("focal_px"), "{error}");
+    assert!(refused("not toml [").to_string().starts_with("test.toml:"));
+}
+
+#[test]
+fn bad_values_name_their_key_and_value() {
+    let cases = [
+        (with("vision_period_s = 0.085", "vision_period_s = 0.0855"), "timing.vision_period_s", "0.0855"),
+        (with("vision_period_s = 0.085", "vision_period_s = -1.0"), "timing.vision_period_s", "-1"),
+        (with("pipeline_delay_frames = 1", "pipeline_delay_frames = 9"), "timing.pipeline_delay_frames", "9"),
+        (with("focal_px = 500.0", "focal_px = 0.0"), "camera.focal_px", "0"),
+        (with("width_px = 512", "width_px = -4"), "camera.width_px", "-4"),
+        (with("q = 300.0", "q = -1.0"), "controller.q", "-1.0"),
+        (with("q = 300.0", "q = [1.0, 2.0]"), "controller.q", "[1.0, 2.0]"),
+        (
+            with("r = [1.0, 1.0, 1.0, 6.0, 6.0, 6.0]", "r = [1.0, 1.0, 1.0, 6.0, 6.0, 0.0]"),
+            "controller.r",
+            "0.0",
+        ),
+        (with("r = [1.0, 1.0, 1.0, 6.0, 6.0, 6.0]", "r = nan"), "controller.r", "nan"),
+        (with("law = \"paper\"", "law = \"fast\""), "controller.law", "fast"),
+        (with("r_units = \"mm-mrad\"", "r_units = \"inch\""), "controller.r_units", "inch"),
+        (with("name = \"default\"", "name = \"a/b\""), "instance.name", "a/b"),
+        (
+            with("translation_m = [0.0, 0.0, 0.5]", "translation_m = [0.0, 0.0, -0.5]"),
+            "desired.camera_from_board",
+            "behind",
+        ),
+        (
+            with("translation_m = [0.0, 0.0, 0.5]", "translation_m = [0.5, 0.0, 0.5]"),
+            "desired.camera_from_board",
+            "outside",
+        ),
+        (with("-3.141592653589793, 0.0, 0.785", "1.0, 0.0, 0.785"), "desired.joints_rad", "joint 3"),
+        (with("[[-0.105, -0.088], ", "[[0.062, -0.079], "), "object.marks_in_board_m", "marks 1 and 2"),
+    ];
+    for (text, key, fragment) in cases {
+        let error = refused(&text);
+        assert_eq!(error.key(), Some(key), "{error}");
+        let message = error.to_string();
+        assert!(message.starts_with("test.toml: "), "{message}");
+        assert!(message.contains(fragment), "{message:?} should show {fragment:?}");
+    }
+}
+
+#[test]
+fn weights_can_be_full_symmetric_matrices() {
+    let full_r = "r = [[1.0, 0.1, 0.0, 0.0, 0.0, 0.0], [0.1, 1.0, 0.0, 0.0, 0.0, 0.0], [0.0, 0.0, 1.0, 0.0, 0.0, 0.0], \
+                  [0.0, 0.0, 0.0, 6.0, 0.0, 0.0], [0.0, 0.0, 0.0, 0.0, 6.0, 0.0], [0.0, 0.0, 0.0, 0.0, 0.0, 6.0]]";
+    let config = Config::from_toml(&with("r = [1.0, 1.0, 1.0, 6.0, 6.0, 6.0]", full_r), "t").expect("valid");
+    assert_eq!(config.controller.r.as_written()[(0, 1)], 0.1);
+    let asymmetric = full_r.replacen("[0.1, 1.0", "[0.2, 1.0", 1);
+    let error = refused(&with("r = [1.0, 1.0, 1.0, 6.0, 6.0, 6.0]", &asymmetric));
+    assert!(error.to_string().contains("not symmetric"), "{error}");
+}
+
+#[test]
+fn a_missing_file_is_named() {
+    let error = Config::load("/nonexistent/vservo.toml").expect_err("missing");
+    assert!(error.to_string().starts_with("/nonexistent/vservo.toml: cannot read"), "{error}");
+}

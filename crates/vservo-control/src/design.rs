@@ -1,0 +1,143 @@
+//! From a specification (camera, desired features, period, weights, law) to the gains the servo runs.
+
+use nalgebra::Matrix6;
+use vservo_scene::{CameraIntrinsics, FeatureVector, MarkDepths};
+
+use crate::image_jacobian::interaction_matrix;
+use crate::lq::{self, LqError, ModeDecomposition, PaperGain};
+use crate::weights::{InputWeight, StateWeight};
+use crate::{FeatureGain, InteractionMatrix, MAX_DELAY_FRAMES};
+
+/// Which control law the servo runs.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum ControlLaw {
+    /// The paper's: u = −K (ξ − ξ_d), designed as if there were no pipeline delay.
+    #[default]
+    Paper,
+    /// LQ on the delay-augmented state: u = −K_ξ (ξ − ξ_d) − Σ K_j u(k − j).
+    DelayAware,
+}
+
+impl ControlLaw {
+    /// The name used in configuration files and on the command line.
+    pub fn name(&self) -> &'static str {
+        match self {
+            ControlLaw::Paper => "paper",
+            ControlLaw::DelayAware => "delay-aware",
+        }
+    }
+
+    /// Parses a name as written in configuration files.
+    pub fn from_name(name: &str) -> Option<ControlLaw> {
+        [ControlLaw::Paper, ControlLaw::DelayAware].into_iter().find(|law| law.name() == name)
+    }
+}
+
+/// Everything a gain is designed from.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct GainsSpec {
+    /// The camera.
+    pub camera: CameraIntrinsics,
+    /// ξ_d (px).
+    pub desired_features: FeatureVector,
+    /// Z_d, the mark depths at the desired pose (m).
+    pub desired_depths: MarkDepths,
+    /// The vision period T (s).
+    pub period_s: f64,
+    /// The image pipeline's delay in vision frames.
+    pub delay_frames: usize,
+    /// Q.
+    pub q: StateWeight,
+    /// R.
+    pub r: InputWeight,
+    /// The law to run.
+    pub law: ControlLaw,
+}
+
+/// Why gains could not be made.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum GainsError {
+    /// The LQ design failed.
+    #[error(transparent)]
+    Lq(#[from] LqError),
+    /// The period is not a positive finite number.
+    #[error("the vision period {0} s must be positive")]
+    Period(f64),
+    /// A desired mark is at or behind the camera.
+    #[error("desired depth of mark {mark} is {depth_m} m; it must be in front of the camera")]
+    Depth {
+        /// One-based mark number.
+        mark: usize,
+        /// The depth.
+        depth_m: f64,
+    },
+}
+
+/// The gains the servo runs, with the design quantities kept for analysis and display.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Gains {
+    /// The law these gains implement.
+    pub law: ControlLaw,
+    /// B = T·J⁺(ξ_d, Z_d).
+    pub b: InteractionMatrix,
+    /// The mode decomposition of B.
+    pub decomposition: ModeDecomposition,
+    /// The paper's gain (always designed: the delay-aware law is compared against it).
+    pub paper: PaperGain,
+    /// The gain on the feature error for the selected law (K for the paper's law, K_ξ for the other).
+    pub feature_gain: FeatureGain,
+    /// K_j on the command sent j frames ago (zero for the paper's law); the first `delay_frames` are used.
+    pub past_input_gains: [Matrix6<f64>; MAX_DELAY_FRAMES],
+    /// The pipeline delay the gains were designed for (frames).
+    pub delay_frames: usize,
+    /// ξ_d.
+    pub desired_features: FeatureVector,
+}
+
+impl Gains {
+    /// Designs the gains: B, its decomposition, the paper's gain, and the delay-aware one when selected.
+    pub fn design(spec: &GainsSpec) -> Result<Gains, GainsError> {
+        if !(spec.period_s.is_finite() && spec.period_s > 0.0) {
+            return Err(GainsError::Period(spec.period_s));
+        }
+        if let Some(mark) = spec.desired_depths.iter().position(|z| !(z.is_finite() && *z > 0.0)) {
+            return Err(GainsError::Depth { mark: mark + 1, depth_m: spec.desired_depths[mark] });
+        }
+        if spec.delay_frames > MAX_DELAY_FRAMES {
+            return Err(LqError::DelayTooLong(spec.delay_frames).into());
+        }
+        let b = interaction_matrix(&spec.camera, &spec.desired_features, &spec.desired_depths, spec.period_s);
+        let decomposition = ModeDecomposition::of(&b)?;
+        let r_si = spec.r.si();
+        let paper = lq::paper_gain(&decomposition, &spec.q, &r_si)?;
+        let mut past_input_gains = [Matrix6::zeros(); MAX_DELAY_FRAMES];
+        let feature_gain = match spec.law {
+            ControlLaw::Paper => paper.k,
+            ControlLaw::DelayAware => {
+                let gain = lq::delay_aware_gain(&decomposition, &spec.q, &r_si, spec.delay_frames)?;
+                for (slot, k) in past_input_gains.iter_mut().zip(&gain.past_input_gains) {
+                    *slot = *k;
+                }
+                gain.feature_gain
+            }
+        };
+        Ok(Gains {
+            law: spec.law,
+            b,
+            decomposition,
+            paper,
+            feature_gain,
+            past_input_gains,
+            delay_frames: spec.delay_frames,
+            desired_features: spec.desired_features,
+        })
+    }
+
+    /// The gains on past commands that the law uses (empty for the paper's law).
+    pub fn active_past_input_gains(&self) -> &[Matrix6<f64>] {
+        match self.law {
+            ControlLaw::Paper => &[],
+            ControlLaw::DelayAware => &self.past_input_gains[..self.delay_frames],
+        }
+    }
+}

@@ -1,0 +1,173 @@
+//! The pinhole camera and projection.
+
+use nalgebra::{Point2, Point3};
+
+use crate::{Board, FeatureVector, IsometryMatrix3, MARKS, MarkDepths};
+
+/// Pinhole intrinsics: square pixels, no distortion.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CameraIntrinsics {
+    focal_px: f64,
+    principal_point_px: Point2<f64>,
+    width_px: u32,
+    height_px: u32,
+}
+
+/// Why a set of intrinsics was refused.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum IntrinsicsError {
+    /// The focal length must be a positive finite number of pixels.
+    #[error("focal length {0} px must be positive and finite")]
+    FocalLength(f64),
+    /// The image must have at least one pixel each way.
+    #[error("image size {0}×{1} px must be at least 1×1")]
+    ImageSize(u32, u32),
+    /// The principal point must be finite.
+    #[error("principal point ({0}, {1}) px must be finite")]
+    PrincipalPoint(f64, f64),
+}
+
+/// Why a point has no image.
+#[derive(Debug, Clone, Copy, PartialEq, thiserror::Error)]
+pub enum ProjectionError {
+    /// The point is at or behind the camera's centre (z ≤ 0 in the camera frame).
+    #[error("mark {mark} is behind the camera (depth {depth_m} m)", mark = .index + 1)]
+    BehindCamera {
+        /// Zero-based mark index.
+        index: usize,
+        /// Its depth (m).
+        depth_m: f64,
+    },
+}
+
+impl CameraIntrinsics {
+    /// Validated intrinsics.
+    pub fn new(
+        focal_px: f64,
+        principal_point_px: Point2<f64>,
+        width_px: u32,
+        height_px: u32,
+    ) -> Result<Self, IntrinsicsError> {
+        if !(focal_px.is_finite() && focal_px > 0.0) {
+            return Err(IntrinsicsError::FocalLength(focal_px));
+        }
+        if width_px == 0 || height_px == 0 {
+            return Err(IntrinsicsError::ImageSize(width_px, height_px));
+        }
+        if !(principal_point_px.x.is_finite() && principal_point_px.y.is_finite()) {
+            return Err(IntrinsicsError::PrincipalPoint(principal_point_px.x, principal_point_px.y));
+        }
+        Ok(Self { focal_px, principal_point_px, width_px, height_px })
+    }
+
+    /// The paper's camera (DESIGN §5): 512 × 512 px, f = 500 px, principal point (256, 256).
+    pub fn paper() -> Self {
+        Self { focal_px: 500.0, principal_point_px: Point2::new(256.0, 256.0), width_px: 512, height_px: 512 }
+    }
+
+    /// Focal length (px).
+    pub fn focal_px(&self) -> f64 {
+        self.focal_px
+    }
+    /// Principal point (px).
+    pub fn principal_point_px(&self) -> Point2<f64> {
+        self.principal_point_px
+    }
+    /// Image width (px).
+    pub fn width_px(&self) -> u32 {
+        self.width_px
+    }
+    /// Image height (px).
+    pub fn height_px(&self) -> u32 {
+        self.height_px
+    }
+
+    /// The pixel where a point given in the camera frame images, or `None` at or behind the camera.
+    pub fn project(&self, point_in_camera: &Point3<f64>) -> Option<Point2<f64>> {
+        if point_in_camera.z.is_nan() || point_in_camera.z <= 0.0 {
+            return None;
+        }
+        let scale = self.focal_px / point_in_camera.z;
+        Some(Point2::new(
+            self.principal_point_px.x + scale * point_in_camera.x,
+            self.principal_point_px.y + scale * point_in_camera.y,
+        ))
+    }
+
+    /// Whether a pixel position lies inside the image ([0, width] × [0, height]).
+    pub fn contains(&self, pixel: &Point2<f64>) -> bool {
+        pixel.x >= 0.0
+            && pixel.y >= 0.0
+            && pixel.x <= f64::from(self.width_px)
+            && pixel.y <= f64::from(self.height_px)
+    }
+
+    /// The feature vector and the mark depths for the board at `camera_from_board`.
+    pub fn project_marks_with_depths(
+        &self,
+        board: &Board,
+        camera_from_board: &IsometryMatrix3<f64>,
+    ) -> Result<(FeatureVector, MarkDepths), ProjectionError> {
+        let mut features = FeatureVector::zeros();
+        let mut depths = MarkDepths::zeros();
+        for index in 0..MARKS {
+            let mark_in_camera = camera_from_board * board.marks_in_board[index];
+            let pixel = self
+                .project(&mark_in_camera)
+                .ok_or(ProjectionError::BehindCamera { index, depth_m: mark_in_camera.z })?;
+            features[2 * index] = pixel.x;
+            features[2 * index + 1] = pixel.y;
+            depths[index] = mark_in_camera.z;
+        }
+        Ok((features, depths))
+    }
+
+    /// The feature vector ξ for the board at `camera_from_board`.
+    pub fn project_marks(
+        &self,
+        board: &Board,
+        camera_from_board: &IsometryMatrix3<f64>,
+    ) -> Result<FeatureVector, ProjectionError> {
+        self.project_marks_with_depths(board, camera_from_board).map(|(features, _)| features)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use nalgebra::{Rotation3, Translation3, Vector3};
+
+    #[test]
+    fn the_paper_board_at_half_a_metre_images_at_the_papers_desired_features() {
+        let camera = CameraIntrinsics::paper();
+        let pose = IsometryMatrix3::from_parts(Translation3::new(0.0, 0.0, 0.5), Rotation3::identity());
+        let (features, depths) = camera.project_marks_with_depths(&Board::paper(), &pose).expect("in front");
+        let expected = [151.0, 168.0, 318.0, 178.0, 339.0, 75.0, 172.0, 70.0];
+        for (f, e) in features.iter().zip(expected) {
+            assert!((f - e).abs() < 1e-9, "{features}");
+        }
+        assert!(depths.iter().all(|&z| (z - 0.5).abs() < 1e-12));
+    }
+
+    #[test]
+    fn points_behind_the_camera_have_no_image_and_are_reported() {
+        let camera = CameraIntrinsics::paper();
+        assert!(camera.project(&Point3::new(0.0, 0.0, -1.0)).is_none());
+        assert!(camera.project(&Point3::new(0.0, 0.0, 0.0)).is_none());
+        let pose = IsometryMatrix3::from_parts(
+            Translation3::from(Vector3::new(0.0, 0.0, -0.5)),
+            Rotation3::identity(),
+        );
+        let error = camera.project_marks(&Board::paper(), &pose).expect_err("behind");
+        assert!(error.to_string().contains("mark 1 is behind"), "{error}");
+    }
+
+    #[test]
+    fn bad_intrinsics_are_refused() {
+        assert!(CameraIntrinsics::new(0.0, Point2::new(1.0, 1.0), 10, 10).is_err());
+        assert!(CameraIntrinsics::new(f64::NAN, Point2::new(1.0, 1.0), 10, 10).is_err());
+        assert!(CameraIntrinsics::new(500.0, Point2::new(1.0, 1.0), 0, 10).is_err());
+        assert!(CameraIntrinsics::new(500.0, Point2::new(f64::INFINITY, 1.0), 10, 10).is_err());
+        assert!(CameraIntrinsics::new(500.0, Point2::new(256.0, 256.0), 512, 512).is_ok());
+    }
+}

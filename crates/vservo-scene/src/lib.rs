@@ -1,0 +1,35 @@
+//! # vservo-scene — what the camera looks at
+//!
+//! This crate owns the geometry shared by the controller, the vision and the simulator:
+//! - [`CameraIntrinsics`]: the pinhole camera (focal length in pixels, principal point, image size) and the
+//!   projection of points given in the camera frame (x right, y down, z along the optical axis);
+//! - [`Board`]: the object — a board with four disc marks, their centres in the board frame;
+//! - the feature vector ξ = [x₁ y₁ x₂ y₂ x₃ y₃ x₄ y₄] (pixels, image origin top-left) in the board's mark
+//!   order, which never changes from frame to frame.
+//!
+//! Transforms are named `a_from_b` and map points given in `b` into `a`.
+//!
+//! ```
+//! use nalgebra::{Translation3, Vector3};
+//! use vservo_scene::{Board, CameraIntrinsics, IsometryMatrix3};
+//!
+//! let camera = CameraIntrinsics::paper();
+//! let board = Board::paper();
+//! let camera_from_board = IsometryMatrix3::from_parts(Translation3::new(0.0, 0.0, 0.5), Default::default());
+//! let features = camera.project_marks(&board, &camera_from_board).expect("all marks in front");
+//! assert!((features[0] - 151.0).abs() < 1e-9 && (features[1] - 168.0).abs() < 1e-9);
+//! ```
+
+mod board;
+mod camera;
+
+pub use board::{Board, MARKS};
+pub use camera::{CameraIntrinsics, IntrinsicsError, ProjectionError};
+pub use nalgebra::IsometryMatrix3;
+
+/// Number of image features: x and y of each mark.
+pub const FEATURES: usize = 2 * MARKS;
+/// The feature vector ξ (pixels).
+pub type FeatureVector = nalgebra::SVector<f64, FEATURES>;
+/// The depths of the four marks in the camera frame (m).
+pub type MarkDepths = nalgebra::SVector<f64, MARKS>;
