@@ -1,6 +1,6 @@
 //! The object: a flat board with four dark disc marks.
 
-use nalgebra::Point3;
+use nalgebra::{Point2, Point3};
 
 /// Number of marks on the board.
 pub const MARKS: usize = 4;
@@ -13,6 +13,8 @@ pub struct Board {
     pub marks_in_board: [Point3<f64>; MARKS],
     /// Diameter of each disc mark (m).
     pub mark_diameter_m: f64,
+    /// The white board's rectangle in the board frame's z = 0 plane: its lowest and highest (x, y) (m).
+    pub extent_in_board: [Point2<f64>; 2],
 }
 
 impl Board {
@@ -23,6 +25,7 @@ impl Board {
         Board {
             marks_in_board: [mark(151.0, 168.0), mark(318.0, 178.0), mark(339.0, 75.0), mark(172.0, 70.0)],
             mark_diameter_m: 0.015,
+            extent_in_board: [Point2::new(-0.16, -0.24), Point2::new(0.14, -0.03)],
         }
     }
 }

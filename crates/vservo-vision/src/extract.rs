@@ -1,0 +1,639 @@
+//! The feature extractor: the four marks' sub-pixel centres in an image, in the board's mark order.
+
+use image::GrayImage;
+use vservo_scene::{FEATURES, FeatureVector, MARKS};
+
+use crate::blobs::{Blob, BlobFinder};
+
+/// How the dark marks are separated from the board.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Threshold {
+    /// Otsu's threshold of the whole image's histogram.
+    Otsu,
+    /// A set gray level: pixels below it are dark.
+    Fixed(u8),
+}
+
+/// The extractor's tuning.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ExtractorSettings {
+    /// The threshold rule.
+    pub threshold: Threshold,
+    /// Smallest blob taken for a mark (pixels); smaller ones are noise.
+    pub min_area_px: u32,
+    /// Largest blob taken for a mark; larger ones are background or clutter.
+    pub max_area_px: u32,
+    /// Largest ratio of the long to the short axis of a mark's moment ellipse (a disc seen at 75° is ~3.9).
+    pub max_elongation: f64,
+    /// Smallest area over the area of its moment ellipse (1 for an ellipse; two discs run together ~0.89).
+    pub min_ellipse_fill: f64,
+    /// How far (px) a mark may move from its predicted position between frames and still be found there.
+    pub gate_px: f64,
+}
+
+impl Default for ExtractorSettings {
+    fn default() -> Self {
+        Self {
+            threshold: Threshold::Otsu,
+            min_area_px: 12,
+            max_area_px: 6000,
+            max_elongation: 4.0,
+            min_ellipse_fill: 0.93,
+            gate_px: 40.0,
+        }
+    }
+}
+
+/// Where the marks are expected.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Prediction {
+    /// Each mark near its position in the previous frame (all four positions given; the caller keeps the
+    /// last known one for a mark lost since).
+    Tracking(FeatureVector),
+    /// Nothing known about this frame: match the blobs to the marks by the board's layout, as seen in this
+    /// image of it (for example ξ_d, the image at the desired pose); the layout may be moved, turned and
+    /// scaled.
+    Layout(FeatureVector),
+}
+
+/// Why an image could not be used at all.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+pub enum ImageProblem {
+    /// Not the configured size.
+    #[error("image is {got_width}×{got_height} px, expected {width}×{height}")]
+    WrongSize {
+        /// Expected width.
+        width: u32,
+        /// Expected height.
+        height: u32,
+        /// Width given.
+        got_width: u32,
+        /// Height given.
+        got_height: u32,
+    },
+    /// Every pixel (nearly) the same gray: all black, all white, or no contrast.
+    #[error("image has no contrast (gray {min}–{max}): {what}")]
+    NoContrast {
+        /// Darkest gray.
+        min: u8,
+        /// Brightest gray.
+        max: u8,
+        /// "all black", "all white" or "uniform".
+        what: &'static str,
+    },
+}
+
+/// A mark's state in one frame.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum MarkStatus {
+    /// Found; its feature is valid.
+    Valid,
+    /// Its expected position is outside the image.
+    OutsideImage,
+    /// Its blob touches the image border: part of it is cut off.
+    CutByBorder,
+    /// Run together with another mark (zero-based index) into one blob.
+    MergedWith(usize),
+    /// Its blob has the wrong shape (partly occluded, or run into clutter).
+    Irregular,
+    /// No blob where it should be (occluded, or too faint).
+    NotFound,
+    /// The image itself is unusable.
+    BadImage(ImageProblem),
+}
+
+impl MarkStatus {
+    /// Whether the feature is valid.
+    pub fn is_valid(&self) -> bool {
+        *self == MarkStatus::Valid
+    }
+
+    /// A reason for people: empty when valid.
+    pub fn reason(&self) -> String {
+        match self {
+            MarkStatus::Valid => String::new(),
+            MarkStatus::OutsideImage => "outside the image".into(),
+            MarkStatus::CutByBorder => "cut by the image border".into(),
+            MarkStatus::MergedWith(other) => format!("merged with mark {}", other + 1),
+            MarkStatus::Irregular => "irregular shape (partly occluded?)".into(),
+            MarkStatus::NotFound => "not found (occluded or too faint?)".into(),
+            MarkStatus::BadImage(problem) => format!("bad image: {problem}"),
+        }
+    }
+}
+
+/// One frame's result.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Extraction {
+    /// ξ (px); NaN for a mark that is not valid.
+    pub features: FeatureVector,
+    /// Each mark's state.
+    pub status: [MarkStatus; MARKS],
+    /// Mark-like dark blobs that belong to no mark.
+    pub extra_blobs: usize,
+    /// The gray level used to separate dark from bright.
+    pub threshold: u8,
+}
+
+impl Extraction {
+    /// Per-mark validity.
+    pub fn valid(&self) -> [bool; MARKS] {
+        self.status.map(|s| s.is_valid())
+    }
+
+    /// Whether all four marks are valid.
+    pub fn all_valid(&self) -> bool {
+        self.status.iter().all(MarkStatus::is_valid)
+    }
+
+    fn unusable(problem: ImageProblem, threshold: u8) -> Self {
+        Self {
+            features: FeatureVector::from_element(f64::NAN),
+            status: [MarkStatus::BadImage(problem); MARKS],
+            extra_blobs: 0,
+            threshold,
+        }
+    }
+}
+
+/// Most candidate blobs the association considers (the largest mark-like ones).
+const MAX_CANDIDATES: usize = 8;
+
+/// The extractor and its buffers, sized once for the image.
+#[derive(Debug, Clone)]
+pub struct Extractor {
+    settings: ExtractorSettings,
+    width: u32,
+    height: u32,
+    finder: BlobFinder,
+}
+
+#[derive(Debug, Clone, Copy)]
+struct Candidate {
+    blob: Blob,
+    mark_like: bool,
+}
+
+impl Extractor {
+    /// An extractor for images of `width` × `height`.
+    pub fn new(settings: ExtractorSettings, width: u32, height: u32) -> Self {
+        Self { settings, width, height, finder: BlobFinder::with_capacity(width, height) }
+    }
+
+    /// The settings.
+    pub fn settings(&self) -> &ExtractorSettings {
+        &self.settings
+    }
+
+    /// Extracts the four marks.
+    pub fn extract(&mut self, image: &GrayImage, prediction: &Prediction) -> Extraction {
+        let (w, h) = image.dimensions();
+        if (w, h) != (self.width, self.height) {
+            let problem = ImageProblem::WrongSize {
+                width: self.width,
+                height: self.height,
+                got_width: w,
+                got_height: h,
+            };
+            return Extraction::unusable(problem, 0);
+        }
+        let mut histogram = [0_u32; 256];
+        for &p in image.as_raw() {
+            histogram[p as usize] += 1;
+        }
+        let min = histogram.iter().position(|&c| c > 0).unwrap_or(0) as u8;
+        let max = histogram.iter().rposition(|&c| c > 0).unwrap_or(0) as u8;
+        if max.saturating_sub(min) < 16 {
+            let what = if max < 32 {
+                "all black"
+            } else if min > 223 {
+                "all white"
+            } else {
+                "uniform"
+            };
+            return Extraction::unusable(ImageProblem::NoContrast { min, max, what }, 0);
+        }
+        let threshold = match self.settings.threshold {
+            Threshold::Fixed(level) => level,
+            Threshold::Otsu => otsu(&histogram),
+        };
+
+        let settings = self.settings;
+        let blobs = self.finder.find_blobs(image, threshold);
+        // candidates: blobs of a mark's size, the largest first
+        let mut candidates = [Candidate { blob: EMPTY_BLOB, mark_like: false }; MAX_CANDIDATES];
+        let mut count = 0;
+        let mut sized_blobs = [EMPTY_BLOB; 32];
+        let mut sized = 0;
+        for blob in blobs.iter().filter(|b| b.area >= settings.min_area_px && b.area <= settings.max_area_px)
+        {
+            if sized < sized_blobs.len() {
+                sized_blobs[sized] = *blob;
+                sized += 1;
+            }
+        }
+        let sized_blobs = &mut sized_blobs[..sized];
+        sized_blobs.sort_unstable_by_key(|b| std::cmp::Reverse(b.area));
+        for blob in sized_blobs.iter().take(MAX_CANDIDATES) {
+            let mark_like = !blob.touches_border
+                && blob.elongation() <= settings.max_elongation
+                && blob.ellipse_fill() >= settings.min_ellipse_fill;
+            candidates[count] = Candidate { blob: *blob, mark_like };
+            count += 1;
+        }
+        let candidates = &candidates[..count];
+
+        // associate marks with candidates
+        let (assignment, expected) = match prediction {
+            Prediction::Tracking(previous) => {
+                let tracked = track(candidates, previous, settings.gate_px);
+                let assigned = tracked.iter().flatten().count();
+                if assigned < MARKS && candidates.iter().filter(|c| c.mark_like).count() > assigned {
+                    let by_layout = match_layout(candidates, previous);
+                    if by_layout.0.iter().flatten().count() > assigned {
+                        by_layout
+                    } else {
+                        (tracked, *previous)
+                    }
+                } else {
+                    (tracked, *previous)
+                }
+            }
+            Prediction::Layout(layout) => match_layout(candidates, layout),
+        };
+
+        // each mark's state
+        let mut status = [MarkStatus::NotFound; MARKS];
+        let mut features = FeatureVector::from_element(f64::NAN);
+        let contains = |b: &Blob, x: f64, y: f64| {
+            let (u0, v0, u1, v1) = b.bbox;
+            x >= f64::from(u0) - 1.0
+                && x <= f64::from(u1) + 2.0
+                && y >= f64::from(v0) - 1.0
+                && y <= f64::from(v1) + 2.0
+        };
+        for mark in 0..MARKS {
+            let (x, y) = (expected[2 * mark], expected[2 * mark + 1]);
+            status[mark] = match assignment[mark] {
+                Some(index) => {
+                    let c = candidates[index];
+                    if c.blob.touches_border {
+                        MarkStatus::CutByBorder
+                    } else if let Some(other) = (0..MARKS).find(|&o| {
+                        o != mark && contains(&c.blob, expected[2 * o], expected[2 * o + 1]) && !c.mark_like
+                    }) {
+                        MarkStatus::MergedWith(other)
+                    } else if c.mark_like {
+                        MarkStatus::Valid
+                    } else {
+                        MarkStatus::Irregular
+                    }
+                }
+                None => {
+                    let inside = x >= 0.0 && y >= 0.0 && x <= f64::from(w) && y <= f64::from(h);
+                    if !inside {
+                        MarkStatus::OutsideImage
+                    } else if let Some(blob) = dark_at(image, threshold, x, y)
+                        .then(|| {
+                            blobs
+                                .iter()
+                                .filter(|b| {
+                                    (settings.min_area_px..=settings.max_area_px).contains(&b.area)
+                                        && contains(b, x, y)
+                                })
+                                .min_by_key(|b| b.area)
+                        })
+                        .flatten()
+                    {
+                        let other = (0..MARKS)
+                            .find(|&o| o != mark && contains(blob, expected[2 * o], expected[2 * o + 1]));
+                        match other {
+                            Some(o) => MarkStatus::MergedWith(o),
+                            None if blob.touches_border => MarkStatus::CutByBorder,
+                            None => MarkStatus::Irregular,
+                        }
+                    } else {
+                        MarkStatus::NotFound
+                    }
+                }
+            };
+        }
+        // a mark merged into another's blob makes that one invalid too
+        for mark in 0..MARKS {
+            if let MarkStatus::MergedWith(other) = status[mark]
+                && (status[other].is_valid() || status[other] == MarkStatus::Irregular)
+            {
+                status[other] = MarkStatus::MergedWith(mark);
+            }
+        }
+        let mut used = [false; MAX_CANDIDATES];
+        for mark in 0..MARKS {
+            if let Some(index) = assignment[mark] {
+                used[index] = true;
+                if status[mark].is_valid() {
+                    let others: [Option<Blob>; MARKS] = std::array::from_fn(|o| {
+                        assignment[o].filter(|_| o != mark).map(|i| candidates[i].blob)
+                    });
+                    let (x, y) = refine(image, &candidates[index].blob, threshold, &others);
+                    features[2 * mark] = x;
+                    features[2 * mark + 1] = y;
+                }
+            }
+        }
+        let extra_blobs = candidates.iter().enumerate().filter(|(i, c)| c.mark_like && !used[*i]).count();
+        Extraction { features, status, extra_blobs, threshold }
+    }
+}
+
+/// Whether the pixel under image point (x, y) is darker than the threshold.
+fn dark_at(image: &GrayImage, threshold: u8, x: f64, y: f64) -> bool {
+    let (u, v) = (x.floor(), y.floor());
+    u >= 0.0
+        && v >= 0.0
+        && u < f64::from(image.width())
+        && v < f64::from(image.height())
+        && image.get_pixel(u as u32, v as u32)[0] < threshold
+}
+
+const EMPTY_BLOB: Blob = Blob {
+    area: 0,
+    centroid: (0.0, 0.0),
+    covariance: (0.0, 0.0, 0.0),
+    bbox: (0, 0, 0, 0),
+    touches_border: false,
+};
+
+/// Otsu's threshold: the level that maximizes the between-class variance of the histogram. Pixels below the
+/// returned level are dark. (Computed from the histogram the extractor already built for its image checks;
+/// `imageproc::contrast::otsu_level` would take another pass over the image. The tests compare the two.)
+pub fn otsu(histogram: &[u32; 256]) -> u8 {
+    let total: f64 = histogram.iter().map(|&c| f64::from(c)).sum();
+    let sum_all: f64 = histogram.iter().enumerate().map(|(i, &c)| i as f64 * f64::from(c)).sum();
+    let (mut weight_dark, mut sum_dark) = (0.0, 0.0);
+    let (mut best, mut best_variance) = (0_usize, -1.0);
+    for (level, &count) in histogram.iter().enumerate() {
+        weight_dark += f64::from(count);
+        sum_dark += level as f64 * f64::from(count);
+        let weight_bright = total - weight_dark;
+        if weight_dark == 0.0 || weight_bright == 0.0 {
+            continue;
+        }
+        let mean_dark = sum_dark / weight_dark;
+        let mean_bright = (sum_all - sum_dark) / weight_bright;
+        let variance = weight_dark * weight_bright * (mean_dark - mean_bright).powi(2);
+        if variance > best_variance {
+            best_variance = variance;
+            best = level;
+        }
+    }
+    // levels 0..=best form the dark class
+    (best + 1).min(255) as u8
+}
+
+/// Nearest mark-like candidate within the gate for each mark, closest pairs first, each candidate once.
+fn track(candidates: &[Candidate], previous: &FeatureVector, gate_px: f64) -> [Option<usize>; MARKS] {
+    let mut assignment = [None; MARKS];
+    let mut taken = [false; MAX_CANDIDATES];
+    loop {
+        let mut best: Option<(f64, usize, usize)> = None;
+        for mark in (0..MARKS).filter(|&m| assignment[m].is_none()) {
+            let (x, y) = (previous[2 * mark], previous[2 * mark + 1]);
+            if !(x.is_finite() && y.is_finite()) {
+                continue;
+            }
+            for (i, c) in candidates.iter().enumerate().filter(|(i, _)| !taken[*i]) {
+                let d = ((c.blob.centroid.0 - x).powi(2) + (c.blob.centroid.1 - y).powi(2)).sqrt();
+                if d <= gate_px && best.is_none_or(|(b, _, _)| d < b) {
+                    best = Some((d, mark, i));
+                }
+            }
+        }
+        match best {
+            Some((_, mark, i)) => {
+                assignment[mark] = Some(i);
+                taken[i] = true;
+            }
+            None => return assignment,
+        }
+    }
+}
+
+/// Matches candidates to marks by the layout: every way of giving four (or, failing that, three) marks
+/// distinct mark-like candidates, scored by how well a similarity transform (shift, turn, scale) carries
+/// the layout onto them. Returns the assignment and where the layout puts each mark.
+///
+/// The paper's four marks are nearly point-symmetric (the diagonals' midpoints are 2.5 px apart), so the
+/// labelling turned by 180° fits almost as well, and under perspective it can fit better. The score
+/// therefore adds a small cost for turning the layout: the image is taken to be turned by less than 90°
+/// from the layout, as it is for a hand camera servoing to a desired view.
+fn match_layout(candidates: &[Candidate], layout: &FeatureVector) -> ([Option<usize>; MARKS], FeatureVector) {
+    let mut usable = [0_usize; MAX_CANDIDATES];
+    let mut n_usable = 0;
+    for (i, _) in candidates.iter().enumerate().filter(|(_, c)| c.mark_like) {
+        usable[n_usable] = i;
+        n_usable += 1;
+    }
+    let usable = &usable[..n_usable];
+    let point = |i: usize| (candidates[i].blob.centroid.0, candidates[i].blob.centroid.1);
+    let model = |m: usize| (layout[2 * m], layout[2 * m + 1]);
+    let mut best: Option<(f64, [Option<usize>; MARKS], Similarity)> = None;
+    for marks_used in [MARKS, MARKS - 1] {
+        if usable.len() < marks_used {
+            continue;
+        }
+        for skipped in 0..(if marks_used == MARKS { 1 } else { MARKS }) {
+            let mut marks = [0_usize; MARKS];
+            let mut n_marks = 0;
+            for m in (0..MARKS).filter(|&m| marks_used == MARKS || m != skipped) {
+                marks[n_marks] = m;
+                n_marks += 1;
+            }
+            let marks = &marks[..n_marks];
+            permutations(usable, n_marks, &mut |chosen: &[usize]| {
+                let mut pairs = [((0.0, 0.0), (0.0, 0.0)); MARKS];
+                for (pair, (&m, &c)) in pairs.iter_mut().zip(marks.iter().zip(chosen)) {
+                    *pair = (model(m), point(c));
+                }
+                let (fit, misfit) = Similarity::fit(&pairs[..n_marks]);
+                let turn = fit.b.atan2(fit.a) / std::f64::consts::PI;
+                let score = misfit + 0.01 * turn * turn;
+                if misfit < 0.02 && best.as_ref().is_none_or(|(s, _, _)| score < *s) {
+                    let mut assignment = [None; MARKS];
+                    for (&m, &c) in marks.iter().zip(chosen) {
+                        assignment[m] = Some(c);
+                    }
+                    best = Some((score, assignment, fit));
+                }
+            });
+        }
+        if best.is_some() {
+            break;
+        }
+    }
+    match best {
+        Some((_, assignment, fit)) => {
+            let mut expected = FeatureVector::zeros();
+            for m in 0..MARKS {
+                let (x, y) = fit.apply(model(m));
+                expected[2 * m] = x;
+                expected[2 * m + 1] = y;
+            }
+            (assignment, expected)
+        }
+        // fewer than three mark-like blobs: take the nearest for each mark, as in tracking
+        None => (track(candidates, layout, f64::INFINITY), *layout),
+    }
+}
+
+/// Calls `visit` with every ordered choice of `k` (at most four) distinct items.
+fn permutations(items: &[usize], k: usize, visit: &mut impl FnMut(&[usize])) {
+    fn go(
+        items: &[usize],
+        k: usize,
+        chosen: &mut [usize; MARKS],
+        len: usize,
+        visit: &mut impl FnMut(&[usize]),
+    ) {
+        if len == k {
+            visit(&chosen[..k]);
+            return;
+        }
+        for &item in items {
+            if !chosen[..len].contains(&item) {
+                chosen[len] = item;
+                go(items, k, chosen, len + 1, visit);
+            }
+        }
+    }
+    go(items, k.min(MARKS), &mut [0; MARKS], 0, visit);
+}
+
+/// A layout point and the image point it is matched with.
+type PointPair = ((f64, f64), (f64, f64));
+
+/// x ↦ s·R(θ)·x + t in the image plane.
+#[derive(Debug, Clone, Copy)]
+struct Similarity {
+    a: f64,
+    b: f64,
+    tx: f64,
+    ty: f64,
+}
+
+impl Similarity {
+    /// The least-squares fit of `to ≈ S(from)` and its misfit relative to the spread of `to` (0 is exact).
+    fn fit(pairs: &[PointPair]) -> (Similarity, f64) {
+        let n = pairs.len() as f64;
+        let (mut fx, mut fy, mut tx, mut ty) = (0.0, 0.0, 0.0, 0.0);
+        for &((x, y), (u, v)) in pairs {
+            fx += x;
+            fy += y;
+            tx += u;
+            ty += v;
+        }
+        let (fx, fy, tx, ty) = (fx / n, fy / n, tx / n, ty / n);
+        let (mut dot, mut cross, mut from_sq, mut to_sq) = (0.0, 0.0, 0.0, 0.0);
+        for &((x, y), (u, v)) in pairs {
+            let (x, y, u, v) = (x - fx, y - fy, u - tx, v - ty);
+            dot += x * u + y * v;
+            cross += x * v - y * u;
+            from_sq += x * x + y * y;
+            to_sq += u * u + v * v;
+        }
+        if from_sq <= 0.0 || to_sq <= 0.0 {
+            return (Similarity { a: 1.0, b: 0.0, tx, ty }, f64::INFINITY);
+        }
+        let (a, b) = (dot / from_sq, cross / from_sq);
+        let residual = (to_sq - (dot * dot + cross * cross) / from_sq).max(0.0);
+        (Similarity { a, b, tx: tx - (a * fx - b * fy), ty: ty - (b * fx + a * fy) }, residual / to_sq)
+    }
+
+    fn apply(&self, (x, y): (f64, f64)) -> (f64, f64) {
+        (self.a * x - self.b * y + self.tx, self.b * x + self.a * y + self.ty)
+    }
+}
+
+/// The coverage-weighted centroid of a mark: in a window around its blob, each pixel weighs
+/// (board − gray)/(board − mark), clamped to [0, 1], with the board's gray fitted as a plane to the bright
+/// pixels of the window's rim (so a lighting gradient does not pull the centre) and the mark's gray taken
+/// from the blob's dark core. For an anti-aliased image this weight is the pixel's area coverage, so the
+/// result is the area centroid of the mark's image. Pixels inside other marks' boxes are left out.
+fn refine(image: &GrayImage, blob: &Blob, threshold: u8, others: &[Option<Blob>; MARKS]) -> (f64, f64) {
+    const MARGIN: i64 = 2;
+    let (w, h) = (i64::from(image.width()), i64::from(image.height()));
+    let (bu0, bv0, bu1, bv1) = blob.bbox;
+    let (u0, v0) = ((i64::from(bu0) - MARGIN).max(0), (i64::from(bv0) - MARGIN).max(0));
+    let (u1, v1) = ((i64::from(bu1) + MARGIN).min(w - 1), (i64::from(bv1) + MARGIN).min(h - 1));
+    let gray = |u: i64, v: i64| f64::from(image.as_raw()[(v * w + u) as usize]);
+    let excluded = |u: i64, v: i64| {
+        others.iter().flatten().any(|o| {
+            let (a0, b0, a1, b1) = o.bbox;
+            u >= i64::from(a0) - MARGIN
+                && u <= i64::from(a1) + MARGIN
+                && v >= i64::from(b0) - MARGIN
+                && v <= i64::from(b1) + MARGIN
+        })
+    };
+    // board: a plane through the rim's bright pixels, least squares in (1, u, v)
+    let mut normal = nalgebra::Matrix3::<f64>::zeros();
+    let mut rhs = nalgebra::Vector3::<f64>::zeros();
+    let mut rim = 0;
+    for v in v0..=v1 {
+        for u in u0..=u1 {
+            let on_rim = u - u0 < 1 || u1 - u < 1 || v - v0 < 1 || v1 - v < 1;
+            let g = gray(u, v);
+            if on_rim && g >= f64::from(threshold) && !excluded(u, v) {
+                let x = nalgebra::Vector3::new(1.0, u as f64 - f64::from(bu0), v as f64 - f64::from(bv0));
+                normal += x * x.transpose();
+                rhs += x * g;
+                rim += 1;
+            }
+        }
+    }
+    let plane = if rim >= 6 { normal.cholesky().map(|c| c.solve(&rhs)) } else { None };
+    let rim_mean = if rim > 0 { rhs[0] / normal[(0, 0)] } else { f64::from(threshold) };
+    let board = |u: i64, v: i64| match plane {
+        Some(p) => p[0] + p[1] * (u as f64 - f64::from(bu0)) + p[2] * (v as f64 - f64::from(bv0)),
+        None => rim_mean,
+    };
+    // mark: the mean of the blob's core (darker than halfway between its darkest and the threshold)
+    let mut darkest = 255.0_f64;
+    for v in i64::from(bv0)..=i64::from(bv1) {
+        for u in i64::from(bu0)..=i64::from(bu1) {
+            darkest = darkest.min(gray(u, v));
+        }
+    }
+    let core_limit = 0.5 * (darkest + f64::from(threshold));
+    let (mut core_sum, mut core_count) = (0.0, 0.0);
+    for v in i64::from(bv0)..=i64::from(bv1) {
+        for u in i64::from(bu0)..=i64::from(bu1) {
+            let g = gray(u, v);
+            if g <= core_limit {
+                core_sum += g;
+                core_count += 1.0;
+            }
+        }
+    }
+    let mark = if core_count > 0.0 { core_sum / core_count } else { darkest };
+    let (mut sw, mut su, mut sv) = (0.0, 0.0, 0.0);
+    for v in v0..=v1 {
+        for u in u0..=u1 {
+            if excluded(u, v) {
+                continue;
+            }
+            let b = board(u, v);
+            let contrast = b - mark;
+            if contrast <= 1.0 {
+                continue;
+            }
+            let weight = ((b - gray(u, v)) / contrast).clamp(0.0, 1.0);
+            sw += weight;
+            su += weight * (u as f64 + 0.5);
+            sv += weight * (v as f64 + 0.5);
+        }
+    }
+    if sw > 0.0 { (su / sw, sv / sw) } else { blob.centroid }
+}
+
+// Keep FEATURES in scope for readers of the feature layout.
+const _: () = assert!(FEATURES == 2 * MARKS);

@@ -1,0 +1,29 @@
+//! # vservo-vision — what the hand camera sees, and the features in it
+//!
+//! This crate owns the vision core of vservo (the vision *process* comes with the runtime):
+//! - [`render::Renderer`]: the simulated camera. Given `camera_from_board`, the intrinsics and the board,
+//!   it renders the 8-bit grayscale image: perspective-correct (discs become ellipses), anti-aliased by
+//!   exact-area supersampling at edges, a background of another gray, and, configurable and seeded, Gaussian
+//!   pixel noise and a lighting gradient.
+//! - [`extract::Extractor`]: the four marks in an image — threshold (Otsu or a set level), connected
+//!   components, area and shape filters, coverage-weighted sub-pixel centroids, and association of blobs
+//!   to marks so that the order of ξ never changes, with per-mark validity and a reason when a mark is
+//!   missing, cut by the border, merged with another, or when extra dark blobs appear.
+//! - [`source`]: image sources — the simulated camera, and a directory of PGM or PNG files (recorded real
+//!   images).
+//!
+//! Pixel convention: pixel (u, v) covers [u, u+1) × [v, v+1) in image coordinates, so its centre is
+//! (u + ½, v + ½); a point projected to (x, y) (DESIGN §3) lands in pixel (⌊x⌋, ⌊y⌋).
+//!
+//! The per-frame paths (`Renderer::render`, `Extractor::extract`) do not allocate: buffers are sized once
+//! for the configured image.
+
+pub mod blobs;
+pub mod extract;
+pub mod noise;
+pub mod render;
+pub mod source;
+
+pub use extract::{Extraction, Extractor, ExtractorSettings, MarkStatus, Prediction, Threshold};
+pub use image::GrayImage;
+pub use render::{RenderSettings, Renderer};

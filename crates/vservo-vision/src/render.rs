@@ -1,0 +1,358 @@
+//! The simulated hand camera: renders the board with its marks as an 8-bit grayscale image.
+//!
+//! Geometry is exact: a pixel's gray is the area-weighted mean of what its footprint sees, found by
+//! supersampling (S × S samples mapped through the board's homography) wherever a board or mark edge may
+//! cross the pixel; pixels wholly on the background, the board or a mark take that gray directly. The
+//! image is then lit by a linear gradient and gets Gaussian noise, both seeded and repeatable.
+
+use image::GrayImage;
+use nalgebra::{Matrix3, Point2, Point3, Vector3};
+use vservo_scene::{Board, CameraIntrinsics, IsometryMatrix3, MARKS};
+
+use crate::noise::{GaussianTable, Xorshift64};
+
+/// How the scene looks.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RenderSettings {
+    /// Gray of whatever is not the board (0–255).
+    pub background_gray: f64,
+    /// Gray of the white board.
+    pub board_gray: f64,
+    /// Gray of the black marks.
+    pub mark_gray: f64,
+    /// Standard deviation of the pixel noise (gray levels); 0 for none.
+    pub noise_sigma_gray: f64,
+    /// Seed of the noise; each frame mixes in its number.
+    pub noise_seed: u64,
+    /// Brightness change across the image, left to right and top to bottom, as a fraction (0.1: the right
+    /// edge is 10 % brighter than the left).
+    pub lighting_gradient: [f64; 2],
+    /// Samples per axis in a pixel an edge may cross (8: 64 samples, coverage to 1/64).
+    pub supersampling: u32,
+}
+
+impl Default for RenderSettings {
+    fn default() -> Self {
+        Self {
+            background_gray: 110.0,
+            board_gray: 230.0,
+            mark_gray: 20.0,
+            noise_sigma_gray: 0.0,
+            noise_seed: 1,
+            lighting_gradient: [0.0, 0.0],
+            supersampling: 8,
+        }
+    }
+}
+
+/// The renderer and its image buffer, sized once for the camera.
+#[derive(Debug, Clone)]
+pub struct Renderer {
+    camera: CameraIntrinsics,
+    settings: RenderSettings,
+    noise: GaussianTable,
+    image: GrayImage,
+    albedo: Vec<f32>,
+}
+
+/// What one frame's geometry needs, computed once per frame.
+struct Scene<'a> {
+    board: &'a Board,
+    /// image_from_board homography on the board plane, and its inverse.
+    image_from_board: Matrix3<f64>,
+    board_from_image: Matrix3<f64>,
+    /// The board's outline in the image (convex, after clipping at the camera plane).
+    outline: [Point2<f64>; 8],
+    outline_len: usize,
+    mark_radius_m: f64,
+}
+
+/// Where a sample falls.
+#[derive(Clone, Copy, PartialEq)]
+enum Surface {
+    Background,
+    Board,
+    Mark,
+}
+
+impl Scene<'_> {
+    fn new<'a>(
+        camera: &CameraIntrinsics,
+        board: &'a Board,
+        camera_from_board: &IsometryMatrix3<f64>,
+    ) -> Scene<'a> {
+        let r = camera_from_board.rotation.matrix();
+        let t = camera_from_board.translation.vector;
+        let k = Matrix3::new(
+            camera.focal_px(),
+            0.0,
+            camera.principal_point_px().x,
+            0.0,
+            camera.focal_px(),
+            camera.principal_point_px().y,
+            0.0,
+            0.0,
+            1.0,
+        );
+        let plane = Matrix3::from_columns(&[r.column(0).into_owned(), r.column(1).into_owned(), t]);
+        let image_from_board = k * plane;
+        // a board plane through the camera centre images as a line: nothing to see, everything background
+        let board_from_image = image_from_board.try_inverse().unwrap_or_else(Matrix3::zeros);
+
+        // the board's corners in the camera frame, clipped to z ≥ near, then projected
+        let [lo, hi] = board.extent_in_board;
+        let corners = [(lo.x, lo.y), (hi.x, lo.y), (hi.x, hi.y), (lo.x, hi.y)]
+            .map(|(x, y)| camera_from_board * Point3::new(x, y, 0.0));
+        const NEAR: f64 = 1e-4;
+        let mut clipped = [Point3::origin(); 8];
+        let mut n = 0;
+        for i in 0..4 {
+            let (a, b) = (corners[i], corners[(i + 1) % 4]);
+            if a.z >= NEAR {
+                clipped[n] = a;
+                n += 1;
+            }
+            if (a.z >= NEAR) != (b.z >= NEAR) {
+                let s = (NEAR - a.z) / (b.z - a.z);
+                clipped[n] = a + (b - a) * s;
+                n += 1;
+            }
+        }
+        let mut outline = [Point2::origin(); 8];
+        for (out, p) in outline.iter_mut().zip(&clipped[..n]) {
+            *out = camera.project(p).unwrap_or_else(Point2::origin);
+        }
+        Scene {
+            board,
+            image_from_board,
+            board_from_image,
+            outline,
+            outline_len: n,
+            mark_radius_m: 0.5 * board.mark_diameter_m,
+        }
+    }
+
+    /// Board-plane coordinates of an image point, or `None` where the ray misses the board plane.
+    #[inline]
+    fn on_board(&self, x: f64, y: f64) -> Option<Point2<f64>> {
+        let b = self.board_from_image * Vector3::new(x, y, 1.0);
+        (b.z > 0.0).then(|| Point2::new(b.x / b.z, b.y / b.z))
+    }
+
+    #[inline]
+    fn surface(&self, x: f64, y: f64) -> Surface {
+        let Some(p) = self.on_board(x, y) else { return Surface::Background };
+        let [lo, hi] = self.board.extent_in_board;
+        if p.x < lo.x || p.x > hi.x || p.y < lo.y || p.y > hi.y {
+            return Surface::Background;
+        }
+        let r2 = self.mark_radius_m * self.mark_radius_m;
+        let on_mark =
+            self.board.marks_in_board.iter().any(|m| (p.x - m.x).powi(2) + (p.y - m.y).powi(2) <= r2);
+        if on_mark { Surface::Mark } else { Surface::Board }
+    }
+
+    /// The x-extent of the board outline on the horizontal line y, if it crosses it.
+    fn span(&self, y: f64) -> Option<(f64, f64)> {
+        let n = self.outline_len;
+        if n < 3 {
+            return None;
+        }
+        let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+        for i in 0..n {
+            let (a, b) = (self.outline[i], self.outline[(i + 1) % n]);
+            if (a.y <= y && b.y >= y) || (b.y <= y && a.y >= y) {
+                let x = if (b.y - a.y).abs() < 1e-12 {
+                    a.x.min(b.x)
+                } else {
+                    a.x + (y - a.y) / (b.y - a.y) * (b.x - a.x)
+                };
+                let x_other = if (b.y - a.y).abs() < 1e-12 { a.x.max(b.x) } else { x };
+                lo = lo.min(x);
+                hi = hi.max(x_other);
+            }
+        }
+        (lo <= hi).then_some((lo, hi))
+    }
+
+    /// The pixel box (u0, u1, v0, v1), exclusive ends, that holds mark `index`'s image; `None` when part
+    /// of the mark is behind the camera (it is then drawn by the edge sampler alone).
+    fn mark_box(&self, index: usize) -> Option<(i64, i64, i64, i64)> {
+        let c = self.board.marks_in_board[index];
+        let r = self.mark_radius_m;
+        let (mut u0, mut u1, mut v0, mut v1) =
+            (f64::INFINITY, f64::NEG_INFINITY, f64::INFINITY, f64::NEG_INFINITY);
+        for (dx, dy) in [(-r, -r), (r, -r), (r, r), (-r, r)] {
+            let h = self.image_from_board * Vector3::new(c.x + dx, c.y + dy, 1.0);
+            if h.z <= 0.0 {
+                return None;
+            }
+            let (x, y) = (h.x / h.z, h.y / h.z);
+            u0 = u0.min(x);
+            u1 = u1.max(x);
+            v0 = v0.min(y);
+            v1 = v1.max(y);
+        }
+        Some((u0.floor() as i64 - 1, u1.ceil() as i64 + 1, v0.floor() as i64 - 1, v1.ceil() as i64 + 1))
+    }
+}
+
+impl Renderer {
+    /// A renderer for `camera`'s image size.
+    pub fn new(camera: CameraIntrinsics, settings: RenderSettings) -> Self {
+        let (w, h) = (camera.width_px(), camera.height_px());
+        Self {
+            camera,
+            settings,
+            noise: GaussianTable::new(settings.noise_sigma_gray),
+            image: GrayImage::new(w, h),
+            albedo: vec![0.0; w as usize],
+        }
+    }
+
+    /// The settings.
+    pub fn settings(&self) -> &RenderSettings {
+        &self.settings
+    }
+
+    /// The last rendered image.
+    pub fn image(&self) -> &GrayImage {
+        &self.image
+    }
+
+    /// Renders what the camera sees with the board at `camera_from_board`; `frame` varies the noise.
+    pub fn render(
+        &mut self,
+        board: &Board,
+        camera_from_board: &IsometryMatrix3<f64>,
+        frame: u64,
+    ) -> &GrayImage {
+        let scene = Scene::new(&self.camera, board, camera_from_board);
+        let (width, height) = (self.camera.width_px() as i64, self.camera.height_px() as i64);
+        let s = self.settings;
+        let samples = s.supersampling.max(1);
+        let gray = |surface: Surface| match surface {
+            Surface::Background => s.background_gray,
+            Surface::Board => s.board_gray,
+            Surface::Mark => s.mark_gray,
+        };
+        let supersample = |u: i64, v: i64| -> f32 {
+            let mut sum = 0.0;
+            for j in 0..samples {
+                let y = v as f64 + (f64::from(j) + 0.5) / f64::from(samples);
+                for i in 0..samples {
+                    let x = u as f64 + (f64::from(i) + 0.5) / f64::from(samples);
+                    sum += gray(scene.surface(x, y));
+                }
+            }
+            (sum / f64::from(samples * samples)) as f32
+        };
+        let mark_boxes: [Option<(i64, i64, i64, i64)>; MARKS] = std::array::from_fn(|i| scene.mark_box(i));
+        let mut rng = Xorshift64::new(s.noise_seed ^ frame.wrapping_mul(0x9E37_79B9_7F4A_7C15));
+        let [gx, gy] = s.lighting_gradient;
+        let noisy = s.noise_sigma_gray > 0.0;
+
+        for v in 0..height {
+            let row = &mut self.albedo;
+            row.fill(s.background_gray as f32);
+            // where the board outline crosses this pixel row, at each sub-row
+            let (mut a_min, mut a_max, mut b_min, mut b_max) =
+                (f64::INFINITY, f64::NEG_INFINITY, f64::INFINITY, f64::NEG_INFINITY);
+            let mut any = false;
+            let mut all = true;
+            for j in 0..samples {
+                let y = v as f64 + (f64::from(j) + 0.5) / f64::from(samples);
+                match scene.span(y) {
+                    Some((a, b)) => {
+                        any = true;
+                        a_min = a_min.min(a);
+                        a_max = a_max.max(a);
+                        b_min = b_min.min(b);
+                        b_max = b_max.max(b);
+                    }
+                    None => all = false,
+                }
+            }
+            let clamp = |x: f64| (x.max(0.0).min(width as f64)) as i64;
+            let (mut full_start, mut full_end) = (0, 0);
+            if any {
+                let edge_start = clamp(a_min.floor());
+                let edge_end = clamp(b_max.ceil());
+                if all && a_max.ceil() < b_min.floor() {
+                    full_start = clamp(a_max.ceil());
+                    full_end = clamp(b_min.floor());
+                }
+                if full_start < full_end {
+                    row[full_start as usize..full_end as usize].fill(s.board_gray as f32);
+                    for u in (edge_start..full_start).chain(full_end..edge_end) {
+                        row[u as usize] = supersample(u, v);
+                    }
+                } else {
+                    for u in edge_start..edge_end {
+                        row[u as usize] = supersample(u, v);
+                    }
+                }
+            }
+            // marks: only inside the wholly-on-board stretch (the edge pixels above were sampled whole)
+            for bbox in mark_boxes.iter().flatten() {
+                let &(u0, u1, v0, v1) = bbox;
+                if v < v0 || v >= v1 {
+                    continue;
+                }
+                for u in u0.max(full_start)..u1.min(full_end) {
+                    row[u as usize] = mark_pixel(&scene, u, v, s.board_gray, s.mark_gray)
+                        .unwrap_or_else(|| supersample(u, v));
+                }
+            }
+            // light and noise
+            let y_light = 1.0 + gy * ((v as f64 + 0.5) / height as f64 - 0.5);
+            let step = gx / width as f64;
+            let mut light = y_light + gx * (0.5 / width as f64 - 0.5);
+            let mut bits = 0_u64;
+            let mut left = 0;
+            let out = &mut self.image.as_mut()[(v * width) as usize..((v + 1) * width) as usize];
+            for (pixel, &albedo) in out.iter_mut().zip(row.iter()) {
+                let mut value = f64::from(albedo) * light;
+                if noisy {
+                    if left == 0 {
+                        bits = rng.next_u64();
+                        left = 5;
+                    }
+                    value += f64::from(self.noise.sample(bits));
+                    bits >>= 12;
+                    left -= 1;
+                }
+                *pixel = value.round().clamp(0.0, 255.0) as u8;
+                light += step;
+            }
+        }
+        &self.image
+    }
+}
+
+/// The gray of a pixel wholly on the board near a mark when it is wholly on or off the mark; `None` when a
+/// mark edge may cross it (then it is supersampled).
+#[inline]
+fn mark_pixel(scene: &Scene, u: i64, v: i64, board_gray: f64, mark_gray: f64) -> Option<f32> {
+    let corners = [(0.0, 0.0), (1.0, 0.0), (1.0, 1.0), (0.0, 1.0)]
+        .map(|(du, dv)| scene.on_board(u as f64 + du, v as f64 + dv));
+    let mut points = [Point2::origin(); 4];
+    for (p, c) in points.iter_mut().zip(corners) {
+        *p = c?;
+    }
+    // the footprint's size on the board: any point of it is within this of every corner
+    let diameter = (points[0] - points[2]).norm().max((points[1] - points[3]).norm());
+    let r = scene.mark_radius_m;
+    let mut outside_all = true;
+    for m in &scene.board.marks_in_board {
+        let distances = points.map(|p| ((p.x - m.x).powi(2) + (p.y - m.y).powi(2)).sqrt());
+        if distances.iter().all(|&d| d <= r) {
+            // a disc is convex: all four corners inside means the footprint is inside
+            return Some(mark_gray as f32);
+        }
+        if distances.iter().any(|&d| d <= r + diameter) {
+            outside_all = false;
+        }
+    }
+    outside_all.then_some(board_gray as f32)
+}

@@ -1,0 +1,115 @@
+//! Image sources: the simulated camera, and a directory of recorded images.
+
+use std::path::{Path, PathBuf};
+
+use image::GrayImage;
+use vservo_scene::{Board, CameraIntrinsics, IsometryMatrix3};
+
+use crate::render::{RenderSettings, Renderer};
+
+/// Why an image could not be had.
+#[derive(Debug, thiserror::Error)]
+pub enum SourceError {
+    /// The directory could not be listed.
+    #[error("{path}: cannot list images: {reason}")]
+    Directory {
+        /// The directory.
+        path: String,
+        /// The operating system's reason.
+        reason: String,
+    },
+    /// The directory holds no PGM or PNG file.
+    #[error("{0}: holds no .pgm or .png image")]
+    Empty(String),
+    /// A file could not be read as an 8-bit grayscale image.
+    #[error("{path}: {reason}")]
+    Image {
+        /// The file.
+        path: String,
+        /// What went wrong.
+        reason: String,
+    },
+}
+
+/// Reads an image file (PNG or binary PGM) as 8-bit grayscale. Colour or 16-bit images are refused rather
+/// than converted, so that a wrong camera setting shows up.
+pub fn read_gray_image(path: &Path) -> Result<GrayImage, SourceError> {
+    let error = |reason: String| SourceError::Image { path: path.display().to_string(), reason };
+    let decoded = image::ImageReader::open(path)
+        .map_err(|e| error(e.to_string()))?
+        .with_guessed_format()
+        .map_err(|e| error(e.to_string()))?
+        .decode()
+        .map_err(|e| error(e.to_string()))?;
+    match decoded {
+        image::DynamicImage::ImageLuma8(gray) => Ok(gray),
+        other => Err(error(format!("is {:?}, not 8-bit grayscale", other.color()))),
+    }
+}
+
+/// The simulated hand camera: renders the board as seen from the camera.
+#[derive(Debug, Clone)]
+pub struct SimulatedCamera {
+    renderer: Renderer,
+    board: Board,
+}
+
+impl SimulatedCamera {
+    /// A camera that sees `board`.
+    pub fn new(camera: CameraIntrinsics, board: Board, settings: RenderSettings) -> Self {
+        Self { renderer: Renderer::new(camera, settings), board }
+    }
+
+    /// The image of frame `frame` with the board at `camera_from_board`.
+    pub fn capture(&mut self, camera_from_board: &IsometryMatrix3<f64>, frame: u64) -> &GrayImage {
+        self.renderer.render(&self.board, camera_from_board, frame)
+    }
+}
+
+/// Recorded images, in file-name order, one per frame; after the last it starts again.
+#[derive(Debug, Clone)]
+pub struct DirectorySource {
+    files: Vec<PathBuf>,
+    next: usize,
+}
+
+impl DirectorySource {
+    /// Lists the `.pgm` and `.png` files of a directory.
+    pub fn open(directory: &Path) -> Result<Self, SourceError> {
+        let listing = std::fs::read_dir(directory).map_err(|e| SourceError::Directory {
+            path: directory.display().to_string(),
+            reason: e.to_string(),
+        })?;
+        let mut files: Vec<PathBuf> = listing
+            .filter_map(|entry| entry.ok().map(|e| e.path()))
+            .filter(|p| {
+                p.extension()
+                    .and_then(|e| e.to_str())
+                    .is_some_and(|e| e.eq_ignore_ascii_case("pgm") || e.eq_ignore_ascii_case("png"))
+            })
+            .collect();
+        files.sort();
+        if files.is_empty() {
+            return Err(SourceError::Empty(directory.display().to_string()));
+        }
+        Ok(Self { files, next: 0 })
+    }
+
+    /// The number of images.
+    pub fn len(&self) -> usize {
+        self.files.len()
+    }
+
+    /// Whether there are none (never true for an opened source).
+    pub fn is_empty(&self) -> bool {
+        self.files.is_empty()
+    }
+
+    /// The next image and its file.
+    pub fn next_image(&mut self) -> (PathBuf, Result<GrayImage, SourceError>) {
+        let path = self.files[self.next % self.files.len()].clone();
+        self.next += 1;
+        let image = read_gray_image(&path);
+        (path, image)
+    }
+}
