@@ -236,7 +236,7 @@ impl Renderer {
             Surface::Board => s.board_gray,
             Surface::Mark => s.mark_gray,
         };
-        let supersample = |u: i64, v: i64| -> f32 {
+        let supersample_with = |u: i64, v: i64, samples: u32| -> f32 {
             let mut sum = 0.0;
             for j in 0..samples {
                 let y = v as f64 + (f64::from(j) + 0.5) / f64::from(samples);
@@ -247,6 +247,11 @@ impl Renderer {
             }
             (sum / f64::from(samples * samples)) as f32
         };
+        // mark edges get the full count (they carry the features); the board's outline, which carries
+        // none, half as many per axis
+        let supersample = |u: i64, v: i64| supersample_with(u, v, samples);
+        let outline_samples = (samples / 2).max(2);
+        let supersample_outline = |u: i64, v: i64| supersample_with(u, v, outline_samples);
         let mark_boxes: [Option<(i64, i64, i64, i64)>; MARKS] = std::array::from_fn(|i| scene.mark_box(i));
         let mut rng = Xorshift64::new(s.noise_seed ^ frame.wrapping_mul(0x9E37_79B9_7F4A_7C15));
         let [gx, gy] = s.lighting_gradient;
@@ -285,11 +290,11 @@ impl Renderer {
                 if full_start < full_end {
                     row[full_start as usize..full_end as usize].fill(s.board_gray as f32);
                     for u in (edge_start..full_start).chain(full_end..edge_end) {
-                        row[u as usize] = supersample(u, v);
+                        row[u as usize] = supersample_outline(u, v);
                     }
                 } else {
                     for u in edge_start..edge_end {
-                        row[u as usize] = supersample(u, v);
+                        row[u as usize] = supersample_outline(u, v);
                     }
                 }
             }
@@ -304,26 +309,30 @@ impl Renderer {
                         .unwrap_or_else(|| supersample(u, v));
                 }
             }
-            // light and noise
-            let y_light = 1.0 + gy * ((v as f64 + 0.5) / height as f64 - 0.5);
-            let step = gx / width as f64;
-            let mut light = y_light + gx * (0.5 / width as f64 - 0.5);
-            let mut bits = 0_u64;
-            let mut left = 0;
+            // light and noise, in f32 with saturating casts: this loop touches every pixel, so it stays
+            // free of calls and branches (rounding is half-up)
+            let y_light = (1.0
+                + gy * ((v as f64 + 0.5) / height as f64 - 0.5)
+                + gx * (0.5 / width as f64 - 0.5)) as f32;
+            let step = (gx / width as f64) as f32;
             let out = &mut self.image.as_mut()[(v * width) as usize..((v + 1) * width) as usize];
-            for (pixel, &albedo) in out.iter_mut().zip(row.iter()) {
-                let mut value = f64::from(albedo) * light;
-                if noisy {
-                    if left == 0 {
-                        bits = rng.next_u64();
-                        left = 5;
+            if noisy {
+                for (chunk_out, chunk_in) in
+                    out.chunks_mut(5).zip(row.chunks(5)).enumerate().map(|(i, (o, a))| ((i, o), a))
+                {
+                    let ((chunk, pixels), albedo) = (chunk_out, chunk_in);
+                    let mut bits = rng.next_u64();
+                    for (k, (pixel, &a)) in pixels.iter_mut().zip(albedo).enumerate() {
+                        let u = (chunk * 5 + k) as f32;
+                        let value = a * (y_light + step * u) + self.noise.sample(bits) + 0.5;
+                        *pixel = value.clamp(0.0, 255.0) as u8;
+                        bits >>= 12;
                     }
-                    value += f64::from(self.noise.sample(bits));
-                    bits >>= 12;
-                    left -= 1;
                 }
-                *pixel = value.round().clamp(0.0, 255.0) as u8;
-                light += step;
+            } else {
+                for (u, (pixel, &a)) in out.iter_mut().zip(row.iter()).enumerate() {
+                    *pixel = (a * (y_light + step * u as f32) + 0.5).clamp(0.0, 255.0) as u8;
+                }
             }
         }
         &self.image
