@@ -44,6 +44,28 @@ pub struct Config {
     pub desired: Desired,
     /// The controller's law and weights.
     pub controller: Controller,
+    /// The image source and the feature extractor.
+    pub vision: Vision,
+}
+
+/// Where images come from, and how features are found in them.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Vision {
+    /// The image source.
+    pub source: VisionSource,
+    /// The extractor's tuning.
+    pub extractor: vservo_vision::ExtractorSettings,
+    /// The simulated camera's scene.
+    pub render: vservo_vision::RenderSettings,
+}
+
+/// Where images come from.
+#[derive(Debug, Clone, PartialEq)]
+pub enum VisionSource {
+    /// The simulated hand camera renders the board.
+    Simulated,
+    /// Recorded images in a directory.
+    Directory(std::path::PathBuf),
 }
 
 /// Periods and delays.
@@ -103,6 +125,17 @@ impl Config {
     /// The world (= arm base) pose of the board, placed so that the camera at q_d sees it as desired.
     pub fn base_from_board(&self, arm: &vservo_arm::SerialArm) -> IsometryMatrix3<f64> {
         arm.base_from_tool(&self.desired.joints) * self.tool_from_camera * self.desired.camera_from_board
+    }
+
+    /// The board as the camera sees it with the arm at `joints` and the board where the desired pose puts
+    /// it: `camera_from_board = (base_from_tool(q) · tool_from_camera)⁻¹ · base_from_board`.
+    pub fn camera_from_board_at(
+        &self,
+        arm: &vservo_arm::SerialArm,
+        joints: &JointVector,
+    ) -> IsometryMatrix3<f64> {
+        let base_from_camera = arm.base_from_tool(joints) * self.tool_from_camera;
+        base_from_camera.inverse() * self.base_from_board(arm)
     }
 
     /// What the gain design needs.

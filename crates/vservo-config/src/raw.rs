@@ -11,6 +11,7 @@ pub struct RawConfig {
     pub object: RawObject,
     pub desired: RawDesired,
     pub controller: RawController,
+    pub vision: RawVision,
 }
 
 #[derive(Debug, Deserialize)]
@@ -49,6 +50,7 @@ pub struct RawPose {
 pub struct RawObject {
     pub mark_diameter_m: f64,
     pub marks_in_board_m: Vec<[f64; 2]>,
+    pub board_extent_m: [[f64; 2]; 2],
 }
 
 #[derive(Debug, Deserialize)]
@@ -65,4 +67,30 @@ pub struct RawController {
     pub q: toml::Value,
     pub r: toml::Value,
     pub r_units: String,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawVision {
+    pub source: String,
+    pub directory: String,
+    pub threshold: toml::Value,
+    pub min_mark_area_px: i64,
+    pub max_mark_area_px: i64,
+    pub max_elongation: f64,
+    pub min_ellipse_fill: f64,
+    pub gate_px: f64,
+    pub render: RawRender,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawRender {
+    pub background_gray: f64,
+    pub board_gray: f64,
+    pub mark_gray: f64,
+    pub noise_sigma_gray: f64,
+    pub noise_seed: i64,
+    pub lighting_gradient: [f64; 2],
+    pub supersampling: i64,
 }

@@ -6,7 +6,9 @@ use vservo_control::{ControlLaw, InputUnits, InputWeight, StateWeight};
 use vservo_scene::{Board, CameraIntrinsics, FEATURES, MARKS};
 
 use crate::raw::{RawConfig, RawPose};
-use crate::{Config, ConfigError, Controller, Desired, Timing, pose_from_rpy};
+use vservo_vision::{ExtractorSettings, RenderSettings, Threshold};
+
+use crate::{Config, ConfigError, Controller, Desired, Timing, Vision, VisionSource, pose_from_rpy};
 
 /// Builds errors for one file.
 struct Checker<'a> {
@@ -194,7 +196,21 @@ pub fn validate(raw: RawConfig, file: &str) -> Result<Config, ConfigError> {
             }
         }
     }
-    let board = Board { marks_in_board, mark_diameter_m };
+    let [[x0, y0], [x1, y1]] = o.board_extent_m;
+    let extent_ok = [x0, y0, x1, y1].iter().all(|v| v.is_finite()) && x0 < x1 && y0 < y1;
+    let radius = 0.5 * mark_diameter_m;
+    let marks_on_board = marks_in_board
+        .iter()
+        .all(|m| m.x - radius >= x0 && m.x + radius <= x1 && m.y - radius >= y0 && m.y + radius <= y1);
+    if !extent_ok || !marks_on_board {
+        return Err(check.invalid(
+            "object.board_extent_m",
+            format!("{:?}", o.board_extent_m),
+            "must be [[x_min, y_min], [x_max, y_max]] with min < max, holding every mark whole",
+        ));
+    }
+    let extent_in_board = [Point2::new(x0, y0), Point2::new(x1, y1)];
+    let board = Board { marks_in_board, mark_diameter_m, extent_in_board };
 
     // desired pose
     let d = &raw.desired;
@@ -254,6 +270,8 @@ pub fn validate(raw: RawConfig, file: &str) -> Result<Config, ConfigError> {
     let r =
         InputWeight::new(r_matrix, units).map_err(|e| check.invalid("controller.r", &k.r, e.to_string()))?;
 
+    let vision = validate_vision(&check, &raw.vision)?;
+
     Ok(Config {
         origin: file.to_string(),
         instance: name.to_string(),
@@ -263,5 +281,127 @@ pub fn validate(raw: RawConfig, file: &str) -> Result<Config, ConfigError> {
         board,
         desired,
         controller: Controller { law, q, r },
+        vision,
+    })
+}
+
+fn validate_vision(check: &Checker, v: &crate::raw::RawVision) -> Result<Vision, ConfigError> {
+    let source = match v.source.as_str() {
+        "simulated" => VisionSource::Simulated,
+        "directory" => {
+            if v.directory.trim().is_empty() {
+                return Err(check.invalid(
+                    "vision.directory",
+                    "\"\"",
+                    "must name a directory when vision.source = \"directory\"",
+                ));
+            }
+            VisionSource::Directory(std::path::PathBuf::from(&v.directory))
+        }
+        other => {
+            return Err(check.invalid(
+                "vision.source",
+                format!("{other:?}"),
+                "must be \"simulated\" or \"directory\"",
+            ));
+        }
+    };
+    let threshold = match &v.threshold {
+        toml::Value::String(s) if s == "otsu" => Threshold::Otsu,
+        toml::Value::Integer(level) if (1..=255).contains(level) => Threshold::Fixed(*level as u8),
+        other => {
+            return Err(check.invalid(
+                "vision.threshold",
+                other,
+                "must be \"otsu\" or a gray level from 1 to 255",
+            ));
+        }
+    };
+    let area = |key: &str, value: i64| {
+        u32::try_from(value)
+            .ok()
+            .filter(|&a| a >= 1)
+            .ok_or_else(|| check.invalid(key, value, "must be a whole number of pixels, at least 1"))
+    };
+    let min_area_px = area("vision.min_mark_area_px", v.min_mark_area_px)?;
+    let max_area_px = area("vision.max_mark_area_px", v.max_mark_area_px)?;
+    if max_area_px <= min_area_px {
+        return Err(check.invalid(
+            "vision.max_mark_area_px",
+            max_area_px,
+            format!("must exceed vision.min_mark_area_px ({min_area_px})"),
+        ));
+    }
+    if !(v.max_elongation.is_finite() && v.max_elongation >= 1.0) {
+        return Err(check.invalid(
+            "vision.max_elongation",
+            v.max_elongation,
+            "must be a number of at least 1",
+        ));
+    }
+    if !(v.min_ellipse_fill.is_finite() && (0.0..=1.0).contains(&v.min_ellipse_fill)) {
+        return Err(check.invalid("vision.min_ellipse_fill", v.min_ellipse_fill, "must be between 0 and 1"));
+    }
+    let gate_px = check.positive("vision.gate_px", v.gate_px)?;
+    let r = &v.render;
+    let gray = |key: &str, value: f64| {
+        if value.is_finite() && (0.0..=255.0).contains(&value) {
+            Ok(value)
+        } else {
+            Err(check.invalid(key, value, "must be a gray level from 0 to 255"))
+        }
+    };
+    let background_gray = gray("vision.render.background_gray", r.background_gray)?;
+    let board_gray = gray("vision.render.board_gray", r.board_gray)?;
+    let mark_gray = gray("vision.render.mark_gray", r.mark_gray)?;
+    if board_gray - mark_gray < 20.0 {
+        return Err(check.invalid(
+            "vision.render.mark_gray",
+            mark_gray,
+            format!("must be at least 20 levels darker than the board ({board_gray})"),
+        ));
+    }
+    if !(r.noise_sigma_gray.is_finite() && (0.0..=50.0).contains(&r.noise_sigma_gray)) {
+        return Err(check.invalid(
+            "vision.render.noise_sigma_gray",
+            r.noise_sigma_gray,
+            "must be between 0 and 50 gray levels",
+        ));
+    }
+    let gradient = check.finite("vision.render.lighting_gradient", r.lighting_gradient)?;
+    if gradient.iter().any(|g| g.abs() >= 1.0) {
+        return Err(check.invalid(
+            "vision.render.lighting_gradient",
+            format!("{gradient:?}"),
+            "each must be between −1 and 1 (a fraction of the brightness)",
+        ));
+    }
+    if !(1..=16).contains(&r.supersampling) {
+        return Err(check.invalid(
+            "vision.render.supersampling",
+            r.supersampling,
+            "must be from 1 to 16 samples per axis",
+        ));
+    }
+    Ok(Vision {
+        source,
+        extractor: ExtractorSettings {
+            threshold,
+            min_area_px,
+            max_area_px,
+            max_elongation: v.max_elongation,
+            min_ellipse_fill: v.min_ellipse_fill,
+            gate_px,
+        },
+        render: RenderSettings {
+            background_gray,
+            board_gray,
+            mark_gray,
+            noise_sigma_gray: r.noise_sigma_gray,
+            // the seed's bits as written, negative numbers included
+            noise_seed: r.noise_seed as u64,
+            lighting_gradient: gradient,
+            supersampling: r.supersampling as u32,
+        },
     })
 }

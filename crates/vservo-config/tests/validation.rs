@@ -79,6 +79,18 @@ fn bad_values_name_their_key_and_value() {
         ),
         (with("-3.141592653589793, 0.0, 0.785", "1.0, 0.0, 0.785"), "desired.joints_rad", "joint 3"),
         (with("[[-0.105, -0.088], ", "[[0.062, -0.079], "), "object.marks_in_board_m", "marks 1 and 2"),
+        (
+            with("[[-0.16, -0.24], [0.14, -0.03]]", "[[-0.16, -0.24], [0.07, -0.03]]"),
+            "object.board_extent_m",
+            "every mark",
+        ),
+        (with("source = \"simulated\"", "source = \"webcam\""), "vision.source", "webcam"),
+        (with("source = \"simulated\"", "source = \"directory\""), "vision.directory", "must name"),
+        (with("threshold = \"otsu\"", "threshold = 300"), "vision.threshold", "300"),
+        (with("max_mark_area_px = 6000", "max_mark_area_px = 5"), "vision.max_mark_area_px", "5"),
+        (with("noise_sigma_gray = 1.0", "noise_sigma_gray = -1.0"), "vision.render.noise_sigma_gray", "-1"),
+        (with("mark_gray = 20", "mark_gray = 225"), "vision.render.mark_gray", "225"),
+        (with("supersampling = 8", "supersampling = 0"), "vision.render.supersampling", "0"),
     ];
     for (text, key, fragment) in cases {
         let error = refused(&text);

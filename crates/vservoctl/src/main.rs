@@ -10,6 +10,7 @@ mod joint_args;
 mod model;
 mod output;
 mod stability;
+mod vision;
 
 use std::process::ExitCode;
 
@@ -35,6 +36,8 @@ enum Command {
     Gains(gains::GainsArgs),
     /// The Corollary 1 stability margins of the configured gain.
     Stability(stability::StabilityArgs),
+    /// The simulated camera and the feature extractor.
+    Vision(vision::VisionArgs),
 }
 
 fn main() -> ExitCode {
@@ -43,6 +46,7 @@ fn main() -> ExitCode {
         Command::Model(args) => model::run(&args),
         Command::Gains(args) => gains::run(&args),
         Command::Stability(args) => stability::run(&args),
+        Command::Vision(args) => vision::run(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
