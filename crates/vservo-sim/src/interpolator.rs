@@ -1,0 +1,211 @@
+//! The 1 ms resolved-motion-rate interpolator: from the camera twist the servo sends every vision frame to
+//! a joint reference every tick.
+
+use nalgebra::{Matrix6, Vector3};
+use vservo_arm::{JOINTS, JointVector, SerialArm, Transform};
+use vservo_control::Twist;
+
+/// How the twist is held between vision frames.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum TwistHold {
+    /// The latest twist, unchanged until the next (the paper's).
+    #[default]
+    ZeroOrder,
+    /// From the previous twist to the latest over one vision period, then held.
+    Linear,
+}
+
+/// The interpolator's tuning.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct InterpolatorSettings {
+    /// How the twist is held.
+    pub hold: TwistHold,
+    /// The vision period (s): the time over which `Linear` moves to a new twist.
+    pub vision_period_s: f64,
+    /// The tick (s).
+    pub control_period_s: f64,
+    /// Below this manipulability the Jacobian is inverted with damping (Nakamura's damped least squares).
+    pub manipulability_threshold: f64,
+    /// The damping λ at zero manipulability (rad/s per m/s, roughly); it falls to 0 at the threshold.
+    pub max_damping: f64,
+    /// A twist older than this is stale (two vision periods by default).
+    pub stale_after_s: f64,
+    /// Once the twist is stale, the joint velocity ramps to zero over this time (s).
+    pub stop_ramp_s: f64,
+    /// The most each joint's reference speed may change per second (rad/s²). A new twist is a step in
+    /// velocity; passed on raw, its acceleration (Δq̇/1 ms) would ask the joint servo for more torque than
+    /// the motors have. The change is scaled as a whole, so the direction of motion is kept.
+    pub acceleration_limit: JointVector,
+}
+
+impl InterpolatorSettings {
+    /// The defaults for a vision period and a tick.
+    pub fn new(vision_period_s: f64, control_period_s: f64) -> Self {
+        Self {
+            hold: TwistHold::ZeroOrder,
+            vision_period_s,
+            control_period_s,
+            manipulability_threshold: 0.01,
+            max_damping: 0.05,
+            stale_after_s: 2.0 * vision_period_s,
+            stop_ramp_s: 0.2,
+            // about what the PUMA's torque limits allow over its inertia at the nominal pose, with margin
+            acceleration_limit: JointVector::new(22.5, 22.5, 45.0, 90.0, 90.0, 90.0),
+        }
+    }
+}
+
+/// The joint reference for one tick.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Reference {
+    /// q_d (rad).
+    pub q: JointVector,
+    /// q̇_d (rad/s).
+    pub qd: JointVector,
+    /// q̈_d (rad/s²), the change of q̇_d over the tick.
+    pub qdd: JointVector,
+    /// Whether the twist is stale and the arm is being stopped.
+    pub stopping: bool,
+    /// Whether damping was used (near a singularity).
+    pub damped: bool,
+    /// Whether a joint speed was cut to its limit.
+    pub velocity_limited: bool,
+}
+
+/// The interpolator's state.
+#[derive(Debug, Clone)]
+pub struct Interpolator {
+    settings: InterpolatorSettings,
+    arm: SerialArm,
+    tool_from_camera: Transform,
+    latest: Twist,
+    previous: Twist,
+    latest_at_s: Option<f64>,
+    reference: Reference,
+    stop_scale: f64,
+}
+
+impl Interpolator {
+    /// An interpolator whose reference starts at rest at `q`.
+    pub fn new(
+        settings: InterpolatorSettings,
+        arm: SerialArm,
+        tool_from_camera: Transform,
+        q: JointVector,
+    ) -> Self {
+        Self {
+            settings,
+            arm,
+            tool_from_camera,
+            latest: Twist::zeros(),
+            previous: Twist::zeros(),
+            latest_at_s: None,
+            reference: Reference {
+                q,
+                qd: JointVector::zeros(),
+                qdd: JointVector::zeros(),
+                stopping: false,
+                damped: false,
+                velocity_limited: false,
+            },
+            stop_scale: 1.0,
+        }
+    }
+
+    /// A new camera twist from the servo, received at `now_s`.
+    pub fn set_twist(&mut self, twist: Twist, now_s: f64) {
+        // where the hold had got to becomes the start of the next interpolation
+        self.previous = self.held_twist(now_s);
+        self.latest = twist;
+        self.latest_at_s = Some(now_s);
+        self.stop_scale = 1.0;
+    }
+
+    /// The reference of the last tick.
+    pub fn reference(&self) -> &Reference {
+        &self.reference
+    }
+
+    fn held_twist(&self, now_s: f64) -> Twist {
+        match (self.settings.hold, self.latest_at_s) {
+            (_, None) => Twist::zeros(),
+            (TwistHold::ZeroOrder, Some(_)) => self.latest,
+            (TwistHold::Linear, Some(at)) => {
+                let s = ((now_s - at) / self.settings.vision_period_s).clamp(0.0, 1.0);
+                self.previous + (self.latest - self.previous) * s
+            }
+        }
+    }
+
+    /// Advances the reference by one tick ending at `now_s`.
+    pub fn step(&mut self, now_s: f64) -> &Reference {
+        let s = &self.settings;
+        let dt = s.control_period_s;
+        let stale = self.latest_at_s.is_none_or(|at| now_s - at > s.stale_after_s);
+        if stale {
+            self.stop_scale = (self.stop_scale - dt / s.stop_ramp_s).max(0.0);
+        }
+        let twist = self.held_twist(now_s) * self.stop_scale;
+        let q = self.reference.q;
+        // the camera twist (camera frame) as the tool's twist in the base frame
+        let base_from_tool = self.arm.base_from_tool(&q);
+        let base_from_camera = base_from_tool * self.tool_from_camera;
+        let rotation = base_from_camera.rotation.matrix();
+        let v_camera: Vector3<f64> = rotation * twist.fixed_rows::<3>(0);
+        let omega: Vector3<f64> = rotation * twist.fixed_rows::<3>(3);
+        let tool_from_camera_origin = base_from_tool.translation.vector - base_from_camera.translation.vector;
+        let v_tool = v_camera + omega.cross(&tool_from_camera_origin);
+        let mut tool_twist = JointVector::zeros();
+        tool_twist.fixed_rows_mut::<3>(0).copy_from(&v_tool);
+        tool_twist.fixed_rows_mut::<3>(3).copy_from(&omega);
+
+        let jacobian = self.arm.jacobian_base(&q);
+        let manipulability = jacobian.determinant().abs();
+        let (mut qd, damped) = if manipulability >= s.manipulability_threshold {
+            match jacobian.lu().solve(&tool_twist) {
+                Some(qd) => (qd, false),
+                None => (damped_solve(&jacobian, &tool_twist, s.max_damping), true),
+            }
+        } else {
+            let ratio = 1.0 - manipulability / s.manipulability_threshold;
+            (damped_solve(&jacobian, &tool_twist, s.max_damping * ratio), true)
+        };
+        // joint speed limits: scale the whole vector, keeping the direction of motion
+        let mut worst: f64 = 1.0;
+        for (j, link) in self.arm.links.iter().enumerate() {
+            worst = worst.max(qd[j].abs() / link.limits.velocity_max);
+        }
+        let velocity_limited = worst > 1.0;
+        if velocity_limited || !worst.is_finite() {
+            qd /= if worst.is_finite() { worst } else { f64::INFINITY };
+        }
+        if !qd.iter().all(|v| v.is_finite()) {
+            qd = JointVector::zeros();
+        }
+        // acceleration limits, the change scaled as a whole
+        let change = qd - self.reference.qd;
+        let mut over: f64 = 1.0;
+        for j in 0..JOINTS {
+            over = over.max(change[j].abs() / (s.acceleration_limit[j] * dt));
+        }
+        if over > 1.0 {
+            qd = self.reference.qd + change / over;
+        }
+        let qdd = (qd - self.reference.qd) / dt;
+        let q_next = q + qd * dt;
+        self.reference = Reference { q: q_next, qd, qdd, stopping: stale, damped, velocity_limited };
+        &self.reference
+    }
+}
+
+/// q̇ = Jᵀ(JJᵀ + λ²I)⁻¹ V.
+fn damped_solve(jacobian: &Matrix6<f64>, twist: &JointVector, damping: f64) -> JointVector {
+    let inner = jacobian * jacobian.transpose() + Matrix6::identity() * (damping * damping).max(1e-12);
+    match inner.cholesky() {
+        Some(c) => jacobian.transpose() * c.solve(twist),
+        None => JointVector::zeros(),
+    }
+}
+
+// One reference per joint.
+const _: () = assert!(JOINTS == 6);

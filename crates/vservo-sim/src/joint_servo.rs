@@ -1,0 +1,73 @@
+//! The joint servo: the torques that make the arm follow the interpolator's reference.
+
+use vservo_arm::{JointVector, SerialArm};
+
+use crate::interpolator::Reference;
+
+/// The servo law.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum JointServoLaw {
+    /// τ = M(q)(q̈_d + K_v ė + K_p e) + C q̇ + g + friction(q̇_d), with the model's armature (gains in 1/s²,
+    /// 1/s).
+    #[default]
+    ComputedTorque,
+    /// τ = K_p e + K_v ė + g(q) (gains in N·m/rad and N·m·s/rad).
+    PdGravity,
+}
+
+impl JointServoLaw {
+    /// The name used in configuration files.
+    pub fn name(&self) -> &'static str {
+        match self {
+            JointServoLaw::ComputedTorque => "computed-torque",
+            JointServoLaw::PdGravity => "pd-gravity",
+        }
+    }
+}
+
+/// The joint servo and its gains.
+#[derive(Debug, Clone)]
+pub struct JointServo {
+    arm: SerialArm,
+    law: JointServoLaw,
+    kp: JointVector,
+    kv: JointVector,
+}
+
+impl JointServo {
+    /// A servo on `arm`'s model.
+    pub fn new(arm: SerialArm, law: JointServoLaw, kp: JointVector, kv: JointVector) -> Self {
+        Self { arm, law, kp, kv }
+    }
+
+    /// Computed torque with every joint critically damped at `natural_frequency` rad/s.
+    pub fn computed_torque(arm: SerialArm, natural_frequency: f64) -> Self {
+        let w = natural_frequency;
+        Self::new(
+            arm,
+            JointServoLaw::ComputedTorque,
+            JointVector::from_element(w * w),
+            JointVector::from_element(2.0 * w),
+        )
+    }
+
+    /// The torque for the measured state (q, q̇) and the reference.
+    pub fn torque(&self, q: &JointVector, qd: &JointVector, reference: &Reference) -> JointVector {
+        let e = reference.q - q;
+        let e_dot = reference.qd - qd;
+        match self.law {
+            JointServoLaw::ComputedTorque => {
+                let accel = reference.qdd + self.kv.component_mul(&e_dot) + self.kp.component_mul(&e);
+                // friction is compensated at the reference speed: at the measured one its Coulomb part
+                // vanishes whenever the joint sticks, which leaves a static error that the visual loop then
+                // winds up into a stick-slip cycle of a few pixels
+                self.arm.mass_matrix(q) * accel
+                    + self.arm.rne_rigid(q, qd, &JointVector::zeros())
+                    + self.arm.drive_torque(&reference.qd, &JointVector::zeros())
+            }
+            JointServoLaw::PdGravity => {
+                self.kp.component_mul(&e) + self.kv.component_mul(&e_dot) + self.arm.gravity_torque(q)
+            }
+        }
+    }
+}
