@@ -46,6 +46,47 @@ pub struct Config {
     pub controller: Controller,
     /// The image source and the feature extractor.
     pub vision: Vision,
+    /// The simulated arm.
+    pub plant: PlantSettings,
+    /// The resolved-motion-rate interpolator.
+    pub interpolator: vservo_sim::interpolator::InterpolatorSettings,
+    /// The joint servo.
+    pub joint_servo: JointServoSettings,
+    /// What the simulated cell does.
+    pub scenario: Scenario,
+}
+
+/// The simulated arm.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PlantSettings {
+    /// Dynamic or kinematic.
+    pub mode: vservo_sim::plant::PlantMode,
+    /// RK4 steps per control period.
+    pub rk4_substeps: u32,
+}
+
+/// The joint servo's law and gains.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct JointServoSettings {
+    /// Computed torque or PD plus gravity.
+    pub law: vservo_sim::joint_servo::JointServoLaw,
+    /// Position gains.
+    pub kp: JointVector,
+    /// Velocity gains.
+    pub kv: JointVector,
+}
+
+/// What the simulated cell does.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Scenario {
+    /// How long a simulation runs (s).
+    pub duration_s: f64,
+    /// The camera's starting offset from its desired pose, in the desired camera frame (m).
+    pub initial_camera_translation_m: Vector3<f64>,
+    /// …and its starting rotation about its own axes (rotation vector, rad).
+    pub initial_camera_rotation: Vector3<f64>,
+    /// How the board moves.
+    pub object: vservo_sim::world::ObjectMotion,
 }
 
 /// Where images come from, and how features are found in them.

@@ -12,6 +12,10 @@ pub struct RawConfig {
     pub desired: RawDesired,
     pub controller: RawController,
     pub vision: RawVision,
+    pub plant: RawPlant,
+    pub interpolator: RawInterpolator,
+    pub joint_servo: RawJointServo,
+    pub scenario: RawScenario,
 }
 
 #[derive(Debug, Deserialize)]
@@ -93,4 +97,43 @@ pub struct RawRender {
     pub noise_seed: i64,
     pub lighting_gradient: [f64; 2],
     pub supersampling: i64,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawPlant {
+    pub mode: String,
+    pub rk4_substeps: i64,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawInterpolator {
+    pub twist_hold: String,
+    pub manipulability_threshold: f64,
+    pub max_damping: f64,
+    pub stale_twist_frames: f64,
+    pub stop_ramp_s: f64,
+    pub acceleration_limit_rad_s2: [f64; 6],
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawJointServo {
+    pub law: String,
+    pub kp: [f64; 6],
+    pub kv: [f64; 6],
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawScenario {
+    pub duration_s: f64,
+    pub initial_camera_translation_m: [f64; 3],
+    pub initial_camera_rotation_deg: [f64; 3],
+    pub object_motion: String,
+    pub step_at_s: f64,
+    pub step_translation_m: [f64; 3],
+    pub circle_radius_m: f64,
+    pub circle_rev_per_min: f64,
 }

@@ -8,7 +8,12 @@ use vservo_scene::{Board, CameraIntrinsics, FEATURES, MARKS};
 use crate::raw::{RawConfig, RawPose};
 use vservo_vision::{ExtractorSettings, RenderSettings, Threshold};
 
-use crate::{Config, ConfigError, Controller, Desired, Timing, Vision, VisionSource, pose_from_rpy};
+use vservo_sim::interpolator::InterpolatorSettings;
+
+use crate::{
+    Config, ConfigError, Controller, Desired, JointServoSettings, PlantSettings, Scenario, Timing, Vision,
+    VisionSource, pose_from_rpy,
+};
 
 /// Builds errors for one file.
 struct Checker<'a> {
@@ -271,6 +276,7 @@ pub fn validate(raw: RawConfig, file: &str) -> Result<Config, ConfigError> {
         InputWeight::new(r_matrix, units).map_err(|e| check.invalid("controller.r", &k.r, e.to_string()))?;
 
     let vision = validate_vision(&check, &raw.vision)?;
+    let (plant, interpolator, joint_servo, scenario) = validate_simulation(&check, &raw, &timing)?;
 
     Ok(Config {
         origin: file.to_string(),
@@ -282,7 +288,132 @@ pub fn validate(raw: RawConfig, file: &str) -> Result<Config, ConfigError> {
         desired,
         controller: Controller { law, q, r },
         vision,
+        plant,
+        interpolator,
+        joint_servo,
+        scenario,
     })
+}
+
+fn validate_simulation(
+    check: &Checker,
+    raw: &RawConfig,
+    timing: &Timing,
+) -> Result<(PlantSettings, InterpolatorSettings, JointServoSettings, Scenario), ConfigError> {
+    use vservo_sim::interpolator::TwistHold;
+    use vservo_sim::joint_servo::JointServoLaw;
+    use vservo_sim::plant::PlantMode;
+    use vservo_sim::world::ObjectMotion;
+
+    let p = &raw.plant;
+    let mode = PlantMode::from_name(&p.mode).ok_or_else(|| {
+        check.invalid("plant.mode", format!("{:?}", p.mode), "must be \"dynamic\" or \"kinematic\"")
+    })?;
+    if !(1..=100).contains(&p.rk4_substeps) {
+        return Err(check.invalid("plant.rk4_substeps", p.rk4_substeps, "must be from 1 to 100"));
+    }
+    let plant = PlantSettings { mode, rk4_substeps: p.rk4_substeps as u32 };
+
+    let i = &raw.interpolator;
+    let hold = match i.twist_hold.as_str() {
+        "zero-order" => TwistHold::ZeroOrder,
+        "linear" => TwistHold::Linear,
+        other => {
+            return Err(check.invalid(
+                "interpolator.twist_hold",
+                format!("{other:?}"),
+                "must be \"zero-order\" or \"linear\"",
+            ));
+        }
+    };
+    let manipulability_threshold = i.manipulability_threshold;
+    if !(manipulability_threshold.is_finite() && manipulability_threshold >= 0.0) {
+        return Err(check.invalid(
+            "interpolator.manipulability_threshold",
+            manipulability_threshold,
+            "must be a number ≥ 0",
+        ));
+    }
+    let max_damping = i.max_damping;
+    if !(max_damping.is_finite() && max_damping >= 0.0) {
+        return Err(check.invalid("interpolator.max_damping", max_damping, "must be a number ≥ 0"));
+    }
+    let stale_frames = check.positive("interpolator.stale_twist_frames", i.stale_twist_frames)?;
+    let stop_ramp_s = check.positive("interpolator.stop_ramp_s", i.stop_ramp_s)?;
+    let limits = check.finite("interpolator.acceleration_limit_rad_s2", i.acceleration_limit_rad_s2)?;
+    if limits.iter().any(|&a| a <= 0.0) {
+        return Err(check.invalid(
+            "interpolator.acceleration_limit_rad_s2",
+            format!("{limits:?}"),
+            "each must be positive",
+        ));
+    }
+    let interpolator = InterpolatorSettings {
+        hold,
+        vision_period_s: timing.vision_period_s,
+        control_period_s: timing.control_period_s,
+        manipulability_threshold,
+        max_damping,
+        stale_after_s: stale_frames * timing.vision_period_s,
+        stop_ramp_s,
+        acceleration_limit: JointVector::from(limits),
+    };
+
+    let j = &raw.joint_servo;
+    let law = match j.law.as_str() {
+        "computed-torque" => JointServoLaw::ComputedTorque,
+        "pd-gravity" => JointServoLaw::PdGravity,
+        other => {
+            return Err(check.invalid(
+                "joint_servo.law",
+                format!("{other:?}"),
+                "must be \"computed-torque\" or \"pd-gravity\"",
+            ));
+        }
+    };
+    let kp = check.finite("joint_servo.kp", j.kp)?;
+    let kv = check.finite("joint_servo.kv", j.kv)?;
+    if kp.iter().any(|&k| k <= 0.0) {
+        return Err(check.invalid("joint_servo.kp", format!("{kp:?}"), "each gain must be positive"));
+    }
+    if kv.iter().any(|&k| k < 0.0) {
+        return Err(check.invalid("joint_servo.kv", format!("{kv:?}"), "each gain must be ≥ 0"));
+    }
+    let joint_servo = JointServoSettings { law, kp: JointVector::from(kp), kv: JointVector::from(kv) };
+
+    let s = &raw.scenario;
+    let duration_s = check.positive("scenario.duration_s", s.duration_s)?;
+    let translation =
+        check.finite("scenario.initial_camera_translation_m", s.initial_camera_translation_m)?;
+    let rotation = check.finite("scenario.initial_camera_rotation_deg", s.initial_camera_rotation_deg)?;
+    let object = match s.object_motion.as_str() {
+        "hold" => ObjectMotion::Hold,
+        "step" => {
+            if !(s.step_at_s.is_finite() && s.step_at_s >= 0.0) {
+                return Err(check.invalid("scenario.step_at_s", s.step_at_s, "must be a time ≥ 0"));
+            }
+            let by = check.finite("scenario.step_translation_m", s.step_translation_m)?;
+            ObjectMotion::Step { at_s: s.step_at_s, translation_m: Vector3::from(by) }
+        }
+        "circle" => ObjectMotion::Circle {
+            radius_m: check.positive("scenario.circle_radius_m", s.circle_radius_m)?,
+            rev_per_min: check.positive("scenario.circle_rev_per_min", s.circle_rev_per_min)?,
+        },
+        other => {
+            return Err(check.invalid(
+                "scenario.object_motion",
+                format!("{other:?}"),
+                "must be \"hold\", \"step\" or \"circle\"",
+            ));
+        }
+    };
+    let scenario = Scenario {
+        duration_s,
+        initial_camera_translation_m: Vector3::from(translation),
+        initial_camera_rotation: Vector3::from(rotation.map(f64::to_radians)),
+        object,
+    };
+    Ok((plant, interpolator, joint_servo, scenario))
 }
 
 fn validate_vision(check: &Checker, v: &crate::raw::RawVision) -> Result<Vision, ConfigError> {

@@ -91,6 +91,13 @@ fn bad_values_name_their_key_and_value() {
         (with("noise_sigma_gray = 1.0", "noise_sigma_gray = -1.0"), "vision.render.noise_sigma_gray", "-1"),
         (with("mark_gray = 20", "mark_gray = 225"), "vision.render.mark_gray", "225"),
         (with("supersampling = 8", "supersampling = 0"), "vision.render.supersampling", "0"),
+        (with("mode = \"dynamic\"", "mode = \"hydraulic\""), "plant.mode", "hydraulic"),
+        (with("twist_hold = \"zero-order\"", "twist_hold = \"cubic\""), "interpolator.twist_hold", "cubic"),
+        (with("stop_ramp_s = 0.2", "stop_ramp_s = 0.0"), "interpolator.stop_ramp_s", "0"),
+        (with("law = \"computed-torque\"", "law = \"pid\""), "joint_servo.law", "pid"),
+        (with("kp = [3600.0, 3600.0", "kp = [-1.0, 3600.0"), "joint_servo.kp", "-1.0"),
+        (with("duration_s = 30.0", "duration_s = 0.0"), "scenario.duration_s", "0"),
+        (with("object_motion = \"hold\"", "object_motion = \"spin\""), "scenario.object_motion", "spin"),
     ];
     for (text, key, fragment) in cases {
         let error = refused(&text);

@@ -1,5 +1,4 @@
-//! Speed of the 1 ms path (interpolator plus joint servo) and of a whole lockstep run:
-//! `cargo bench -p vservo-sim`.
+//! Speed of the 1 ms path, interpolator plus joint servo: `cargo bench -p vservo-sim`.
 
 use std::hint::black_box;
 
@@ -9,7 +8,6 @@ use vservo_config::Config;
 use vservo_control::Twist;
 use vservo_sim::interpolator::{Interpolator, InterpolatorSettings};
 use vservo_sim::joint_servo::JointServo;
-use vservo_sim::lockstep::{Lockstep, Scenario};
 
 fn tick(c: &mut Criterion) {
     let config =
@@ -33,13 +31,6 @@ fn tick(c: &mut Criterion) {
             servo.torque(black_box(&q), black_box(&qd), &reference)
         })
     });
-    let scenario = Scenario::translation_step(&config);
-    let mut group = c.benchmark_group("lockstep");
-    group.sample_size(10);
-    group.bench_function("translation_step_30s_dynamic_rendered", |b| {
-        b.iter(|| Lockstep::new(&config, &scenario).expect("reachable").run(|_| {}).frames.len())
-    });
-    group.finish();
 }
 
 criterion_group!(benches, tick);

@@ -1,7 +1,7 @@
-//! # vservo-sim — the robot side of the loop, and the loop itself on virtual time
+//! # vservo-sim — the robot side of the loop
 //!
-//! This crate owns the pure, deterministic step functions of the 1 ms side of vservo, and the lockstep
-//! runner that composes them with the vision and the servo on one virtual clock:
+//! This crate owns the pure, deterministic step functions of the 1 ms side of vservo (the lockstep runner in
+//! `vservo-lockstep` composes them with the vision and the servo on one virtual clock):
 //! - [`plant::Plant`]: the simulated PUMA 560 — full dynamics (armature and friction) advanced 1 ms per tick
 //!   by RK4 substeps, torques held between ticks and saturated at the PUMA's limits, joint limits reported
 //!   as faults; or a kinematic mode in which the joints follow the reference exactly;
@@ -9,14 +9,11 @@
 //! - [`interpolator::Interpolator`]: the resolved-motion-rate interpolator — the latest camera twist held
 //!   (or interpolated), mapped to the base frame through `tool_from_camera`, q̇_d from the Jacobian with
 //!   damped least squares near singularities, joint velocity limits, and a stale-twist watchdog;
-//! - [`joint_servo::JointServo`]: computed torque, or PD plus gravity;
-//! - [`lockstep::Lockstep`]: all of it, with the simulated camera, the feature extractor, the pipeline
-//!   delay and the servo law, on one virtual clock — the same configuration gives the same bits.
+//! - [`joint_servo::JointServo`]: computed torque, or PD plus gravity.
 //!
 //! No I/O, clocks or allocation on the per-tick path.
 
 pub mod interpolator;
 pub mod joint_servo;
-pub mod lockstep;
 pub mod plant;
 pub mod world;

@@ -3,7 +3,7 @@
 
 use vservo_config::Config;
 use vservo_control::ControlLaw;
-use vservo_sim::lockstep::{Lockstep, Scenario, Trace};
+use vservo_lockstep::{Lockstep, Trace};
 use vservo_sim::plant::PlantMode;
 
 fn config(law: ControlLaw) -> Config {
@@ -14,11 +14,10 @@ fn config(law: ControlLaw) -> Config {
 }
 
 fn run(law: ControlLaw, plant: PlantMode, duration_s: f64) -> Trace {
-    let config = config(law);
-    let mut scenario = Scenario::translation_step(&config);
-    scenario.plant = plant;
-    scenario.duration_s = duration_s;
-    Lockstep::new(&config, &scenario).expect("reachable").run(|_| {})
+    let mut config = config(law);
+    config.plant.mode = plant;
+    config.scenario.duration_s = duration_s;
+    Lockstep::new(&config).expect("reachable").run(|_| {})
 }
 
 /// The largest true feature error (px) of a frame.

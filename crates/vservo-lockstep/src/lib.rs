@@ -1,5 +1,8 @@
-//! The whole loop in one process on virtual time: simulated camera → extractor → (pipeline delay) → servo
-//! law → interpolator → joint servo → plant, every component a pure step function on one clock.
+//! # vservo-lockstep — the whole loop on virtual time
+//!
+//! This crate owns the lockstep shell: simulated camera → extractor → (pipeline delay) → servo law →
+//! interpolator → joint servo → plant, every component a pure step function, all on one virtual clock.
+//! The same configuration gives the same bits; a 30 s experiment takes under a second.
 
 use std::collections::VecDeque;
 
@@ -11,50 +14,9 @@ use vservo_scene::{FeatureVector, IsometryMatrix3, MARKS};
 use vservo_vision::source::SimulatedCamera;
 use vservo_vision::{Extractor, Prediction};
 
-use crate::interpolator::{Interpolator, InterpolatorSettings};
-use crate::joint_servo::JointServo;
-use crate::plant::{Faults, Plant, PlantMode};
-use crate::world::ObjectMotion;
-
-/// What to simulate beyond the configuration: the experiment.
-#[derive(Debug, Clone, PartialEq)]
-pub struct Scenario {
-    /// Simulated time (s).
-    pub duration_s: f64,
-    /// Dynamic or kinematic plant.
-    pub plant: PlantMode,
-    /// RK4 substeps per 1 ms tick.
-    pub substeps: u32,
-    /// Where the camera starts, as a translation from the desired camera pose in its own frame (m).
-    pub initial_camera_translation_m: Vector3<f64>,
-    /// …and a rotation about its own axes (rotation vector, rad).
-    pub initial_camera_rotation: Vector3<f64>,
-    /// How the board moves.
-    pub object: ObjectMotion,
-    /// The interpolator's tuning.
-    pub interpolator: InterpolatorSettings,
-    /// The joint servo.
-    pub joint_servo_natural_frequency: f64,
-}
-
-impl Scenario {
-    /// The paper's translation step (DESIGN §5) for a configuration's timing.
-    pub fn translation_step(config: &Config) -> Self {
-        Self {
-            duration_s: 30.0,
-            plant: PlantMode::Dynamic,
-            substeps: 1,
-            initial_camera_translation_m: Vector3::new(0.00596, -0.03023, 0.00113),
-            initial_camera_rotation: Vector3::zeros(),
-            object: ObjectMotion::Hold,
-            interpolator: InterpolatorSettings::new(
-                config.timing.vision_period_s,
-                config.timing.control_period_s,
-            ),
-            joint_servo_natural_frequency: 60.0,
-        }
-    }
-}
+use vservo_sim::interpolator::Interpolator;
+use vservo_sim::joint_servo::JointServo;
+use vservo_sim::plant::{Faults, Plant, PlantMode};
 
 /// Why a simulation could not start.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -112,7 +74,6 @@ pub struct Trace {
 /// The loop.
 pub struct Lockstep {
     config: Config,
-    scenario: Scenario,
     gains: Gains,
     plant: Plant,
     interpolator: Interpolator,
@@ -125,8 +86,10 @@ pub struct Lockstep {
 }
 
 impl Lockstep {
-    /// Sets the loop up: designs the gains, places the arm by inverse kinematics.
-    pub fn new(config: &Config, scenario: &Scenario) -> Result<Self, SimError> {
+    /// Sets the loop up from a configuration (its `[plant]`, `[interpolator]`, `[joint_servo]` and
+    /// `[scenario]` sections say what to simulate): designs the gains, places the arm by inverse kinematics.
+    pub fn new(config: &Config) -> Result<Self, SimError> {
+        let scenario = &config.scenario;
         let arm = puma560::puma560();
         let gains = Gains::design(&config.gains_spec())?;
         let base_from_desired_camera = arm.base_from_tool(&config.desired.joints) * config.tool_from_camera;
@@ -141,18 +104,22 @@ impl Lockstep {
         let q0 = solutions.nearest(&arm, &config.desired.joints).ok_or(SimError::Unreachable)?.q;
         // the kinematic plant is the ideal robot of DESIGN §5, which moves the camera exactly as commanded:
         // no acceleration limit between it and the twist
-        let mut interpolator_settings = scenario.interpolator;
-        if scenario.plant == PlantMode::Kinematic {
+        let mut interpolator_settings = config.interpolator;
+        if config.plant.mode == PlantMode::Kinematic {
             interpolator_settings.acceleration_limit = JointVector::from_element(f64::INFINITY);
         }
         Ok(Self {
             config: config.clone(),
-            scenario: scenario.clone(),
             servo: ServoLaw::new(&gains),
             gains,
-            plant: Plant::new(arm.clone(), scenario.plant, scenario.substeps, q0),
+            plant: Plant::new(arm.clone(), config.plant.mode, config.plant.rk4_substeps, q0),
             interpolator: Interpolator::new(interpolator_settings, arm.clone(), config.tool_from_camera, q0),
-            joint_servo: JointServo::computed_torque(arm, scenario.joint_servo_natural_frequency),
+            joint_servo: JointServo::new(
+                arm,
+                config.joint_servo.law,
+                config.joint_servo.kp,
+                config.joint_servo.kv,
+            ),
             camera: SimulatedCamera::new(config.camera, config.board, config.vision.render),
             extractor: Extractor::new(
                 config.vision.extractor,
@@ -173,7 +140,7 @@ impl Lockstep {
     pub fn run(&mut self, mut progress: impl FnMut(f64)) -> Trace {
         let dt = self.config.timing.control_period_s;
         let ticks_per_frame = u64::from(self.config.timing.control_ticks_per_frame);
-        let ticks = (self.scenario.duration_s / dt).round() as u64;
+        let ticks = (self.config.scenario.duration_s / dt).round() as u64;
         let delay = self.config.timing.pipeline_delay_frames;
         let frames_expected = (ticks / ticks_per_frame + 1) as usize;
         let mut frames = Vec::with_capacity(frames_expected);
@@ -190,7 +157,7 @@ impl Lockstep {
             if tick % ticks_per_frame == 0 {
                 // capture
                 let base_from_camera = arm.base_from_tool(&state.q) * self.config.tool_from_camera;
-                let base_from_board = self.scenario.object.base_from_board(
+                let base_from_board = self.config.scenario.object.base_from_board(
                     t,
                     &self.base_from_desired_camera,
                     &self.base_from_board_desired,
