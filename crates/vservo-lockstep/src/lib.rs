@@ -43,6 +43,8 @@ pub struct FrameRecord {
     pub twist: Twist,
     /// The camera's position in the base frame at capture time (m).
     pub camera_position_m: Vector3<f64>,
+    /// The camera's position in the desired camera frame at capture time (m): zero at the desired pose.
+    pub camera_in_desired_m: Vector3<f64>,
 }
 
 /// The joints, every 10 ms.
@@ -57,6 +59,8 @@ pub struct JointRecord {
     /// Applied torques (N·m).
     pub torque: JointVector,
 }
+
+pub mod summary;
 
 /// What a run produced.
 #[derive(Debug, Clone, PartialEq)]
@@ -200,6 +204,9 @@ impl Lockstep {
                     truth,
                     twist,
                     camera_position_m: base_from_camera.translation.vector,
+                    camera_in_desired_m: (self.base_from_desired_camera.inverse() * base_from_camera)
+                        .translation
+                        .vector,
                 });
                 progress(t);
             }

@@ -9,6 +9,8 @@ mod gains;
 mod joint_args;
 mod model;
 mod output;
+mod plots;
+mod sim;
 mod stability;
 mod vision;
 
@@ -38,6 +40,8 @@ enum Command {
     Stability(stability::StabilityArgs),
     /// The simulated camera and the feature extractor.
     Vision(vision::VisionArgs),
+    /// Run a scenario in the lockstep simulator and write its summary, data and plots.
+    Sim(sim::SimArgs),
 }
 
 fn main() -> ExitCode {
@@ -47,6 +51,7 @@ fn main() -> ExitCode {
         Command::Gains(args) => gains::run(&args),
         Command::Stability(args) => stability::run(&args),
         Command::Vision(args) => vision::run(&args),
+        Command::Sim(args) => sim::run(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

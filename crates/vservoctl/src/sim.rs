@@ -1,0 +1,156 @@
+//! `vservoctl sim`: a scenario in the lockstep simulator, with the numbers and the data to judge it by.
+
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+use anyhow::{Context, Result};
+use clap::{Args, ValueEnum};
+use serde_json::json;
+use vservo_control::ControlLaw;
+use vservo_lockstep::summary::summarize;
+use vservo_lockstep::{Lockstep, Trace};
+use vservo_sim::plant::PlantMode;
+
+use crate::UsageError;
+use crate::config_arg::ConfigArg;
+
+/// Arguments of `vservoctl sim`.
+#[derive(Args)]
+pub struct SimArgs {
+    #[command(flatten)]
+    config: ConfigArg,
+    /// Simulated time (s); default: the configuration's `scenario.duration_s`.
+    #[arg(long)]
+    duration: Option<f64>,
+    /// The control law, overriding `controller.law`.
+    #[arg(long, value_enum)]
+    controller: Option<ControllerArg>,
+    /// The plant, overriding `plant.mode`.
+    #[arg(long, value_enum)]
+    plant: Option<PlantArg>,
+    /// Where to write summary.json, features.csv, joints.csv and the plots.
+    #[arg(long, value_name = "DIR", default_value = "sim-out")]
+    out: PathBuf,
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+enum ControllerArg {
+    Paper,
+    DelayAware,
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+enum PlantArg {
+    Dynamic,
+    Kinematic,
+}
+
+/// Runs the command.
+pub fn run(args: &SimArgs) -> Result<()> {
+    let mut config = args.config.load()?;
+    if let Some(duration) = args.duration {
+        if !(duration.is_finite() && duration > 0.0) {
+            return Err(
+                UsageError(format!("--duration {duration}: must be a positive number of seconds")).into()
+            );
+        }
+        config.scenario.duration_s = duration;
+    }
+    if let Some(controller) = args.controller {
+        config.controller.law = match controller {
+            ControllerArg::Paper => ControlLaw::Paper,
+            ControllerArg::DelayAware => ControlLaw::DelayAware,
+        };
+    }
+    if let Some(plant) = args.plant {
+        config.plant.mode = match plant {
+            PlantArg::Dynamic => PlantMode::Dynamic,
+            PlantArg::Kinematic => PlantMode::Kinematic,
+        };
+    }
+    let mut lockstep = Lockstep::new(&config).map_err(|e| UsageError(format!("{}: {e}", config.origin)))?;
+    let duration = config.scenario.duration_s;
+    let mut next_report = 0.1;
+    let started = std::time::Instant::now();
+    let trace = lockstep.run(|t| {
+        // progress on stderr for long runs, every tenth of the way
+        if duration >= 10.0 && t >= next_report * duration {
+            eprint!("\rsimulated {t:6.1} of {duration:.1} s");
+            next_report += 0.1;
+        }
+    });
+    if duration >= 10.0 {
+        eprintln!("\rsimulated {duration:.1} s in {:.2} s of wall time", started.elapsed().as_secs_f64());
+    }
+    std::fs::create_dir_all(&args.out).with_context(|| format!("creating {}", args.out.display()))?;
+    let summary = summarize(&trace, &config.scenario.object);
+    let summary_json = json!({
+        "config": config.origin,
+        "law": config.controller.law.name(),
+        "plant": config.plant.mode.name(),
+        "duration_s": duration,
+        "settling_time_s": summary.settling_time_s,
+        "overshoot_percent": summary.overshoot_percent,
+        "final_error_px": summary.final_error_px,
+        "max_error_x_px": summary.max_error_x_px,
+        "max_error_y_px": summary.max_error_y_px,
+        "camera_amplitude_y_m": summary.camera_amplitude_y_m,
+        "camera_amplitude_z_m": summary.camera_amplitude_z_m,
+        "faults": {
+            "position_limit": trace.faults.position_limit,
+            "velocity_limit": trace.faults.velocity_limit,
+            "torque_saturated": trace.faults.torque_saturated,
+            "integration_failed": trace.faults.integration_failed,
+        },
+    });
+    write(&args.out.join("summary.json"), &format!("{summary_json:#}\n"))?;
+    write(&args.out.join("features.csv"), &features_csv(&trace))?;
+    write(&args.out.join("joints.csv"), &joints_csv(&trace))?;
+    crate::plots::draw(&trace, &config, &args.out)?;
+    println!("{summary_json}");
+    Ok(())
+}
+
+fn write(path: &Path, text: &str) -> Result<()> {
+    std::fs::write(path, text).with_context(|| format!("writing {}", path.display()))
+}
+
+fn features_csv(trace: &Trace) -> String {
+    let mut out = String::from("t");
+    for prefix in ["", "true_"] {
+        for m in 1..=4 {
+            let _ = write!(out, ",{prefix}x{m},{prefix}y{m}");
+        }
+    }
+    out.push('\n');
+    for f in &trace.frames {
+        let _ = write!(out, "{:.3}", f.t_s);
+        for v in f.measured.iter().chain(f.truth.iter()) {
+            if v.is_finite() {
+                let _ = write!(out, ",{v:.4}");
+            } else {
+                out.push(',');
+            }
+        }
+        out.push('\n');
+    }
+    out
+}
+
+fn joints_csv(trace: &Trace) -> String {
+    let mut out = String::from("t");
+    for name in ["q", "qd", "tau"] {
+        for j in 1..=6 {
+            let _ = write!(out, ",{name}{j}");
+        }
+    }
+    out.push('\n');
+    for r in &trace.joints {
+        let _ = write!(out, "{:.3}", r.t_s);
+        for v in r.q.iter().chain(r.qd.iter()).chain(r.torque.iter()) {
+            let _ = write!(out, ",{v:.6}");
+        }
+        out.push('\n');
+    }
+    out
+}
