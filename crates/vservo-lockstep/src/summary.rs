@@ -41,7 +41,7 @@ pub fn frame_error_px(trace: &Trace, index: usize) -> f64 {
 pub fn summarize(trace: &Trace, object: &ObjectMotion) -> Summary {
     let n = trace.frames.len();
     let errors: Vec<f64> = (0..n).map(|i| frame_error_px(trace, i)).collect();
-    let settling_time_s = match errors.iter().rposition(|e| !(*e < 1.0)) {
+    let settling_time_s = match errors.iter().rposition(|e| e.is_nan() || *e >= 1.0) {
         None => Some(0.0),
         Some(i) if i + 1 < n => Some(trace.frames[i + 1].t_s),
         Some(_) => None,
