@@ -51,8 +51,7 @@ fn trajectory(trace: &Trace, config: &Config, path: &Path) -> Result<()> {
         .build_cartesian_2d(0.0..w, h..0.0)
         .map_err(plot_error)?;
     chart.configure_mesh().x_desc("x [px]").y_desc("y [px]").draw().map_err(plot_error)?;
-    for mark in 0..4 {
-        let colour = COLOURS[mark];
+    for (mark, &colour) in COLOURS.iter().enumerate() {
         let points = finite_points(trace, mark);
         chart
             .draw_series(LineSeries::new(points.iter().copied(), colour.stroke_width(1)))
