@@ -7,6 +7,25 @@ fn temp(name: &str) -> std::path::PathBuf {
     std::env::temp_dir().join(format!("vservo-vision-{}-{name}", std::process::id()))
 }
 
+/// `vservoctl vision render` of the default configuration at `q` into `image`.
+fn render(q: &str, image: &std::path::Path) {
+    let config = default_config();
+    let output = run(
+        "vservoctl",
+        &[
+            "vision",
+            "render",
+            "--config",
+            config.to_str().expect("utf-8"),
+            "--q",
+            q,
+            "--out",
+            image.to_str().expect("utf-8"),
+        ],
+    );
+    assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stderr));
+}
+
 fn extract_json(image: &std::path::Path) -> Value {
     let config = default_config();
     let output = run(
@@ -26,23 +45,9 @@ fn extract_json(image: &std::path::Path) -> Value {
 
 #[test]
 fn rendered_desired_view_extracts_to_the_desired_features() {
-    let config = default_config();
     for extension in ["png", "pgm"] {
         let image = temp(&format!("qn.{extension}"));
-        let output = run(
-            "vservoctl",
-            &[
-                "vision",
-                "render",
-                "--config",
-                config.to_str().expect("utf-8"),
-                "--q",
-                "qn",
-                "--out",
-                image.to_str().expect("utf-8"),
-            ],
-        );
-        assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stderr));
+        render("qn", &image);
         let json = extract_json(&image);
         let expected = [151.0, 168.0, 318.0, 178.0, 339.0, 75.0, 172.0, 70.0];
         let features: Vec<f64> =
@@ -59,23 +64,9 @@ fn rendered_desired_view_extracts_to_the_desired_features() {
 
 #[test]
 fn a_mark_out_of_view_is_null_with_its_reason() {
-    let config = default_config();
     let image = temp("turned.png");
     // turning the waist by 0.2 rad swings the view far to the side
-    let output = run(
-        "vservoctl",
-        &[
-            "vision",
-            "render",
-            "--config",
-            config.to_str().expect("utf-8"),
-            "--q",
-            "0.2,0.785,-3.1416,0,0.785,0",
-            "--out",
-            image.to_str().expect("utf-8"),
-        ],
-    );
-    assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stderr));
+    render("0.2,0.785,-3.1416,0,0.785,0", &image);
     let json = extract_json(&image);
     let valid: Vec<bool> =
         json["valid"].as_array().expect("4").iter().map(|v| v.as_bool().expect("bool")).collect();

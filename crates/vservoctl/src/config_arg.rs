@@ -5,6 +5,7 @@ use std::path::PathBuf;
 use clap::Args;
 use vservo_config::Config;
 use vservo_control::Gains;
+use vservo_control::lq::{DelayAwareGain, delay_aware_gain};
 
 use crate::UsageError;
 
@@ -27,4 +28,12 @@ impl ConfigArg {
 pub fn design_gains(config: &Config) -> Result<Gains, UsageError> {
     Gains::design(&config.gains_spec())
         .map_err(|e| UsageError(format!("{}: controller: the gain cannot be designed: {e}", config.origin)))
+}
+
+/// The delay-aware gain for the configured delay, designed on the same decomposition as `gains`, for
+/// showing beside the configured law whichever it is.
+pub fn design_delay_aware(config: &Config, gains: &Gains) -> Result<DelayAwareGain, UsageError> {
+    let spec = config.gains_spec();
+    delay_aware_gain(&gains.decomposition, &spec.q, &spec.r.si(), config.timing.pipeline_delay_frames)
+        .map_err(|e| UsageError(format!("{}: the delay-aware gain cannot be designed: {e}", config.origin)))
 }

@@ -5,9 +5,8 @@ use anyhow::Result;
 use clap::Args;
 use serde_json::json;
 use vservo_control::analysis::{loop_eigenvalues, magnitudes, nominal_eigenvalues};
-use vservo_control::lq::delay_aware_gain;
 
-use crate::config_arg::{ConfigArg, design_gains};
+use crate::config_arg::{ConfigArg, design_delay_aware, design_gains};
 use crate::output::{matrix_json, matrix_text, print_stdout, vector_json};
 
 /// Arguments of `vservoctl gains`.
@@ -28,11 +27,8 @@ fn list(values: &[f64]) -> String {
 pub fn run(args: &GainsArgs) -> Result<()> {
     let config = args.config.load()?;
     let gains = design_gains(&config)?;
-    let spec = config.gains_spec();
     let delay = config.timing.pipeline_delay_frames;
-    let delay_aware = delay_aware_gain(&gains.decomposition, &spec.q, &spec.r.si(), delay).map_err(|e| {
-        crate::UsageError(format!("{}: the delay-aware gain cannot be designed: {e}", config.origin))
-    })?;
+    let delay_aware = design_delay_aware(&config, &gains)?;
     let k = gains.paper.k;
     let eig_abs = magnitudes(&nominal_eigenvalues(&gains.b, &k));
     let eig_abs_delayed = magnitudes(&loop_eigenvalues(&gains.b, &k, &[], delay));

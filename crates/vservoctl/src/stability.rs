@@ -5,9 +5,8 @@ use anyhow::Result;
 use clap::Args;
 use serde_json::{Map, Value, json};
 use vservo_control::analysis::{LoopUnderTest, Margin, StabilityMargins};
-use vservo_control::lq::delay_aware_gain;
 
-use crate::config_arg::{ConfigArg, design_gains};
+use crate::config_arg::{ConfigArg, design_delay_aware, design_gains};
 use crate::output::print_stdout;
 
 /// Arguments of `vservoctl stability`.
@@ -55,11 +54,8 @@ fn table(title: &str, m: &StabilityMargins) -> String {
 pub fn run(args: &StabilityArgs) -> Result<()> {
     let config = args.config.load()?;
     let gains = design_gains(&config)?;
-    let spec = config.gains_spec();
     let delay = config.timing.pipeline_delay_frames;
-    let delay_aware = delay_aware_gain(&gains.decomposition, &spec.q, &spec.r.si(), delay).map_err(|e| {
-        crate::UsageError(format!("{}: the delay-aware gain cannot be designed: {e}", config.origin))
-    })?;
+    let delay_aware = design_delay_aware(&config, &gains)?;
     let loop_with = |feature_gain, past: &[nalgebra::Matrix6<f64>], delay_frames| {
         LoopUnderTest {
             camera: &config.camera,
