@@ -206,6 +206,3 @@ fn damped_solve(jacobian: &Matrix6<f64>, twist: &JointVector, damping: f64) -> J
         None => JointVector::zeros(),
     }
 }
-
-// One reference per joint.
-const _: () = assert!(JOINTS == 6);
