@@ -27,6 +27,11 @@ pub enum SimError {
     /// The gains could not be designed.
     #[error("gain design: {0}")]
     Gains(#[from] vservo_control::GainsError),
+    /// The configuration asks for recorded images, which cannot close a simulated loop.
+    #[error(
+        "vision.source = \"directory\": recorded images do not move with the simulated arm; the lockstep simulator renders its own (vision.source = \"simulated\")"
+    )]
+    RecordedImages,
 }
 
 /// One vision frame.
@@ -93,6 +98,9 @@ impl Lockstep {
     /// Sets the loop up from a configuration (its `[plant]`, `[interpolator]`, `[joint_servo]` and
     /// `[scenario]` sections say what to simulate): designs the gains, places the arm by inverse kinematics.
     pub fn new(config: &Config) -> Result<Self, SimError> {
+        if config.vision.source != vservo_config::VisionSource::Simulated {
+            return Err(SimError::RecordedImages);
+        }
         let scenario = &config.scenario;
         let arm = puma560::puma560();
         let gains = Gains::design(&config.gains_spec())?;

@@ -91,3 +91,11 @@ fn full_dynamics_with_rendered_images_tracks_the_kinematic_loop() {
     assert!(error_px(&dynamic, last) < 1.0, "dynamic final error {} px", error_px(&dynamic, last));
     assert!(!dynamic.faults.any_limit(), "{:?}", dynamic.faults);
 }
+
+#[test]
+fn recorded_images_are_refused_with_a_reason() {
+    let mut config = config(ControlLaw::Paper);
+    config.vision.source = vservo_config::VisionSource::Directory("/tmp".into());
+    let error = Lockstep::new(&config).err().expect("refused");
+    assert!(error.to_string().contains("vision.source"), "{error}");
+}
