@@ -110,7 +110,7 @@ impl SerialArm {
         let frames = self.frames(q);
         // each joint's axis as a line: direction s and moment o × s
         let axes: [(Vector3<f64>, Vector3<f64>); JOINTS] = std::array::from_fn(|j| {
-            let (axis, point) = joint_axis(&frames, j);
+            let (axis, point) = frames.joint_axis(j);
             (axis, point.cross(&axis))
         });
         let mut mass = JointMatrix::zeros();
@@ -129,7 +129,7 @@ impl SerialArm {
             first_moment += com * m;
             // momentum of the composite turning at unit rate about joint j's axis (s_j through o_j):
             // linear p = s_j × (h − M o_j), angular about the base origin A = I_O s_j − h × (s_j × o_j)
-            let (axis_j, point_j) = joint_axis(&frames, j);
+            let (axis_j, point_j) = frames.joint_axis(j);
             let linear = axis_j.cross(&(first_moment - point_j * composite_mass));
             let angular = inertia_about_origin * axis_j - first_moment.cross(&axis_j.cross(&point_j));
             // the torque joint i needs for it: the axis line of joint i against the momentum
@@ -285,15 +285,5 @@ impl std::ops::Mul<Vector3<f64>> for SymmetricMatrix3 {
             self.xy * v.x + self.yy * v.y + self.yz * v.z,
             self.xz * v.x + self.yz * v.y + self.zz * v.z,
         )
-    }
-}
-
-/// The axis (unit, base frame) and a point on it for joint `j`: z and origin of frame j-1.
-#[inline]
-fn joint_axis(frames: &crate::kinematics::LinkFrames, j: usize) -> (Vector3<f64>, Vector3<f64>) {
-    if j == 0 {
-        (Vector3::z(), Vector3::zeros())
-    } else {
-        (frames.rotations[j - 1].column(2).into_owned(), frames.origins[j - 1])
     }
 }

@@ -11,6 +11,25 @@ pub(crate) struct LinkFrames {
     pub origins: [Vector3<f64>; JOINTS],
 }
 
+impl LinkFrames {
+    /// Joint `j`'s axis (unit, base frame) and a point on it: z and origin of frame j-1 (the base for j = 0).
+    #[inline]
+    pub fn joint_axis(&self, j: usize) -> (Vector3<f64>, Vector3<f64>) {
+        if j == 0 {
+            (Vector3::z(), Vector3::zeros())
+        } else {
+            (self.rotations[j - 1].column(2).into_owned(), self.origins[j - 1])
+        }
+    }
+
+    fn tool(&self) -> Transform {
+        Transform::from_parts(
+            Translation3::from(self.origins[JOINTS - 1]),
+            Rotation3::from_matrix_unchecked(self.rotations[JOINTS - 1]),
+        )
+    }
+}
+
 impl SerialArm {
     /// sin θ and cos θ of every joint, computed up front so that they pipeline instead of sitting
     /// inside the serial chain of frame products.
@@ -48,11 +67,14 @@ impl SerialArm {
 
     /// The tool (DH frame 6) in the base frame.
     pub fn base_from_tool(&self, q: &JointVector) -> Transform {
+        self.frames(q).tool()
+    }
+
+    /// `base_from_tool` and the base-frame Jacobian together, from one pass over the links (the 1 ms
+    /// interpolator needs both).
+    pub fn base_from_tool_and_jacobian(&self, q: &JointVector) -> (Transform, JointMatrix) {
         let frames = self.frames(q);
-        Transform::from_parts(
-            Translation3::from(frames.origins[JOINTS - 1]),
-            Rotation3::from_matrix_unchecked(frames.rotations[JOINTS - 1]),
-        )
+        (frames.tool(), jacobian_from_frames(&frames))
     }
 
     /// The geometric Jacobian in the base frame (the toolbox's `jacob0`): `[v; ω] = J q̇`, with `v` the
@@ -83,12 +105,7 @@ fn jacobian_from_frames(frames: &LinkFrames) -> JointMatrix {
     let tool_origin = frames.origins[JOINTS - 1];
     let mut jacobian = JointMatrix::zeros();
     for i in 0..JOINTS {
-        // joint i turns about z of frame i-1 (frame 0 is the base)
-        let (axis, origin) = if i == 0 {
-            (Vector3::z(), Vector3::zeros())
-        } else {
-            (frames.rotations[i - 1].column(2).into_owned(), frames.origins[i - 1])
-        };
+        let (axis, origin) = frames.joint_axis(i);
         let linear = axis.cross(&(tool_origin - origin));
         jacobian.fixed_view_mut::<3, 1>(0, i).copy_from(&linear);
         jacobian.fixed_view_mut::<3, 1>(3, i).copy_from(&axis);

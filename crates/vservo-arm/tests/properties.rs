@@ -26,6 +26,14 @@ fn rotation_rate(from: &Matrix3<f64>, to: &Matrix3<f64>) -> Vector3<f64> {
         * 0.5
 }
 
+/// `q` with joint `j` moved by +h and by −h, for central differences.
+fn nudged(q: &JointVector, j: usize, h: f64) -> (JointVector, JointVector) {
+    let (mut plus, mut minus) = (*q, *q);
+    plus[j] += h;
+    minus[j] -= h;
+    (plus, minus)
+}
+
 fn max_abs(values: impl IntoIterator<Item = f64>) -> f64 {
     values.into_iter().fold(0.0, |m, v| m.max(v.abs()))
 }
@@ -39,10 +47,7 @@ proptest! {
         let jacobian = arm.jacobian_base(&q);
         let h = 1e-6;
         for j in 0..6 {
-            let mut plus = q;
-            let mut minus = q;
-            plus[j] += h;
-            minus[j] -= h;
+            let (plus, minus) = nudged(&q, j, h);
             let (tp, tm) = (arm.base_from_tool(&plus), arm.base_from_tool(&minus));
             let linear = (tp.translation.vector - tm.translation.vector) / (2.0 * h);
             let angular = rotation_rate(tm.rotation.matrix(), tp.rotation.matrix()) / (2.0 * h);
@@ -202,10 +207,7 @@ fn gravity_torque_vanishes_without_gravity_and_matches_a_finite_difference_of_po
     let g = arm.gravity_torque(&q);
     let h = 1e-6;
     for j in 0..6 {
-        let mut plus = q;
-        let mut minus = q;
-        plus[j] += h;
-        minus[j] -= h;
+        let (plus, minus) = nudged(&q, j, h);
         let dv = (potential(&plus) - potential(&minus)) / (2.0 * h);
         assert!((g[j] - dv).abs() < 1e-6, "joint {j}: {} vs {dv}", g[j]);
     }

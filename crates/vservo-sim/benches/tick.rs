@@ -17,7 +17,8 @@ fn tick(c: &mut Criterion) {
     let mut interpolator =
         Interpolator::new(settings, arm.clone(), config.tool_from_camera, config.desired.joints);
     interpolator.set_twist(Twist::new(0.01, -0.02, 0.005, 0.01, 0.0, -0.01), 0.0);
-    let servo = JointServo::computed_torque(arm, 25.0);
+    let (law, kp, kv) = (config.joint_servo.law, config.joint_servo.kp, config.joint_servo.kv);
+    let servo = JointServo::new(arm, law, kp, kv);
     let (q, qd) = (config.desired.joints, vservo_arm::JointVector::from_element(0.01));
     let mut t = 0.0;
     c.bench_function("interpolator_and_joint_servo_tick", |b| {

@@ -148,7 +148,7 @@ impl Interpolator {
         let twist = self.held_twist(now_s) * self.stop_scale;
         let q = self.reference.q;
         // the camera twist (camera frame) as the tool's twist in the base frame
-        let base_from_tool = self.arm.base_from_tool(&q);
+        let (base_from_tool, jacobian) = self.arm.base_from_tool_and_jacobian(&q);
         let base_from_camera = base_from_tool * self.tool_from_camera;
         let rotation = base_from_camera.rotation.matrix();
         let v_camera: Vector3<f64> = rotation * twist.fixed_rows::<3>(0);
@@ -159,10 +159,11 @@ impl Interpolator {
         tool_twist.fixed_rows_mut::<3>(0).copy_from(&v_tool);
         tool_twist.fixed_rows_mut::<3>(3).copy_from(&omega);
 
-        let jacobian = self.arm.jacobian_base(&q);
-        let manipulability = jacobian.determinant().abs();
+        // one LU gives both the manipulability |det J| and, away from singularities, the solution
+        let lu = jacobian.lu();
+        let manipulability = lu.determinant().abs();
         let (mut qd, damped) = if manipulability >= s.manipulability_threshold {
-            match jacobian.lu().solve(&tool_twist) {
+            match lu.solve(&tool_twist) {
                 Some(qd) => (qd, false),
                 None => (damped_solve(&jacobian, &tool_twist, s.max_damping), true),
             }

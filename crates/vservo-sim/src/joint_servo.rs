@@ -40,17 +40,6 @@ impl JointServo {
         Self { arm, law, kp, kv }
     }
 
-    /// Computed torque with every joint critically damped at `natural_frequency` rad/s.
-    pub fn computed_torque(arm: SerialArm, natural_frequency: f64) -> Self {
-        let w = natural_frequency;
-        Self::new(
-            arm,
-            JointServoLaw::ComputedTorque,
-            JointVector::from_element(w * w),
-            JointVector::from_element(2.0 * w),
-        )
-    }
-
     /// The torque for the measured state (q, q̇) and the reference.
     pub fn torque(&self, q: &JointVector, qd: &JointVector, reference: &Reference) -> JointVector {
         let e = reference.q - q;

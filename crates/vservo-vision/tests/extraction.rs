@@ -5,7 +5,7 @@ use nalgebra::{Point2, Point3, Rotation3, Translation3, Vector3};
 use proptest::prelude::*;
 use vservo_scene::{Board, CameraIntrinsics, FeatureVector, IsometryMatrix3, MARKS};
 use vservo_vision::blobs::BlobFinder;
-use vservo_vision::extract::{ImageProblem, otsu};
+use vservo_vision::extract::otsu;
 use vservo_vision::{Extractor, ExtractorSettings, MarkStatus, Prediction, RenderSettings, Renderer};
 
 fn desired() -> IsometryMatrix3<f64> {
@@ -74,8 +74,10 @@ fn inside_with_margin(features: &FeatureVector, margin: f64) -> bool {
 proptest! {
     #![proptest_config(ProptestConfig { cases: 48, ..ProptestConfig::default() })]
 
-    /// With no noise the centroids are the true projections of the disc centres within 0.1 px; the
-    /// difference is the ellipse centroid's perspective bias, which the extractor reproduces to 0.02 px.
+    /// With no noise every centroid is within 0.02 px of the exact area centroid of its mark's image. That
+    /// differs from the projection of the disc's centre by the perspective bias, which grows with the
+    /// board's tilt and nearness (~0.11 px seen at 25° and 0.42 m): where the board is tilted by at most 20°
+    /// the centroids are within 0.1 px of the true projections.
     #[test]
     fn noise_free_centroids_are_within_a_tenth_of_a_pixel(pose in pose_strategy()) {
         let camera = CameraIntrinsics::paper();
@@ -87,7 +89,11 @@ proptest! {
         for mark in 0..MARKS {
             let (x, y) = (found.features[2 * mark], found.features[2 * mark + 1]);
             let error = ((x - truth[2 * mark]).powi(2) + (y - truth[2 * mark + 1]).powi(2)).sqrt();
-            prop_assert!(error < 0.1, "mark {mark}: {error} px from the true projection");
+            // the board's normal against the optical axis
+            let tilt = (pose.rotation * Vector3::z()).angle(&Vector3::z());
+            if tilt <= 20f64.to_radians() {
+                prop_assert!(error < 0.1, "mark {mark}: {error} px from the true projection, tilt {tilt} rad");
+            }
             let centroid = area_centroid(&pose, mark);
             let to_centroid = ((x - centroid.x).powi(2) + (y - centroid.y).powi(2)).sqrt();
             prop_assert!(to_centroid < 0.02, "mark {mark}: {to_centroid} px from the ellipse's area centroid");
@@ -264,7 +270,6 @@ fn bad_images_give_a_reason_not_a_panic() {
         assert!(found.status[0].reason().contains(text), "{}", found.status[0].reason());
         assert!(found.features.iter().all(|f| f.is_nan()));
     }
-    let _ = ImageProblem::NoContrast { min: 0, max: 0, what: "all black" };
 }
 
 #[test]
