@@ -4,35 +4,15 @@
 //! interpolator → joint servo → plant, every component a pure step function, all on one virtual clock.
 //! The same configuration gives the same bits; a 30 s experiment takes under a second.
 
-use std::collections::VecDeque;
-
-use nalgebra::{Rotation3, Translation3, Vector3};
-use vservo_arm::{JointVector, puma560};
+use nalgebra::Vector3;
+use vservo_arm::JointVector;
 use vservo_config::Config;
-use vservo_control::{Gains, ServoLaw, Twist};
-use vservo_scene::{FeatureVector, IsometryMatrix3, MARKS};
-use vservo_vision::source::SimulatedCamera;
-use vservo_vision::{Extractor, Prediction};
+use vservo_control::{Gains, Twist};
+use vservo_scene::{FeatureVector, IsometryMatrix3};
 
-use vservo_sim::interpolator::Interpolator;
-use vservo_sim::joint_servo::JointServo;
-use vservo_sim::plant::{Faults, Plant, PlantMode};
-
-/// Why a simulation could not start.
-#[derive(Debug, Clone, PartialEq, thiserror::Error)]
-pub enum SimError {
-    /// No inverse-kinematics solution inside the joint limits for the starting camera pose.
-    #[error("the starting camera pose has no inverse-kinematics solution inside the joint limits")]
-    Unreachable,
-    /// The gains could not be designed.
-    #[error("gain design: {0}")]
-    Gains(#[from] vservo_control::GainsError),
-    /// The configuration asks for recorded images, which cannot close a simulated loop.
-    #[error(
-        "vision.source = \"directory\": recorded images do not move with the simulated arm; the lockstep simulator renders its own (vision.source = \"simulated\")"
-    )]
-    RecordedImages,
-}
+pub use vservo_cell::CellError as SimError;
+use vservo_cell::{Cell, PlantStage, RmrcStage, ServoStage, VisionStage};
+use vservo_sim::plant::Faults;
 
 /// One vision frame.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -84,62 +64,26 @@ pub struct Trace {
 pub struct Lockstep {
     config: Config,
     gains: Gains,
-    plant: Plant,
-    interpolator: Interpolator,
-    joint_servo: JointServo,
-    camera: SimulatedCamera,
-    extractor: Extractor,
-    servo: ServoLaw,
+    plant: PlantStage,
+    vision: VisionStage,
+    servo: ServoStage,
+    rmrc: RmrcStage,
     base_from_desired_camera: IsometryMatrix3<f64>,
-    base_from_board_desired: IsometryMatrix3<f64>,
 }
 
 impl Lockstep {
     /// Sets the loop up from a configuration (its `[plant]`, `[interpolator]`, `[joint_servo]` and
     /// `[scenario]` sections say what to simulate): designs the gains, places the arm by inverse kinematics.
     pub fn new(config: &Config) -> Result<Self, SimError> {
-        if config.vision.source != vservo_config::VisionSource::Simulated {
-            return Err(SimError::RecordedImages);
-        }
-        let scenario = &config.scenario;
-        let arm = puma560::puma560();
-        let gains = Gains::design(&config.gains_spec())?;
-        let base_from_desired_camera = arm.base_from_tool(&config.desired.joints) * config.tool_from_camera;
-        let base_from_board_desired = config.base_from_board(&arm);
-        let displacement = IsometryMatrix3::from_parts(
-            Translation3::from(scenario.initial_camera_translation_m),
-            Rotation3::from_scaled_axis(scenario.initial_camera_rotation),
-        );
-        let base_from_tool_start =
-            base_from_desired_camera * displacement * config.tool_from_camera.inverse();
-        let solutions = arm.inverse_kinematics(&base_from_tool_start).map_err(|_| SimError::Unreachable)?;
-        let q0 = solutions.nearest(&arm, &config.desired.joints).ok_or(SimError::Unreachable)?.q;
-        // the kinematic plant is the ideal robot of DESIGN §5, which moves the camera exactly as commanded:
-        // no acceleration limit between it and the twist
-        let mut interpolator_settings = config.interpolator;
-        if config.plant.mode == PlantMode::Kinematic {
-            interpolator_settings.acceleration_limit = JointVector::from_element(f64::INFINITY);
-        }
+        let cell = Cell::new(config)?;
         Ok(Self {
             config: config.clone(),
-            servo: ServoLaw::new(&gains),
-            gains,
-            plant: Plant::new(arm.clone(), config.plant.mode, config.plant.rk4_substeps, q0),
-            interpolator: Interpolator::new(interpolator_settings, arm.clone(), config.tool_from_camera, q0),
-            joint_servo: JointServo::new(
-                arm,
-                config.joint_servo.law,
-                config.joint_servo.kp,
-                config.joint_servo.kv,
-            ),
-            camera: SimulatedCamera::new(config.camera, config.board, config.vision.render),
-            extractor: Extractor::new(
-                config.vision.extractor,
-                config.camera.width_px(),
-                config.camera.height_px(),
-            ),
-            base_from_desired_camera,
-            base_from_board_desired,
+            gains: cell.gains().clone(),
+            plant: cell.plant(),
+            vision: cell.vision(),
+            servo: cell.servo(),
+            rmrc: cell.rmrc(cell.start_joints()),
+            base_from_desired_camera: *cell.base_from_desired_camera(),
         })
     }
 
@@ -153,79 +97,40 @@ impl Lockstep {
         let dt = self.config.timing.control_period_s;
         let ticks_per_frame = u64::from(self.config.timing.control_ticks_per_frame);
         let ticks = (self.config.scenario.duration_s / dt).round() as u64;
-        let delay = self.config.timing.pipeline_delay_frames;
         let frames_expected = (ticks / ticks_per_frame + 1) as usize;
         let mut frames = Vec::with_capacity(frames_expected);
         let mut joints = Vec::with_capacity((ticks / 10 + 1) as usize);
-        let mut pipeline: VecDeque<FeatureVector> = VecDeque::with_capacity(delay + 1);
-        let mut previous: Option<FeatureVector> = None;
         let mut faults = Faults::default();
-        let arm = self.plant.arm().clone();
         let joints_every = (0.01 / dt).round().max(1.0) as u64;
+        let desired_camera_from_base = self.base_from_desired_camera.inverse();
 
         for tick in 0..ticks {
             let t = tick as f64 * dt;
             let state = *self.plant.state();
             if tick % ticks_per_frame == 0 {
-                // capture
-                let base_from_camera = arm.base_from_tool(&state.q) * self.config.tool_from_camera;
-                let base_from_board = self.config.scenario.object.base_from_board(
-                    t,
-                    &self.base_from_desired_camera,
-                    &self.base_from_board_desired,
+                let frame = self.vision.capture(
+                    tick / ticks_per_frame,
+                    tick,
+                    &state.q,
+                    &self.plant.base_from_board(),
                 );
-                let camera_from_board = base_from_camera.inverse() * base_from_board;
-                let image = self.camera.capture(&camera_from_board, tick / ticks_per_frame);
-                let prediction = match previous {
-                    Some(p) => Prediction::Tracking(p),
-                    None => Prediction::Layout(self.config.desired.features),
-                };
-                let found = self.extractor.extract(image, &prediction);
-                // track from the latest known position of each mark
-                previous = match previous {
-                    Some(mut known) => {
-                        for mark in (0..MARKS).filter(|&m| found.status[m].is_valid()) {
-                            known[2 * mark] = found.features[2 * mark];
-                            known[2 * mark + 1] = found.features[2 * mark + 1];
-                        }
-                        Some(known)
-                    }
-                    None => found.all_valid().then_some(found.features),
-                };
-                let truth = self
-                    .config
-                    .camera
-                    .project_marks(&self.config.board, &camera_from_board)
-                    .unwrap_or_else(|_| FeatureVector::from_element(f64::NAN));
-                pipeline.push_back(found.features);
-                // the servo acts on the frame that leaves the pipeline now; before the first one has, and
-                // whenever a mark is missing, it commands zero
-                let twist = match (pipeline.len() > delay).then(|| pipeline.pop_front()).flatten() {
-                    Some(seen) if seen.iter().all(|v| v.is_finite()) => self.servo.command(&seen),
-                    Some(_) => self.servo.hold(),
-                    None => Twist::zeros(),
-                };
-                self.interpolator.set_twist(twist, t);
+                // the servo acts on the frame that leaves the pipeline now
+                let (twist, _) = self.servo.step(frame.delivered.as_ref().map(|d| &d.features));
+                self.rmrc.set_twist(twist, t);
                 frames.push(FrameRecord {
                     t_s: t,
-                    measured: found.features,
-                    truth,
+                    measured: frame.captured.features,
+                    truth: frame.truth,
                     twist,
-                    camera_position_m: base_from_camera.translation.vector,
-                    camera_in_desired_m: (self.base_from_desired_camera.inverse() * base_from_camera)
+                    camera_position_m: frame.base_from_camera.translation.vector,
+                    camera_in_desired_m: (desired_camera_from_base * frame.base_from_camera)
                         .translation
                         .vector,
                 });
                 progress(t);
             }
-            let reference = *self.interpolator.step(t + dt);
-            let state = match self.plant.mode() {
-                PlantMode::Kinematic => *self.plant.step_kinematic(&reference.q, &reference.qd),
-                PlantMode::Dynamic => {
-                    let torque = self.joint_servo.torque(&state.q, &state.qd, &reference);
-                    *self.plant.step_dynamic(&torque, dt)
-                }
-            };
+            let command = self.rmrc.step(t + dt, &state.q, &state.qd);
+            let state = *self.plant.apply(&command);
             faults.position_limit |= state.faults.position_limit;
             faults.velocity_limit |= state.faults.velocity_limit;
             faults.torque_saturated |= state.faults.torque_saturated;

@@ -88,6 +88,12 @@ impl Plant {
         }
     }
 
+    /// The same plant with its tick counter starting at `tick` (a plant restarted where the arm stopped).
+    pub fn starting_at_tick(mut self, tick: u64) -> Self {
+        self.state.tick = tick;
+        self
+    }
+
     /// The arm model.
     pub fn arm(&self) -> &SerialArm {
         &self.arm

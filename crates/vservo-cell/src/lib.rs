@@ -1,0 +1,151 @@
+//! # vservo-cell — the four components of the cell, as step functions both shells run
+//!
+//! This crate owns the wiring of the pure components into the four stages of DESIGN §1, each built from
+//! one [`Config`] by a [`Cell`]:
+//!
+//! - [`PlantStage`]: the simulated arm and its world (the board's motion); one call per 1 ms tick;
+//! - [`VisionStage`]: simulated camera, extractor, mark tracking and the pipeline delay; one call per frame;
+//! - [`ServoStage`]: the LQ law and the rule for frames without usable features; one call per frame;
+//! - [`RmrcStage`]: the interpolator and the joint servo; one call per tick.
+//!
+//! The lockstep shell calls them in one process on virtual time; the real-time shell runs each in its own
+//! process. Neither adds control logic of its own, so the same configuration behaves the same in both.
+//! Nothing here does I/O, reads a clock or allocates per call.
+
+mod plant_stage;
+mod rmrc_stage;
+mod servo_stage;
+mod vision_stage;
+
+pub use plant_stage::PlantStage;
+pub use rmrc_stage::{ActuatorCommand, RmrcStage};
+pub use servo_stage::{ServoStage, ServoVerdict};
+pub use vision_stage::{DeliveredFrame, VisionFrame, VisionStage};
+
+use nalgebra::{Rotation3, Translation3};
+use vservo_arm::{JointVector, SerialArm, puma560};
+use vservo_config::Config;
+use vservo_control::Gains;
+use vservo_scene::IsometryMatrix3;
+use vservo_sim::plant::PlantMode;
+
+/// Why the cell could not be set up.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum CellError {
+    /// No inverse-kinematics solution inside the joint limits for the starting camera pose.
+    #[error("the starting camera pose has no inverse-kinematics solution inside the joint limits")]
+    Unreachable,
+    /// The gains could not be designed.
+    #[error("gain design: {0}")]
+    Gains(#[from] vservo_control::GainsError),
+    /// The configuration asks for recorded images, which cannot close a simulated loop.
+    #[error(
+        "vision.source = \"directory\": recorded images do not move with the simulated arm; the simulated cell renders its own (vision.source = \"simulated\")"
+    )]
+    RecordedImages,
+}
+
+/// A configuration made ready to build the stages: the arm, the gains, the desired and starting poses.
+#[derive(Debug, Clone)]
+pub struct Cell {
+    config: Config,
+    arm: SerialArm,
+    gains: Gains,
+    start_joints: JointVector,
+    base_from_desired_camera: IsometryMatrix3<f64>,
+    base_from_board_desired: IsometryMatrix3<f64>,
+}
+
+impl Cell {
+    /// Designs the gains and places the arm at the scenario's starting camera pose by inverse kinematics
+    /// (the solution nearest the desired joints).
+    pub fn new(config: &Config) -> Result<Self, CellError> {
+        if config.vision.source != vservo_config::VisionSource::Simulated {
+            return Err(CellError::RecordedImages);
+        }
+        let arm = puma560::puma560();
+        let gains = Gains::design(&config.gains_spec())?;
+        let base_from_desired_camera = arm.base_from_tool(&config.desired.joints) * config.tool_from_camera;
+        let base_from_board_desired = config.base_from_board(&arm);
+        let scenario = &config.scenario;
+        let displacement = IsometryMatrix3::from_parts(
+            Translation3::from(scenario.initial_camera_translation_m),
+            Rotation3::from_scaled_axis(scenario.initial_camera_rotation),
+        );
+        let base_from_tool_start =
+            base_from_desired_camera * displacement * config.tool_from_camera.inverse();
+        let solutions = arm.inverse_kinematics(&base_from_tool_start).map_err(|_| CellError::Unreachable)?;
+        let start_joints = solutions.nearest(&arm, &config.desired.joints).ok_or(CellError::Unreachable)?.q;
+        Ok(Self {
+            config: config.clone(),
+            arm,
+            gains,
+            start_joints,
+            base_from_desired_camera,
+            base_from_board_desired,
+        })
+    }
+
+    /// The configuration.
+    pub fn config(&self) -> &Config {
+        &self.config
+    }
+
+    /// The arm model.
+    pub fn arm(&self) -> &SerialArm {
+        &self.arm
+    }
+
+    /// The designed gains.
+    pub fn gains(&self) -> &Gains {
+        &self.gains
+    }
+
+    /// The joints at the scenario's starting camera pose (rad).
+    pub fn start_joints(&self) -> &JointVector {
+        &self.start_joints
+    }
+
+    /// The camera at the desired pose, in the base frame.
+    pub fn base_from_desired_camera(&self) -> &IsometryMatrix3<f64> {
+        &self.base_from_desired_camera
+    }
+
+    /// The plant at rest at the starting joints, at tick 0.
+    pub fn plant(&self) -> PlantStage {
+        self.plant_resumed(&self.start_joints, 0)
+    }
+
+    /// The plant at rest at `q`, at `tick` (a restarted plant continues where the arm stopped).
+    pub fn plant_resumed(&self, q: &JointVector, tick: u64) -> PlantStage {
+        PlantStage::new(
+            &self.config,
+            self.arm.clone(),
+            *q,
+            tick,
+            self.base_from_desired_camera,
+            self.base_from_board_desired,
+        )
+    }
+
+    /// The vision pipeline.
+    pub fn vision(&self) -> VisionStage {
+        VisionStage::new(&self.config, self.arm.clone())
+    }
+
+    /// The servo at rest.
+    pub fn servo(&self) -> ServoStage {
+        ServoStage::new(&self.gains)
+    }
+
+    /// The interpolator and joint servo, their reference at rest at `q`.
+    pub fn rmrc(&self, q: &JointVector) -> RmrcStage {
+        // the kinematic plant is the ideal robot of DESIGN §5, which moves the camera exactly as commanded:
+        // no acceleration limit between it and the twist
+        let mut settings = self.config.interpolator;
+        if self.config.plant.mode == PlantMode::Kinematic {
+            settings.acceleration_limit = JointVector::from_element(f64::INFINITY);
+        }
+        RmrcStage::new(&self.config, settings, self.arm.clone(), *q)
+    }
+}

@@ -1,0 +1,123 @@
+//! The plant stage: the simulated arm and the board it looks at.
+
+use vservo_arm::{JointVector, SerialArm};
+use vservo_config::Config;
+use vservo_scene::IsometryMatrix3;
+use vservo_sim::interpolator::Reference;
+use vservo_sim::joint_servo::JointServo;
+use vservo_sim::plant::{JointState, Plant, PlantMode};
+use vservo_sim::world::ObjectMotion;
+
+use crate::ActuatorCommand;
+
+/// The simulated PUMA 560 and its world, one tick at a time.
+#[derive(Debug, Clone)]
+pub struct PlantStage {
+    plant: Plant,
+    control_period_s: f64,
+    object: ObjectMotion,
+    base_from_desired_camera: IsometryMatrix3<f64>,
+    base_from_board_desired: IsometryMatrix3<f64>,
+    /// The drive's own servo, used only to hold the arm when no command comes (a brake).
+    holding_servo: JointServo,
+    held_at: Option<JointVector>,
+}
+
+impl PlantStage {
+    pub(crate) fn new(
+        config: &Config,
+        arm: SerialArm,
+        q: JointVector,
+        tick: u64,
+        base_from_desired_camera: IsometryMatrix3<f64>,
+        base_from_board_desired: IsometryMatrix3<f64>,
+    ) -> Self {
+        let holding_servo = JointServo::new(
+            arm.clone(),
+            config.joint_servo.law,
+            config.joint_servo.kp,
+            config.joint_servo.kv,
+        );
+        Self {
+            plant: Plant::new(arm, config.plant.mode, config.plant.rk4_substeps, q).starting_at_tick(tick),
+            control_period_s: config.timing.control_period_s,
+            object: config.scenario.object,
+            base_from_desired_camera,
+            base_from_board_desired,
+            holding_servo,
+            held_at: None,
+        }
+    }
+
+    /// The state after the last tick.
+    pub fn state(&self) -> &JointState {
+        self.plant.state()
+    }
+
+    /// The plant's mode.
+    pub fn mode(&self) -> PlantMode {
+        self.plant.mode()
+    }
+
+    /// Simulated time at the current tick (s).
+    pub fn time_s(&self) -> f64 {
+        self.plant.state().tick as f64 * self.control_period_s
+    }
+
+    /// Where the board is at the current tick, in the base frame.
+    pub fn base_from_board(&self) -> IsometryMatrix3<f64> {
+        self.object.base_from_board(
+            self.time_s(),
+            &self.base_from_desired_camera,
+            &self.base_from_board_desired,
+        )
+    }
+
+    /// Changes how the board moves from now on.
+    pub fn set_object_motion(&mut self, motion: ObjectMotion) {
+        self.object = motion;
+    }
+
+    /// Whether the last tick held the arm instead of following a command.
+    pub fn is_holding(&self) -> bool {
+        self.held_at.is_some()
+    }
+
+    /// Advances one tick under a command from the rmrc. A command that does not fit the plant's mode (a
+    /// torque for the kinematic plant, a reference for the dynamic one) is not applied: the arm is held.
+    pub fn apply(&mut self, command: &ActuatorCommand) -> &JointState {
+        match (self.plant.mode(), command) {
+            (PlantMode::Dynamic, ActuatorCommand::Torque(torque)) => {
+                self.held_at = None;
+                self.plant.step_dynamic(torque, self.control_period_s)
+            }
+            (PlantMode::Kinematic, ActuatorCommand::Kinematic { q, qd }) => {
+                self.held_at = None;
+                self.plant.step_kinematic(q, qd)
+            }
+            _ => self.hold(),
+        }
+    }
+
+    /// Advances one tick with no command: the drives hold the arm where it was when commands stopped
+    /// coming, braking it to rest with the joint servo's gains (a real drive's controller watchdog).
+    pub fn hold(&mut self) -> &JointState {
+        let state = *self.plant.state();
+        let held_at = *self.held_at.get_or_insert(state.q);
+        match self.plant.mode() {
+            PlantMode::Kinematic => self.plant.step_kinematic(&held_at, &JointVector::zeros()),
+            PlantMode::Dynamic => {
+                let reference = Reference {
+                    q: held_at,
+                    qd: JointVector::zeros(),
+                    qdd: JointVector::zeros(),
+                    stopping: true,
+                    damped: false,
+                    velocity_limited: false,
+                };
+                let torque = self.holding_servo.torque(&state.q, &state.qd, &reference);
+                self.plant.step_dynamic(&torque, self.control_period_s)
+            }
+        }
+    }
+}
