@@ -54,6 +54,46 @@ pub struct Config {
     pub joint_servo: JointServoSettings,
     /// What the simulated cell does.
     pub scenario: Scenario,
+    /// `[runtime]`: how the real-time shell runs the nodes.
+    pub runtime: Runtime,
+}
+
+/// `[runtime]`: scheduling, memory locking and supervision of the real-time shell. Optional in the file
+/// (the defaults below apply). A scheduling request the system does not permit is a warning at start, not
+/// an error.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Runtime {
+    /// mlockall(MCL_CURRENT | MCL_FUTURE) in every node.
+    pub lock_memory: bool,
+    /// The timer slack of the periodic threads (ns): the kernel's default 50 µs adds that much lateness.
+    pub timer_slack_ns: u64,
+    /// How often every node publishes telemetry (s).
+    pub telemetry_period_s: f64,
+    /// The first restart of a crashed node waits this long (s); each further one twice as long.
+    pub restart_backoff_initial_s: f64,
+    /// The longest wait before a restart (s).
+    pub restart_backoff_max_s: f64,
+    /// After this many ticks without an answer from the rmrc the plant holds the arm (brakes).
+    pub hold_after_missed_ticks: u32,
+    /// On SIGTERM, how long the arm may take to ramp to rest before the nodes are stopped anyway (s).
+    pub stop_timeout_s: f64,
+    /// Per node, indexed by role name: plant, rmrc, servo, vision.
+    pub plant: NodeRealtime,
+    /// The rmrc's.
+    pub rmrc: NodeRealtime,
+    /// The servo's.
+    pub servo: NodeRealtime,
+    /// The vision node's.
+    pub vision: NodeRealtime,
+}
+
+/// One node's scheduling.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct NodeRealtime {
+    /// SCHED_FIFO priority 1–99; 0 keeps the normal scheduler.
+    pub fifo_priority: u8,
+    /// CPUs the node may run on; empty: any.
+    pub cpus: Vec<usize>,
 }
 
 /// The simulated arm.

@@ -16,6 +16,50 @@ pub struct RawConfig {
     pub interpolator: RawInterpolator,
     pub joint_servo: RawJointServo,
     pub scenario: RawScenario,
+    #[serde(default)]
+    pub runtime: RawRuntime,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct RawRuntime {
+    pub lock_memory: bool,
+    pub timer_slack_ns: i64,
+    pub telemetry_period_s: f64,
+    pub restart_backoff_initial_s: f64,
+    pub restart_backoff_max_s: f64,
+    pub hold_after_missed_ticks: i64,
+    pub stop_timeout_s: f64,
+    pub plant: RawNodeRealtime,
+    pub rmrc: RawNodeRealtime,
+    pub servo: RawNodeRealtime,
+    pub vision: RawNodeRealtime,
+}
+
+impl Default for RawRuntime {
+    fn default() -> Self {
+        Self {
+            lock_memory: true,
+            timer_slack_ns: 1,
+            telemetry_period_s: 0.1,
+            restart_backoff_initial_s: 0.1,
+            restart_backoff_max_s: 5.0,
+            hold_after_missed_ticks: 20,
+            stop_timeout_s: 1.0,
+            plant: RawNodeRealtime { fifo_priority: 80, cpus: Vec::new() },
+            rmrc: RawNodeRealtime { fifo_priority: 79, cpus: Vec::new() },
+            servo: RawNodeRealtime { fifo_priority: 60, cpus: Vec::new() },
+            vision: RawNodeRealtime { fifo_priority: 0, cpus: Vec::new() },
+        }
+    }
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawNodeRealtime {
+    pub fifo_priority: i64,
+    #[serde(default)]
+    pub cpus: Vec<i64>,
 }
 
 #[derive(Debug, Deserialize)]

@@ -292,6 +292,56 @@ pub fn validate(raw: RawConfig, file: &str) -> Result<Config, ConfigError> {
         interpolator,
         joint_servo,
         scenario,
+        runtime: validate_runtime(&check, &raw.runtime)?,
+    })
+}
+
+fn validate_runtime(check: &Checker, r: &crate::raw::RawRuntime) -> Result<crate::Runtime, ConfigError> {
+    let node = |name: &str, n: &crate::raw::RawNodeRealtime| -> Result<crate::NodeRealtime, ConfigError> {
+        let key = format!("runtime.{name}.fifo_priority");
+        let fifo_priority = u8::try_from(n.fifo_priority)
+            .ok()
+            .filter(|p| *p <= 99)
+            .ok_or_else(|| check.invalid(&key, n.fifo_priority, "must be 0 (normal scheduling) or 1–99"))?;
+        let key = format!("runtime.{name}.cpus");
+        let cpus = n
+            .cpus
+            .iter()
+            .map(|&c| usize::try_from(c).ok().filter(|c| *c < 1024))
+            .collect::<Option<Vec<_>>>()
+            .ok_or_else(|| check.invalid(&key, format!("{:?}", n.cpus), "CPU numbers must be 0–1023"))?;
+        Ok(crate::NodeRealtime { fifo_priority, cpus })
+    };
+    let timer_slack_ns = u64::try_from(r.timer_slack_ns)
+        .ok()
+        .filter(|s| *s >= 1)
+        .ok_or_else(|| check.invalid("runtime.timer_slack_ns", r.timer_slack_ns, "must be at least 1"))?;
+    let hold_after_missed_ticks =
+        u32::try_from(r.hold_after_missed_ticks).ok().filter(|t| *t >= 1).ok_or_else(|| {
+            check.invalid("runtime.hold_after_missed_ticks", r.hold_after_missed_ticks, "must be at least 1")
+        })?;
+    let restart_backoff_initial_s =
+        check.positive("runtime.restart_backoff_initial_s", r.restart_backoff_initial_s)?;
+    let restart_backoff_max_s = check.positive("runtime.restart_backoff_max_s", r.restart_backoff_max_s)?;
+    if restart_backoff_max_s < restart_backoff_initial_s {
+        return Err(check.invalid(
+            "runtime.restart_backoff_max_s",
+            restart_backoff_max_s,
+            "must be at least runtime.restart_backoff_initial_s",
+        ));
+    }
+    Ok(crate::Runtime {
+        lock_memory: r.lock_memory,
+        timer_slack_ns,
+        telemetry_period_s: check.positive("runtime.telemetry_period_s", r.telemetry_period_s)?,
+        restart_backoff_initial_s,
+        restart_backoff_max_s,
+        hold_after_missed_ticks,
+        stop_timeout_s: check.positive("runtime.stop_timeout_s", r.stop_timeout_s)?,
+        plant: node("plant", &r.plant)?,
+        rmrc: node("rmrc", &r.rmrc)?,
+        servo: node("servo", &r.servo)?,
+        vision: node("vision", &r.vision)?,
     })
 }
 

@@ -1,0 +1,259 @@
+//! # vservo-protocol — the wire format
+//!
+//! This crate owns what crosses process boundaries: the iceoryx2 services of one vservo instance
+//! (`vservo/<instance>/<service>`, DESIGN §4), their fixed-size `#[repr(C)]` payloads with a schema version,
+//! and the one function every participant uses to open each service with the same settings. A client in
+//! another language follows docs/PROTOCOL.md, which documents the same names, type names and offsets.
+
+pub mod messages;
+
+pub use messages::*;
+
+use iceoryx2::port::listener::Listener;
+use iceoryx2::port::notifier::Notifier;
+use iceoryx2::port::publisher::Publisher;
+use iceoryx2::port::subscriber::Subscriber;
+use iceoryx2::prelude::*;
+
+/// The services of one instance.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Topic {
+    /// plant → rmrc, vision: [`JointStateMsg`], 1 kHz; with an event of the same name.
+    JointState,
+    /// rmrc → plant: [`JointTorqueMsg`], 1 kHz; with an event of the same name.
+    JointTorque,
+    /// vision → servo: [`FeaturesMsg`], per frame; with an event of the same name.
+    Features,
+    /// servo → rmrc: [`CameraTwistMsg`], per frame.
+    CameraTwist,
+    /// every node → anyone: [`TelemetryMsg`], 10 Hz.
+    Telemetry,
+    /// vservod → anyone: [`DaemonStatusMsg`], 10 Hz.
+    Status,
+}
+
+/// How a service is sized. Openers that ask for no more than these open it whoever created it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct TopicSettings {
+    /// Publishers at once (a restarted node's dead predecessor counts until it is cleaned up).
+    pub max_publishers: usize,
+    /// Subscribers at once.
+    pub max_subscribers: usize,
+    /// Samples a late subscriber receives at once.
+    pub history_size: usize,
+    /// The most samples a subscriber may buffer (older ones are dropped: safe overflow).
+    pub subscriber_max_buffer_size: usize,
+}
+
+impl Topic {
+    /// Every topic.
+    pub const ALL: [Topic; 6] = [
+        Topic::JointState,
+        Topic::JointTorque,
+        Topic::Features,
+        Topic::CameraTwist,
+        Topic::Telemetry,
+        Topic::Status,
+    ];
+
+    /// The last part of the service name.
+    pub fn name(self) -> &'static str {
+        match self {
+            Topic::JointState => "joint_state",
+            Topic::JointTorque => "joint_torque",
+            Topic::Features => "features",
+            Topic::CameraTwist => "camera_twist",
+            Topic::Telemetry => "telemetry",
+            Topic::Status => "status",
+        }
+    }
+
+    /// The payload's type name as iceoryx2 checks it.
+    pub fn type_name(self) -> &'static str {
+        match self {
+            Topic::JointState => "vservo::JointState",
+            Topic::JointTorque => "vservo::JointTorque",
+            Topic::Features => "vservo::Features",
+            Topic::CameraTwist => "vservo::CameraTwist",
+            Topic::Telemetry => "vservo::Telemetry",
+            Topic::Status => "vservo::DaemonStatus",
+        }
+    }
+
+    /// The service's sizing.
+    pub fn settings(self) -> TopicSettings {
+        let (max_publishers, max_subscribers, history_size, subscriber_max_buffer_size) = match self {
+            Topic::JointState => (2, 8, 1, 8),
+            Topic::JointTorque => (2, 8, 0, 8),
+            Topic::Features => (2, 8, 1, 32),
+            Topic::CameraTwist => (2, 8, 1, 32),
+            Topic::Telemetry => (8, 8, 1, 64),
+            Topic::Status => (2, 8, 1, 8),
+        };
+        TopicSettings { max_publishers, max_subscribers, history_size, subscriber_max_buffer_size }
+    }
+
+    /// The full service name for an instance: `vservo/<instance>/<name>`.
+    pub fn service_name(self, instance: &str) -> String {
+        format!("vservo/{instance}/{}", self.name())
+    }
+}
+
+/// What went wrong talking to iceoryx2, with the service it concerned.
+#[derive(Debug, thiserror::Error)]
+pub enum ProtocolError {
+    /// The service name is not valid (the instance name has characters iceoryx2 refuses).
+    #[error("service name {name:?}: {reason}")]
+    Name {
+        /// The name.
+        name: String,
+        /// iceoryx2's reason.
+        reason: String,
+    },
+    /// Opening or creating the service, or a port on it, failed.
+    #[error("{what} on {service:?}: {reason}")]
+    Port {
+        /// Which operation.
+        what: &'static str,
+        /// The service.
+        service: String,
+        /// iceoryx2's reason.
+        reason: String,
+    },
+}
+
+fn service_name(topic: Topic, instance: &str) -> Result<(String, ServiceName), ProtocolError> {
+    let name = topic.service_name(instance);
+    let service = ServiceName::new(&name)
+        .map_err(|e| ProtocolError::Name { name: name.clone(), reason: format!("{e:?}") })?;
+    Ok((name, service))
+}
+
+fn port_error(what: &'static str, service: &str) -> impl FnOnce(String) -> ProtocolError {
+    let service = service.to_string();
+    move |reason| ProtocolError::Port { what, service, reason }
+}
+
+/// The publish-subscribe service of `topic` for payload `T`, opened or created with the topic's settings.
+pub fn open_topic<T: std::fmt::Debug + ZeroCopySend + 'static>(
+    node: &Node<ipc::Service>,
+    instance: &str,
+    topic: Topic,
+) -> Result<iceoryx2::service::port_factory::publish_subscribe::PortFactory<ipc::Service, T, ()>, ProtocolError>
+{
+    let (name, service) = service_name(topic, instance)?;
+    let s = topic.settings();
+    node.service_builder(&service)
+        .publish_subscribe::<T>()
+        .max_publishers(s.max_publishers)
+        .max_subscribers(s.max_subscribers)
+        .history_size(s.history_size)
+        .subscriber_max_buffer_size(s.subscriber_max_buffer_size)
+        .enable_safe_overflow(true)
+        .open_or_create()
+        .map_err(|e| port_error("opening the service", &name)(e.to_string()))
+}
+
+/// A publisher on `topic`.
+pub fn publisher<T: std::fmt::Debug + ZeroCopySend + 'static>(
+    node: &Node<ipc::Service>,
+    instance: &str,
+    topic: Topic,
+) -> Result<Publisher<ipc::Service, T, ()>, ProtocolError> {
+    let service = open_topic::<T>(node, instance, topic)?;
+    service
+        .publisher_builder()
+        .create()
+        .map_err(|e| port_error("creating a publisher", &topic.service_name(instance))(e.to_string()))
+}
+
+/// A subscriber on `topic` with the largest buffer the topic allows.
+pub fn subscriber<T: std::fmt::Debug + ZeroCopySend + 'static>(
+    node: &Node<ipc::Service>,
+    instance: &str,
+    topic: Topic,
+) -> Result<Subscriber<ipc::Service, T, ()>, ProtocolError> {
+    let service = open_topic::<T>(node, instance, topic)?;
+    service
+        .subscriber_builder()
+        .buffer_size(topic.settings().subscriber_max_buffer_size)
+        .create()
+        .map_err(|e| port_error("creating a subscriber", &topic.service_name(instance))(e.to_string()))
+}
+
+fn open_event(
+    node: &Node<ipc::Service>,
+    instance: &str,
+    topic: Topic,
+) -> Result<(String, iceoryx2::service::port_factory::event::PortFactory<ipc::Service>), ProtocolError> {
+    let (name, service) = service_name(topic, instance)?;
+    let factory = node
+        .service_builder(&service)
+        .event()
+        .max_notifiers(4)
+        .max_listeners(4)
+        .open_or_create()
+        .map_err(|e| port_error("opening the event service", &name)(e.to_string()))?;
+    Ok((name, factory))
+}
+
+/// The notifier that wakes `topic`'s consumer (same name as the data service).
+pub fn notifier(
+    node: &Node<ipc::Service>,
+    instance: &str,
+    topic: Topic,
+) -> Result<Notifier<ipc::Service>, ProtocolError> {
+    let (name, factory) = open_event(node, instance, topic)?;
+    factory.notifier_builder().create().map_err(|e| port_error("creating a notifier", &name)(e.to_string()))
+}
+
+/// The listener `topic`'s consumer waits on.
+pub fn listener(
+    node: &Node<ipc::Service>,
+    instance: &str,
+    topic: Topic,
+) -> Result<Listener<ipc::Service>, ProtocolError> {
+    let (name, factory) = open_event(node, instance, topic)?;
+    factory.listener_builder().create().map_err(|e| port_error("creating a listener", &name)(e.to_string()))
+}
+
+/// Removes what dead nodes of the instance left behind (shared memory, sockets, registrations).
+/// Returns how many dead nodes were cleaned up.
+pub fn cleanup_dead_nodes(node: &Node<ipc::Service>) -> u64 {
+    node.try_cleanup_dead_nodes().cleanups
+}
+
+/// The node name of a vservo process: `vservo/<instance>/<role>`.
+pub fn node_name(instance: &str, role: &str) -> String {
+    format!("vservo/{instance}/{role}")
+}
+
+/// The iceoryx2 resource prefix of an instance: `vservo_<instance>_`. Every shared-memory file and socket
+/// of the instance starts with it, so instances are isolated below the service names too, and a dead
+/// instance's leftovers are easy to find.
+pub fn resource_prefix(instance: &str) -> String {
+    format!("vservo_{instance}_")
+}
+
+/// The iceoryx2 configuration of an instance: the defaults with [`resource_prefix`].
+pub fn iceoryx2_config(instance: &str) -> Result<Config, ProtocolError> {
+    let prefix = resource_prefix(instance);
+    let mut config = Config::default();
+    config.global.prefix = FileName::new(prefix.as_bytes())
+        .map_err(|e| ProtocolError::Name { name: prefix.clone(), reason: format!("{e:?}") })?;
+    Ok(config)
+}
+
+/// A node with vservo's settings: the instance's [`iceoryx2_config`], named, and without iceoryx2's own
+/// signal handling (the processes handle SIGTERM and SIGINT themselves).
+pub fn create_node(instance: &str, role: &str) -> Result<Node<ipc::Service>, ProtocolError> {
+    let name = node_name(instance, role);
+    let node_name = NodeName::new(&name)
+        .map_err(|e| ProtocolError::Name { name: name.clone(), reason: format!("{e:?}") })?;
+    NodeBuilder::new()
+        .name(&node_name)
+        .config(&iceoryx2_config(instance)?)
+        .signal_handling_mode(SignalHandlingMode::Disabled)
+        .create::<ipc::Service>()
+        .map_err(|e| port_error("creating the node", &name)(e.to_string()))
+}

@@ -1,0 +1,379 @@
+//! The payloads: `#[repr(C)]`, fixed size, no pointers, each starting with the schema version.
+//!
+//! Field order is chosen so that no padding is needed: 8-byte fields first, then 4-byte, then bytes.
+//! docs/PROTOCOL.md lists the offsets, which the tests in this module check.
+
+use iceoryx2::prelude::ZeroCopySend;
+
+/// The schema version every payload carries in its first four bytes. Bumped on any layout change.
+pub const SCHEMA_VERSION: u32 = 1;
+
+/// Joints of the arm.
+pub const JOINTS: usize = 6;
+/// Image features (x, y of four marks).
+pub const FEATURES: usize = 8;
+/// Marks.
+pub const MARKS: usize = 4;
+
+/// plant → rmrc, vision (1 kHz): the arm's state after a tick, and where the board is.
+#[derive(Debug, Clone, Copy, PartialEq, ZeroCopySend)]
+#[type_name("vservo::JointState")]
+#[repr(C)]
+pub struct JointStateMsg {
+    /// [`SCHEMA_VERSION`].
+    pub schema: u32,
+    /// Fault flags: bits 0–5 position limit of joint 1–6, 8–13 velocity limit, 16–21 torque saturated,
+    /// bit 24 integration failed, bit 25 the plant is holding the arm (no command from the rmrc).
+    pub faults: u32,
+    /// Plant ticks since the simulated start (1 ms each).
+    pub tick: u64,
+    /// CLOCK_MONOTONIC (ns) when the state was published.
+    pub stamp_ns: u64,
+    /// Changes each time the plant process starts: a consumer that sees a new one re-synchronises.
+    pub plant_epoch: u64,
+    /// Joint angles (rad).
+    pub q_rad: [f64; JOINTS],
+    /// Joint velocities (rad/s).
+    pub qd_rad_s: [f64; JOINTS],
+    /// Torque applied during the tick, after saturation (N·m).
+    pub applied_torque_nm: [f64; JOINTS],
+    /// The board's pose in the base frame, 3×4 [R | t] row-major (t in m).
+    pub base_from_board: [f64; 12],
+}
+
+/// Fault bits of [`JointStateMsg::faults`].
+pub mod fault_bits {
+    /// Shift of the per-joint position-limit bits.
+    pub const POSITION_LIMIT_SHIFT: u32 = 0;
+    /// Shift of the per-joint velocity-limit bits.
+    pub const VELOCITY_LIMIT_SHIFT: u32 = 8;
+    /// Shift of the per-joint torque-saturation bits.
+    pub const TORQUE_SATURATED_SHIFT: u32 = 16;
+    /// The integration failed (the state was kept, stopped).
+    pub const INTEGRATION_FAILED: u32 = 1 << 24;
+    /// The plant is holding the arm: no command came from the rmrc in time.
+    pub const HOLDING: u32 = 1 << 25;
+}
+
+/// Modes of [`JointTorqueMsg::mode`].
+pub mod actuator_mode {
+    /// `torque_nm` holds joint torques.
+    pub const TORQUE: u32 = 0;
+    /// `q_ref_rad`/`qd_ref_rad_s` hold the joint reference (the kinematic plant).
+    pub const KINEMATIC: u32 = 1;
+}
+
+/// rmrc → plant (1 kHz): the command for the tick after the state it answers.
+#[derive(Debug, Clone, Copy, PartialEq, ZeroCopySend)]
+#[type_name("vservo::JointTorque")]
+#[repr(C)]
+pub struct JointTorqueMsg {
+    /// [`SCHEMA_VERSION`].
+    pub schema: u32,
+    /// [`actuator_mode`].
+    pub mode: u32,
+    /// The `tick` of the joint state this answers.
+    pub answers_tick: u64,
+    /// The `plant_epoch` of that joint state.
+    pub plant_epoch: u64,
+    /// That joint state's `stamp_ns` (echoed, for the round trip).
+    pub state_stamp_ns: u64,
+    /// CLOCK_MONOTONIC (ns) when the command was published.
+    pub stamp_ns: u64,
+    /// Joint torques (N·m) in the torque mode.
+    pub torque_nm: [f64; JOINTS],
+    /// q_d (rad).
+    pub q_ref_rad: [f64; JOINTS],
+    /// q̇_d (rad/s).
+    pub qd_ref_rad_s: [f64; JOINTS],
+}
+
+/// Per-mark status codes of [`FeaturesMsg::mark_status`].
+pub mod mark_status {
+    /// Found; its feature is valid.
+    pub const VALID: u8 = 0;
+    /// Its expected position is outside the image.
+    pub const OUTSIDE_IMAGE: u8 = 1;
+    /// Its blob touches the image border.
+    pub const CUT_BY_BORDER: u8 = 2;
+    /// Run together with another mark into one blob.
+    pub const MERGED: u8 = 3;
+    /// Its blob has the wrong shape.
+    pub const IRREGULAR: u8 = 4;
+    /// No blob where it should be.
+    pub const NOT_FOUND: u8 = 5;
+    /// The image itself is unusable.
+    pub const BAD_IMAGE: u8 = 6;
+}
+
+/// vision → servo (every frame): the features of the frame leaving the image pipeline.
+#[derive(Debug, Clone, Copy, PartialEq, ZeroCopySend)]
+#[type_name("vservo::Features")]
+#[repr(C)]
+pub struct FeaturesMsg {
+    /// [`SCHEMA_VERSION`].
+    pub schema: u32,
+    /// Bit m set when mark m is valid.
+    pub valid_mask: u32,
+    /// Frame number of the image (counted by the vision node from its start).
+    pub frame: u64,
+    /// The plant tick of the joint state the image was taken at.
+    pub capture_tick: u64,
+    /// CLOCK_MONOTONIC (ns) when the image was taken.
+    pub capture_stamp_ns: u64,
+    /// CLOCK_MONOTONIC (ns) when the features were published (the pipeline delay later).
+    pub stamp_ns: u64,
+    /// ξ = [x₁ y₁ … x₄ y₄] (px, image origin top-left), NaN where a mark is not valid.
+    pub features_px: [f64; FEATURES],
+    /// Each mark's [`mark_status`] code.
+    pub mark_status: [u8; MARKS],
+    /// Zero.
+    pub reserved: [u8; 4],
+}
+
+/// Verdicts of [`CameraTwistMsg::verdict`].
+pub mod verdict {
+    /// No frame yet: zero twist.
+    pub const WAITING: u32 = 0;
+    /// The law's twist.
+    pub const SERVOING: u32 = 1;
+    /// A mark missing: zero twist (`missing_mask` says which).
+    pub const MARKS_MISSING: u32 = 2;
+    /// The servo is stopping (shutdown): zero twist.
+    pub const STOPPING: u32 = 3;
+}
+
+/// servo → rmrc (every frame): the camera twist.
+#[derive(Debug, Clone, Copy, PartialEq, ZeroCopySend)]
+#[type_name("vservo::CameraTwist")]
+#[repr(C)]
+pub struct CameraTwistMsg {
+    /// [`SCHEMA_VERSION`].
+    pub schema: u32,
+    /// [`verdict`]; any verdict but SERVOING comes with a zero twist.
+    pub verdict: u32,
+    /// The frame the twist was computed from.
+    pub frame: u64,
+    /// Its capture tick.
+    pub capture_tick: u64,
+    /// Version of the gains used (1 at start, +1 per accepted reload).
+    pub gains_version: u64,
+    /// CLOCK_MONOTONIC (ns) when published.
+    pub stamp_ns: u64,
+    /// u = [v_x v_y v_z ω_x ω_y ω_z] in the camera frame (m/s, rad/s).
+    pub twist: [f64; 6],
+    /// RMS of ξ − ξ_d over the valid features (px); NaN when none.
+    pub feature_error_px: f64,
+    /// Bit m set when mark m was missing.
+    pub missing_mask: u32,
+    /// Zero.
+    pub reserved: u32,
+}
+
+/// The nodes, as numbered in [`TelemetryMsg::node`] and [`DaemonStatusMsg::nodes`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+#[repr(u32)]
+pub enum NodeRole {
+    /// The simulated arm and world.
+    Plant = 0,
+    /// The camera and feature extractor.
+    Vision = 1,
+    /// The LQ visual-servo law.
+    Servo = 2,
+    /// The 1 ms interpolator and joint servo.
+    Rmrc = 3,
+}
+
+impl NodeRole {
+    /// All four, in start order.
+    pub const ALL: [NodeRole; 4] = [NodeRole::Plant, NodeRole::Rmrc, NodeRole::Servo, NodeRole::Vision];
+
+    /// The role's name.
+    pub fn name(self) -> &'static str {
+        match self {
+            NodeRole::Plant => "plant",
+            NodeRole::Vision => "vision",
+            NodeRole::Servo => "servo",
+            NodeRole::Rmrc => "rmrc",
+        }
+    }
+
+    /// The role from its name.
+    pub fn from_name(name: &str) -> Option<NodeRole> {
+        Self::ALL.into_iter().find(|role| role.name() == name)
+    }
+
+    /// The role from its number.
+    pub fn from_index(index: u32) -> Option<NodeRole> {
+        Self::ALL.into_iter().find(|role| *role as u32 == index)
+    }
+}
+
+/// Percentiles of one timing over a telemetry window (ns; zero when the window had no samples).
+#[derive(Debug, Clone, Copy, PartialEq, Default, ZeroCopySend)]
+#[type_name("vservo::Timing")]
+#[repr(C)]
+pub struct TimingMsg {
+    /// Samples in the window.
+    pub count: u64,
+    /// Median.
+    pub p50_ns: u64,
+    /// 99th percentile.
+    pub p99_ns: u64,
+    /// 99.9th percentile.
+    pub p999_ns: u64,
+    /// Largest.
+    pub max_ns: u64,
+}
+
+/// every node → anyone (10 Hz): loop timing over the last window and counters since the node started.
+#[derive(Debug, Clone, Copy, PartialEq, ZeroCopySend)]
+#[type_name("vservo::Telemetry")]
+#[repr(C)]
+pub struct TelemetryMsg {
+    /// [`SCHEMA_VERSION`].
+    pub schema: u32,
+    /// [`NodeRole`] as a number.
+    pub node: u32,
+    /// CLOCK_MONOTONIC (ns) when published.
+    pub stamp_ns: u64,
+    /// Length of the window the timings cover (ns).
+    pub window_ns: u64,
+    /// Loop cycles since the node started.
+    pub cycles: u64,
+    /// Cycles that started more than one period late, since the node started.
+    pub overruns: u64,
+    /// Periods skipped after a stall (not replayed), since the node started.
+    pub skipped_periods: u64,
+    /// plant: ticks whose answer from the rmrc came late (the previous command was held).
+    pub late_answers: u64,
+    /// Input messages refused (wrong schema, epoch or tick), since the node started.
+    pub rejected_messages: u64,
+    /// Gains version in use (servo; zero for the other nodes).
+    pub gains_version: u64,
+    /// plant: the latest tick; vision/servo: the latest frame; rmrc: the latest tick answered.
+    pub progress: u64,
+    /// How late each cycle woke after its deadline (periodic nodes) or after its input was sent (event
+    /// driven nodes).
+    pub wake_latency: TimingMsg,
+    /// Time from wake-up to the cycle's output.
+    pub execution: TimingMsg,
+    /// plant only: from publishing a joint state to the rmrc's answer arriving.
+    pub round_trip: TimingMsg,
+    /// servo: RMS feature error (px) of the latest frame; NaN otherwise.
+    pub feature_error_px: f64,
+    /// The node's process id.
+    pub pid: u32,
+    /// Node-specific state: plant 1 = holding the arm; servo = the last verdict; else 0.
+    pub mode: u32,
+}
+
+/// Node states in [`NodeStatusMsg::state`].
+pub mod node_state {
+    /// Not started yet.
+    pub const NOT_STARTED: u32 = 0;
+    /// Running.
+    pub const RUNNING: u32 = 1;
+    /// Exited; waiting to be restarted.
+    pub const BACKING_OFF: u32 = 2;
+    /// Stopped on purpose.
+    pub const STOPPED: u32 = 3;
+}
+
+/// One node as the daemon sees it.
+#[derive(Debug, Clone, Copy, PartialEq, Default, ZeroCopySend)]
+#[type_name("vservo::NodeStatus")]
+#[repr(C)]
+pub struct NodeStatusMsg {
+    /// Restarts since the daemon started.
+    pub restarts: u64,
+    /// CLOCK_MONOTONIC (ns) of the node's latest telemetry (0 if none yet).
+    pub last_telemetry_ns: u64,
+    /// [`node_state`].
+    pub state: u32,
+    /// Process id (0 when not running).
+    pub pid: u32,
+    /// Exit status of the last run (signal number negated; 0 if none).
+    pub last_exit: i32,
+    /// 1 when the node's telemetry is fresh (within 0.5 s).
+    pub healthy: u32,
+}
+
+/// Daemon states in [`DaemonStatusMsg::state`].
+pub mod daemon_state {
+    /// Starting the nodes.
+    pub const STARTING: u32 = 0;
+    /// Every node running and healthy.
+    pub const RUNNING: u32 = 1;
+    /// A node is down or not healthy.
+    pub const DEGRADED: u32 = 2;
+    /// Stopping.
+    pub const STOPPING: u32 = 3;
+}
+
+/// vservod → anyone (10 Hz): the nodes as the supervisor sees them.
+#[derive(Debug, Clone, Copy, PartialEq, ZeroCopySend)]
+#[type_name("vservo::DaemonStatus")]
+#[repr(C)]
+pub struct DaemonStatusMsg {
+    /// [`SCHEMA_VERSION`].
+    pub schema: u32,
+    /// [`daemon_state`].
+    pub state: u32,
+    /// CLOCK_MONOTONIC (ns) when published.
+    pub stamp_ns: u64,
+    /// Since the daemon started (ns).
+    pub uptime_ns: u64,
+    /// Gains version in use.
+    pub gains_version: u64,
+    /// Indexed by [`NodeRole`] number.
+    pub nodes: [NodeStatusMsg; 4],
+    /// Plant ticks per second of wall time over the last second (1000 when on time).
+    pub tick_rate_hz: f64,
+    /// The servo's latest RMS feature error (px); NaN before the first frame.
+    pub feature_error_px: f64,
+    /// The daemon's process id.
+    pub pid: u32,
+    /// Zero.
+    pub reserved: u32,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::mem::{offset_of, size_of};
+
+    // the layout docs/PROTOCOL.md documents; a change here must change the document and SCHEMA_VERSION
+    #[test]
+    fn layouts_are_the_documented_ones() {
+        assert_eq!(size_of::<JointStateMsg>(), 32 + 3 * 48 + 96);
+        assert_eq!(offset_of!(JointStateMsg, tick), 8);
+        assert_eq!(offset_of!(JointStateMsg, q_rad), 32);
+        assert_eq!(offset_of!(JointStateMsg, base_from_board), 176);
+        assert_eq!(size_of::<JointTorqueMsg>(), 40 + 3 * 48);
+        assert_eq!(offset_of!(JointTorqueMsg, torque_nm), 40);
+        assert_eq!(size_of::<FeaturesMsg>(), 40 + 64 + 8);
+        assert_eq!(offset_of!(FeaturesMsg, features_px), 40);
+        assert_eq!(offset_of!(FeaturesMsg, mark_status), 104);
+        assert_eq!(size_of::<CameraTwistMsg>(), 40 + 48 + 8 + 8);
+        assert_eq!(offset_of!(CameraTwistMsg, twist), 40);
+        assert_eq!(offset_of!(CameraTwistMsg, feature_error_px), 88);
+        assert_eq!(size_of::<TimingMsg>(), 40);
+        assert_eq!(offset_of!(TelemetryMsg, wake_latency), 80);
+        assert_eq!(offset_of!(TelemetryMsg, feature_error_px), 200);
+        assert_eq!(size_of::<TelemetryMsg>(), 216);
+        assert_eq!(size_of::<NodeStatusMsg>(), 32);
+        assert_eq!(offset_of!(DaemonStatusMsg, nodes), 32);
+        assert_eq!(offset_of!(DaemonStatusMsg, tick_rate_hz), 160);
+        assert_eq!(size_of::<DaemonStatusMsg>(), 32 + 4 * 32 + 16 + 8);
+    }
+
+    #[test]
+    fn roles_round_trip_through_names_and_numbers() {
+        for role in NodeRole::ALL {
+            assert_eq!(NodeRole::from_name(role.name()), Some(role));
+            assert_eq!(NodeRole::from_index(role as u32), Some(role));
+        }
+        assert_eq!(NodeRole::from_name("camera"), None);
+    }
+}

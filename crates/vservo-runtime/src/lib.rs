@@ -1,0 +1,62 @@
+//! # vservo-runtime — the real-time shell
+//!
+//! This crate owns the four node loops of the real-time shell (DESIGN §1, §2, §7): each runs one stage of
+//! [`vservo_cell`] in its own process and talks to the others over iceoryx2 ([`vservo_protocol`]).
+//!
+//! - [`nodes::plant`] paces the 1 ms tick on absolute CLOCK_MONOTONIC deadlines, publishes `joint_state`
+//!   and waits (on an iceoryx2 event) for the rmrc's answer; a late answer is counted and the previous
+//!   command held, and after `hold_after_missed_ticks` the plant brakes the arm itself.
+//! - [`nodes::rmrc`] wakes on the `joint_state` event and answers with `joint_torque`.
+//! - [`nodes::vision`] runs on its own vision-period timer; [`nodes::servo`] wakes on `features`.
+//!
+//! Every node publishes `telemetry` from a normal-priority thread ([`telemetry`]); the hot loops only push
+//! timings into a bounded lock-free channel. Real-time settings come from the config's `[runtime]`
+//! ([`realtime`]).
+
+pub mod clock;
+pub mod nodes;
+pub mod realtime;
+pub mod status;
+pub mod telemetry;
+
+use std::sync::Arc;
+use std::sync::atomic::AtomicBool;
+
+use vservo_arm::JointVector;
+use vservo_cell::Cell;
+
+/// Why a node could not run.
+#[derive(Debug, thiserror::Error)]
+pub enum RuntimeError {
+    /// iceoryx2 refused a service, port or node.
+    #[error(transparent)]
+    Protocol(#[from] vservo_protocol::ProtocolError),
+    /// A thread could not be started.
+    #[error("thread: {0}")]
+    Thread(String),
+}
+
+/// What a node needs to run.
+#[derive(Debug, Clone)]
+pub struct NodeContext {
+    /// The cell, built from the configuration.
+    pub cell: Cell,
+    /// The instance name (service prefix).
+    pub instance: String,
+    /// Set by SIGTERM/SIGINT: the loop finishes its cycle and returns.
+    pub stop: Arc<AtomicBool>,
+    /// plant only: start at rest at these joints and this tick (a restart after a crash) instead of the
+    /// scenario's start.
+    pub resume: Option<(JointVector, u64)>,
+}
+
+impl NodeContext {
+    fn stopping(&self) -> bool {
+        self.stop.load(std::sync::atomic::Ordering::Relaxed)
+    }
+}
+
+/// A sample's schema is the one this build speaks.
+fn schema_ok(schema: u32) -> bool {
+    schema == vservo_protocol::SCHEMA_VERSION
+}

@@ -1,0 +1,171 @@
+//! The plant node: the 1 ms tick on absolute deadlines.
+
+use std::time::Duration;
+
+use vservo_arm::JointVector;
+use vservo_cell::{ActuatorCommand, PlantStage};
+use vservo_protocol::{
+    JointStateMsg, JointTorqueMsg, NodeRole, SCHEMA_VERSION, Topic, actuator_mode, fault_bits,
+};
+use vservo_sim::plant::JointState;
+
+use super::to_array;
+use crate::clock::{PeriodicTimer, monotonic_ns};
+use crate::telemetry::{CycleSample, TelemetryThread};
+use crate::{NodeContext, RuntimeError, realtime, schema_ok};
+
+fn state_message(stage: &PlantStage, state: &JointState, epoch: u64) -> JointStateMsg {
+    let f = &state.faults;
+    let mut faults = u32::from(f.position_limit) << fault_bits::POSITION_LIMIT_SHIFT
+        | u32::from(f.velocity_limit) << fault_bits::VELOCITY_LIMIT_SHIFT
+        | u32::from(f.torque_saturated) << fault_bits::TORQUE_SATURATED_SHIFT;
+    if f.integration_failed {
+        faults |= fault_bits::INTEGRATION_FAILED;
+    }
+    if stage.is_holding() {
+        faults |= fault_bits::HOLDING;
+    }
+    let board = stage.base_from_board();
+    let r = board.rotation.matrix();
+    let t = board.translation.vector;
+    let mut base_from_board = [0.0; 12];
+    for row in 0..3 {
+        for col in 0..3 {
+            base_from_board[4 * row + col] = r[(row, col)];
+        }
+        base_from_board[4 * row + 3] = t[row];
+    }
+    JointStateMsg {
+        schema: SCHEMA_VERSION,
+        faults,
+        tick: state.tick,
+        stamp_ns: monotonic_ns(),
+        plant_epoch: epoch,
+        q_rad: to_array(&state.q),
+        qd_rad_s: to_array(&state.qd),
+        applied_torque_nm: to_array(&state.applied_torque),
+        base_from_board,
+    }
+}
+
+fn command_of(message: &JointTorqueMsg) -> Option<ActuatorCommand> {
+    let all_finite = |v: &[f64; 6]| v.iter().all(|x| x.is_finite());
+    match message.mode {
+        actuator_mode::TORQUE if all_finite(&message.torque_nm) => {
+            Some(ActuatorCommand::Torque(JointVector::from(message.torque_nm)))
+        }
+        actuator_mode::KINEMATIC if all_finite(&message.q_ref_rad) && all_finite(&message.qd_ref_rad_s) => {
+            Some(ActuatorCommand::Kinematic {
+                q: JointVector::from(message.q_ref_rad),
+                qd: JointVector::from(message.qd_ref_rad_s),
+            })
+        }
+        _ => None,
+    }
+}
+
+/// Runs the plant until the stop flag is set.
+pub fn run(context: &NodeContext) -> Result<(), RuntimeError> {
+    let config = context.cell.config();
+    let instance = &context.instance;
+    let (_telemetry, monitor) =
+        TelemetryThread::spawn(instance, NodeRole::Plant, config.runtime.telemetry_period_s)?;
+    let node = vservo_protocol::create_node(instance, NodeRole::Plant.name())?;
+    let state_publisher = vservo_protocol::publisher::<JointStateMsg>(&node, instance, Topic::JointState)?;
+    let state_notifier = vservo_protocol::notifier(&node, instance, Topic::JointState)?;
+    let torque_subscriber =
+        vservo_protocol::subscriber::<JointTorqueMsg>(&node, instance, Topic::JointTorque)?;
+    let torque_listener = vservo_protocol::listener(&node, instance, Topic::JointTorque)?;
+
+    let mut stage = match context.resume {
+        Some((q, tick)) => context.cell.plant_resumed(&q, tick),
+        None => context.cell.plant(),
+    };
+    for warning in realtime::apply(&config.runtime.plant, &config.runtime) {
+        tracing::warn!(node = "plant", "{warning}");
+    }
+    // an epoch no earlier plant of this host has used: consumers re-synchronise when it changes
+    let epoch = monotonic_ns();
+    let period_ns = (config.timing.control_period_s * 1e9).round() as u64;
+    let hold_after = u64::from(config.runtime.hold_after_missed_ticks);
+    let counters = monitor.counters();
+    tracing::info!(node = "plant", tick = stage.state().tick, mode = stage.mode().name(), "running");
+
+    let mut last_command: Option<ActuatorCommand> = None;
+    let mut missed_in_a_row: u64 = 0;
+    let mut timer = PeriodicTimer::start(period_ns);
+    while !context.stopping() {
+        // publish the state, wake the rmrc
+        let state = *stage.state();
+        let message = state_message(&stage, &state, epoch);
+        let published_at = message.stamp_ns;
+        if let Ok(sample) = state_publisher.loan_uninit() {
+            let _ = sample.write_payload(message).send();
+        }
+        let _ = state_notifier.notify();
+        counters.set_progress(state.tick);
+        counters.set_mode(u32::from(stage.is_holding()));
+
+        // wait for its answer until the next deadline
+        let mut answer = None;
+        let mut round_trip_ns = 0;
+        loop {
+            while let Ok(Some(sample)) = torque_subscriber.receive() {
+                let reply = *sample;
+                if !schema_ok(reply.schema) || reply.plant_epoch != epoch {
+                    counters.rejected();
+                } else if reply.answers_tick == state.tick {
+                    match command_of(&reply) {
+                        Some(command) => answer = Some(command),
+                        None => counters.rejected(),
+                    }
+                }
+                // an answer to an older tick came too late: already counted
+            }
+            let now = monotonic_ns();
+            if answer.is_some() {
+                round_trip_ns = now.saturating_sub(published_at).max(1);
+                break;
+            }
+            let deadline = timer.next_deadline_ns();
+            if now >= deadline {
+                break;
+            }
+            let _ = torque_listener.timed_wait(|_| {}, Duration::from_nanos(deadline - now));
+        }
+
+        let wake = timer.wait();
+        let started = monotonic_ns();
+        if wake.skipped_periods > 0 {
+            counters.overrun();
+            counters.skipped(wake.skipped_periods);
+        }
+        // a late tick still advances one tick of simulated time
+        match answer {
+            Some(command) => {
+                missed_in_a_row = 0;
+                last_command = Some(command);
+                stage.apply(&command);
+            }
+            None => {
+                counters.late_answer();
+                missed_in_a_row += 1;
+                match last_command {
+                    Some(command) if missed_in_a_row <= hold_after => {
+                        stage.apply(&command);
+                    }
+                    _ => {
+                        stage.hold();
+                    }
+                }
+            }
+        }
+        monitor.record(CycleSample {
+            wake_latency_ns: wake.lateness_ns,
+            execution_ns: monotonic_ns().saturating_sub(started),
+            round_trip_ns,
+        });
+    }
+    tracing::info!(node = "plant", tick = stage.state().tick, "stopped");
+    Ok(())
+}

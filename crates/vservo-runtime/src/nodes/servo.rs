@@ -1,0 +1,110 @@
+//! The servo node: wakes on each feature vector and answers with the camera twist.
+
+use vservo_cell::ServoVerdict;
+use vservo_control::Twist;
+use vservo_protocol::{CameraTwistMsg, FeaturesMsg, NodeRole, SCHEMA_VERSION, Topic, verdict};
+use vservo_scene::FeatureVector;
+
+use super::{IDLE_WAIT, to_array};
+use crate::clock::monotonic_ns;
+use crate::telemetry::{CycleSample, TelemetryThread};
+use crate::{NodeContext, RuntimeError, realtime, schema_ok};
+
+/// RMS of ξ − ξ_d over the finite features (px); NaN when none is.
+pub fn feature_error_px(features: &FeatureVector, desired: &FeatureVector) -> f64 {
+    let (mut sum, mut n) = (0.0, 0usize);
+    for (f, d) in features.iter().zip(desired.iter()) {
+        if f.is_finite() {
+            sum += (f - d) * (f - d);
+            n += 1;
+        }
+    }
+    if n == 0 { f64::NAN } else { (sum / n as f64).sqrt() }
+}
+
+/// Runs the servo until the stop flag is set; then sends one zero twist marked STOPPING.
+pub fn run(context: &NodeContext) -> Result<(), RuntimeError> {
+    let config = context.cell.config();
+    let instance = &context.instance;
+    let (_telemetry, monitor) =
+        TelemetryThread::spawn(instance, NodeRole::Servo, config.runtime.telemetry_period_s)?;
+    let node = vservo_protocol::create_node(instance, NodeRole::Servo.name())?;
+    let features_subscriber = vservo_protocol::subscriber::<FeaturesMsg>(&node, instance, Topic::Features)?;
+    let features_listener = vservo_protocol::listener(&node, instance, Topic::Features)?;
+    let twist_publisher = vservo_protocol::publisher::<CameraTwistMsg>(&node, instance, Topic::CameraTwist)?;
+    for warning in realtime::apply(&config.runtime.servo, &config.runtime) {
+        tracing::warn!(node = "servo", "{warning}");
+    }
+    let mut stage = context.cell.servo();
+    let gains_version = 1;
+    let counters = monitor.counters();
+    counters.set_gains_version(gains_version);
+    let period_ns = (config.timing.vision_period_s * 1e9).round() as u64;
+    let send = |message: CameraTwistMsg| {
+        if let Ok(sample) = twist_publisher.loan_uninit() {
+            let _ = sample.write_payload(message).send();
+        }
+    };
+    let mut last = (0u64, 0u64);
+    tracing::info!(node = "servo", "running");
+
+    while !context.stopping() {
+        let _ = features_listener.timed_wait(|_| {}, IDLE_WAIT);
+        let woke_at = monotonic_ns();
+        while let Ok(Some(sample)) = features_subscriber.receive() {
+            let message = *sample;
+            if !schema_ok(message.schema) {
+                counters.rejected();
+                continue;
+            }
+            let features = FeatureVector::from(message.features_px);
+            let (twist, why) = stage.step(Some(&features));
+            let error_px = feature_error_px(&features, stage.desired_features());
+            let (verdict_code, missing_mask) = match why {
+                ServoVerdict::Waiting => (verdict::WAITING, 0),
+                ServoVerdict::Servoing => (verdict::SERVOING, 0),
+                ServoVerdict::MarksMissing(mask) => (verdict::MARKS_MISSING, u32::from(mask)),
+            };
+            send(CameraTwistMsg {
+                schema: SCHEMA_VERSION,
+                verdict: verdict_code,
+                frame: message.frame,
+                capture_tick: message.capture_tick,
+                gains_version,
+                stamp_ns: monotonic_ns(),
+                twist: to_array(&twist),
+                feature_error_px: error_px,
+                missing_mask,
+                reserved: 0,
+            });
+            last = (message.frame, message.capture_tick);
+            counters.set_progress(message.frame);
+            counters.set_mode(verdict_code);
+            counters.set_feature_error_px(error_px);
+            let done = monotonic_ns();
+            if done.saturating_sub(message.stamp_ns) > period_ns {
+                counters.overrun();
+            }
+            monitor.record(CycleSample {
+                wake_latency_ns: woke_at.saturating_sub(message.stamp_ns),
+                execution_ns: done.saturating_sub(woke_at),
+                round_trip_ns: 0,
+            });
+        }
+    }
+    // the rmrc ramps to rest on a zero twist at its acceleration limits
+    send(CameraTwistMsg {
+        schema: SCHEMA_VERSION,
+        verdict: verdict::STOPPING,
+        frame: last.0,
+        capture_tick: last.1,
+        gains_version,
+        stamp_ns: monotonic_ns(),
+        twist: to_array(&Twist::zeros()),
+        feature_error_px: f64::NAN,
+        missing_mask: 0,
+        reserved: 0,
+    });
+    tracing::info!(node = "servo", "stopped: zero twist sent");
+    Ok(())
+}

@@ -1,0 +1,151 @@
+//! The status of a running instance as users see it (`vservoctl status`, the daemon's one-line status):
+//! the daemon's view of its nodes joined with each node's latest telemetry.
+
+use std::collections::BTreeMap;
+
+use serde::Serialize;
+use vservo_protocol::{DaemonStatusMsg, NodeRole, TelemetryMsg, TimingMsg, daemon_state, node_state};
+
+/// Percentiles in microseconds.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct TimingUs {
+    /// Samples in the window.
+    pub count: u64,
+    /// Median (µs).
+    pub p50: f64,
+    /// 99th percentile (µs).
+    pub p99: f64,
+    /// 99.9th percentile (µs).
+    pub p999: f64,
+    /// Largest (µs).
+    pub max: f64,
+}
+
+impl From<&TimingMsg> for TimingUs {
+    fn from(t: &TimingMsg) -> Self {
+        let us = |ns: u64| ns as f64 / 1e3;
+        Self { count: t.count, p50: us(t.p50_ns), p99: us(t.p99_ns), p999: us(t.p999_ns), max: us(t.max_ns) }
+    }
+}
+
+/// One node.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct NodeView {
+    /// Whether its process runs.
+    pub running: bool,
+    /// Restarts since the daemon started.
+    pub restarts: u64,
+    /// Its telemetry is fresh.
+    pub healthy: bool,
+    /// Process id (0 when not running).
+    pub pid: u32,
+    /// Loop cycles since it started.
+    pub cycles: u64,
+    /// Cycles a period or more late since it started.
+    pub overruns: u64,
+    /// Periods skipped after stalls.
+    pub skipped_periods: u64,
+    /// plant: late answers from the rmrc (previous command held).
+    pub late_answers: u64,
+    /// Input messages refused.
+    pub rejected_messages: u64,
+    /// Wake-up latency over the last telemetry window.
+    pub wake_latency_us: Option<TimingUs>,
+    /// Execution time over the last telemetry window.
+    pub execution_us: Option<TimingUs>,
+    /// plant only: state → rmrc → answer round trip over the last window.
+    pub round_trip_us: Option<TimingUs>,
+}
+
+/// The whole instance.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct StatusView {
+    /// The instance name.
+    pub instance: String,
+    /// "starting", "running", "degraded" or "stopping".
+    pub state: &'static str,
+    /// Since the daemon started (s).
+    pub uptime_s: f64,
+    /// The daemon's process id.
+    pub daemon_pid: u32,
+    /// Per node, by name.
+    pub nodes: BTreeMap<&'static str, NodeView>,
+    /// Plant ticks per wall-clock second.
+    pub tick_rate_hz: f64,
+    /// The servo's latest RMS feature error (px); null before the first frame.
+    pub feature_error_px: Option<f64>,
+    /// Gains version in use.
+    pub gains_version: u64,
+    /// Overruns per node, by name.
+    pub overruns: BTreeMap<&'static str, u64>,
+}
+
+fn state_name(state: u32) -> &'static str {
+    match state {
+        daemon_state::STARTING => "starting",
+        daemon_state::RUNNING => "running",
+        daemon_state::DEGRADED => "degraded",
+        daemon_state::STOPPING => "stopping",
+        _ => "unknown",
+    }
+}
+
+impl StatusView {
+    /// Joins the daemon's status with the latest telemetry of each node (`telemetry[role as usize]`).
+    pub fn new(instance: &str, daemon: &DaemonStatusMsg, telemetry: &[Option<TelemetryMsg>; 4]) -> Self {
+        let mut nodes = BTreeMap::new();
+        let mut overruns = BTreeMap::new();
+        for role in NodeRole::ALL {
+            let status = &daemon.nodes[role as usize];
+            let latest = telemetry[role as usize].as_ref();
+            let timing = |f: fn(&TelemetryMsg) -> &TimingMsg| {
+                latest.map(f).filter(|t| t.count > 0).map(TimingUs::from)
+            };
+            let view = NodeView {
+                running: status.state == node_state::RUNNING,
+                restarts: status.restarts,
+                healthy: status.healthy != 0,
+                pid: status.pid,
+                cycles: latest.map_or(0, |t| t.cycles),
+                overruns: latest.map_or(0, |t| t.overruns),
+                skipped_periods: latest.map_or(0, |t| t.skipped_periods),
+                late_answers: latest.map_or(0, |t| t.late_answers),
+                rejected_messages: latest.map_or(0, |t| t.rejected_messages),
+                wake_latency_us: timing(|t| &t.wake_latency),
+                execution_us: timing(|t| &t.execution),
+                round_trip_us: timing(|t| &t.round_trip),
+            };
+            overruns.insert(role.name(), view.overruns);
+            nodes.insert(role.name(), view);
+        }
+        Self {
+            instance: instance.to_string(),
+            state: state_name(daemon.state),
+            uptime_s: daemon.uptime_ns as f64 / 1e9,
+            daemon_pid: daemon.pid,
+            nodes,
+            tick_rate_hz: daemon.tick_rate_hz,
+            feature_error_px: daemon.feature_error_px.is_finite().then_some(daemon.feature_error_px),
+            gains_version: daemon.gains_version,
+            overruns,
+        }
+    }
+
+    /// One line: state, nodes up, tick rate, plant lateness and round trip, error, gains version.
+    pub fn one_line(&self) -> String {
+        let up = self.nodes.values().filter(|n| n.running).count();
+        let restarts: u64 = self.nodes.values().map(|n| n.restarts).sum();
+        let plant = self.nodes.get("plant");
+        let us = |t: Option<TimingUs>| t.map_or("-".to_string(), |t| format!("{:.0}/{:.0}", t.p50, t.p99));
+        let error = self.feature_error_px.map_or("-".to_string(), |e| format!("{e:.2}"));
+        format!(
+            "{} nodes {up}/4 restarts {restarts} ticks {:.0}/s late(p50/p99 µs) {} round-trip {} overruns {} error {error} px gains v{}",
+            self.state,
+            self.tick_rate_hz,
+            us(plant.and_then(|p| p.wake_latency_us)),
+            us(plant.and_then(|p| p.round_trip_us)),
+            self.overruns.values().sum::<u64>(),
+            self.gains_version
+        )
+    }
+}

@@ -1,0 +1,247 @@
+//! Loop telemetry: the hot loop hands each cycle's timings to a lock-free bounded channel and bumps
+//! counters; a telemetry thread at normal priority turns them into percentiles and publishes a
+//! [`TelemetryMsg`] every period. Nothing on the hot path allocates, locks or logs.
+
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, AtomicU32, AtomicU64, Ordering};
+use std::thread::JoinHandle;
+
+use crossbeam_channel::{Receiver, Sender, TrySendError};
+use hdrhistogram::Histogram;
+use vservo_protocol::{NodeRole, SCHEMA_VERSION, TelemetryMsg, TimingMsg, Topic};
+
+use crate::RuntimeError;
+use crate::clock::{PeriodicTimer, monotonic_ns};
+
+/// Counters a node keeps since it started, shared with its telemetry thread.
+#[derive(Debug, Default)]
+pub struct Counters {
+    /// Cycles run.
+    pub cycles: AtomicU64,
+    /// Cycles that started a period or more late (or, event driven, ran past their period).
+    pub overruns: AtomicU64,
+    /// Periods skipped after stalls.
+    pub skipped_periods: AtomicU64,
+    /// plant: answers from the rmrc that came late.
+    pub late_answers: AtomicU64,
+    /// Input messages refused.
+    pub rejected_messages: AtomicU64,
+    /// Gains version in use.
+    pub gains_version: AtomicU64,
+    /// See [`TelemetryMsg::progress`].
+    pub progress: AtomicU64,
+    /// See [`TelemetryMsg::mode`].
+    pub mode: AtomicU32,
+    /// The latest feature error (px), as f64 bits.
+    pub feature_error_bits: AtomicU64,
+}
+
+impl Counters {
+    fn add(counter: &AtomicU64, n: u64) {
+        counter.fetch_add(n, Ordering::Relaxed);
+    }
+
+    /// Counts an overrun.
+    pub fn overrun(&self) {
+        Self::add(&self.overruns, 1);
+    }
+
+    /// Counts skipped periods.
+    pub fn skipped(&self, periods: u64) {
+        Self::add(&self.skipped_periods, periods);
+    }
+
+    /// Counts a late answer.
+    pub fn late_answer(&self) {
+        Self::add(&self.late_answers, 1);
+    }
+
+    /// Counts a refused message.
+    pub fn rejected(&self) {
+        Self::add(&self.rejected_messages, 1);
+    }
+
+    /// Sets the progress value.
+    pub fn set_progress(&self, value: u64) {
+        self.progress.store(value, Ordering::Relaxed);
+    }
+
+    /// Sets the mode value.
+    pub fn set_mode(&self, value: u32) {
+        self.mode.store(value, Ordering::Relaxed);
+    }
+
+    /// Sets the gains version.
+    pub fn set_gains_version(&self, value: u64) {
+        self.gains_version.store(value, Ordering::Relaxed);
+    }
+
+    /// Sets the feature error (px).
+    pub fn set_feature_error_px(&self, value: f64) {
+        self.feature_error_bits.store(value.to_bits(), Ordering::Relaxed);
+    }
+}
+
+/// One cycle's timings (ns); zero where a timing does not apply.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct CycleSample {
+    /// From the deadline (or the input's send time) to the wake-up.
+    pub wake_latency_ns: u64,
+    /// From the wake-up to the output.
+    pub execution_ns: u64,
+    /// plant: from publishing the state to the answer's arrival.
+    pub round_trip_ns: u64,
+}
+
+/// The hot loop's handle: record a cycle, bump a counter.
+#[derive(Debug, Clone)]
+pub struct LoopMonitor {
+    samples: Sender<CycleSample>,
+    counters: Arc<Counters>,
+}
+
+impl LoopMonitor {
+    /// Records one cycle. Never blocks: if the telemetry thread has fallen behind, the sample is dropped.
+    pub fn record(&self, sample: CycleSample) {
+        Counters::add(&self.counters.cycles, 1);
+        if let Err(TrySendError::Full(_)) = self.samples.try_send(sample) {
+            // the window's percentiles lose a sample; the counters stay exact
+        }
+    }
+
+    /// The counters.
+    pub fn counters(&self) -> &Counters {
+        &self.counters
+    }
+}
+
+/// The telemetry thread of one node.
+#[derive(Debug)]
+pub struct TelemetryThread {
+    stop: Arc<AtomicBool>,
+    handle: Option<JoinHandle<()>>,
+}
+
+impl TelemetryThread {
+    /// Starts the thread (call before the calling thread raises its own priority: threads inherit it).
+    pub fn spawn(instance: &str, role: NodeRole, period_s: f64) -> Result<(Self, LoopMonitor), RuntimeError> {
+        let (samples, receiver) = crossbeam_channel::bounded(8192);
+        let counters = Arc::new(Counters::default());
+        counters.set_feature_error_px(f64::NAN);
+        let stop = Arc::new(AtomicBool::new(false));
+        let (ready_tx, ready_rx) = crossbeam_channel::bounded::<Result<(), RuntimeError>>(1);
+        let (instance, thread_counters, thread_stop) = (instance.to_string(), counters.clone(), stop.clone());
+        let period_ns = (period_s * 1e9) as u64;
+        let handle = std::thread::Builder::new()
+            .name(format!("{}-telemetry", role.name()))
+            .spawn(move || {
+                let publisher =
+                    vservo_protocol::create_node(&instance, &format!("{}-telemetry", role.name())).and_then(
+                        |node| {
+                            vservo_protocol::publisher::<TelemetryMsg>(&node, &instance, Topic::Telemetry)
+                                .map(|p| (node, p))
+                        },
+                    );
+                match publisher {
+                    Ok((_node, publisher)) => {
+                        let _ = ready_tx.send(Ok(()));
+                        publish_loop(&publisher, role, period_ns, &receiver, &thread_counters, &thread_stop);
+                    }
+                    Err(e) => {
+                        let _ = ready_tx.send(Err(e.into()));
+                    }
+                }
+            })
+            .map_err(|e| RuntimeError::Thread(e.to_string()))?;
+        match ready_rx.recv() {
+            Ok(Ok(())) => {}
+            Ok(Err(e)) => return Err(e),
+            Err(_) => {
+                return Err(RuntimeError::Thread("the telemetry thread ended before it started".into()));
+            }
+        }
+        Ok((Self { stop, handle: Some(handle) }, LoopMonitor { samples, counters }))
+    }
+}
+
+impl Drop for TelemetryThread {
+    fn drop(&mut self) {
+        self.stop.store(true, Ordering::Relaxed);
+        if let Some(handle) = self.handle.take() {
+            let _ = handle.join();
+        }
+    }
+}
+
+fn new_histogram() -> Option<Histogram<u64>> {
+    // 1 ns to 60 s at three significant digits: allocated once
+    Histogram::new_with_bounds(1, 60_000_000_000, 3).ok()
+}
+
+fn timing(histogram: &Histogram<u64>) -> TimingMsg {
+    if histogram.is_empty() {
+        return TimingMsg::default();
+    }
+    TimingMsg {
+        count: histogram.len(),
+        p50_ns: histogram.value_at_quantile(0.5),
+        p99_ns: histogram.value_at_quantile(0.99),
+        p999_ns: histogram.value_at_quantile(0.999),
+        max_ns: histogram.max(),
+    }
+}
+
+fn publish_loop(
+    publisher: &iceoryx2::port::publisher::Publisher<iceoryx2::prelude::ipc::Service, TelemetryMsg, ()>,
+    role: NodeRole,
+    period_ns: u64,
+    receiver: &Receiver<CycleSample>,
+    counters: &Counters,
+    stop: &AtomicBool,
+) {
+    let (Some(mut wake), Some(mut execution), Some(mut round_trip)) =
+        (new_histogram(), new_histogram(), new_histogram())
+    else {
+        return;
+    };
+    let mut timer = PeriodicTimer::start(period_ns);
+    let mut window_start = monotonic_ns();
+    let pid = std::process::id();
+    while !stop.load(Ordering::Relaxed) {
+        timer.wait();
+        for sample in receiver.try_iter() {
+            wake.saturating_record(sample.wake_latency_ns.max(1));
+            execution.saturating_record(sample.execution_ns.max(1));
+            if sample.round_trip_ns > 0 {
+                round_trip.saturating_record(sample.round_trip_ns);
+            }
+        }
+        let now = monotonic_ns();
+        let message = TelemetryMsg {
+            schema: SCHEMA_VERSION,
+            node: role as u32,
+            stamp_ns: now,
+            window_ns: now - window_start,
+            cycles: counters.cycles.load(Ordering::Relaxed),
+            overruns: counters.overruns.load(Ordering::Relaxed),
+            skipped_periods: counters.skipped_periods.load(Ordering::Relaxed),
+            late_answers: counters.late_answers.load(Ordering::Relaxed),
+            rejected_messages: counters.rejected_messages.load(Ordering::Relaxed),
+            gains_version: counters.gains_version.load(Ordering::Relaxed),
+            progress: counters.progress.load(Ordering::Relaxed),
+            wake_latency: timing(&wake),
+            execution: timing(&execution),
+            round_trip: timing(&round_trip),
+            feature_error_px: f64::from_bits(counters.feature_error_bits.load(Ordering::Relaxed)),
+            pid,
+            mode: counters.mode.load(Ordering::Relaxed),
+        };
+        if let Ok(sample) = publisher.loan_uninit() {
+            let _ = sample.write_payload(message).send();
+        }
+        wake.reset();
+        execution.reset();
+        round_trip.reset();
+        window_start = now;
+    }
+}

@@ -1,0 +1,437 @@
+//! The supervisor: starts the nodes, restarts crashed ones, reports status, stops the arm safely.
+
+use std::os::unix::process::{CommandExt, ExitStatusExt};
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+use std::sync::atomic::Ordering;
+use std::time::{Duration, Instant};
+
+use anyhow::Context;
+use iceoryx2::port::publisher::Publisher;
+use iceoryx2::port::subscriber::Subscriber;
+use iceoryx2::prelude::ipc;
+use nix::sys::signal::{Signal, kill};
+use nix::unistd::Pid;
+use vservo_config::Config;
+use vservo_protocol::{
+    CameraTwistMsg, DaemonStatusMsg, JointStateMsg, JointTorqueMsg, NodeRole, NodeStatusMsg, SCHEMA_VERSION,
+    TelemetryMsg, Topic, daemon_state, node_state,
+};
+use vservo_runtime::clock::{PeriodicTimer, monotonic_ns};
+use vservo_runtime::status::StatusView;
+
+use crate::systemd::Systemd;
+
+/// The supervisor's cycle.
+const CYCLE: Duration = Duration::from_millis(50);
+/// A node whose telemetry is older than this is not healthy.
+const TELEMETRY_STALE: Duration = Duration::from_millis(500);
+/// A node that ran this long healthy has its restart backoff reset.
+const STABLE_AFTER: Duration = Duration::from_secs(10);
+/// The arm is at rest when the rmrc's reference has stopped and no joint moves faster than this (rad/s):
+/// the joint servo's last corrections (friction) stay below it.
+const AT_REST_RAD_S: f64 = 0.01;
+
+/// One supervised node.
+struct Supervised {
+    role: NodeRole,
+    process: Option<Child>,
+    state: u32,
+    restarts: u64,
+    backoff: Duration,
+    restart_at: Option<Instant>,
+    started_at: Instant,
+    last_exit: i32,
+    telemetry: Option<TelemetryMsg>,
+    telemetry_at: Option<Instant>,
+}
+
+impl Supervised {
+    fn healthy(&self, now: Instant) -> bool {
+        self.process.is_some()
+            && self.telemetry_at.is_some_and(|at| now.duration_since(at) < TELEMETRY_STALE)
+            && self.telemetry.is_some_and(|t| t.pid == self.pid())
+    }
+
+    fn pid(&self) -> u32 {
+        self.process.as_ref().map_or(0, Child::id)
+    }
+
+    fn signal(&self, signal: Signal) {
+        if let Some(child) = &self.process {
+            let _ = kill(Pid::from_raw(child.id() as i32), signal);
+        }
+    }
+}
+
+/// What the daemon needs to start a node.
+struct Launcher {
+    executable: PathBuf,
+    config_path: PathBuf,
+}
+
+impl Launcher {
+    fn spawn(&self, role: NodeRole, resume: Option<&JointStateMsg>) -> std::io::Result<Child> {
+        let mut command = Command::new(&self.executable);
+        command.arg("--config").arg(&self.config_path).arg("node").arg(role.name());
+        if let Some(state) = resume {
+            let q: Vec<String> = state.q_rad.iter().map(|v| format!("{v:e}")).collect();
+            command.arg("--resume-q").arg(q.join(",")).arg("--resume-tick").arg((state.tick + 1).to_string());
+        }
+        command
+            .stdin(Stdio::null())
+            // only the daemon talks to systemd
+            .env_remove("NOTIFY_SOCKET")
+            .env_remove("WATCHDOG_USEC")
+            .env_remove("WATCHDOG_PID")
+            // a terminal's Ctrl-C reaches the daemon only; it stops the nodes in order
+            .process_group(0)
+            .spawn()
+    }
+}
+
+struct Ports {
+    telemetry: Subscriber<ipc::Service, TelemetryMsg, ()>,
+    joint_state: Subscriber<ipc::Service, JointStateMsg, ()>,
+    twist: Subscriber<ipc::Service, CameraTwistMsg, ()>,
+    command: Subscriber<ipc::Service, JointTorqueMsg, ()>,
+    status: Publisher<ipc::Service, DaemonStatusMsg, ()>,
+}
+
+/// What the daemon has heard from the loop.
+#[derive(Default)]
+struct Heard {
+    joint_state: Option<JointStateMsg>,
+    command: Option<JointTorqueMsg>,
+    gains_version: u64,
+    feature_error_px: f64,
+    /// (stamp, tick) a second ago, for the tick rate.
+    rate_base: Option<(u64, u64)>,
+    tick_rate_hz: f64,
+}
+
+impl Heard {
+    fn drain(&mut self, ports: &Ports, nodes: &mut [Supervised]) {
+        while let Ok(Some(sample)) = ports.joint_state.receive() {
+            if sample.schema == SCHEMA_VERSION {
+                self.joint_state = Some(*sample);
+            }
+        }
+        while let Ok(Some(sample)) = ports.command.receive() {
+            if sample.schema == SCHEMA_VERSION {
+                self.command = Some(*sample);
+            }
+        }
+        while let Ok(Some(sample)) = ports.twist.receive() {
+            if sample.schema == SCHEMA_VERSION {
+                self.gains_version = sample.gains_version;
+                self.feature_error_px = sample.feature_error_px;
+            }
+        }
+        let now = Instant::now();
+        while let Ok(Some(sample)) = ports.telemetry.receive() {
+            let Some(role) = NodeRole::from_index(sample.node).filter(|_| sample.schema == SCHEMA_VERSION)
+            else {
+                continue;
+            };
+            if let Some(node) = nodes.iter_mut().find(|n| n.role == role) {
+                node.telemetry = Some(*sample);
+                node.telemetry_at = Some(now);
+            }
+        }
+        if let Some(state) = &self.joint_state {
+            match self.rate_base {
+                Some((stamp, tick)) if state.stamp_ns >= stamp + 1_000_000_000 => {
+                    let seconds = (state.stamp_ns - stamp) as f64 / 1e9;
+                    self.tick_rate_hz = state.tick.saturating_sub(tick) as f64 / seconds;
+                    self.rate_base = Some((state.stamp_ns, state.tick));
+                }
+                Some(_) => {}
+                None => self.rate_base = Some((state.stamp_ns, state.tick)),
+            }
+        }
+    }
+}
+
+fn exit_code(status: std::process::ExitStatus) -> i32 {
+    status.code().unwrap_or_else(|| -status.signal().unwrap_or(0))
+}
+
+/// Runs the daemon until SIGTERM/SIGINT.
+pub fn run(config_path: &Path, status_every_s: f64) -> anyhow::Result<()> {
+    let (stop, reload) = crate::stop_and_reload_flags()?;
+    let config = Config::load(config_path)?;
+    // design the gains and place the arm now: a configuration that cannot run is refused before any node starts
+    vservo_cell::Cell::new(&config).with_context(|| format!("{}", config_path.display()))?;
+    let instance = config.instance.clone();
+    let launcher = Launcher {
+        executable: std::env::current_exe().context("finding the vservod executable")?,
+        config_path: config_path
+            .canonicalize()
+            .with_context(|| format!("{}: resolving the path", config_path.display()))?,
+    };
+    let node = vservo_protocol::create_node(&instance, "daemon")?;
+    let cleaned = vservo_protocol::cleanup_dead_nodes(&node);
+    if cleaned > 0 {
+        tracing::info!(instance, cleaned, "removed the leftovers of dead nodes of an earlier run");
+    }
+    let ports = Ports {
+        telemetry: vservo_protocol::subscriber(&node, &instance, Topic::Telemetry)?,
+        joint_state: vservo_protocol::subscriber(&node, &instance, Topic::JointState)?,
+        twist: vservo_protocol::subscriber(&node, &instance, Topic::CameraTwist)?,
+        command: vservo_protocol::subscriber(&node, &instance, Topic::JointTorque)?,
+        status: vservo_protocol::publisher(&node, &instance, Topic::Status)?,
+    };
+    let daemon_started = monotonic_ns();
+    let mut systemd = Systemd::new();
+    let runtime = &config.runtime;
+    let initial_backoff = Duration::from_secs_f64(runtime.restart_backoff_initial_s);
+    let max_backoff = Duration::from_secs_f64(runtime.restart_backoff_max_s);
+
+    tracing::info!(instance, config = %launcher.config_path.display(), "starting the nodes");
+    let mut nodes: Vec<Supervised> = Vec::new();
+    for role in NodeRole::ALL {
+        let process =
+            launcher.spawn(role, None).with_context(|| format!("starting the {} node", role.name()))?;
+        nodes.push(Supervised {
+            role,
+            process: Some(process),
+            state: node_state::RUNNING,
+            restarts: 0,
+            backoff: initial_backoff,
+            restart_at: None,
+            started_at: Instant::now(),
+            last_exit: 0,
+            telemetry: None,
+            telemetry_at: None,
+        });
+    }
+
+    let mut heard = Heard { feature_error_px: f64::NAN, ..Heard::default() };
+    let mut timer = PeriodicTimer::start(CYCLE.as_nanos() as u64);
+    let mut last_report = Instant::now();
+    let mut last_watchdog = Instant::now();
+    let mut ever_ready = false;
+    while !stop.load(Ordering::Relaxed) {
+        timer.wait();
+        let now = Instant::now();
+        if reload.swap(false, Ordering::Relaxed) {
+            tracing::warn!(
+                "SIGHUP: live reload is not available in this version; the running configuration stays"
+            );
+        }
+        // reap, then restart what is due
+        let mut lost = false;
+        for n in nodes.iter_mut() {
+            if let Some(child) = &mut n.process
+                && let Ok(Some(status)) = child.try_wait()
+            {
+                n.process = None;
+                n.last_exit = exit_code(status);
+                n.state = node_state::BACKING_OFF;
+                if now.duration_since(n.started_at) > STABLE_AFTER {
+                    n.backoff = initial_backoff;
+                }
+                n.restart_at = Some(now + n.backoff);
+                tracing::warn!(
+                    node = n.role.name(),
+                    exit = n.last_exit,
+                    restart_in_s = n.backoff.as_secs_f64(),
+                    "{}",
+                    match n.role {
+                        NodeRole::Plant =>
+                            "node lost: the arm stopped with it; restarting it at rest where it was",
+                        NodeRole::Rmrc => "node lost: the plant holds the arm until it is back",
+                        _ => "node lost: without fresh twists the rmrc ramps the arm to rest",
+                    }
+                );
+                n.backoff = (n.backoff * 2).min(max_backoff);
+                lost = true;
+            }
+        }
+        if lost {
+            let cleaned = vservo_protocol::cleanup_dead_nodes(&node);
+            tracing::info!(cleaned, "removed the shared-memory leftovers of dead nodes");
+        }
+        heard.drain(&ports, &mut nodes);
+        for n in nodes.iter_mut() {
+            if n.process.is_none() && n.restart_at.is_some_and(|at| now >= at) {
+                let resume = if n.role == NodeRole::Plant { heard.joint_state.as_ref() } else { None };
+                match launcher.spawn(n.role, resume) {
+                    Ok(child) => {
+                        n.process = Some(child);
+                        n.state = node_state::RUNNING;
+                        n.restarts += 1;
+                        n.restart_at = None;
+                        n.started_at = now;
+                        tracing::info!(node = n.role.name(), restarts = n.restarts, "restarted");
+                    }
+                    Err(e) => {
+                        tracing::error!(node = n.role.name(), "restart failed: {e}");
+                        n.restart_at = Some(now + n.backoff);
+                    }
+                }
+            }
+        }
+
+        let all_healthy = nodes.iter().all(|n| n.healthy(now));
+        let state = match (all_healthy, ever_ready) {
+            (true, _) => daemon_state::RUNNING,
+            (false, false) => daemon_state::STARTING,
+            (false, true) => daemon_state::DEGRADED,
+        };
+        let message = status_message(&nodes, &heard, state, daemon_started, now);
+        if let Ok(sample) = ports.status.loan_uninit() {
+            let _ = sample.write_payload(message).send();
+        }
+        let telemetry = telemetry_of(&nodes);
+        let view = StatusView::new(&instance, &message, &telemetry);
+        if all_healthy && !ever_ready {
+            ever_ready = true;
+            systemd.ready(&view.one_line());
+            tracing::info!("ready: every node runs");
+        }
+        if let Some(every) = systemd.watchdog_every
+            && all_healthy
+            && now.duration_since(last_watchdog) >= every
+        {
+            systemd.watchdog();
+            last_watchdog = now;
+        }
+        if status_every_s > 0.0 && now.duration_since(last_report).as_secs_f64() >= status_every_s {
+            last_report = now;
+            let line = view.one_line();
+            systemd.status(&line);
+            tracing::info!("{line}");
+        }
+    }
+
+    stop_safely(&mut nodes, &ports, &mut heard, &mut systemd, runtime.stop_timeout_s);
+    let cleaned = vservo_protocol::cleanup_dead_nodes(&node);
+    if cleaned > 0 {
+        tracing::info!(cleaned, "removed the leftovers of nodes that did not stop cleanly");
+    }
+    tracing::info!("stopped");
+    Ok(())
+}
+
+fn telemetry_of(nodes: &[Supervised]) -> [Option<TelemetryMsg>; 4] {
+    let mut out = [None; 4];
+    for n in nodes {
+        out[n.role as usize] = n.telemetry.filter(|t| t.pid == n.pid());
+    }
+    out
+}
+
+fn status_message(
+    nodes: &[Supervised],
+    heard: &Heard,
+    state: u32,
+    daemon_started: u64,
+    now: Instant,
+) -> DaemonStatusMsg {
+    let stamp_ns = monotonic_ns();
+    let mut statuses = [NodeStatusMsg::default(); 4];
+    for n in nodes {
+        statuses[n.role as usize] = NodeStatusMsg {
+            restarts: n.restarts,
+            last_telemetry_ns: n.telemetry.map_or(0, |t| t.stamp_ns),
+            state: n.state,
+            pid: n.pid(),
+            last_exit: n.last_exit,
+            healthy: u32::from(n.healthy(now)),
+        };
+    }
+    DaemonStatusMsg {
+        schema: SCHEMA_VERSION,
+        state,
+        stamp_ns,
+        uptime_ns: stamp_ns - daemon_started,
+        gains_version: heard.gains_version,
+        nodes: statuses,
+        tick_rate_hz: heard.tick_rate_hz,
+        feature_error_px: heard.feature_error_px,
+        pid: std::process::id(),
+        reserved: 0,
+    }
+}
+
+fn wait_for_exit(node: &mut Supervised, timeout: Duration) -> bool {
+    let until = Instant::now() + timeout;
+    while let Some(child) = &mut node.process {
+        match child.try_wait() {
+            Ok(Some(status)) => {
+                node.last_exit = exit_code(status);
+                node.process = None;
+            }
+            _ if Instant::now() >= until => return false,
+            _ => std::thread::sleep(Duration::from_millis(5)),
+        }
+    }
+    node.state = node_state::STOPPED;
+    true
+}
+
+/// Stops the servo and vision (the servo's last twist is zero), lets the rmrc ramp the arm to rest at its
+/// acceleration limits, then stops the rmrc and the plant. Nodes that do not exit in time are killed.
+fn stop_safely(
+    nodes: &mut [Supervised],
+    ports: &Ports,
+    heard: &mut Heard,
+    systemd: &mut Systemd,
+    timeout_s: f64,
+) {
+    systemd.stopping();
+    tracing::info!("stopping: zero twist, ramping the arm to rest");
+    let started = Instant::now();
+    let by_role = |role: NodeRole| nodes.iter().position(|n| n.role == role);
+    let outer = [by_role(NodeRole::Servo), by_role(NodeRole::Vision)];
+    let inner = [by_role(NodeRole::Rmrc), by_role(NodeRole::Plant)];
+    for &i in outer.iter().flatten() {
+        nodes[i].signal(Signal::SIGTERM);
+    }
+    for &i in outer.iter().flatten() {
+        if !wait_for_exit(&mut nodes[i], Duration::from_millis(400)) {
+            nodes[i].signal(Signal::SIGKILL);
+            wait_for_exit(&mut nodes[i], Duration::from_millis(100));
+        }
+    }
+    // the arm comes to rest under the rmrc while the plant runs
+    let loop_alive = inner.iter().flatten().all(|&i| nodes[i].process.is_some());
+    let deadline = started + Duration::from_secs_f64(timeout_s);
+    let fastest = |v: &[f64; 6]| v.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+    let mut at_rest = !loop_alive;
+    let mut speeds = (f64::NAN, f64::NAN);
+    while loop_alive && Instant::now() < deadline {
+        std::thread::sleep(Duration::from_millis(10));
+        heard.drain(ports, nodes);
+        if let (Some(state), Some(command)) = (&heard.joint_state, &heard.command) {
+            speeds = (fastest(&command.qd_ref_rad_s), fastest(&state.qd_rad_s));
+            if speeds.0 == 0.0 && speeds.1 < AT_REST_RAD_S {
+                at_rest = true;
+                break;
+            }
+        }
+    }
+    if at_rest {
+        tracing::info!(
+            after_s = started.elapsed().as_secs_f64(),
+            joint_speed_rad_s = speeds.1,
+            "the arm is at rest"
+        );
+    } else {
+        tracing::warn!(
+            timeout_s,
+            reference_speed_rad_s = speeds.0,
+            joint_speed_rad_s = speeds.1,
+            "the arm did not come to rest in time; stopping the drives anyway (the plant holds it)"
+        );
+    }
+    for &i in inner.iter().flatten() {
+        nodes[i].signal(Signal::SIGTERM);
+        if !wait_for_exit(&mut nodes[i], Duration::from_millis(300)) {
+            nodes[i].signal(Signal::SIGKILL);
+            wait_for_exit(&mut nodes[i], Duration::from_millis(100));
+        }
+    }
+}
