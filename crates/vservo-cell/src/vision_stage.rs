@@ -8,6 +8,10 @@ use vservo_scene::{Board, CameraIntrinsics, FeatureVector, IsometryMatrix3, MARK
 use vservo_vision::source::SimulatedCamera;
 use vservo_vision::{Extraction, Extractor, Prediction};
 
+/// After this many frames in a row with a mark missing, the tracker gives up its prediction and matches
+/// the layout again.
+pub const RELOCK_AFTER_FRAMES: u32 = 3;
+
 /// A frame leaving the image pipeline: what the servo sees now.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct DeliveredFrame {
@@ -44,6 +48,8 @@ pub struct VisionStage {
     extractor: Extractor,
     /// The latest known position of each mark, once all four have been found.
     tracked: Option<FeatureVector>,
+    /// Frames in a row with a mark missing.
+    frames_with_a_mark_missing: u32,
     pipeline: VecDeque<DeliveredFrame>,
     delay_frames: usize,
 }
@@ -64,8 +70,67 @@ impl VisionStage {
                 config.camera.height_px(),
             ),
             tracked: None,
+            frames_with_a_mark_missing: 0,
             pipeline: VecDeque::with_capacity(delay_frames + 1),
             delay_frames,
+        }
+    }
+
+    /// Updates the prediction for the next frame. A found mark is predicted where it was found; a missing
+    /// one moves with the mean displacement of the found ones (so it is looked for where the image has
+    /// shifted to). When a mark has been missing for [`RELOCK_AFTER_FRAMES`] frames in a row, or none was
+    /// found, tracking is dropped and the next frame matches the layout again: a stale prediction would
+    /// otherwise keep a mark lost for good while the servo, missing it, holds the arm still.
+    fn update_tracking(&mut self, captured: &Extraction) {
+        if captured.all_valid() {
+            self.frames_with_a_mark_missing = 0;
+            self.tracked = Some(captured.features);
+            return;
+        }
+        self.frames_with_a_mark_missing += 1;
+        let Some(mut known) = self.tracked else { return };
+        let (mut shift, mut found) = (nalgebra::Vector2::zeros(), 0.0);
+        for mark in (0..MARKS).filter(|&m| captured.status[m].is_valid()) {
+            let now = nalgebra::Vector2::new(captured.features[2 * mark], captured.features[2 * mark + 1]);
+            shift += now - nalgebra::Vector2::new(known[2 * mark], known[2 * mark + 1]);
+            found += 1.0;
+        }
+        if found == 0.0 || self.frames_with_a_mark_missing >= RELOCK_AFTER_FRAMES {
+            self.tracked = None;
+            return;
+        }
+        shift /= found;
+        for mark in 0..MARKS {
+            if captured.status[mark].is_valid() {
+                known[2 * mark] = captured.features[2 * mark];
+                known[2 * mark + 1] = captured.features[2 * mark + 1];
+            } else {
+                known[2 * mark] += shift.x;
+                known[2 * mark + 1] += shift.y;
+            }
+        }
+        self.tracked = Some(known);
+    }
+
+    /// Starts tracking from known mark positions instead of matching the layout: a restarted vision node
+    /// takes them from the last features published before it (matching the layout alone is ambiguous for
+    /// a nearly point-symmetric set of marks far from the desired pose).
+    pub fn resume_tracking(&mut self, features: &FeatureVector) {
+        if features.iter().all(|v| v.is_finite()) {
+            self.tracked = Some(*features);
+        }
+    }
+
+    /// The frame that leaves the pipeline at the start of this frame period, before this period's image is
+    /// taken: with a pipeline delay of d ≥ 1 frames, the one captured d frames ago, whose processing is done.
+    /// A real-time shell publishes it at once, so that the processing time of the new image does not add to
+    /// the loop's delay. `None` with no delay (the frame must be processed first) or before the pipeline
+    /// is full. After this call, [`VisionStage::capture`] delivers nothing for the same period.
+    pub fn take_delivered(&mut self) -> Option<DeliveredFrame> {
+        if self.delay_frames > 0 && self.pipeline.len() >= self.delay_frames {
+            self.pipeline.pop_front()
+        } else {
+            None
         }
     }
 
@@ -86,17 +151,7 @@ impl VisionStage {
             None => Prediction::Layout(self.layout),
         };
         let captured = self.extractor.extract(image, &prediction);
-        // track from the latest known position of each mark
-        self.tracked = match self.tracked {
-            Some(mut known) => {
-                for mark in (0..MARKS).filter(|&m| captured.status[m].is_valid()) {
-                    known[2 * mark] = captured.features[2 * mark];
-                    known[2 * mark + 1] = captured.features[2 * mark + 1];
-                }
-                Some(known)
-            }
-            None => captured.all_valid().then_some(captured.features),
-        };
+        self.update_tracking(&captured);
         let truth = self
             .intrinsics
             .project_marks(&self.board, &camera_from_board)
@@ -105,5 +160,74 @@ impl VisionStage {
         let delivered =
             (self.pipeline.len() > self.delay_frames).then(|| self.pipeline.pop_front()).flatten();
         VisionFrame { captured, truth, base_from_camera, delivered }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::Cell;
+
+    fn stage_and_poses() -> (VisionStage, Vec<(u64, JointVector)>, IsometryMatrix3<f64>) {
+        let config =
+            vservo_config::Config::load(concat!(env!("CARGO_MANIFEST_DIR"), "/../../config/vservo.toml"))
+                .expect("the default config loads");
+        let cell = Cell::new(&config).expect("the default cell");
+        let q0 = *cell.start_joints();
+        let poses = (0..6u64).map(|k| (85 * k, q0 + JointVector::from_element(0.002 * k as f64))).collect();
+        (cell.vision(), poses, cell.plant().base_from_board())
+    }
+
+    fn extraction(features: [f64; 8], missing: &[usize]) -> Extraction {
+        let mut status = [vservo_vision::MarkStatus::Valid; MARKS];
+        let mut features = FeatureVector::from(features);
+        for &m in missing {
+            status[m] = vservo_vision::MarkStatus::NotFound;
+            features[2 * m] = f64::NAN;
+            features[2 * m + 1] = f64::NAN;
+        }
+        Extraction { features, status, extra_blobs: 0, threshold: 128 }
+    }
+
+    #[test]
+    fn a_missing_mark_moves_with_the_found_ones_and_the_layout_is_matched_again_after_three_frames() {
+        let (mut stage, _, _) = stage_and_poses();
+        let first = [100.0, 100.0, 200.0, 100.0, 200.0, 200.0, 100.0, 200.0];
+        stage.update_tracking(&extraction(first, &[]));
+        // the image shifts by (+4, −2); mark 1 is not found
+        let shifted: [f64; 8] = std::array::from_fn(|i| first[i] + if i % 2 == 0 { 4.0 } else { -2.0 });
+        stage.update_tracking(&extraction(shifted, &[1]));
+        let tracked = stage.tracked.expect("still tracking");
+        assert_eq!(tracked[2], 204.0);
+        assert_eq!(tracked[3], 98.0);
+        stage.update_tracking(&extraction(shifted, &[1]));
+        assert!(stage.tracked.is_some());
+        stage.update_tracking(&extraction(shifted, &[1]));
+        assert_eq!(stage.tracked, None, "three frames with a mark missing: match the layout again");
+        // none found at all: match the layout at once
+        stage.update_tracking(&extraction(first, &[]));
+        stage.update_tracking(&extraction(first, &[0, 1, 2, 3]));
+        assert_eq!(stage.tracked, None);
+    }
+
+    #[test]
+    fn delivering_at_the_start_of_a_period_gives_the_same_frames_as_after_the_capture() {
+        let (mut after, poses, board) = stage_and_poses();
+        let mut before = after.clone();
+        let (mut late, mut early) = (Vec::new(), Vec::new());
+        for (frame, (tick, q)) in poses.iter().enumerate() {
+            late.extend(after.capture(frame as u64, *tick, q, &board).delivered);
+            early.extend(before.take_delivered());
+            let taken = before.capture(frame as u64, *tick, q, &board);
+            assert_eq!(taken.delivered, None, "the period's frame was already taken");
+        }
+        // the last frame of the early shell leaves at the next period's start
+        early.extend(before.take_delivered());
+        late.extend(
+            after.capture(poses.len() as u64, 85 * poses.len() as u64, &poses[0].1, &board).delivered,
+        );
+        assert_eq!(early.len(), poses.len());
+        assert_eq!(early, late);
+        assert_eq!(early[0].frame, 0);
     }
 }

@@ -223,6 +223,23 @@ pub fn cleanup_dead_nodes(node: &Node<ipc::Service>) -> u64 {
     node.try_cleanup_dead_nodes().cleanups
 }
 
+/// The process ids of the live nodes of the instance called `vservo/<instance>/<role>`.
+pub fn live_node_pids(node: &Node<ipc::Service>, instance: &str, role: &str) -> Vec<u32> {
+    use iceoryx2::node::NodeView;
+    let wanted = node_name(instance, role);
+    let mut pids = Vec::new();
+    let _ = Node::<ipc::Service>::list(node.config(), |state| {
+        if let NodeState::Alive(view) = &state
+            && let Some(details) = view.details()
+            && details.name().as_str() == wanted
+        {
+            pids.push(details.process_id().value() as u32);
+        }
+        CallbackProgression::Continue
+    });
+    pids
+}
+
 /// The node name of a vservo process: `vservo/<instance>/<role>`.
 pub fn node_name(instance: &str, role: &str) -> String {
     format!("vservo/{instance}/{role}")

@@ -48,6 +48,8 @@ pub struct NodeContext {
     /// plant only: start at rest at these joints and this tick (a restart after a crash) instead of the
     /// scenario's start.
     pub resume: Option<(JointVector, u64)>,
+    /// vision only: track the marks from these features (the last published before a restart).
+    pub resume_features: Option<vservo_scene::FeatureVector>,
 }
 
 impl NodeContext {

@@ -1,17 +1,20 @@
 //! # vservoctl — the vservo command-line tool
 //!
 //! Owns the user-facing commands that inspect vservo's models (and, as the project grows, its gains and a
-//! running daemon). Each subcommand lives in its own module; input errors are reported as
+//! running instance). Each subcommand lives in its own module; input errors are reported as
 //! [`UsageError`] and end with exit code 2, other failures with exit code 1.
 
 mod config_arg;
+mod echo;
 mod gains;
+mod instance;
 mod joint_args;
 mod model;
 mod output;
 mod plots;
 mod sim;
 mod stability;
+mod status;
 mod vision;
 
 use std::process::ExitCode;
@@ -42,6 +45,10 @@ enum Command {
     Vision(vision::VisionArgs),
     /// Run a scenario in the lockstep simulator and write its summary, data and plots.
     Sim(sim::SimArgs),
+    /// The state of a running instance: nodes, restarts, loop timing, feature error, gains version.
+    Status(status::StatusArgs),
+    /// Print a running instance's messages on one topic as JSON lines.
+    Echo(echo::EchoArgs),
 }
 
 fn main() -> ExitCode {
@@ -52,6 +59,8 @@ fn main() -> ExitCode {
         Command::Stability(args) => stability::run(&args),
         Command::Vision(args) => vision::run(&args),
         Command::Sim(args) => sim::run(&args),
+        Command::Status(args) => status::run(&args),
+        Command::Echo(args) => echo::run(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

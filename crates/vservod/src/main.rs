@@ -13,7 +13,7 @@ mod systemd;
 use std::path::PathBuf;
 use std::process::ExitCode;
 use std::sync::Arc;
-use std::sync::atomic::AtomicBool;
+use std::sync::atomic::{AtomicBool, Ordering};
 
 use anyhow::Context;
 use clap::{Parser, Subcommand};
@@ -59,25 +59,43 @@ fn init_logging() {
     }
 }
 
-/// SIGTERM and SIGINT set the returned flag; SIGHUP sets the second (reload request).
+/// SIGTERM and SIGINT set the first flag; SIGHUP sets the second (a reload request).
+///
+/// The signals are blocked in every thread and taken synchronously by one thread (sigwait), so no signal
+/// handler is involved: iceoryx2 installs its own handlers when it first needs them (zeroing new shared
+/// memory, for one), which would silently replace ours. Call this before any other thread starts: threads
+/// inherit the mask.
 fn stop_and_reload_flags() -> anyhow::Result<(Arc<AtomicBool>, Arc<AtomicBool>)> {
-    use signal_hook::consts::{SIGHUP, SIGINT, SIGTERM};
+    use nix::sys::signal::{SigSet, Signal};
     let stop = Arc::new(AtomicBool::new(false));
     let reload = Arc::new(AtomicBool::new(false));
-    for signal in [SIGTERM, SIGINT] {
-        signal_hook::flag::register(signal, stop.clone()).context("installing the SIGTERM/SIGINT handler")?;
+    let mut signals = SigSet::empty();
+    for signal in [Signal::SIGTERM, Signal::SIGINT, Signal::SIGHUP] {
+        signals.add(signal);
     }
-    signal_hook::flag::register(SIGHUP, reload.clone()).context("installing the SIGHUP handler")?;
+    signals.thread_block().context("blocking SIGTERM, SIGINT and SIGHUP")?;
+    let (stop_flag, reload_flag) = (stop.clone(), reload.clone());
+    std::thread::Builder::new()
+        .name("signals".into())
+        .spawn(move || {
+            while let Ok(signal) = signals.wait() {
+                match signal {
+                    Signal::SIGHUP => reload_flag.store(true, Ordering::Relaxed),
+                    _ => stop_flag.store(true, Ordering::Relaxed),
+                }
+            }
+        })
+        .context("starting the signal thread")?;
     Ok((stop, reload))
 }
 
 fn main() -> ExitCode {
     init_logging();
     let cli = Cli::parse();
-    let result = match &cli.command {
-        Some(Command::Node(args)) => node_process::run(&cli.config, args),
-        None => supervisor::run(&cli.config, cli.status_every_s),
-    };
+    let result = stop_and_reload_flags().and_then(|(stop, reload)| match &cli.command {
+        Some(Command::Node(args)) => node_process::run(&cli.config, args, stop),
+        None => supervisor::run(&cli.config, cli.status_every_s, stop, reload),
+    });
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(error) => {

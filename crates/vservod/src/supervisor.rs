@@ -3,7 +3,8 @@
 use std::os::unix::process::{CommandExt, ExitStatusExt};
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
-use std::sync::atomic::Ordering;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
 use anyhow::Context;
@@ -14,8 +15,8 @@ use nix::sys::signal::{Signal, kill};
 use nix::unistd::Pid;
 use vservo_config::Config;
 use vservo_protocol::{
-    CameraTwistMsg, DaemonStatusMsg, JointStateMsg, JointTorqueMsg, NodeRole, NodeStatusMsg, SCHEMA_VERSION,
-    TelemetryMsg, Topic, daemon_state, node_state,
+    CameraTwistMsg, DaemonStatusMsg, FeaturesMsg, JointStateMsg, JointTorqueMsg, NodeRole, NodeStatusMsg,
+    SCHEMA_VERSION, TelemetryMsg, Topic, daemon_state, node_state,
 };
 use vservo_runtime::clock::{PeriodicTimer, monotonic_ns};
 use vservo_runtime::status::StatusView;
@@ -71,12 +72,23 @@ struct Launcher {
 }
 
 impl Launcher {
-    fn spawn(&self, role: NodeRole, resume: Option<&JointStateMsg>) -> std::io::Result<Child> {
+    fn spawn(&self, role: NodeRole, heard: Option<&Heard>) -> std::io::Result<Child> {
         let mut command = Command::new(&self.executable);
         command.arg("--config").arg(&self.config_path).arg("node").arg(role.name());
-        if let Some(state) = resume {
-            let q: Vec<String> = state.q_rad.iter().map(|v| format!("{v:e}")).collect();
-            command.arg("--resume-q").arg(q.join(",")).arg("--resume-tick").arg((state.tick + 1).to_string());
+        let list = |values: &[f64]| values.iter().map(|v| format!("{v:e}")).collect::<Vec<_>>().join(",");
+        match (role, heard) {
+            // the arm stopped where it was last seen
+            (NodeRole::Plant, Some(Heard { joint_state: Some(state), .. })) => {
+                command.arg(format!("--resume-q={}", list(&state.q_rad)));
+                command.arg(format!("--resume-tick={}", state.tick + 1));
+            }
+            // the marks are where the last frame saw them
+            (NodeRole::Vision, Some(Heard { features: Some(features), .. }))
+                if features.features_px.iter().all(|v| v.is_finite()) =>
+            {
+                command.arg(format!("--resume-features={}", list(&features.features_px)));
+            }
+            _ => {}
         }
         command
             .stdin(Stdio::null())
@@ -95,6 +107,7 @@ struct Ports {
     joint_state: Subscriber<ipc::Service, JointStateMsg, ()>,
     twist: Subscriber<ipc::Service, CameraTwistMsg, ()>,
     command: Subscriber<ipc::Service, JointTorqueMsg, ()>,
+    features: Subscriber<ipc::Service, FeaturesMsg, ()>,
     status: Publisher<ipc::Service, DaemonStatusMsg, ()>,
 }
 
@@ -103,6 +116,7 @@ struct Ports {
 struct Heard {
     joint_state: Option<JointStateMsg>,
     command: Option<JointTorqueMsg>,
+    features: Option<FeaturesMsg>,
     gains_version: u64,
     feature_error_px: f64,
     /// (stamp, tick) a second ago, for the tick rate.
@@ -120,6 +134,11 @@ impl Heard {
         while let Ok(Some(sample)) = ports.command.receive() {
             if sample.schema == SCHEMA_VERSION {
                 self.command = Some(*sample);
+            }
+        }
+        while let Ok(Some(sample)) = ports.features.receive() {
+            if sample.schema == SCHEMA_VERSION {
+                self.features = Some(*sample);
             }
         }
         while let Ok(Some(sample)) = ports.twist.receive() {
@@ -158,8 +177,12 @@ fn exit_code(status: std::process::ExitStatus) -> i32 {
 }
 
 /// Runs the daemon until SIGTERM/SIGINT.
-pub fn run(config_path: &Path, status_every_s: f64) -> anyhow::Result<()> {
-    let (stop, reload) = crate::stop_and_reload_flags()?;
+pub fn run(
+    config_path: &Path,
+    status_every_s: f64,
+    stop: Arc<AtomicBool>,
+    reload: Arc<AtomicBool>,
+) -> anyhow::Result<()> {
     let config = Config::load(config_path)?;
     // design the gains and place the arm now: a configuration that cannot run is refused before any node starts
     vservo_cell::Cell::new(&config).with_context(|| format!("{}", config_path.display()))?;
@@ -171,6 +194,15 @@ pub fn run(config_path: &Path, status_every_s: f64) -> anyhow::Result<()> {
             .with_context(|| format!("{}: resolving the path", config_path.display()))?,
     };
     let node = vservo_protocol::create_node(&instance, "daemon")?;
+    let others: Vec<u32> = vservo_protocol::live_node_pids(&node, &instance, "daemon")
+        .into_iter()
+        .filter(|pid| *pid != std::process::id())
+        .collect();
+    if !others.is_empty() {
+        anyhow::bail!(
+            "instance {instance:?} is already run by vservod (pid {others:?}); stop it first, or give this configuration another [instance] name"
+        );
+    }
     let cleaned = vservo_protocol::cleanup_dead_nodes(&node);
     if cleaned > 0 {
         tracing::info!(instance, cleaned, "removed the leftovers of dead nodes of an earlier run");
@@ -180,6 +212,7 @@ pub fn run(config_path: &Path, status_every_s: f64) -> anyhow::Result<()> {
         joint_state: vservo_protocol::subscriber(&node, &instance, Topic::JointState)?,
         twist: vservo_protocol::subscriber(&node, &instance, Topic::CameraTwist)?,
         command: vservo_protocol::subscriber(&node, &instance, Topic::JointTorque)?,
+        features: vservo_protocol::subscriber(&node, &instance, Topic::Features)?,
         status: vservo_protocol::publisher(&node, &instance, Topic::Status)?,
     };
     let daemon_started = monotonic_ns();
@@ -256,8 +289,7 @@ pub fn run(config_path: &Path, status_every_s: f64) -> anyhow::Result<()> {
         heard.drain(&ports, &mut nodes);
         for n in nodes.iter_mut() {
             if n.process.is_none() && n.restart_at.is_some_and(|at| now >= at) {
-                let resume = if n.role == NodeRole::Plant { heard.joint_state.as_ref() } else { None };
-                match launcher.spawn(n.role, resume) {
+                match launcher.spawn(n.role, Some(&heard)) {
                     Ok(child) => {
                         n.process = Some(child);
                         n.state = node_state::RUNNING;

@@ -1,6 +1,7 @@
 //! The vision node: on its own vision-period timer, images the board from the latest joint state.
 
 use vservo_arm::JointVector;
+use vservo_cell::DeliveredFrame;
 use vservo_protocol::{FeaturesMsg, JointStateMsg, MARKS, NodeRole, SCHEMA_VERSION, Topic, mark_status};
 use vservo_scene::IsometryMatrix3;
 use vservo_vision::MarkStatus;
@@ -56,11 +57,39 @@ pub fn run(context: &NodeContext) -> Result<(), RuntimeError> {
         tracing::warn!(node = "vision", "{warning}");
     }
     let mut stage = context.cell.vision();
+    if let Some(features) = &context.resume_features {
+        stage.resume_tracking(features);
+        tracing::info!(node = "vision", "tracking the marks from where they were last seen");
+    }
     let counters = monitor.counters();
     let period_ns = (config.timing.vision_period_s * 1e9).round() as u64;
     // the pipeline holds at most MAX_DELAY_FRAMES + 1 frames
     let mut frames_in_pipeline = [FrameInfo::default(); 8];
     let mut frame: u64 = 0;
+    let publish = |delivered: &DeliveredFrame, frames_in_pipeline: &[FrameInfo; 8]| {
+        let info = frames_in_pipeline[(delivered.frame % 8) as usize];
+        let mut valid_mask = 0u32;
+        for mark in 0..MARKS {
+            if info.status[mark] == mark_status::VALID && info.frame == delivered.frame {
+                valid_mask |= 1 << mark;
+            }
+        }
+        let message = FeaturesMsg {
+            schema: SCHEMA_VERSION,
+            valid_mask,
+            frame: delivered.frame,
+            capture_tick: delivered.capture_tick,
+            capture_stamp_ns: info.capture_stamp_ns,
+            stamp_ns: monotonic_ns(),
+            features_px: to_array(&delivered.features),
+            mark_status: info.status,
+            reserved: [0; 4],
+        };
+        if let Ok(sample) = features_publisher.loan_uninit() {
+            let _ = sample.write_payload(message).send();
+        }
+        let _ = features_notifier.notify();
+    };
     let mut timer = PeriodicTimer::start(period_ns);
     tracing::info!(node = "vision", "running");
 
@@ -70,6 +99,10 @@ pub fn run(context: &NodeContext) -> Result<(), RuntimeError> {
         if wake.skipped_periods > 0 {
             counters.overrun();
             counters.skipped(wake.skipped_periods);
+        }
+        // the frame processed during the last period leaves the pipeline now, before the new image is taken
+        if let Some(delivered) = stage.take_delivered() {
+            publish(&delivered, &frames_in_pipeline);
         }
         let mut latest: Option<JointStateMsg> = None;
         while let Ok(Some(sample)) = state_subscriber.receive() {
@@ -95,29 +128,9 @@ pub fn run(context: &NodeContext) -> Result<(), RuntimeError> {
             status: taken.captured.status.map(|s| status_code(&s)),
         };
         frame += 1;
+        // with no pipeline delay the new frame leaves at once
         if let Some(delivered) = taken.delivered {
-            let info = frames_in_pipeline[(delivered.frame % 8) as usize];
-            let mut valid_mask = 0u32;
-            for mark in 0..MARKS {
-                if info.status[mark] == mark_status::VALID && info.frame == delivered.frame {
-                    valid_mask |= 1 << mark;
-                }
-            }
-            let message = FeaturesMsg {
-                schema: SCHEMA_VERSION,
-                valid_mask,
-                frame: delivered.frame,
-                capture_tick: delivered.capture_tick,
-                capture_stamp_ns: info.capture_stamp_ns,
-                stamp_ns: monotonic_ns(),
-                features_px: to_array(&delivered.features),
-                mark_status: info.status,
-                reserved: [0; 4],
-            };
-            if let Ok(sample) = features_publisher.loan_uninit() {
-                let _ = sample.write_payload(message).send();
-            }
-            let _ = features_notifier.notify();
+            publish(&delivered, &frames_in_pipeline);
         }
         counters.set_progress(frame);
         monitor.record(CycleSample {

@@ -1,0 +1,88 @@
+//! Finding a running instance: `--instance NAME`, or the instance of `--config FILE`, or by default the
+//! default configuration's instance.
+
+use std::path::PathBuf;
+use std::time::{Duration, Instant};
+
+use clap::Args;
+use iceoryx2::port::subscriber::Subscriber;
+use iceoryx2::prelude::{Node, ZeroCopySend, ipc};
+use vservo_config::Config;
+use vservo_protocol::Topic;
+
+use crate::UsageError;
+
+/// Which instance to talk to.
+#[derive(Args, Debug, Clone)]
+pub struct InstanceArg {
+    /// The instance named in this configuration file [default: config/vservo.toml's].
+    #[arg(long, value_name = "FILE", conflicts_with = "instance")]
+    pub config: Option<PathBuf>,
+    /// The instance name ([instance] name in its configuration).
+    #[arg(long, value_name = "NAME")]
+    pub instance: Option<String>,
+}
+
+impl InstanceArg {
+    /// The instance name.
+    pub fn name(&self) -> Result<String, UsageError> {
+        if let Some(name) = &self.instance {
+            let ok = !name.is_empty()
+                && name.len() <= 64
+                && name.chars().all(|c| c.is_ascii_alphanumeric() || c == '-' || c == '_');
+            return if ok {
+                Ok(name.clone())
+            } else {
+                Err(UsageError(format!("--instance {name:?}: must be 1–64 letters, digits, '-' or '_'")))
+            };
+        }
+        let path = self.config.clone().unwrap_or_else(|| PathBuf::from("config/vservo.toml"));
+        match Config::load(&path) {
+            Ok(config) => Ok(config.instance),
+            // without a file to read, the default instance
+            Err(vservo_config::ConfigError::Read { .. }) if self.config.is_none() => {
+                Ok("default".to_string())
+            }
+            Err(e) => Err(UsageError(e.to_string())),
+        }
+    }
+}
+
+/// A connection to an instance's services.
+pub struct Connection {
+    /// The instance.
+    pub instance: String,
+    /// This process's iceoryx2 node.
+    pub node: Node<ipc::Service>,
+}
+
+impl Connection {
+    /// Opens a node in the instance's iceoryx2 domain.
+    pub fn open(arg: &InstanceArg) -> anyhow::Result<Self> {
+        let instance = arg.name()?;
+        let node = vservo_protocol::create_node(&instance, &format!("vservoctl-{}", std::process::id()))?;
+        Ok(Self { instance, node })
+    }
+
+    /// A subscriber on a topic.
+    pub fn subscriber<T: std::fmt::Debug + ZeroCopySend + 'static>(
+        &self,
+        topic: Topic,
+    ) -> anyhow::Result<Subscriber<ipc::Service, T, ()>> {
+        Ok(vservo_protocol::subscriber::<T>(&self.node, &self.instance, topic)?)
+    }
+}
+
+/// Polls `receive` every millisecond until it yields or `timeout` passes.
+pub fn wait_for<T>(timeout: Duration, mut receive: impl FnMut() -> Option<T>) -> Option<T> {
+    let until = Instant::now() + timeout;
+    loop {
+        if let Some(value) = receive() {
+            return Some(value);
+        }
+        if Instant::now() >= until {
+            return None;
+        }
+        std::thread::sleep(Duration::from_millis(1));
+    }
+}

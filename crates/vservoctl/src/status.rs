@@ -1,0 +1,106 @@
+//! `vservoctl status`: the nodes, their restarts and loop timing, the feature error and gains version of
+//! a running instance.
+
+use std::time::{Duration, Instant};
+
+use anyhow::bail;
+use clap::Args;
+use vservo_protocol::{DaemonStatusMsg, NodeRole, SCHEMA_VERSION, TelemetryMsg, Topic};
+use vservo_runtime::status::{StatusView, TimingUs};
+
+use crate::instance::{Connection, InstanceArg, wait_for};
+use crate::output::print_stdout;
+
+/// Arguments of `vservoctl status`.
+#[derive(Args, Debug)]
+pub struct StatusArgs {
+    #[command(flatten)]
+    instance: InstanceArg,
+    /// Print JSON.
+    #[arg(long)]
+    json: bool,
+    /// How long to wait for the daemon (s).
+    #[arg(long, default_value_t = 2.0)]
+    timeout_s: f64,
+}
+
+pub fn run(args: &StatusArgs) -> anyhow::Result<()> {
+    let connection = Connection::open(&args.instance)?;
+    let status = connection.subscriber::<DaemonStatusMsg>(Topic::Status)?;
+    let telemetry = connection.subscriber::<TelemetryMsg>(Topic::Telemetry)?;
+    let timeout = Duration::from_secs_f64(args.timeout_s.max(0.0));
+    let latest = wait_for(timeout, || {
+        let mut latest = None;
+        while let Ok(Some(sample)) = status.receive() {
+            if sample.schema == SCHEMA_VERSION {
+                latest = Some(*sample);
+            }
+        }
+        latest
+    });
+    let Some(daemon) = latest else {
+        bail!(
+            "no vservod of instance {:?} answered within {} s (is it running, as the same user?)",
+            connection.instance,
+            args.timeout_s
+        );
+    };
+    // each node's latest telemetry (its history) arrives with its next publication, within one period
+    let mut nodes: [Option<TelemetryMsg>; 4] = [None; 4];
+    let until = Instant::now() + Duration::from_millis(250);
+    while Instant::now() < until && nodes.iter().any(Option::is_none) {
+        while let Ok(Some(sample)) = telemetry.receive() {
+            let role = NodeRole::from_index(sample.node).filter(|_| sample.schema == SCHEMA_VERSION);
+            let running_pid = role.map(|r| daemon.nodes[r as usize].pid);
+            if let Some(role) = role
+                && running_pid == Some(sample.pid)
+            {
+                nodes[role as usize] = Some(*sample);
+            }
+        }
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    let view = StatusView::new(&connection.instance, &daemon, &nodes);
+    if args.json {
+        print_stdout(&format!("{}\n", serde_json::to_string_pretty(&view)?))?;
+    } else {
+        print_stdout(&text(&view))?;
+    }
+    Ok(())
+}
+
+fn text(view: &StatusView) -> String {
+    let timing = |t: Option<TimingUs>| {
+        t.map_or("-".to_string(), |t| format!("{:.0}/{:.0}/{:.0}/{:.0}", t.p50, t.p99, t.p999, t.max))
+    };
+    let mut out = format!(
+        "instance {}: {} (daemon pid {}, up {:.1} s)\n  ticks {:.1}/s, feature error {} px, gains version {}\n",
+        view.instance,
+        view.state,
+        view.daemon_pid,
+        view.uptime_s,
+        view.tick_rate_hz,
+        view.feature_error_px.map_or("-".to_string(), |e| format!("{e:.3}")),
+        view.gains_version
+    );
+    out.push_str(
+        "  node     up  restarts  pid       overruns  skipped  late   wake µs p50/p99/p99.9/max   exec µs p50/p99/p99.9/max   round trip µs\n",
+    );
+    for role in NodeRole::ALL {
+        let Some(n) = view.nodes.get(role.name()) else { continue };
+        out.push_str(&format!(
+            "  {:<8} {:<3} {:>8}  {:<8} {:>9} {:>8} {:>5}   {:<27} {:<27} {}\n",
+            role.name(),
+            if n.running { "yes" } else { "no" },
+            n.restarts,
+            n.pid,
+            n.overruns,
+            n.skipped_periods,
+            n.late_answers,
+            timing(n.wake_latency_us),
+            timing(n.execution_us),
+            timing(n.round_trip_us),
+        ));
+    }
+    out
+}
