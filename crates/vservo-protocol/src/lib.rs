@@ -20,7 +20,7 @@ use iceoryx2::prelude::*;
 pub enum Topic {
     /// plant → rmrc, vision: [`JointStateMsg`], 1 kHz; with an event of the same name.
     JointState,
-    /// rmrc → plant: [`JointTorqueMsg`], 1 kHz; with an event of the same name.
+    /// rmrc → plant: [`JointTorqueMsg`], 1 kHz; the plant reads it at its next deadline (no event).
     JointTorque,
     /// vision → servo: [`FeaturesMsg`], per frame; with an event of the same name.
     Features,

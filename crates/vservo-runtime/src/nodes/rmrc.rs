@@ -24,7 +24,6 @@ pub fn run(context: &NodeContext) -> Result<(), RuntimeError> {
     let twist_subscriber =
         vservo_protocol::subscriber::<CameraTwistMsg>(&node, instance, Topic::CameraTwist)?;
     let torque_publisher = vservo_protocol::publisher::<JointTorqueMsg>(&node, instance, Topic::JointTorque)?;
-    let torque_notifier = vservo_protocol::notifier(&node, instance, Topic::JointTorque)?;
     for warning in realtime::apply(&config.runtime.rmrc, &config.runtime) {
         tracing::warn!(node = "rmrc", "{warning}");
     }
@@ -79,7 +78,7 @@ pub fn run(context: &NodeContext) -> Result<(), RuntimeError> {
             ActuatorCommand::Torque(torque) => (actuator_mode::TORQUE, to_array(&torque)),
             ActuatorCommand::Kinematic { .. } => (actuator_mode::KINEMATIC, [0.0; 6]),
         };
-        let message = JointTorqueMsg {
+        let mut message = JointTorqueMsg {
             schema: SCHEMA_VERSION,
             mode,
             answers_tick: state.tick,
@@ -91,9 +90,9 @@ pub fn run(context: &NodeContext) -> Result<(), RuntimeError> {
             qd_ref_rad_s: to_array(&reference.qd),
         };
         if let Ok(sample) = torque_publisher.loan_uninit() {
+            message.stamp_ns = monotonic_ns();
             let _ = sample.write_payload(message).send();
         }
-        let _ = torque_notifier.notify();
         let done = monotonic_ns();
         let wake_latency_ns = woke_at.saturating_sub(state.stamp_ns);
         if done.saturating_sub(state.stamp_ns) > period_ns {
