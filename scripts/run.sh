@@ -1,10 +1,11 @@
 #!/usr/bin/env bash
-# The README's main command. Until the real-time daemon exists (vservod, next on the issue list), it runs the
-# simulated cell of the default configuration — PUMA 560 dynamics, rendered camera images, the paper's LQ
-# servo — in the lockstep simulator, and writes its summary, data and figures to sim-out/.
-# Extra arguments go to `vservoctl sim` (for example --controller delay-aware, or --config another file).
+# The README's main command: the vservo daemon on the default configuration — the simulated cell (PUMA 560
+# dynamics, rendered camera images, the paper's LQ servo on the translation step) as four real-time processes
+# over iceoryx2 shared memory. It prints a one-line status every second; Ctrl-C (SIGINT) or SIGTERM ramps the
+# arm to rest and stops. Extra arguments go to vservod (for example --config config/scenarios/rotation-step.toml).
+# The lockstep simulator of the same configuration: ./target/release/vservoctl sim --out sim-out
 set -euo pipefail
 cd "$(dirname "$0")/.."
 scripts/setup.sh
-cargo build --release --locked -q -p vservoctl
-exec ./target/release/vservoctl sim --config config/vservo.toml --out sim-out "$@"
+cargo build --release --locked -q -p vservod -p vservoctl
+exec ./target/release/vservod --config config/vservo.toml "$@"

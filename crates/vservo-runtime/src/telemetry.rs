@@ -173,7 +173,8 @@ impl Drop for TelemetryThread {
     }
 }
 
-fn new_histogram() -> Option<Histogram<u64>> {
+/// A histogram for loop timings (ns).
+pub fn new_histogram() -> Option<Histogram<u64>> {
     // 1 ns to 60 s at three significant digits: allocated once
     Histogram::new_with_bounds(1, 60_000_000_000, 3).ok()
 }
@@ -200,6 +201,12 @@ fn publish_loop(
     stop: &AtomicBool,
 ) {
     let (Some(mut wake), Some(mut execution), Some(mut round_trip)) =
+        (new_histogram(), new_histogram(), new_histogram())
+    else {
+        return;
+    };
+    // the whole run, reported once when the node stops
+    let (Some(mut total_wake), Some(mut total_execution), Some(mut total_round_trip)) =
         (new_histogram(), new_histogram(), new_histogram())
     else {
         return;
@@ -239,9 +246,37 @@ fn publish_loop(
         if let Ok(sample) = publisher.loan_uninit() {
             let _ = sample.write_payload(message).send();
         }
+        let _ = total_wake.add(&wake);
+        let _ = total_execution.add(&execution);
+        let _ = total_round_trip.add(&round_trip);
         wake.reset();
         execution.reset();
         round_trip.reset();
         window_start = now;
     }
+    tracing::info!(
+        node = role.name(),
+        "loop totals {}",
+        totals_json(&[
+            ("wake_latency", &total_wake),
+            ("execution", &total_execution),
+            ("round_trip", &total_round_trip)
+        ])
+    );
+}
+
+/// Percentiles of whole-run histograms as one JSON object (ns): `{"name": {"count", "p50", "p99", "p999",
+/// "max"}, …}`; scripts/latency.sh reads it from the log.
+pub fn totals_json(histograms: &[(&str, &Histogram<u64>)]) -> String {
+    let parts: Vec<String> = histograms
+        .iter()
+        .map(|(name, h)| {
+            let t = timing(h);
+            format!(
+                "\"{name}\": {{\"count\": {}, \"p50\": {}, \"p99\": {}, \"p999\": {}, \"max\": {}}}",
+                t.count, t.p50_ns, t.p99_ns, t.p999_ns, t.max_ns
+            )
+        })
+        .collect();
+    format!("{{{}}}", parts.join(", "))
 }

@@ -1,0 +1,51 @@
+#!/usr/bin/env bash
+# Measures, in one run on this machine: the plant's 1 ms loop lateness, the plant → rmrc → plant round trip
+# (a joint state published → the rmrc's answer in the plant's queue), and — as the floor — a bare 1 ms
+# clock_nanosleep(TIMER_ABSTIME) loop with the plant's real-time settings, running at the same time.
+# Prints p50/p99/p99.9/max and the ratios to the floor.
+#
+#   scripts/latency.sh [SECONDS=30] [CONFIG=config/vservo.toml]
+#
+# The config's instance must not be running already. Release builds; the figures go in docs/BENCHMARKS.md.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+seconds="${1:-30}"
+config="${2:-config/vservo.toml}"
+scripts/setup.sh
+cargo build --release --locked -q -p vservod
+cargo build --release --locked -q -p vservo-runtime --example bare_loop
+log="$(mktemp)"
+floor="$(mktemp)"
+trap 'rm -f "$log" "$floor"' EXIT
+
+./target/release/vservod --config "$config" --status-every-s 0 2>"$log" &
+daemon=$!
+# let the nodes start before both loops are measured side by side
+sleep 1
+./target/release/examples/bare_loop "$seconds" "$config" >"$floor"
+kill -TERM "$daemon"
+wait "$daemon"
+
+python3 - "$log" "$floor" "$seconds" <<'PY'
+import json, re, sys
+log, floor_file, seconds = sys.argv[1], sys.argv[2], sys.argv[3]
+plant = None
+for line in open(log, encoding="utf-8"):
+    if 'node="plant"' in line or "node=plant" in line:
+        m = re.search(r"loop totals (\{.*\})", line)
+        if m:
+            plant = json.loads(m.group(1))
+if plant is None:
+    sys.exit("latency: the plant's loop totals are not in the daemon's log")
+floor = json.loads(open(floor_file, encoding="utf-8").read())["wake_latency"]
+rows = [("bare clock_nanosleep loop (floor)", floor), ("plant loop lateness", plant["wake_latency"]),
+        ("plant -> rmrc -> plant round trip", plant["round_trip"])]
+print(f"1 ms loops over {seconds} s, in one run (µs):")
+print(f"  {'':36} {'count':>7} {'p50':>8} {'p99':>8} {'p99.9':>8} {'max':>9}")
+for name, t in rows:
+    print(f"  {name:36} {t['count']:>7} " + " ".join(f"{t[k] / 1e3:>8.1f}" for k in ("p50", "p99", "p999")) + f" {t['max'] / 1e3:>9.1f}")
+print("ratios to the floor:")
+for name, t in rows[1:]:
+    ratios = [t[k] / floor[k] if floor[k] else float("nan") for k in ("p50", "p99", "p999", "max")]
+    print(f"  {name:36} " + "  ".join(f"{k} {r:.2f}" for k, r in zip(("p50", "p99", "p99.9", "max"), ratios)))
+PY
