@@ -36,10 +36,16 @@ struct Daemon {
 
 impl Daemon {
     fn start(config: &TempConfig) -> Daemon {
+        Self::start_with(config, &[], "0")
+    }
+
+    /// With extra environment variables and a status interval.
+    fn start_with(config: &TempConfig, env: &[(&str, &Path)], status_every_s: &str) -> Daemon {
         let log = config.path.with_extension("log");
         let stderr = std::fs::File::create(&log).expect("log file");
         let child = Command::new(binary("vservod"))
-            .args(["--config", &config.arg(), "--status-every-s", "0"])
+            .args(["--config", &config.arg(), "--status-every-s", status_every_s])
+            .envs(env.iter().map(|(k, v)| (*k, *v)))
             .stdin(Stdio::null())
             .stdout(Stdio::null())
             .stderr(stderr)
@@ -327,4 +333,65 @@ fn two_instances_run_side_by_side_and_sigterm_stops_each_within_two_seconds() {
         assert!(log.contains("the arm is at rest"), "{log}");
         assert!(leftovers(instance).is_empty(), "{:?}", leftovers(instance));
     }
+}
+
+#[test]
+fn systemd_hears_ready_status_and_watchdog_only_while_the_loops_are_healthy() {
+    use std::os::unix::net::UnixDatagram;
+    let _one = exclusive();
+    let instance = unique("notify");
+    let config = instance_config(&instance);
+    let socket_path = config.path.with_extension("notify");
+    let _ = std::fs::remove_file(&socket_path);
+    let socket = UnixDatagram::bind(&socket_path).expect("a notify socket");
+    socket.set_read_timeout(Some(Duration::from_millis(100))).expect("timeout");
+    let watchdog_usec = PathBuf::from("400000");
+    let mut daemon = Daemon::start_with(
+        &config,
+        &[("NOTIFY_SOCKET", &socket_path), ("WATCHDOG_USEC", &watchdog_usec)],
+        "0.5",
+    );
+    // (time, message) as they arrive
+    let mut heard: Vec<(Instant, String)> = Vec::new();
+    let mut listen = |for_how_long: Duration, heard: &mut Vec<(Instant, String)>| {
+        let until = Instant::now() + for_how_long;
+        let mut buffer = [0u8; 4096];
+        while Instant::now() < until {
+            if let Ok(n) = socket.recv(&mut buffer) {
+                heard.push((Instant::now(), String::from_utf8_lossy(&buffer[..n]).to_string()));
+            }
+        }
+    };
+    listen(Duration::from_secs(3), &mut heard);
+    assert!(heard.iter().any(|(_, m)| m.contains("READY=1")), "{heard:?}\n{}", daemon.log());
+    assert!(heard.iter().any(|(_, m)| m.contains("STATUS=running nodes 4/4")), "{heard:?}");
+    let ready_at = heard.iter().find(|(_, m)| m.contains("READY=1")).map(|(t, _)| *t).expect("ready");
+    let before_ready = heard.iter().filter(|(t, m)| *t < ready_at && m.contains("WATCHDOG=1")).count();
+    assert_eq!(before_ready, 0, "no keep-alive before every node runs");
+    assert!(heard.iter().filter(|(_, m)| m.contains("WATCHDOG=1")).count() >= 3, "{heard:?}");
+
+    // freeze the plant: its loop stops, so must the keep-alives (and come back when it runs again)
+    let status_now = status(&instance).expect("status");
+    let plant = status_now["nodes"]["plant"]["pid"].as_u64().expect("plant pid") as i32;
+    kill(Pid::from_raw(plant), Signal::SIGSTOP).expect("SIGSTOP");
+    let frozen_at = Instant::now();
+    heard.clear();
+    listen(Duration::from_millis(2000), &mut heard);
+    kill(Pid::from_raw(plant), Signal::SIGCONT).expect("SIGCONT");
+    // the first 0.6 s: the plant's last telemetry is still fresh
+    let while_frozen = heard
+        .iter()
+        .filter(|(t, m)| t.duration_since(frozen_at) > Duration::from_millis(600) && m.contains("WATCHDOG=1"))
+        .count();
+    assert_eq!(while_frozen, 0, "keep-alives while the plant was frozen: {heard:?}");
+    heard.clear();
+    listen(Duration::from_millis(1500), &mut heard);
+    assert!(heard.iter().any(|(_, m)| m.contains("WATCHDOG=1")), "keep-alives resume: {heard:?}");
+
+    daemon.signal(Signal::SIGTERM);
+    heard.clear();
+    listen(Duration::from_millis(500), &mut heard);
+    assert!(heard.iter().any(|(_, m)| m.contains("STOPPING=1")), "{heard:?}");
+    assert_eq!(daemon.wait(Duration::from_secs(5)), Some(0), "{}", daemon.log());
+    let _ = std::fs::remove_file(&socket_path);
 }
