@@ -353,7 +353,7 @@ fn systemd_hears_ready_status_and_watchdog_only_while_the_loops_are_healthy() {
     );
     // (time, message) as they arrive
     let mut heard: Vec<(Instant, String)> = Vec::new();
-    let mut listen = |for_how_long: Duration, heard: &mut Vec<(Instant, String)>| {
+    let listen = |for_how_long: Duration, heard: &mut Vec<(Instant, String)>| {
         let until = Instant::now() + for_how_long;
         let mut buffer = [0u8; 4096];
         while Instant::now() < until {
