@@ -5,6 +5,7 @@
 //! and the one function every participant uses to open each service with the same settings. A client in
 //! another language follows docs/PROTOCOL.md, which documents the same names, type names and offsets.
 
+pub mod layout;
 pub mod messages;
 
 pub use messages::*;
