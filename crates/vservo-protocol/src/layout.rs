@@ -32,97 +32,145 @@ fn table(out: &mut String, title: &str, type_name: &str, size: usize, fields: &[
 /// The tables of docs/PROTOCOL.md's "Payloads" section.
 pub fn layout_tables() -> String {
     let mut out = String::new();
-    table(&mut out, "joint_state", "vservo::JointState", size_of::<JointStateMsg>(), &fields! { JointStateMsg;
-        schema: "u32", "schema version (1)";
-        faults: "u32", "bits 0–5 position limit (joint 1–6), 8–13 velocity limit, 16–21 torque saturated, 24 integration failed, 25 holding (no rmrc command)";
-        tick: "u64", "plant ticks since the simulated start (1 ms each)";
-        stamp_ns: "u64", "CLOCK_MONOTONIC at publication (ns)";
-        plant_epoch: "u64", "changes when the plant process restarts";
-        q_rad: "f64[6]", "joint angles (rad)";
-        qd_rad_s: "f64[6]", "joint velocities (rad/s)";
-        applied_torque_nm: "f64[6]", "torque applied during the tick, after saturation (N·m)";
-        base_from_board: "f64[12]", "the board's pose in the base frame, 3×4 [R \\| t] row-major (t in m)";
-    });
-    table(&mut out, "joint_torque", "vservo::JointTorque", size_of::<JointTorqueMsg>(), &fields! { JointTorqueMsg;
-        schema: "u32", "schema version (1)";
-        mode: "u32", "0 torque (`torque_nm`), 1 kinematic (`q_ref_rad`, `qd_ref_rad_s`)";
-        answers_tick: "u64", "the `tick` of the joint state this answers";
-        plant_epoch: "u64", "that joint state's `plant_epoch`";
-        state_stamp_ns: "u64", "that joint state's `stamp_ns`";
-        stamp_ns: "u64", "CLOCK_MONOTONIC as the command is sent (ns)";
-        torque_nm: "f64[6]", "joint torques (N·m)";
-        q_ref_rad: "f64[6]", "joint reference q_d (rad)";
-        qd_ref_rad_s: "f64[6]", "joint reference velocity q̇_d (rad/s)";
-    });
-    table(&mut out, "features", "vservo::Features", size_of::<FeaturesMsg>(), &fields! { FeaturesMsg;
-        schema: "u32", "schema version (1)";
-        valid_mask: "u32", "bit m set when mark m is valid";
-        frame: "u64", "frame number (counted by the vision node from its start)";
-        capture_tick: "u64", "plant tick of the joint state the image was taken at";
-        capture_stamp_ns: "u64", "CLOCK_MONOTONIC when the image was taken (ns)";
-        stamp_ns: "u64", "CLOCK_MONOTONIC at publication, the pipeline delay later (ns)";
-        features_px: "f64[8]", "ξ = [x₁ y₁ … x₄ y₄] (px, origin top-left), NaN where a mark is not valid";
-        mark_status: "u8[4]", "per mark: 0 valid, 1 outside the image, 2 cut by the border, 3 merged, 4 irregular, 5 not found, 6 bad image";
-        reserved: "u8[4]", "zero";
-    });
-    table(&mut out, "camera_twist", "vservo::CameraTwist", size_of::<CameraTwistMsg>(), &fields! { CameraTwistMsg;
-        schema: "u32", "schema version (1)";
-        verdict: "u32", "0 waiting (no frame yet), 1 servoing, 2 marks missing, 3 stopping; all but 1 come with a zero twist";
-        frame: "u64", "the frame the twist was computed from";
-        capture_tick: "u64", "its capture tick";
-        gains_version: "u64", "version of the gains used (1 at start)";
-        stamp_ns: "u64", "CLOCK_MONOTONIC at publication (ns)";
-        twist: "f64[6]", "u = [v_x v_y v_z ω_x ω_y ω_z] in the camera frame (m/s, rad/s)";
-        feature_error_px: "f64", "RMS of ξ − ξ_d over the valid features (px); NaN when none";
-        missing_mask: "u32", "bit m set when mark m was missing";
-        reserved: "u32", "zero";
-    });
-    table(&mut out, "telemetry", "vservo::Telemetry", size_of::<TelemetryMsg>(), &fields! { TelemetryMsg;
-        schema: "u32", "schema version (1)";
-        node: "u32", "0 plant, 1 vision, 2 servo, 3 rmrc";
-        stamp_ns: "u64", "CLOCK_MONOTONIC at publication (ns)";
-        window_ns: "u64", "length of the window the timings cover (ns)";
-        cycles: "u64", "loop cycles since the node started";
-        overruns: "u64", "cycles a period or more late (event-driven nodes: answer later than one period)";
-        skipped_periods: "u64", "periods skipped after stalls (not replayed)";
-        late_answers: "u64", "plant: ticks whose rmrc answer came late (previous command held)";
-        rejected_messages: "u64", "input messages refused (schema, epoch, tick, not finite)";
-        gains_version: "u64", "servo: gains version in use; else 0";
-        progress: "u64", "plant: tick; vision, servo: frame; rmrc: tick answered";
-        wake_latency: "Timing", "wake-up after the deadline (periodic nodes) or after the input was sent (event-driven)";
-        execution: "Timing", "wake-up to output";
-        round_trip: "Timing", "plant: joint state published → the rmrc's answer in the plant's queue";
-        feature_error_px: "f64", "servo: RMS feature error of the latest frame (px); else NaN";
-        pid: "u32", "process id";
-        mode: "u32", "plant: 1 while holding the arm; servo: the last verdict; else 0";
-    });
-    table(&mut out, "Timing (inside telemetry)", "vservo::Timing", size_of::<TimingMsg>(), &fields! { TimingMsg;
-        count: "u64", "samples in the window";
-        p50_ns: "u64", "median (ns)";
-        p99_ns: "u64", "99th percentile (ns)";
-        p999_ns: "u64", "99.9th percentile (ns)";
-        max_ns: "u64", "largest (ns)";
-    });
-    table(&mut out, "status", "vservo::DaemonStatus", size_of::<DaemonStatusMsg>(), &fields! { DaemonStatusMsg;
-        schema: "u32", "schema version (1)";
-        state: "u32", "0 starting, 1 running, 2 degraded, 3 stopping";
-        stamp_ns: "u64", "CLOCK_MONOTONIC at publication (ns)";
-        uptime_ns: "u64", "since the daemon started (ns)";
-        gains_version: "u64", "gains version in use";
-        nodes: "NodeStatus[4]", "indexed by node number (0 plant, 1 vision, 2 servo, 3 rmrc)";
-        tick_rate_hz: "f64", "plant ticks per wall-clock second over the last second";
-        feature_error_px: "f64", "the servo's latest RMS feature error (px); NaN before the first frame";
-        pid: "u32", "the daemon's process id";
-        reserved: "u32", "zero";
-    });
-    table(&mut out, "NodeStatus (inside status)", "vservo::NodeStatus", size_of::<NodeStatusMsg>(), &fields! { NodeStatusMsg;
-        restarts: "u64", "restarts since the daemon started";
-        last_telemetry_ns: "u64", "CLOCK_MONOTONIC of the node's latest telemetry (0: none yet)";
-        state: "u32", "0 not started, 1 running, 2 backing off (restart pending), 3 stopped";
-        pid: "u32", "process id (0 when not running)";
-        last_exit: "i32", "exit status of the last run; a signal as its negated number";
-        healthy: "u32", "1 when the node's telemetry is fresh (under 0.5 s old)";
-    });
+    table(
+        &mut out,
+        "joint_state",
+        "vservo::JointState",
+        size_of::<JointStateMsg>(),
+        &fields! { JointStateMsg;
+            schema: "u32", "schema version (1)";
+            faults: "u32", "bits 0–5 position limit (joint 1–6), 8–13 velocity limit, 16–21 torque saturated, 24 integration failed, 25 holding (no rmrc command)";
+            tick: "u64", "plant ticks since the simulated start (1 ms each)";
+            stamp_ns: "u64", "CLOCK_MONOTONIC at publication (ns)";
+            plant_epoch: "u64", "changes when the plant process restarts";
+            q_rad: "f64[6]", "joint angles (rad)";
+            qd_rad_s: "f64[6]", "joint velocities (rad/s)";
+            applied_torque_nm: "f64[6]", "torque applied during the tick, after saturation (N·m)";
+            base_from_board: "f64[12]", "the board's pose in the base frame, 3×4 [R \\| t] row-major (t in m)";
+        },
+    );
+    table(
+        &mut out,
+        "joint_torque",
+        "vservo::JointTorque",
+        size_of::<JointTorqueMsg>(),
+        &fields! { JointTorqueMsg;
+            schema: "u32", "schema version (1)";
+            mode: "u32", "0 torque (`torque_nm`), 1 kinematic (`q_ref_rad`, `qd_ref_rad_s`)";
+            answers_tick: "u64", "the `tick` of the joint state this answers";
+            plant_epoch: "u64", "that joint state's `plant_epoch`";
+            state_stamp_ns: "u64", "that joint state's `stamp_ns`";
+            stamp_ns: "u64", "CLOCK_MONOTONIC as the command is sent (ns)";
+            torque_nm: "f64[6]", "joint torques (N·m)";
+            q_ref_rad: "f64[6]", "joint reference q_d (rad)";
+            qd_ref_rad_s: "f64[6]", "joint reference velocity q̇_d (rad/s)";
+        },
+    );
+    table(
+        &mut out,
+        "features",
+        "vservo::Features",
+        size_of::<FeaturesMsg>(),
+        &fields! { FeaturesMsg;
+            schema: "u32", "schema version (1)";
+            valid_mask: "u32", "bit m set when mark m is valid";
+            frame: "u64", "frame number (counted by the vision node from its start)";
+            capture_tick: "u64", "plant tick of the joint state the image was taken at";
+            capture_stamp_ns: "u64", "CLOCK_MONOTONIC when the image was taken (ns)";
+            stamp_ns: "u64", "CLOCK_MONOTONIC at publication, the pipeline delay later (ns)";
+            features_px: "f64[8]", "ξ = [x₁ y₁ … x₄ y₄] (px, origin top-left), NaN where a mark is not valid";
+            mark_status: "u8[4]", "per mark: 0 valid, 1 outside the image, 2 cut by the border, 3 merged, 4 irregular, 5 not found, 6 bad image";
+            reserved: "u8[4]", "zero";
+        },
+    );
+    table(
+        &mut out,
+        "camera_twist",
+        "vservo::CameraTwist",
+        size_of::<CameraTwistMsg>(),
+        &fields! { CameraTwistMsg;
+            schema: "u32", "schema version (1)";
+            verdict: "u32", "0 waiting (no frame yet), 1 servoing, 2 marks missing, 3 stopping; all but 1 come with a zero twist";
+            frame: "u64", "the frame the twist was computed from";
+            capture_tick: "u64", "its capture tick";
+            gains_version: "u64", "version of the gains used (1 at start)";
+            stamp_ns: "u64", "CLOCK_MONOTONIC at publication (ns)";
+            twist: "f64[6]", "u = [v_x v_y v_z ω_x ω_y ω_z] in the camera frame (m/s, rad/s)";
+            feature_error_px: "f64", "RMS of ξ − ξ_d over the valid features (px); NaN when none";
+            missing_mask: "u32", "bit m set when mark m was missing";
+            reserved: "u32", "zero";
+        },
+    );
+    table(
+        &mut out,
+        "telemetry",
+        "vservo::Telemetry",
+        size_of::<TelemetryMsg>(),
+        &fields! { TelemetryMsg;
+            schema: "u32", "schema version (1)";
+            node: "u32", "0 plant, 1 vision, 2 servo, 3 rmrc";
+            stamp_ns: "u64", "CLOCK_MONOTONIC at publication (ns)";
+            window_ns: "u64", "length of the window the timings cover (ns)";
+            cycles: "u64", "loop cycles since the node started";
+            overruns: "u64", "cycles a period or more late (event-driven nodes: answer later than one period)";
+            skipped_periods: "u64", "periods skipped after stalls (not replayed)";
+            late_answers: "u64", "plant: ticks whose rmrc answer came late (previous command held)";
+            rejected_messages: "u64", "input messages refused (schema, epoch, tick, not finite)";
+            gains_version: "u64", "servo: gains version in use; else 0";
+            progress: "u64", "plant: tick; vision, servo: frame; rmrc: tick answered";
+            wake_latency: "Timing", "wake-up after the deadline (periodic nodes) or after the input was sent (event-driven)";
+            execution: "Timing", "wake-up to output";
+            round_trip: "Timing", "plant: joint state published → the rmrc's answer in the plant's queue";
+            feature_error_px: "f64", "servo: RMS feature error of the latest frame (px); else NaN";
+            pid: "u32", "process id";
+            mode: "u32", "plant: 1 while holding the arm; servo: the last verdict; else 0";
+        },
+    );
+    table(
+        &mut out,
+        "Timing (inside telemetry)",
+        "vservo::Timing",
+        size_of::<TimingMsg>(),
+        &fields! { TimingMsg;
+            count: "u64", "samples in the window";
+            p50_ns: "u64", "median (ns)";
+            p99_ns: "u64", "99th percentile (ns)";
+            p999_ns: "u64", "99.9th percentile (ns)";
+            max_ns: "u64", "largest (ns)";
+        },
+    );
+    table(
+        &mut out,
+        "status",
+        "vservo::DaemonStatus",
+        size_of::<DaemonStatusMsg>(),
+        &fields! { DaemonStatusMsg;
+            schema: "u32", "schema version (1)";
+            state: "u32", "0 starting, 1 running, 2 degraded, 3 stopping";
+            stamp_ns: "u64", "CLOCK_MONOTONIC at publication (ns)";
+            uptime_ns: "u64", "since the daemon started (ns)";
+            gains_version: "u64", "gains version in use";
+            nodes: "NodeStatus[4]", "indexed by node number (0 plant, 1 vision, 2 servo, 3 rmrc)";
+            tick_rate_hz: "f64", "plant ticks per wall-clock second over the last second";
+            feature_error_px: "f64", "the servo's latest RMS feature error (px); NaN before the first frame";
+            pid: "u32", "the daemon's process id";
+            reserved: "u32", "zero";
+        },
+    );
+    table(
+        &mut out,
+        "NodeStatus (inside status)",
+        "vservo::NodeStatus",
+        size_of::<NodeStatusMsg>(),
+        &fields! { NodeStatusMsg;
+            restarts: "u64", "restarts since the daemon started";
+            last_telemetry_ns: "u64", "CLOCK_MONOTONIC of the node's latest telemetry (0: none yet)";
+            state: "u32", "0 not started, 1 running, 2 backing off (restart pending), 3 stopped";
+            pid: "u32", "process id (0 when not running)";
+            last_exit: "i32", "exit status of the last run; a signal as its negated number";
+            healthy: "u32", "1 when the node's telemetry is fresh (under 0.5 s old)";
+        },
+    );
     out
 }
 

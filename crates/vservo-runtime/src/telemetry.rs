@@ -34,6 +34,8 @@ pub struct Counters {
     pub mode: AtomicU32,
     /// The latest feature error (px), as f64 bits.
     pub feature_error_bits: AtomicU64,
+    /// rmrc: times it re-synchronised to a new plant epoch (logged by the telemetry thread, not the loop).
+    pub resyncs: AtomicU64,
 }
 
 impl Counters {
@@ -74,6 +76,11 @@ impl Counters {
     /// Sets the gains version.
     pub fn set_gains_version(&self, value: u64) {
         self.gains_version.store(value, Ordering::Relaxed);
+    }
+
+    /// Counts a re-synchronisation to a new plant epoch.
+    pub fn resynced(&self) {
+        Self::add(&self.resyncs, 1);
     }
 
     /// Sets the feature error (px).
@@ -214,8 +221,18 @@ fn publish_loop(
     let mut timer = PeriodicTimer::start(period_ns);
     let mut window_start = monotonic_ns();
     let pid = std::process::id();
+    let mut resyncs_logged = 0;
     while !stop.load(Ordering::Relaxed) {
         timer.wait();
+        let resyncs = counters.resyncs.load(Ordering::Relaxed);
+        if resyncs != resyncs_logged {
+            resyncs_logged = resyncs;
+            tracing::info!(
+                node = role.name(),
+                resyncs,
+                "following a new plant epoch from its joints, at rest"
+            );
+        }
         for sample in receiver.try_iter() {
             wake.saturating_record(sample.wake_latency_ns.max(1));
             execution.saturating_record(sample.execution_ns.max(1));

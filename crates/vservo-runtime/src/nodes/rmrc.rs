@@ -56,11 +56,8 @@ pub fn run(context: &NodeContext) -> Result<(), RuntimeError> {
         let rmrc = match &mut stage {
             Some((epoch, rmrc)) if *epoch == state.plant_epoch => rmrc,
             _ => {
-                tracing::info!(
-                    node = "rmrc",
-                    tick = state.tick,
-                    "following a new plant epoch from its joints, at rest"
-                );
+                // logged by the telemetry thread, off this path
+                counters.resynced();
                 &mut stage.insert((state.plant_epoch, context.cell.rmrc(&q))).1
             }
         };
