@@ -15,7 +15,7 @@ struct Field {
 
 macro_rules! fields {
     ($msg:ty; $($name:ident: $ty:literal, $meaning:literal;)*) => {
-        vec![$(Field { name: stringify!($name), offset: offset_of!($msg, $name), ty: $ty, meaning: $meaning }),*]
+        [$(Field { name: stringify!($name), offset: offset_of!($msg, $name), ty: $ty, meaning: $meaning }),*]
     };
 }
 
