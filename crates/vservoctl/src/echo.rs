@@ -2,7 +2,7 @@
 
 use std::time::{Duration, Instant};
 
-use clap::{Args, ValueEnum};
+use clap::Args;
 use serde_json::{Value, json};
 use vservo_protocol::{
     CameraTwistMsg, DaemonStatusMsg, FeaturesMsg, JointStateMsg, JointTorqueMsg, TelemetryMsg, TimingMsg,
@@ -12,28 +12,13 @@ use vservo_protocol::{
 use crate::instance::{Connection, InstanceArg};
 use crate::output::print_stdout;
 
-/// The topics.
-#[derive(Debug, Clone, Copy, ValueEnum)]
-pub enum EchoTopic {
-    /// plant → rmrc, vision (1 kHz; a slow terminal drops samples).
-    JointState,
-    /// rmrc → plant (1 kHz).
-    JointTorque,
-    /// vision → servo.
-    Features,
-    /// servo → rmrc.
-    CameraTwist,
-    /// every node.
-    Telemetry,
-    /// the daemon.
-    Status,
-}
-
 /// Arguments of `vservoctl echo`.
 #[derive(Args, Debug)]
 pub struct EchoArgs {
-    /// Which topic.
-    topic: EchoTopic,
+    /// Which service: joint_state, joint_torque, features, camera_twist, telemetry or status (joint_state and
+    /// joint_torque come at 1 kHz: a slow terminal drops samples).
+    #[arg(value_parser = topic_name)]
+    topic: Topic,
     #[command(flatten)]
     instance: InstanceArg,
     /// Stop after this many messages.
@@ -124,14 +109,22 @@ fn echo<T: std::fmt::Debug + iceoryx2::prelude::ZeroCopySend + 'static>(
     }
 }
 
+fn topic_name(name: &str) -> Result<Topic, String> {
+    Topic::ALL.into_iter().find(|t| t.name() == name).ok_or_else(|| {
+        let names: Vec<&str> = Topic::ALL.iter().map(|t| t.name()).collect();
+        format!("expected one of {}", names.join(", "))
+    })
+}
+
 pub fn run(args: &EchoArgs) -> anyhow::Result<()> {
     let connection = Connection::open(&args.instance)?;
-    match args.topic {
-        EchoTopic::JointState => echo(&connection, Topic::JointState, args, joint_state),
-        EchoTopic::JointTorque => echo(&connection, Topic::JointTorque, args, joint_torque),
-        EchoTopic::Features => echo(&connection, Topic::Features, args, features),
-        EchoTopic::CameraTwist => echo(&connection, Topic::CameraTwist, args, camera_twist),
-        EchoTopic::Telemetry => echo(&connection, Topic::Telemetry, args, telemetry),
-        EchoTopic::Status => echo(&connection, Topic::Status, args, status),
+    let topic = args.topic;
+    match topic {
+        Topic::JointState => echo(&connection, topic, args, joint_state),
+        Topic::JointTorque => echo(&connection, topic, args, joint_torque),
+        Topic::Features => echo(&connection, topic, args, features),
+        Topic::CameraTwist => echo(&connection, topic, args, camera_twist),
+        Topic::Telemetry => echo(&connection, topic, args, telemetry),
+        Topic::Status => echo(&connection, topic, args, status),
     }
 }

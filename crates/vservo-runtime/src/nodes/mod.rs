@@ -7,6 +7,13 @@ pub mod vision;
 
 use std::time::Duration;
 
+use iceoryx2::port::subscriber::Subscriber;
+use iceoryx2::prelude::{Node, ZeroCopySend, ipc};
+use vservo_protocol::NodeRole;
+
+use crate::telemetry::{Counters, LoopMonitor, TelemetryThread};
+use crate::{NodeContext, RuntimeError, realtime, schema_ok};
+
 /// How long an event-driven node waits before it looks at its stop flag again.
 const IDLE_WAIT: Duration = Duration::from_millis(100);
 
@@ -14,4 +21,52 @@ fn to_array<const N: usize>(v: &nalgebra::SVector<f64, N>) -> [f64; N] {
     let mut out = [0.0; N];
     out.copy_from_slice(v.as_slice());
     out
+}
+
+/// What every node process has: its telemetry thread (started first, at normal priority, since threads
+/// inherit their creator's) and its iceoryx2 node.
+struct NodeBase {
+    _telemetry: TelemetryThread,
+    monitor: LoopMonitor,
+    node: Node<ipc::Service>,
+}
+
+fn start(context: &NodeContext, role: NodeRole) -> Result<NodeBase, RuntimeError> {
+    let period_s = context.cell.config().runtime.telemetry_period_s;
+    let (telemetry, monitor) = TelemetryThread::spawn(&context.instance, role, period_s)?;
+    let node = vservo_protocol::create_node(&context.instance, role.name())?;
+    Ok(NodeBase { _telemetry: telemetry, monitor, node })
+}
+
+/// Applies the role's `[runtime]` settings to the calling thread, once its ports exist; what the system
+/// refuses is a warning.
+fn go_realtime(context: &NodeContext, role: NodeRole) {
+    let runtime = &context.cell.config().runtime;
+    let settings = match role {
+        NodeRole::Plant => &runtime.plant,
+        NodeRole::Rmrc => &runtime.rmrc,
+        NodeRole::Servo => &runtime.servo,
+        NodeRole::Vision => &runtime.vision,
+    };
+    for warning in realtime::apply(settings, runtime) {
+        tracing::warn!(node = role.name(), "{warning}");
+    }
+    tracing::info!(node = role.name(), "running");
+}
+
+/// Drains a subscriber and returns its newest sample of this build's schema; others are counted refused.
+fn latest<T: Copy + std::fmt::Debug + ZeroCopySend>(
+    subscriber: &Subscriber<ipc::Service, T, ()>,
+    schema: fn(&T) -> u32,
+    counters: &Counters,
+) -> Option<T> {
+    let mut latest = None;
+    while let Ok(Some(sample)) = subscriber.receive() {
+        if schema_ok(schema(&sample)) {
+            latest = Some(*sample);
+        } else {
+            counters.rejected();
+        }
+    }
+    latest
 }

@@ -9,10 +9,10 @@ use vservo_protocol::{
 };
 use vservo_sim::plant::JointState;
 
-use super::to_array;
+use super::{NodeBase, go_realtime, start, to_array};
 use crate::clock::{PeriodicTimer, monotonic_ns};
-use crate::telemetry::{CycleSample, TelemetryThread};
-use crate::{NodeContext, RuntimeError, realtime, schema_ok};
+use crate::telemetry::CycleSample;
+use crate::{NodeContext, RuntimeError, schema_ok};
 
 fn state_message(stage: &PlantStage, state: &JointState, epoch: u64) -> JointStateMsg {
     let f = &state.faults;
@@ -68,9 +68,7 @@ fn command_of(message: &JointTorqueMsg) -> Option<ActuatorCommand> {
 pub fn run(context: &NodeContext) -> Result<(), RuntimeError> {
     let config = context.cell.config();
     let instance = &context.instance;
-    let (_telemetry, monitor) =
-        TelemetryThread::spawn(instance, NodeRole::Plant, config.runtime.telemetry_period_s)?;
-    let node = vservo_protocol::create_node(instance, NodeRole::Plant.name())?;
+    let NodeBase { _telemetry, monitor, node } = start(context, NodeRole::Plant)?;
     let state_publisher = vservo_protocol::publisher::<JointStateMsg>(&node, instance, Topic::JointState)?;
     let state_notifier = vservo_protocol::notifier(&node, instance, Topic::JointState)?;
     let torque_subscriber =
@@ -80,15 +78,18 @@ pub fn run(context: &NodeContext) -> Result<(), RuntimeError> {
         Some((q, tick)) => context.cell.plant_resumed(&q, tick),
         None => context.cell.plant(),
     };
-    for warning in realtime::apply(&config.runtime.plant, &config.runtime) {
-        tracing::warn!(node = "plant", "{warning}");
-    }
+    go_realtime(context, NodeRole::Plant);
     // an epoch no earlier plant of this host has used: consumers re-synchronise when it changes
     let epoch = monotonic_ns();
     let period_ns = (config.timing.control_period_s * 1e9).round() as u64;
     let hold_after = u64::from(config.runtime.hold_after_missed_ticks);
     let counters = monitor.counters();
-    tracing::info!(node = "plant", tick = stage.state().tick, mode = stage.mode().name(), "running");
+    tracing::info!(
+        node = "plant",
+        tick = stage.state().tick,
+        mode = stage.mode().name(),
+        "the arm at rest, first tick"
+    );
 
     let mut last_command: Option<ActuatorCommand> = None;
     let mut missed_in_a_row: u64 = 0;

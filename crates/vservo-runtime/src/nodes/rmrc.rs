@@ -7,44 +7,32 @@ use vservo_protocol::{
     CameraTwistMsg, JointStateMsg, JointTorqueMsg, NodeRole, SCHEMA_VERSION, Topic, actuator_mode,
 };
 
-use super::{IDLE_WAIT, to_array};
+use super::{IDLE_WAIT, NodeBase, go_realtime, latest, start, to_array};
 use crate::clock::monotonic_ns;
-use crate::telemetry::{CycleSample, TelemetryThread};
-use crate::{NodeContext, RuntimeError, realtime, schema_ok};
+use crate::telemetry::CycleSample;
+use crate::{NodeContext, RuntimeError, schema_ok};
 
 /// Runs the rmrc until the stop flag is set.
 pub fn run(context: &NodeContext) -> Result<(), RuntimeError> {
     let config = context.cell.config();
     let instance = &context.instance;
-    let (_telemetry, monitor) =
-        TelemetryThread::spawn(instance, NodeRole::Rmrc, config.runtime.telemetry_period_s)?;
-    let node = vservo_protocol::create_node(instance, NodeRole::Rmrc.name())?;
+    let NodeBase { _telemetry, monitor, node } = start(context, NodeRole::Rmrc)?;
     let state_subscriber = vservo_protocol::subscriber::<JointStateMsg>(&node, instance, Topic::JointState)?;
     let state_listener = vservo_protocol::listener(&node, instance, Topic::JointState)?;
     let twist_subscriber =
         vservo_protocol::subscriber::<CameraTwistMsg>(&node, instance, Topic::CameraTwist)?;
     let torque_publisher = vservo_protocol::publisher::<JointTorqueMsg>(&node, instance, Topic::JointTorque)?;
-    for warning in realtime::apply(&config.runtime.rmrc, &config.runtime) {
-        tracing::warn!(node = "rmrc", "{warning}");
-    }
+    go_realtime(context, NodeRole::Rmrc);
     let dt = config.timing.control_period_s;
     let period_ns = (dt * 1e9).round() as u64;
     let counters = monitor.counters();
     // the stage starts at the plant's joints, at rest, on the first state of each plant epoch
     let mut stage: Option<(u64, RmrcStage)> = None;
-    tracing::info!(node = "rmrc", "running");
 
     while !context.stopping() {
         let _ = state_listener.timed_wait(|_| {}, IDLE_WAIT);
         let woke_at = monotonic_ns();
-        let mut latest: Option<JointStateMsg> = None;
-        while let Ok(Some(sample)) = state_subscriber.receive() {
-            if schema_ok(sample.schema) {
-                latest = Some(*sample);
-            } else {
-                counters.rejected();
-            }
-        }
+        let latest = latest(&state_subscriber, |m: &JointStateMsg| m.schema, counters);
         let Some(state) = latest else { continue };
         let q = JointVector::from(state.q_rad);
         let qd = JointVector::from(state.qd_rad_s);

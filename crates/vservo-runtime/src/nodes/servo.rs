@@ -5,10 +5,10 @@ use vservo_control::Twist;
 use vservo_protocol::{CameraTwistMsg, FeaturesMsg, NodeRole, SCHEMA_VERSION, Topic, verdict};
 use vservo_scene::FeatureVector;
 
-use super::{IDLE_WAIT, to_array};
+use super::{IDLE_WAIT, NodeBase, go_realtime, start, to_array};
 use crate::clock::monotonic_ns;
-use crate::telemetry::{CycleSample, TelemetryThread};
-use crate::{NodeContext, RuntimeError, realtime, schema_ok};
+use crate::telemetry::CycleSample;
+use crate::{NodeContext, RuntimeError, schema_ok};
 
 /// RMS of ξ − ξ_d over the finite features (px); NaN when none is.
 pub fn feature_error_px(features: &FeatureVector, desired: &FeatureVector) -> f64 {
@@ -26,15 +26,11 @@ pub fn feature_error_px(features: &FeatureVector, desired: &FeatureVector) -> f6
 pub fn run(context: &NodeContext) -> Result<(), RuntimeError> {
     let config = context.cell.config();
     let instance = &context.instance;
-    let (_telemetry, monitor) =
-        TelemetryThread::spawn(instance, NodeRole::Servo, config.runtime.telemetry_period_s)?;
-    let node = vservo_protocol::create_node(instance, NodeRole::Servo.name())?;
+    let NodeBase { _telemetry, monitor, node } = start(context, NodeRole::Servo)?;
     let features_subscriber = vservo_protocol::subscriber::<FeaturesMsg>(&node, instance, Topic::Features)?;
     let features_listener = vservo_protocol::listener(&node, instance, Topic::Features)?;
     let twist_publisher = vservo_protocol::publisher::<CameraTwistMsg>(&node, instance, Topic::CameraTwist)?;
-    for warning in realtime::apply(&config.runtime.servo, &config.runtime) {
-        tracing::warn!(node = "servo", "{warning}");
-    }
+    go_realtime(context, NodeRole::Servo);
     let mut stage = context.cell.servo();
     let gains_version = 1;
     let counters = monitor.counters();
@@ -46,7 +42,6 @@ pub fn run(context: &NodeContext) -> Result<(), RuntimeError> {
         }
     };
     let mut last = (0u64, 0u64);
-    tracing::info!(node = "servo", "running");
 
     while !context.stopping() {
         let _ = features_listener.timed_wait(|_| {}, IDLE_WAIT);

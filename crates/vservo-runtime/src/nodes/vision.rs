@@ -6,10 +6,10 @@ use vservo_protocol::{FeaturesMsg, JointStateMsg, MARKS, NodeRole, SCHEMA_VERSIO
 use vservo_scene::IsometryMatrix3;
 use vservo_vision::MarkStatus;
 
-use super::to_array;
+use super::{NodeBase, go_realtime, latest, start, to_array};
 use crate::clock::{PeriodicTimer, monotonic_ns};
-use crate::telemetry::{CycleSample, TelemetryThread};
-use crate::{NodeContext, RuntimeError, realtime, schema_ok};
+use crate::telemetry::CycleSample;
+use crate::{NodeContext, RuntimeError};
 
 fn status_code(status: &MarkStatus) -> u8 {
     match status {
@@ -47,15 +47,11 @@ struct FrameInfo {
 pub fn run(context: &NodeContext) -> Result<(), RuntimeError> {
     let config = context.cell.config();
     let instance = &context.instance;
-    let (_telemetry, monitor) =
-        TelemetryThread::spawn(instance, NodeRole::Vision, config.runtime.telemetry_period_s)?;
-    let node = vservo_protocol::create_node(instance, NodeRole::Vision.name())?;
+    let NodeBase { _telemetry, monitor, node } = start(context, NodeRole::Vision)?;
     let state_subscriber = vservo_protocol::subscriber::<JointStateMsg>(&node, instance, Topic::JointState)?;
     let features_publisher = vservo_protocol::publisher::<FeaturesMsg>(&node, instance, Topic::Features)?;
     let features_notifier = vservo_protocol::notifier(&node, instance, Topic::Features)?;
-    for warning in realtime::apply(&config.runtime.vision, &config.runtime) {
-        tracing::warn!(node = "vision", "{warning}");
-    }
+    go_realtime(context, NodeRole::Vision);
     let mut stage = context.cell.vision();
     if let Some(features) = &context.resume_features {
         stage.resume_tracking(features);
@@ -91,7 +87,6 @@ pub fn run(context: &NodeContext) -> Result<(), RuntimeError> {
         let _ = features_notifier.notify();
     };
     let mut timer = PeriodicTimer::start(period_ns);
-    tracing::info!(node = "vision", "running");
 
     while !context.stopping() {
         let wake = timer.wait();
@@ -104,14 +99,7 @@ pub fn run(context: &NodeContext) -> Result<(), RuntimeError> {
         if let Some(delivered) = stage.take_delivered() {
             publish(&delivered, &frames_in_pipeline);
         }
-        let mut latest: Option<JointStateMsg> = None;
-        while let Ok(Some(sample)) = state_subscriber.receive() {
-            if schema_ok(sample.schema) {
-                latest = Some(*sample);
-            } else {
-                counters.rejected();
-            }
-        }
+        let latest = latest(&state_subscriber, |m: &JointStateMsg| m.schema, counters);
         // no plant yet (or a restart under way): no image to take
         let Some(state) = latest else { continue };
         let q = JointVector::from(state.q_rad);
