@@ -1,5 +1,6 @@
 //! The plant stage: the simulated arm and the board it looks at.
 
+use nalgebra::Vector3;
 use vservo_arm::{JointVector, SerialArm};
 use vservo_config::Config;
 use vservo_scene::IsometryMatrix3;
@@ -16,6 +17,9 @@ pub struct PlantStage {
     plant: Plant,
     control_period_s: f64,
     object: ObjectMotion,
+    /// Where the current motion starts (desired camera frame, m) and when (simulated s).
+    object_origin_m: Vector3<f64>,
+    object_since_s: f64,
     base_from_desired_camera: IsometryMatrix3<f64>,
     base_from_board_desired: IsometryMatrix3<f64>,
     /// The drive's own servo, used only to hold the arm when no command comes (a brake).
@@ -42,6 +46,8 @@ impl PlantStage {
             plant: Plant::new(arm, config.plant.mode, config.plant.rk4_substeps, q).starting_at_tick(tick),
             control_period_s: config.timing.control_period_s,
             object: config.scenario.object,
+            object_origin_m: Vector3::zeros(),
+            object_since_s: 0.0,
             base_from_desired_camera,
             base_from_board_desired,
             holding_servo,
@@ -64,17 +70,23 @@ impl PlantStage {
         self.plant.state().tick as f64 * self.control_period_s
     }
 
-    /// Where the board is at the current tick, in the base frame.
-    pub fn base_from_board(&self) -> IsometryMatrix3<f64> {
-        self.object.base_from_board(
-            self.time_s(),
-            &self.base_from_desired_camera,
-            &self.base_from_board_desired,
-        )
+    /// The board's displacement from its desired-pose position at the current tick (desired camera frame).
+    fn object_offset_m(&self) -> Vector3<f64> {
+        self.object_origin_m + self.object.offset_in_desired_camera(self.time_s() - self.object_since_s)
     }
 
-    /// Changes how the board moves from now on.
+    /// Where the board is at the current tick, in the base frame.
+    pub fn base_from_board(&self) -> IsometryMatrix3<f64> {
+        let mut pose = self.base_from_board_desired;
+        pose.translation.vector += self.base_from_desired_camera.rotation * self.object_offset_m();
+        pose
+    }
+
+    /// From now on the board moves as `motion` says, starting where it is, with `motion`'s time counted from
+    /// now (a `Step` at 0 s jumps at once).
     pub fn set_object_motion(&mut self, motion: ObjectMotion) {
+        self.object_origin_m = self.object_offset_m();
+        self.object_since_s = self.time_s();
         self.object = motion;
     }
 

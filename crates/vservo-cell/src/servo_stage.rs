@@ -1,6 +1,6 @@
 //! The servo stage: the LQ law, and what it does with a frame it cannot use.
 
-use vservo_control::{Gains, ServoLaw, Twist};
+use vservo_control::{Gains, LawGains, ServoLaw, Twist};
 use vservo_scene::FeatureVector;
 
 /// Why the servo sent the twist it sent.
@@ -31,8 +31,8 @@ impl ServoStage {
     }
 
     /// Swaps in new gains, keeping the command history (no twist jump beyond the new gain's own).
-    pub fn set_gains(&mut self, gains: &Gains) {
-        self.law.set_gains(gains);
+    pub fn set_gains(&mut self, gains: &LawGains) {
+        self.law.set_law_gains(gains);
     }
 
     /// The twist for the frame leaving the pipeline now (`None` before the first one has).

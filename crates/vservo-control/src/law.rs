@@ -4,6 +4,31 @@ use vservo_scene::FeatureVector;
 
 use crate::{FeatureGain, Gains, MAX_DELAY_FRAMES, Twist};
 
+/// What the law needs of a design: the gain on the feature error, the gains on past commands and ξ_d. This
+/// is what crosses from the process that designs gains (off the hot path) to the one that runs the law.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LawGains {
+    /// K_ξ (K for the paper's law).
+    pub feature_gain: FeatureGain,
+    /// K_j on the command sent j + 1 frames ago.
+    pub past_input_gains: [nalgebra::Matrix6<f64>; MAX_DELAY_FRAMES],
+    /// How many of `past_input_gains` are used.
+    pub used_past_gains: usize,
+    /// ξ_d.
+    pub desired_features: FeatureVector,
+}
+
+impl From<&Gains> for LawGains {
+    fn from(gains: &Gains) -> Self {
+        Self {
+            feature_gain: gains.feature_gain,
+            past_input_gains: gains.past_input_gains,
+            used_past_gains: gains.active_past_input_gains().len(),
+            desired_features: gains.desired_features,
+        }
+    }
+}
+
 /// The servo's state: its gains and the commands it sent in the last frames.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ServoLaw {
@@ -32,9 +57,14 @@ impl ServoLaw {
     /// Swaps in new gains (and their ξ_d), keeping the command history so that the twist does not jump
     /// beyond what the new gain itself implies.
     pub fn set_gains(&mut self, gains: &Gains) {
+        self.set_law_gains(&LawGains::from(gains));
+    }
+
+    /// [`ServoLaw::set_gains`] from the law's part of a design.
+    pub fn set_law_gains(&mut self, gains: &LawGains) {
         self.feature_gain = gains.feature_gain;
         self.past_input_gains = gains.past_input_gains;
-        self.used_past_gains = gains.active_past_input_gains().len();
+        self.used_past_gains = gains.used_past_gains.min(MAX_DELAY_FRAMES);
         self.desired_features = gains.desired_features;
     }
 

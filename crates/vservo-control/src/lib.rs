@@ -26,7 +26,7 @@ pub mod lq;
 pub mod weights;
 
 pub use design::{ControlLaw, Gains, GainsError, GainsSpec};
-pub use law::ServoLaw;
+pub use law::{LawGains, ServoLaw};
 pub use weights::{InputUnits, InputWeight, StateWeight, WeightError};
 
 /// The camera twist u = [v; ω] in the camera frame (m/s, rad/s).

@@ -31,6 +31,10 @@ pub enum Topic {
     Telemetry,
     /// vservod → anyone: [`DaemonStatusMsg`], 10 Hz.
     Status,
+    /// vservod → servo: [`GainsMsg`], on each accepted reload or target.
+    Gains,
+    /// vservod → plant: [`ObjectMsg`], on each accepted object command.
+    Object,
 }
 
 /// How a service is sized. Openers that ask for no more than these open it whoever created it.
@@ -66,6 +70,8 @@ impl Topic {
             Topic::CameraTwist => "camera_twist",
             Topic::Telemetry => "telemetry",
             Topic::Status => "status",
+            Topic::Gains => "gains",
+            Topic::Object => "object",
         }
     }
 
@@ -78,6 +84,8 @@ impl Topic {
             Topic::CameraTwist => "vservo::CameraTwist",
             Topic::Telemetry => "vservo::Telemetry",
             Topic::Status => "vservo::DaemonStatus",
+            Topic::Gains => "vservo::Gains",
+            Topic::Object => "vservo::Object",
         }
     }
 
@@ -90,6 +98,8 @@ impl Topic {
             Topic::CameraTwist => (2, 8, 1, 32),
             Topic::Telemetry => (8, 8, 1, 64),
             Topic::Status => (2, 8, 1, 8),
+            Topic::Gains => (2, 8, 1, 8),
+            Topic::Object => (2, 8, 1, 8),
         };
         TopicSettings { max_publishers, max_subscribers, history_size, subscriber_max_buffer_size }
     }
@@ -239,6 +249,36 @@ pub fn live_node_pids(node: &Node<ipc::Service>, instance: &str, role: &str) -> 
         CallbackProgression::Continue
     });
     pids
+}
+
+/// The request-response service `vservo/<instance>/command` ([`CommandMsg`] → [`CommandReplyMsg`]).
+pub const COMMAND_SERVICE: &str = "command";
+
+/// The command service, opened or created with vservo's sizes.
+pub fn open_command_service(
+    node: &Node<ipc::Service>,
+    instance: &str,
+) -> Result<
+    iceoryx2::service::port_factory::request_response::PortFactory<
+        ipc::Service,
+        CommandMsg,
+        (),
+        CommandReplyMsg,
+        (),
+    >,
+    ProtocolError,
+> {
+    let name = format!("vservo/{instance}/{COMMAND_SERVICE}");
+    let service = ServiceName::new(&name)
+        .map_err(|e| ProtocolError::Name { name: name.clone(), reason: format!("{e:?}") })?;
+    node.service_builder(&service)
+        .request_response::<CommandMsg, CommandReplyMsg>()
+        .max_servers(2)
+        .max_clients(16)
+        .max_active_requests_per_client(4)
+        .max_response_buffer_size(4)
+        .open_or_create()
+        .map_err(|e| port_error("opening the command service", &name)(e.to_string()))
 }
 
 /// The node name of a vservo process: `vservo/<instance>/<role>`.

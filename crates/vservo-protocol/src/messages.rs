@@ -338,6 +338,155 @@ pub struct DaemonStatusMsg {
     pub reserved: u32,
 }
 
+/// Kinds of [`CommandMsg::kind`].
+pub mod command_kind {
+    /// A new target: `features_px` becomes ξ_d.
+    pub const TARGET_FEATURES: u32 = 1;
+    /// A new target: the camera's desired pose relative to the board (`translation_m`, `rotation_rpy_rad`
+    /// give camera_from_board); ξ_d and the depths follow from it.
+    pub const TARGET_POSE: u32 = 2;
+    /// A new target: the features and pose the camera has now.
+    pub const TARGET_TEACH: u32 = 3;
+    /// The simulated board stops where it is.
+    pub const OBJECT_HOLD: u32 = 4;
+    /// The simulated board jumps by `translation_m` (desired camera frame) now.
+    pub const OBJECT_STEP: u32 = 5;
+    /// The simulated board moves on a circle of `radius_m` at `rev_per_min` in the desired camera frame's y–z
+    /// plane, starting where it is.
+    pub const OBJECT_CIRCLE: u32 = 6;
+    /// Reload the configuration file (as SIGHUP does).
+    pub const RELOAD: u32 = 7;
+}
+
+/// client → vservod (request-response service `command`): one command.
+#[derive(Debug, Clone, Copy, PartialEq, ZeroCopySend)]
+#[type_name("vservo::Command")]
+#[repr(C)]
+pub struct CommandMsg {
+    /// [`SCHEMA_VERSION`].
+    pub schema: u32,
+    /// [`command_kind`].
+    pub kind: u32,
+    /// Chosen by the client; the reply carries it back.
+    pub id: u64,
+    /// TARGET_FEATURES: ξ_d (px).
+    pub features_px: [f64; FEATURES],
+    /// TARGET_POSE: the board's position in the desired camera frame (m); OBJECT_STEP: the jump (m).
+    pub translation_m: [f64; 3],
+    /// TARGET_POSE: the board's orientation in the desired camera frame, roll–pitch–yaw (rad),
+    /// R = Rz(yaw)·Ry(pitch)·Rx(roll).
+    pub rotation_rpy_rad: [f64; 3],
+    /// OBJECT_CIRCLE: radius (m).
+    pub radius_m: f64,
+    /// OBJECT_CIRCLE: speed (revolutions per minute).
+    pub rev_per_min: f64,
+}
+
+impl CommandMsg {
+    /// A command of `kind` with every parameter zero.
+    pub fn new(kind: u32, id: u64) -> Self {
+        Self {
+            schema: SCHEMA_VERSION,
+            kind,
+            id,
+            features_px: [0.0; FEATURES],
+            translation_m: [0.0; 3],
+            rotation_rpy_rad: [0.0; 3],
+            radius_m: 0.0,
+            rev_per_min: 0.0,
+        }
+    }
+}
+
+/// Room for the reason text of a reply (bytes).
+pub const REASON_BYTES: usize = 256;
+
+/// vservod → client: the answer to a [`CommandMsg`].
+#[derive(Debug, Clone, Copy, PartialEq, ZeroCopySend)]
+#[type_name("vservo::CommandReply")]
+#[repr(C)]
+pub struct CommandReplyMsg {
+    /// [`SCHEMA_VERSION`].
+    pub schema: u32,
+    /// 1 accepted, 0 refused.
+    pub accepted: u32,
+    /// The command's `id`.
+    pub id: u64,
+    /// The gains version in force after the command.
+    pub gains_version: u64,
+    /// ξ_d in force after the command (px).
+    pub target_features_px: [f64; FEATURES],
+    /// Why it was refused, or what was done: UTF-8, zero-padded.
+    pub reason: [u8; REASON_BYTES],
+}
+
+impl CommandReplyMsg {
+    /// A reply with `reason` (cut at a character boundary to fit).
+    pub fn new(id: u64, accepted: bool, gains_version: u64, target: [f64; FEATURES], reason: &str) -> Self {
+        let mut bytes = [0u8; REASON_BYTES];
+        let mut end = reason.len().min(REASON_BYTES);
+        while !reason.is_char_boundary(end) {
+            end -= 1;
+        }
+        bytes[..end].copy_from_slice(&reason.as_bytes()[..end]);
+        Self {
+            schema: SCHEMA_VERSION,
+            accepted: u32::from(accepted),
+            id,
+            gains_version,
+            target_features_px: target,
+            reason: bytes,
+        }
+    }
+
+    /// The reason as text (up to the first zero byte; invalid UTF-8 replaced).
+    pub fn reason(&self) -> String {
+        let end = self.reason.iter().position(|b| *b == 0).unwrap_or(REASON_BYTES);
+        String::from_utf8_lossy(&self.reason[..end]).into_owned()
+    }
+}
+
+/// Most past-command gains a [`GainsMsg`] carries.
+pub const MAX_PAST_GAINS: usize = 4;
+
+/// vservod → servo (history 1): the gains to swap in at the next frame, designed off the hot path.
+#[derive(Debug, Clone, Copy, PartialEq, ZeroCopySend)]
+#[type_name("vservo::Gains")]
+#[repr(C)]
+pub struct GainsMsg {
+    /// [`SCHEMA_VERSION`].
+    pub schema: u32,
+    /// How many of `past_input_gains` the law uses.
+    pub used_past_gains: u32,
+    /// The version (1 at start, +1 per accepted reload or target).
+    pub version: u64,
+    /// K_ξ, 6×8 row-major (m/s and rad/s per px).
+    pub feature_gain: [f64; 48],
+    /// K_j on the command sent j + 1 frames ago, each 6×6 row-major.
+    pub past_input_gains: [f64; 36 * MAX_PAST_GAINS],
+    /// ξ_d (px).
+    pub desired_features_px: [f64; FEATURES],
+}
+
+/// vservod → plant (history 1): how the simulated board moves from now on.
+#[derive(Debug, Clone, Copy, PartialEq, ZeroCopySend)]
+#[type_name("vservo::Object")]
+#[repr(C)]
+pub struct ObjectMsg {
+    /// [`SCHEMA_VERSION`].
+    pub schema: u32,
+    /// [`command_kind`]: OBJECT_HOLD, OBJECT_STEP or OBJECT_CIRCLE.
+    pub kind: u32,
+    /// Counts the commands (1 for the first).
+    pub sequence: u64,
+    /// OBJECT_STEP: the jump in the desired camera frame (m).
+    pub translation_m: [f64; 3],
+    /// OBJECT_CIRCLE: radius (m).
+    pub radius_m: f64,
+    /// OBJECT_CIRCLE: speed (rev/min).
+    pub rev_per_min: f64,
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -366,6 +515,18 @@ mod tests {
         assert_eq!(offset_of!(DaemonStatusMsg, nodes), 32);
         assert_eq!(offset_of!(DaemonStatusMsg, tick_rate_hz), 160);
         assert_eq!(size_of::<DaemonStatusMsg>(), 32 + 4 * 32 + 16 + 8);
+        assert_eq!(size_of::<CommandMsg>(), 16 + 64 + 48 + 16);
+        assert_eq!(size_of::<CommandReplyMsg>(), 24 + 64 + REASON_BYTES);
+        assert_eq!(offset_of!(GainsMsg, feature_gain), 16);
+        assert_eq!(size_of::<ObjectMsg>(), 16 + 24 + 16);
+    }
+
+    #[test]
+    fn a_reason_is_cut_at_a_character_boundary_and_read_back() {
+        let long = "é".repeat(REASON_BYTES);
+        let reply = CommandReplyMsg::new(7, false, 1, [0.0; FEATURES], &long);
+        assert_eq!(reply.reason(), "é".repeat(REASON_BYTES / 2));
+        assert_eq!(CommandReplyMsg::new(7, true, 1, [0.0; FEATURES], "ok").reason(), "ok");
     }
 
     #[test]

@@ -18,6 +18,7 @@ pub mod nodes;
 pub mod realtime;
 pub mod status;
 pub mod telemetry;
+pub mod wire;
 
 use std::sync::Arc;
 use std::sync::atomic::AtomicBool;

@@ -5,8 +5,8 @@ use std::time::{Duration, Instant};
 use clap::Args;
 use serde_json::{Value, json};
 use vservo_protocol::{
-    CameraTwistMsg, DaemonStatusMsg, FeaturesMsg, JointStateMsg, JointTorqueMsg, TelemetryMsg, TimingMsg,
-    Topic,
+    CameraTwistMsg, DaemonStatusMsg, FeaturesMsg, GainsMsg, JointStateMsg, JointTorqueMsg, ObjectMsg,
+    TelemetryMsg, TimingMsg, Topic,
 };
 
 use crate::instance::{Connection, InstanceArg};
@@ -15,7 +15,7 @@ use crate::output::print_stdout;
 /// Arguments of `vservoctl echo`.
 #[derive(Args, Debug)]
 pub struct EchoArgs {
-    /// Which service: joint_state, joint_torque, features, camera_twist, telemetry or status (joint_state and
+    /// Which service: joint_state, joint_torque, features, camera_twist, telemetry, status, gains or object (joint_state and
     /// joint_torque come at 1 kHz: a slow terminal drops samples).
     #[arg(value_parser = topic_name)]
     topic: Topic,
@@ -85,6 +85,17 @@ fn status(m: &DaemonStatusMsg) -> Value {
         "feature_error_px": number(m.feature_error_px), "pid": m.pid, "nodes": nodes})
 }
 
+fn gains(m: &GainsMsg) -> Value {
+    json!({"schema": m.schema, "version": m.version, "used_past_gains": m.used_past_gains,
+        "feature_gain": numbers(&m.feature_gain), "past_input_gains": numbers(&m.past_input_gains),
+        "desired_features_px": numbers(&m.desired_features_px)})
+}
+
+fn object(m: &ObjectMsg) -> Value {
+    json!({"schema": m.schema, "kind": m.kind, "sequence": m.sequence, "translation_m": numbers(&m.translation_m),
+        "radius_m": number(m.radius_m), "rev_per_min": number(m.rev_per_min)})
+}
+
 fn echo<T: std::fmt::Debug + iceoryx2::prelude::ZeroCopySend + 'static>(
     connection: &Connection,
     topic: Topic,
@@ -126,5 +137,7 @@ pub fn run(args: &EchoArgs) -> anyhow::Result<()> {
         Topic::CameraTwist => echo(&connection, topic, args, camera_twist),
         Topic::Telemetry => echo(&connection, topic, args, telemetry),
         Topic::Status => echo(&connection, topic, args, status),
+        Topic::Gains => echo(&connection, topic, args, gains),
+        Topic::Object => echo(&connection, topic, args, object),
     }
 }

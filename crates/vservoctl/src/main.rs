@@ -4,6 +4,7 @@
 //! running instance). Each subcommand lives in its own module; input errors are reported as
 //! [`UsageError`] and end with exit code 2, other failures with exit code 1.
 
+mod commands;
 mod config_arg;
 mod echo;
 mod gains;
@@ -49,6 +50,12 @@ enum Command {
     Status(status::StatusArgs),
     /// Print a running instance's messages on one topic as JSON lines.
     Echo(echo::EchoArgs),
+    /// Give a running instance a new target (features, a camera pose, or what it sees now).
+    Target(commands::TargetArgs),
+    /// Move a running instance's simulated board (hold, step, circle).
+    Object(commands::ObjectArgs),
+    /// Make a running instance reload its configuration file (as SIGHUP does).
+    Reload(commands::ReloadArgs),
 }
 
 fn main() -> ExitCode {
@@ -61,12 +68,21 @@ fn main() -> ExitCode {
         Command::Sim(args) => sim::run(&args),
         Command::Status(args) => status::run(&args),
         Command::Echo(args) => echo::run(&args),
+        Command::Target(args) => commands::target(&args),
+        Command::Object(args) => commands::object(&args),
+        Command::Reload(args) => commands::reload(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(error) => {
             eprintln!("vservoctl: {error:#}");
-            if error.is::<UsageError>() { ExitCode::from(2) } else { ExitCode::FAILURE }
+            if error.is::<UsageError>() {
+                ExitCode::from(2)
+            } else if error.is::<commands::Refused>() {
+                ExitCode::from(3)
+            } else {
+                ExitCode::FAILURE
+            }
         }
     }
 }

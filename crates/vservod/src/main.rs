@@ -6,6 +6,7 @@
 //! down), speaks systemd's notify protocol (READY, STATUS, WATCHDOG, STOPPING) and on SIGTERM/SIGINT ramps
 //! the arm to rest before it stops the nodes. Logs go to stderr through `tracing` (journald-friendly).
 
+mod commands;
 mod node_process;
 mod supervisor;
 mod systemd;

@@ -21,6 +21,7 @@ use vservo_protocol::{
 use vservo_runtime::clock::{PeriodicTimer, monotonic_ns};
 use vservo_runtime::status::StatusView;
 
+use crate::commands::{Commander, LoopState};
 use crate::systemd::Systemd;
 
 /// The supervisor's cycle.
@@ -184,6 +185,8 @@ pub fn run(
     reload: Arc<AtomicBool>,
 ) -> anyhow::Result<()> {
     let config = Config::load(config_path)?;
+    let config_text = std::fs::read_to_string(config_path)
+        .with_context(|| format!("{}: reading the configuration", config_path.display()))?;
     // design the gains and place the arm now: a configuration that cannot run is refused before any node starts
     vservo_cell::Cell::new(&config).with_context(|| format!("{}", config_path.display()))?;
     let instance = config.instance.clone();
@@ -215,6 +218,7 @@ pub fn run(
         features: vservo_protocol::subscriber(&node, &instance, Topic::Features)?,
         status: vservo_protocol::publisher(&node, &instance, Topic::Status)?,
     };
+    let mut commander = Commander::new(&node, &launcher.config_path, config.clone(), config_text)?;
     let daemon_started = monotonic_ns();
     let mut systemd = Systemd::new();
     let runtime = &config.runtime;
@@ -287,6 +291,10 @@ pub fn run(
             tracing::info!(cleaned, "removed the shared-memory leftovers of dead nodes");
         }
         heard.drain(&ports, &mut nodes);
+        commander.serve(
+            &LoopState { joint_state: heard.joint_state.as_ref(), features: heard.features.as_ref() },
+            &mut systemd,
+        );
         for n in nodes.iter_mut() {
             if n.process.is_none() && n.restart_at.is_some_and(|at| now >= at) {
                 match launcher.spawn(n.role, Some(&heard)) {
@@ -312,7 +320,7 @@ pub fn run(
             (false, false) => daemon_state::STARTING,
             (false, true) => daemon_state::DEGRADED,
         };
-        let message = status_message(&nodes, &heard, state, daemon_started, now);
+        let message = status_message(&nodes, &heard, commander.gains_version(), state, daemon_started, now);
         if let Ok(sample) = ports.status.loan_uninit() {
             let _ = sample.write_payload(message).send();
         }
@@ -358,6 +366,7 @@ fn telemetry_of(nodes: &[Supervised]) -> [Option<TelemetryMsg>; 4] {
 fn status_message(
     nodes: &[Supervised],
     heard: &Heard,
+    designed_gains_version: u64,
     state: u32,
     daemon_started: u64,
     now: Instant,
@@ -379,7 +388,8 @@ fn status_message(
         state,
         stamp_ns,
         uptime_ns: stamp_ns - daemon_started,
-        gains_version: heard.gains_version,
+        // the version the servo runs, once it has said; until then the one designed
+        gains_version: if heard.gains_version > 0 { heard.gains_version } else { designed_gains_version },
         nodes: statuses,
         tick_rate_hz: heard.tick_rate_hz,
         feature_error_px: heard.feature_error_px,

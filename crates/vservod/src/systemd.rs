@@ -48,6 +48,17 @@ impl Systemd {
         self.send(&[NotifyState::Watchdog]);
     }
 
+    /// RELOADING=1 with MONOTONIC_USEC (systemd's reload protocol, for `Type=notify-reload` too).
+    pub fn reloading(&mut self) {
+        let usec = i128::from(vservo_runtime::clock::monotonic_ns() / 1000);
+        self.send(&[NotifyState::Reloading, NotifyState::MonotonicUsec(usec)]);
+    }
+
+    /// READY=1 after a reload, with what came of it.
+    pub fn reloaded(&mut self, status: &str) {
+        self.send(&[NotifyState::Ready, NotifyState::Status(status)]);
+    }
+
     /// STOPPING=1.
     pub fn stopping(&mut self) {
         self.send(&[NotifyState::Stopping, NotifyState::Status("stopping: ramping the arm to rest")]);

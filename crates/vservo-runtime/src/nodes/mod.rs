@@ -17,7 +17,7 @@ use crate::{NodeContext, RuntimeError, realtime, schema_ok};
 /// How long an event-driven node waits before it looks at its stop flag again.
 const IDLE_WAIT: Duration = Duration::from_millis(100);
 
-fn to_array<const N: usize>(v: &nalgebra::SVector<f64, N>) -> [f64; N] {
+pub(crate) fn to_array<const N: usize>(v: &nalgebra::SVector<f64, N>) -> [f64; N] {
     let mut out = [0.0; N];
     out.copy_from_slice(v.as_slice());
     out

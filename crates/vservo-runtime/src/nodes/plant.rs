@@ -5,11 +5,13 @@
 use vservo_arm::JointVector;
 use vservo_cell::{ActuatorCommand, PlantStage};
 use vservo_protocol::{
-    JointStateMsg, JointTorqueMsg, NodeRole, SCHEMA_VERSION, Topic, actuator_mode, fault_bits,
+    JointStateMsg, JointTorqueMsg, NodeRole, ObjectMsg, SCHEMA_VERSION, Topic, actuator_mode, command_kind,
+    fault_bits,
 };
 use vservo_sim::plant::JointState;
+use vservo_sim::world::ObjectMotion;
 
-use super::{NodeBase, go_realtime, start, to_array};
+use super::{NodeBase, go_realtime, latest, start, to_array};
 use crate::clock::{PeriodicTimer, monotonic_ns};
 use crate::telemetry::CycleSample;
 use crate::{NodeContext, RuntimeError, schema_ok};
@@ -64,6 +66,23 @@ fn command_of(message: &JointTorqueMsg) -> Option<ActuatorCommand> {
     }
 }
 
+fn object_motion(message: &ObjectMsg) -> Option<ObjectMotion> {
+    let finite =
+        message.translation_m.iter().chain([&message.radius_m, &message.rev_per_min]).all(|v| v.is_finite());
+    match message.kind {
+        _ if !finite => None,
+        command_kind::OBJECT_HOLD => Some(ObjectMotion::Hold),
+        command_kind::OBJECT_STEP => Some(ObjectMotion::Step {
+            at_s: 0.0,
+            translation_m: nalgebra::Vector3::from(message.translation_m),
+        }),
+        command_kind::OBJECT_CIRCLE => {
+            Some(ObjectMotion::Circle { radius_m: message.radius_m, rev_per_min: message.rev_per_min })
+        }
+        _ => None,
+    }
+}
+
 /// Runs the plant until the stop flag is set.
 pub fn run(context: &NodeContext) -> Result<(), RuntimeError> {
     let config = context.cell.config();
@@ -71,6 +90,7 @@ pub fn run(context: &NodeContext) -> Result<(), RuntimeError> {
     let NodeBase { _telemetry, monitor, node } = start(context, NodeRole::Plant)?;
     let state_publisher = vservo_protocol::publisher::<JointStateMsg>(&node, instance, Topic::JointState)?;
     let state_notifier = vservo_protocol::notifier(&node, instance, Topic::JointState)?;
+    let object_subscriber = vservo_protocol::subscriber::<ObjectMsg>(&node, instance, Topic::Object)?;
     let torque_subscriber =
         vservo_protocol::subscriber::<JointTorqueMsg>(&node, instance, Topic::JointTorque)?;
 
@@ -92,6 +112,7 @@ pub fn run(context: &NodeContext) -> Result<(), RuntimeError> {
     );
 
     let mut last_command: Option<ActuatorCommand> = None;
+    let mut object_sequence = 0;
     let mut missed_in_a_row: u64 = 0;
     let mut timer = PeriodicTimer::start(period_ns);
     while !context.stopping() {
@@ -131,6 +152,16 @@ pub fn run(context: &NodeContext) -> Result<(), RuntimeError> {
         if wake.skipped_periods > 0 {
             counters.overrun();
             counters.skipped(wake.skipped_periods);
+        }
+        // an object command (from vservod; rare) changes the board's motion from this tick on
+        if let Some(message) = latest(&object_subscriber, |m: &ObjectMsg| m.schema, counters)
+            && message.sequence != object_sequence
+        {
+            object_sequence = message.sequence;
+            match object_motion(&message) {
+                Some(motion) => stage.set_object_motion(motion),
+                None => counters.rejected(),
+            }
         }
         // a late tick still advances one tick of simulated time
         match answer {

@@ -2,12 +2,13 @@
 
 use vservo_cell::ServoVerdict;
 use vservo_control::Twist;
-use vservo_protocol::{CameraTwistMsg, FeaturesMsg, NodeRole, SCHEMA_VERSION, Topic, verdict};
+use vservo_protocol::{CameraTwistMsg, FeaturesMsg, GainsMsg, NodeRole, SCHEMA_VERSION, Topic, verdict};
 use vservo_scene::FeatureVector;
 
-use super::{IDLE_WAIT, NodeBase, go_realtime, start, to_array};
+use super::{IDLE_WAIT, NodeBase, go_realtime, latest, start, to_array};
 use crate::clock::monotonic_ns;
 use crate::telemetry::CycleSample;
+use crate::wire::law_gains;
 use crate::{NodeContext, RuntimeError, schema_ok};
 
 /// RMS of ξ − ξ_d over the finite features (px); NaN when none is.
@@ -30,9 +31,11 @@ pub fn run(context: &NodeContext) -> Result<(), RuntimeError> {
     let features_subscriber = vservo_protocol::subscriber::<FeaturesMsg>(&node, instance, Topic::Features)?;
     let features_listener = vservo_protocol::listener(&node, instance, Topic::Features)?;
     let twist_publisher = vservo_protocol::publisher::<CameraTwistMsg>(&node, instance, Topic::CameraTwist)?;
+    // the daemon's latest design (history 1: a restarted servo takes it at once)
+    let gains_subscriber = vservo_protocol::subscriber::<GainsMsg>(&node, instance, Topic::Gains)?;
     go_realtime(context, NodeRole::Servo);
     let mut stage = context.cell.servo();
-    let gains_version = 1;
+    let mut gains_version = 1;
     let counters = monitor.counters();
     counters.set_gains_version(gains_version);
     let period_ns = (config.timing.vision_period_s * 1e9).round() as u64;
@@ -46,6 +49,19 @@ pub fn run(context: &NodeContext) -> Result<(), RuntimeError> {
     while !context.stopping() {
         let _ = features_listener.timed_wait(|_| {}, IDLE_WAIT);
         let woke_at = monotonic_ns();
+        // new gains take effect at a frame boundary, before the next feature vector
+        if let Some(message) = latest(&gains_subscriber, |m: &GainsMsg| m.schema, counters)
+            && message.version != gains_version
+        {
+            match law_gains(&message) {
+                Some(gains) => {
+                    stage.set_gains(&gains);
+                    gains_version = message.version;
+                    counters.set_gains_version(gains_version);
+                }
+                None => counters.rejected(),
+            }
+        }
         while let Ok(Some(sample)) = features_subscriber.receive() {
             let message = *sample;
             if !schema_ok(message.schema) {

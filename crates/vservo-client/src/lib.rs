@@ -1,0 +1,210 @@
+//! # vservo-client — talk to a running vservo instance from Rust
+//!
+//! This crate owns the client side of vservo's shared-memory protocol (docs/PROTOCOL.md): commands
+//! (targets, object motion, reload) over the `command` request-response service, each answered with
+//! whether it was accepted and why not, and reading the instance's status and loop messages.
+//!
+//! ```no_run
+//! let mut client = vservo_client::Client::connect("default")?;
+//! let reply = client.set_target_features([151.0, 168.0, 318.0, 178.0, 339.0, 75.0, 172.0, 70.0])?;
+//! if !reply.accepted {
+//!     eprintln!("refused: {}", reply.reason);
+//! }
+//! let status = client.status(std::time::Duration::from_secs(1))?;
+//! println!("gains version {}", status.gains_version);
+//! # Ok::<(), vservo_client::ClientError>(())
+//! ```
+
+use std::time::{Duration, Instant};
+
+use iceoryx2::port::client::Client as IceoryxClient;
+use iceoryx2::port::subscriber::Subscriber;
+use iceoryx2::prelude::{Node, ZeroCopySend, ipc};
+pub use vservo_protocol::{
+    CameraTwistMsg, CommandMsg, CommandReplyMsg, DaemonStatusMsg, FEATURES, FeaturesMsg, JointStateMsg,
+    SCHEMA_VERSION, TelemetryMsg, Topic, command_kind,
+};
+
+/// What can go wrong talking to an instance.
+#[derive(Debug, thiserror::Error)]
+pub enum ClientError {
+    /// iceoryx2 refused a node, service or port.
+    #[error(transparent)]
+    Protocol(#[from] vservo_protocol::ProtocolError),
+    /// Sending a request or reading its answer failed.
+    #[error("{what}: {reason}")]
+    Transport {
+        /// What was being done.
+        what: &'static str,
+        /// iceoryx2's reason.
+        reason: String,
+    },
+    /// No answer within the time allowed: no daemon runs this instance, or it runs as another user.
+    #[error(
+        "no answer from vservod of instance {instance:?} within {waited:?} (is it running, as the same user?)"
+    )]
+    NoAnswer {
+        /// The instance.
+        instance: String,
+        /// How long was waited.
+        waited: Duration,
+    },
+}
+
+/// The daemon's answer to a command.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Reply {
+    /// Whether the command was accepted.
+    pub accepted: bool,
+    /// Why it was refused, or what was done.
+    pub reason: String,
+    /// The gains version in force after it.
+    pub gains_version: u64,
+    /// ξ_d in force after it (px).
+    pub target_features_px: [f64; FEATURES],
+}
+
+/// A connection to one instance.
+pub struct Client {
+    instance: String,
+    node: Node<ipc::Service>,
+    commands: IceoryxClient<ipc::Service, CommandMsg, (), vservo_protocol::CommandReplyMsg, ()>,
+    next_id: u64,
+    /// How long a command waits for its answer (2 s unless changed).
+    pub timeout: Duration,
+}
+
+fn transport(what: &'static str) -> impl Fn(String) -> ClientError {
+    move |reason| ClientError::Transport { what, reason }
+}
+
+impl Client {
+    /// Connects to the instance named `instance` (its `[instance] name`).
+    pub fn connect(instance: &str) -> Result<Self, ClientError> {
+        let node = vservo_protocol::create_node(instance, &format!("client-{}", std::process::id()))?;
+        let commands = vservo_protocol::open_command_service(&node, instance)?
+            .client_builder()
+            .create()
+            .map_err(|e| transport("creating the command client")(e.to_string()))?;
+        Ok(Self {
+            instance: instance.to_string(),
+            node,
+            commands,
+            next_id: u64::from(std::process::id()) << 32,
+            timeout: Duration::from_secs(2),
+        })
+    }
+
+    /// The instance.
+    pub fn instance(&self) -> &str {
+        &self.instance
+    }
+
+    /// Sends a command (its `id` is set here) and waits for the answer.
+    pub fn request(&mut self, mut command: CommandMsg) -> Result<Reply, ClientError> {
+        self.next_id += 1;
+        command.id = self.next_id;
+        command.schema = SCHEMA_VERSION;
+        let pending =
+            self.commands.send_copy(command).map_err(|e| transport("sending the command")(e.to_string()))?;
+        let started = Instant::now();
+        loop {
+            if let Some(response) =
+                pending.receive().map_err(|e| transport("receiving the answer")(e.to_string()))?
+                && response.id == command.id
+            {
+                return Ok(Reply {
+                    accepted: response.accepted == 1,
+                    reason: response.reason(),
+                    gains_version: response.gains_version,
+                    target_features_px: response.target_features_px,
+                });
+            }
+            if started.elapsed() >= self.timeout {
+                return Err(ClientError::NoAnswer { instance: self.instance.clone(), waited: self.timeout });
+            }
+            std::thread::sleep(Duration::from_millis(1));
+        }
+    }
+
+    /// ξ_d = `features_px` ([x₁ y₁ … x₄ y₄], px).
+    pub fn set_target_features(&mut self, features_px: [f64; FEATURES]) -> Result<Reply, ClientError> {
+        let mut command = CommandMsg::new(command_kind::TARGET_FEATURES, 0);
+        command.features_px = features_px;
+        self.request(command)
+    }
+
+    /// The camera's desired pose relative to the board: the board at `translation_m` in the desired camera
+    /// frame, turned by roll–pitch–yaw `rotation_rpy_rad` (R = Rz·Ry·Rx).
+    pub fn set_target_pose(
+        &mut self,
+        translation_m: [f64; 3],
+        rotation_rpy_rad: [f64; 3],
+    ) -> Result<Reply, ClientError> {
+        let mut command = CommandMsg::new(command_kind::TARGET_POSE, 0);
+        command.translation_m = translation_m;
+        command.rotation_rpy_rad = rotation_rpy_rad;
+        self.request(command)
+    }
+
+    /// The current features and pose become the target.
+    pub fn teach(&mut self) -> Result<Reply, ClientError> {
+        self.request(CommandMsg::new(command_kind::TARGET_TEACH, 0))
+    }
+
+    /// The simulated board stops where it is.
+    pub fn object_hold(&mut self) -> Result<Reply, ClientError> {
+        self.request(CommandMsg::new(command_kind::OBJECT_HOLD, 0))
+    }
+
+    /// The simulated board jumps by `translation_m` (desired camera frame).
+    pub fn object_step(&mut self, translation_m: [f64; 3]) -> Result<Reply, ClientError> {
+        let mut command = CommandMsg::new(command_kind::OBJECT_STEP, 0);
+        command.translation_m = translation_m;
+        self.request(command)
+    }
+
+    /// The simulated board circles in the desired camera frame's y–z plane from where it is.
+    pub fn object_circle(&mut self, radius_m: f64, rev_per_min: f64) -> Result<Reply, ClientError> {
+        let mut command = CommandMsg::new(command_kind::OBJECT_CIRCLE, 0);
+        command.radius_m = radius_m;
+        command.rev_per_min = rev_per_min;
+        self.request(command)
+    }
+
+    /// Reloads the daemon's configuration file (as SIGHUP does) and says what came of it.
+    pub fn reload(&mut self) -> Result<Reply, ClientError> {
+        self.request(CommandMsg::new(command_kind::RELOAD, 0))
+    }
+
+    /// A subscriber to one of the instance's topics (payload type as in docs/PROTOCOL.md).
+    pub fn subscribe<T: std::fmt::Debug + ZeroCopySend + 'static>(
+        &self,
+        topic: Topic,
+    ) -> Result<Subscriber<ipc::Service, T, ()>, ClientError> {
+        Ok(vservo_protocol::subscriber::<T>(&self.node, &self.instance, topic)?)
+    }
+
+    /// The daemon's latest status, waiting up to `timeout` for it.
+    pub fn status(&self, timeout: Duration) -> Result<DaemonStatusMsg, ClientError> {
+        let subscriber = self.subscribe::<DaemonStatusMsg>(Topic::Status)?;
+        let started = Instant::now();
+        loop {
+            let mut latest = None;
+            while let Some(sample) =
+                subscriber.receive().map_err(|e| transport("reading the status")(e.to_string()))?
+            {
+                if sample.schema == SCHEMA_VERSION {
+                    latest = Some(*sample);
+                }
+            }
+            if let Some(status) = latest {
+                return Ok(status);
+            }
+            if started.elapsed() >= timeout {
+                return Err(ClientError::NoAnswer { instance: self.instance.clone(), waited: timeout });
+            }
+            std::thread::sleep(Duration::from_millis(5));
+        }
+    }
+}

@@ -1,0 +1,73 @@
+//! Conversions between the wire payloads and the core types they carry.
+
+use nalgebra::Matrix6;
+use vservo_control::{FeatureGain, LawGains};
+use vservo_protocol::{GainsMsg, MAX_PAST_GAINS, SCHEMA_VERSION};
+use vservo_scene::FeatureVector;
+
+/// The law's gains as a [`GainsMsg`] of `version`.
+pub fn gains_message(gains: &LawGains, version: u64) -> GainsMsg {
+    let mut feature_gain = [0.0; 48];
+    for r in 0..6 {
+        for c in 0..8 {
+            feature_gain[8 * r + c] = gains.feature_gain[(r, c)];
+        }
+    }
+    let mut past_input_gains = [0.0; 36 * MAX_PAST_GAINS];
+    for (j, k) in gains.past_input_gains.iter().enumerate().take(MAX_PAST_GAINS) {
+        for r in 0..6 {
+            for c in 0..6 {
+                past_input_gains[36 * j + 6 * r + c] = k[(r, c)];
+            }
+        }
+    }
+    GainsMsg {
+        schema: SCHEMA_VERSION,
+        used_past_gains: gains.used_past_gains as u32,
+        version,
+        feature_gain,
+        past_input_gains,
+        desired_features_px: super::nodes::to_array(&gains.desired_features),
+    }
+}
+
+/// The law's gains from a [`GainsMsg`]; `None` if a number is not finite or the count is out of range.
+pub fn law_gains(message: &GainsMsg) -> Option<LawGains> {
+    let finite =
+        message.feature_gain.iter().chain(&message.past_input_gains).chain(&message.desired_features_px);
+    if !finite.into_iter().all(|v| v.is_finite()) || message.used_past_gains as usize > MAX_PAST_GAINS {
+        return None;
+    }
+    let feature_gain = FeatureGain::from_row_slice(&message.feature_gain);
+    let mut past_input_gains = [Matrix6::zeros(); vservo_control::MAX_DELAY_FRAMES];
+    for (j, k) in past_input_gains.iter_mut().enumerate().take(MAX_PAST_GAINS) {
+        *k = Matrix6::from_row_slice(&message.past_input_gains[36 * j..36 * (j + 1)]);
+    }
+    Some(LawGains {
+        feature_gain,
+        past_input_gains,
+        used_past_gains: message.used_past_gains as usize,
+        desired_features: FeatureVector::from(message.desired_features_px),
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn gains_survive_the_wire() {
+        let config =
+            vservo_config::Config::load(concat!(env!("CARGO_MANIFEST_DIR"), "/../../config/vservo.toml"))
+                .expect("default config");
+        let mut spec = config.gains_spec();
+        spec.law = vservo_control::ControlLaw::DelayAware;
+        let gains = vservo_control::Gains::design(&spec).expect("design");
+        let law = LawGains::from(&gains);
+        let back = law_gains(&gains_message(&law, 3)).expect("valid");
+        assert_eq!(back, law);
+        let mut broken = gains_message(&law, 3);
+        broken.feature_gain[5] = f64::NAN;
+        assert_eq!(law_gains(&broken), None);
+    }
+}

@@ -1,0 +1,418 @@
+//! What users do with a running instance: reload the configuration (SIGHUP or the `command` service) and
+//! send targets and object commands (the `command` request-response service). Every request is validated
+//! here, off the hot path; gains are designed here and handed to the servo (`gains`, history 1), object
+//! commands to the plant (`object`). Each request gets a reply saying whether it was accepted, and why not.
+
+use std::path::{Path, PathBuf};
+
+use iceoryx2::port::publisher::Publisher;
+use iceoryx2::port::server::Server;
+use iceoryx2::prelude::{Node, ipc};
+use nalgebra::Vector3;
+use vservo_arm::{JointVector, SerialArm, puma560};
+use vservo_config::Config;
+use vservo_control::{Gains, GainsSpec, LawGains};
+use vservo_protocol::{
+    CommandMsg, CommandReplyMsg, FEATURES, FeaturesMsg, GainsMsg, JointStateMsg, ObjectMsg, SCHEMA_VERSION,
+    Topic, command_kind,
+};
+use vservo_runtime::wire::gains_message;
+use vservo_scene::{FeatureVector, IsometryMatrix3, MARKS};
+
+use crate::systemd::Systemd;
+
+/// Keys a reload may change while the arm runs; every other key shapes the running processes.
+const LIVE_SECTIONS: [&str; 2] = ["controller", "desired"];
+
+/// Features closer than this to the image border are refused as targets (px): a mark there is cut by the
+/// border or leaves the image at the first disturbance.
+const TARGET_BORDER_MARGIN_PX: f64 = 10.0;
+/// Two target marks closer than this (px) would merge in the image.
+const TARGET_MIN_SEPARATION_PX: f64 = 20.0;
+
+/// The latest of what the loop published, as the supervisor heard it.
+pub struct LoopState<'a> {
+    /// The latest joint state.
+    pub joint_state: Option<&'a JointStateMsg>,
+    /// The latest features.
+    pub features: Option<&'a FeaturesMsg>,
+}
+
+/// The daemon's command side: the running configuration and design, and the ports to hand them on.
+pub struct Commander {
+    config_path: PathBuf,
+    config: Config,
+    config_text: String,
+    arm: SerialArm,
+    spec: GainsSpec,
+    version: u64,
+    object_sequence: u64,
+    gains_publisher: Publisher<ipc::Service, GainsMsg, ()>,
+    object_publisher: Publisher<ipc::Service, ObjectMsg, ()>,
+    server: Server<ipc::Service, CommandMsg, (), CommandReplyMsg, ()>,
+}
+
+impl Commander {
+    /// Designs the configured gains (version 1) and publishes them.
+    pub fn new(
+        node: &Node<ipc::Service>,
+        config_path: &Path,
+        config: Config,
+        text: String,
+    ) -> anyhow::Result<Self> {
+        let instance = config.instance.clone();
+        let spec = config.gains_spec();
+        let mut commander = Self {
+            config_path: config_path.to_path_buf(),
+            arm: puma560::puma560(),
+            spec,
+            config,
+            config_text: text,
+            version: 0,
+            object_sequence: 0,
+            gains_publisher: vservo_protocol::publisher(node, &instance, Topic::Gains)?,
+            object_publisher: vservo_protocol::publisher(node, &instance, Topic::Object)?,
+            server: vservo_protocol::open_command_service(node, &instance)?
+                .server_builder()
+                .create()
+                .map_err(|e| anyhow::anyhow!("creating the command server: {e}"))?,
+        };
+        commander.adopt(spec).map_err(anyhow::Error::msg)?;
+        Ok(commander)
+    }
+
+    /// The gains version in force.
+    pub fn gains_version(&self) -> u64 {
+        self.version
+    }
+
+    /// ξ_d in force.
+    pub fn target(&self) -> [f64; FEATURES] {
+        let mut out = [0.0; FEATURES];
+        out.copy_from_slice(self.spec.desired_features.as_slice());
+        out
+    }
+
+    /// Designs gains for `spec`, publishes them as the next version and makes them current.
+    fn adopt(&mut self, spec: GainsSpec) -> Result<(), String> {
+        let gains = Gains::design(&spec).map_err(|e| format!("the gain cannot be designed: {e}"))?;
+        let message = gains_message(&LawGains::from(&gains), self.version + 1);
+        let sample = self.gains_publisher.loan_uninit().map_err(|e| format!("publishing the gains: {e}"))?;
+        sample.write_payload(message).send().map_err(|e| format!("publishing the gains: {e}"))?;
+        self.version += 1;
+        self.spec = spec;
+        Ok(())
+    }
+
+    /// Answers every pending request.
+    pub fn serve(&mut self, heard: &LoopState, systemd: &mut Systemd) {
+        while let Ok(Some(request)) = self.server.receive() {
+            let command = *request.payload();
+            let outcome = if command.schema != SCHEMA_VERSION {
+                Err(format!("schema {} is not this daemon's ({SCHEMA_VERSION})", command.schema))
+            } else if command.kind == command_kind::RELOAD {
+                self.reload(systemd)
+            } else {
+                self.handle(&command, heard)
+            };
+            match &outcome {
+                Ok(what) => tracing::info!(id = command.id, kind = command.kind, "command accepted: {what}"),
+                Err(why) => tracing::warn!(id = command.id, kind = command.kind, "command refused: {why}"),
+            }
+            let (accepted, text) = match outcome {
+                Ok(what) => (true, what),
+                Err(why) => (false, why),
+            };
+            let reply = CommandReplyMsg::new(command.id, accepted, self.version, self.target(), &text);
+            if let Err(e) = request.send_copy(reply) {
+                tracing::warn!(id = command.id, "the reply could not be sent: {e}");
+            }
+        }
+    }
+
+    /// Re-reads the configuration file; applies the live keys (`[controller]`, `[desired]`) or refuses the
+    /// whole file with the reason. systemd hears RELOADING=1 first and READY=1 after, either way.
+    pub fn reload(&mut self, systemd: &mut Systemd) -> Result<String, String> {
+        systemd.reloading();
+        let result = self.try_reload();
+        systemd.reloaded(&match &result {
+            Ok(what) => format!("reloaded: {what}"),
+            Err(why) => format!("reload refused: {why}"),
+        });
+        result
+    }
+
+    fn try_reload(&mut self) -> Result<String, String> {
+        let path = self.config_path.display().to_string();
+        let text = std::fs::read_to_string(&self.config_path).map_err(|e| {
+            format!("{path}: cannot be read ({e}); the running gains (version {}) stay", self.version)
+        })?;
+        let config = Config::from_toml(&text, &path)
+            .map_err(|e| format!("{e}; the running gains (version {}) stay", self.version))?;
+        let changed = changed_keys(&self.config_text, &text);
+        let restart_only: Vec<&String> = changed
+            .iter()
+            .filter(|k| !LIVE_SECTIONS.iter().any(|s| k.starts_with(&format!("{s}."))))
+            .collect();
+        if !restart_only.is_empty() {
+            return Err(format!(
+                "{path}: {} cannot change while the arm runs (they shape the running processes: arm, timing, camera, plant, nodes); restart vservod to apply them; nothing was applied",
+                restart_only.iter().map(|k| k.as_str()).collect::<Vec<_>>().join(", ")
+            ));
+        }
+        if changed.is_empty() {
+            return Ok(format!("{path}: nothing changed; gains version {}", self.version));
+        }
+        let mut spec = config.gains_spec();
+        // a target a client set stays unless the file's [desired] changed
+        if !changed.iter().any(|k| k.starts_with("desired.")) {
+            spec.desired_features = self.spec.desired_features;
+            spec.desired_depths = self.spec.desired_depths;
+        }
+        self.adopt(spec)
+            .map_err(|e| format!("{path}: {e}; the running gains (version {}) stay", self.version))?;
+        self.config = config;
+        self.config_text = text;
+        Ok(format!("{path}: {} changed; gains version {}", changed.join(", "), self.version))
+    }
+
+    fn handle(&mut self, command: &CommandMsg, heard: &LoopState) -> Result<String, String> {
+        match command.kind {
+            command_kind::TARGET_FEATURES => {
+                let features = FeatureVector::from(command.features_px);
+                self.check_target_features(&features)?;
+                // the depths follow the marks' spread: the image of a board scales as 1/Z
+                let scale = (quad_area(&self.spec.desired_features) / quad_area(&features)).abs().sqrt();
+                let depths = self.spec.desired_depths * scale;
+                self.retarget(features, depths)
+            }
+            command_kind::TARGET_POSE => {
+                let values = command.translation_m.iter().chain(&command.rotation_rpy_rad);
+                if !values.into_iter().all(|v| v.is_finite()) {
+                    return Err("target pose: a number is not finite".into());
+                }
+                let camera_from_board = vservo_config::pose_from_rpy(
+                    Vector3::from(command.translation_m),
+                    Vector3::from(command.rotation_rpy_rad),
+                );
+                let (features, depths) = self
+                    .config
+                    .camera
+                    .project_marks_with_depths(&self.config.board, &camera_from_board)
+                    .map_err(|e| format!("target pose: {e}"))?;
+                self.check_target_features(&features)?;
+                self.check_reachable(&camera_from_board, heard)?;
+                self.retarget(features, depths)
+            }
+            command_kind::TARGET_TEACH => {
+                let features = heard
+                    .features
+                    .filter(|f| f.valid_mask == 0b1111)
+                    .map(|f| FeatureVector::from(f.features_px))
+                    .ok_or("teach: the camera does not see all four marks now")?;
+                let state = heard.joint_state.ok_or("teach: no joint state yet")?;
+                let camera_from_board = self.camera_from_board_now(state)?;
+                let (_, depths) = self
+                    .config
+                    .camera
+                    .project_marks_with_depths(&self.config.board, &camera_from_board)
+                    .map_err(|e| format!("teach: {e}"))?;
+                self.check_target_features(&features)?;
+                self.retarget(features, depths)
+            }
+            command_kind::OBJECT_HOLD | command_kind::OBJECT_STEP | command_kind::OBJECT_CIRCLE => {
+                self.object(command)
+            }
+            other => Err(format!("unknown command kind {other}")),
+        }
+    }
+
+    fn retarget(
+        &mut self,
+        features: FeatureVector,
+        depths: vservo_scene::MarkDepths,
+    ) -> Result<String, String> {
+        let mut spec = self.spec;
+        spec.desired_features = features;
+        spec.desired_depths = depths;
+        self.adopt(spec).map_err(|e| format!("target: {e}"))?;
+        Ok(format!("new target; gains version {}", self.version))
+    }
+
+    /// Finite, inside the image with a margin, marks apart, in the layout's orientation.
+    fn check_target_features(&self, features: &FeatureVector) -> Result<(), String> {
+        if !features.iter().all(|v| v.is_finite()) {
+            return Err("target: a feature is not finite".into());
+        }
+        let (w, h) = (f64::from(self.config.camera.width_px()), f64::from(self.config.camera.height_px()));
+        let m = TARGET_BORDER_MARGIN_PX;
+        for mark in 0..MARKS {
+            let (x, y) = (features[2 * mark], features[2 * mark + 1]);
+            if !(m..=w - m).contains(&x) || !(m..=h - m).contains(&y) {
+                return Err(format!(
+                    "target: mark {} at ({x:.1}, {y:.1}) px is outside the image or within {m} px of its border ({w}×{h} px)",
+                    mark + 1
+                ));
+            }
+        }
+        for a in 0..MARKS {
+            for b in a + 1..MARKS {
+                let d = ((features[2 * a] - features[2 * b]).powi(2)
+                    + (features[2 * a + 1] - features[2 * b + 1]).powi(2))
+                .sqrt();
+                if d < TARGET_MIN_SEPARATION_PX {
+                    return Err(format!(
+                        "target: marks {} and {} are {d:.1} px apart (at least {TARGET_MIN_SEPARATION_PX} px)",
+                        a + 1,
+                        b + 1
+                    ));
+                }
+            }
+        }
+        if quad_area(features).signum() != quad_area(&self.config.desired.features).signum() {
+            return Err(
+                "target: the marks are in mirrored order (the board would have to be seen from behind)"
+                    .into(),
+            );
+        }
+        Ok(())
+    }
+
+    fn camera_from_board_now(&self, state: &JointStateMsg) -> Result<IsometryMatrix3<f64>, String> {
+        let q = JointVector::from(state.q_rad);
+        let base_from_board = board_pose(&state.base_from_board).ok_or("the board's pose is not finite")?;
+        let base_from_camera = self.arm.base_from_tool(&q) * self.config.tool_from_camera;
+        Ok(base_from_camera.inverse() * base_from_board)
+    }
+
+    /// The arm can put the camera at `camera_from_board` with the board where it is now.
+    fn check_reachable(
+        &self,
+        camera_from_board: &IsometryMatrix3<f64>,
+        heard: &LoopState,
+    ) -> Result<(), String> {
+        let (base_from_board, q_now) = match heard.joint_state {
+            Some(state) => (
+                board_pose(&state.base_from_board).ok_or("the board's pose is not finite")?,
+                JointVector::from(state.q_rad),
+            ),
+            None => (self.config.base_from_board(&self.arm), self.config.desired.joints),
+        };
+        let base_from_tool =
+            base_from_board * camera_from_board.inverse() * self.config.tool_from_camera.inverse();
+        let solutions = self
+            .arm
+            .inverse_kinematics(&base_from_tool)
+            .map_err(|e| format!("target pose: out of the arm's reach ({e})"))?;
+        solutions
+            .nearest(&self.arm, &q_now)
+            .map(|_| ())
+            .ok_or_else(|| "target pose: no arm configuration inside the joint limits reaches it".to_string())
+    }
+
+    fn object(&mut self, command: &CommandMsg) -> Result<String, String> {
+        let values = command.translation_m.iter().chain([&command.radius_m, &command.rev_per_min]);
+        if !values.into_iter().all(|v| v.is_finite()) {
+            return Err("object: a number is not finite".into());
+        }
+        let what = match command.kind {
+            command_kind::OBJECT_STEP => {
+                let jump = Vector3::from(command.translation_m).norm();
+                if jump > 0.2 {
+                    return Err(format!(
+                        "object step: {jump:.3} m is more than the 0.2 m the simulated cell allows"
+                    ));
+                }
+                format!("the board jumps by {:?} m", command.translation_m)
+            }
+            command_kind::OBJECT_CIRCLE => {
+                if !(0.0..=0.2).contains(&command.radius_m) || !(0.0..=60.0).contains(&command.rev_per_min) {
+                    return Err(format!(
+                        "object circle: radius {} m and speed {} rev/min must be within 0–0.2 m and 0–60 rev/min",
+                        command.radius_m, command.rev_per_min
+                    ));
+                }
+                format!("the board circles: {} m at {} rev/min", command.radius_m, command.rev_per_min)
+            }
+            _ => "the board holds still".to_string(),
+        };
+        let message = ObjectMsg {
+            schema: SCHEMA_VERSION,
+            kind: command.kind,
+            sequence: self.object_sequence + 1,
+            translation_m: command.translation_m,
+            radius_m: command.radius_m,
+            rev_per_min: command.rev_per_min,
+        };
+        let sample = self.object_publisher.loan_uninit().map_err(|e| format!("object: {e}"))?;
+        sample.write_payload(message).send().map_err(|e| format!("object: {e}"))?;
+        self.object_sequence += 1;
+        Ok(what)
+    }
+}
+
+fn board_pose(m: &[f64; 12]) -> Option<IsometryMatrix3<f64>> {
+    if !m.iter().all(|v| v.is_finite()) {
+        return None;
+    }
+    let rotation = nalgebra::Matrix3::new(m[0], m[1], m[2], m[4], m[5], m[6], m[8], m[9], m[10]);
+    Some(IsometryMatrix3::from_parts(
+        Vector3::new(m[3], m[7], m[11]).into(),
+        nalgebra::Rotation3::from_matrix_unchecked(rotation),
+    ))
+}
+
+/// Signed area of the quadrilateral of the four marks in feature order (shoelace; px²).
+fn quad_area(features: &FeatureVector) -> f64 {
+    let mut twice = 0.0;
+    for a in 0..MARKS {
+        let b = (a + 1) % MARKS;
+        twice += features[2 * a] * features[2 * b + 1] - features[2 * b] * features[2 * a + 1];
+    }
+    twice / 2.0
+}
+
+/// Dotted paths of the keys whose values differ between two TOML texts (added and removed keys count).
+pub fn changed_keys(old: &str, new: &str) -> Vec<String> {
+    fn walk(prefix: &str, a: Option<&toml::Value>, b: Option<&toml::Value>, out: &mut Vec<String>) {
+        match (a, b) {
+            (Some(toml::Value::Table(a)), Some(toml::Value::Table(b))) => {
+                let mut keys: Vec<&String> = a.keys().chain(b.keys()).collect();
+                keys.sort();
+                keys.dedup();
+                for key in keys {
+                    let path = if prefix.is_empty() { key.clone() } else { format!("{prefix}.{key}") };
+                    walk(&path, a.get(key), b.get(key), out);
+                }
+            }
+            (a, b) if a != b => out.push(prefix.to_string()),
+            _ => {}
+        }
+    }
+    let parse = |text: &str| text.parse::<toml::Table>().ok().map(toml::Value::Table);
+    let mut out = Vec::new();
+    walk("", parse(old).as_ref(), parse(new).as_ref(), &mut out);
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn changed_keys_name_every_difference() {
+        let old = "[controller]\nq = 300.0\nr = [1, 1, 1, 6, 6, 6]\n[plant]\nmode = \"dynamic\"\n";
+        let new =
+            "[controller]\nq = 300.0\nr = [2, 2, 2, 6, 6, 6]\n[plant]\nmode = \"kinematic\"\nextra = 1\n";
+        assert_eq!(changed_keys(old, new), vec!["controller.r", "plant.extra", "plant.mode"]);
+        assert!(changed_keys(old, old).is_empty());
+    }
+
+    #[test]
+    fn the_area_sign_follows_the_order_of_the_marks() {
+        let square = FeatureVector::from([0.0, 0.0, 10.0, 0.0, 10.0, 10.0, 0.0, 10.0]);
+        let mirrored = FeatureVector::from([0.0, 0.0, 0.0, 10.0, 10.0, 10.0, 10.0, 0.0]);
+        assert_eq!(quad_area(&square), 100.0);
+        assert_eq!(quad_area(&mirrored), -100.0);
+    }
+}
