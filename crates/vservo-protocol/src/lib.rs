@@ -52,13 +52,15 @@ pub struct TopicSettings {
 
 impl Topic {
     /// Every topic.
-    pub const ALL: [Topic; 6] = [
+    pub const ALL: [Topic; 8] = [
         Topic::JointState,
         Topic::JointTorque,
         Topic::Features,
         Topic::CameraTwist,
         Topic::Telemetry,
         Topic::Status,
+        Topic::Gains,
+        Topic::Object,
     ];
 
     /// The last part of the service name.

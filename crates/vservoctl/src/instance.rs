@@ -16,10 +16,10 @@ use crate::UsageError;
 #[derive(Args, Debug, Clone)]
 pub struct InstanceArg {
     /// The instance named in this configuration file [default: config/vservo.toml's].
-    #[arg(long, value_name = "FILE", conflicts_with = "instance")]
+    #[arg(long, value_name = "FILE", conflicts_with = "instance", global = true)]
     pub config: Option<PathBuf>,
     /// The instance name ([instance] name in its configuration).
-    #[arg(long, value_name = "NAME")]
+    #[arg(long, value_name = "NAME", global = true)]
     pub instance: Option<String>,
 }
 

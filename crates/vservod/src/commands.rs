@@ -7,6 +7,7 @@ use std::path::{Path, PathBuf};
 
 use iceoryx2::port::publisher::Publisher;
 use iceoryx2::port::server::Server;
+use iceoryx2::port::update_connections::UpdateConnections;
 use iceoryx2::prelude::{Node, ipc};
 use nalgebra::Vector3;
 use vservo_arm::{JointVector, SerialArm, puma560};
@@ -104,8 +105,16 @@ impl Commander {
         Ok(())
     }
 
-    /// Answers every pending request.
+    /// Answers every pending request, and hands the latest gains and object command to subscribers that
+    /// came since (a restarted servo or plant): iceoryx2 delivers a publisher's history when it updates
+    /// its connections.
     pub fn serve(&mut self, heard: &LoopState, systemd: &mut Systemd) {
+        for result in [self.gains_publisher.update_connections(), self.object_publisher.update_connections()]
+        {
+            if let Err(e) = result {
+                tracing::warn!("handing on the latest gains or object command: {e}");
+            }
+        }
         while let Ok(Some(request)) = self.server.receive() {
             let command = *request.payload();
             let outcome = if command.schema != SCHEMA_VERSION {

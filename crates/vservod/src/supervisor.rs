@@ -253,9 +253,10 @@ pub fn run(
         timer.wait();
         let now = Instant::now();
         if reload.swap(false, Ordering::Relaxed) {
-            tracing::warn!(
-                "SIGHUP: live reload is not available in this version; the running configuration stays"
-            );
+            match commander.reload(&mut systemd) {
+                Ok(what) => tracing::info!("SIGHUP: reloaded: {what}"),
+                Err(why) => tracing::warn!("SIGHUP: reload refused: {why}"),
+            }
         }
         // reap, then restart what is due
         let mut lost = false;

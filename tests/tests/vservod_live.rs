@@ -1,0 +1,236 @@
+//! What users do with a running instance (issue 7): retune by reloading, send targets, move the object —
+//! against real processes over iceoryx2, driven through `vservoctl` as a user would. One test at a time.
+
+use std::io::{BufRead, BufReader};
+use std::process::{Child, Command, Stdio};
+use std::sync::Mutex;
+use std::time::{Duration, Instant};
+
+use nix::sys::signal::{Signal, kill};
+use nix::unistd::Pid;
+use serde_json::Value;
+use vservo_system_tests::{TempConfig, binary, config_with, run};
+
+static ONE_AT_A_TIME: Mutex<()> = Mutex::new(());
+
+fn exclusive() -> std::sync::MutexGuard<'static, ()> {
+    ONE_AT_A_TIME.lock().unwrap_or_else(|poisoned| poisoned.into_inner())
+}
+
+fn unique(name: &str) -> String {
+    format!("live-{name}-{}", std::process::id())
+}
+
+struct Daemon {
+    child: Child,
+    log: std::path::PathBuf,
+}
+
+impl Daemon {
+    fn start(config: &TempConfig) -> Daemon {
+        let log = config.path.with_extension("log");
+        let child = Command::new(binary("vservod"))
+            .args(["--config", &config.arg(), "--status-every-s", "0"])
+            .stdin(Stdio::null())
+            .stderr(std::fs::File::create(&log).expect("log"))
+            .spawn()
+            .expect("vservod starts");
+        Daemon { child, log }
+    }
+
+    fn log(&self) -> String {
+        std::fs::read_to_string(&self.log).unwrap_or_default()
+    }
+
+    fn signal(&self, signal: Signal) {
+        kill(Pid::from_raw(self.child.id() as i32), signal).expect("signal");
+    }
+
+    fn stop(mut self) {
+        self.signal(Signal::SIGTERM);
+        let status = self.child.wait().expect("exit");
+        assert_eq!(status.code(), Some(0), "{}", self.log());
+    }
+}
+
+impl Drop for Daemon {
+    fn drop(&mut self) {
+        if self.child.try_wait().ok().flatten().is_none() {
+            let _ = self.child.kill();
+            let _ = self.child.wait();
+        }
+        let _ = std::fs::remove_file(&self.log);
+    }
+}
+
+fn status(instance: &str) -> Option<Value> {
+    let out = run("vservoctl", &["status", "--json", "--instance", instance, "--timeout-s", "1"]);
+    out.status.success().then(|| serde_json::from_slice(&out.stdout).expect("JSON"))
+}
+
+fn wait_until(timeout: Duration, mut condition: impl FnMut() -> bool) -> bool {
+    let until = Instant::now() + timeout;
+    while Instant::now() < until {
+        if condition() {
+            return true;
+        }
+        std::thread::sleep(Duration::from_millis(100));
+    }
+    false
+}
+
+fn running(instance: &str) -> bool {
+    status(instance).is_some_and(|s| s["state"] == "running")
+}
+
+fn gains_version(instance: &str) -> Option<u64> {
+    status(instance).and_then(|s| s["gains_version"].as_u64())
+}
+
+/// Starts `vservoctl echo TOPIC` for the instance; its lines are read when the returned child is finished.
+fn echo(instance: &str, topic: &str, seconds: f64) -> Child {
+    Command::new(binary("vservoctl"))
+        .args(["echo", topic, "--instance", instance, "--duration-s", &seconds.to_string()])
+        .stdout(Stdio::piped())
+        .spawn()
+        .expect("echo starts")
+}
+
+fn lines(child: Child) -> Vec<Value> {
+    let stdout = child.stdout.expect("piped");
+    BufReader::new(stdout).lines().map(|l| serde_json::from_str(&l.expect("line")).expect("JSON")).collect()
+}
+
+fn numbers(value: &Value) -> Vec<f64> {
+    value.as_array().expect("array").iter().map(|v| v.as_f64().unwrap_or(f64::NAN)).collect()
+}
+
+/// −K(ξ − ξ_d) for the paper's law of a configuration.
+fn paper_twist(config: &vservo_config::Config, features: &[f64]) -> [f64; 6] {
+    let gains = vservo_control::Gains::design(&config.gains_spec()).expect("design");
+    let error = vservo_scene::FeatureVector::from_column_slice(features) - gains.desired_features;
+    let twist = -(gains.feature_gain * error);
+    std::array::from_fn(|i| twist[i])
+}
+
+#[test]
+fn sighup_with_a_changed_r_swaps_the_gain_at_a_frame_without_any_other_jump() {
+    let _one = exclusive();
+    let instance = unique("reload");
+    let config = config_with("name = \"default\"", &format!("name = \"{instance}\""));
+    let daemon = Daemon::start(&config);
+    assert!(wait_until(Duration::from_secs(10), || running(&instance)), "{}", daemon.log());
+    let before = vservo_config::Config::load(&config.path).expect("config");
+    let features = echo(&instance, "features", 3.0);
+    let twists = echo(&instance, "camera_twist", 3.0);
+    std::thread::sleep(Duration::from_millis(1200));
+    let text = std::fs::read_to_string(&config.path).expect("read");
+    std::fs::write(
+        &config.path,
+        text.replace("r = [1.0, 1.0, 1.0, 6.0, 6.0, 6.0]", "r = [4.0, 4.0, 4.0, 24.0, 24.0, 24.0]"),
+    )
+    .expect("write");
+    let after = vservo_config::Config::load(&config.path).expect("config");
+    daemon.signal(Signal::SIGHUP);
+    assert!(wait_until(Duration::from_secs(5), || gains_version(&instance) == Some(2)), "{}", daemon.log());
+    let features: Vec<Value> = lines(features);
+    let twists: Vec<Value> = lines(twists);
+    // every twist is exactly −K(ξ − ξ_d) of the version it names, for the features of its frame: the swap
+    // changes the gain between two frames and nothing else
+    let (mut old, mut new) = (0, 0);
+    for twist in &twists {
+        let frame = twist["frame"].as_u64();
+        let Some(seen) = features.iter().find(|f| f["frame"].as_u64() == frame) else { continue };
+        let xi = numbers(&seen["features_px"]);
+        let config = match twist["gains_version"].as_u64() {
+            Some(1) => {
+                old += 1;
+                &before
+            }
+            Some(2) => {
+                new += 1;
+                &after
+            }
+            other => panic!("unexpected gains version {other:?}"),
+        };
+        let expected = paper_twist(config, &xi);
+        let got = numbers(&twist["twist"]);
+        for i in 0..6 {
+            assert!(
+                (got[i] - expected[i]).abs() <= 1e-12 + 1e-9 * expected[i].abs(),
+                "{twist}\nexpected {expected:?}"
+            );
+        }
+    }
+    assert!(old >= 5 && new >= 5, "frames before ({old}) and after ({new}) the reload");
+    assert!(daemon.log().contains("RELOADING") || daemon.log().contains("reloaded"), "{}", daemon.log());
+
+    // a broken file is refused with its error; the gains stay and the loop runs on
+    std::fs::write(&config.path, "[controller\nthis is not TOML").expect("write");
+    let out = run("vservoctl", &["reload", "--instance", &instance]);
+    assert_eq!(out.status.code(), Some(3), "{}", String::from_utf8_lossy(&out.stderr));
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(stderr.contains("refused") && stderr.contains("version 2) stay"), "{stderr}");
+    // a restart-only key is refused by name
+    std::fs::write(&config.path, text.replace("mode = \"dynamic\"", "mode = \"kinematic\"")).expect("write");
+    let out = run("vservoctl", &["reload", "--instance", &instance]);
+    assert_eq!(out.status.code(), Some(3));
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(stderr.contains("plant.mode") && stderr.contains("restart vservod"), "{stderr}");
+    assert_eq!(gains_version(&instance), Some(2));
+    assert!(running(&instance));
+    daemon.stop();
+}
+
+#[test]
+fn targets_move_the_servo_target_and_bad_ones_are_refused_while_the_loop_runs() {
+    let _one = exclusive();
+    let instance = unique("target");
+    let config = config_with("name = \"default\"", &format!("name = \"{instance}\""));
+    let daemon = Daemon::start(&config);
+    assert!(wait_until(Duration::from_secs(10), || running(&instance)), "{}", daemon.log());
+    let target = [161.0, 168.0, 328.0, 178.0, 349.0, 75.0, 182.0, 70.0];
+    let list = target.map(|v| v.to_string()).join(",");
+    let out = run("vservoctl", &["target", "set", "--features", &list, "--instance", &instance]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(String::from_utf8_lossy(&out.stdout).contains("gains version 2"));
+    // the servo runs the new target: its gains carry it, and the features settle on it
+    let gains = lines(echo(&instance, "gains", 0.5));
+    assert_eq!(numbers(&gains.last().expect("gains history")["desired_features_px"]), target.to_vec());
+    assert!(
+        wait_until(Duration::from_secs(25), || status(&instance).is_some_and(
+            |s| s["gains_version"] == 2 && s["feature_error_px"].as_f64().is_some_and(|e| e < 1.0)
+        )),
+        "{:?}\n{}",
+        status(&instance),
+        daemon.log()
+    );
+    for (features, why) in [
+        ("nan,168,318,178,339,75,172,70", "not finite"),
+        ("151,168,318,178,339,75,172,600", "outside the image"),
+    ] {
+        let out = run("vservoctl", &["target", "set", "--features", features, "--instance", &instance]);
+        assert_eq!(out.status.code(), Some(3), "{features}");
+        assert!(
+            String::from_utf8_lossy(&out.stderr).contains(why),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+    }
+    let out = run("vservoctl", &["target", "pose", "--translation-m", "0,0,3", "--instance", &instance]);
+    assert_eq!(out.status.code(), Some(3), "a board 3 m away: marks too close together");
+    let after = status(&instance).expect("status");
+    assert_eq!(after["gains_version"], 2, "refused targets change nothing");
+    assert!(
+        after["state"] == "running" && after["tick_rate_hz"].as_f64().is_some_and(|r| r > 900.0),
+        "{after}"
+    );
+    // teach takes what the camera sees; an object step moves the board and the loop follows
+    let out = run("vservoctl", &["target", "teach", "--instance", &instance]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let out = run("vservoctl", &["object", "step", "--by-m", "0,0.02,0", "--instance", &instance]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let out = run("vservoctl", &["object", "step", "--by-m", "0,1,0", "--instance", &instance]);
+    assert_eq!(out.status.code(), Some(3));
+    daemon.stop();
+}
