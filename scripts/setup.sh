@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Installs what a fresh machine needs to build and test vservo. Safe to run again: it only adds what is missing.
 set -euo pipefail
+cd "$(dirname "$0")/.."
 
 if ! command -v cargo >/dev/null 2>&1; then
     echo "setup: cargo is missing; install Rust (rustup) first" >&2
@@ -12,3 +13,21 @@ for component in rustfmt clippy; do
         rustup component add "${component}"
     fi
 done
+
+# The Python client (clients/python/) and its test need the iceoryx2 bindings from PyPI, in a venv of their own.
+venv="target/python-venv"
+if ! "${venv}/bin/python" -c 'import iceoryx2' >/dev/null 2>&1; then
+    mkdir -p target
+    rm -rf "${venv}"
+    if ! python3 -m venv "${venv}" >/dev/null 2>&1; then
+        # Debian and Ubuntu ship venv (ensurepip) as a package of its own
+        sudo_if_needed=""
+        [ "$(id -u)" -ne 0 ] && sudo_if_needed="sudo"
+        version="$(python3 -c 'import sys; print(f"{sys.version_info[0]}.{sys.version_info[1]}")')"
+        ${sudo_if_needed} apt-get install -y -qq "python${version}-venv" >/dev/null ||
+            ${sudo_if_needed} apt-get install -y -qq python3-venv >/dev/null
+        rm -rf "${venv}"
+        python3 -m venv "${venv}"
+    fi
+    "${venv}/bin/pip" install -q iceoryx2==0.10.0
+fi

@@ -1,0 +1,285 @@
+#!/usr/bin/env python3
+"""A Python client for a running vservo instance, over iceoryx2 shared memory (PyPI `iceoryx2` 0.10).
+
+It speaks the layout of docs/PROTOCOL.md: it sends commands (targets, object motion, reload) to the daemon's
+`command` request-response service and reads the replies, and it reads the `status` and `camera_twist` topics.
+
+    python3 vservo_client.py [--instance NAME] target x1,y1,x2,y2,x3,y3,x4,y4
+    python3 vservo_client.py [--instance NAME] pose x,y,z [roll,pitch,yaw in degrees]
+    python3 vservo_client.py [--instance NAME] teach | reload | status | twist
+    python3 vservo_client.py [--instance NAME] object hold | object step x,y,z | object circle RADIUS_M REV_PER_MIN
+
+Exit code 0 when the daemon accepted the command, 3 when it refused it (the reason is printed), 1 when no
+daemon answered, 2 on bad arguments. Use it as a library too: `Client("default").set_target([...])`.
+"""
+
+import argparse
+import ctypes
+import math
+import os
+import sys
+import time
+
+import iceoryx2 as iox2
+
+SCHEMA_VERSION = 1
+TARGET_FEATURES, TARGET_POSE, TARGET_TEACH, OBJECT_HOLD, OBJECT_STEP, OBJECT_CIRCLE, RELOAD = range(1, 8)
+
+
+class Command(ctypes.Structure):
+    """vservo::Command, 144 bytes."""
+
+    _fields_ = [
+        ("schema", ctypes.c_uint32),
+        ("kind", ctypes.c_uint32),
+        ("id", ctypes.c_uint64),
+        ("features_px", ctypes.c_double * 8),
+        ("translation_m", ctypes.c_double * 3),
+        ("rotation_rpy_rad", ctypes.c_double * 3),
+        ("radius_m", ctypes.c_double),
+        ("rev_per_min", ctypes.c_double),
+    ]
+
+    @staticmethod
+    def type_name() -> str:
+        return "vservo::Command"
+
+
+class CommandReply(ctypes.Structure):
+    """vservo::CommandReply, 344 bytes."""
+
+    _fields_ = [
+        ("schema", ctypes.c_uint32),
+        ("accepted", ctypes.c_uint32),
+        ("id", ctypes.c_uint64),
+        ("gains_version", ctypes.c_uint64),
+        ("target_features_px", ctypes.c_double * 8),
+        ("reason", ctypes.c_uint8 * 256),
+    ]
+
+    @staticmethod
+    def type_name() -> str:
+        return "vservo::CommandReply"
+
+    def reason_text(self) -> str:
+        raw = bytes(self.reason)
+        return raw.split(b"\0", 1)[0].decode("utf-8", errors="replace")
+
+
+class CameraTwist(ctypes.Structure):
+    """vservo::CameraTwist, 104 bytes."""
+
+    _fields_ = [
+        ("schema", ctypes.c_uint32),
+        ("verdict", ctypes.c_uint32),
+        ("frame", ctypes.c_uint64),
+        ("capture_tick", ctypes.c_uint64),
+        ("gains_version", ctypes.c_uint64),
+        ("stamp_ns", ctypes.c_uint64),
+        ("twist", ctypes.c_double * 6),
+        ("feature_error_px", ctypes.c_double),
+        ("missing_mask", ctypes.c_uint32),
+        ("reserved", ctypes.c_uint32),
+    ]
+
+    @staticmethod
+    def type_name() -> str:
+        return "vservo::CameraTwist"
+
+
+class NodeStatus(ctypes.Structure):
+    """vservo::NodeStatus, 32 bytes."""
+
+    _fields_ = [
+        ("restarts", ctypes.c_uint64),
+        ("last_telemetry_ns", ctypes.c_uint64),
+        ("state", ctypes.c_uint32),
+        ("pid", ctypes.c_uint32),
+        ("last_exit", ctypes.c_int32),
+        ("healthy", ctypes.c_uint32),
+    ]
+
+
+class DaemonStatus(ctypes.Structure):
+    """vservo::DaemonStatus, 184 bytes."""
+
+    _fields_ = [
+        ("schema", ctypes.c_uint32),
+        ("state", ctypes.c_uint32),
+        ("stamp_ns", ctypes.c_uint64),
+        ("uptime_ns", ctypes.c_uint64),
+        ("gains_version", ctypes.c_uint64),
+        ("nodes", NodeStatus * 4),
+        ("tick_rate_hz", ctypes.c_double),
+        ("feature_error_px", ctypes.c_double),
+        ("pid", ctypes.c_uint32),
+        ("reserved", ctypes.c_uint32),
+    ]
+
+    @staticmethod
+    def type_name() -> str:
+        return "vservo::DaemonStatus"
+
+
+class NoAnswer(Exception):
+    """No daemon answered in time."""
+
+
+class Client:
+    """A connection to one vservo instance."""
+
+    def __init__(self, instance: str = "default", timeout_s: float = 2.0):
+        self.instance = instance
+        self.timeout_s = timeout_s
+        config = iox2.config.default()
+        # every vservo instance lives under its own iceoryx2 prefix (docs/PROTOCOL.md)
+        config.global_cfg.prefix = iox2.FileName.new(f"vservo_{instance}_")
+        self.node = iox2.NodeBuilder.new().config(config).create(iox2.ServiceType.Ipc)
+        self._next_id = os.getpid() << 32
+        self._commands = None
+
+    def _service_name(self, service: str):
+        return iox2.ServiceName.new(f"vservo/{self.instance}/{service}")
+
+    def request(self, command: Command) -> CommandReply:
+        """Sends one command and returns the daemon's reply."""
+        if self._commands is None:
+            try:
+                service = (
+                    self.node.service_builder(self._service_name("command"))
+                    .request_response(Command, CommandReply)
+                    .open()
+                )
+            except Exception as error:  # the service exists only while a daemon runs
+                raise NoAnswer(f"no vservod of instance {self.instance!r} ({error})") from error
+            self._commands = service.client_builder().create()
+        self._next_id += 1
+        command.schema = SCHEMA_VERSION
+        command.id = self._next_id
+        pending = self._commands.send_copy(command)
+        deadline = time.monotonic() + self.timeout_s
+        while time.monotonic() < deadline:
+            response = pending.receive()
+            if response is not None:
+                reply = CommandReply.from_buffer_copy(response.payload().contents)
+                if reply.id == command.id:
+                    return reply
+            time.sleep(0.001)
+        raise NoAnswer(f"no answer from vservod of instance {self.instance!r} within {self.timeout_s} s")
+
+    def set_target(self, features_px) -> CommandReply:
+        """ξ_d = the eight features [x1, y1, …, x4, y4] (px)."""
+        command = Command(kind=TARGET_FEATURES)
+        for i, value in enumerate(features_px):
+            command.features_px[i] = value
+        return self.request(command)
+
+    def set_target_pose(self, translation_m, rpy_rad=(0.0, 0.0, 0.0)) -> CommandReply:
+        """The board at `translation_m` in the desired camera frame, turned by roll, pitch, yaw (rad)."""
+        command = Command(kind=TARGET_POSE)
+        for i in range(3):
+            command.translation_m[i] = translation_m[i]
+            command.rotation_rpy_rad[i] = rpy_rad[i]
+        return self.request(command)
+
+    def teach(self) -> CommandReply:
+        return self.request(Command(kind=TARGET_TEACH))
+
+    def reload(self) -> CommandReply:
+        return self.request(Command(kind=RELOAD))
+
+    def object_hold(self) -> CommandReply:
+        return self.request(Command(kind=OBJECT_HOLD))
+
+    def object_step(self, translation_m) -> CommandReply:
+        command = Command(kind=OBJECT_STEP)
+        for i in range(3):
+            command.translation_m[i] = translation_m[i]
+        return self.request(command)
+
+    def object_circle(self, radius_m: float, rev_per_min: float) -> CommandReply:
+        return self.request(Command(kind=OBJECT_CIRCLE, radius_m=radius_m, rev_per_min=rev_per_min))
+
+    def _latest(self, service: str, payload):
+        subscriber = (
+            self.node.service_builder(self._service_name(service)).publish_subscribe(payload).open_or_create()
+        ).subscriber_builder().create()
+        deadline = time.monotonic() + self.timeout_s
+        latest = None
+        while time.monotonic() < deadline and latest is None:
+            while True:
+                sample = subscriber.receive()
+                if sample is None:
+                    break
+                latest = payload.from_buffer_copy(sample.payload().contents)
+            time.sleep(0.005)
+        if latest is None:
+            raise NoAnswer(f"nothing on vservo/{self.instance}/{service} within {self.timeout_s} s")
+        return latest
+
+    def status(self) -> DaemonStatus:
+        """The daemon's latest status."""
+        return self._latest("status", DaemonStatus)
+
+    def twist(self) -> CameraTwist:
+        """The servo's latest camera twist."""
+        return self._latest("camera_twist", CameraTwist)
+
+
+def _numbers(text: str, count: int):
+    values = [float(v) for v in text.split(",")]
+    if len(values) != count:
+        raise ValueError(f"expected {count} comma-separated numbers, got {len(values)}")
+    return values
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--instance", default="default")
+    parser.add_argument("command", choices=["target", "pose", "teach", "reload", "status", "twist", "object"])
+    parser.add_argument("args", nargs="*")
+    options = parser.parse_args(argv)
+    try:
+        client = Client(options.instance)
+        if options.command == "status":
+            s = client.status()
+            print(f"state {s.state} gains version {s.gains_version} ticks {s.tick_rate_hz:.1f}/s "
+                  f"error {s.feature_error_px:.3f} px restarts {[n.restarts for n in s.nodes]}")
+            return 0
+        if options.command == "twist":
+            t = client.twist()
+            print(f"frame {t.frame} verdict {t.verdict} gains version {t.gains_version} twist {list(t.twist)}")
+            return 0
+        if options.command == "target":
+            reply = client.set_target(_numbers(options.args[0], 8))
+        elif options.command == "pose":
+            rpy = [math.radians(v) for v in _numbers(options.args[1], 3)] if len(options.args) > 1 else [0, 0, 0]
+            reply = client.set_target_pose(_numbers(options.args[0], 3), rpy)
+        elif options.command == "teach":
+            reply = client.teach()
+        elif options.command == "reload":
+            reply = client.reload()
+        elif options.args[:1] == ["hold"]:
+            reply = client.object_hold()
+        elif options.args[:1] == ["step"]:
+            reply = client.object_step(_numbers(options.args[1], 3))
+        elif options.args[:1] == ["circle"]:
+            reply = client.object_circle(float(options.args[1]), float(options.args[2]))
+        else:
+            raise ValueError("object: hold | step x,y,z | circle RADIUS_M REV_PER_MIN")
+    except (ValueError, IndexError) as error:
+        print(f"vservo_client: {error}", file=sys.stderr)
+        return 2
+    except NoAnswer as error:
+        print(f"vservo_client: {error}", file=sys.stderr)
+        return 1
+    if reply.accepted:
+        target = ", ".join(f"{v:.2f}" for v in reply.target_features_px)
+        print(f"accepted: {reply.reason_text()}\n  gains version {reply.gains_version}, target [{target}] px")
+        return 0
+    print(f"vservo_client: refused: {reply.reason_text()}", file=sys.stderr)
+    return 3
+
+
+if __name__ == "__main__":
+    sys.exit(main())
