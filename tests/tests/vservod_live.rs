@@ -234,3 +234,73 @@ fn targets_move_the_servo_target_and_bad_ones_are_refused_while_the_loop_runs() 
     assert_eq!(out.status.code(), Some(3));
     daemon.stop();
 }
+
+#[test]
+fn a_recording_holds_every_service_in_order_and_plots() {
+    let _one = exclusive();
+    let instance = unique("record");
+    let config = config_with("name = \"default\"", &format!("name = \"{instance}\""));
+    let file = config.path.with_extension("mcap");
+    // the recorder starts first, so it hears everything from the first message on
+    let recorder = Command::new(binary("vservoctl"))
+        .args(["record", "--out", &file.display().to_string(), "--duration-s", "6", "--instance", &instance])
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("vservoctl record starts");
+    std::thread::sleep(Duration::from_millis(300));
+    let daemon = Daemon::start(&config);
+    assert!(wait_until(Duration::from_secs(10), || running(&instance)), "{}", daemon.log());
+    let out = run("vservoctl", &["object", "step", "--by-m", "0,0.01,0", "--instance", &instance]);
+    assert!(out.status.success());
+    let recorded = recorder.wait_with_output().expect("the recorder ends");
+    assert!(recorded.status.success(), "{}", String::from_utf8_lossy(&recorded.stderr));
+    daemon.stop();
+
+    let bytes = std::fs::read(&file).expect("the recording");
+    let mut per_topic: std::collections::BTreeMap<String, Vec<(u32, Value)>> = Default::default();
+    for message in mcap::MessageStream::new(&bytes).expect("an MCAP file") {
+        let message = message.expect("a message");
+        let data: Value = serde_json::from_slice(&message.data).expect("JSON");
+        per_topic.entry(message.channel.topic.clone()).or_default().push((message.sequence, data));
+    }
+    for topic in
+        ["joint_state", "joint_torque", "features", "camera_twist", "telemetry", "status", "gains", "object"]
+    {
+        let name = format!("vservo/{instance}/{topic}");
+        let messages = per_topic.get(&name).unwrap_or_else(|| panic!("no {name} in {:?}", per_topic.keys()));
+        assert!(messages.windows(2).all(|w| w[1].0 == w[0].0 + 1), "{topic}: sequence numbers in order");
+    }
+    let ticks: Vec<u64> = per_topic[&format!("vservo/{instance}/joint_state")]
+        .iter()
+        .filter_map(|(_, m)| m["tick"].as_u64())
+        .collect();
+    assert!(ticks.windows(2).all(|w| w[1] > w[0]), "joint states in tick order");
+    let missing = (ticks[ticks.len() - 1] - ticks[0] + 1) as usize - ticks.len();
+    eprintln!("joint states recorded: {} of {} ticks", ticks.len(), ticks.len() + missing);
+    assert!(missing * 100 <= ticks.len(), "{missing} of {} joint states missing", ticks.len());
+    let frames: Vec<u64> = per_topic[&format!("vservo/{instance}/features")]
+        .iter()
+        .filter_map(|(_, m)| m["frame"].as_u64())
+        .collect();
+    assert!(frames.windows(2).all(|w| w[1] == w[0] + 1), "every frame, in order: {frames:?}");
+
+    let out_dir = config.path.with_extension("plots");
+    let out = run(
+        "vservoctl",
+        &[
+            "plot",
+            &file.display().to_string(),
+            "--out",
+            &out_dir.display().to_string(),
+            "--config",
+            &config.arg(),
+        ],
+    );
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    for figure in ["trajectory.svg", "error.svg"] {
+        let svg = std::fs::read_to_string(out_dir.join(figure)).expect("a figure");
+        assert!(svg.contains("<svg") && svg.contains("polyline"), "{figure}");
+    }
+    let _ = std::fs::remove_dir_all(&out_dir);
+    let _ = std::fs::remove_file(&file);
+}

@@ -94,8 +94,8 @@ impl Topic {
     /// The service's sizing.
     pub fn settings(self) -> TopicSettings {
         let (max_publishers, max_subscribers, history_size, subscriber_max_buffer_size) = match self {
-            Topic::JointState => (2, 8, 1, 8),
-            Topic::JointTorque => (2, 8, 0, 8),
+            Topic::JointState => (2, 8, 1, 64),
+            Topic::JointTorque => (2, 8, 0, 64),
             Topic::Features => (2, 8, 1, 32),
             Topic::CameraTwist => (2, 8, 1, 32),
             Topic::Telemetry => (8, 8, 1, 64),

@@ -10,9 +10,12 @@ mod echo;
 mod gains;
 mod instance;
 mod joint_args;
+mod json_messages;
 mod model;
 mod output;
+mod plot_recording;
 mod plots;
+mod record;
 mod sim;
 mod stability;
 mod status;
@@ -56,6 +59,10 @@ enum Command {
     Object(commands::ObjectArgs),
     /// Make a running instance reload its configuration file (as SIGHUP does).
     Reload(commands::ReloadArgs),
+    /// Record every service of a running instance to an MCAP file.
+    Record(record::RecordArgs),
+    /// Draw the figures of `sim` from an MCAP recording.
+    Plot(plot_recording::PlotArgs),
 }
 
 fn main() -> ExitCode {
@@ -71,6 +78,8 @@ fn main() -> ExitCode {
         Command::Target(args) => commands::target(&args),
         Command::Object(args) => commands::object(&args),
         Command::Reload(args) => commands::reload(&args),
+        Command::Record(args) => record::run(&args),
+        Command::Plot(args) => plot_recording::run(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

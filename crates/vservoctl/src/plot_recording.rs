@@ -1,0 +1,145 @@
+//! `vservoctl plot FILE --out DIR`: the figures of `vservoctl sim`, drawn from an MCAP recording of a
+//! running instance (`vservoctl record`).
+
+use std::collections::BTreeMap;
+use std::path::PathBuf;
+
+use anyhow::{Context, bail};
+use clap::Args;
+use serde_json::Value;
+use vservo_arm::{JointVector, puma560};
+use vservo_control::Twist;
+use vservo_lockstep::{FrameRecord, JointRecord, Trace};
+use vservo_scene::FeatureVector;
+use vservo_sim::plant::Faults;
+
+use crate::config_arg::ConfigArg;
+
+/// Arguments of `vservoctl plot`.
+#[derive(Args, Debug)]
+pub struct PlotArgs {
+    /// The MCAP recording.
+    file: PathBuf,
+    /// Where the figures go.
+    #[arg(long, default_value = "plot-out")]
+    out: PathBuf,
+    /// The configuration the recorded instance ran (for the camera and the desired pose).
+    #[command(flatten)]
+    config: ConfigArg,
+}
+
+fn numbers<const N: usize>(value: &Value) -> Option<[f64; N]> {
+    let array = value.as_array()?;
+    (array.len() == N).then(|| std::array::from_fn(|i| array[i].as_f64().unwrap_or(f64::NAN)))
+}
+
+/// A recording turned into the lockstep's trace: one frame per recorded feature vector (time from the
+/// first frame's capture tick), the twist computed from it, the camera where the joint state of its
+/// capture tick put it; joints every 10 ms.
+pub fn trace_of(bytes: &[u8], config: &vservo_config::Config) -> anyhow::Result<Trace> {
+    let dt = config.timing.control_period_s;
+    let mut features: Vec<(u64, u64, FeatureVector)> = Vec::new();
+    let mut twists: BTreeMap<u64, Twist> = BTreeMap::new();
+    let mut states: BTreeMap<u64, (JointVector, JointVector, JointVector, u32)> = BTreeMap::new();
+    let mut desired = config.desired.features;
+    for message in mcap::MessageStream::new(bytes)? {
+        let message = message?;
+        let topic = message.channel.topic.rsplit('/').next().unwrap_or_default().to_string();
+        let data: Value = serde_json::from_slice(&message.data).context("a message that is not JSON")?;
+        match topic.as_str() {
+            "features" => {
+                let (Some(frame), Some(tick), Some(xi)) = (
+                    data["frame"].as_u64(),
+                    data["capture_tick"].as_u64(),
+                    numbers::<8>(&data["features_px"]),
+                ) else {
+                    continue;
+                };
+                features.push((frame, tick, FeatureVector::from(xi)));
+            }
+            "camera_twist" => {
+                if let (Some(frame), Some(twist)) = (data["frame"].as_u64(), numbers::<6>(&data["twist"])) {
+                    twists.insert(frame, Twist::from(twist));
+                }
+            }
+            "joint_state" => {
+                let (Some(tick), Some(q), Some(qd), Some(torque)) = (
+                    data["tick"].as_u64(),
+                    numbers::<6>(&data["q_rad"]),
+                    numbers::<6>(&data["qd_rad_s"]),
+                    numbers::<6>(&data["applied_torque_nm"]),
+                ) else {
+                    continue;
+                };
+                let faults = data["faults"].as_u64().unwrap_or(0) as u32;
+                states.insert(
+                    tick,
+                    (JointVector::from(q), JointVector::from(qd), JointVector::from(torque), faults),
+                );
+            }
+            "gains" => {
+                if let Some(xi) = numbers::<8>(&data["desired_features_px"]) {
+                    desired = FeatureVector::from(xi);
+                }
+            }
+            _ => {}
+        }
+    }
+    let Some(&(_, first_tick, _)) = features.first() else {
+        bail!("the recording holds no features: was the instance running while it recorded?");
+    };
+    let arm = puma560::puma560();
+    let base_from_desired_camera = arm.base_from_tool(&config.desired.joints) * config.tool_from_camera;
+    let desired_from_base = base_from_desired_camera.inverse();
+    let mut frames = Vec::with_capacity(features.len());
+    for (frame, tick, measured) in &features {
+        // the camera where the joint state nearest the capture tick puts it
+        let Some((_, (q, ..))) = states.range(..=*tick).next_back().or_else(|| states.range(*tick..).next())
+        else {
+            continue;
+        };
+        let base_from_camera = arm.base_from_tool(q) * config.tool_from_camera;
+        frames.push(FrameRecord {
+            t_s: tick.saturating_sub(first_tick) as f64 * dt,
+            measured: *measured,
+            truth: FeatureVector::from_element(f64::NAN),
+            twist: twists.get(frame).copied().unwrap_or_else(Twist::zeros),
+            camera_position_m: base_from_camera.translation.vector,
+            camera_in_desired_m: (desired_from_base * base_from_camera).translation.vector,
+        });
+    }
+    let every = (0.01 / dt).round().max(1.0) as u64;
+    let mut faults = Faults::default();
+    let joints = states
+        .iter()
+        .filter(|(tick, _)| *tick % every == 0 && **tick >= first_tick)
+        .map(|(tick, (q, qd, torque, _))| JointRecord {
+            t_s: (tick - first_tick) as f64 * dt,
+            q: *q,
+            qd: *qd,
+            torque: *torque,
+        })
+        .collect();
+    for (.., bits) in states.values() {
+        faults.position_limit |= (bits & 0x3f) as u8;
+        faults.velocity_limit |= ((bits >> 8) & 0x3f) as u8;
+        faults.torque_saturated |= ((bits >> 16) & 0x3f) as u8;
+        faults.integration_failed |= bits & (1 << 24) != 0;
+    }
+    Ok(Trace { frames, joints, faults, desired_features: desired })
+}
+
+pub fn run(args: &PlotArgs) -> anyhow::Result<()> {
+    let config = args.config.load()?;
+    let bytes = std::fs::read(&args.file).with_context(|| format!("reading {}", args.file.display()))?;
+    let trace = trace_of(&bytes, &config).with_context(|| format!("{}", args.file.display()))?;
+    std::fs::create_dir_all(&args.out).with_context(|| format!("creating {}", args.out.display()))?;
+    crate::plots::draw(&trace, &config, &args.out)?;
+    println!(
+        "{} frames, {} joint states every 10 ms: figures in {}",
+        trace.frames.len(),
+        trace.joints.len(),
+        args.out.display()
+    );
+    Ok(())
+}
