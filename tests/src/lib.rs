@@ -1,7 +1,7 @@
 //! # vservo-system-tests — end-to-end tests
 //!
-//! Owns the tests that run vservo's built binaries the way a user does (command lines, exit codes, and
-//! later the daemon and its processes). This library holds only the helpers those tests share.
+//! Owns the tests that run vservo's built binaries the way a user does (command lines, exit codes, the
+//! daemon and its processes). This library holds only the helpers those tests share.
 
 use std::path::PathBuf;
 use std::process::{Command, Output};
@@ -70,5 +70,129 @@ impl TempConfig {
 impl Drop for TempConfig {
     fn drop(&mut self) {
         let _ = std::fs::remove_file(&self.path);
+    }
+}
+
+// ---- the daemon, for the tests that run it (one at a time per test binary) ----
+
+use std::path::Path;
+use std::process::{Child, Stdio};
+use std::sync::Mutex;
+use std::time::{Duration, Instant};
+
+use nix::sys::signal::{Signal, kill};
+use nix::unistd::Pid;
+use serde_json::Value;
+
+/// One real-time test at a time: they measure timing on a two-core machine.
+static ONE_AT_A_TIME: Mutex<()> = Mutex::new(());
+
+/// Holds the one-test-at-a-time lock of this test binary: the daemon tests measure timing on two cores.
+pub fn exclusive() -> std::sync::MutexGuard<'static, ()> {
+    ONE_AT_A_TIME.lock().unwrap_or_else(|poisoned| poisoned.into_inner())
+}
+
+/// A configuration of the default cell under its own instance name.
+pub fn instance_config(instance: &str) -> TempConfig {
+    config_with("name = \"default\"", &format!("name = \"{instance}\""))
+}
+
+/// An instance name no other test or run uses.
+pub fn unique(name: &str) -> String {
+    format!("it-{name}-{}", std::process::id())
+}
+
+/// A running daemon; killed (and its nodes with it) if the test ends early.
+pub struct Daemon {
+    /// The daemon process.
+    pub child: Child,
+    log: PathBuf,
+}
+
+impl Daemon {
+    /// Starts vservod on `config`, its log in a file beside it.
+    pub fn start(config: &TempConfig) -> Daemon {
+        Self::start_with(config, &[], "0")
+    }
+
+    /// With extra environment variables and a status interval.
+    pub fn start_with(config: &TempConfig, env: &[(&str, &Path)], status_every_s: &str) -> Daemon {
+        let log = config.path.with_extension("log");
+        let stderr = std::fs::File::create(&log).expect("log file");
+        let child = Command::new(binary("vservod"))
+            .args(["--config", &config.arg(), "--status-every-s", status_every_s])
+            .envs(env.iter().map(|(k, v)| (*k, *v)))
+            .stdin(Stdio::null())
+            .stdout(Stdio::null())
+            .stderr(stderr)
+            .spawn()
+            .expect("vservod starts");
+        Daemon { child, log }
+    }
+
+    /// The daemon's log so far.
+    pub fn log(&self) -> String {
+        std::fs::read_to_string(&self.log).unwrap_or_default()
+    }
+
+    /// Sends the daemon a signal.
+    pub fn signal(&self, signal: Signal) {
+        kill(Pid::from_raw(self.child.id() as i32), signal).expect("the daemon can be signalled");
+    }
+
+    /// Waits for the daemon to exit; its exit code, or None if it did not within `timeout`.
+    pub fn wait(&mut self, timeout: Duration) -> Option<i32> {
+        let until = Instant::now() + timeout;
+        loop {
+            if let Some(status) = self.child.try_wait().expect("try_wait") {
+                return Some(status.code().unwrap_or(-1));
+            }
+            if Instant::now() >= until {
+                return None;
+            }
+            std::thread::sleep(Duration::from_millis(10));
+        }
+    }
+}
+
+impl Drop for Daemon {
+    fn drop(&mut self) {
+        if self.child.try_wait().ok().flatten().is_none() {
+            let _ = self.child.kill();
+            let _ = self.child.wait();
+        }
+        let _ = std::fs::remove_file(&self.log);
+    }
+}
+
+/// `vservoctl status --json` of an instance, if a daemon answers.
+pub fn status(instance: &str) -> Option<Value> {
+    let out = run("vservoctl", &["status", "--json", "--instance", instance, "--timeout-s", "1"]);
+    out.status.success().then(|| serde_json::from_slice(&out.stdout).expect("status --json prints JSON"))
+}
+
+/// Polls `condition` every 0.1 s until it holds (true) or `timeout` passes (false).
+pub fn wait_until(timeout: Duration, mut condition: impl FnMut() -> bool) -> bool {
+    let until = Instant::now() + timeout;
+    while Instant::now() < until {
+        if condition() {
+            return true;
+        }
+        std::thread::sleep(Duration::from_millis(100));
+    }
+    false
+}
+
+/// The status says every node runs and is healthy.
+pub fn running(status: &Value) -> bool {
+    status["state"] == "running"
+}
+
+
+impl Daemon {
+    /// SIGTERM, and the daemon exits 0.
+    pub fn stop(mut self) {
+        self.signal(Signal::SIGTERM);
+        assert_eq!(self.wait(Duration::from_secs(5)), Some(0), "{}", self.log());
     }
 }

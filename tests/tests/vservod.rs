@@ -4,108 +4,14 @@
 use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
-use std::sync::Mutex;
 use std::time::{Duration, Instant};
 
 use nix::sys::signal::{Signal, kill};
 use nix::unistd::Pid;
 use serde_json::Value;
-use vservo_system_tests::{TempConfig, binary, config_with, run};
-
-/// One real-time test at a time: they measure timing on a two-core machine.
-static ONE_AT_A_TIME: Mutex<()> = Mutex::new(());
-
-fn exclusive() -> std::sync::MutexGuard<'static, ()> {
-    ONE_AT_A_TIME.lock().unwrap_or_else(|poisoned| poisoned.into_inner())
-}
-
-/// A configuration of the default cell under its own instance name.
-fn instance_config(instance: &str) -> TempConfig {
-    config_with("name = \"default\"", &format!("name = \"{instance}\""))
-}
-
-fn unique(name: &str) -> String {
-    format!("it-{name}-{}", std::process::id())
-}
-
-/// A running daemon; killed (and its nodes with it) if the test ends early.
-struct Daemon {
-    child: Child,
-    log: PathBuf,
-}
-
-impl Daemon {
-    fn start(config: &TempConfig) -> Daemon {
-        Self::start_with(config, &[], "0")
-    }
-
-    /// With extra environment variables and a status interval.
-    fn start_with(config: &TempConfig, env: &[(&str, &Path)], status_every_s: &str) -> Daemon {
-        let log = config.path.with_extension("log");
-        let stderr = std::fs::File::create(&log).expect("log file");
-        let child = Command::new(binary("vservod"))
-            .args(["--config", &config.arg(), "--status-every-s", status_every_s])
-            .envs(env.iter().map(|(k, v)| (*k, *v)))
-            .stdin(Stdio::null())
-            .stdout(Stdio::null())
-            .stderr(stderr)
-            .spawn()
-            .expect("vservod starts");
-        Daemon { child, log }
-    }
-
-    fn log(&self) -> String {
-        std::fs::read_to_string(&self.log).unwrap_or_default()
-    }
-
-    fn signal(&self, signal: Signal) {
-        kill(Pid::from_raw(self.child.id() as i32), signal).expect("the daemon can be signalled");
-    }
-
-    /// Waits for the daemon to exit; its exit code, or None if it did not within `timeout`.
-    fn wait(&mut self, timeout: Duration) -> Option<i32> {
-        let until = Instant::now() + timeout;
-        loop {
-            if let Some(status) = self.child.try_wait().expect("try_wait") {
-                return Some(status.code().unwrap_or(-1));
-            }
-            if Instant::now() >= until {
-                return None;
-            }
-            std::thread::sleep(Duration::from_millis(10));
-        }
-    }
-}
-
-impl Drop for Daemon {
-    fn drop(&mut self) {
-        if self.child.try_wait().ok().flatten().is_none() {
-            let _ = self.child.kill();
-            let _ = self.child.wait();
-        }
-        let _ = std::fs::remove_file(&self.log);
-    }
-}
-
-fn status(instance: &str) -> Option<Value> {
-    let out = run("vservoctl", &["status", "--json", "--instance", instance, "--timeout-s", "1"]);
-    out.status.success().then(|| serde_json::from_slice(&out.stdout).expect("status --json prints JSON"))
-}
-
-fn wait_until(timeout: Duration, mut condition: impl FnMut() -> bool) -> bool {
-    let until = Instant::now() + timeout;
-    while Instant::now() < until {
-        if condition() {
-            return true;
-        }
-        std::thread::sleep(Duration::from_millis(100));
-    }
-    false
-}
-
-fn running(status: &Value) -> bool {
-    status["state"] == "running"
-}
+use vservo_system_tests::{
+    Daemon, TempConfig, binary, config_with, exclusive, instance_config, run, running, status, unique, wait_until,
+};
 
 /// Files of the instance left in shared memory or iceoryx2's directory, except the one 16-byte
 /// management segment iceoryx2 keeps by design.

@@ -3,84 +3,14 @@
 
 use std::io::{BufRead, BufReader};
 use std::process::{Child, Command, Stdio};
-use std::sync::Mutex;
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
-use nix::sys::signal::{Signal, kill};
-use nix::unistd::Pid;
+use nix::sys::signal::Signal;
 use serde_json::Value;
-use vservo_system_tests::{TempConfig, binary, config_with, run};
+use vservo_system_tests::{Daemon, binary, config_with, exclusive, run, running, status, unique, wait_until};
 
-static ONE_AT_A_TIME: Mutex<()> = Mutex::new(());
-
-fn exclusive() -> std::sync::MutexGuard<'static, ()> {
-    ONE_AT_A_TIME.lock().unwrap_or_else(|poisoned| poisoned.into_inner())
-}
-
-fn unique(name: &str) -> String {
-    format!("live-{name}-{}", std::process::id())
-}
-
-struct Daemon {
-    child: Child,
-    log: std::path::PathBuf,
-}
-
-impl Daemon {
-    fn start(config: &TempConfig) -> Daemon {
-        let log = config.path.with_extension("log");
-        let child = Command::new(binary("vservod"))
-            .args(["--config", &config.arg(), "--status-every-s", "0"])
-            .stdin(Stdio::null())
-            .stderr(std::fs::File::create(&log).expect("log"))
-            .spawn()
-            .expect("vservod starts");
-        Daemon { child, log }
-    }
-
-    fn log(&self) -> String {
-        std::fs::read_to_string(&self.log).unwrap_or_default()
-    }
-
-    fn signal(&self, signal: Signal) {
-        kill(Pid::from_raw(self.child.id() as i32), signal).expect("signal");
-    }
-
-    fn stop(mut self) {
-        self.signal(Signal::SIGTERM);
-        let status = self.child.wait().expect("exit");
-        assert_eq!(status.code(), Some(0), "{}", self.log());
-    }
-}
-
-impl Drop for Daemon {
-    fn drop(&mut self) {
-        if self.child.try_wait().ok().flatten().is_none() {
-            let _ = self.child.kill();
-            let _ = self.child.wait();
-        }
-        let _ = std::fs::remove_file(&self.log);
-    }
-}
-
-fn status(instance: &str) -> Option<Value> {
-    let out = run("vservoctl", &["status", "--json", "--instance", instance, "--timeout-s", "1"]);
-    out.status.success().then(|| serde_json::from_slice(&out.stdout).expect("JSON"))
-}
-
-fn wait_until(timeout: Duration, mut condition: impl FnMut() -> bool) -> bool {
-    let until = Instant::now() + timeout;
-    while Instant::now() < until {
-        if condition() {
-            return true;
-        }
-        std::thread::sleep(Duration::from_millis(100));
-    }
-    false
-}
-
-fn running(instance: &str) -> bool {
-    status(instance).is_some_and(|s| s["state"] == "running")
+fn up(instance: &str) -> bool {
+    status(instance).is_some_and(|s| running(&s))
 }
 
 fn gains_version(instance: &str) -> Option<u64> {
@@ -119,7 +49,7 @@ fn sighup_with_a_changed_r_swaps_the_gain_at_a_frame_without_any_other_jump() {
     let instance = unique("reload");
     let config = config_with("name = \"default\"", &format!("name = \"{instance}\""));
     let daemon = Daemon::start(&config);
-    assert!(wait_until(Duration::from_secs(10), || running(&instance)), "{}", daemon.log());
+    assert!(wait_until(Duration::from_secs(10), || up(&instance)), "{}", daemon.log());
     let before = vservo_config::Config::load(&config.path).expect("config");
     let features = echo(&instance, "features", 3.0);
     let twists = echo(&instance, "camera_twist", 3.0);
@@ -178,7 +108,7 @@ fn sighup_with_a_changed_r_swaps_the_gain_at_a_frame_without_any_other_jump() {
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(stderr.contains("plant.mode") && stderr.contains("restart vservod"), "{stderr}");
     assert_eq!(gains_version(&instance), Some(2));
-    assert!(running(&instance));
+    assert!(up(&instance));
     daemon.stop();
 }
 
@@ -188,7 +118,7 @@ fn targets_move_the_servo_target_and_bad_ones_are_refused_while_the_loop_runs() 
     let instance = unique("target");
     let config = config_with("name = \"default\"", &format!("name = \"{instance}\""));
     let daemon = Daemon::start(&config);
-    assert!(wait_until(Duration::from_secs(10), || running(&instance)), "{}", daemon.log());
+    assert!(wait_until(Duration::from_secs(10), || up(&instance)), "{}", daemon.log());
     let target = [161.0, 168.0, 328.0, 178.0, 349.0, 75.0, 182.0, 70.0];
     let list = target.map(|v| v.to_string()).join(",");
     let out = run("vservoctl", &["target", "set", "--features", &list, "--instance", &instance]);
@@ -249,7 +179,7 @@ fn a_recording_holds_every_service_in_order_and_plots() {
         .expect("vservoctl record starts");
     std::thread::sleep(Duration::from_millis(300));
     let daemon = Daemon::start(&config);
-    assert!(wait_until(Duration::from_secs(10), || running(&instance)), "{}", daemon.log());
+    assert!(wait_until(Duration::from_secs(10), || up(&instance)), "{}", daemon.log());
     let out = run("vservoctl", &["object", "step", "--by-m", "0,0.01,0", "--instance", &instance]);
     assert!(out.status.success());
     let recorded = recorder.wait_with_output().expect("the recorder ends");
