@@ -188,7 +188,6 @@ pub fn running(status: &Value) -> bool {
     status["state"] == "running"
 }
 
-
 impl Daemon {
     /// SIGTERM, and the daemon exits 0.
     pub fn stop(mut self) {

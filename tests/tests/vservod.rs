@@ -10,7 +10,8 @@ use nix::sys::signal::{Signal, kill};
 use nix::unistd::Pid;
 use serde_json::Value;
 use vservo_system_tests::{
-    Daemon, TempConfig, binary, config_with, exclusive, instance_config, run, running, status, unique, wait_until,
+    Daemon, TempConfig, binary, config_with, exclusive, instance_config, run, running, status, unique,
+    wait_until,
 };
 
 /// Files of the instance left in shared memory or iceoryx2's directory, except the one 16-byte

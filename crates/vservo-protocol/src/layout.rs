@@ -171,40 +171,64 @@ pub fn layout_tables() -> String {
             healthy: "u32", "1 when the node's telemetry is fresh (under 0.5 s old)";
         },
     );
-    table(&mut out, "gains", "vservo::Gains", size_of::<GainsMsg>(), &fields! { GainsMsg;
-        schema: "u32", "schema version (1)";
-        used_past_gains: "u32", "how many of `past_input_gains` the law uses (0 for the paper's law)";
-        version: "u64", "1 at start, +1 per accepted reload or target";
-        feature_gain: "f64[48]", "K_ξ, 6×8 row-major (m/s and rad/s per px)";
-        past_input_gains: "f64[144]", "K_j on the command sent j + 1 frames ago, four 6×6 row-major";
-        desired_features_px: "f64[8]", "ξ_d (px)";
-    });
-    table(&mut out, "object", "vservo::Object", size_of::<ObjectMsg>(), &fields! { ObjectMsg;
-        schema: "u32", "schema version (1)";
-        kind: "u32", "4 hold, 5 step, 6 circle (as in `command`)";
-        sequence: "u64", "counts the object commands (1 for the first)";
-        translation_m: "f64[3]", "step: the jump in the desired camera frame (m)";
-        radius_m: "f64", "circle: radius (m)";
-        rev_per_min: "f64", "circle: speed (rev/min)";
-    });
-    table(&mut out, "command (request)", "vservo::Command", size_of::<CommandMsg>(), &fields! { CommandMsg;
-        schema: "u32", "schema version (1)";
-        kind: "u32", "1 target features, 2 target pose, 3 teach, 4 object hold, 5 object step, 6 object circle, 7 reload";
-        id: "u64", "chosen by the client; the reply carries it back";
-        features_px: "f64[8]", "kind 1: ξ_d (px)";
-        translation_m: "f64[3]", "kind 2: the board's position in the desired camera frame (m); kind 5: the jump (m)";
-        rotation_rpy_rad: "f64[3]", "kind 2: the board's orientation in the desired camera frame, roll, pitch, yaw (rad), R = Rz·Ry·Rx";
-        radius_m: "f64", "kind 6: radius (m)";
-        rev_per_min: "f64", "kind 6: speed (rev/min)";
-    });
-    table(&mut out, "command (reply)", "vservo::CommandReply", size_of::<CommandReplyMsg>(), &fields! { CommandReplyMsg;
-        schema: "u32", "schema version (1)";
-        accepted: "u32", "1 accepted, 0 refused";
-        id: "u64", "the request's `id`";
-        gains_version: "u64", "the gains version in force after the command";
-        target_features_px: "f64[8]", "ξ_d in force after the command (px)";
-        reason: "u8[256]", "why it was refused, or what was done: UTF-8, zero-padded";
-    });
+    table(
+        &mut out,
+        "gains",
+        "vservo::Gains",
+        size_of::<GainsMsg>(),
+        &fields! { GainsMsg;
+            schema: "u32", "schema version (1)";
+            used_past_gains: "u32", "how many of `past_input_gains` the law uses (0 for the paper's law)";
+            version: "u64", "1 at start, +1 per accepted reload or target";
+            feature_gain: "f64[48]", "K_ξ, 6×8 row-major (m/s and rad/s per px)";
+            past_input_gains: "f64[144]", "K_j on the command sent j + 1 frames ago, four 6×6 row-major";
+            desired_features_px: "f64[8]", "ξ_d (px)";
+        },
+    );
+    table(
+        &mut out,
+        "object",
+        "vservo::Object",
+        size_of::<ObjectMsg>(),
+        &fields! { ObjectMsg;
+            schema: "u32", "schema version (1)";
+            kind: "u32", "4 hold, 5 step, 6 circle (as in `command`)";
+            sequence: "u64", "counts the object commands (1 for the first)";
+            translation_m: "f64[3]", "step: the jump in the desired camera frame (m)";
+            radius_m: "f64", "circle: radius (m)";
+            rev_per_min: "f64", "circle: speed (rev/min)";
+        },
+    );
+    table(
+        &mut out,
+        "command (request)",
+        "vservo::Command",
+        size_of::<CommandMsg>(),
+        &fields! { CommandMsg;
+            schema: "u32", "schema version (1)";
+            kind: "u32", "1 target features, 2 target pose, 3 teach, 4 object hold, 5 object step, 6 object circle, 7 reload";
+            id: "u64", "chosen by the client; the reply carries it back";
+            features_px: "f64[8]", "kind 1: ξ_d (px)";
+            translation_m: "f64[3]", "kind 2: the board's position in the desired camera frame (m); kind 5: the jump (m)";
+            rotation_rpy_rad: "f64[3]", "kind 2: the board's orientation in the desired camera frame, roll, pitch, yaw (rad), R = Rz·Ry·Rx";
+            radius_m: "f64", "kind 6: radius (m)";
+            rev_per_min: "f64", "kind 6: speed (rev/min)";
+        },
+    );
+    table(
+        &mut out,
+        "command (reply)",
+        "vservo::CommandReply",
+        size_of::<CommandReplyMsg>(),
+        &fields! { CommandReplyMsg;
+            schema: "u32", "schema version (1)";
+            accepted: "u32", "1 accepted, 0 refused";
+            id: "u64", "the request's `id`";
+            gains_version: "u64", "the gains version in force after the command";
+            target_features_px: "f64[8]", "ξ_d in force after the command (px)";
+            reason: "u8[256]", "why it was refused, or what was done: UTF-8, zero-padded";
+        },
+    );
     out
 }
 
