@@ -138,6 +138,7 @@ fn targets_move_the_servo_target_and_bad_ones_are_refused_while_the_loop_runs() 
     for (features, why) in [
         ("nan,168,318,178,339,75,172,70", "not finite"),
         ("151,168,318,178,339,75,172,600", "outside the image"),
+        ("151,168,318,178,339,75,210,70", "no image of the board"),
     ] {
         let out = run("vservoctl", &["target", "set", "--features", features, "--instance", &instance]);
         assert_eq!(out.status.code(), Some(3), "{features}");

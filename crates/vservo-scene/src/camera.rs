@@ -132,10 +132,128 @@ impl CameraIntrinsics {
     }
 }
 
+impl CameraIntrinsics {
+    /// The board pose that images its marks at `features`: the homography from the board plane (the marks
+    /// must lie in its z = 0 plane) to normalised image coordinates by the direct linear transform, split
+    /// into a rotation and a translation and the rotation made orthonormal (Zhang 2000). `None` when a
+    /// feature is not finite, the marks are not coplanar at z = 0, the features are degenerate (three marks
+    /// in a line) or the board would be behind the camera. Four points always fit a homography; whether a
+    /// rigid pose explains them is for the caller to judge by reprojecting.
+    pub fn board_pose_from_features(
+        &self,
+        board: &Board,
+        features: &FeatureVector,
+    ) -> Option<IsometryMatrix3<f64>> {
+        use nalgebra::{Matrix3, Rotation3, SMatrix, Translation3, Vector3};
+        if !features.iter().all(|v| v.is_finite()) || board.marks_in_board.iter().any(|m| m.z != 0.0) {
+            return None;
+        }
+        // 8 equations in 9 unknowns; the zero ninth row makes the SVD square
+        let mut a = SMatrix::<f64, 9, 9>::zeros();
+        for (i, mark) in board.marks_in_board.iter().enumerate() {
+            let u = (features[2 * i] - self.principal_point_px.x) / self.focal_px;
+            let v = (features[2 * i + 1] - self.principal_point_px.y) / self.focal_px;
+            let (x, y) = (mark.x, mark.y);
+            a.fixed_view_mut::<1, 9>(2 * i, 0).copy_from_slice(&[
+                x,
+                y,
+                1.0,
+                0.0,
+                0.0,
+                0.0,
+                -u * x,
+                -u * y,
+                -u,
+            ]);
+            a.fixed_view_mut::<1, 9>(2 * i + 1, 0).copy_from_slice(&[
+                0.0,
+                0.0,
+                0.0,
+                x,
+                y,
+                1.0,
+                -v * x,
+                -v * y,
+                -v,
+            ]);
+        }
+        // the null vector of A: its right singular vector of the smallest singular value, which must be
+        // alone (a second near-zero one: the marks' images do not fix a homography)
+        let svd = a.svd(false, true);
+        let v_t = svd.v_t?;
+        let mut order: Vec<usize> = (0..9).collect();
+        order.sort_by(|&i, &j| svd.singular_values[i].total_cmp(&svd.singular_values[j]));
+        let largest = svd.singular_values[order[8]];
+        // (the inputs are finite, so are the singular values)
+        if svd.singular_values[order[1]] <= 1e-9 * largest {
+            return None;
+        }
+        let h = v_t.row(order[0]);
+        let homography = Matrix3::new(h[0], h[1], h[2], h[3], h[4], h[5], h[6], h[7], h[8]);
+        // three marks imaged on a line: the homography is singular
+        let singular = homography.singular_values();
+        if singular.min() <= 1e-9 * singular.max() {
+            return None;
+        }
+        let (h1, h2, h3) = (homography.column(0), homography.column(1), homography.column(2));
+        let norm = h1.norm();
+        if norm <= 1e-12 {
+            return None;
+        }
+        // the scale that puts the board in front of the camera
+        let scale = if h3[2] >= 0.0 { 1.0 / norm } else { -1.0 / norm };
+        let r1: Vector3<f64> = h1 * scale;
+        let r2: Vector3<f64> = h2 * scale;
+        let translation: Vector3<f64> = h3 * scale;
+        let rough = Matrix3::from_columns(&[r1, r2, r1.cross(&r2)]);
+        let svd = rough.svd(true, true);
+        let (u, v_t) = (svd.u?, svd.v_t?);
+        let mut rotation = u * v_t;
+        if rotation.determinant() < 0.0 {
+            rotation = -rotation;
+        }
+        let pose = IsometryMatrix3::from_parts(
+            Translation3::from(translation),
+            Rotation3::from_matrix_unchecked(rotation),
+        );
+        (translation.iter().all(|v| v.is_finite()) && translation.z > 0.0).then_some(pose)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
     use nalgebra::{Rotation3, Translation3, Vector3};
+    use proptest::prelude::*;
+
+    proptest! {
+        #[test]
+        fn the_board_pose_comes_back_from_its_image(
+            x in -0.1f64..0.1, y in -0.1f64..0.1, z in 0.35f64..1.2,
+            roll in -0.4f64..0.4, pitch in -0.4f64..0.4, yaw in -0.6f64..0.6,
+        ) {
+            let camera = CameraIntrinsics::paper();
+            let board = Board::paper();
+            let pose = IsometryMatrix3::from_parts(
+                Translation3::new(x, y, z),
+                Rotation3::from_euler_angles(roll, pitch, yaw),
+            );
+            let features = camera.project_marks(&board, &pose).expect("in front");
+            let found = camera.board_pose_from_features(&board, &features).expect("a pose");
+            prop_assert!((found.translation.vector - pose.translation.vector).norm() < 1e-9);
+            // (angle_to's acos cannot resolve angles below ~1e-8: compare the matrices)
+            prop_assert!((found.rotation.matrix() - pose.rotation.matrix()).norm() < 1e-9);
+        }
+    }
+
+    #[test]
+    fn degenerate_features_have_no_pose() {
+        let camera = CameraIntrinsics::paper();
+        let in_a_line = FeatureVector::from([100.0, 100.0, 200.0, 100.0, 300.0, 100.0, 400.0, 100.0]);
+        assert!(camera.board_pose_from_features(&Board::paper(), &in_a_line).is_none());
+        let nan = FeatureVector::from_element(f64::NAN);
+        assert!(camera.board_pose_from_features(&Board::paper(), &nan).is_none());
+    }
 
     #[test]
     fn the_paper_board_at_half_a_metre_images_at_the_papers_desired_features() {

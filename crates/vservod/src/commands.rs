@@ -28,6 +28,8 @@ const LIVE_SECTIONS: [&str; 2] = ["controller", "desired"];
 /// Features closer than this to the image border are refused as targets (px): a mark there is cut by the
 /// border or leaves the image at the first disturbance.
 const TARGET_BORDER_MARGIN_PX: f64 = 10.0;
+/// A feature target must be the image of the board from some camera pose to within this (px).
+const TARGET_POSE_FIT_PX: f64 = 3.0;
 /// Two target marks closer than this (px) would merge in the image.
 const TARGET_MIN_SEPARATION_PX: f64 = 20.0;
 
@@ -190,9 +192,22 @@ impl Commander {
             command_kind::TARGET_FEATURES => {
                 let features = FeatureVector::from(command.features_px);
                 self.check_target_features(&features)?;
-                // the depths follow the marks' spread: the image of a board scales as 1/Z
-                let scale = (quad_area(&self.spec.desired_features) / quad_area(&features)).abs().sqrt();
-                let depths = self.spec.desired_depths * scale;
+                // the camera pose that sees the board so: it gives the depths, and must be reachable
+                let camera = &self.config.camera;
+                let camera_from_board =
+                    camera.board_pose_from_features(&self.config.board, &features).ok_or(
+                        "target: no camera pose images the board's marks there (three of them in a line?)",
+                    )?;
+                let (seen, depths) = camera
+                    .project_marks_with_depths(&self.config.board, &camera_from_board)
+                    .map_err(|e| format!("target: {e}"))?;
+                let off_px = (seen - features).amax();
+                if off_px > TARGET_POSE_FIT_PX {
+                    return Err(format!(
+                        "target: these features are no image of the board: the camera pose fitted to them (plane homography) reprojects the marks up to {off_px:.1} px away (at most {TARGET_POSE_FIT_PX} px)"
+                    ));
+                }
+                self.check_reachable(&camera_from_board, heard)?;
                 self.retarget(features, depths)
             }
             command_kind::TARGET_POSE => {
