@@ -133,3 +133,34 @@ impl PlantStage {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::Cell;
+
+    #[test]
+    fn a_new_object_motion_starts_where_the_board_is_and_when_it_is_set() {
+        let config =
+            vservo_config::Config::load(concat!(env!("CARGO_MANIFEST_DIR"), "/../../config/vservo.toml"))
+                .expect("the default config loads");
+        let cell = Cell::new(&config).expect("the default cell");
+        let mut plant = cell.plant_resumed(cell.start_joints(), 1000);
+        let desired_rotation = cell.base_from_desired_camera().rotation;
+        let start = plant.base_from_board().translation.vector;
+        let step = Vector3::new(0.0, 0.02, 0.0);
+        plant.set_object_motion(ObjectMotion::Step { at_s: 0.0, translation_m: step });
+        let after_step = plant.base_from_board().translation.vector;
+        assert!((after_step - start - desired_rotation * step).norm() < 1e-12, "jumps by the step at once");
+        // a circle from there: the same place at its start, then moving
+        plant.set_object_motion(ObjectMotion::Circle { radius_m: 0.1, rev_per_min: 5.0 });
+        assert!((plant.base_from_board().translation.vector - after_step).norm() < 1e-12);
+        for _ in 0..100 {
+            plant.hold();
+        }
+        let moved = plant.base_from_board().translation.vector - after_step;
+        let expected = desired_rotation
+            * ObjectMotion::Circle { radius_m: 0.1, rev_per_min: 5.0 }.offset_in_desired_camera(0.1);
+        assert!((moved - expected).norm() < 1e-12, "{moved} vs {expected}");
+    }
+}

@@ -234,6 +234,17 @@ impl Config {
     }
 }
 
+/// What an instance name may be, as said in errors.
+pub const INSTANCE_NAME_RULE: &str =
+    "must be 1–64 letters, digits, '-' or '_' (it becomes part of shared-memory service names)";
+
+/// Whether `name` may name an instance ([`INSTANCE_NAME_RULE`]).
+pub fn is_instance_name(name: &str) -> bool {
+    !name.is_empty()
+        && name.len() <= 64
+        && name.chars().all(|c| c.is_ascii_alphanumeric() || c == '-' || c == '_')
+}
+
 /// A pose from a translation (m) and roll-pitch-yaw angles (rad): R = Rz(yaw)·Ry(pitch)·Rx(roll).
 pub fn pose_from_rpy(translation_m: Vector3<f64>, rpy: Vector3<f64>) -> IsometryMatrix3<f64> {
     IsometryMatrix3::from_parts(

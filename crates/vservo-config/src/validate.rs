@@ -115,14 +115,11 @@ pub fn validate(raw: RawConfig, file: &str) -> Result<Config, ConfigError> {
 
     // instance
     let name = raw.instance.name.trim();
-    let name_ok = !name.is_empty()
-        && name.len() <= 64
-        && name.chars().all(|c| c.is_ascii_alphanumeric() || c == '-' || c == '_');
-    if !name_ok {
+    if !crate::is_instance_name(name) {
         return Err(check.invalid(
             "instance.name",
             format!("{:?}", raw.instance.name),
-            "must be 1–64 letters, digits, '-' or '_' (it becomes part of shared-memory service names)",
+            crate::INSTANCE_NAME_RULE,
         ));
     }
 

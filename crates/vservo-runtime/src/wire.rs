@@ -3,7 +3,39 @@
 use nalgebra::Matrix6;
 use vservo_control::{FeatureGain, LawGains};
 use vservo_protocol::{GainsMsg, MAX_PAST_GAINS, SCHEMA_VERSION};
-use vservo_scene::FeatureVector;
+use vservo_scene::{FeatureVector, IsometryMatrix3};
+
+/// A fixed-size vector as the array a payload carries.
+pub fn to_array<const N: usize>(v: &nalgebra::SVector<f64, N>) -> [f64; N] {
+    let mut out = [0.0; N];
+    out.copy_from_slice(v.as_slice());
+    out
+}
+
+/// A pose as `joint_state.base_from_board` carries it: 3×4 [R | t] row-major.
+pub fn pose_to_wire(pose: &IsometryMatrix3<f64>) -> [f64; 12] {
+    let (r, t) = (pose.rotation.matrix(), pose.translation.vector);
+    let mut out = [0.0; 12];
+    for row in 0..3 {
+        for col in 0..3 {
+            out[4 * row + col] = r[(row, col)];
+        }
+        out[4 * row + 3] = t[row];
+    }
+    out
+}
+
+/// The pose from a 3×4 [R | t] row-major array; `None` if a number is not finite.
+pub fn pose_from_wire(m: &[f64; 12]) -> Option<IsometryMatrix3<f64>> {
+    if !m.iter().all(|v| v.is_finite()) {
+        return None;
+    }
+    let rotation = nalgebra::Matrix3::new(m[0], m[1], m[2], m[4], m[5], m[6], m[8], m[9], m[10]);
+    Some(IsometryMatrix3::from_parts(
+        nalgebra::Vector3::new(m[3], m[7], m[11]).into(),
+        nalgebra::Rotation3::from_matrix_unchecked(rotation),
+    ))
+}
 
 /// The law's gains as a [`GainsMsg`] of `version`.
 pub fn gains_message(gains: &LawGains, version: u64) -> GainsMsg {
@@ -27,7 +59,7 @@ pub fn gains_message(gains: &LawGains, version: u64) -> GainsMsg {
         version,
         feature_gain,
         past_input_gains,
-        desired_features_px: super::nodes::to_array(&gains.desired_features),
+        desired_features_px: to_array(&gains.desired_features),
     }
 }
 
@@ -54,6 +86,18 @@ pub fn law_gains(message: &GainsMsg) -> Option<LawGains> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn poses_survive_the_wire_and_non_finite_ones_are_refused() {
+        let pose = IsometryMatrix3::from_parts(
+            nalgebra::Translation3::new(1.2, -0.15, 0.66),
+            nalgebra::Rotation3::from_euler_angles(0.3, -0.2, 1.1),
+        );
+        assert_eq!(pose_from_wire(&pose_to_wire(&pose)), Some(pose));
+        let mut broken = pose_to_wire(&pose);
+        broken[7] = f64::INFINITY;
+        assert_eq!(pose_from_wire(&broken), None);
+    }
 
     #[test]
     fn gains_survive_the_wire() {

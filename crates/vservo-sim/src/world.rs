@@ -1,7 +1,6 @@
 //! The object's motion: where the board is at each instant of simulated time.
 
 use nalgebra::Vector3;
-use vservo_scene::IsometryMatrix3;
 
 /// How the board moves, in the frame of the camera at the desired pose ("the desired camera frame").
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -43,19 +42,6 @@ impl ObjectMotion {
                 Vector3::new(0.0, radius_m * s, radius_m * (c - 1.0))
             }
         }
-    }
-
-    /// The board in the base frame at `t_s`, given where it is at the desired pose and the desired camera.
-    pub fn base_from_board(
-        &self,
-        t_s: f64,
-        base_from_desired_camera: &IsometryMatrix3<f64>,
-        base_from_board_desired: &IsometryMatrix3<f64>,
-    ) -> IsometryMatrix3<f64> {
-        let offset_in_base = base_from_desired_camera.rotation * self.offset_in_desired_camera(t_s);
-        let mut pose = *base_from_board_desired;
-        pose.translation.vector += offset_in_base;
-        pose
     }
 }
 

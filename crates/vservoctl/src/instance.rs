@@ -27,13 +27,10 @@ impl InstanceArg {
     /// The instance name.
     pub fn name(&self) -> Result<String, UsageError> {
         if let Some(name) = &self.instance {
-            let ok = !name.is_empty()
-                && name.len() <= 64
-                && name.chars().all(|c| c.is_ascii_alphanumeric() || c == '-' || c == '_');
-            return if ok {
+            return if vservo_config::is_instance_name(name) {
                 Ok(name.clone())
             } else {
-                Err(UsageError(format!("--instance {name:?}: must be 1–64 letters, digits, '-' or '_'")))
+                Err(UsageError(format!("--instance {name:?}: {}", vservo_config::INSTANCE_NAME_RULE)))
             };
         }
         let path = self.config.clone().unwrap_or_else(|| PathBuf::from("config/vservo.toml"));

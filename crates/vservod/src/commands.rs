@@ -17,7 +17,7 @@ use vservo_protocol::{
     CommandMsg, CommandReplyMsg, FEATURES, FeaturesMsg, GainsMsg, JointStateMsg, ObjectMsg, SCHEMA_VERSION,
     Topic, command_kind,
 };
-use vservo_runtime::wire::gains_message;
+use vservo_runtime::wire::{gains_message, pose_from_wire};
 use vservo_scene::{FeatureVector, IsometryMatrix3, MARKS};
 
 use crate::systemd::Systemd;
@@ -304,7 +304,8 @@ impl Commander {
 
     fn camera_from_board_now(&self, state: &JointStateMsg) -> Result<IsometryMatrix3<f64>, String> {
         let q = JointVector::from(state.q_rad);
-        let base_from_board = board_pose(&state.base_from_board).ok_or("the board's pose is not finite")?;
+        let base_from_board =
+            pose_from_wire(&state.base_from_board).ok_or("the board's pose is not finite")?;
         let base_from_camera = self.arm.base_from_tool(&q) * self.config.tool_from_camera;
         Ok(base_from_camera.inverse() * base_from_board)
     }
@@ -317,7 +318,7 @@ impl Commander {
     ) -> Result<(), String> {
         let (base_from_board, q_now) = match heard.joint_state {
             Some(state) => (
-                board_pose(&state.base_from_board).ok_or("the board's pose is not finite")?,
+                pose_from_wire(&state.base_from_board).ok_or("the board's pose is not finite")?,
                 JointVector::from(state.q_rad),
             ),
             None => (self.config.base_from_board(&self.arm), self.config.desired.joints),
@@ -373,17 +374,6 @@ impl Commander {
         self.object_sequence += 1;
         Ok(what)
     }
-}
-
-fn board_pose(m: &[f64; 12]) -> Option<IsometryMatrix3<f64>> {
-    if !m.iter().all(|v| v.is_finite()) {
-        return None;
-    }
-    let rotation = nalgebra::Matrix3::new(m[0], m[1], m[2], m[4], m[5], m[6], m[8], m[9], m[10]);
-    Some(IsometryMatrix3::from_parts(
-        Vector3::new(m[3], m[7], m[11]).into(),
-        nalgebra::Rotation3::from_matrix_unchecked(rotation),
-    ))
 }
 
 /// Signed area of the quadrilateral of the four marks in feature order (shoelace; px²).

@@ -17,12 +17,6 @@ use crate::{NodeContext, RuntimeError, realtime, schema_ok};
 /// How long an event-driven node waits before it looks at its stop flag again.
 const IDLE_WAIT: Duration = Duration::from_millis(100);
 
-pub(crate) fn to_array<const N: usize>(v: &nalgebra::SVector<f64, N>) -> [f64; N] {
-    let mut out = [0.0; N];
-    out.copy_from_slice(v.as_slice());
-    out
-}
-
 /// What every node process has: its telemetry thread (started first, at normal priority, since threads
 /// inherit their creator's) and its iceoryx2 node.
 struct NodeBase {

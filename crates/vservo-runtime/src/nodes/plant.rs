@@ -11,9 +11,10 @@ use vservo_protocol::{
 use vservo_sim::plant::JointState;
 use vservo_sim::world::ObjectMotion;
 
-use super::{NodeBase, go_realtime, latest, start, to_array};
+use super::{NodeBase, go_realtime, latest, start};
 use crate::clock::{PeriodicTimer, monotonic_ns};
 use crate::telemetry::CycleSample;
+use crate::wire::{pose_to_wire, to_array};
 use crate::{NodeContext, RuntimeError, schema_ok};
 
 fn state_message(stage: &PlantStage, state: &JointState, epoch: u64) -> JointStateMsg {
@@ -27,16 +28,6 @@ fn state_message(stage: &PlantStage, state: &JointState, epoch: u64) -> JointSta
     if stage.is_holding() {
         faults |= fault_bits::HOLDING;
     }
-    let board = stage.base_from_board();
-    let r = board.rotation.matrix();
-    let t = board.translation.vector;
-    let mut base_from_board = [0.0; 12];
-    for row in 0..3 {
-        for col in 0..3 {
-            base_from_board[4 * row + col] = r[(row, col)];
-        }
-        base_from_board[4 * row + 3] = t[row];
-    }
     JointStateMsg {
         schema: SCHEMA_VERSION,
         faults,
@@ -46,7 +37,7 @@ fn state_message(stage: &PlantStage, state: &JointState, epoch: u64) -> JointSta
         q_rad: to_array(&state.q),
         qd_rad_s: to_array(&state.qd),
         applied_torque_nm: to_array(&state.applied_torque),
-        base_from_board,
+        base_from_board: pose_to_wire(&stage.base_from_board()),
     }
 }
 

@@ -7,9 +7,10 @@ use vservo_protocol::{
     CameraTwistMsg, JointStateMsg, JointTorqueMsg, NodeRole, SCHEMA_VERSION, Topic, actuator_mode,
 };
 
-use super::{IDLE_WAIT, NodeBase, go_realtime, latest, start, to_array};
+use super::{IDLE_WAIT, NodeBase, go_realtime, latest, start};
 use crate::clock::monotonic_ns;
 use crate::telemetry::CycleSample;
+use crate::wire::to_array;
 use crate::{NodeContext, RuntimeError, schema_ok};
 
 /// Runs the rmrc until the stop flag is set.

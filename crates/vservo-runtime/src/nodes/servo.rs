@@ -5,10 +5,11 @@ use vservo_control::Twist;
 use vservo_protocol::{CameraTwistMsg, FeaturesMsg, GainsMsg, NodeRole, SCHEMA_VERSION, Topic, verdict};
 use vservo_scene::FeatureVector;
 
-use super::{IDLE_WAIT, NodeBase, go_realtime, latest, start, to_array};
+use super::{IDLE_WAIT, NodeBase, go_realtime, latest, start};
 use crate::clock::monotonic_ns;
 use crate::telemetry::CycleSample;
 use crate::wire::law_gains;
+use crate::wire::to_array;
 use crate::{NodeContext, RuntimeError, schema_ok};
 
 /// RMS of ξ − ξ_d over the finite features (px); NaN when none is.

@@ -3,12 +3,12 @@
 use vservo_arm::JointVector;
 use vservo_cell::DeliveredFrame;
 use vservo_protocol::{FeaturesMsg, JointStateMsg, MARKS, NodeRole, SCHEMA_VERSION, Topic, mark_status};
-use vservo_scene::IsometryMatrix3;
 use vservo_vision::MarkStatus;
 
-use super::{NodeBase, go_realtime, latest, start, to_array};
+use super::{NodeBase, go_realtime, latest, start};
 use crate::clock::{PeriodicTimer, monotonic_ns};
 use crate::telemetry::CycleSample;
+use crate::wire::{pose_from_wire, to_array};
 use crate::{NodeContext, RuntimeError};
 
 fn status_code(status: &MarkStatus) -> u8 {
@@ -21,18 +21,6 @@ fn status_code(status: &MarkStatus) -> u8 {
         MarkStatus::NotFound => mark_status::NOT_FOUND,
         MarkStatus::BadImage(_) => mark_status::BAD_IMAGE,
     }
-}
-
-fn board_pose(m: &[f64; 12]) -> Option<IsometryMatrix3<f64>> {
-    if !m.iter().all(|v| v.is_finite()) {
-        return None;
-    }
-    let rotation = nalgebra::Matrix3::new(m[0], m[1], m[2], m[4], m[5], m[6], m[8], m[9], m[10]);
-    let translation = nalgebra::Vector3::new(m[3], m[7], m[11]);
-    Some(IsometryMatrix3::from_parts(
-        translation.into(),
-        nalgebra::Rotation3::from_matrix_unchecked(rotation),
-    ))
 }
 
 /// What the pipeline remembers of a frame until it leaves: capture time and mark status.
@@ -104,7 +92,7 @@ pub fn run(context: &NodeContext) -> Result<(), RuntimeError> {
         let Some(state) = latest else { continue };
         let q = JointVector::from(state.q_rad);
         let Some(base_from_board) =
-            board_pose(&state.base_from_board).filter(|_| q.iter().all(|v| v.is_finite()))
+            pose_from_wire(&state.base_from_board).filter(|_| q.iter().all(|v| v.is_finite()))
         else {
             counters.rejected();
             continue;
