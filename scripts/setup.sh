@@ -31,3 +31,7 @@ if ! "${venv}/bin/python" -c 'import iceoryx2' >/dev/null 2>&1; then
     fi
     "${venv}/bin/pip" install -q iceoryx2==0.10.0
 fi
+
+# The MuJoCo reference driver (clients/python/mujoco_driver.py, scripts/run-mujoco.sh and its test): headless
+# OpenGL from Debian and PyPI's mujoco in the same venv.
+scripts/setup-mujoco.sh

@@ -22,7 +22,7 @@ import time
 
 import iceoryx2 as iox2
 
-SCHEMA_VERSION = 1
+SCHEMA_VERSION = 2
 TARGET_FEATURES, TARGET_POSE, TARGET_TEACH, OBJECT_HOLD, OBJECT_STEP, OBJECT_CIRCLE, RELOAD = range(1, 8)
 
 
@@ -113,7 +113,7 @@ class DaemonStatus(ctypes.Structure):
         ("tick_rate_hz", ctypes.c_double),
         ("feature_error_px", ctypes.c_double),
         ("pid", ctypes.c_uint32),
-        ("reserved", ctypes.c_uint32),
+        ("robot", ctypes.c_uint32),
     ]
 
     @staticmethod

@@ -195,3 +195,39 @@ impl Daemon {
         assert_eq!(self.wait(Duration::from_secs(5)), Some(0), "{}", self.log());
     }
 }
+
+/// A copy of a configuration file of the repository (`config/…`) with pieces of text replaced, written to a
+/// temporary file that lives as long as the returned guard.
+pub fn config_from(file: &str, replacements: &[(&str, &str)]) -> TempConfig {
+    let mut text = std::fs::read_to_string(repository_root().join(file)).expect("the config is readable");
+    for (old, new) in replacements {
+        assert!(text.contains(old), "{file} holds {old:?}");
+        text = text.replacen(old, new, 1);
+    }
+    let path = std::env::temp_dir().join(format!(
+        "vservo-test-{}-{}.toml",
+        std::process::id(),
+        TEMP_COUNTER.fetch_add(1, std::sync::atomic::Ordering::Relaxed)
+    ));
+    std::fs::write(&path, text).expect("temporary file is writable");
+    TempConfig { path }
+}
+
+/// A child process killed when the guard is dropped (a test that fails still cleans up).
+pub struct Killed(pub Child);
+
+impl Killed {
+    /// Sends it a signal.
+    pub fn signal(&self, signal: Signal) {
+        let _ = kill(Pid::from_raw(self.0.id() as i32), signal);
+    }
+}
+
+impl Drop for Killed {
+    fn drop(&mut self) {
+        // a stopped process must be continued to die of SIGKILL promptly
+        let _ = kill(Pid::from_raw(self.0.id() as i32), Signal::SIGCONT);
+        let _ = self.0.kill();
+        let _ = self.0.wait();
+    }
+}

@@ -21,10 +21,11 @@ pub use plant_stage::PlantStage;
 pub use rmrc_stage::{ActuatorCommand, RmrcStage};
 pub use servo_stage::{ServoStage, ServoVerdict};
 pub use vision_stage::{DeliveredFrame, VisionFrame, VisionStage};
+pub use vservo_config::CommandInterface;
 
 use nalgebra::{Rotation3, Translation3};
 use vservo_arm::{JointVector, SerialArm, puma560};
-use vservo_config::Config;
+use vservo_config::{Config, RobotDriver};
 use vservo_control::Gains;
 use vservo_scene::IsometryMatrix3;
 use vservo_sim::plant::PlantMode;
@@ -38,11 +39,16 @@ pub enum CellError {
     /// The gains could not be designed.
     #[error("gain design: {0}")]
     Gains(#[from] vservo_control::GainsError),
-    /// The configuration asks for recorded images, which cannot close a simulated loop.
+    /// The configuration asks for recorded or external images, which cannot close a simulated loop.
     #[error(
-        "vision.source = \"directory\": recorded images do not move with the simulated arm; the simulated cell renders its own (vision.source = \"simulated\")"
+        "camera.source = {0:?}: only the simulated camera moves with the simulated arm (camera.source = \"simulated\")"
     )]
-    RecordedImages,
+    NotSimulatedCamera(&'static str),
+    /// The configuration asks for an external robot driver, which the lockstep simulator cannot run.
+    #[error(
+        "robot.driver = \"external\": the lockstep simulator runs the simulated arm only (robot.driver = \"simulated\")"
+    )]
+    NotSimulatedRobot,
 }
 
 /// A configuration made ready to build the stages: the arm, the gains, the desired and starting poses.
@@ -57,12 +63,24 @@ pub struct Cell {
 }
 
 impl Cell {
-    /// Designs the gains and places the arm at the scenario's starting camera pose by inverse kinematics
-    /// (the solution nearest the desired joints).
-    pub fn new(config: &Config) -> Result<Self, CellError> {
-        if config.vision.source != vservo_config::VisionSource::Simulated {
-            return Err(CellError::RecordedImages);
+    /// A cell that is simulated whole (arm and camera), as the lockstep simulator needs.
+    pub fn simulated(config: &Config) -> Result<Self, CellError> {
+        match &config.vision.source {
+            vservo_config::VisionSource::Simulated => {}
+            vservo_config::VisionSource::External => return Err(CellError::NotSimulatedCamera("external")),
+            vservo_config::VisionSource::Directory(_) => {
+                return Err(CellError::NotSimulatedCamera("directory"));
+            }
         }
+        if config.robot.driver != vservo_config::RobotDriver::Simulated {
+            return Err(CellError::NotSimulatedRobot);
+        }
+        Self::new(config)
+    }
+
+    /// Designs the gains and places the arm at the scenario's starting camera pose by inverse kinematics
+    /// (the solution nearest the desired joints; the simulated driver starts there).
+    pub fn new(config: &Config) -> Result<Self, CellError> {
         let arm = puma560::puma560();
         let gains = Gains::design(&config.gains_spec())?;
         let base_from_desired_camera = arm.base_from_tool(&config.desired.joints) * config.tool_from_camera;
@@ -138,12 +156,17 @@ impl Cell {
         ServoStage::new(&self.gains)
     }
 
-    /// The interpolator and joint servo, their reference at rest at `q`.
+    /// The interpolator and joint servo, their reference at rest at `q`, stepping by the driver's period and
+    /// commanding in its interface.
     pub fn rmrc(&self, q: &JointVector) -> RmrcStage {
-        // the kinematic plant is the ideal robot of DESIGN §5, which moves the camera exactly as commanded:
-        // no acceleration limit between it and the twist
         let mut settings = self.config.interpolator;
-        if self.config.plant.mode == PlantMode::Kinematic {
+        settings.control_period_s = self.config.robot.period_s;
+        // the simulated kinematic plant is the ideal robot of the paper's check (docs/REPRODUCTION.md), which
+        // moves the camera exactly as commanded: no acceleration limit between it and the twist. Any other
+        // driver, an external one above all, keeps the limits.
+        if self.config.robot.driver == RobotDriver::Simulated
+            && self.config.plant.mode == PlantMode::Kinematic
+        {
             settings.acceleration_limit = JointVector::from_element(f64::INFINITY);
         }
         RmrcStage::new(&self.config, settings, self.arm.clone(), *q)

@@ -103,7 +103,7 @@ impl PlantStage {
                 self.held_at = None;
                 self.plant.step_dynamic(torque, self.control_period_s)
             }
-            (PlantMode::Kinematic, ActuatorCommand::Kinematic { q, qd }) => {
+            (PlantMode::Kinematic, ActuatorCommand::Reference { q, qd }) => {
                 self.held_at = None;
                 self.plant.step_kinematic(q, qd)
             }

@@ -1,19 +1,19 @@
 //! The rmrc stage: the 1 ms interpolator and the joint servo behind it.
 
 use vservo_arm::{JointVector, SerialArm};
-use vservo_config::Config;
+use vservo_config::{CommandInterface, Config};
 use vservo_control::Twist;
 use vservo_sim::interpolator::{Interpolator, InterpolatorSettings, Reference};
 use vservo_sim::joint_servo::JointServo;
-use vservo_sim::plant::PlantMode;
 
-/// What the rmrc sends the plant for one tick.
+/// What the rmrc sends the robot driver for one period, in the interface the driver takes.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum ActuatorCommand {
     /// Joint torques (N·m), for the dynamic plant and a real arm's torque-controlled drives.
     Torque(JointVector),
-    /// The joint reference itself, for the ideal (kinematic) robot.
-    Kinematic {
+    /// The joint reference itself: the velocity q̇_d over the next period and the position q_d at its end.
+    /// A velocity-commanded driver applies `qd`, a position-commanded one `q` (the kinematic plant both).
+    Reference {
         /// q_d (rad).
         q: JointVector,
         /// q̇_d (rad/s).
@@ -26,7 +26,7 @@ pub enum ActuatorCommand {
 pub struct RmrcStage {
     interpolator: Interpolator,
     joint_servo: JointServo,
-    mode: PlantMode,
+    command: CommandInterface,
 }
 
 impl RmrcStage {
@@ -44,13 +44,18 @@ impl RmrcStage {
                 config.joint_servo.kp,
                 config.joint_servo.kv,
             ),
-            mode: config.plant.mode,
+            command: config.command_interface(),
         }
     }
 
     /// A new twist from the servo, received at simulated time `now_s`.
     pub fn set_twist(&mut self, twist: Twist, now_s: f64) {
         self.interpolator.set_twist(twist, now_s);
+    }
+
+    /// The command interface of the driver.
+    pub fn command_interface(&self) -> CommandInterface {
+        self.command
     }
 
     /// The reference of the last tick.
@@ -61,9 +66,11 @@ impl RmrcStage {
     /// The command for the tick that ends at `next_s`, given the measured joints at its start.
     pub fn step(&mut self, next_s: f64, q: &JointVector, qd: &JointVector) -> ActuatorCommand {
         let reference = *self.interpolator.step(next_s);
-        match self.mode {
-            PlantMode::Kinematic => ActuatorCommand::Kinematic { q: reference.q, qd: reference.qd },
-            PlantMode::Dynamic => ActuatorCommand::Torque(self.joint_servo.torque(q, qd, &reference)),
+        match self.command {
+            CommandInterface::Velocity | CommandInterface::Position => {
+                ActuatorCommand::Reference { q: reference.q, qd: reference.qd }
+            }
+            CommandInterface::Torque => ActuatorCommand::Torque(self.joint_servo.torque(q, qd, &reference)),
         }
     }
 }

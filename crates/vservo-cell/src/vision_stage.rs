@@ -5,6 +5,7 @@ use std::collections::VecDeque;
 use vservo_arm::{JointVector, SerialArm};
 use vservo_config::Config;
 use vservo_scene::{Board, CameraIntrinsics, FeatureVector, IsometryMatrix3, MARKS};
+use vservo_vision::GrayImage;
 use vservo_vision::source::SimulatedCamera;
 use vservo_vision::{Extraction, Extractor, Prediction};
 
@@ -56,7 +57,12 @@ pub struct VisionStage {
 
 impl VisionStage {
     pub(crate) fn new(config: &Config, arm: SerialArm) -> Self {
-        let delay_frames = config.timing.pipeline_delay_frames;
+        // the simulated camera's pipeline delay is modelled here; a camera driver's is physical: its frames
+        // are worked on as they arrive and published at once
+        let delay_frames = match config.vision.source {
+            vservo_config::VisionSource::External => 0,
+            _ => config.timing.pipeline_delay_frames,
+        };
         Self {
             arm,
             tool_from_camera: config.tool_from_camera,
@@ -134,8 +140,9 @@ impl VisionStage {
         }
     }
 
-    /// Takes frame `frame` at plant tick `tick` with the arm at `q` and the board at `base_from_board`,
-    /// extracts it and pushes it into the pipeline.
+    /// Takes frame `frame` at plant tick `tick` with the arm at `q` and the board at `base_from_board`
+    /// with the simulated camera, extracts it and pushes it into the pipeline. The image stays available
+    /// ([`VisionStage::image`]) until the next capture.
     pub fn capture(
         &mut self,
         frame: u64,
@@ -151,15 +158,41 @@ impl VisionStage {
             None => Prediction::Layout(self.layout),
         };
         let captured = self.extractor.extract(image, &prediction);
-        self.update_tracking(&captured);
         let truth = self
             .intrinsics
             .project_marks(&self.board, &camera_from_board)
             .unwrap_or_else(|_| FeatureVector::from_element(f64::NAN));
-        self.pipeline.push_back(DeliveredFrame { frame, capture_tick: tick, features: captured.features });
-        let delivered =
-            (self.pipeline.len() > self.delay_frames).then(|| self.pipeline.pop_front()).flatten();
+        let delivered = self.finish(frame, tick, &captured);
         VisionFrame { captured, truth, base_from_camera, delivered }
+    }
+
+    /// The simulated camera's last image.
+    pub fn image(&self) -> &GrayImage {
+        self.camera.image()
+    }
+
+    /// Extracts frame `frame`, an image from a camera driver taken when the robot's latest tick was `tick`,
+    /// and pushes it into the pipeline. Returns the extraction and the frame leaving the pipeline.
+    pub fn process_image(
+        &mut self,
+        frame: u64,
+        tick: u64,
+        image: &GrayImage,
+    ) -> (Extraction, Option<DeliveredFrame>) {
+        let prediction = match self.tracked {
+            Some(p) => Prediction::Tracking(p),
+            None => Prediction::Layout(self.layout),
+        };
+        let captured = self.extractor.extract(image, &prediction);
+        let delivered = self.finish(frame, tick, &captured);
+        (captured, delivered)
+    }
+
+    /// Updates the tracker with a frame's extraction and moves the pipeline on.
+    fn finish(&mut self, frame: u64, tick: u64, captured: &Extraction) -> Option<DeliveredFrame> {
+        self.update_tracking(captured);
+        self.pipeline.push_back(DeliveredFrame { frame, capture_tick: tick, features: captured.features });
+        (self.pipeline.len() > self.delay_frames).then(|| self.pipeline.pop_front()).flatten()
     }
 }
 

@@ -56,6 +56,66 @@ pub struct Config {
     pub scenario: Scenario,
     /// `[runtime]`: how the real-time shell runs the nodes.
     pub runtime: Runtime,
+    /// `[robot]`: the robot driver and the command it takes.
+    pub robot: Robot,
+}
+
+/// `[robot]`: which process drives the arm and how it is commanded. Optional in the file: the simulated
+/// PUMA 560 by default.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Robot {
+    /// Who publishes `joint_state` and applies `joint_command`.
+    pub driver: RobotDriver,
+    /// The command an external driver takes ([`Config::command_interface`] gives the one in force: the
+    /// simulated driver's follows from `plant.mode`).
+    pub command: CommandInterface,
+    /// The driver's period (s): a joint state comes this often, and the interpolator steps by it.
+    pub period_s: f64,
+    /// No joint state for this many periods is a stalled driver: no motion is commanded until it is back.
+    pub state_timeout_periods: u32,
+}
+
+impl Robot {
+    /// The stall deadline (s).
+    pub fn state_timeout_s(&self) -> f64 {
+        self.period_s * f64::from(self.state_timeout_periods)
+    }
+}
+
+/// Who drives the arm.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum RobotDriver {
+    /// vservod's own plant node: the simulated PUMA 560 (`[plant]`).
+    Simulated,
+    /// A process of the user's (a real arm's driver, or another simulator), behind docs/DRIVERS.md.
+    External,
+}
+
+/// The command a robot driver takes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum CommandInterface {
+    /// Joint torques: the rmrc runs the joint servo.
+    Torque,
+    /// Joint velocities: the interpolator's q̇ reference.
+    Velocity,
+    /// Joint positions: the interpolator's q reference.
+    Position,
+}
+
+impl CommandInterface {
+    /// The name in the file.
+    pub fn name(self) -> &'static str {
+        match self {
+            CommandInterface::Torque => "torque",
+            CommandInterface::Velocity => "velocity",
+            CommandInterface::Position => "position",
+        }
+    }
+
+    /// From the name in the file.
+    pub fn from_name(name: &str) -> Option<Self> {
+        [Self::Torque, Self::Velocity, Self::Position].into_iter().find(|c| c.name() == name)
+    }
 }
 
 /// `[runtime]`: scheduling, memory locking and supervision of the real-time shell. Optional in the file
@@ -140,11 +200,13 @@ pub struct Vision {
     pub render: vservo_vision::RenderSettings,
 }
 
-/// Where images come from.
+/// Where images come from (`camera.source`).
 #[derive(Debug, Clone, PartialEq)]
 pub enum VisionSource {
     /// The simulated hand camera renders the board.
     Simulated,
+    /// Frames published on `camera_image` by another process (a camera driver).
+    External,
     /// Recorded images in a directory.
     Directory(std::path::PathBuf),
 }
@@ -217,6 +279,18 @@ impl Config {
     ) -> IsometryMatrix3<f64> {
         let base_from_camera = arm.base_from_tool(joints) * self.tool_from_camera;
         base_from_camera.inverse() * self.base_from_board(arm)
+    }
+
+    /// The command the robot driver takes: an external driver's declaration; for the simulated driver,
+    /// torque for the dynamic plant and position (the ideal robot) for the kinematic one.
+    pub fn command_interface(&self) -> CommandInterface {
+        match self.robot.driver {
+            RobotDriver::External => self.robot.command,
+            RobotDriver::Simulated => match self.plant.mode {
+                vservo_sim::plant::PlantMode::Dynamic => CommandInterface::Torque,
+                vservo_sim::plant::PlantMode::Kinematic => CommandInterface::Position,
+            },
+        }
     }
 
     /// What the gain design needs.

@@ -18,6 +18,23 @@ pub struct RawConfig {
     pub scenario: RawScenario,
     #[serde(default)]
     pub runtime: RawRuntime,
+    #[serde(default)]
+    pub robot: RawRobot,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct RawRobot {
+    pub driver: String,
+    pub command: Option<String>,
+    pub period_s: Option<f64>,
+    pub state_timeout_periods: i64,
+}
+
+impl Default for RawRobot {
+    fn default() -> Self {
+        Self { driver: "simulated".into(), command: None, period_s: None, state_timeout_periods: 50 }
+    }
 }
 
 #[derive(Debug, Deserialize)]
@@ -83,7 +100,15 @@ pub struct RawCamera {
     pub principal_point_px: [f64; 2],
     pub width_px: i64,
     pub height_px: i64,
+    #[serde(default = "simulated")]
+    pub source: String,
+    #[serde(default)]
+    pub directory: String,
     pub tool_from_camera: RawPose,
+}
+
+fn simulated() -> String {
+    "simulated".into()
 }
 
 #[derive(Debug, Deserialize)]
@@ -120,8 +145,6 @@ pub struct RawController {
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct RawVision {
-    pub source: String,
-    pub directory: String,
     pub threshold: toml::Value,
     pub min_mark_area_px: i64,
     pub max_mark_area_px: i64,

@@ -11,8 +11,8 @@ use vservo_vision::{ExtractorSettings, RenderSettings, Threshold};
 use vservo_sim::interpolator::InterpolatorSettings;
 
 use crate::{
-    Config, ConfigError, Controller, Desired, JointServoSettings, PlantSettings, Scenario, Timing, Vision,
-    VisionSource, pose_from_rpy,
+    CommandInterface, Config, ConfigError, Controller, Desired, JointServoSettings, PlantSettings, Robot,
+    RobotDriver, Scenario, Timing, Vision, VisionSource, pose_from_rpy,
 };
 
 /// Builds errors for one file.
@@ -272,8 +272,17 @@ pub fn validate(raw: RawConfig, file: &str) -> Result<Config, ConfigError> {
     let r =
         InputWeight::new(r_matrix, units).map_err(|e| check.invalid("controller.r", &k.r, e.to_string()))?;
 
-    let vision = validate_vision(&check, &raw.vision)?;
+    let source = validate_camera_source(&check, &raw.camera)?;
+    let vision = validate_vision(&check, &raw.vision, source)?;
     let (plant, interpolator, joint_servo, scenario) = validate_simulation(&check, &raw, &timing)?;
+    let robot = validate_robot(&check, &raw.robot, &plant, &timing)?;
+    if vision.source == VisionSource::Simulated && robot.driver == RobotDriver::External {
+        return Err(check.invalid(
+            "camera.source",
+            "\"simulated\"",
+            "the simulated camera sees the simulated world, which an external robot driver has none of; set camera.source = \"external\" (a camera driver) or robot.driver = \"simulated\"",
+        ));
+    }
 
     Ok(Config {
         origin: file.to_string(),
@@ -290,6 +299,7 @@ pub fn validate(raw: RawConfig, file: &str) -> Result<Config, ConfigError> {
         joint_servo,
         scenario,
         runtime: validate_runtime(&check, &raw.runtime)?,
+        robot,
     })
 }
 
@@ -463,27 +473,126 @@ fn validate_simulation(
     Ok((plant, interpolator, joint_servo, scenario))
 }
 
-fn validate_vision(check: &Checker, v: &crate::raw::RawVision) -> Result<Vision, ConfigError> {
-    let source = match v.source.as_str() {
+fn validate_camera_source(check: &Checker, c: &crate::raw::RawCamera) -> Result<VisionSource, ConfigError> {
+    Ok(match c.source.as_str() {
         "simulated" => VisionSource::Simulated,
+        "external" => VisionSource::External,
         "directory" => {
-            if v.directory.trim().is_empty() {
+            if c.directory.trim().is_empty() {
                 return Err(check.invalid(
-                    "vision.directory",
+                    "camera.directory",
                     "\"\"",
-                    "must name a directory when vision.source = \"directory\"",
+                    "must name a directory when camera.source = \"directory\"",
                 ));
             }
-            VisionSource::Directory(std::path::PathBuf::from(&v.directory))
+            VisionSource::Directory(std::path::PathBuf::from(&c.directory))
         }
         other => {
             return Err(check.invalid(
-                "vision.source",
+                "camera.source",
                 format!("{other:?}"),
-                "must be \"simulated\" or \"directory\"",
+                "must be \"simulated\", \"external\" or \"directory\"",
+            ));
+        }
+    })
+}
+
+/// `[robot]`: which driver, the command it takes, its period and deadline. The simulated driver's command
+/// follows from `plant.mode` (dynamic: torque; kinematic: position, the ideal robot).
+fn validate_robot(
+    check: &Checker,
+    r: &crate::raw::RawRobot,
+    plant: &PlantSettings,
+    timing: &Timing,
+) -> Result<Robot, ConfigError> {
+    use vservo_sim::plant::PlantMode;
+    let driver = match r.driver.as_str() {
+        "simulated" => RobotDriver::Simulated,
+        "external" => RobotDriver::External,
+        other => {
+            return Err(check.invalid(
+                "robot.driver",
+                format!("{other:?}"),
+                "must be \"simulated\" or \"external\"",
             ));
         }
     };
+    let declared = match r.command.as_deref() {
+        None => None,
+        Some(name) => Some(CommandInterface::from_name(name).ok_or_else(|| {
+            check.invalid(
+                "robot.command",
+                format!("{name:?}"),
+                "must be \"torque\", \"velocity\" or \"position\"",
+            )
+        })?),
+    };
+    let command = match driver {
+        RobotDriver::Simulated => {
+            let simulated = match plant.mode {
+                PlantMode::Dynamic => CommandInterface::Torque,
+                PlantMode::Kinematic => CommandInterface::Position,
+            };
+            if let Some(declared) = declared.filter(|d| *d != simulated) {
+                return Err(check.invalid(
+                    "robot.command",
+                    format!("{:?}", declared.name()),
+                    format!(
+                        "the simulated driver with plant.mode = {:?} takes {:?}; leave robot.command out",
+                        plant.mode.name(),
+                        simulated.name()
+                    ),
+                ));
+            }
+            simulated
+        }
+        RobotDriver::External => declared.ok_or_else(|| {
+            check.invalid(
+                "robot.command",
+                "(missing)",
+                "an external driver must declare the command it takes: \"torque\", \"velocity\" or \"position\"",
+            )
+        })?,
+    };
+    let period_s = match (driver, r.period_s) {
+        (RobotDriver::Simulated, Some(p)) if p != timing.control_period_s => {
+            return Err(check.invalid(
+                "robot.period_s",
+                p,
+                format!(
+                    "the simulated driver runs at timing.control_period_s ({} s); leave it out",
+                    timing.control_period_s
+                ),
+            ));
+        }
+        (_, Some(p)) => {
+            let p = check.positive("robot.period_s", p)?;
+            if !(1e-4..=0.1).contains(&p) {
+                return Err(check.invalid(
+                    "robot.period_s",
+                    p,
+                    "must be from 0.0001 to 0.1 s (10 kHz to 10 Hz)",
+                ));
+            }
+            p
+        }
+        (_, None) => timing.control_period_s,
+    };
+    if !(2..=1000).contains(&r.state_timeout_periods) {
+        return Err(check.invalid(
+            "robot.state_timeout_periods",
+            r.state_timeout_periods,
+            "must be from 2 to 1000 driver periods",
+        ));
+    }
+    Ok(Robot { driver, command, period_s, state_timeout_periods: r.state_timeout_periods as u32 })
+}
+
+fn validate_vision(
+    check: &Checker,
+    v: &crate::raw::RawVision,
+    source: VisionSource,
+) -> Result<Vision, ConfigError> {
     let threshold = match &v.threshold {
         toml::Value::String(s) if s == "otsu" => Threshold::Otsu,
         toml::Value::Integer(level) if (1..=255).contains(level) => Threshold::Fixed(*level as u8),

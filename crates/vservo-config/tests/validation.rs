@@ -84,8 +84,39 @@ fn bad_values_name_their_key_and_value() {
             "object.board_extent_m",
             "every mark",
         ),
-        (with("source = \"simulated\"", "source = \"webcam\""), "vision.source", "webcam"),
-        (with("source = \"simulated\"", "source = \"directory\""), "vision.directory", "must name"),
+        (with("source = \"simulated\"", "source = \"webcam\""), "camera.source", "webcam"),
+        (with("source = \"simulated\"", "source = \"directory\""), "camera.directory", "must name"),
+        (with("driver = \"simulated\"", "driver = \"ros\""), "robot.driver", "ros"),
+        (
+            with("driver = \"simulated\"", "driver = \"external\"\ncommand = \"velocity\""),
+            "camera.source",
+            "simulated camera",
+        ),
+        (
+            with("source = \"simulated\"", "source = \"external\"")
+                .replace("driver = \"simulated\"", "driver = \"external\""),
+            "robot.command",
+            "must declare",
+        ),
+        (
+            with("driver = \"simulated\"", "driver = \"simulated\"\ncommand = \"velocity\""),
+            "robot.command",
+            "leave robot.command out",
+        ),
+        (
+            with("driver = \"simulated\"", "driver = \"external\"\ncommand = \"speed\""),
+            "robot.command",
+            "speed",
+        ),
+        (with("state_timeout_periods = 50", "state_timeout_periods = 1"), "robot.state_timeout_periods", "1"),
+        (
+            with("source = \"simulated\"", "source = \"external\"").replace(
+                "driver = \"simulated\"",
+                "driver = \"external\"\ncommand = \"velocity\"\nperiod_s = 5.0",
+            ),
+            "robot.period_s",
+            "5",
+        ),
         (with("threshold = \"otsu\"", "threshold = 300"), "vision.threshold", "300"),
         (with("max_mark_area_px = 6000", "max_mark_area_px = 5"), "vision.max_mark_area_px", "5"),
         (with("noise_sigma_gray = 1.0", "noise_sigma_gray = -1.0"), "vision.render.noise_sigma_gray", "-1"),
@@ -123,4 +154,19 @@ fn weights_can_be_full_symmetric_matrices() {
 fn a_missing_file_is_named() {
     let error = Config::load("/nonexistent/vservo.toml").expect_err("missing");
     assert!(error.to_string().starts_with("/nonexistent/vservo.toml: cannot read"), "{error}");
+}
+
+#[test]
+fn the_mujoco_cell_declares_an_external_velocity_driver_and_camera() {
+    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../config/mujoco.toml");
+    let config = Config::load(path).expect("config/mujoco.toml is valid");
+    assert_eq!(config.robot.driver, vservo_config::RobotDriver::External);
+    assert_eq!(config.command_interface(), vservo_config::CommandInterface::Velocity);
+    assert_eq!(config.vision.source, vservo_config::VisionSource::External);
+    assert!((config.robot.state_timeout_s() - 0.05).abs() < 1e-12);
+    // the default cell: the simulated driver takes torques, or positions with the kinematic plant
+    let mut default = Config::from_toml(DEFAULT, "default").expect("valid");
+    assert_eq!(default.command_interface(), vservo_config::CommandInterface::Torque);
+    default.plant.mode = vservo_sim::plant::PlantMode::Kinematic;
+    assert_eq!(default.command_interface(), vservo_config::CommandInterface::Position);
 }

@@ -75,7 +75,7 @@ impl Lockstep {
     /// Sets the loop up from a configuration (its `[plant]`, `[interpolator]`, `[joint_servo]` and
     /// `[scenario]` sections say what to simulate): designs the gains, places the arm by inverse kinematics.
     pub fn new(config: &Config) -> Result<Self, SimError> {
-        let cell = Cell::new(config)?;
+        let cell = Cell::simulated(config)?;
         Ok(Self {
             config: config.clone(),
             gains: cell.gains().clone(),

@@ -97,5 +97,5 @@ fn recorded_images_are_refused_with_a_reason() {
     let mut config = config(ControlLaw::Paper);
     config.vision.source = vservo_config::VisionSource::Directory("/tmp".into());
     let error = Lockstep::new(&config).err().expect("refused");
-    assert!(error.to_string().contains("vision.source"), "{error}");
+    assert!(error.to_string().contains("camera.source"), "{error}");
 }

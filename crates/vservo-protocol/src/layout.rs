@@ -38,32 +38,62 @@ pub fn layout_tables() -> String {
         "vservo::JointState",
         size_of::<JointStateMsg>(),
         &fields! { JointStateMsg;
-            schema: "u32", "schema version (1)";
-            faults: "u32", "bits 0–5 position limit (joint 1–6), 8–13 velocity limit, 16–21 torque saturated, 24 integration failed, 25 holding (no rmrc command)";
-            tick: "u64", "plant ticks since the simulated start (1 ms each)";
-            stamp_ns: "u64", "CLOCK_MONOTONIC at publication (ns)";
-            plant_epoch: "u64", "changes when the plant process restarts";
+            schema: "u32", "schema version (2)";
+            faults: "u32", "bits 0–5 position limit (joint 1–6), 8–13 velocity limit, 16–21 torque saturated, 24 driver failed";
+            tick: "u64", "driver periods since the driver started";
+            stamp_ns: "u64", "CLOCK_MONOTONIC when `q` was measured (ns)";
+            driver_epoch: "u64", "changes each time the driver starts";
+            period_ns: "u64", "the driver's period (ns)";
+            command_mode: "u32", "the command the driver takes: 0 torque, 1 velocity, 2 position";
+            driver_status: "u32", "0 following commands, 1 holding (no valid command in time), 2 fault";
             q_rad: "f64[6]", "joint angles (rad)";
             qd_rad_s: "f64[6]", "joint velocities (rad/s)";
-            applied_torque_nm: "f64[6]", "torque applied during the tick, after saturation (N·m)";
+            torque_nm: "f64[6]", "joint torques, measured or applied (N·m); NaN where unknown";
+        },
+    );
+    table(
+        &mut out,
+        "joint_command",
+        "vservo::JointCommand",
+        size_of::<JointCommandMsg>(),
+        &fields! { JointCommandMsg;
+            schema: "u32", "schema version (2)";
+            mode: "u32", "the driver's declared `command_mode`: 0 torque, 1 velocity, 2 position";
+            answers_tick: "u64", "the `tick` of the joint state this answers";
+            driver_epoch: "u64", "that joint state's `driver_epoch`";
+            state_stamp_ns: "u64", "that joint state's `stamp_ns`";
+            stamp_ns: "u64", "CLOCK_MONOTONIC as the command is sent (ns)";
+            torque_nm: "f64[6]", "joint torques (N·m); mode 0 only, else zero";
+            q_ref_rad: "f64[6]", "joint reference q_d at the end of the next period (rad)";
+            qd_ref_rad_s: "f64[6]", "joint reference velocity q̇_d over the next period (rad/s)";
+        },
+    );
+    table(
+        &mut out,
+        "sim_world (simulation only)",
+        "vservo::SimWorld",
+        size_of::<SimWorldMsg>(),
+        &fields! { SimWorldMsg;
+            schema: "u32", "schema version (2)";
+            reserved: "u32", "zero";
+            tick: "u64", "the plant tick (as in `joint_state`)";
             base_from_board: "f64[12]", "the board's pose in the base frame, 3×4 [R \\| t] row-major (t in m)";
         },
     );
     table(
         &mut out,
-        "joint_torque",
-        "vservo::JointTorque",
-        size_of::<JointTorqueMsg>(),
-        &fields! { JointTorqueMsg;
-            schema: "u32", "schema version (1)";
-            mode: "u32", "0 torque (`torque_nm`), 1 kinematic (`q_ref_rad`, `qd_ref_rad_s`)";
-            answers_tick: "u64", "the `tick` of the joint state this answers";
-            plant_epoch: "u64", "that joint state's `plant_epoch`";
-            state_stamp_ns: "u64", "that joint state's `stamp_ns`";
-            stamp_ns: "u64", "CLOCK_MONOTONIC as the command is sent (ns)";
-            torque_nm: "f64[6]", "joint torques (N·m)";
-            q_ref_rad: "f64[6]", "joint reference q_d (rad)";
-            qd_ref_rad_s: "f64[6]", "joint reference velocity q̇_d (rad/s)";
+        "camera_image (user header; the payload is the image, a slice of u8)",
+        "vservo::CameraImageHeader",
+        size_of::<CameraImageHeader>(),
+        &fields! { CameraImageHeader;
+            schema: "u32", "schema version (2)";
+            format: "u32", "0: 8-bit grayscale";
+            width: "u32", "pixels per row";
+            height: "u32", "rows";
+            stride_bytes: "u32", "bytes from one row's start to the next (≥ width); the payload holds height × stride bytes";
+            reserved: "u32", "zero";
+            frame: "u64", "the camera's frame counter, from 0";
+            capture_stamp_ns: "u64", "CLOCK_MONOTONIC when the image was exposed (ns)";
         },
     );
     table(
@@ -72,10 +102,10 @@ pub fn layout_tables() -> String {
         "vservo::Features",
         size_of::<FeaturesMsg>(),
         &fields! { FeaturesMsg;
-            schema: "u32", "schema version (1)";
+            schema: "u32", "schema version (2)";
             valid_mask: "u32", "bit m set when mark m is valid";
             frame: "u64", "frame number (counted by the vision node from its start)";
-            capture_tick: "u64", "plant tick of the joint state the image was taken at";
+            capture_tick: "u64", "tick of the latest joint state when the image was taken";
             capture_stamp_ns: "u64", "CLOCK_MONOTONIC when the image was taken (ns)";
             stamp_ns: "u64", "CLOCK_MONOTONIC at publication, the pipeline delay later (ns)";
             features_px: "f64[8]", "ξ = [x₁ y₁ … x₄ y₄] (px, origin top-left), NaN where a mark is not valid";
@@ -89,7 +119,7 @@ pub fn layout_tables() -> String {
         "vservo::CameraTwist",
         size_of::<CameraTwistMsg>(),
         &fields! { CameraTwistMsg;
-            schema: "u32", "schema version (1)";
+            schema: "u32", "schema version (2)";
             verdict: "u32", "0 waiting (no frame yet), 1 servoing, 2 marks missing, 3 stopping; all but 1 come with a zero twist";
             frame: "u64", "the frame the twist was computed from";
             capture_tick: "u64", "its capture tick";
@@ -107,7 +137,7 @@ pub fn layout_tables() -> String {
         "vservo::Telemetry",
         size_of::<TelemetryMsg>(),
         &fields! { TelemetryMsg;
-            schema: "u32", "schema version (1)";
+            schema: "u32", "schema version (2)";
             node: "u32", "0 plant, 1 vision, 2 servo, 3 rmrc";
             stamp_ns: "u64", "CLOCK_MONOTONIC at publication (ns)";
             window_ns: "u64", "length of the window the timings cover (ns)";
@@ -121,6 +151,8 @@ pub fn layout_tables() -> String {
             wake_latency: "Timing", "wake-up after the deadline (periodic nodes) or after the input was sent (event-driven)";
             execution: "Timing", "wake-up to output";
             round_trip: "Timing", "plant: joint state published → the rmrc's answer in the plant's queue";
+            frame_period: "Timing", "vision: between the capture stamps of successive images";
+            capture_latency: "Timing", "servo: an image's capture → the twist computed from it";
             feature_error_px: "f64", "servo: RMS feature error of the latest frame (px); else NaN";
             pid: "u32", "process id";
             mode: "u32", "plant: 1 while holding the arm; servo: the last verdict; else 0";
@@ -145,16 +177,16 @@ pub fn layout_tables() -> String {
         "vservo::DaemonStatus",
         size_of::<DaemonStatusMsg>(),
         &fields! { DaemonStatusMsg;
-            schema: "u32", "schema version (1)";
+            schema: "u32", "schema version (2)";
             state: "u32", "0 starting, 1 running, 2 degraded, 3 stopping";
             stamp_ns: "u64", "CLOCK_MONOTONIC at publication (ns)";
             uptime_ns: "u64", "since the daemon started (ns)";
             gains_version: "u64", "gains version in use";
             nodes: "NodeStatus[4]", "indexed by node number (0 plant, 1 vision, 2 servo, 3 rmrc)";
-            tick_rate_hz: "f64", "plant ticks per wall-clock second over the last second";
+            tick_rate_hz: "f64", "joint states per wall-clock second over the last second";
             feature_error_px: "f64", "the servo's latest RMS feature error (px); NaN before the first frame";
             pid: "u32", "the daemon's process id";
-            reserved: "u32", "zero";
+            robot: "u32", "the robot driver: 0 no joint state yet, 1 joint states on time, 2 stalled (none within the deadline)";
         },
     );
     table(
@@ -177,7 +209,7 @@ pub fn layout_tables() -> String {
         "vservo::Gains",
         size_of::<GainsMsg>(),
         &fields! { GainsMsg;
-            schema: "u32", "schema version (1)";
+            schema: "u32", "schema version (2)";
             used_past_gains: "u32", "how many of `past_input_gains` the law uses (0 for the paper's law)";
             version: "u64", "1 at start, +1 per accepted reload or target";
             feature_gain: "f64[48]", "K_ξ, 6×8 row-major (m/s and rad/s per px)";
@@ -191,7 +223,7 @@ pub fn layout_tables() -> String {
         "vservo::Object",
         size_of::<ObjectMsg>(),
         &fields! { ObjectMsg;
-            schema: "u32", "schema version (1)";
+            schema: "u32", "schema version (2)";
             kind: "u32", "4 hold, 5 step, 6 circle (as in `command`)";
             sequence: "u64", "counts the object commands (1 for the first)";
             translation_m: "f64[3]", "step: the jump in the desired camera frame (m)";
@@ -205,7 +237,7 @@ pub fn layout_tables() -> String {
         "vservo::Command",
         size_of::<CommandMsg>(),
         &fields! { CommandMsg;
-            schema: "u32", "schema version (1)";
+            schema: "u32", "schema version (2)";
             kind: "u32", "1 target features, 2 target pose, 3 teach, 4 object hold, 5 object step, 6 object circle, 7 reload";
             id: "u64", "chosen by the client; the reply carries it back";
             features_px: "f64[8]", "kind 1: ξ_d (px)";
@@ -221,7 +253,7 @@ pub fn layout_tables() -> String {
         "vservo::CommandReply",
         size_of::<CommandReplyMsg>(),
         &fields! { CommandReplyMsg;
-            schema: "u32", "schema version (1)";
+            schema: "u32", "schema version (2)";
             accepted: "u32", "1 accepted, 0 refused";
             id: "u64", "the request's `id`";
             gains_version: "u64", "the gains version in force after the command";

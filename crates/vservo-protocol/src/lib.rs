@@ -19,10 +19,14 @@ use iceoryx2::prelude::*;
 /// The services of one instance.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Topic {
-    /// plant → rmrc, vision: [`JointStateMsg`], 1 kHz; with an event of the same name.
+    /// robot driver → rmrc, vision, vservod: [`JointStateMsg`], every driver period; with an event of the
+    /// same name.
     JointState,
-    /// rmrc → plant: [`JointTorqueMsg`], 1 kHz; the plant reads it at its next deadline (no event).
-    JointTorque,
+    /// rmrc → robot driver: [`JointCommandMsg`], in answer to each joint state; the driver reads it at its
+    /// next deadline (no event).
+    JointCommand,
+    /// simulated plant → simulated camera: [`SimWorldMsg`], every tick; simulation only.
+    SimWorld,
     /// vision → servo: [`FeaturesMsg`], per frame; with an event of the same name.
     Features,
     /// servo → rmrc: [`CameraTwistMsg`], per frame.
@@ -52,9 +56,10 @@ pub struct TopicSettings {
 
 impl Topic {
     /// Every topic.
-    pub const ALL: [Topic; 8] = [
+    pub const ALL: [Topic; 9] = [
         Topic::JointState,
-        Topic::JointTorque,
+        Topic::JointCommand,
+        Topic::SimWorld,
         Topic::Features,
         Topic::CameraTwist,
         Topic::Telemetry,
@@ -67,7 +72,8 @@ impl Topic {
     pub fn name(self) -> &'static str {
         match self {
             Topic::JointState => "joint_state",
-            Topic::JointTorque => "joint_torque",
+            Topic::JointCommand => "joint_command",
+            Topic::SimWorld => "sim_world",
             Topic::Features => "features",
             Topic::CameraTwist => "camera_twist",
             Topic::Telemetry => "telemetry",
@@ -81,7 +87,8 @@ impl Topic {
     pub fn type_name(self) -> &'static str {
         match self {
             Topic::JointState => "vservo::JointState",
-            Topic::JointTorque => "vservo::JointTorque",
+            Topic::JointCommand => "vservo::JointCommand",
+            Topic::SimWorld => "vservo::SimWorld",
             Topic::Features => "vservo::Features",
             Topic::CameraTwist => "vservo::CameraTwist",
             Topic::Telemetry => "vservo::Telemetry",
@@ -95,7 +102,8 @@ impl Topic {
     pub fn settings(self) -> TopicSettings {
         let (max_publishers, max_subscribers, history_size, subscriber_max_buffer_size) = match self {
             Topic::JointState => (2, 8, 1, 64),
-            Topic::JointTorque => (2, 8, 0, 64),
+            Topic::JointCommand => (2, 8, 0, 64),
+            Topic::SimWorld => (2, 8, 1, 64),
             Topic::Features => (2, 8, 1, 32),
             Topic::CameraTwist => (2, 8, 1, 32),
             Topic::Telemetry => (8, 8, 1, 64),
@@ -199,7 +207,16 @@ fn open_event(
     instance: &str,
     topic: Topic,
 ) -> Result<(String, iceoryx2::service::port_factory::event::PortFactory<ipc::Service>), ProtocolError> {
-    let (name, service) = service_name(topic, instance)?;
+    open_event_named(node, &topic.service_name(instance))
+}
+
+fn open_event_named(
+    node: &Node<ipc::Service>,
+    name: &str,
+) -> Result<(String, iceoryx2::service::port_factory::event::PortFactory<ipc::Service>), ProtocolError> {
+    let name = name.to_string();
+    let service = ServiceName::new(&name)
+        .map_err(|e| ProtocolError::Name { name: name.clone(), reason: format!("{e:?}") })?;
     let factory = node
         .service_builder(&service)
         .event()
@@ -251,6 +268,76 @@ pub fn live_node_pids(node: &Node<ipc::Service>, instance: &str, role: &str) -> 
         CallbackProgression::Continue
     });
     pids
+}
+
+/// The publish-subscribe service `vservo/<instance>/camera_image`: a slice of `u8` (the image) with a
+/// [`CameraImageHeader`]; with an event of the same name that wakes the vision node.
+pub const CAMERA_IMAGE_SERVICE: &str = "camera_image";
+
+/// The camera image service, opened or created with vservo's sizes (2 publishers, 8 subscribers, no
+/// history, 2 samples buffered per subscriber).
+pub fn open_camera_image_service(
+    node: &Node<ipc::Service>,
+    instance: &str,
+) -> Result<
+    iceoryx2::service::port_factory::publish_subscribe::PortFactory<ipc::Service, [u8], CameraImageHeader>,
+    ProtocolError,
+> {
+    let name = format!("vservo/{instance}/{CAMERA_IMAGE_SERVICE}");
+    let service = ServiceName::new(&name)
+        .map_err(|e| ProtocolError::Name { name: name.clone(), reason: format!("{e:?}") })?;
+    node.service_builder(&service)
+        .publish_subscribe::<[u8]>()
+        .user_header::<CameraImageHeader>()
+        .max_publishers(2)
+        .max_subscribers(8)
+        .history_size(0)
+        .subscriber_max_buffer_size(2)
+        .enable_safe_overflow(true)
+        .open_or_create()
+        .map_err(|e| port_error("opening the service", &name)(e.to_string()))
+}
+
+/// A publisher of camera images up to [`MAX_IMAGE_BYTES`].
+pub fn camera_image_publisher(
+    node: &Node<ipc::Service>,
+    instance: &str,
+) -> Result<Publisher<ipc::Service, [u8], CameraImageHeader>, ProtocolError> {
+    open_camera_image_service(node, instance)?
+        .publisher_builder()
+        .initial_max_slice_len(MAX_IMAGE_BYTES)
+        .create()
+        .map_err(|e| port_error("creating a publisher", CAMERA_IMAGE_SERVICE)(e.to_string()))
+}
+
+/// A subscriber of camera images.
+pub fn camera_image_subscriber(
+    node: &Node<ipc::Service>,
+    instance: &str,
+) -> Result<Subscriber<ipc::Service, [u8], CameraImageHeader>, ProtocolError> {
+    open_camera_image_service(node, instance)?
+        .subscriber_builder()
+        .buffer_size(2)
+        .create()
+        .map_err(|e| port_error("creating a subscriber", CAMERA_IMAGE_SERVICE)(e.to_string()))
+}
+
+/// The notifier of the camera image event.
+pub fn camera_image_notifier(
+    node: &Node<ipc::Service>,
+    instance: &str,
+) -> Result<Notifier<ipc::Service>, ProtocolError> {
+    let (name, factory) = open_event_named(node, &format!("vservo/{instance}/{CAMERA_IMAGE_SERVICE}"))?;
+    factory.notifier_builder().create().map_err(|e| port_error("creating a notifier", &name)(e.to_string()))
+}
+
+/// The listener the vision node waits on for camera images.
+pub fn camera_image_listener(
+    node: &Node<ipc::Service>,
+    instance: &str,
+) -> Result<Listener<ipc::Service>, ProtocolError> {
+    let (name, factory) = open_event_named(node, &format!("vservo/{instance}/{CAMERA_IMAGE_SERVICE}"))?;
+    factory.listener_builder().create().map_err(|e| port_error("creating a listener", &name)(e.to_string()))
 }
 
 /// The request-response service `vservo/<instance>/command` ([`CommandMsg`] → [`CommandReplyMsg`]).

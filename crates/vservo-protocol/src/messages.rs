@@ -6,7 +6,9 @@
 use iceoryx2::prelude::ZeroCopySend;
 
 /// The schema version every payload carries in its first four bytes. Bumped on any layout change.
-pub const SCHEMA_VERSION: u32 = 1;
+/// 2: `joint_state` carries the robot only (the board's pose moved to `sim_world`), the driver declares its
+/// command interface and period; `joint_torque` became `joint_command`; `camera_image` added.
+pub const SCHEMA_VERSION: u32 = 2;
 
 /// Joints of the arm.
 pub const JOINTS: usize = 6;
@@ -15,30 +17,56 @@ pub const FEATURES: usize = 8;
 /// Marks.
 pub const MARKS: usize = 4;
 
-/// plant → rmrc, vision (1 kHz): the arm's state after a tick, and where the board is.
+/// The command interfaces a robot driver may take ([`JointStateMsg::command_mode`],
+/// [`JointCommandMsg::mode`]).
+pub mod command_mode {
+    /// Joint torques (`torque_nm`): the rmrc runs the joint servo (the simulated dynamic PUMA 560).
+    pub const TORQUE: u32 = 0;
+    /// Joint velocities (`qd_ref_rad_s`, with `q_ref_rad` for drivers that correct drift): the interpolator's
+    /// q̇ reference, velocity- and acceleration-limited.
+    pub const VELOCITY: u32 = 1;
+    /// Joint positions (`q_ref_rad`, with `qd_ref_rad_s` as feed-forward): the interpolator's q reference.
+    pub const POSITION: u32 = 2;
+}
+
+/// Driver states of [`JointStateMsg::driver_status`].
+pub mod driver_status {
+    /// Following the commands it receives.
+    pub const FOLLOWING: u32 = 0;
+    /// Holding the arm at rest: no valid command came in time (or none yet).
+    pub const HOLDING: u32 = 1;
+    /// The driver or the arm is in fault (protective stop, drive error): it does not move.
+    pub const FAULT: u32 = 2;
+}
+
+/// robot driver → rmrc, vision, vservod (every driver period): the arm's measured state. The robot only:
+/// nothing here is known only to a simulation.
 #[derive(Debug, Clone, Copy, PartialEq, ZeroCopySend)]
 #[type_name("vservo::JointState")]
 #[repr(C)]
 pub struct JointStateMsg {
     /// [`SCHEMA_VERSION`].
     pub schema: u32,
-    /// Fault flags: bits 0–5 position limit of joint 1–6, 8–13 velocity limit, 16–21 torque saturated,
-    /// bit 24 integration failed, bit 25 the plant is holding the arm (no command from the rmrc).
+    /// [`fault_bits`].
     pub faults: u32,
-    /// Plant ticks since the simulated start (1 ms each).
+    /// Driver periods since the driver started.
     pub tick: u64,
-    /// CLOCK_MONOTONIC (ns) when the state was published.
+    /// CLOCK_MONOTONIC (ns) when `q` was measured.
     pub stamp_ns: u64,
-    /// Changes each time the plant process starts: a consumer that sees a new one re-synchronises.
-    pub plant_epoch: u64,
+    /// Changes each time the driver starts: a consumer that sees a new one re-synchronises.
+    pub driver_epoch: u64,
+    /// The driver's period (ns): a joint state comes this often.
+    pub period_ns: u64,
+    /// The [`command_mode`] the driver takes.
+    pub command_mode: u32,
+    /// [`driver_status`].
+    pub driver_status: u32,
     /// Joint angles (rad).
     pub q_rad: [f64; JOINTS],
     /// Joint velocities (rad/s).
     pub qd_rad_s: [f64; JOINTS],
-    /// Torque applied during the tick, after saturation (N·m).
-    pub applied_torque_nm: [f64; JOINTS],
-    /// The board's pose in the base frame, 3×4 [R | t] row-major (t in m).
-    pub base_from_board: [f64; 12],
+    /// Joint torques, measured or applied (N·m); NaN where the driver does not know them.
+    pub torque_nm: [f64; JOINTS],
 }
 
 /// Fault bits of [`JointStateMsg::faults`].
@@ -49,43 +77,82 @@ pub mod fault_bits {
     pub const VELOCITY_LIMIT_SHIFT: u32 = 8;
     /// Shift of the per-joint torque-saturation bits.
     pub const TORQUE_SATURATED_SHIFT: u32 = 16;
-    /// The integration failed (the state was kept, stopped).
-    pub const INTEGRATION_FAILED: u32 = 1 << 24;
-    /// The plant is holding the arm: no command came from the rmrc in time.
-    pub const HOLDING: u32 = 1 << 25;
+    /// The driver failed (the simulated plant: its integration failed; the state was kept, stopped).
+    pub const DRIVER_FAILED: u32 = 1 << 24;
 }
 
-/// Modes of [`JointTorqueMsg::mode`].
-pub mod actuator_mode {
-    /// `torque_nm` holds joint torques.
-    pub const TORQUE: u32 = 0;
-    /// `q_ref_rad`/`qd_ref_rad_s` hold the joint reference (the kinematic plant).
-    pub const KINEMATIC: u32 = 1;
-}
-
-/// rmrc → plant (1 kHz): the command for the tick after the state it answers.
+/// rmrc → robot driver (in answer to each joint state): the command for the driver's next period, in the
+/// interface the driver declared. Every field is filled whatever the mode (torque zero where not computed).
 #[derive(Debug, Clone, Copy, PartialEq, ZeroCopySend)]
-#[type_name("vservo::JointTorque")]
+#[type_name("vservo::JointCommand")]
 #[repr(C)]
-pub struct JointTorqueMsg {
+pub struct JointCommandMsg {
     /// [`SCHEMA_VERSION`].
     pub schema: u32,
-    /// [`actuator_mode`].
+    /// The [`command_mode`] this command is in (the one the driver declared).
     pub mode: u32,
     /// The `tick` of the joint state this answers.
     pub answers_tick: u64,
-    /// The `plant_epoch` of that joint state.
-    pub plant_epoch: u64,
+    /// The `driver_epoch` of that joint state.
+    pub driver_epoch: u64,
     /// That joint state's `stamp_ns` (echoed, for the round trip).
     pub state_stamp_ns: u64,
     /// CLOCK_MONOTONIC (ns) when the command was published.
     pub stamp_ns: u64,
-    /// Joint torques (N·m) in the torque mode.
+    /// Joint torques (N·m), TORQUE mode.
     pub torque_nm: [f64; JOINTS],
-    /// q_d (rad).
+    /// q_d (rad) at the end of the next period.
     pub q_ref_rad: [f64; JOINTS],
-    /// q̇_d (rad/s).
+    /// q̇_d (rad/s) over the next period.
     pub qd_ref_rad_s: [f64; JOINTS],
+}
+
+/// simulated plant → simulated camera (every tick; simulation only): what only a simulation knows.
+#[derive(Debug, Clone, Copy, PartialEq, ZeroCopySend)]
+#[type_name("vservo::SimWorld")]
+#[repr(C)]
+pub struct SimWorldMsg {
+    /// [`SCHEMA_VERSION`].
+    pub schema: u32,
+    /// Zero.
+    pub reserved: u32,
+    /// The plant tick (the `joint_state` of the same tick).
+    pub tick: u64,
+    /// The board's pose in the base frame, 3×4 [R | t] row-major (t in m).
+    pub base_from_board: [f64; 12],
+}
+
+/// Pixel formats of [`CameraImageHeader::format`].
+pub mod pixel_format {
+    /// 8 bits per pixel, gray.
+    pub const MONO8: u32 = 0;
+}
+
+/// The largest image `camera_image` carries (bytes): 1280 × 1024 pixels of 8 bits.
+pub const MAX_IMAGE_BYTES: usize = 1280 * 1024;
+
+/// camera driver → vision (each frame): the user header of a `camera_image` sample, whose payload is the
+/// image as a slice of `u8`, rows top to bottom, `stride_bytes` apart.
+#[derive(Debug, Clone, Copy, PartialEq, Default, ZeroCopySend)]
+#[type_name("vservo::CameraImageHeader")]
+#[repr(C)]
+pub struct CameraImageHeader {
+    /// [`SCHEMA_VERSION`].
+    pub schema: u32,
+    /// [`pixel_format`].
+    pub format: u32,
+    /// Pixels per row.
+    pub width: u32,
+    /// Rows.
+    pub height: u32,
+    /// Bytes from one row's start to the next (≥ width).
+    pub stride_bytes: u32,
+    /// Zero.
+    pub reserved: u32,
+    /// Counts the camera's frames from 0.
+    pub frame: u64,
+    /// CLOCK_MONOTONIC (ns) when the image was exposed.
+    pub capture_stamp_ns: u64,
 }
 
 /// Per-mark status codes of [`FeaturesMsg::mark_status`].
@@ -174,7 +241,7 @@ pub struct CameraTwistMsg {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
 #[repr(u32)]
 pub enum NodeRole {
-    /// The simulated arm and world.
+    /// The simulated arm and world: the simulated robot driver (not started for an external driver).
     Plant = 0,
     /// The camera and feature extractor.
     Vision = 1,
@@ -260,6 +327,10 @@ pub struct TelemetryMsg {
     pub execution: TimingMsg,
     /// plant only: from publishing a joint state to the rmrc's answer arriving.
     pub round_trip: TimingMsg,
+    /// vision only: between the capture stamps of successive images (the camera's frame period).
+    pub frame_period: TimingMsg,
+    /// servo only: from an image's capture to the twist computed from it.
+    pub capture_latency: TimingMsg,
     /// servo: RMS feature error (px) of the latest frame; NaN otherwise.
     pub feature_error_px: f64,
     /// The node's process id.
@@ -328,14 +399,24 @@ pub struct DaemonStatusMsg {
     pub gains_version: u64,
     /// Indexed by [`NodeRole`] number.
     pub nodes: [NodeStatusMsg; 4],
-    /// Plant ticks per second of wall time over the last second (1000 when on time).
+    /// Joint states per second of wall time over the last second (the driver's rate when on time).
     pub tick_rate_hz: f64,
     /// The servo's latest RMS feature error (px); NaN before the first frame.
     pub feature_error_px: f64,
     /// The daemon's process id.
     pub pid: u32,
-    /// Zero.
-    pub reserved: u32,
+    /// [`robot_state`]: whether the robot driver's joint states arrive.
+    pub robot: u32,
+}
+
+/// States of the robot driver as the daemon sees it ([`DaemonStatusMsg::robot`]).
+pub mod robot_state {
+    /// No joint state yet.
+    pub const WAITING: u32 = 0;
+    /// Joint states arrive within their deadline.
+    pub const RUNNING: u32 = 1;
+    /// No joint state for longer than the deadline: the driver stalled or is gone; no motion is commanded.
+    pub const STALLED: u32 = 2;
 }
 
 /// Kinds of [`CommandMsg::kind`].
@@ -495,12 +576,13 @@ mod tests {
     // the layout docs/PROTOCOL.md documents; a change here must change the document and SCHEMA_VERSION
     #[test]
     fn layouts_are_the_documented_ones() {
-        assert_eq!(size_of::<JointStateMsg>(), 32 + 3 * 48 + 96);
+        assert_eq!(size_of::<JointStateMsg>(), 48 + 3 * 48);
         assert_eq!(offset_of!(JointStateMsg, tick), 8);
-        assert_eq!(offset_of!(JointStateMsg, q_rad), 32);
-        assert_eq!(offset_of!(JointStateMsg, base_from_board), 176);
-        assert_eq!(size_of::<JointTorqueMsg>(), 40 + 3 * 48);
-        assert_eq!(offset_of!(JointTorqueMsg, torque_nm), 40);
+        assert_eq!(offset_of!(JointStateMsg, q_rad), 48);
+        assert_eq!(size_of::<JointCommandMsg>(), 40 + 3 * 48);
+        assert_eq!(offset_of!(JointCommandMsg, torque_nm), 40);
+        assert_eq!(size_of::<SimWorldMsg>(), 16 + 96);
+        assert_eq!(size_of::<CameraImageHeader>(), 40);
         assert_eq!(size_of::<FeaturesMsg>(), 40 + 64 + 8);
         assert_eq!(offset_of!(FeaturesMsg, features_px), 40);
         assert_eq!(offset_of!(FeaturesMsg, mark_status), 104);
@@ -509,8 +591,8 @@ mod tests {
         assert_eq!(offset_of!(CameraTwistMsg, feature_error_px), 88);
         assert_eq!(size_of::<TimingMsg>(), 40);
         assert_eq!(offset_of!(TelemetryMsg, wake_latency), 80);
-        assert_eq!(offset_of!(TelemetryMsg, feature_error_px), 200);
-        assert_eq!(size_of::<TelemetryMsg>(), 216);
+        assert_eq!(offset_of!(TelemetryMsg, feature_error_px), 280);
+        assert_eq!(size_of::<TelemetryMsg>(), 296);
         assert_eq!(size_of::<NodeStatusMsg>(), 32);
         assert_eq!(offset_of!(DaemonStatusMsg, nodes), 32);
         assert_eq!(offset_of!(DaemonStatusMsg, tick_rate_hz), 160);

@@ -6,7 +6,7 @@
 //! - [`nodes::plant`] paces the 1 ms tick on absolute CLOCK_MONOTONIC deadlines, publishes `joint_state`
 //!   and waits (on an iceoryx2 event) for the rmrc's answer; a late answer is counted and the previous
 //!   command held, and after `hold_after_missed_ticks` the plant brakes the arm itself.
-//! - [`nodes::rmrc`] wakes on the `joint_state` event and answers with `joint_torque`.
+//! - [`nodes::rmrc`] wakes on the `joint_state` event and answers with `joint_command` in the driver's interface.
 //! - [`nodes::vision`] runs on its own vision-period timer; [`nodes::servo`] wakes on `features`.
 //!
 //! Every node publishes `telemetry` from a normal-priority thread ([`telemetry`]); the hot loops only push

@@ -4,7 +4,9 @@
 use std::collections::BTreeMap;
 
 use serde::Serialize;
-use vservo_protocol::{DaemonStatusMsg, NodeRole, TelemetryMsg, TimingMsg, daemon_state, node_state};
+use vservo_protocol::{
+    DaemonStatusMsg, NodeRole, TelemetryMsg, TimingMsg, daemon_state, node_state, robot_state,
+};
 
 /// Percentiles in microseconds.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
@@ -55,6 +57,10 @@ pub struct NodeView {
     pub execution_us: Option<TimingUs>,
     /// plant only: state → rmrc → answer round trip over the last window.
     pub round_trip_us: Option<TimingUs>,
+    /// vision only: the camera's frame period (between capture stamps) over the last window.
+    pub frame_period_us: Option<TimingUs>,
+    /// servo only: from an image's capture to its twist, over the last window.
+    pub capture_latency_us: Option<TimingUs>,
 }
 
 /// The whole instance.
@@ -70,7 +76,11 @@ pub struct StatusView {
     pub daemon_pid: u32,
     /// Per node, by name.
     pub nodes: BTreeMap<&'static str, NodeView>,
-    /// Plant ticks per wall-clock second.
+    /// How many nodes the daemon runs (3 with an external robot driver: no plant).
+    pub supervised_nodes: usize,
+    /// The robot driver: "waiting" (no joint state yet), "running" or "stalled" (none within the deadline).
+    pub robot: &'static str,
+    /// Joint states per wall-clock second.
     pub tick_rate_hz: f64,
     /// The servo's latest RMS feature error (px); null before the first frame.
     pub feature_error_px: Option<f64>,
@@ -95,6 +105,7 @@ impl StatusView {
     pub fn new(instance: &str, daemon: &DaemonStatusMsg, telemetry: &[Option<TelemetryMsg>; 4]) -> Self {
         let mut nodes = BTreeMap::new();
         let mut overruns = BTreeMap::new();
+        let supervised_nodes = daemon.nodes.iter().filter(|n| n.state != node_state::NOT_STARTED).count();
         for role in NodeRole::ALL {
             let status = &daemon.nodes[role as usize];
             let latest = telemetry[role as usize].as_ref();
@@ -114,6 +125,8 @@ impl StatusView {
                 wake_latency_us: timing(|t| &t.wake_latency),
                 execution_us: timing(|t| &t.execution),
                 round_trip_us: timing(|t| &t.round_trip),
+                frame_period_us: timing(|t| &t.frame_period),
+                capture_latency_us: timing(|t| &t.capture_latency),
             };
             overruns.insert(role.name(), view.overruns);
             nodes.insert(role.name(), view);
@@ -123,7 +136,13 @@ impl StatusView {
             state: state_name(daemon.state),
             uptime_s: daemon.uptime_ns as f64 / 1e9,
             daemon_pid: daemon.pid,
+            robot: match daemon.robot {
+                robot_state::RUNNING => "running",
+                robot_state::STALLED => "stalled",
+                _ => "waiting",
+            },
             nodes,
+            supervised_nodes,
             tick_rate_hz: daemon.tick_rate_hz,
             feature_error_px: daemon.feature_error_px.is_finite().then_some(daemon.feature_error_px),
             gains_version: daemon.gains_version,
@@ -131,19 +150,27 @@ impl StatusView {
         }
     }
 
-    /// One line: state, nodes up, tick rate, plant lateness and round trip, error, gains version.
+    /// One line: state, nodes up, robot, tick rate, plant lateness and round trip, frame period and
+    /// capture-to-twist latency, error, gains version.
     pub fn one_line(&self) -> String {
         let up = self.nodes.values().filter(|n| n.running).count();
         let restarts: u64 = self.nodes.values().map(|n| n.restarts).sum();
-        let plant = self.nodes.get("plant");
+        let node = |name: &str| self.nodes.get(name);
         let us = |t: Option<TimingUs>| t.map_or("-".to_string(), |t| format!("{:.0}/{:.0}", t.p50, t.p99));
+        let ms = |t: Option<TimingUs>| {
+            t.map_or("-".to_string(), |t| format!("{:.1}/{:.1}", t.p50 / 1e3, t.max / 1e3))
+        };
         let error = self.feature_error_px.map_or("-".to_string(), |e| format!("{e:.2}"));
         format!(
-            "{} nodes {up}/4 restarts {restarts} ticks {:.0}/s late(p50/p99 µs) {} round-trip {} overruns {} error {error} px gains v{}",
+            "{} nodes {up}/{} robot {} ticks {:.0}/s late(p50/p99 µs) {} round-trip {} frame(p50/max ms) {} capture→twist {} overruns {} restarts {restarts} error {error} px gains v{}",
             self.state,
+            self.supervised_nodes,
+            self.robot,
             self.tick_rate_hz,
-            us(plant.and_then(|p| p.wake_latency_us)),
-            us(plant.and_then(|p| p.round_trip_us)),
+            us(node("plant").and_then(|p| p.wake_latency_us)),
+            us(node("plant").and_then(|p| p.round_trip_us)),
+            ms(node("vision").and_then(|p| p.frame_period_us)),
+            ms(node("servo").and_then(|p| p.capture_latency_us)),
             self.overruns.values().sum::<u64>(),
             self.gains_version
         )

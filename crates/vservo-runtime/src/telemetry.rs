@@ -98,6 +98,10 @@ pub struct CycleSample {
     pub execution_ns: u64,
     /// plant: from publishing the state to the answer's arrival.
     pub round_trip_ns: u64,
+    /// vision: from the previous image's capture to this one's.
+    pub frame_period_ns: u64,
+    /// servo: from the image's capture to the twist computed from it.
+    pub capture_latency_ns: u64,
 }
 
 /// The hot loop's handle: record a cycle, bump a counter.
@@ -180,6 +184,11 @@ impl Drop for TelemetryThread {
     }
 }
 
+/// One histogram per timing of a [`TelemetryMsg`].
+fn new_histograms() -> Option<[Histogram<u64>; 5]> {
+    Some([new_histogram()?, new_histogram()?, new_histogram()?, new_histogram()?, new_histogram()?])
+}
+
 /// A histogram for loop timings (ns).
 pub fn new_histogram() -> Option<Histogram<u64>> {
     // 1 ns to 60 s at three significant digits: allocated once
@@ -207,17 +216,10 @@ fn publish_loop(
     counters: &Counters,
     stop: &AtomicBool,
 ) {
-    let (Some(mut wake), Some(mut execution), Some(mut round_trip)) =
-        (new_histogram(), new_histogram(), new_histogram())
-    else {
-        return;
-    };
-    // the whole run, reported once when the node stops
-    let (Some(mut total_wake), Some(mut total_execution), Some(mut total_round_trip)) =
-        (new_histogram(), new_histogram(), new_histogram())
-    else {
-        return;
-    };
+    // wake latency, execution, round trip, frame period, capture latency: the window's and the whole run's
+    const NAMES: [&str; 5] = ["wake_latency", "execution", "round_trip", "frame_period", "capture_latency"];
+    let Some(mut window) = new_histograms() else { return };
+    let Some(mut total) = new_histograms() else { return };
     let mut timer = PeriodicTimer::start(period_ns);
     let mut window_start = monotonic_ns();
     let pid = std::process::id();
@@ -230,14 +232,17 @@ fn publish_loop(
             tracing::info!(
                 node = role.name(),
                 resyncs,
-                "following a new plant epoch from its joints, at rest"
+                "following a new driver epoch (or a driver back after a gap) from its joints, at rest"
             );
         }
         for sample in receiver.try_iter() {
-            wake.saturating_record(sample.wake_latency_ns.max(1));
-            execution.saturating_record(sample.execution_ns.max(1));
-            if sample.round_trip_ns > 0 {
-                round_trip.saturating_record(sample.round_trip_ns);
+            window[0].saturating_record(sample.wake_latency_ns.max(1));
+            window[1].saturating_record(sample.execution_ns.max(1));
+            let optional = [sample.round_trip_ns, sample.frame_period_ns, sample.capture_latency_ns];
+            for (histogram, value) in window[2..].iter_mut().zip(optional) {
+                if value > 0 {
+                    histogram.saturating_record(value);
+                }
             }
         }
         let now = monotonic_ns();
@@ -253,9 +258,11 @@ fn publish_loop(
             rejected_messages: counters.rejected_messages.load(Ordering::Relaxed),
             gains_version: counters.gains_version.load(Ordering::Relaxed),
             progress: counters.progress.load(Ordering::Relaxed),
-            wake_latency: timing(&wake),
-            execution: timing(&execution),
-            round_trip: timing(&round_trip),
+            wake_latency: timing(&window[0]),
+            execution: timing(&window[1]),
+            round_trip: timing(&window[2]),
+            frame_period: timing(&window[3]),
+            capture_latency: timing(&window[4]),
             feature_error_px: f64::from_bits(counters.feature_error_bits.load(Ordering::Relaxed)),
             pid,
             mode: counters.mode.load(Ordering::Relaxed),
@@ -263,21 +270,21 @@ fn publish_loop(
         if let Ok(sample) = publisher.loan_uninit() {
             let _ = sample.write_payload(message).send();
         }
-        let _ = total_wake.add(&wake);
-        let _ = total_execution.add(&execution);
-        let _ = total_round_trip.add(&round_trip);
-        wake.reset();
-        execution.reset();
-        round_trip.reset();
+        for (sum, histogram) in total.iter_mut().zip(window.iter_mut()) {
+            let _ = sum.add(&*histogram);
+            histogram.reset();
+        }
         window_start = now;
     }
     tracing::info!(
         node = role.name(),
         "loop totals {}",
         totals_json(&[
-            ("wake_latency", &total_wake),
-            ("execution", &total_execution),
-            ("round_trip", &total_round_trip)
+            (NAMES[0], &total[0]),
+            (NAMES[1], &total[1]),
+            (NAMES[2], &total[2]),
+            (NAMES[3], &total[3]),
+            (NAMES[4], &total[4]),
         ])
     );
 }

@@ -12,7 +12,17 @@ pub fn to_array<const N: usize>(v: &nalgebra::SVector<f64, N>) -> [f64; N] {
     out
 }
 
-/// A pose as `joint_state.base_from_board` carries it: 3×4 [R | t] row-major.
+/// The wire code of a command interface ([`vservo_protocol::command_mode`]).
+pub fn command_mode_code(interface: vservo_config::CommandInterface) -> u32 {
+    use vservo_protocol::command_mode;
+    match interface {
+        vservo_config::CommandInterface::Torque => command_mode::TORQUE,
+        vservo_config::CommandInterface::Velocity => command_mode::VELOCITY,
+        vservo_config::CommandInterface::Position => command_mode::POSITION,
+    }
+}
+
+/// A pose as `sim_world.base_from_board` carries it: 3×4 [R | t] row-major.
 pub fn pose_to_wire(pose: &IsometryMatrix3<f64>) -> [f64; 12] {
     let (r, t) = (pose.rotation.matrix(), pose.translation.vector);
     let mut out = [0.0; 12];

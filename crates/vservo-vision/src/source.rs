@@ -64,6 +64,11 @@ impl SimulatedCamera {
     pub fn capture(&mut self, camera_from_board: &IsometryMatrix3<f64>, frame: u64) -> &GrayImage {
         self.renderer.render(&self.board, camera_from_board, frame)
     }
+
+    /// The last image captured.
+    pub fn image(&self) -> &GrayImage {
+        self.renderer.image()
+    }
 }
 
 /// Recorded images, in file-name order, one per frame; after the last it starts again.

@@ -8,15 +8,15 @@ use vservo_protocol::Topic;
 
 use crate::instance::{Connection, InstanceArg};
 use crate::json_messages::{
-    camera_twist, features, gains, joint_state, joint_torque, object, status, telemetry,
+    camera_twist, features, gains, joint_command, joint_state, object, sim_world, status, telemetry,
 };
 use crate::output::print_stdout;
 
 /// Arguments of `vservoctl echo`.
 #[derive(Args, Debug)]
 pub struct EchoArgs {
-    /// Which service: joint_state, joint_torque, features, camera_twist, telemetry, status, gains or object (joint_state and
-    /// joint_torque come at 1 kHz: a slow terminal drops samples).
+    /// Which service: joint_state, joint_command, sim_world, features, camera_twist, telemetry, status, gains or object
+    /// (joint_state, joint_command and sim_world come at the driver's rate: a slow terminal drops samples).
     #[arg(value_parser = topic_name)]
     topic: Topic,
     #[command(flatten)]
@@ -65,7 +65,8 @@ pub fn run(args: &EchoArgs) -> anyhow::Result<()> {
     let topic = args.topic;
     match topic {
         Topic::JointState => echo(&connection, topic, args, joint_state),
-        Topic::JointTorque => echo(&connection, topic, args, joint_torque),
+        Topic::JointCommand => echo(&connection, topic, args, joint_command),
+        Topic::SimWorld => echo(&connection, topic, args, sim_world),
         Topic::Features => echo(&connection, topic, args, features),
         Topic::CameraTwist => echo(&connection, topic, args, camera_twist),
         Topic::Telemetry => echo(&connection, topic, args, telemetry),

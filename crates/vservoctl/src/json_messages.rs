@@ -3,8 +3,8 @@
 
 use serde_json::{Value, json};
 use vservo_protocol::{
-    CameraTwistMsg, DaemonStatusMsg, FeaturesMsg, GainsMsg, JointStateMsg, JointTorqueMsg, ObjectMsg,
-    TelemetryMsg, TimingMsg,
+    CameraTwistMsg, DaemonStatusMsg, FeaturesMsg, GainsMsg, JointCommandMsg, JointStateMsg, ObjectMsg,
+    SimWorldMsg, TelemetryMsg, TimingMsg,
 };
 
 fn timing(t: &TimingMsg) -> Value {
@@ -22,14 +22,19 @@ fn number(v: f64) -> Value {
 
 /// One message as JSON.
 pub fn joint_state(m: &JointStateMsg) -> Value {
-    json!({"schema": m.schema, "tick": m.tick, "stamp_ns": m.stamp_ns, "plant_epoch": m.plant_epoch, "faults": m.faults,
-        "q_rad": numbers(&m.q_rad), "qd_rad_s": numbers(&m.qd_rad_s), "applied_torque_nm": numbers(&m.applied_torque_nm),
-        "base_from_board": numbers(&m.base_from_board)})
+    json!({"schema": m.schema, "tick": m.tick, "stamp_ns": m.stamp_ns, "driver_epoch": m.driver_epoch,
+        "period_ns": m.period_ns, "command_mode": m.command_mode, "driver_status": m.driver_status, "faults": m.faults,
+        "q_rad": numbers(&m.q_rad), "qd_rad_s": numbers(&m.qd_rad_s), "torque_nm": numbers(&m.torque_nm)})
 }
 
 /// One message as JSON.
-pub fn joint_torque(m: &JointTorqueMsg) -> Value {
-    json!({"schema": m.schema, "mode": m.mode, "answers_tick": m.answers_tick, "plant_epoch": m.plant_epoch,
+pub fn sim_world(m: &SimWorldMsg) -> Value {
+    json!({"schema": m.schema, "tick": m.tick, "base_from_board": numbers(&m.base_from_board)})
+}
+
+/// One message as JSON.
+pub fn joint_command(m: &JointCommandMsg) -> Value {
+    json!({"schema": m.schema, "mode": m.mode, "answers_tick": m.answers_tick, "driver_epoch": m.driver_epoch,
         "state_stamp_ns": m.state_stamp_ns, "stamp_ns": m.stamp_ns, "torque_nm": numbers(&m.torque_nm),
         "q_ref_rad": numbers(&m.q_ref_rad), "qd_ref_rad_s": numbers(&m.qd_ref_rad_s)})
 }
@@ -54,7 +59,8 @@ pub fn telemetry(m: &TelemetryMsg) -> Value {
         "cycles": m.cycles, "overruns": m.overruns, "skipped_periods": m.skipped_periods, "late_answers": m.late_answers,
         "rejected_messages": m.rejected_messages, "gains_version": m.gains_version, "progress": m.progress,
         "mode": m.mode, "feature_error_px": number(m.feature_error_px), "wake_latency": timing(&m.wake_latency),
-        "execution": timing(&m.execution), "round_trip": timing(&m.round_trip)})
+        "execution": timing(&m.execution), "round_trip": timing(&m.round_trip),
+        "frame_period": timing(&m.frame_period), "capture_latency": timing(&m.capture_latency)})
 }
 
 /// One message as JSON.
@@ -66,7 +72,7 @@ pub fn status(m: &DaemonStatusMsg) -> Value {
         .collect();
     json!({"schema": m.schema, "state": m.state, "stamp_ns": m.stamp_ns, "uptime_ns": m.uptime_ns,
         "gains_version": m.gains_version, "tick_rate_hz": number(m.tick_rate_hz),
-        "feature_error_px": number(m.feature_error_px), "pid": m.pid, "nodes": nodes})
+        "feature_error_px": number(m.feature_error_px), "pid": m.pid, "robot": m.robot, "nodes": nodes})
 }
 
 /// One message as JSON.

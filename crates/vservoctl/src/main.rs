@@ -16,6 +16,7 @@ mod output;
 mod plot_recording;
 mod plots;
 mod record;
+mod scene;
 mod sim;
 mod stability;
 mod status;
@@ -63,6 +64,8 @@ enum Command {
     Record(record::RecordArgs),
     /// Draw the figures of `sim` from an MCAP recording.
     Plot(plot_recording::PlotArgs),
+    /// The cell a configuration describes (arm, camera, board, start joints, periods) as JSON, for drivers.
+    Scene(scene::SceneArgs),
 }
 
 fn main() -> ExitCode {
@@ -80,6 +83,7 @@ fn main() -> ExitCode {
         Command::Reload(args) => commands::reload(&args),
         Command::Record(args) => record::run(&args),
         Command::Plot(args) => plot_recording::run(&args),
+        Command::Scene(args) => scene::run(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -15,8 +15,8 @@ use iceoryx2::port::subscriber::Subscriber;
 use iceoryx2::prelude::{ZeroCopySend, ipc};
 use serde_json::Value;
 use vservo_protocol::{
-    CameraTwistMsg, DaemonStatusMsg, FeaturesMsg, GainsMsg, JointStateMsg, JointTorqueMsg, ObjectMsg,
-    TelemetryMsg, Topic,
+    CameraTwistMsg, DaemonStatusMsg, FeaturesMsg, GainsMsg, JointCommandMsg, JointStateMsg, ObjectMsg,
+    SimWorldMsg, TelemetryMsg, Topic,
 };
 
 use crate::instance::{Connection, InstanceArg};
@@ -112,7 +112,8 @@ pub fn run(args: &RecordArgs) -> anyhow::Result<()> {
         channels.insert(topic.name(), Channel { id, sequence: 0 });
     }
     let joint_state = connection.subscriber::<JointStateMsg>(Topic::JointState)?;
-    let joint_torque = connection.subscriber::<JointTorqueMsg>(Topic::JointTorque)?;
+    let joint_command = connection.subscriber::<JointCommandMsg>(Topic::JointCommand)?;
+    let sim_world = connection.subscriber::<SimWorldMsg>(Topic::SimWorld)?;
     let features = connection.subscriber::<FeaturesMsg>(Topic::Features)?;
     let twist = connection.subscriber::<CameraTwistMsg>(Topic::CameraTwist)?;
     let telemetry = connection.subscriber::<TelemetryMsg>(Topic::Telemetry)?;
@@ -125,8 +126,14 @@ pub fn run(args: &RecordArgs) -> anyhow::Result<()> {
         let c = &mut channels;
         written +=
             drain(&joint_state, json::joint_state, |m| m.stamp_ns, get(c, "joint_state")?, &mut writer)?;
-        written +=
-            drain(&joint_torque, json::joint_torque, |m| m.stamp_ns, get(c, "joint_torque")?, &mut writer)?;
+        written += drain(
+            &joint_command,
+            json::joint_command,
+            |m| m.stamp_ns,
+            get(c, "joint_command")?,
+            &mut writer,
+        )?;
+        written += drain(&sim_world, json::sim_world, |_| 0, get(c, "sim_world")?, &mut writer)?;
         written += drain(&features, json::features, |m| m.stamp_ns, get(c, "features")?, &mut writer)?;
         written += drain(&twist, json::camera_twist, |m| m.stamp_ns, get(c, "camera_twist")?, &mut writer)?;
         written += drain(&telemetry, json::telemetry, |m| m.stamp_ns, get(c, "telemetry")?, &mut writer)?;

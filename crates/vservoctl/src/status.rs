@@ -74,11 +74,12 @@ fn text(view: &StatusView) -> String {
         t.map_or("-".to_string(), |t| format!("{:.0}/{:.0}/{:.0}/{:.0}", t.p50, t.p99, t.p999, t.max))
     };
     let mut out = format!(
-        "instance {}: {} (daemon pid {}, up {:.1} s)\n  ticks {:.1}/s, feature error {} px, gains version {}\n",
+        "instance {}: {} (daemon pid {}, up {:.1} s)\n  robot driver {}, joint states {:.1}/s, feature error {} px, gains version {}\n",
         view.instance,
         view.state,
         view.daemon_pid,
         view.uptime_s,
+        view.robot,
         view.tick_rate_hz,
         view.feature_error_px.map_or("-".to_string(), |e| format!("{e:.3}")),
         view.gains_version
@@ -102,5 +103,15 @@ fn text(view: &StatusView) -> String {
             timing(n.round_trip_us),
         ));
     }
+    let ms = |t: Option<TimingUs>| {
+        t.map_or("-".to_string(), |t| format!("{:.1}/{:.1}/{:.1}", t.p50 / 1e3, t.p99 / 1e3, t.max / 1e3))
+    };
+    let vision = view.nodes.get("vision").and_then(|n| n.frame_period_us);
+    let servo = view.nodes.get("servo").and_then(|n| n.capture_latency_us);
+    out.push_str(&format!(
+        "  camera frame period ms p50/p99/max {}, capture → twist ms p50/p99/max {}\n",
+        ms(vision),
+        ms(servo)
+    ));
     out
 }

@@ -17,7 +17,7 @@ use vservo_protocol::{
     CommandMsg, CommandReplyMsg, FEATURES, FeaturesMsg, GainsMsg, JointStateMsg, ObjectMsg, SCHEMA_VERSION,
     Topic, command_kind,
 };
-use vservo_runtime::wire::{gains_message, pose_from_wire};
+use vservo_runtime::wire::gains_message;
 use vservo_scene::{FeatureVector, IsometryMatrix3, MARKS};
 
 use crate::systemd::Systemd;
@@ -234,8 +234,7 @@ impl Commander {
                     .filter(|f| f.valid_mask == 0b1111)
                     .map(|f| FeatureVector::from(f.features_px))
                     .ok_or("teach: the camera does not see all four marks now")?;
-                let state = heard.joint_state.ok_or("teach: no joint state yet")?;
-                let camera_from_board = self.camera_from_board_now(state)?;
+                let camera_from_board = self.camera_from_board_seen(&features)?;
                 let (_, depths) = self
                     .config
                     .camera
@@ -302,12 +301,31 @@ impl Commander {
         Ok(())
     }
 
-    fn camera_from_board_now(&self, state: &JointStateMsg) -> Result<IsometryMatrix3<f64>, String> {
-        let q = JointVector::from(state.q_rad);
-        let base_from_board =
-            pose_from_wire(&state.base_from_board).ok_or("the board's pose is not finite")?;
-        let base_from_camera = self.arm.base_from_tool(&q) * self.config.tool_from_camera;
-        Ok(base_from_camera.inverse() * base_from_board)
+    /// The board as the camera sees it in `features` (all four marks): the pose the board-plane
+    /// homography gives, as a real cell has it (no simulated world is consulted).
+    fn camera_from_board_seen(&self, features: &FeatureVector) -> Result<IsometryMatrix3<f64>, String> {
+        self.config
+            .camera
+            .board_pose_from_features(&self.config.board, features)
+            .ok_or_else(|| "the board's pose cannot be found from the features seen now".to_string())
+    }
+
+    /// Where the board is, in the base frame, and the joints now: from the latest joint state and the
+    /// latest features with all four marks (the camera's pose from forward kinematics times the board's
+    /// pose the features give). Before both are heard, the configuration's desired arrangement.
+    fn board_and_joints_now(&self, heard: &LoopState) -> (IsometryMatrix3<f64>, JointVector) {
+        let seen = heard
+            .features
+            .filter(|f| f.valid_mask == 0b1111)
+            .and_then(|f| self.camera_from_board_seen(&FeatureVector::from(f.features_px)).ok());
+        match (heard.joint_state, seen) {
+            (Some(state), Some(camera_from_board)) => {
+                let q = JointVector::from(state.q_rad);
+                (self.arm.base_from_tool(&q) * self.config.tool_from_camera * camera_from_board, q)
+            }
+            (Some(state), None) => (self.config.base_from_board(&self.arm), JointVector::from(state.q_rad)),
+            _ => (self.config.base_from_board(&self.arm), self.config.desired.joints),
+        }
     }
 
     /// The arm can put the camera at `camera_from_board` with the board where it is now.
@@ -316,13 +334,7 @@ impl Commander {
         camera_from_board: &IsometryMatrix3<f64>,
         heard: &LoopState,
     ) -> Result<(), String> {
-        let (base_from_board, q_now) = match heard.joint_state {
-            Some(state) => (
-                pose_from_wire(&state.base_from_board).ok_or("the board's pose is not finite")?,
-                JointVector::from(state.q_rad),
-            ),
-            None => (self.config.base_from_board(&self.arm), self.config.desired.joints),
-        };
+        let (base_from_board, q_now) = self.board_and_joints_now(heard);
         let base_from_tool =
             base_from_board * camera_from_board.inverse() * self.config.tool_from_camera.inverse();
         let solutions = self
@@ -336,6 +348,9 @@ impl Commander {
     }
 
     fn object(&mut self, command: &CommandMsg) -> Result<String, String> {
+        if self.config.robot.driver != vservo_config::RobotDriver::Simulated {
+            return Err("object: the board is the simulation's; with robot.driver = \"external\" there is none to move".into());
+        }
         let values = command.translation_m.iter().chain([&command.radius_m, &command.rev_per_min]);
         if !values.into_iter().all(|v| v.is_finite()) {
             return Err("object: a number is not finite".into());

@@ -15,8 +15,8 @@ use nix::sys::signal::{Signal, kill};
 use nix::unistd::Pid;
 use vservo_config::Config;
 use vservo_protocol::{
-    CameraTwistMsg, DaemonStatusMsg, FeaturesMsg, JointStateMsg, JointTorqueMsg, NodeRole, NodeStatusMsg,
-    SCHEMA_VERSION, TelemetryMsg, Topic, daemon_state, node_state,
+    CameraTwistMsg, DaemonStatusMsg, FeaturesMsg, JointCommandMsg, JointStateMsg, NodeRole, NodeStatusMsg,
+    SCHEMA_VERSION, TelemetryMsg, Topic, daemon_state, node_state, robot_state,
 };
 use vservo_runtime::clock::{PeriodicTimer, monotonic_ns};
 use vservo_runtime::status::StatusView;
@@ -107,7 +107,7 @@ struct Ports {
     telemetry: Subscriber<ipc::Service, TelemetryMsg, ()>,
     joint_state: Subscriber<ipc::Service, JointStateMsg, ()>,
     twist: Subscriber<ipc::Service, CameraTwistMsg, ()>,
-    command: Subscriber<ipc::Service, JointTorqueMsg, ()>,
+    command: Subscriber<ipc::Service, JointCommandMsg, ()>,
     features: Subscriber<ipc::Service, FeaturesMsg, ()>,
     status: Publisher<ipc::Service, DaemonStatusMsg, ()>,
 }
@@ -116,7 +116,9 @@ struct Ports {
 #[derive(Default)]
 struct Heard {
     joint_state: Option<JointStateMsg>,
-    command: Option<JointTorqueMsg>,
+    /// When the latest joint state arrived.
+    joint_state_at: Option<Instant>,
+    command: Option<JointCommandMsg>,
     features: Option<FeaturesMsg>,
     gains_version: u64,
     feature_error_px: f64,
@@ -130,6 +132,7 @@ impl Heard {
         while let Ok(Some(sample)) = ports.joint_state.receive() {
             if sample.schema == SCHEMA_VERSION {
                 self.joint_state = Some(*sample);
+                self.joint_state_at = Some(Instant::now());
             }
         }
         while let Ok(Some(sample)) = ports.command.receive() {
@@ -189,6 +192,15 @@ pub fn run(
         .with_context(|| format!("{}: reading the configuration", config_path.display()))?;
     // design the gains and place the arm now: a configuration that cannot run is refused before any node starts
     vservo_cell::Cell::new(&config).with_context(|| format!("{}", config_path.display()))?;
+    if let vservo_config::VisionSource::Directory(directory) = &config.vision.source {
+        anyhow::bail!(
+            "{}: camera.source = \"directory\" ({}): recorded images cannot close the loop; check them open-loop with `vservoctl vision extract`, or set camera.source = \"simulated\" or \"external\"",
+            config_path.display(),
+            directory.display()
+        );
+    }
+    let external_robot = config.robot.driver == vservo_config::RobotDriver::External;
+    let robot_deadline = Duration::from_secs_f64(config.robot.state_timeout_s());
     let instance = config.instance.clone();
     let launcher = Launcher {
         executable: std::env::current_exe().context("finding the vservod executable")?,
@@ -214,7 +226,7 @@ pub fn run(
         telemetry: vservo_protocol::subscriber(&node, &instance, Topic::Telemetry)?,
         joint_state: vservo_protocol::subscriber(&node, &instance, Topic::JointState)?,
         twist: vservo_protocol::subscriber(&node, &instance, Topic::CameraTwist)?,
-        command: vservo_protocol::subscriber(&node, &instance, Topic::JointTorque)?,
+        command: vservo_protocol::subscriber(&node, &instance, Topic::JointCommand)?,
         features: vservo_protocol::subscriber(&node, &instance, Topic::Features)?,
         status: vservo_protocol::publisher(&node, &instance, Topic::Status)?,
     };
@@ -226,8 +238,17 @@ pub fn run(
     let max_backoff = Duration::from_secs_f64(runtime.restart_backoff_max_s);
 
     tracing::info!(instance, config = %launcher.config_path.display(), "starting the nodes");
+    if external_robot {
+        tracing::info!(
+            command = config.robot.command.name(),
+            period_s = config.robot.period_s,
+            deadline_s = robot_deadline.as_secs_f64(),
+            "robot.driver = external: no plant; waiting for the driver's joint states"
+        );
+    }
     let mut nodes: Vec<Supervised> = Vec::new();
-    for role in NodeRole::ALL {
+    // an external robot driver is the user's process: vservod starts no plant for it
+    for role in NodeRole::ALL.into_iter().filter(|r| !(external_robot && *r == NodeRole::Plant)) {
         let process =
             launcher.spawn(role, None).with_context(|| format!("starting the {} node", role.name()))?;
         nodes.push(Supervised {
@@ -249,6 +270,7 @@ pub fn run(
     let mut last_report = Instant::now();
     let mut last_watchdog = Instant::now();
     let mut ever_ready = false;
+    let mut robot = robot_state::WAITING;
     while !stop.load(Ordering::Relaxed) {
         timer.wait();
         let now = Instant::now();
@@ -315,19 +337,23 @@ pub fn run(
             }
         }
 
+        robot =
+            robot_transition(robot, heard.joint_state_at.map(|at| now.duration_since(at)), robot_deadline);
         let all_healthy = nodes.iter().all(|n| n.healthy(now));
-        let state = match (all_healthy, ever_ready) {
+        let state = match (all_healthy && robot == robot_state::RUNNING, ever_ready) {
             (true, _) => daemon_state::RUNNING,
             (false, false) => daemon_state::STARTING,
             (false, true) => daemon_state::DEGRADED,
         };
-        let message = status_message(&nodes, &heard, commander.gains_version(), state, daemon_started, now);
+        let mut message =
+            status_message(&nodes, &heard, commander.gains_version(), state, daemon_started, now);
+        message.robot = robot;
         if let Ok(sample) = ports.status.loan_uninit() {
             let _ = sample.write_payload(message).send();
         }
         let telemetry = telemetry_of(&nodes);
         let view = StatusView::new(&instance, &message, &telemetry);
-        if all_healthy && !ever_ready {
+        if all_healthy && robot == robot_state::RUNNING && !ever_ready {
             ever_ready = true;
             systemd.ready(&view.one_line());
             tracing::info!("ready: every node runs");
@@ -395,8 +421,32 @@ fn status_message(
         tick_rate_hz: heard.tick_rate_hz,
         feature_error_px: heard.feature_error_px,
         pid: std::process::id(),
-        reserved: 0,
+        robot: robot_state::WAITING,
     }
+}
+
+/// The robot driver's state after a supervisor cycle, from the age of its latest joint state; a change is
+/// logged. Stalled: the rmrc commands nothing (it answers joint states only) and, when states come again,
+/// starts its reference at rest from the measured joints.
+fn robot_transition(was: u32, age: Option<Duration>, deadline: Duration) -> u32 {
+    let now = match age {
+        None => robot_state::WAITING,
+        Some(age) if age > deadline => robot_state::STALLED,
+        Some(_) => robot_state::RUNNING,
+    };
+    match (was, now) {
+        (a, b) if a == b => {}
+        (_, robot_state::STALLED) => tracing::error!(
+            deadline_s = deadline.as_secs_f64(),
+            "robot driver stalled: no joint state within the deadline; no motion is commanded until it is back"
+        ),
+        (robot_state::STALLED, robot_state::RUNNING) => {
+            tracing::warn!("robot driver back: following it again from where the arm is, at rest")
+        }
+        (_, robot_state::RUNNING) => tracing::info!("robot driver: joint states arrive"),
+        _ => {}
+    }
+    now
 }
 
 fn wait_for_exit(node: &mut Supervised, timeout: Duration) -> bool {

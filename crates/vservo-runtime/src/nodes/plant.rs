@@ -1,12 +1,13 @@
-//! The plant node: the 1 ms tick on absolute deadlines. Each tick: sleep until the deadline, take the
-//! rmrc's answer to the last state (or hold the previous command, counted late), advance one tick, publish
-//! the new state and wake the rmrc.
+//! The plant node, the simulated robot driver: the 1 ms tick on absolute deadlines. Each tick: sleep until
+//! the deadline, take the rmrc's answer to the last state (or hold the previous command, counted late),
+//! advance one tick, publish the new state (and, on the simulation-only `sim_world`, where the board is)
+//! and wake the rmrc. It follows the robot driver contract of docs/DRIVERS.md like any external driver.
 
 use vservo_arm::JointVector;
 use vservo_cell::{ActuatorCommand, PlantStage};
 use vservo_protocol::{
-    JointStateMsg, JointTorqueMsg, NodeRole, ObjectMsg, SCHEMA_VERSION, Topic, actuator_mode, command_kind,
-    fault_bits,
+    JointCommandMsg, JointStateMsg, NodeRole, ObjectMsg, SCHEMA_VERSION, SimWorldMsg, Topic, command_kind,
+    command_mode, driver_status, fault_bits,
 };
 use vservo_sim::plant::JointState;
 use vservo_sim::world::ObjectMotion;
@@ -17,38 +18,54 @@ use crate::telemetry::CycleSample;
 use crate::wire::{pose_to_wire, to_array};
 use crate::{NodeContext, RuntimeError, schema_ok};
 
-fn state_message(stage: &PlantStage, state: &JointState, epoch: u64) -> JointStateMsg {
+/// The simulated driver's identity in each joint state: its epoch, period and command interface.
+#[derive(Debug, Clone, Copy)]
+struct Declared {
+    epoch: u64,
+    period_ns: u64,
+    command_mode: u32,
+}
+
+fn state_message(stage: &PlantStage, state: &JointState, declared: &Declared) -> JointStateMsg {
     let f = &state.faults;
     let mut faults = u32::from(f.position_limit) << fault_bits::POSITION_LIMIT_SHIFT
         | u32::from(f.velocity_limit) << fault_bits::VELOCITY_LIMIT_SHIFT
         | u32::from(f.torque_saturated) << fault_bits::TORQUE_SATURATED_SHIFT;
     if f.integration_failed {
-        faults |= fault_bits::INTEGRATION_FAILED;
+        faults |= fault_bits::DRIVER_FAILED;
     }
-    if stage.is_holding() {
-        faults |= fault_bits::HOLDING;
-    }
+    let status = if f.integration_failed {
+        driver_status::FAULT
+    } else if stage.is_holding() {
+        driver_status::HOLDING
+    } else {
+        driver_status::FOLLOWING
+    };
     JointStateMsg {
         schema: SCHEMA_VERSION,
         faults,
         tick: state.tick,
         stamp_ns: monotonic_ns(),
-        plant_epoch: epoch,
+        driver_epoch: declared.epoch,
+        period_ns: declared.period_ns,
+        command_mode: declared.command_mode,
+        driver_status: status,
         q_rad: to_array(&state.q),
         qd_rad_s: to_array(&state.qd),
-        applied_torque_nm: to_array(&state.applied_torque),
-        base_from_board: pose_to_wire(&stage.base_from_board()),
+        torque_nm: to_array(&state.applied_torque),
     }
 }
 
-fn command_of(message: &JointTorqueMsg) -> Option<ActuatorCommand> {
+/// The command a joint command carries, if it is in the interface this driver declared and finite.
+fn command_of(message: &JointCommandMsg, declared: u32) -> Option<ActuatorCommand> {
     let all_finite = |v: &[f64; 6]| v.iter().all(|x| x.is_finite());
     match message.mode {
-        actuator_mode::TORQUE if all_finite(&message.torque_nm) => {
+        _ if message.mode != declared => None,
+        command_mode::TORQUE if all_finite(&message.torque_nm) => {
             Some(ActuatorCommand::Torque(JointVector::from(message.torque_nm)))
         }
-        actuator_mode::KINEMATIC if all_finite(&message.q_ref_rad) && all_finite(&message.qd_ref_rad_s) => {
-            Some(ActuatorCommand::Kinematic {
+        command_mode::POSITION if all_finite(&message.q_ref_rad) && all_finite(&message.qd_ref_rad_s) => {
+            Some(ActuatorCommand::Reference {
                 q: JointVector::from(message.q_ref_rad),
                 qd: JointVector::from(message.qd_ref_rad_s),
             })
@@ -81,18 +98,24 @@ pub fn run(context: &NodeContext) -> Result<(), RuntimeError> {
     let NodeBase { _telemetry, monitor, node } = start(context, NodeRole::Plant)?;
     let state_publisher = vservo_protocol::publisher::<JointStateMsg>(&node, instance, Topic::JointState)?;
     let state_notifier = vservo_protocol::notifier(&node, instance, Topic::JointState)?;
+    let world_publisher = vservo_protocol::publisher::<SimWorldMsg>(&node, instance, Topic::SimWorld)?;
     let object_subscriber = vservo_protocol::subscriber::<ObjectMsg>(&node, instance, Topic::Object)?;
-    let torque_subscriber =
-        vservo_protocol::subscriber::<JointTorqueMsg>(&node, instance, Topic::JointTorque)?;
+    let command_subscriber =
+        vservo_protocol::subscriber::<JointCommandMsg>(&node, instance, Topic::JointCommand)?;
 
     let mut stage = match context.resume {
         Some((q, tick)) => context.cell.plant_resumed(&q, tick),
         None => context.cell.plant(),
     };
     go_realtime(context, NodeRole::Plant);
-    // an epoch no earlier plant of this host has used: consumers re-synchronise when it changes
-    let epoch = monotonic_ns();
     let period_ns = (config.timing.control_period_s * 1e9).round() as u64;
+    let declared = Declared {
+        // an epoch no earlier plant of this host has used: consumers re-synchronise when it changes
+        epoch: monotonic_ns(),
+        period_ns,
+        command_mode: crate::wire::command_mode_code(config.command_interface()),
+    };
+    let epoch = declared.epoch;
     let hold_after = u64::from(config.runtime.hold_after_missed_ticks);
     let counters = monitor.counters();
     tracing::info!(
@@ -109,8 +132,17 @@ pub fn run(context: &NodeContext) -> Result<(), RuntimeError> {
     while !context.stopping() {
         // publish the state, wake the rmrc
         let state = *stage.state();
-        let message = state_message(&stage, &state, epoch);
+        let message = state_message(&stage, &state, &declared);
         let published_at = message.stamp_ns;
+        if let Ok(sample) = world_publisher.loan_uninit() {
+            let world = SimWorldMsg {
+                schema: SCHEMA_VERSION,
+                reserved: 0,
+                tick: state.tick,
+                base_from_board: pose_to_wire(&stage.base_from_board()),
+            };
+            let _ = sample.write_payload(world).send();
+        }
         if let Ok(sample) = state_publisher.loan_uninit() {
             let _ = sample.write_payload(message).send();
         }
@@ -124,12 +156,12 @@ pub fn run(context: &NodeContext) -> Result<(), RuntimeError> {
         let started = monotonic_ns();
         let mut answer = None;
         let mut round_trip_ns = 0;
-        while let Ok(Some(sample)) = torque_subscriber.receive() {
+        while let Ok(Some(sample)) = command_subscriber.receive() {
             let reply = *sample;
-            if !schema_ok(reply.schema) || reply.plant_epoch != epoch {
+            if !schema_ok(reply.schema) || reply.driver_epoch != epoch {
                 counters.rejected();
             } else if reply.answers_tick == state.tick {
-                match command_of(&reply) {
+                match command_of(&reply, declared.command_mode) {
                     Some(command) => {
                         answer = Some(command);
                         // state published → answer in the plant's queue (the rmrc stamps it as it sends)
@@ -178,6 +210,7 @@ pub fn run(context: &NodeContext) -> Result<(), RuntimeError> {
             wake_latency_ns: wake.lateness_ns,
             execution_ns: monotonic_ns().saturating_sub(started),
             round_trip_ns,
+            ..CycleSample::default()
         });
     }
     tracing::info!(node = "plant", tick = stage.state().tick, "stopped");

@@ -1,17 +1,31 @@
-//! The rmrc node: wakes on each joint state and answers with the command for the next tick.
+//! The rmrc node: wakes on each joint state of the robot driver and answers with the command for the
+//! driver's next period, in the interface the driver declared (torque, velocity or position).
+//!
+//! A joint state that is not of this build's schema, not finite, or from a driver that declares another
+//! command interface or period than the configuration's is refused and counted: nothing is commanded on it.
+//! After a gap of more than `robot.state_timeout_periods` between the stamps of two joint states (a stalled
+//! driver), or on a new `driver_epoch` (a restarted one), the reference
+//! starts again at rest from the measured joints, so nothing accumulated while the driver was away moves
+//! the arm when it comes back.
 
 use vservo_arm::JointVector;
 use vservo_cell::{ActuatorCommand, RmrcStage};
 use vservo_control::Twist;
-use vservo_protocol::{
-    CameraTwistMsg, JointStateMsg, JointTorqueMsg, NodeRole, SCHEMA_VERSION, Topic, actuator_mode,
-};
+use vservo_protocol::{CameraTwistMsg, JointCommandMsg, JointStateMsg, NodeRole, SCHEMA_VERSION, Topic};
 
 use super::{IDLE_WAIT, NodeBase, go_realtime, latest, start};
 use crate::clock::monotonic_ns;
 use crate::telemetry::CycleSample;
-use crate::wire::to_array;
+use crate::wire::{command_mode_code, to_array};
 use crate::{NodeContext, RuntimeError, schema_ok};
+
+/// The stage and the driver state it follows.
+struct Following {
+    epoch: u64,
+    last_tick: u64,
+    last_stamp_ns: u64,
+    stage: RmrcStage,
+}
 
 /// Runs the rmrc until the stop flag is set.
 pub fn run(context: &NodeContext) -> Result<(), RuntimeError> {
@@ -22,13 +36,16 @@ pub fn run(context: &NodeContext) -> Result<(), RuntimeError> {
     let state_listener = vservo_protocol::listener(&node, instance, Topic::JointState)?;
     let twist_subscriber =
         vservo_protocol::subscriber::<CameraTwistMsg>(&node, instance, Topic::CameraTwist)?;
-    let torque_publisher = vservo_protocol::publisher::<JointTorqueMsg>(&node, instance, Topic::JointTorque)?;
+    let command_publisher =
+        vservo_protocol::publisher::<JointCommandMsg>(&node, instance, Topic::JointCommand)?;
     go_realtime(context, NodeRole::Rmrc);
-    let dt = config.timing.control_period_s;
+    let dt = config.robot.period_s;
     let period_ns = (dt * 1e9).round() as u64;
+    let mode = command_mode_code(config.command_interface());
+    // the driver's stall deadline; the rmrc's own lateness (states it drained at once) is no gap
+    let gap_ns = period_ns * u64::from(config.robot.state_timeout_periods);
     let counters = monitor.counters();
-    // the stage starts at the plant's joints, at rest, on the first state of each plant epoch
-    let mut stage: Option<(u64, RmrcStage)> = None;
+    let mut following: Option<Following> = None;
 
     while !context.stopping() {
         let _ = state_listener.timed_wait(|_| {}, IDLE_WAIT);
@@ -37,19 +54,36 @@ pub fn run(context: &NodeContext) -> Result<(), RuntimeError> {
         let Some(state) = latest else { continue };
         let q = JointVector::from(state.q_rad);
         let qd = JointVector::from(state.qd_rad_s);
-        if !(q.iter().all(|v| v.is_finite()) && qd.iter().all(|v| v.is_finite())) {
+        let declared_ok =
+            state.command_mode == mode && state.period_ns.abs_diff(period_ns) <= period_ns / 100;
+        if !(declared_ok && q.iter().all(|v| v.is_finite()) && qd.iter().all(|v| v.is_finite())) {
             counters.rejected();
             continue;
         }
         let now_s = state.tick as f64 * dt;
-        let rmrc = match &mut stage {
-            Some((epoch, rmrc)) if *epoch == state.plant_epoch => rmrc,
-            _ => {
-                // logged by the telemetry thread, off this path
-                counters.resynced();
-                &mut stage.insert((state.plant_epoch, context.cell.rmrc(&q))).1
+        // a new driver, or the same one back after a gap: start again at rest from where the arm is
+        let resync = match &following {
+            Some(f) => {
+                f.epoch != state.driver_epoch
+                    || state.tick <= f.last_tick
+                    || state.stamp_ns.saturating_sub(f.last_stamp_ns) > gap_ns
             }
+            None => true,
         };
+        if resync {
+            // logged by the telemetry thread, off this path
+            counters.resynced();
+            following = Some(Following {
+                epoch: state.driver_epoch,
+                last_tick: state.tick,
+                last_stamp_ns: state.stamp_ns,
+                stage: context.cell.rmrc(&q),
+            });
+        }
+        let Some(f) = following.as_mut() else { continue };
+        f.last_tick = state.tick;
+        f.last_stamp_ns = state.stamp_ns;
+        let rmrc = &mut f.stage;
         while let Ok(Some(sample)) = twist_subscriber.receive() {
             let twist = Twist::from(sample.twist);
             if schema_ok(sample.schema) && twist.iter().all(|v| v.is_finite()) {
@@ -60,22 +94,22 @@ pub fn run(context: &NodeContext) -> Result<(), RuntimeError> {
         }
         let command = rmrc.step(now_s + dt, &q, &qd);
         let reference = rmrc.reference();
-        let (mode, torque) = match command {
-            ActuatorCommand::Torque(torque) => (actuator_mode::TORQUE, to_array(&torque)),
-            ActuatorCommand::Kinematic { .. } => (actuator_mode::KINEMATIC, [0.0; 6]),
+        let torque = match command {
+            ActuatorCommand::Torque(torque) => to_array(&torque),
+            ActuatorCommand::Reference { .. } => [0.0; 6],
         };
-        let mut message = JointTorqueMsg {
+        let mut message = JointCommandMsg {
             schema: SCHEMA_VERSION,
             mode,
             answers_tick: state.tick,
-            plant_epoch: state.plant_epoch,
+            driver_epoch: state.driver_epoch,
             state_stamp_ns: state.stamp_ns,
             stamp_ns: monotonic_ns(),
             torque_nm: torque,
             q_ref_rad: to_array(&reference.q),
             qd_ref_rad_s: to_array(&reference.qd),
         };
-        if let Ok(sample) = torque_publisher.loan_uninit() {
+        if let Ok(sample) = command_publisher.loan_uninit() {
             message.stamp_ns = monotonic_ns();
             let _ = sample.write_payload(message).send();
         }
@@ -85,7 +119,11 @@ pub fn run(context: &NodeContext) -> Result<(), RuntimeError> {
             counters.overrun();
         }
         counters.set_progress(state.tick);
-        monitor.record(CycleSample { wake_latency_ns, execution_ns: done - woke_at, round_trip_ns: 0 });
+        monitor.record(CycleSample {
+            wake_latency_ns,
+            execution_ns: done - woke_at,
+            ..CycleSample::default()
+        });
     }
     tracing::info!(node = "rmrc", "stopped");
     Ok(())

@@ -100,7 +100,8 @@ pub fn run(context: &NodeContext) -> Result<(), RuntimeError> {
             monitor.record(CycleSample {
                 wake_latency_ns: woke_at.saturating_sub(message.stamp_ns),
                 execution_ns: done.saturating_sub(woke_at),
-                round_trip_ns: 0,
+                capture_latency_ns: done.saturating_sub(message.capture_stamp_ns),
+                ..CycleSample::default()
             });
         }
     }

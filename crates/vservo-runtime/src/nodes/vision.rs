@@ -1,13 +1,24 @@
-//! The vision node: on its own vision-period timer, images the board from the latest joint state.
+//! The vision node. With the simulated camera it runs on its own vision-period timer, renders the board
+//! from the latest joint state and the simulation's `sim_world`, and publishes each image on
+//! `camera_image` (so every user can see what the extractor saw). With an external camera it wakes on each
+//! frame a camera driver publishes on `camera_image`, works on it at once and stamps the features with the
+//! frame's capture time: the camera paces the loop.
 
+use iceoryx2::port::publisher::Publisher;
+use iceoryx2::prelude::ipc;
 use vservo_arm::JointVector;
-use vservo_cell::DeliveredFrame;
-use vservo_protocol::{FeaturesMsg, JointStateMsg, MARKS, NodeRole, SCHEMA_VERSION, Topic, mark_status};
-use vservo_vision::MarkStatus;
+use vservo_cell::{DeliveredFrame, VisionStage};
+use vservo_config::VisionSource;
+use vservo_protocol::{
+    CameraImageHeader, FeaturesMsg, JointStateMsg, MARKS, NodeRole, SCHEMA_VERSION, SimWorldMsg, Topic,
+    mark_status, pixel_format,
+};
+use vservo_vision::GrayImage;
+use vservo_vision::{Extraction, MarkStatus};
 
-use super::{NodeBase, go_realtime, latest, start};
+use super::{IDLE_WAIT, NodeBase, go_realtime, latest, start};
 use crate::clock::{PeriodicTimer, monotonic_ns};
-use crate::telemetry::CycleSample;
+use crate::telemetry::{Counters, CycleSample, LoopMonitor};
 use crate::wire::{pose_from_wire, to_array};
 use crate::{NodeContext, RuntimeError};
 
@@ -31,27 +42,21 @@ struct FrameInfo {
     status: [u8; MARKS],
 }
 
-/// Runs the vision node until the stop flag is set.
-pub fn run(context: &NodeContext) -> Result<(), RuntimeError> {
-    let config = context.cell.config();
-    let instance = &context.instance;
-    let NodeBase { _telemetry, monitor, node } = start(context, NodeRole::Vision)?;
-    let state_subscriber = vservo_protocol::subscriber::<JointStateMsg>(&node, instance, Topic::JointState)?;
-    let features_publisher = vservo_protocol::publisher::<FeaturesMsg>(&node, instance, Topic::Features)?;
-    let features_notifier = vservo_protocol::notifier(&node, instance, Topic::Features)?;
-    go_realtime(context, NodeRole::Vision);
-    let mut stage = context.cell.vision();
-    if let Some(features) = &context.resume_features {
-        stage.resume_tracking(features);
-        tracing::info!(node = "vision", "tracking the marks from where they were last seen");
+/// The frames in the pipeline (at most MAX_DELAY_FRAMES + 1) and the port their features leave by.
+struct FeaturesOut {
+    in_pipeline: [FrameInfo; 8],
+    publisher: Publisher<ipc::Service, FeaturesMsg, ()>,
+    notifier: iceoryx2::port::notifier::Notifier<ipc::Service>,
+}
+
+impl FeaturesOut {
+    fn remember(&mut self, frame: u64, capture_stamp_ns: u64, captured: &Extraction) {
+        self.in_pipeline[(frame % 8) as usize] =
+            FrameInfo { frame, capture_stamp_ns, status: captured.status.map(|s| status_code(&s)) };
     }
-    let counters = monitor.counters();
-    let period_ns = (config.timing.vision_period_s * 1e9).round() as u64;
-    // the pipeline holds at most MAX_DELAY_FRAMES + 1 frames
-    let mut frames_in_pipeline = [FrameInfo::default(); 8];
-    let mut frame: u64 = 0;
-    let publish = |delivered: &DeliveredFrame, frames_in_pipeline: &[FrameInfo; 8]| {
-        let info = frames_in_pipeline[(delivered.frame % 8) as usize];
+
+    fn publish(&self, delivered: &DeliveredFrame) {
+        let info = self.in_pipeline[(delivered.frame % 8) as usize];
         let mut valid_mask = 0u32;
         for mark in 0..MARKS {
             if info.status[mark] == mark_status::VALID && info.frame == delivered.frame {
@@ -69,13 +74,124 @@ pub fn run(context: &NodeContext) -> Result<(), RuntimeError> {
             mark_status: info.status,
             reserved: [0; 4],
         };
-        if let Ok(sample) = features_publisher.loan_uninit() {
+        if let Ok(sample) = self.publisher.loan_uninit() {
             let _ = sample.write_payload(message).send();
         }
-        let _ = features_notifier.notify();
-    };
-    let mut timer = PeriodicTimer::start(period_ns);
+        let _ = self.notifier.notify();
+    }
+}
 
+/// Runs the vision node until the stop flag is set.
+pub fn run(context: &NodeContext) -> Result<(), RuntimeError> {
+    let config = context.cell.config();
+    let instance = &context.instance;
+    let NodeBase { _telemetry, monitor, node } = start(context, NodeRole::Vision)?;
+    let state_subscriber = vservo_protocol::subscriber::<JointStateMsg>(&node, instance, Topic::JointState)?;
+    let mut out = FeaturesOut {
+        in_pipeline: [FrameInfo::default(); 8],
+        publisher: vservo_protocol::publisher::<FeaturesMsg>(&node, instance, Topic::Features)?,
+        notifier: vservo_protocol::notifier(&node, instance, Topic::Features)?,
+    };
+    let mut stage = context.cell.vision();
+    if let Some(features) = &context.resume_features {
+        stage.resume_tracking(features);
+        tracing::info!(node = "vision", "tracking the marks from where they were last seen");
+    }
+    match &config.vision.source {
+        VisionSource::External => {
+            let images = vservo_protocol::camera_image_subscriber(&node, instance)?;
+            let listener = vservo_protocol::camera_image_listener(&node, instance)?;
+            go_realtime(context, NodeRole::Vision);
+            let (width, height) = (config.camera.width_px(), config.camera.height_px());
+            let mut image = GrayImage::new(width, height);
+            let mut previous_capture_ns = 0;
+            let counters = monitor.counters();
+            while !context.stopping() {
+                let _ = listener.timed_wait(|_| {}, IDLE_WAIT);
+                while let Ok(Some(sample)) = images.receive() {
+                    let woke_at = monotonic_ns();
+                    let header = *sample.user_header();
+                    if !copy_image(&header, sample.payload(), &mut image) {
+                        counters.rejected();
+                        continue;
+                    }
+                    drop(sample);
+                    let tick = latest(&state_subscriber, |m: &JointStateMsg| m.schema, counters)
+                        .map_or(0, |state| state.tick);
+                    let (captured, delivered) = stage.process_image(header.frame, tick, &image);
+                    out.remember(header.frame, header.capture_stamp_ns, &captured);
+                    if let Some(delivered) = delivered {
+                        out.publish(&delivered);
+                    }
+                    let frame_period_ns = if previous_capture_ns > 0 {
+                        header.capture_stamp_ns.saturating_sub(previous_capture_ns)
+                    } else {
+                        0
+                    };
+                    previous_capture_ns = header.capture_stamp_ns;
+                    counters.set_progress(header.frame);
+                    monitor.record(CycleSample {
+                        wake_latency_ns: woke_at.saturating_sub(header.capture_stamp_ns),
+                        execution_ns: monotonic_ns().saturating_sub(woke_at),
+                        frame_period_ns,
+                        ..CycleSample::default()
+                    });
+                }
+            }
+        }
+        // the daemon refuses recorded images (open-loop checks are `vservoctl vision extract`'s)
+        VisionSource::Simulated | VisionSource::Directory(_) => {
+            run_simulated_camera(context, &node, &monitor, &state_subscriber, &mut stage, &mut out)?;
+        }
+    }
+    tracing::info!(node = "vision", "stopped");
+    Ok(())
+}
+
+/// Copies a `camera_image` sample into `image` if it is of this build's schema, 8-bit gray, of the
+/// configured size and complete.
+fn copy_image(header: &CameraImageHeader, payload: &[u8], image: &mut GrayImage) -> bool {
+    let (width, height) = image.dimensions();
+    let stride = header.stride_bytes as usize;
+    let needed = stride.saturating_mul(height.saturating_sub(1) as usize).saturating_add(width as usize);
+    let fits = header.schema == SCHEMA_VERSION
+        && header.format == pixel_format::MONO8
+        && (header.width, header.height) == (width, height)
+        && stride >= width as usize
+        && payload.len() >= needed;
+    if !fits {
+        return false;
+    }
+    let w = width as usize;
+    for (row, pixels) in image.chunks_exact_mut(w).enumerate() {
+        pixels.copy_from_slice(&payload[row * stride..row * stride + w]);
+    }
+    true
+}
+
+/// The simulated camera: every vision period, publish the frame whose processing finished (at the start of
+/// the period, so that the processing time does not add to the pipeline delay), then render and extract
+/// the next, and publish its image on `camera_image`.
+fn run_simulated_camera(
+    context: &NodeContext,
+    node: &iceoryx2::prelude::Node<ipc::Service>,
+    monitor: &LoopMonitor,
+    state_subscriber: &iceoryx2::port::subscriber::Subscriber<ipc::Service, JointStateMsg, ()>,
+    stage: &mut VisionStage,
+    out: &mut FeaturesOut,
+) -> Result<(), RuntimeError> {
+    let config = context.cell.config();
+    let instance = &context.instance;
+    let world_subscriber = vservo_protocol::subscriber::<SimWorldMsg>(node, instance, Topic::SimWorld)?;
+    let image_publisher = vservo_protocol::camera_image_publisher(node, instance)?;
+    let image_notifier = vservo_protocol::camera_image_notifier(node, instance)?;
+    go_realtime(context, NodeRole::Vision);
+    let counters: &Counters = monitor.counters();
+    let period_ns = (config.timing.vision_period_s * 1e9).round() as u64;
+    let mut frame: u64 = 0;
+    let mut previous_capture_ns = 0;
+    let mut world: Option<SimWorldMsg> = None;
+    let mut timer = PeriodicTimer::start(period_ns);
     while !context.stopping() {
         let wake = timer.wait();
         let started = monotonic_ns();
@@ -85,36 +201,61 @@ pub fn run(context: &NodeContext) -> Result<(), RuntimeError> {
         }
         // the frame processed during the last period leaves the pipeline now, before the new image is taken
         if let Some(delivered) = stage.take_delivered() {
-            publish(&delivered, &frames_in_pipeline);
+            out.publish(&delivered);
         }
-        let latest = latest(&state_subscriber, |m: &JointStateMsg| m.schema, counters);
+        if let Some(newest) = latest(&world_subscriber, |m: &SimWorldMsg| m.schema, counters) {
+            world = Some(newest);
+        }
+        let latest = latest(state_subscriber, |m: &JointStateMsg| m.schema, counters);
         // no plant yet (or a restart under way): no image to take
-        let Some(state) = latest else { continue };
+        let (Some(state), Some(world)) = (latest, world) else { continue };
         let q = JointVector::from(state.q_rad);
         let Some(base_from_board) =
-            pose_from_wire(&state.base_from_board).filter(|_| q.iter().all(|v| v.is_finite()))
+            pose_from_wire(&world.base_from_board).filter(|_| q.iter().all(|v| v.is_finite()))
         else {
             counters.rejected();
             continue;
         };
         let taken = stage.capture(frame, state.tick, &q, &base_from_board);
-        frames_in_pipeline[(frame % 8) as usize] = FrameInfo {
-            frame,
-            capture_stamp_ns: started,
-            status: taken.captured.status.map(|s| status_code(&s)),
-        };
-        frame += 1;
+        out.remember(frame, started, &taken.captured);
         // with no pipeline delay the new frame leaves at once
         if let Some(delivered) = taken.delivered {
-            publish(&delivered, &frames_in_pipeline);
+            out.publish(&delivered);
         }
+        publish_image(&image_publisher, stage.image(), frame, started);
+        let _ = image_notifier.notify();
+        frame += 1;
         counters.set_progress(frame);
+        let frame_period_ns = if previous_capture_ns > 0 { started - previous_capture_ns } else { 0 };
+        previous_capture_ns = started;
         monitor.record(CycleSample {
             wake_latency_ns: wake.lateness_ns,
             execution_ns: monotonic_ns().saturating_sub(started),
-            round_trip_ns: 0,
+            frame_period_ns,
+            ..CycleSample::default()
         });
     }
-    tracing::info!(node = "vision", "stopped");
     Ok(())
+}
+
+/// Publishes an image on `camera_image` (one copy into shared memory; subscribers read it in place).
+fn publish_image(
+    publisher: &Publisher<ipc::Service, [u8], CameraImageHeader>,
+    image: &GrayImage,
+    frame: u64,
+    capture_stamp_ns: u64,
+) {
+    let (width, height) = image.dimensions();
+    let Ok(mut sample) = publisher.loan_slice_uninit(image.as_raw().len()) else { return };
+    *sample.user_header_mut() = CameraImageHeader {
+        schema: SCHEMA_VERSION,
+        format: pixel_format::MONO8,
+        width,
+        height,
+        stride_bytes: width,
+        reserved: 0,
+        frame,
+        capture_stamp_ns,
+    };
+    let _ = sample.write_from_slice(image.as_raw()).send();
 }

@@ -1,0 +1,423 @@
+#!/usr/bin/env python3
+"""A MuJoCo arm and hand camera for vservo: the reference robot + camera driver.
+
+Copy this file to write a driver for a real arm and camera: replace `Arm` (`step`: send the joint velocities
+and wait for the next encoder reading) and `Camera.grab` (take an image), keep the rest. It speaks docs/PROTOCOL.md (schema 2) over
+iceoryx2 0.10 shared memory:
+
+- every robot period (1 ms) it publishes `joint_state` and notifies the `joint_state` event;
+- it reads the newest `joint_command` each period and follows its JOINT VELOCITY command (`mode` 1,
+  `qd_ref_rad_s`) if it answers one of the last few joint states of this driver run; with no valid command
+  for 20 ms it brings the joints to rest (commanded velocity 0) and reports `driver_status` 1 (holding);
+- every vision period it renders the hand camera and publishes it on `camera_image` as 8-bit grayscale,
+  stamped with the time of the joint state it shows, and notifies the `camera_image` event.
+
+The arm is the scene's standard-DH arm (vservo's PUMA 560) simulated by MuJoCo, the camera MuJoCo's
+offscreen renderer (headless: MUJOCO_GL=egl, Mesa's software EGL; scripts/setup-mujoco.sh installs it).
+
+    mujoco_driver.py --scene scene.json [--instance NAME] [--duration-s S] [--save-image first.pgm]
+                     [--fifo-priority N]
+
+The scene comes from `vservoctl scene --config FILE`. SIGINT/SIGTERM stop it (exit code 0).
+"""
+
+import argparse
+import ctypes
+import json
+import math
+import os
+import signal
+import sys
+import threading
+import time
+
+os.environ.setdefault("MUJOCO_GL", "egl")  # before importing mujoco: headless OpenGL
+
+import iceoryx2 as iox2
+import mujoco
+import numpy as np
+
+SCHEMA = 2
+TORQUE, VELOCITY, POSITION = 0, 1, 2  # command modes
+FOLLOWING, HOLDING = 0, 1  # driver_status
+COMMAND_TIMEOUT_NS = 20_000_000  # no valid command for this long: hold
+MAX_COMMAND_AGE_TICKS = 5  # a command must answer one of the last few joint states
+VELOCITY_BANDWIDTH_RAD_S = 1000.0  # of the simulated joints' velocity loop
+POSITION_CORRECTION_PER_S = 50.0  # how fast the integrated reference pulls a drifted joint back
+
+
+class JointState(ctypes.Structure):
+    """vservo::JointState, 192 bytes."""
+
+    _fields_ = [("schema", ctypes.c_uint32), ("faults", ctypes.c_uint32), ("tick", ctypes.c_uint64),
+                ("stamp_ns", ctypes.c_uint64), ("driver_epoch", ctypes.c_uint64), ("period_ns", ctypes.c_uint64),
+                ("command_mode", ctypes.c_uint32), ("driver_status", ctypes.c_uint32),
+                ("q_rad", ctypes.c_double * 6), ("qd_rad_s", ctypes.c_double * 6), ("torque_nm", ctypes.c_double * 6)]
+
+    @staticmethod
+    def type_name() -> str:
+        return "vservo::JointState"
+
+
+class JointCommand(ctypes.Structure):
+    """vservo::JointCommand, 184 bytes."""
+
+    _fields_ = [("schema", ctypes.c_uint32), ("mode", ctypes.c_uint32), ("answers_tick", ctypes.c_uint64),
+                ("driver_epoch", ctypes.c_uint64), ("state_stamp_ns", ctypes.c_uint64), ("stamp_ns", ctypes.c_uint64),
+                ("torque_nm", ctypes.c_double * 6), ("q_ref_rad", ctypes.c_double * 6),
+                ("qd_ref_rad_s", ctypes.c_double * 6)]
+
+    @staticmethod
+    def type_name() -> str:
+        return "vservo::JointCommand"
+
+
+class CameraImageHeader(ctypes.Structure):
+    """vservo::CameraImageHeader, 40 bytes: the user header of `camera_image`, whose payload is the pixels (u8)."""
+
+    _fields_ = [("schema", ctypes.c_uint32), ("format", ctypes.c_uint32), ("width", ctypes.c_uint32),
+                ("height", ctypes.c_uint32), ("stride_bytes", ctypes.c_uint32), ("reserved", ctypes.c_uint32),
+                ("frame", ctypes.c_uint64), ("capture_stamp_ns", ctypes.c_uint64)]
+
+    @staticmethod
+    def type_name() -> str:
+        return "vservo::CameraImageHeader"
+
+
+# --- clock: absolute deadlines on CLOCK_MONOTONIC (time.sleep would drift by its own overhead every period) ---
+_libc = ctypes.CDLL(None, use_errno=True)
+_libc.prctl(29, 1, 0, 0, 0)  # PR_SET_TIMERSLACK = 1 ns (the default 50 µs would show up as lateness)
+
+
+class _Timespec(ctypes.Structure):
+    _fields_ = [("tv_sec", ctypes.c_long), ("tv_nsec", ctypes.c_long)]
+
+
+def sleep_until(deadline_ns: int) -> None:
+    """clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME): ctypes releases the GIL while it sleeps."""
+    _libc.clock_nanosleep(1, 1, ctypes.byref(_Timespec(deadline_ns // 10**9, deadline_ns % 10**9)), None)
+
+
+def set_fifo_priority(priority: int) -> None:
+    """SCHED_FIFO for the calling thread. Both threads get it (the camera one below the arm's): a thread that
+    holds the GIL must not be preempted by other processes while the arm loop waits for the GIL."""
+    sys.setswitchinterval(0.0002)  # the arm loop gets the GIL back within 0.2 ms (default 5 ms)
+    try:
+        os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(priority))
+    except PermissionError:
+        print("mujoco_driver: warning: SCHED_FIFO not permitted; on the normal scheduler", file=sys.stderr)
+
+
+# --- iceoryx2: services exactly as vservo creates them (docs/PROTOCOL.md) ---
+def make_node(instance: str):
+    config = iox2.config.default()
+    config.global_cfg.prefix = iox2.FileName.new(f"vservo_{instance}_")  # each instance has its own prefix
+    return (iox2.NodeBuilder.new().config(config)
+            .signal_handling_mode(iox2.SignalHandlingMode.Disabled)  # SIGINT/SIGTERM are ours (see main)
+            .create(iox2.ServiceType.Ipc))
+
+
+def open_topic(node, instance, name, payload, history, buffer, header=None):
+    builder = node.service_builder(iox2.ServiceName.new(f"vservo/{instance}/{name}")).publish_subscribe(payload)
+    if header is not None:
+        builder = builder.user_header(header)
+    return (builder.max_publishers(2).max_subscribers(8).history_size(history).subscriber_max_buffer_size(buffer)
+            .enable_safe_overflow(True).open_or_create())
+
+
+def open_notifier(node, instance, name):
+    service = (node.service_builder(iox2.ServiceName.new(f"vservo/{instance}/{name}")).event()
+               .max_notifiers(4).max_listeners(4).open_or_create())
+    return service.notifier_builder().create()
+
+
+# --- the scene as MuJoCo XML ---
+def rot_x(a):
+    return np.array([[1, 0, 0, 0], [0, math.cos(a), -math.sin(a), 0], [0, math.sin(a), math.cos(a), 0], [0, 0, 0, 1]])
+
+
+def rot_z(a):
+    return np.array([[math.cos(a), -math.sin(a), 0, 0], [math.sin(a), math.cos(a), 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]])
+
+
+def translate(x, y, z):
+    t = np.eye(4)
+    t[:3, 3] = [x, y, z]
+    return t
+
+
+def dh_link(row):
+    """Frame i-1 → frame i at q_i = 0 (standard DH): Rz(θ_offset)·Tz(d)·Tx(a)·Rx(α)."""
+    return rot_z(row["theta_offset_rad"]) @ translate(0, 0, row["d_m"]) @ translate(row["a_m"], 0, 0) @ rot_x(row["alpha_rad"])
+
+
+def placement(t):
+    """MJCF pos and quat attributes of a 4×4 pose."""
+    quat = np.zeros(4)
+    mujoco.mju_mat2Quat(quat, np.ascontiguousarray(t[:3, :3]).flatten())
+    return 'pos="%.9g %.9g %.9g" quat="%.12g %.12g %.12g %.12g"' % (*t[:3, 3], *quat)
+
+
+def gray(level):
+    return "%.6f %.6f %.6f 1" % ((level / 255.0,) * 3)
+
+
+def build_mjcf(scene) -> str:
+    """The arm (body i is DH frame i-1 turned by q_i about its z), the hand camera, the board with its marks.
+
+    Gray levels as vservo's simulated camera draws them: board 230, marks 20, background 110 (a flat skybox).
+    No lights: MuJoCo then shows a surface at (0.3 + emission) × rgba (0.3 of ambient, measured with MuJoCo
+    4.0), so emission 0.7 shows each surface at exactly its rgba, with no shading or shadows.
+    The links are capsules along the DH offsets, with MuJoCo's inertias for them at a density of 1000 kg/m³:
+    plausible, NOT the PUMA 560's true masses and inertias (vservo's own plant has those).
+    """
+    arm, cam, board = scene["arm"], scene["camera"], scene["board"]
+    if abs(cam["principal_point_px"][0] - cam["width_px"] / 2) > 0.5 or abs(cam["principal_point_px"][1] - cam["height_px"] / 2) > 0.5:
+        print("mujoco_driver: warning: MuJoCo's camera has its principal point at the image centre", file=sys.stderr)
+    fovy_deg = math.degrees(2 * math.atan(cam["height_px"] / 2 / cam["focal_px"]))
+    bodies, parent_from_body = [], np.eye(4)
+    for i, (row, (lo, hi)) in enumerate(zip(arm["dh"], arm["joint_limits_rad"])):
+        radius = 0.05 if i < 3 else 0.035
+        end = dh_link(row)[:3, 3]
+        elbow = (0, 0, row["d_m"])  # the link runs along z by d, then along the new x by a
+        geoms = f'<geom type="sphere" size="{radius * 1.2}"/>'
+        for a, b in ((np.zeros(3), elbow), (elbow, end)):
+            if np.linalg.norm(np.subtract(b, a)) > 1e-6:
+                geoms += '<geom type="capsule" size="%g" fromto="%g %g %g %g %g %g"/>' % (radius, *a, *b)
+        if i == 5:  # the camera, fixed to DH frame 6; MuJoCo's camera looks along its −z with y up: Rx(180°)
+            tool_from_mujoco_camera = dh_link(row) @ np.array(scene["tool_from_camera"]) @ rot_x(math.pi)
+            geoms += (f'<camera name="hand" {placement(tool_from_mujoco_camera)} fovy="{fovy_deg:.9g}"/>'
+                      f'<geom type="box" size="0.02 0.02 0.02" {placement(tool_from_mujoco_camera)}/>')
+        bodies.append(f'<body name="link{i + 1}" {placement(parent_from_body)} gravcomp="1">'
+                      f'<joint name="q{i + 1}" range="{lo:.9g} {hi:.9g}"/>{geoms}')
+        parent_from_body = dh_link(row)
+    (xlo, ylo), (xhi, yhi) = board["extent_m"]
+    thickness = 0.005  # the white face is the board plane z = 0; the marks lie on it, 0.1 mm towards the camera
+    marks = "".join(f'<geom type="cylinder" size="{board["mark_diameter_m"] / 2:.9g} 0.00005" pos="{x:.9g} {y:.9g} -0.00005" '
+                    f'material="mark"/>' for x, y in board["marks_in_board_m"])
+    actuators = "".join(f'<position joint="q{i}" kp="1"/><velocity joint="q{i}" kv="1"/>' for i in range(1, 7))
+    return f"""
+<mujoco model="vservo-cell">
+  <compiler angle="radian" autolimits="true"/>
+  <option timestep="{scene["robot"]["period_s"]}" integrator="implicitfast"/>
+  <visual>
+    <global offwidth="{cam["width_px"]}" offheight="{cam["height_px"]}"/>
+    <headlight active="0" ambient="0 0 0" diffuse="0 0 0" specular="0 0 0"/>
+    <quality shadowsize="0" numslices="64" offsamples="4"/>
+    <map haze="0"/>
+  </visual>
+  <asset>
+    <texture name="sky" type="skybox" builtin="flat" rgb1="{gray(110)[:-2]}" rgb2="{gray(110)[:-2]}" width="8" height="8"/>
+    <material name="board" rgba="{gray(230)}" emission="0.7" specular="0" shininess="0" reflectance="0"/>
+    <material name="mark" rgba="{gray(20)}" emission="0.7" specular="0" shininess="0" reflectance="0"/>
+    <material name="arm" rgba="{gray(160)}" emission="0.7" specular="0" shininess="0" reflectance="0"/>
+  </asset>
+  <default>
+    <geom contype="0" conaffinity="0" material="arm"/>
+    <joint type="hinge" axis="0 0 1" armature="0.05" limited="true"/>
+  </default>
+  <worldbody>
+    {"".join(bodies)}{"</body>" * len(bodies)}
+    <body name="board" {placement(np.array(scene["base_from_board"]))}>
+      <geom type="box" size="{(xhi - xlo) / 2:.9g} {(yhi - ylo) / 2:.9g} {thickness / 2}"
+            pos="{(xhi + xlo) / 2:.9g} {(yhi + ylo) / 2:.9g} {thickness / 2}" material="board"/>
+      {marks}
+    </body>
+  </worldbody>
+  <actuator>{actuators}</actuator>
+</mujoco>"""
+
+
+class Arm:
+    """The simulated arm under joint velocity commands.
+
+    A real arm in velocity mode tracks q̇ closely: its drives close a fast velocity loop and compensate gravity.
+    MuJoCo does the same with: gravity compensation (`gravcomp`), the commanded q̇ integrated into a position
+    reference q_ref, and per joint a stiff position actuator on q_ref plus a velocity actuator on q̇ (the
+    velocity feed-forward): τ = kp (q_ref − q) + kv (q̇_cmd − q̇). A velocity actuator alone would let the
+    joints drift under the coupling torques; the integrated reference removes that drift and the feed-forward
+    removes the lag. kv makes each joint's velocity loop a first-order lag of about 1 ms (kv = inertia at the
+    start pose × VELOCITY_BANDWIDTH_RAD_S; MuJoCo's implicit integrator keeps so high a kv stable at a 1 ms
+    step), kp = kv × POSITION_CORRECTION_PER_S. Measured on a step to 0.5 rad/s: within 5 % after 3 ms, ~7 %
+    overshoot while the lag of the first milliseconds is made up (20 ms), then errors ~1e-5 rad and rad/s.
+    """
+
+    def __init__(self, model, scene):
+        self.model, self.data = model, mujoco.MjData(model)
+        self.data.qpos[:6] = scene["start_joints_rad"]
+        mujoco.mj_forward(model, self.data)
+        full = np.zeros((model.nv, model.nv))
+        mujoco.mj_fullM(model, self.data, full)
+        inertia = np.diag(full)[:6]  # each joint's inertia (with armature) at the start pose
+        kv = inertia * VELOCITY_BANDWIDTH_RAD_S
+        kp = kv * POSITION_CORRECTION_PER_S
+        model.actuator_gainprm[0::2, 0], model.actuator_biasprm[0::2, 1] = kp, -kp  # position actuators
+        model.actuator_gainprm[1::2, 0], model.actuator_biasprm[1::2, 2] = kv, -kv  # velocity actuators
+        self.limits = np.array(scene["arm"]["joint_limits_rad"])
+        self.velocity_limits = np.array(scene["arm"]["velocity_limits_rad_s"])
+        self.q_ref = self.data.qpos[:6].copy()
+
+    def step(self, qd_command):
+        """One physics step with the commanded joint velocities (clipped to the velocity limits)."""
+        qd = np.clip(qd_command, -self.velocity_limits, self.velocity_limits)
+        self.data.ctrl[0::2], self.data.ctrl[1::2] = self.q_ref, qd
+        mujoco.mj_step(self.model, self.data)
+        self.q_ref = np.clip(self.q_ref + qd * self.model.opt.timestep, self.limits[:, 0], self.limits[:, 1])
+
+    def faults(self):
+        q, qd = self.data.qpos[:6], self.data.qvel[:6]
+        bits = 0
+        for i in range(6):
+            if q[i] <= self.limits[i, 0] or q[i] >= self.limits[i, 1]:
+                bits |= 1 << i
+            if abs(qd[i]) > self.velocity_limits[i]:
+                bits |= 1 << (8 + i)
+        return bits  # no torque limits in the scene: bits 16–21 stay clear
+
+
+class Camera(threading.Thread):
+    """Renders the hand camera every vision period on its own MjData copy and publishes the image.
+
+    Rendering (20–90 ms with Mesa's software EGL) runs in this thread: MuJoCo releases the GIL while it renders,
+    so the arm loop keeps its 1 ms period. The OpenGL context and the iceoryx2 ports belong to this thread.
+    """
+
+    def __init__(self, model, scene, instance, latest_state, stop, save_image, fifo_priority):
+        super().__init__(name="camera")
+        self.fifo_priority = fifo_priority
+        self.model, self.scene, self.instance = model, scene, instance
+        self.latest_state, self.stop, self.save_image = latest_state, stop, save_image
+        self.render_ms, self.ready = [], threading.Event()
+
+    def grab(self, renderer, data, q):
+        """The image (height × width, u8) the hand camera sees with the arm at q."""
+        data.qpos[:6] = q
+        mujoco.mj_kinematics(self.model, data)
+        mujoco.mj_camlight(self.model, data)
+        renderer.update_scene(data, camera="hand")
+        return renderer.render()[:, :, 0]  # every surface is gray: red = green = blue
+
+    def run(self):
+        width, height = self.scene["camera"]["width_px"], self.scene["camera"]["height_px"]
+        renderer, data = mujoco.Renderer(self.model, height, width), mujoco.MjData(self.model)
+        node = make_node(self.instance)
+        service = open_topic(node, self.instance, "camera_image", iox2.Slice[ctypes.c_uint8], 0, 2, CameraImageHeader)
+        publisher = service.publisher_builder().initial_max_slice_len(1280 * 1024).create()
+        notifier = open_notifier(node, self.instance, "camera_image")
+        period_ns = round(self.scene["timing"]["vision_period_s"] * 1e9)
+        self.grab(renderer, data, self.latest_state()[0])  # the first render sets up OpenGL (~0.2 s, holding
+        self.ready.set()  # the GIL): done before the arm loop starts
+        if self.fifo_priority > 0:  # after the OpenGL set-up: Mesa's render threads stay on the normal scheduler
+            set_fifo_priority(self.fifo_priority)
+        deadline, frame = time.monotonic_ns(), 0
+        while not self.stop.is_set():
+            q, stamp_ns = self.latest_state()
+            started = time.perf_counter()
+            image = self.grab(renderer, data, q)
+            self.render_ms.append(1e3 * (time.perf_counter() - started))
+            sample = publisher.loan_slice_uninit(width * height)
+            header = sample.user_header().contents
+            header.schema, header.format, header.width, header.height = SCHEMA, 0, width, height
+            header.stride_bytes, header.reserved, header.frame, header.capture_stamp_ns = width, 0, frame, stamp_ns
+            np.frombuffer(sample.payload().as_memory_view(), dtype=np.uint8)[:] = image.ravel()
+            sample.assume_init().send()
+            notifier.notify()
+            if frame == 0 and self.save_image:
+                with open(self.save_image, "wb") as pgm:
+                    pgm.write(b"P5\n%d %d\n255\n" % (width, height) + image.tobytes())
+            frame += 1
+            deadline += period_ns
+            deadline = max(deadline, time.monotonic_ns() - period_ns // 2)  # a late frame is not made up for
+            sleep_until(deadline)
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--scene", required=True, help="scene JSON (vservoctl scene --config FILE)")
+    parser.add_argument("--instance", default="default")
+    parser.add_argument("--duration-s", type=float, default=math.inf)
+    parser.add_argument("--save-image", help="write the first camera image here (PGM)")
+    parser.add_argument("--fifo-priority", type=int, default=0, help="SCHED_FIFO priority of the arm loop (0: none)")
+    options = parser.parse_args(argv)
+    with open(options.scene) as file:
+        scene = json.load(file)
+    if scene["robot"]["command"] != "velocity":
+        print("mujoco_driver: this driver takes joint velocity commands only", file=sys.stderr)
+        return 2
+    model = mujoco.MjModel.from_xml_string(build_mjcf(scene))
+    arm = Arm(model, scene)
+
+    stop = threading.Event()
+    for signum in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(signum, lambda *_: stop.set())
+
+    node, instance = make_node(options.instance), options.instance
+    state_publisher = open_topic(node, instance, "joint_state", JointState, 1, 64).publisher_builder().create()
+    state_notifier = open_notifier(node, instance, "joint_state")
+    commands = open_topic(node, instance, "joint_command", JointCommand, 0, 64).subscriber_builder().create()
+
+    lock, shared = threading.Lock(), {"q": arm.data.qpos[:6].copy(), "stamp_ns": time.monotonic_ns()}
+
+    def latest_state():
+        with lock:
+            return shared["q"], shared["stamp_ns"]
+
+    camera = Camera(model, scene, instance, latest_state, stop, options.save_image, max(0, options.fifo_priority - 1))
+    period_ns = round(scene["robot"]["period_s"] * 1e9)
+    camera.start()
+    while not camera.ready.wait(0.1):
+        if not camera.is_alive():
+            return 1  # the camera failed to start (its error is printed)
+    if options.fifo_priority > 0:
+        set_fifo_priority(options.fifo_priority)
+    epoch = start = time.monotonic_ns()
+    tick, qd_command, last_valid_ns, status, gaps = 0, np.zeros(6), -COMMAND_TIMEOUT_NS, HOLDING, []
+    state = JointState(schema=SCHEMA, driver_epoch=epoch, period_ns=period_ns, command_mode=VELOCITY)
+    last_publish = None
+    while not stop.is_set():
+        # 1. the newest valid command: velocity mode, this run of the driver, answering a recent joint state
+        now = time.monotonic_ns()
+        while (sample := commands.receive()) is not None:
+            c = JointCommand.from_buffer_copy(sample.payload().contents)
+            qd = np.array(c.qd_ref_rad_s)
+            if (c.schema == SCHEMA and c.mode == VELOCITY and c.driver_epoch == epoch
+                    and tick - MAX_COMMAND_AGE_TICKS <= c.answers_tick <= tick and np.all(np.isfinite(qd))):
+                qd_command, last_valid_ns = qd, now
+        status = FOLLOWING if now - last_valid_ns <= COMMAND_TIMEOUT_NS else HOLDING
+        if status == HOLDING:
+            qd_command = np.zeros(6)  # bring the joints to rest
+
+        # 2. publish the joint state, notify, and hand it to the camera
+        state.tick, state.stamp_ns, state.faults, state.driver_status = tick, time.monotonic_ns(), arm.faults(), status
+        state.q_rad[:], state.qd_rad_s[:] = arm.data.qpos[:6], arm.data.qvel[:6]
+        state.torque_nm[:] = arm.data.qfrc_actuator[:6] + arm.data.qfrc_gravcomp[:6]  # drive torque incl. gravity
+        state_publisher.send_copy(state)
+        state_notifier.notify()
+        with lock:
+            shared["q"], shared["stamp_ns"] = arm.data.qpos[:6].copy(), state.stamp_ns
+        if last_publish is not None:
+            gaps.append(state.stamp_ns - last_publish)
+        last_publish = state.stamp_ns
+        if state.stamp_ns - start >= options.duration_s * 1e9:
+            break
+
+        # 3. sleep to the next deadline, then advance the physics by the periods that passed (normally one)
+        sleep_until(start + (tick + 1) * period_ns)
+        periods = max(1, (time.monotonic_ns() - start) // period_ns - tick)
+        for _ in range(min(periods, 100)):
+            arm.step(qd_command)
+        tick += periods
+
+    stop.set()
+    camera.join()
+    if gaps:
+        gaps_ms = np.array(gaps) / 1e6
+        render = np.array(camera.render_ms[1:] or [math.nan])
+        print(f"mujoco_driver: {tick} ticks, {len(camera.render_ms)} frames; joint state gap p50/p99/max "
+              f"{np.median(gaps_ms):.2f}/{np.percentile(gaps_ms, 99):.2f}/{gaps_ms.max():.2f} ms; render "
+              f"mean/max {render.mean():.1f}/{render.max():.1f} ms", file=sys.stderr)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

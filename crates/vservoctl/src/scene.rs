@@ -1,0 +1,83 @@
+//! `vservoctl scene`: the cell a configuration describes, as one JSON object, for drivers and simulators
+//! written outside this repository (the MuJoCo reference driver builds its model from it): the arm's
+//! standard-DH table and limits, the joints the scenario starts at, the camera on the hand and its
+//! intrinsics, the board with its marks and where it stands, the periods and the robot driver's settings.
+
+use anyhow::Result;
+use clap::Args;
+use serde_json::{Value, json};
+use vservo_cell::Cell;
+use vservo_scene::IsometryMatrix3;
+
+use crate::UsageError;
+use crate::config_arg::ConfigArg;
+use crate::output::print_stdout;
+
+/// Arguments of `vservoctl scene`.
+#[derive(Args)]
+pub struct SceneArgs {
+    #[command(flatten)]
+    config: ConfigArg,
+}
+
+/// A pose as a 4×4 homogeneous matrix, row by row.
+fn matrix4(pose: &IsometryMatrix3<f64>) -> Value {
+    let m = pose.to_homogeneous();
+    Value::from((0..4).map(|r| (0..4).map(|c| m[(r, c)]).collect::<Vec<f64>>()).collect::<Vec<_>>())
+}
+
+/// Runs the command.
+pub fn run(args: &SceneArgs) -> Result<()> {
+    let config = args.config.load()?;
+    let cell = Cell::new(&config).map_err(|e| UsageError(format!("{}: {e}", config.origin)))?;
+    let arm = cell.arm();
+    let dh: Vec<Value> = arm
+        .links
+        .iter()
+        .map(|l| {
+            json!({"a_m": l.dh.a(), "alpha_rad": l.dh.alpha(), "d_m": l.dh.d(), "theta_offset_rad": l.dh.offset()})
+        })
+        .collect();
+    let limits = |f: &dyn Fn(&vservo_arm::JointLimits) -> Value| -> Vec<Value> {
+        arm.links.iter().map(|l| f(&l.limits)).collect()
+    };
+    let board = &config.board;
+    let scene = json!({
+        "instance": config.instance,
+        "arm": {
+            "name": arm.name,
+            "dh": dh,
+            "joint_limits_rad": limits(&|l| json!([l.position_min, l.position_max])),
+            "velocity_limits_rad_s": limits(&|l| json!(l.velocity_max)),
+            "torque_limits_nm": limits(&|l| json!(l.torque_max)),
+        },
+        "start_joints_rad": cell.start_joints().as_slice(),
+        "desired_joints_rad": config.desired.joints.as_slice(),
+        "desired_features_px": config.desired.features.as_slice(),
+        "tool_from_camera": matrix4(&config.tool_from_camera),
+        "base_from_board": matrix4(&config.base_from_board(arm)),
+        "camera": {
+            "focal_px": config.camera.focal_px(),
+            "principal_point_px": [config.camera.principal_point_px().x, config.camera.principal_point_px().y],
+            "width_px": config.camera.width_px(),
+            "height_px": config.camera.height_px(),
+        },
+        "board": {
+            "mark_diameter_m": board.mark_diameter_m,
+            "marks_in_board_m": board.marks_in_board.iter().map(|p| [p.x, p.y]).collect::<Vec<_>>(),
+            "extent_m": board.extent_in_board.map(|p| [p.x, p.y]),
+        },
+        "timing": {"vision_period_s": config.timing.vision_period_s},
+        "robot": {
+            "driver": match config.robot.driver {
+                vservo_config::RobotDriver::Simulated => "simulated",
+                vservo_config::RobotDriver::External => "external",
+            },
+            "command": config.command_interface().name(),
+            "period_s": config.robot.period_s,
+            "state_timeout_periods": config.robot.state_timeout_periods,
+        },
+    });
+    print_stdout(&format!("{}\n", serde_json::to_string_pretty(&scene)?))?;
+    Ok(())
+}

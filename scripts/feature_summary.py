@@ -1,0 +1,89 @@
+#!/usr/bin/env python3
+"""Summarises a run from `vservoctl echo features` JSON lines: the final feature error and the settling time.
+
+    feature_summary.py FEATURES.jsonl --desired x1,y1,...,x4,y4 [--compare TRAJECTORY.csv]
+
+Per frame the error is the largest distance of a mark from its desired position (px; a missing mark counts
+as not settled). The settling time is the capture time, from the first frame's, of the frame after the last
+one whose error is 1 px or more. --compare takes a lockstep features.csv (`vservoctl sim --out DIR`:
+t_s, x1, y1, …) and adds the RMS difference of the two trajectories, frame by frame in time.
+Prints one JSON object.
+"""
+
+import argparse
+import csv
+import json
+import math
+import sys
+
+
+def read_frames(path):
+    frames = []
+    with open(path) as f:
+        for line in f:
+            line = line.strip()
+            if not line:
+                continue
+            m = json.loads(line)
+            xi = [math.nan if v is None else v for v in m["features_px"]]
+            frames.append((m["capture_stamp_ns"], xi))
+    frames.sort()
+    return frames
+
+
+def frame_error(xi, desired):
+    worst = 0.0
+    for k in range(4):
+        dx, dy = xi[2 * k] - desired[2 * k], xi[2 * k + 1] - desired[2 * k + 1]
+        d = math.hypot(dx, dy)
+        if math.isnan(d):
+            return math.nan
+        worst = max(worst, d)
+    return worst
+
+
+def main():
+    parser = argparse.ArgumentParser()
+    parser.add_argument("features")
+    parser.add_argument("--desired", required=True)
+    parser.add_argument("--compare")
+    args = parser.parse_args()
+    desired = [float(v) for v in args.desired.split(",")]
+    frames = read_frames(args.features)
+    if not frames:
+        print(json.dumps({"error": "no features recorded"}))
+        return 1
+    t0 = frames[0][0]
+    times = [(stamp - t0) / 1e9 for stamp, _ in frames]
+    errors = [frame_error(xi, desired) for _, xi in frames]
+    last_bad = max((i for i, e in enumerate(errors) if math.isnan(e) or e >= 1.0), default=None)
+    if last_bad is None:
+        settling = 0.0
+    elif last_bad + 1 < len(frames):
+        settling = times[last_bad + 1]
+    else:
+        settling = None
+    summary = {
+        "frames": len(frames),
+        "duration_s": times[-1],
+        "initial_error_px": errors[0],
+        "final_error_px": errors[-1],
+        "settling_time_s": settling,
+    }
+    if args.compare:
+        with open(args.compare) as f:
+            rows = [[float(v) if v else math.nan for v in row] for row in list(csv.reader(f))[1:]]
+        reference_times = [row[0] for row in rows]
+        diffs = []
+        for t, (_, xi) in zip(times, frames):
+            j = min(range(len(rows)), key=lambda j: abs(reference_times[j] - t))
+            if abs(reference_times[j] - t) > 0.05 or any(math.isnan(v) for v in xi):
+                continue
+            diffs.extend((a - b) ** 2 for a, b in zip(xi, rows[j][1:9]))
+        summary["rms_difference_px"] = math.sqrt(sum(diffs) / len(diffs)) if diffs else None
+    print(json.dumps(summary))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

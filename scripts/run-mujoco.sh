@@ -1,0 +1,81 @@
+#!/usr/bin/env bash
+# vservod with an external robot and camera: the MuJoCo reference driver (clients/python/mujoco_driver.py)
+# simulates the PUMA 560 and the board in MuJoCo, takes vservo's joint velocity commands and publishes joint
+# states and rendered camera frames over the driver contract of docs/DRIVERS.md. Runs the paper's
+# translation step (config/mujoco.toml) for --duration-s seconds (default 20), then stops both and prints the
+# final feature error and the settling time; with --json the last line is one JSON object
+# (final_error_px, settling_time_s, …). Logs and the recorded features are left in target/mujoco-run/.
+#
+#   scripts/run-mujoco.sh [--duration-s S] [--json] [--compare]
+#
+# --compare also runs the built-in simulation (vservoctl sim, same cell) and adds the RMS difference of the
+# two feature trajectories.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+duration=20
+json=0
+compare=0
+while [ $# -gt 0 ]; do
+    case "$1" in
+        --duration-s) duration="$2"; shift 2 ;;
+        --duration-s=*) duration="${1#*=}"; shift ;;
+        --json) json=1; shift ;;
+        --compare) compare=1; shift ;;
+        *) echo "run-mujoco: unknown argument $1 (expected --duration-s S, --json, --compare)" >&2; exit 2 ;;
+    esac
+done
+say() { [ "$json" = 1 ] && echo "$*" >&2 || echo "$*"; }
+
+scripts/setup.sh >&2
+scripts/setup-mujoco.sh >&2
+# VSERVO_BIN_DIR: binaries already built (the integration test passes its own); else a release build
+bin="${VSERVO_BIN_DIR:-}"
+if [ -z "$bin" ]; then
+    cargo build --release --locked -q -p vservod -p vservoctl >&2
+    bin=./target/release
+fi
+config=config/mujoco.toml
+instance=mujoco
+out=target/mujoco-run
+rm -rf "$out"
+mkdir -p "$out"
+python=target/python-venv/bin/python
+vservoctl="$bin/vservoctl"
+
+"$vservoctl" scene --config "$config" > "$out/scene.json"
+desired="$("$python" -c 'import json,sys; print(",".join(str(v) for v in json.load(sys.stdin)["desired_features_px"]))' < "$out/scene.json")"
+
+pids=()
+cleanup() {
+    for pid in "${pids[@]}"; do kill -TERM "$pid" 2>/dev/null || true; done
+    sleep 1
+    for pid in "${pids[@]}"; do kill -KILL "$pid" 2>/dev/null || true; done
+}
+trap cleanup EXIT
+
+"$bin/vservod" --config "$config" > "$out/vservod.log" 2>&1 &
+pids+=($!)
+"$python" clients/python/mujoco_driver.py --scene "$out/scene.json" --instance "$instance" --fifo-priority 50 \
+    > "$out/driver.log" 2>&1 &
+driver=$!
+pids+=("$driver")
+# the features from the first frame on
+"$vservoctl" echo features --instance "$instance" --duration-s "$duration" > "$out/features.jsonl" &
+echo_pid=$!
+pids+=("$echo_pid")
+say "run-mujoco: vservod and the MuJoCo driver run; recording $duration s of features (logs in $out/)"
+wait "$echo_pid" || true
+"$vservoctl" status --instance "$instance" > "$out/status.txt" 2>&1 || true
+cleanup
+trap - EXIT
+
+summary="$("$python" scripts/feature_summary.py "$out/features.jsonl" --desired "$desired")"
+if [ "$compare" = 1 ]; then
+    "$vservoctl" sim --config config/vservo.toml --duration "$duration" --out "$out/lockstep" >&2
+    summary="$("$python" scripts/feature_summary.py "$out/features.jsonl" --desired "$desired" \
+        --compare "$out/lockstep/features.csv")"
+fi
+say "$(cat "$out/status.txt" 2>/dev/null | head -3)"
+say "run-mujoco: $summary"
+[ "$json" = 1 ] && echo "$summary"
+exit 0

@@ -1,0 +1,125 @@
+//! The driver contract (docs/DRIVERS.md) proved with an arm and a camera nobody on this project wrote:
+//! MuJoCo's physics and renderer behind clients/python/mujoco_driver.py, with vservod on
+//! config/mujoco.toml (robot.driver = "external", camera.source = "external").
+
+use std::path::PathBuf;
+use std::process::{Command, Stdio};
+use std::time::{Duration, Instant};
+
+use nix::sys::signal::Signal;
+use serde_json::Value;
+use vservo_system_tests::{
+    Daemon, Killed, binary, config_from, exclusive, repository_root, run, status, unique, wait_until,
+};
+
+fn python() -> PathBuf {
+    let interpreter = repository_root().join("target/python-venv/bin/python");
+    assert!(interpreter.exists(), "{}: scripts/setup.sh makes it", interpreter.display());
+    interpreter
+}
+
+/// `scripts/run-mujoco.sh --json`, the README's way to try it, with this test run's binaries.
+#[test]
+fn run_mujoco_converges_below_one_pixel() {
+    let _one = exclusive();
+    let bin_dir = binary("vservod").parent().expect("target/<profile>").to_path_buf();
+    let out = Command::new(repository_root().join("scripts/run-mujoco.sh"))
+        .args(["--duration-s", "15", "--json"])
+        .env("VSERVO_BIN_DIR", &bin_dir)
+        .stdin(Stdio::null())
+        .output()
+        .expect("run-mujoco.sh runs");
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stdout}\n{stderr}");
+    let last = stdout.lines().last().expect("a JSON line");
+    let summary: Value = serde_json::from_str(last).expect("the last line is JSON");
+    println!("{summary}");
+    let final_error = summary["final_error_px"].as_f64().expect("final_error_px");
+    assert!(final_error < 1.0, "{summary}\n{stderr}");
+    assert!(summary["settling_time_s"].as_f64().is_some(), "{summary}");
+}
+
+/// The driver started on its own, as a user runs it.
+fn start_driver(scene: &std::path::Path, instance: &str) -> Killed {
+    let log = scene.with_extension(format!("driver-{}.log", std::process::id()));
+    let child = Command::new(python())
+        .arg(repository_root().join("clients/python/mujoco_driver.py"))
+        .args(["--scene", &scene.display().to_string(), "--instance", instance, "--fifo-priority", "50"])
+        .stdin(Stdio::null())
+        .stdout(Stdio::null())
+        .stderr(std::fs::File::create(log).expect("driver log"))
+        .spawn()
+        .expect("the MuJoCo driver starts");
+    Killed(child)
+}
+
+fn robot(instance: &str) -> String {
+    status(instance).map_or_else(String::new, |s| s["robot"].as_str().unwrap_or_default().to_string())
+}
+
+fn converged(instance: &str) -> bool {
+    status(instance)
+        .is_some_and(|s| s["robot"] == "running" && s["feature_error_px"].as_f64().is_some_and(|e| e < 1.0))
+}
+
+/// Joint commands the rmrc publishes over `seconds`.
+fn commands_in(instance: &str, seconds: f64) -> usize {
+    let out = run(
+        "vservoctl",
+        &["echo", "joint_command", "--instance", instance, "--duration-s", &seconds.to_string()],
+    );
+    String::from_utf8_lossy(&out.stdout).lines().count()
+}
+
+#[test]
+fn a_stalled_or_killed_driver_is_detected_nothing_is_commanded_and_the_loop_converges_again() {
+    let _one = exclusive();
+    let instance = unique("mujoco-stall");
+    let config =
+        config_from("config/mujoco.toml", &[("name = \"mujoco\"", &format!("name = \"{instance}\""))]);
+    let scene = config.path.with_extension("scene.json");
+    let out = run("vservoctl", &["scene", "--config", &config.arg()]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    std::fs::write(&scene, &out.stdout).expect("scene file");
+    let daemon = Daemon::start(&config);
+    assert!(wait_until(Duration::from_secs(10), || robot(&instance) == "waiting"), "{}", daemon.log());
+    let driver = start_driver(&scene, &instance);
+    assert!(
+        wait_until(Duration::from_secs(40), || converged(&instance)),
+        "{:?}\n{}",
+        status(&instance),
+        daemon.log()
+    );
+    assert!(commands_in(&instance, 0.3) > 100, "the rmrc answers every joint state");
+
+    // SIGSTOP: detected within the deadline (50 ms) plus the daemon's cycle; nothing is commanded
+    driver.signal(Signal::SIGSTOP);
+    let stopped = Instant::now();
+    assert!(wait_until(Duration::from_secs(2), || robot(&instance) == "stalled"), "{}", daemon.log());
+    println!("stall reported after {:.2} s (status polled every 0.1 s)", stopped.elapsed().as_secs_f64());
+    assert_eq!(status(&instance).expect("status")["state"], "degraded");
+    assert_eq!(commands_in(&instance, 0.5), 0, "no command while the driver is gone");
+    assert!(daemon.log().contains("robot driver stalled"), "{}", daemon.log());
+    driver.signal(Signal::SIGCONT);
+    assert!(
+        wait_until(Duration::from_secs(30), || converged(&instance)),
+        "{:?}\n{}",
+        status(&instance),
+        daemon.log()
+    );
+    assert!(daemon.log().contains("robot driver back"), "{}", daemon.log());
+
+    // SIGKILL, then a new driver (a new epoch): the loop follows it from its start and converges again
+    drop(driver);
+    assert!(wait_until(Duration::from_secs(2), || robot(&instance) == "stalled"), "{}", daemon.log());
+    let _driver = start_driver(&scene, &instance);
+    assert!(
+        wait_until(Duration::from_secs(40), || converged(&instance)),
+        "{:?}\n{}",
+        status(&instance),
+        daemon.log()
+    );
+    daemon.stop();
+    let _ = std::fs::remove_file(&scene);
+}
