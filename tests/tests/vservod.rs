@@ -37,7 +37,7 @@ fn leftovers(instance: &str) -> Vec<PathBuf> {
 
 /// The latest message on each loop topic, for a failure report.
 fn last_messages(instance: &str) -> String {
-    ["features", "camera_twist", "joint_torque", "joint_state"]
+    ["features", "camera_twist", "joint_command", "joint_state"]
         .iter()
         .map(|topic| {
             let out = run(

@@ -194,9 +194,17 @@ fn a_recording_holds_every_service_in_order_and_plots() {
         let data: Value = serde_json::from_slice(&message.data).expect("JSON");
         per_topic.entry(message.channel.topic.clone()).or_default().push((message.sequence, data));
     }
-    for topic in
-        ["joint_state", "joint_torque", "features", "camera_twist", "telemetry", "status", "gains", "object"]
-    {
+    for topic in [
+        "joint_state",
+        "joint_command",
+        "sim_world",
+        "features",
+        "camera_twist",
+        "telemetry",
+        "status",
+        "gains",
+        "object",
+    ] {
         let name = format!("vservo/{instance}/{topic}");
         let messages = per_topic.get(&name).unwrap_or_else(|| panic!("no {name} in {:?}", per_topic.keys()));
         assert!(messages.windows(2).all(|w| w[1].0 == w[0].0 + 1), "{topic}: sequence numbers in order");

@@ -2,7 +2,8 @@
 //! from the latest joint state and the simulation's `sim_world`, and publishes each image on
 //! `camera_image` (so every user can see what the extractor saw). With an external camera it wakes on each
 //! frame a camera driver publishes on `camera_image`, works on it at once and stamps the features with the
-//! frame's capture time: the camera paces the loop.
+//! frame's capture time: the camera paces the loop. A frame older than one vision period on arrival is
+//! dropped and counted (it would steer the arm by where it was).
 
 use iceoryx2::port::publisher::Publisher;
 use iceoryx2::prelude::ipc;
@@ -106,12 +107,15 @@ pub fn run(context: &NodeContext) -> Result<(), RuntimeError> {
             let mut image = GrayImage::new(width, height);
             let mut previous_capture_ns = 0;
             let counters = monitor.counters();
+            // an image older than a vision period on arrival would steer the arm by where it was: dropped
+            let stale_after_ns = (config.timing.vision_period_s * 1e9).round() as u64;
             while !context.stopping() {
                 let _ = listener.timed_wait(|_| {}, IDLE_WAIT);
                 while let Ok(Some(sample)) = images.receive() {
                     let woke_at = monotonic_ns();
                     let header = *sample.user_header();
-                    if !copy_image(&header, sample.payload(), &mut image) {
+                    let stale = woke_at.saturating_sub(header.capture_stamp_ns) > stale_after_ns;
+                    if stale || !copy_image(&header, sample.payload(), &mut image) {
                         counters.rejected();
                         continue;
                     }
