@@ -47,6 +47,7 @@ def main():
     parser.add_argument("features")
     parser.add_argument("--desired", required=True)
     parser.add_argument("--compare")
+    parser.add_argument("--compare-settling", type=float, help="the compared run's settling time (s), echoed")
     args = parser.parse_args()
     desired = [float(v) for v in args.desired.split(",")]
     frames = read_frames(args.features)
@@ -81,6 +82,7 @@ def main():
                 continue
             diffs.extend((a - b) ** 2 for a, b in zip(xi, rows[j][1:9]))
         summary["rms_difference_px"] = math.sqrt(sum(diffs) / len(diffs)) if diffs else None
+        summary["compared_settling_time_s"] = args.compare_settling
     print(json.dumps(summary))
     return 0
 

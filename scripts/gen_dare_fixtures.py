@@ -2,7 +2,7 @@
 """Independent reference values for vservo-control's gain design, computed with numpy and scipy.
 
 Writes crates/vservo-control/tests/fixtures/dare_scipy.json:
-- "paper": the paper's design for the default configuration (DESIGN §5): B = T·J⁺(ξ_d, Z_d), its SVD,
+- "paper": the paper's design for the default configuration (docs/REPRODUCTION.md): B = T·J⁺(ξ_d, Z_d), its SVD,
   Q_c, the DARE solution P from scipy.linalg.solve_discrete_are, K_c and K; also the delay-augmented
   design for a one-frame delay;
 - "general": DAREs with A ≠ I (random, stabilizable), solved by scipy.

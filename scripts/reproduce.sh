@@ -12,7 +12,7 @@ for scenario in translation-step rotation-step tracking-r-identity tracking-r-fi
         echo "$scenario $law: $(tr -d '\n' < "$out/summary.json" | tr -s ' ')"
     done
 done
-# the ideal robot of DESIGN §5, for comparison
+# the ideal robot of docs/REPRODUCTION.md, for comparison
 out="docs/figures/translation-step-paper-kinematic"
 ./target/release/vservoctl sim --config config/scenarios/translation-step.toml --plant kinematic --out "$out" >/dev/null
 rm -f "$out/features.csv" "$out/joints.csv"

@@ -8,8 +8,9 @@
 #
 #   scripts/run-mujoco.sh [--duration-s S] [--json] [--compare]
 #
-# --compare also runs the built-in simulation (vservoctl sim, same cell) and adds the RMS difference of the
-# two feature trajectories.
+# --compare also runs the built-in simulation of the same cell in the lockstep simulator (vservoctl sim on
+# config/vservo.toml with the MuJoCo cell's pipeline delay: none, as MuJoCo's frames reach the servo within a
+# frame) and adds its settling time and the RMS difference of the two feature trajectories.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 duration=20
@@ -71,9 +72,13 @@ trap - EXIT
 
 summary="$("$python" scripts/feature_summary.py "$out/features.jsonl" --desired "$desired")"
 if [ "$compare" = 1 ]; then
-    "$vservoctl" sim --config config/vservo.toml --duration "$duration" --out "$out/lockstep" >&2
+    delay="$(sed -n 's/^pipeline_delay_frames = //p' "$config")"
+    sed "s/^pipeline_delay_frames = .*/pipeline_delay_frames = ${delay}/" config/vservo.toml > "$out/lockstep.toml"
+    "$vservoctl" sim --config "$out/lockstep.toml" --duration "$duration" --out "$out/lockstep" >&2
     summary="$("$python" scripts/feature_summary.py "$out/features.jsonl" --desired "$desired" \
-        --compare "$out/lockstep/features.csv")"
+        --compare "$out/lockstep/features.csv" \
+        --compare-settling "$("$python" -c 'import json,sys; print(json.load(sys.stdin)["settling_time_s"])' \
+            < "$out/lockstep/summary.json")")"
 fi
 say "$(cat "$out/status.txt" 2>/dev/null | head -3)"
 say "run-mujoco: $summary"

@@ -153,7 +153,7 @@ fn the_daemon_runs_the_translation_step_like_the_lockstep_simulator() {
     let rms_px = (sum / n as f64).sqrt();
     let last = runtime.last().expect("frames");
     let final_error_px = (0..8).map(|k| (last.1[k] - lockstep[0].1[k]).abs()).fold(0.0, f64::max);
-    // ξ_d of the default configuration (DESIGN §5)
+    // ξ_d of the default configuration (docs/REPRODUCTION.md)
     let desired = [151.0, 168.0, 318.0, 178.0, 339.0, 75.0, 172.0, 70.0];
     let final_to_desired = (0..8).map(|k| (last.1[k] - desired[k]).abs()).fold(0.0, f64::max);
     eprintln!(

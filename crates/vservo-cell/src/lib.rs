@@ -1,6 +1,6 @@
 //! # vservo-cell — the four components of the cell, as step functions both shells run
 //!
-//! This crate owns the wiring of the pure components into the four stages of DESIGN §1, each built from
+//! This crate owns the wiring of the pure components into the four stages of the loop (docs/ARCHITECTURE.md), each built from
 //! one [`Config`] by a [`Cell`]:
 //!
 //! - [`PlantStage`]: the simulated arm and its world (the board's motion); one call per 1 ms tick;

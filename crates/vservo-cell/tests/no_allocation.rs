@@ -1,4 +1,4 @@
-//! The per-tick and per-frame paths of the stages do not allocate (DESIGN §2): counted by a global
+//! The per-tick and per-frame paths of the stages do not allocate (docs/ARCHITECTURE.md): counted by a global
 //! allocator that wraps the system's and counts, per thread, the allocations made.
 #![allow(unsafe_code)] // a GlobalAlloc can only be implemented unsafely; it only delegates to System
 

@@ -22,7 +22,7 @@ fn default_config_gives_the_papers_desired_features_and_camera_direction() {
     }
     assert_eq!(config.timing.control_ticks_per_frame, 85);
     assert_eq!(config.instance, "default");
-    // at q_d the camera looks along world +x with image y down (DESIGN §5)
+    // at q_d the camera looks along world +x with image y down (docs/REPRODUCTION.md)
     let arm = vservo_arm::puma560::puma560();
     let base_from_camera = arm.base_from_tool(&config.desired.joints) * config.tool_from_camera;
     let rotation = base_from_camera.rotation.matrix();

@@ -1,6 +1,6 @@
 //! The discrete algebraic Riccati equation P = AᵀPA − AᵀPB(R + BᵀPB)⁻¹BᵀPA + Q.
 //!
-//! - [`solve_identity`]: the closed form for A = I and a square, non-singular B (DESIGN §6), which the
+//! - [`solve_identity`]: the closed form for A = I and a square, non-singular B, which the
 //!   paper's design needs on its controllable modes. With R = LLᵀ, M = BᵀQB, M̃ = L⁻¹ML⁻ᵀ = VΛVᵀ:
 //!   X̃ = V·diag((λ + √(λ² + 4λ))/2)·Vᵀ, X = LX̃Lᵀ = BᵀPB, P = B⁻ᵀXB⁻¹, K = (R + X)⁻¹XB⁻¹.
 //! - [`solve`]: any A, by the structure-preserving doubling algorithm (Chu, Fan & Lin 2005), for the

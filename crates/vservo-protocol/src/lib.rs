@@ -1,7 +1,7 @@
 //! # vservo-protocol — the wire format
 //!
 //! This crate owns what crosses process boundaries: the iceoryx2 services of one vservo instance
-//! (`vservo/<instance>/<service>`, DESIGN §4), their fixed-size `#[repr(C)]` payloads with a schema version,
+//! (`vservo/<instance>/<service>`, docs/PROTOCOL.md), their fixed-size `#[repr(C)]` payloads with a schema version,
 //! and the one function every participant uses to open each service with the same settings. A client in
 //! another language follows docs/PROTOCOL.md, which documents the same names, type names and offsets.
 

@@ -29,7 +29,7 @@ pub struct Wake {
     pub deadline_ns: u64,
     /// How late after it the thread ran (ns).
     pub lateness_ns: u64,
-    /// Whole periods that had already passed: skipped, not replayed (DESIGN §7).
+    /// Whole periods that had already passed: skipped, not replayed (docs/ARCHITECTURE.md).
     pub skipped_periods: u64,
 }
 

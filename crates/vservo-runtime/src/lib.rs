@@ -1,6 +1,6 @@
 //! # vservo-runtime — the real-time shell
 //!
-//! This crate owns the four node loops of the real-time shell (DESIGN §1, §2, §7): each runs one stage of
+//! This crate owns the four node loops of the real-time shell (docs/ARCHITECTURE.md): each runs one stage of
 //! [`vservo_cell`] in its own process and talks to the others over iceoryx2 ([`vservo_protocol`]).
 //!
 //! - [`nodes::plant`] paces the 1 ms tick on absolute CLOCK_MONOTONIC deadlines, publishes `joint_state`

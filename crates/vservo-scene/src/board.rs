@@ -18,7 +18,7 @@ pub struct Board {
 }
 
 impl Board {
-    /// The paper's board (DESIGN §5): marks placed so that, 0.5 m fronto-parallel in front of the paper's
+    /// The paper's board (docs/REPRODUCTION.md): marks placed so that, 0.5 m fronto-parallel in front of the paper's
     /// camera, they image exactly at ξ_d = [151, 168, 318, 178, 339, 75, 172, 70] px; 15 mm discs.
     pub fn paper() -> Board {
         let mark = |u: f64, v: f64| Point3::new((u - 256.0) * 0.5 / 500.0, (v - 256.0) * 0.5 / 500.0, 0.0);

@@ -60,7 +60,7 @@ impl CameraIntrinsics {
         Ok(Self { focal_px, principal_point_px, width_px, height_px })
     }
 
-    /// The paper's camera (DESIGN §5): 512 × 512 px, f = 500 px, principal point (256, 256).
+    /// The paper's camera (docs/REPRODUCTION.md): 512 × 512 px, f = 500 px, principal point (256, 256).
     pub fn paper() -> Self {
         Self { focal_px: 500.0, principal_point_px: Point2::new(256.0, 256.0), width_px: 512, height_px: 512 }
     }

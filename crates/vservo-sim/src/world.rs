@@ -15,7 +15,7 @@ pub enum ObjectMotion {
         translation_m: Vector3<f64>,
     },
     /// A circle of `radius_m` in the desired camera frame's y–z plane, at `rev_per_min`, starting where the
-    /// desired pose puts it: p(t) = p₀ + r·[sin ωt · y + (cos ωt − 1) · z] (DESIGN §5).
+    /// desired pose puts it: p(t) = p₀ + r·[sin ωt · y + (cos ωt − 1) · z] (docs/REPRODUCTION.md).
     Circle {
         /// Radius (m).
         radius_m: f64,

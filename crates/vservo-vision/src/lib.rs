@@ -13,7 +13,7 @@
 //!   images).
 //!
 //! Pixel convention: pixel (u, v) covers [u, u+1) × [v, v+1) in image coordinates, so its centre is
-//! (u + ½, v + ½); a point projected to (x, y) (DESIGN §3) lands in pixel (⌊x⌋, ⌊y⌋).
+//! (u + ½, v + ½); a point projected to (x, y) (docs/ARCHITECTURE.md, Conventions) lands in pixel (⌊x⌋, ⌊y⌋).
 //!
 //! The per-frame paths (`Renderer::render`, `Extractor::extract`) do not allocate: buffers are sized once
 //! for the configured image.

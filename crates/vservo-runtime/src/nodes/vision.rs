@@ -243,7 +243,7 @@ fn run_simulated_camera(
 }
 
 /// Publishes an image on `camera_image` (one copy into shared memory; subscribers read it in place).
-fn publish_image(
+pub fn publish_image(
     publisher: &Publisher<ipc::Service, [u8], CameraImageHeader>,
     image: &GrayImage,
     frame: u64,
