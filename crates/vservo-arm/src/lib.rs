@@ -10,7 +10,8 @@
 //! - forward kinematics: every link frame and `base_from_tool` ([`SerialArm::link_frames`],
 //!   [`SerialArm::base_from_tool`]);
 //! - the geometric Jacobian in the base and tool frames, rows `[v; ω]`, and Yoshikawa's manipulability;
-//! - the PUMA 560's closed-form inverse kinematics, all eight solutions ([`ik`]);
+//! - the PUMA 560's closed-form inverse kinematics, all eight solutions ([`ik`]), and for any other
+//!   geometry a numerical solution near a seed ([`reach`]);
 //! - rigid-body dynamics: recursive Newton–Euler, mass matrix (composite rigid body algorithm), gravity
 //!   torque, the Coriolis matrix, forward dynamics ([`dynamics`]);
 //! - motor armature inertia and friction as a separate term ([`Drive`]), in the toolbox convention
@@ -37,6 +38,7 @@ pub mod kinematics;
 pub mod limits;
 pub mod link;
 pub mod puma560;
+pub mod reach;
 
 pub use drive::Drive;
 pub use dynamics::DynamicsError;
@@ -67,6 +69,26 @@ pub struct SerialArm {
 }
 
 impl SerialArm {
+    /// An arm known by its kinematics only: a standard-DH table and joint limits, no mass and no drive
+    /// model (what a velocity- or position-commanded arm needs: forward kinematics, Jacobians, reach).
+    pub fn kinematic(name: &'static str, dh: [DhParameters; JOINTS], limits: [JointLimits; JOINTS]) -> Self {
+        let massless = LinkInertia {
+            mass_kg: 0.0,
+            com_in_link: Vector3::zeros(),
+            inertia_about_com: nalgebra::Matrix3::zeros(),
+        };
+        Self {
+            name,
+            links: std::array::from_fn(|j| Link {
+                dh: dh[j],
+                inertia: massless,
+                drive: Drive::NONE,
+                limits: limits[j],
+            }),
+            gravity_in_base: Vector3::new(0.0, 0.0, -9.81),
+        }
+    }
+
     /// The joint limits, one per joint.
     pub fn limits(&self) -> [JointLimits; JOINTS] {
         self.links.map(|link| link.limits)

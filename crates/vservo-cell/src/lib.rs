@@ -24,7 +24,7 @@ pub use vision_stage::{DeliveredFrame, VisionFrame, VisionStage};
 pub use vservo_config::CommandInterface;
 
 use nalgebra::{Rotation3, Translation3};
-use vservo_arm::{JointVector, SerialArm, puma560};
+use vservo_arm::{JointVector, SerialArm};
 use vservo_config::{Config, RobotDriver};
 use vservo_control::Gains;
 use vservo_scene::IsometryMatrix3;
@@ -81,7 +81,7 @@ impl Cell {
     /// Designs the gains and places the arm at the scenario's starting camera pose by inverse kinematics
     /// (the solution nearest the desired joints; the simulated driver starts there).
     pub fn new(config: &Config) -> Result<Self, CellError> {
-        let arm = puma560::puma560();
+        let arm = config.arm.clone();
         let gains = Gains::design(&config.gains_spec())?;
         let base_from_desired_camera = arm.base_from_tool(&config.desired.joints) * config.tool_from_camera;
         let base_from_board_desired = config.base_from_board(&arm);
@@ -92,8 +92,8 @@ impl Cell {
         );
         let base_from_tool_start =
             base_from_desired_camera * displacement * config.tool_from_camera.inverse();
-        let solutions = arm.inverse_kinematics(&base_from_tool_start).map_err(|_| CellError::Unreachable)?;
-        let start_joints = solutions.nearest(&arm, &config.desired.joints).ok_or(CellError::Unreachable)?.q;
+        let start_joints =
+            arm.reach(&base_from_tool_start, &config.desired.joints).ok_or(CellError::Unreachable)?;
         Ok(Self {
             config: config.clone(),
             arm,

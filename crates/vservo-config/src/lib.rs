@@ -58,6 +58,8 @@ pub struct Config {
     pub runtime: Runtime,
     /// `[robot]`: the robot driver and the command it takes.
     pub robot: Robot,
+    /// `[robot.arm]`: the arm's model (the PUMA 560 by default; a custom arm's DH table and limits).
+    pub arm: vservo_arm::SerialArm,
 }
 
 /// `[robot]`: which process drives the arm and how it is commanded. Optional in the file: the simulated

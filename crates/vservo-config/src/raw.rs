@@ -29,11 +29,33 @@ pub struct RawRobot {
     pub command: Option<String>,
     pub period_s: Option<f64>,
     pub state_timeout_periods: i64,
+    pub arm: RawArm,
 }
 
 impl Default for RawRobot {
     fn default() -> Self {
-        Self { driver: "simulated".into(), command: None, period_s: None, state_timeout_periods: 50 }
+        Self {
+            driver: "simulated".into(),
+            command: None,
+            period_s: None,
+            state_timeout_periods: 50,
+            arm: RawArm::default(),
+        }
+    }
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct RawArm {
+    pub preset: String,
+    pub dh: Option<Vec<[f64; 4]>>,
+    pub joint_limits_rad: Option<Vec<[f64; 2]>>,
+    pub velocity_limits_rad_s: Option<Vec<f64>>,
+}
+
+impl Default for RawArm {
+    fn default() -> Self {
+        Self { preset: "puma560".into(), dh: None, joint_limits_rad: None, velocity_limits_rad_s: None }
     }
 }
 

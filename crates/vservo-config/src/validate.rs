@@ -225,9 +225,9 @@ pub fn validate(raw: RawConfig, file: &str) -> Result<Config, ConfigError> {
         ));
     }
     let joints = JointVector::from_column_slice(&d.joints_rad);
-    let arm = puma560::puma560();
+    let arm = validate_arm(&check, &raw.robot.arm)?;
     arm.check_positions(&joints).map_err(|v| {
-        check.invalid(joints_key, format!("{:?}", d.joints_rad), format!("{v} (the PUMA 560's range)"))
+        check.invalid(joints_key, format!("{:?}", d.joints_rad), format!("{v} (the {}'s range)", arm.name))
     })?;
     let camera_from_board = check.pose("desired.camera_from_board", &d.camera_from_board)?;
     let (features, depths) = camera.project_marks_with_depths(&board, &camera_from_board).map_err(|e| {
@@ -276,6 +276,13 @@ pub fn validate(raw: RawConfig, file: &str) -> Result<Config, ConfigError> {
     let vision = validate_vision(&check, &raw.vision, source)?;
     let (plant, interpolator, joint_servo, scenario) = validate_simulation(&check, &raw, &timing)?;
     let robot = validate_robot(&check, &raw.robot, &plant, &timing)?;
+    if robot.driver == RobotDriver::Simulated && raw.robot.arm.preset != "puma560" {
+        return Err(check.invalid(
+            "robot.arm.preset",
+            format!("{:?}", raw.robot.arm.preset),
+            "the simulated driver simulates the PUMA 560's dynamics only; a custom arm needs robot.driver = \"external\"",
+        ));
+    }
     if vision.source == VisionSource::Simulated && robot.driver == RobotDriver::External {
         return Err(check.invalid(
             "camera.source",
@@ -300,6 +307,7 @@ pub fn validate(raw: RawConfig, file: &str) -> Result<Config, ConfigError> {
         scenario,
         runtime: validate_runtime(&check, &raw.runtime)?,
         robot,
+        arm,
     })
 }
 
@@ -495,6 +503,99 @@ fn validate_camera_source(check: &Checker, c: &crate::raw::RawCamera) -> Result<
             ));
         }
     })
+}
+
+/// `[robot.arm]`: the built-in PUMA 560 (`preset = "puma560"`, the default: kinematics, dynamics, limits
+/// of the Robotics Toolbox's model) or a standard-DH table of the user's (`preset = "custom"`: kinematics
+/// and limits only, for a velocity- or position-commanded arm).
+fn validate_arm(check: &Checker, a: &crate::raw::RawArm) -> Result<vservo_arm::SerialArm, ConfigError> {
+    use vservo_arm::{DhParameters, JointLimits, SerialArm};
+    let given = [
+        ("robot.arm.dh", a.dh.is_some()),
+        ("robot.arm.joint_limits_rad", a.joint_limits_rad.is_some()),
+        ("robot.arm.velocity_limits_rad_s", a.velocity_limits_rad_s.is_some()),
+    ];
+    match a.preset.as_str() {
+        "puma560" => {
+            if let Some((key, _)) = given.iter().find(|(_, is)| *is) {
+                return Err(check.invalid(
+                    key,
+                    "(given)",
+                    "the preset \"puma560\" has its own table; set robot.arm.preset = \"custom\" to give one",
+                ));
+            }
+            Ok(puma560::puma560())
+        }
+        "custom" => {
+            let six = |key: &str, n: Option<usize>| match n {
+                Some(6) => Ok(()),
+                Some(n) => Err(check.invalid(key, format!("{n} rows"), "must list the 6 joints")),
+                None => Err(check.invalid(key, "(missing)", "a custom arm must give it")),
+            };
+            six("robot.arm.dh", a.dh.as_ref().map(Vec::len))?;
+            six("robot.arm.joint_limits_rad", a.joint_limits_rad.as_ref().map(Vec::len))?;
+            six("robot.arm.velocity_limits_rad_s", a.velocity_limits_rad_s.as_ref().map(Vec::len))?;
+            let (Some(dh), Some(positions), Some(velocities)) =
+                (&a.dh, &a.joint_limits_rad, &a.velocity_limits_rad_s)
+            else {
+                return Err(check.invalid(
+                    "robot.arm",
+                    "(incomplete)",
+                    "a custom arm needs dh, joint_limits_rad and velocity_limits_rad_s",
+                ));
+            };
+            let mut rows = [DhParameters::new(0.0, 0.0, 0.0, 0.0); 6];
+            let mut limits = [JointLimits {
+                position_min: 0.0,
+                position_max: 0.0,
+                velocity_max: 0.0,
+                torque_max: f64::INFINITY,
+            }; 6];
+            for j in 0..6 {
+                let [a_m, alpha, d_m, offset] = check.finite("robot.arm.dh", dh[j])?;
+                if a_m.abs() > 10.0
+                    || d_m.abs() > 10.0
+                    || alpha.abs() > std::f64::consts::TAU
+                    || offset.abs() > std::f64::consts::TAU
+                {
+                    return Err(check.invalid(
+                        "robot.arm.dh",
+                        format!("{:?}", dh[j]),
+                        format!("joint {}: a and d must be within ±10 m, α and the offset within ±2π", j + 1),
+                    ));
+                }
+                rows[j] = DhParameters::new(a_m, alpha, d_m, offset);
+                let [low, high] = check.finite("robot.arm.joint_limits_rad", positions[j])?;
+                if low >= high || high - low > 4.0 * std::f64::consts::TAU {
+                    return Err(check.invalid(
+                        "robot.arm.joint_limits_rad",
+                        format!("{:?}", positions[j]),
+                        format!("joint {}: must be [lowest, highest] with lowest < highest, at most 4 turns apart", j + 1),
+                    ));
+                }
+                let speed = velocities[j];
+                if !(speed.is_finite() && speed > 0.0 && speed <= 100.0) {
+                    return Err(check.invalid(
+                        "robot.arm.velocity_limits_rad_s",
+                        speed,
+                        format!("joint {}: must be a positive speed up to 100 rad/s", j + 1),
+                    ));
+                }
+                limits[j] = JointLimits {
+                    position_min: low,
+                    position_max: high,
+                    velocity_max: speed,
+                    torque_max: f64::INFINITY,
+                };
+            }
+            Ok(SerialArm::kinematic("custom arm", rows, limits))
+        }
+        other => Err(check.invalid(
+            "robot.arm.preset",
+            format!("{other:?}"),
+            "must be \"puma560\" (built in) or \"custom\" (a DH table in robot.arm.dh)",
+        )),
+    }
 }
 
 /// `[robot]`: which driver, the command it takes, its period and deadline. The simulated driver's command

@@ -170,3 +170,41 @@ fn the_mujoco_cell_declares_an_external_velocity_driver_and_camera() {
     default.plant.mode = vservo_sim::plant::PlantMode::Kinematic;
     assert_eq!(default.command_interface(), vservo_config::CommandInterface::Position);
 }
+
+/// A custom arm (a UR5's published standard-DH table) with an external velocity driver: kinematics from
+/// the file, reach by the numerical solution; the simulated driver refuses it.
+#[test]
+fn a_custom_arm_is_taken_from_its_dh_table() {
+    let custom = "preset = \"custom\"\n\
+        dh = [[0.0, 1.5707963267948966, 0.089159, 0.0], [-0.425, 0.0, 0.0, 0.0], [-0.39225, 0.0, 0.0, 0.0], \
+              [0.0, 1.5707963267948966, 0.10915, 0.0], [0.0, -1.5707963267948966, 0.09465, 0.0], [0.0, 0.0, 0.0823, 0.0]]\n\
+        joint_limits_rad = [[-6.28, 6.28], [-6.28, 6.28], [-3.1, 3.1], [-6.28, 6.28], [-6.28, 6.28], [-6.28, 6.28]]\n\
+        velocity_limits_rad_s = [3.0, 3.0, 3.0, 3.0, 3.0, 3.2]";
+    let external = with("preset = \"puma560\"", custom)
+        .replacen("source = \"simulated\"", "source = \"external\"", 1)
+        .replacen("driver = \"simulated\"", "driver = \"external\"\ncommand = \"velocity\"", 1)
+        .replacen(
+            "joints_rad = [0.0, 0.7853981633974483, -3.141592653589793, 0.0, 0.7853981633974483, 0.0]",
+            "joints_rad = [0.0, -1.2, 1.5, -0.3, 1.57, 0.0]",
+            1,
+        );
+    let config = Config::from_toml(&external, "test.toml").expect("a custom arm with an external driver");
+    assert_eq!(config.arm.name, "custom arm");
+    assert_eq!(config.arm.links[1].dh.a(), -0.425);
+    assert_eq!(config.arm.links[5].limits.velocity_max, 3.2);
+    let q = config.desired.joints + vservo_arm::JointVector::from_element(0.05);
+    let reached = config.arm.reach(&config.arm.base_from_tool(&q), &config.desired.joints).expect("reached");
+    assert!(
+        (config.arm.base_from_tool(&reached).translation.vector
+            - config.arm.base_from_tool(&q).translation.vector)
+            .norm()
+            < 1e-9
+    );
+    let simulated = with("preset = \"puma560\"", custom).replacen(
+        "joints_rad = [0.0, 0.7853981633974483, -3.141592653589793, 0.0, 0.7853981633974483, 0.0]",
+        "joints_rad = [0.0, -1.2, 1.5, -0.3, 1.57, 0.0]",
+        1,
+    );
+    let error = refused(&simulated);
+    assert_eq!(error.key(), Some("robot.arm.preset"), "{error}");
+}

@@ -7,7 +7,7 @@ use std::path::PathBuf;
 use anyhow::{Context, bail};
 use clap::Args;
 use serde_json::Value;
-use vservo_arm::{JointVector, puma560};
+use vservo_arm::JointVector;
 use vservo_control::Twist;
 use vservo_lockstep::{FrameRecord, JointRecord, Trace};
 use vservo_scene::FeatureVector;
@@ -87,7 +87,7 @@ pub fn trace_of(bytes: &[u8], config: &vservo_config::Config) -> anyhow::Result<
     let Some(&(_, first_tick, _)) = features.first() else {
         bail!("the recording holds no features: was the instance running while it recorded?");
     };
-    let arm = puma560::puma560();
+    let arm = &config.arm;
     let base_from_desired_camera = arm.base_from_tool(&config.desired.joints) * config.tool_from_camera;
     let desired_from_base = base_from_desired_camera.inverse();
     let mut frames = Vec::with_capacity(features.len());

@@ -6,7 +6,6 @@ use std::path::PathBuf;
 use anyhow::{Context, Result};
 use clap::{Args, Subcommand};
 use serde_json::json;
-use vservo_arm::puma560;
 use vservo_vision::extract::{Extractor, Prediction};
 use vservo_vision::source::read_gray_image;
 use vservo_vision::{MarkStatus, Renderer};
@@ -67,16 +66,16 @@ pub fn run(args: &VisionArgs) -> Result<()> {
 
 fn render(args: &RenderArgs) -> Result<()> {
     let config = args.config.load()?;
-    let arm = puma560::puma560();
+    let arm = &config.arm;
     let q = parse_joint_vector("--q", &args.q, true)?;
-    arm.check_positions(&q).map_err(|v| UsageError(format!("--q: {v} (the PUMA 560's range)")))?;
+    arm.check_positions(&q).map_err(|v| UsageError(format!("--q: {v} (the {}'s range)", arm.name)))?;
     let extension = args.out.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
     if !matches!(extension.as_deref(), Some("png" | "pgm")) {
         return Err(
             UsageError(format!("--out {}: the file must end in .png or .pgm", args.out.display())).into()
         );
     }
-    let camera_from_board = config.camera_from_board_at(&arm, &q);
+    let camera_from_board = config.camera_from_board_at(arm, &q);
     let mut renderer = Renderer::new(config.camera, config.vision.render);
     let image = renderer.render(&config.board, &camera_from_board, args.frame);
     image.save(&args.out).with_context(|| format!("writing {}", args.out.display()))?;

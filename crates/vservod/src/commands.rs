@@ -10,7 +10,7 @@ use iceoryx2::port::server::Server;
 use iceoryx2::port::update_connections::UpdateConnections;
 use iceoryx2::prelude::{Node, ipc};
 use nalgebra::Vector3;
-use vservo_arm::{JointVector, SerialArm, puma560};
+use vservo_arm::{JointVector, SerialArm};
 use vservo_config::Config;
 use vservo_control::{Gains, GainsSpec, LawGains};
 use vservo_protocol::{
@@ -67,7 +67,7 @@ impl Commander {
         let spec = config.gains_spec();
         let mut commander = Self {
             config_path: config_path.to_path_buf(),
-            arm: puma560::puma560(),
+            arm: config.arm.clone(),
             spec,
             config,
             config_text: text,
@@ -337,14 +337,10 @@ impl Commander {
         let (base_from_board, q_now) = self.board_and_joints_now(heard);
         let base_from_tool =
             base_from_board * camera_from_board.inverse() * self.config.tool_from_camera.inverse();
-        let solutions = self
-            .arm
-            .inverse_kinematics(&base_from_tool)
-            .map_err(|e| format!("target pose: out of the arm's reach ({e})"))?;
-        solutions
-            .nearest(&self.arm, &q_now)
-            .map(|_| ())
-            .ok_or_else(|| "target pose: no arm configuration inside the joint limits reaches it".to_string())
+        self.arm.reach(&base_from_tool, &q_now).map(|_| ()).ok_or_else(|| {
+            "target pose: out of the arm's reach, or no arm configuration inside the joint limits reaches it"
+                .to_string()
+        })
     }
 
     fn object(&mut self, command: &CommandMsg) -> Result<String, String> {
