@@ -183,6 +183,20 @@ fn a_recording_holds_every_service_in_order_and_plots() {
     assert!(wait_until(Duration::from_secs(10), || up(&instance)), "{}", daemon.log());
     let out = run("vservoctl", &["object", "step", "--by-m", "0,0.01,0", "--instance", &instance]);
     assert!(out.status.success());
+    // the simulated camera publishes what the extractor saw on camera_image: frames in order, the paper's
+    // camera size, a board-and-marks image (neither black nor white)
+    let images = lines(echo(&instance, "camera_image", 0.5));
+    assert!(images.len() >= 3, "{images:?}");
+    for pair in images.windows(2) {
+        assert_eq!(pair[1]["frame"].as_u64(), pair[0]["frame"].as_u64().map(|f| f + 1), "{images:?}");
+    }
+    for image in &images {
+        assert_eq!((image["width"].as_u64(), image["height"].as_u64()), (Some(512), Some(512)), "{image}");
+        assert_eq!(image["bytes"], 512 * 512);
+        assert_eq!(image["schema"], 2);
+        let mean = image["mean_gray"].as_f64().expect("a mean");
+        assert!((60.0..230.0).contains(&mean), "{image}");
+    }
     let recorded = recorder.wait_with_output().expect("the recorder ends");
     assert!(recorded.status.success(), "{}", String::from_utf8_lossy(&recorded.stderr));
     daemon.stop();

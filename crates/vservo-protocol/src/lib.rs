@@ -144,12 +144,15 @@ pub enum ProtocolError {
 }
 
 fn service_name(topic: Topic, instance: &str) -> Result<(String, ServiceName), ProtocolError> {
-    let name = topic.service_name(instance);
-    let service = ServiceName::new(&name)
-        .map_err(|e| ProtocolError::Name { name: name.clone(), reason: format!("{e:?}") })?;
-    Ok((name, service))
+    named(&topic.service_name(instance))
 }
 
+/// A service name as iceoryx2 takes it, with the text for messages.
+fn named(name: &str) -> Result<(String, ServiceName), ProtocolError> {
+    let service = ServiceName::new(name)
+        .map_err(|e| ProtocolError::Name { name: name.to_string(), reason: format!("{e:?}") })?;
+    Ok((name.to_string(), service))
+}
 fn port_error(what: &'static str, service: &str) -> impl FnOnce(String) -> ProtocolError {
     let service = service.to_string();
     move |reason| ProtocolError::Port { what, service, reason }
@@ -214,9 +217,7 @@ fn open_event_named(
     node: &Node<ipc::Service>,
     name: &str,
 ) -> Result<(String, iceoryx2::service::port_factory::event::PortFactory<ipc::Service>), ProtocolError> {
-    let name = name.to_string();
-    let service = ServiceName::new(&name)
-        .map_err(|e| ProtocolError::Name { name: name.clone(), reason: format!("{e:?}") })?;
+    let (name, service) = named(name)?;
     let factory = node
         .service_builder(&service)
         .event()
@@ -283,9 +284,7 @@ pub fn open_camera_image_service(
     iceoryx2::service::port_factory::publish_subscribe::PortFactory<ipc::Service, [u8], CameraImageHeader>,
     ProtocolError,
 > {
-    let name = format!("vservo/{instance}/{CAMERA_IMAGE_SERVICE}");
-    let service = ServiceName::new(&name)
-        .map_err(|e| ProtocolError::Name { name: name.clone(), reason: format!("{e:?}") })?;
+    let (name, service) = named(&format!("vservo/{instance}/{CAMERA_IMAGE_SERVICE}"))?;
     node.service_builder(&service)
         .publish_subscribe::<[u8]>()
         .user_header::<CameraImageHeader>()
@@ -357,9 +356,7 @@ pub fn open_command_service(
     >,
     ProtocolError,
 > {
-    let name = format!("vservo/{instance}/{COMMAND_SERVICE}");
-    let service = ServiceName::new(&name)
-        .map_err(|e| ProtocolError::Name { name: name.clone(), reason: format!("{e:?}") })?;
+    let (name, service) = named(&format!("vservo/{instance}/{COMMAND_SERVICE}"))?;
     node.service_builder(&service)
         .request_response::<CommandMsg, CommandReplyMsg>()
         .max_servers(2)

@@ -15,10 +15,11 @@ use crate::output::print_stdout;
 /// Arguments of `vservoctl echo`.
 #[derive(Args, Debug)]
 pub struct EchoArgs {
-    /// Which service: joint_state, joint_command, sim_world, features, camera_twist, telemetry, status, gains or object
-    /// (joint_state, joint_command and sim_world come at the driver's rate: a slow terminal drops samples).
-    #[arg(value_parser = topic_name)]
-    topic: Topic,
+    /// Which service: joint_state, joint_command, sim_world, features, camera_twist, telemetry, status, gains,
+    /// object, or camera_image (its header, size and mean gray level; not the pixels). joint_state,
+    /// joint_command and sim_world come at the driver's rate: a slow terminal drops samples.
+    #[arg(value_parser = service_name)]
+    service: Service,
     #[command(flatten)]
     instance: InstanceArg,
     /// Stop after this many messages.
@@ -53,16 +54,57 @@ fn echo<T: std::fmt::Debug + iceoryx2::prelude::ZeroCopySend + 'static>(
     }
 }
 
-fn topic_name(name: &str) -> Result<Topic, String> {
-    Topic::ALL.into_iter().find(|t| t.name() == name).ok_or_else(|| {
+/// A service `echo` prints.
+#[derive(Debug, Clone, Copy)]
+enum Service {
+    /// A topic with a fixed-size payload.
+    Topic(Topic),
+    /// `camera_image`: a slice with a header.
+    CameraImage,
+}
+
+fn service_name(name: &str) -> Result<Service, String> {
+    if name == vservo_protocol::CAMERA_IMAGE_SERVICE {
+        return Ok(Service::CameraImage);
+    }
+    Topic::ALL.into_iter().find(|t| t.name() == name).map(Service::Topic).ok_or_else(|| {
         let names: Vec<&str> = Topic::ALL.iter().map(|t| t.name()).collect();
-        format!("expected one of {}", names.join(", "))
+        format!("expected one of {}, {}", names.join(", "), vservo_protocol::CAMERA_IMAGE_SERVICE)
     })
+}
+
+/// `camera_image`: each frame's header, its size and its mean gray level.
+fn echo_images(connection: &Connection, args: &EchoArgs) -> anyhow::Result<()> {
+    let subscriber = vservo_protocol::camera_image_subscriber(&connection.node, &connection.instance)?;
+    let until = args.duration_s.map(|s| Instant::now() + Duration::from_secs_f64(s.max(0.0)));
+    let mut printed = 0u64;
+    loop {
+        while let Some(sample) = subscriber.receive()? {
+            let h = sample.user_header();
+            let pixels = sample.payload();
+            let mean = pixels.iter().map(|&p| f64::from(p)).sum::<f64>() / pixels.len().max(1) as f64;
+            let line = serde_json::json!({"schema": h.schema, "format": h.format, "width": h.width,
+                "height": h.height, "stride_bytes": h.stride_bytes, "frame": h.frame,
+                "capture_stamp_ns": h.capture_stamp_ns, "bytes": pixels.len(), "mean_gray": mean});
+            print_stdout(&format!("{line}\n"))?;
+            printed += 1;
+            if args.count.is_some_and(|n| printed >= n) {
+                return Ok(());
+            }
+        }
+        if until.is_some_and(|u| Instant::now() >= u) {
+            return Ok(());
+        }
+        std::thread::sleep(Duration::from_millis(1));
+    }
 }
 
 pub fn run(args: &EchoArgs) -> anyhow::Result<()> {
     let connection = Connection::open(&args.instance)?;
-    let topic = args.topic;
+    let topic = match args.service {
+        Service::Topic(topic) => topic,
+        Service::CameraImage => return echo_images(&connection, args),
+    };
     match topic {
         Topic::JointState => echo(&connection, topic, args, joint_state),
         Topic::JointCommand => echo(&connection, topic, args, joint_command),
