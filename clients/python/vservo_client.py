@@ -201,9 +201,13 @@ class Client:
         return self.request(Command(kind=OBJECT_CIRCLE, radius_m=radius_m, rev_per_min=rev_per_min))
 
     def _latest(self, service: str, payload):
-        subscriber = (
-            self.node.service_builder(self._service_name(service)).publish_subscribe(payload).open_or_create()
-        ).subscriber_builder().create()
+        # open, never create: a client that created the daemon's services with other sizes would stop the
+        # daemon from starting
+        try:
+            opened = self.node.service_builder(self._service_name(service)).publish_subscribe(payload).open()
+        except Exception as error:  # the service exists only while a daemon runs
+            raise NoAnswer(f"no vservod of instance {self.instance!r} ({error})") from error
+        subscriber = opened.subscriber_builder().create()
         deadline = time.monotonic() + self.timeout_s
         latest = None
         while time.monotonic() < deadline and latest is None:

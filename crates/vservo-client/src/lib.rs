@@ -20,6 +20,7 @@ use std::time::{Duration, Instant};
 use iceoryx2::port::client::Client as IceoryxClient;
 use iceoryx2::port::subscriber::Subscriber;
 use iceoryx2::prelude::{Node, ZeroCopySend, ipc};
+use vservo_protocol::Opening;
 pub use vservo_protocol::{
     CameraTwistMsg, CommandMsg, CommandReplyMsg, DaemonStatusMsg, FEATURES, FeaturesMsg, JointStateMsg,
     SCHEMA_VERSION, TelemetryMsg, Topic, command_kind,
@@ -82,7 +83,7 @@ impl Client {
     /// Connects to the instance named `instance` (its `[instance] name`).
     pub fn connect(instance: &str) -> Result<Self, ClientError> {
         let node = vservo_protocol::create_node(instance, &format!("client-{}", std::process::id()))?;
-        let commands = vservo_protocol::open_command_service(&node, instance)?
+        let commands = vservo_protocol::open_command_service(&node, instance, Opening::OpenOnly)?
             .client_builder()
             .create()
             .map_err(|e| transport("creating the command client")(e.to_string()))?;
@@ -182,7 +183,7 @@ impl Client {
         &self,
         topic: Topic,
     ) -> Result<Subscriber<ipc::Service, T, ()>, ClientError> {
-        Ok(vservo_protocol::subscriber::<T>(&self.node, &self.instance, topic)?)
+        Ok(vservo_protocol::client_subscriber::<T>(&self.node, &self.instance, topic)?)
     }
 
     /// The daemon's latest status, waiting up to `timeout` for it.

@@ -139,6 +139,9 @@ pub struct Runtime {
     pub hold_after_missed_ticks: u32,
     /// On SIGTERM, how long the arm may take to ramp to rest before the nodes are stopped anyway (s).
     pub stop_timeout_s: f64,
+    /// A node whose loop shows no progress (no telemetry; the plant: no new tick) for this long is hung: it is
+    /// killed and restarted like a crashed one (s).
+    pub hang_timeout_s: f64,
     /// Per node, indexed by role name: plant, rmrc, servo, vision.
     pub plant: NodeRealtime,
     /// The rmrc's.

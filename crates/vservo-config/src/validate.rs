@@ -38,6 +38,15 @@ impl Checker<'_> {
         }
     }
 
+    /// A number inside [low, high] (both finite), else an error saying the range.
+    fn within(&self, key: &str, value: f64, low: f64, high: f64, unit: &str) -> Result<f64, ConfigError> {
+        if value.is_finite() && (low..=high).contains(&value) {
+            Ok(value)
+        } else {
+            Err(self.invalid(key, value, format!("must be from {low} to {high} {unit}")))
+        }
+    }
+
     fn finite<const N: usize>(&self, key: &str, values: [f64; N]) -> Result<[f64; N], ConfigError> {
         if values.iter().all(|v| v.is_finite()) {
             Ok(values)
@@ -331,13 +340,24 @@ fn validate_runtime(check: &Checker, r: &crate::raw::RawRuntime) -> Result<crate
         .ok()
         .filter(|s| *s >= 1)
         .ok_or_else(|| check.invalid("runtime.timer_slack_ns", r.timer_slack_ns, "must be at least 1"))?;
-    let hold_after_missed_ticks =
-        u32::try_from(r.hold_after_missed_ticks).ok().filter(|t| *t >= 1).ok_or_else(|| {
-            check.invalid("runtime.hold_after_missed_ticks", r.hold_after_missed_ticks, "must be at least 1")
+    let hold_after_missed_ticks = u32::try_from(r.hold_after_missed_ticks)
+        .ok()
+        .filter(|t| (1..=10_000).contains(t))
+        .ok_or_else(|| {
+            check.invalid(
+                "runtime.hold_after_missed_ticks",
+                r.hold_after_missed_ticks,
+                "must be from 1 to 10000",
+            )
         })?;
+    // ranges that keep the daemon working: telemetry well inside the 0.5 s health window, waits that
+    // std::time can hold and a user would still call a restart or a stop
+    let telemetry_period_s =
+        check.within("runtime.telemetry_period_s", r.telemetry_period_s, 0.01, 0.2, "s")?;
     let restart_backoff_initial_s =
-        check.positive("runtime.restart_backoff_initial_s", r.restart_backoff_initial_s)?;
-    let restart_backoff_max_s = check.positive("runtime.restart_backoff_max_s", r.restart_backoff_max_s)?;
+        check.within("runtime.restart_backoff_initial_s", r.restart_backoff_initial_s, 0.01, 60.0, "s")?;
+    let restart_backoff_max_s =
+        check.within("runtime.restart_backoff_max_s", r.restart_backoff_max_s, 0.01, 600.0, "s")?;
     if restart_backoff_max_s < restart_backoff_initial_s {
         return Err(check.invalid(
             "runtime.restart_backoff_max_s",
@@ -345,14 +365,23 @@ fn validate_runtime(check: &Checker, r: &crate::raw::RawRuntime) -> Result<crate
             "must be at least runtime.restart_backoff_initial_s",
         ));
     }
+    let stop_timeout_s = check.within("runtime.stop_timeout_s", r.stop_timeout_s, 0.1, 60.0, "s")?;
+    let hang_timeout_s = check.within(
+        "runtime.hang_timeout_s",
+        r.hang_timeout_s,
+        (3.0 * telemetry_period_s).max(0.3),
+        60.0,
+        "s (at least three telemetry periods)",
+    )?;
     Ok(crate::Runtime {
         lock_memory: r.lock_memory,
         timer_slack_ns,
-        telemetry_period_s: check.positive("runtime.telemetry_period_s", r.telemetry_period_s)?,
+        telemetry_period_s,
         restart_backoff_initial_s,
         restart_backoff_max_s,
         hold_after_missed_ticks,
-        stop_timeout_s: check.positive("runtime.stop_timeout_s", r.stop_timeout_s)?,
+        stop_timeout_s,
+        hang_timeout_s,
         plant: node("plant", &r.plant)?,
         rmrc: node("rmrc", &r.rmrc)?,
         servo: node("servo", &r.servo)?,

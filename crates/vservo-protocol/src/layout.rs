@@ -197,7 +197,7 @@ pub fn layout_tables() -> String {
         &fields! { NodeStatusMsg;
             restarts: "u64", "restarts since the daemon started";
             last_telemetry_ns: "u64", "CLOCK_MONOTONIC of the node's latest telemetry (0: none yet)";
-            state: "u32", "0 not started, 1 running, 2 backing off (restart pending), 3 stopped";
+            state: "u32", "0 not started, 1 running, 2 backing off (restart pending), 3 stopped, 4 hung (being killed, then restarted)";
             pid: "u32", "process id (0 when not running)";
             last_exit: "i32", "exit status of the last run; a signal as its negated number";
             healthy: "u32", "1 when the node's telemetry is fresh (under 0.5 s old)";

@@ -158,6 +158,16 @@ fn port_error(what: &'static str, service: &str) -> impl FnOnce(String) -> Proto
     move |reason| ProtocolError::Port { what, service, reason }
 }
 
+/// Whether opening a service may create it. The daemon's processes create; clients only open, so that no
+/// client can create an instance's service with settings of its own (and stop the daemon from starting).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Opening {
+    /// Open the service, or create it with vservo's settings (the daemon and its nodes).
+    OpenOrCreate,
+    /// Open the service only: it fails when no daemon runs the instance (clients).
+    OpenOnly,
+}
+
 /// The publish-subscribe service of `topic` for payload `T`, opened or created with the topic's settings.
 pub fn open_topic<T: std::fmt::Debug + ZeroCopySend + 'static>(
     node: &Node<ipc::Service>,
@@ -165,17 +175,49 @@ pub fn open_topic<T: std::fmt::Debug + ZeroCopySend + 'static>(
     topic: Topic,
 ) -> Result<iceoryx2::service::port_factory::publish_subscribe::PortFactory<ipc::Service, T, ()>, ProtocolError>
 {
+    open_topic_as::<T>(node, instance, topic, Opening::OpenOrCreate)
+}
+
+/// The publish-subscribe service of `topic`, opened (or, with [`Opening::OpenOrCreate`], created).
+pub fn open_topic_as<T: std::fmt::Debug + ZeroCopySend + 'static>(
+    node: &Node<ipc::Service>,
+    instance: &str,
+    topic: Topic,
+    opening: Opening,
+) -> Result<iceoryx2::service::port_factory::publish_subscribe::PortFactory<ipc::Service, T, ()>, ProtocolError>
+{
     let (name, service) = service_name(topic, instance)?;
     let s = topic.settings();
-    node.service_builder(&service)
+    let builder = node
+        .service_builder(&service)
         .publish_subscribe::<T>()
         .max_publishers(s.max_publishers)
         .max_subscribers(s.max_subscribers)
         .history_size(s.history_size)
         .subscriber_max_buffer_size(s.subscriber_max_buffer_size)
-        .enable_safe_overflow(true)
-        .open_or_create()
-        .map_err(|e| port_error("opening the service", &name)(e.to_string()))
+        .enable_safe_overflow(true);
+    match opening {
+        Opening::OpenOrCreate => {
+            builder.open_or_create().map_err(|e| port_error("opening the service", &name)(e.to_string()))
+        }
+        Opening::OpenOnly => builder.open().map_err(|e| {
+            port_error("opening the service (is a vservod of this instance running?)", &name)(e.to_string())
+        }),
+    }
+}
+
+/// A client's subscriber on `topic`: the service must exist (a daemon runs the instance).
+pub fn client_subscriber<T: std::fmt::Debug + ZeroCopySend + 'static>(
+    node: &Node<ipc::Service>,
+    instance: &str,
+    topic: Topic,
+) -> Result<Subscriber<ipc::Service, T, ()>, ProtocolError> {
+    let service = open_topic_as::<T>(node, instance, topic, Opening::OpenOnly)?;
+    service
+        .subscriber_builder()
+        .buffer_size(topic.settings().subscriber_max_buffer_size)
+        .create()
+        .map_err(|e| port_error("creating a subscriber", &topic.service_name(instance))(e.to_string()))
 }
 
 /// A publisher on `topic`.
@@ -276,25 +318,33 @@ pub fn live_node_pids(node: &Node<ipc::Service>, instance: &str, role: &str) -> 
 pub const CAMERA_IMAGE_SERVICE: &str = "camera_image";
 
 /// The camera image service, opened or created with vservo's sizes (2 publishers, 8 subscribers, no
-/// history, 2 samples buffered per subscriber).
+/// history, 2 samples buffered per subscriber); clients pass [`Opening::OpenOnly`].
 pub fn open_camera_image_service(
     node: &Node<ipc::Service>,
     instance: &str,
+    opening: Opening,
 ) -> Result<
     iceoryx2::service::port_factory::publish_subscribe::PortFactory<ipc::Service, [u8], CameraImageHeader>,
     ProtocolError,
 > {
     let (name, service) = named(&format!("vservo/{instance}/{CAMERA_IMAGE_SERVICE}"))?;
-    node.service_builder(&service)
+    let builder = node
+        .service_builder(&service)
         .publish_subscribe::<[u8]>()
         .user_header::<CameraImageHeader>()
         .max_publishers(2)
         .max_subscribers(8)
         .history_size(0)
         .subscriber_max_buffer_size(2)
-        .enable_safe_overflow(true)
-        .open_or_create()
-        .map_err(|e| port_error("opening the service", &name)(e.to_string()))
+        .enable_safe_overflow(true);
+    match opening {
+        Opening::OpenOrCreate => {
+            builder.open_or_create().map_err(|e| port_error("opening the service", &name)(e.to_string()))
+        }
+        Opening::OpenOnly => builder
+            .open()
+            .map_err(|e| port_error("opening the service (is a camera publishing?)", &name)(e.to_string())),
+    }
 }
 
 /// A publisher of camera images up to [`MAX_IMAGE_BYTES`].
@@ -302,19 +352,21 @@ pub fn camera_image_publisher(
     node: &Node<ipc::Service>,
     instance: &str,
 ) -> Result<Publisher<ipc::Service, [u8], CameraImageHeader>, ProtocolError> {
-    open_camera_image_service(node, instance)?
+    open_camera_image_service(node, instance, Opening::OpenOrCreate)?
         .publisher_builder()
         .initial_max_slice_len(MAX_IMAGE_BYTES)
         .create()
         .map_err(|e| port_error("creating a publisher", CAMERA_IMAGE_SERVICE)(e.to_string()))
 }
 
-/// A subscriber of camera images.
+/// A subscriber of camera images (the vision node creates the service if no camera has yet; clients
+/// only open it).
 pub fn camera_image_subscriber(
     node: &Node<ipc::Service>,
     instance: &str,
+    opening: Opening,
 ) -> Result<Subscriber<ipc::Service, [u8], CameraImageHeader>, ProtocolError> {
-    open_camera_image_service(node, instance)?
+    open_camera_image_service(node, instance, opening)?
         .subscriber_builder()
         .buffer_size(2)
         .create()
@@ -342,10 +394,12 @@ pub fn camera_image_listener(
 /// The request-response service `vservo/<instance>/command` ([`CommandMsg`] → [`CommandReplyMsg`]).
 pub const COMMAND_SERVICE: &str = "command";
 
-/// The command service, opened or created with vservo's sizes.
+/// The command service, opened or created with vservo's sizes (the daemon); clients pass
+/// [`Opening::OpenOnly`].
 pub fn open_command_service(
     node: &Node<ipc::Service>,
     instance: &str,
+    opening: Opening,
 ) -> Result<
     iceoryx2::service::port_factory::request_response::PortFactory<
         ipc::Service,
@@ -357,14 +411,23 @@ pub fn open_command_service(
     ProtocolError,
 > {
     let (name, service) = named(&format!("vservo/{instance}/{COMMAND_SERVICE}"))?;
-    node.service_builder(&service)
+    let builder = node
+        .service_builder(&service)
         .request_response::<CommandMsg, CommandReplyMsg>()
         .max_servers(2)
         .max_clients(16)
         .max_active_requests_per_client(4)
-        .max_response_buffer_size(4)
-        .open_or_create()
-        .map_err(|e| port_error("opening the command service", &name)(e.to_string()))
+        .max_response_buffer_size(4);
+    match opening {
+        Opening::OpenOrCreate => builder
+            .open_or_create()
+            .map_err(|e| port_error("opening the command service", &name)(e.to_string())),
+        Opening::OpenOnly => builder.open().map_err(|e| {
+            port_error("opening the command service (is a vservod of this instance running?)", &name)(
+                e.to_string(),
+            )
+        }),
+    }
 }
 
 /// The node name of a vservo process: `vservo/<instance>/<role>`.

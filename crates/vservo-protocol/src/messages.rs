@@ -349,6 +349,8 @@ pub mod node_state {
     pub const BACKING_OFF: u32 = 2;
     /// Stopped on purpose.
     pub const STOPPED: u32 = 3;
+    /// Hung (its loop made no progress for `runtime.hang_timeout_s`): being killed, then restarted.
+    pub const HUNG: u32 = 4;
 }
 
 /// One node as the daemon sees it.

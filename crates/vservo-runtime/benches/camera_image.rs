@@ -13,7 +13,9 @@ fn camera_image(c: &mut Criterion) {
     let instance = format!("bench-{}", std::process::id());
     let node = vservo_protocol::create_node(&instance, "bench").expect("an iceoryx2 node");
     let publisher = vservo_protocol::camera_image_publisher(&node, &instance).expect("a publisher");
-    let subscriber = vservo_protocol::camera_image_subscriber(&node, &instance).expect("a subscriber");
+    let subscriber =
+        vservo_protocol::camera_image_subscriber(&node, &instance, vservo_protocol::Opening::OpenOrCreate)
+            .expect("a subscriber");
     for (name, width, height) in [("publish_512x512", 512, 512), ("publish_1280x1024", 1280, 1024)] {
         let mut image = GrayImage::new(width, height);
         for (i, pixel) in image.iter_mut().enumerate() {

@@ -46,6 +46,9 @@ pub struct NodeContext {
     pub instance: String,
     /// Set by SIGTERM/SIGINT: the loop finishes its cycle and returns.
     pub stop: Arc<AtomicBool>,
+    /// Set when the daemon is gone: servo and vision stop; the rmrc brings the reference to rest and stops;
+    /// the plant holds the arm and stops once the rmrc is gone and the arm is at rest.
+    pub orphaned: Arc<AtomicBool>,
     /// plant only: start at rest at these joints and this tick (a restart after a crash) instead of the
     /// scenario's start.
     pub resume: Option<(JointVector, u64)>,
@@ -57,7 +60,14 @@ impl NodeContext {
     fn stopping(&self) -> bool {
         self.stop.load(std::sync::atomic::Ordering::Relaxed)
     }
+
+    fn orphaned(&self) -> bool {
+        self.orphaned.load(std::sync::atomic::Ordering::Relaxed)
+    }
 }
+
+/// Below this joint speed (rad/s) the arm is at rest: a node that outlives the daemon stops there.
+pub const AT_REST_RAD_S: f64 = 0.01;
 
 /// A sample's schema is the one this build speaks.
 fn schema_ok(schema: u32) -> bool {

@@ -33,7 +33,10 @@ impl From<&TimingMsg> for TimingUs {
 /// One node.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct NodeView {
-    /// Whether its process runs.
+    /// "not started", "running", "backing off" (restart pending), "stopped" or "hung" (being killed, then
+    /// restarted).
+    pub state: &'static str,
+    /// Whether its process runs and is not hung.
     pub running: bool,
     /// Restarts since the daemon started.
     pub restarts: u64,
@@ -113,6 +116,13 @@ impl StatusView {
                 latest.map(f).filter(|t| t.count > 0).map(TimingUs::from)
             };
             let view = NodeView {
+                state: match status.state {
+                    node_state::RUNNING => "running",
+                    node_state::BACKING_OFF => "backing off",
+                    node_state::STOPPED => "stopped",
+                    node_state::HUNG => "hung",
+                    _ => "not started",
+                },
                 running: status.state == node_state::RUNNING,
                 restarts: status.restarts,
                 healthy: status.healthy != 0,

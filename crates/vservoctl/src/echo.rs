@@ -26,8 +26,24 @@ pub struct EchoArgs {
     #[arg(long)]
     count: Option<u64>,
     /// Stop after this long (s).
-    #[arg(long)]
+    #[arg(long, value_parser = crate::seconds_arg::seconds)]
     duration_s: Option<f64>,
+}
+
+/// How long `echo` without `--duration-s` waits for a service to appear (a daemon still starting).
+const WAIT_FOR_SERVICE: Duration = Duration::from_secs(2);
+
+/// Opens a service, waiting for it while a daemon may still be starting: until `until`, or
+/// [`WAIT_FOR_SERVICE`] without one. A client only opens, never creates: with no daemon this fails.
+fn when_there<S>(until: Option<Instant>, mut open: impl FnMut() -> anyhow::Result<S>) -> anyhow::Result<S> {
+    let give_up = until.unwrap_or_else(|| Instant::now() + WAIT_FOR_SERVICE);
+    loop {
+        match open() {
+            Ok(opened) => return Ok(opened),
+            Err(error) if Instant::now() >= give_up => return Err(error),
+            Err(_) => std::thread::sleep(Duration::from_millis(20)),
+        }
+    }
 }
 
 fn echo<T: std::fmt::Debug + iceoryx2::prelude::ZeroCopySend + 'static>(
@@ -36,8 +52,8 @@ fn echo<T: std::fmt::Debug + iceoryx2::prelude::ZeroCopySend + 'static>(
     args: &EchoArgs,
     render: fn(&T) -> Value,
 ) -> anyhow::Result<()> {
-    let subscriber = connection.subscriber::<T>(topic)?;
-    let until = args.duration_s.map(|s| Instant::now() + Duration::from_secs_f64(s.max(0.0)));
+    let until = args.duration_s.map(|s| Instant::now() + Duration::from_secs_f64(s));
+    let subscriber = when_there(until, || connection.subscriber::<T>(topic))?;
     let mut printed = 0u64;
     loop {
         while let Some(sample) = subscriber.receive()? {
@@ -75,7 +91,11 @@ fn service_name(name: &str) -> Result<Service, String> {
 
 /// `camera_image`: each frame's header, its size and its mean gray level.
 fn echo_images(connection: &Connection, args: &EchoArgs) -> anyhow::Result<()> {
-    let subscriber = vservo_protocol::camera_image_subscriber(&connection.node, &connection.instance)?;
+    let subscriber = vservo_protocol::camera_image_subscriber(
+        &connection.node,
+        &connection.instance,
+        vservo_protocol::Opening::OpenOnly,
+    )?;
     let until = args.duration_s.map(|s| Instant::now() + Duration::from_secs_f64(s.max(0.0)));
     let mut printed = 0u64;
     loop {

@@ -66,7 +66,7 @@ impl Connection {
         &self,
         topic: Topic,
     ) -> anyhow::Result<Subscriber<ipc::Service, T, ()>> {
-        Ok(vservo_protocol::subscriber::<T>(&self.node, &self.instance, topic)?)
+        Ok(vservo_protocol::client_subscriber::<T>(&self.node, &self.instance, topic)?)
     }
 }
 

@@ -17,6 +17,7 @@ mod plot_recording;
 mod plots;
 mod record;
 mod scene;
+mod seconds_arg;
 mod sim;
 mod stability;
 mod status;

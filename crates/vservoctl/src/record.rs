@@ -29,7 +29,7 @@ pub struct RecordArgs {
     #[arg(long)]
     out: PathBuf,
     /// Stop after this long (s); otherwise at Ctrl-C or SIGTERM.
-    #[arg(long)]
+    #[arg(long, value_parser = crate::seconds_arg::seconds)]
     duration_s: Option<f64>,
     #[command(flatten)]
     instance: InstanceArg,
@@ -111,40 +111,86 @@ pub fn run(args: &RecordArgs) -> anyhow::Result<()> {
             writer.add_channel(schema_id, &topic.service_name(&connection.instance), "json", &metadata)?;
         channels.insert(topic.name(), Channel { id, sequence: 0 });
     }
-    let joint_state = connection.subscriber::<JointStateMsg>(Topic::JointState)?;
-    let joint_command = connection.subscriber::<JointCommandMsg>(Topic::JointCommand)?;
-    let sim_world = connection.subscriber::<SimWorldMsg>(Topic::SimWorld)?;
-    let features = connection.subscriber::<FeaturesMsg>(Topic::Features)?;
-    let twist = connection.subscriber::<CameraTwistMsg>(Topic::CameraTwist)?;
-    let telemetry = connection.subscriber::<TelemetryMsg>(Topic::Telemetry)?;
-    let status = connection.subscriber::<DaemonStatusMsg>(Topic::Status)?;
-    let gains = connection.subscriber::<GainsMsg>(Topic::Gains)?;
-    let object = connection.subscriber::<ObjectMsg>(Topic::Object)?;
-    let until = args.duration_s.map(|s| Instant::now() + Duration::from_secs_f64(s.max(0.0)));
+    // a recorder only opens services (it never creates them); what is not there yet (a daemon still
+    // starting, a node not up) is looked for again every 0.1 s, and a service the cell does not have (the
+    // simulation's sim_world with an external robot) is simply never heard
+    let mut taps: Vec<Box<dyn Tapped>> = vec![
+        Tap::<JointStateMsg>::boxed(Topic::JointState, json::joint_state, |m| m.stamp_ns),
+        Tap::<JointCommandMsg>::boxed(Topic::JointCommand, json::joint_command, |m| m.stamp_ns),
+        Tap::<SimWorldMsg>::boxed(Topic::SimWorld, json::sim_world, |_| 0),
+        Tap::<FeaturesMsg>::boxed(Topic::Features, json::features, |m| m.stamp_ns),
+        Tap::<CameraTwistMsg>::boxed(Topic::CameraTwist, json::camera_twist, |m| m.stamp_ns),
+        Tap::<TelemetryMsg>::boxed(Topic::Telemetry, json::telemetry, |m| m.stamp_ns),
+        Tap::<DaemonStatusMsg>::boxed(Topic::Status, json::status, |m| m.stamp_ns),
+        Tap::<GainsMsg>::boxed(Topic::Gains, json::gains, |_| 0),
+        Tap::<ObjectMsg>::boxed(Topic::Object, json::object, |_| 0),
+    ];
+    let until = args.duration_s.map(|s| Instant::now() + Duration::from_secs_f64(s));
     let mut written = 0;
+    let mut next_look = Instant::now();
     while !stop.load(Ordering::Relaxed) && until.is_none_or(|u| Instant::now() < u) {
-        let c = &mut channels;
-        written +=
-            drain(&joint_state, json::joint_state, |m| m.stamp_ns, get(c, "joint_state")?, &mut writer)?;
-        written += drain(
-            &joint_command,
-            json::joint_command,
-            |m| m.stamp_ns,
-            get(c, "joint_command")?,
-            &mut writer,
-        )?;
-        written += drain(&sim_world, json::sim_world, |_| 0, get(c, "sim_world")?, &mut writer)?;
-        written += drain(&features, json::features, |m| m.stamp_ns, get(c, "features")?, &mut writer)?;
-        written += drain(&twist, json::camera_twist, |m| m.stamp_ns, get(c, "camera_twist")?, &mut writer)?;
-        written += drain(&telemetry, json::telemetry, |m| m.stamp_ns, get(c, "telemetry")?, &mut writer)?;
-        written += drain(&status, json::status, |m| m.stamp_ns, get(c, "status")?, &mut writer)?;
-        written += drain(&gains, json::gains, |_| 0, get(c, "gains")?, &mut writer)?;
-        written += drain(&object, json::object, |_| 0, get(c, "object")?, &mut writer)?;
+        let look = Instant::now() >= next_look;
+        if look {
+            next_look = Instant::now() + Duration::from_millis(100);
+        }
+        for tap in &mut taps {
+            if look {
+                tap.open(&connection);
+            }
+            written += tap.drain(&mut channels, &mut writer)?;
+        }
         std::thread::sleep(Duration::from_micros(500));
     }
     writer.finish()?;
     eprintln!("vservoctl: recorded {written} messages to {}", args.out.display());
     Ok(())
+}
+
+/// One topic of the recording: its subscriber once the service exists.
+struct Tap<T: std::fmt::Debug + ZeroCopySend + 'static> {
+    topic: Topic,
+    subscriber: Option<Subscriber<ipc::Service, T, ()>>,
+    render: fn(&T) -> Value,
+    stamp_ns: fn(&T) -> u64,
+}
+
+impl<T: Copy + std::fmt::Debug + ZeroCopySend + 'static> Tap<T> {
+    fn boxed(topic: Topic, render: fn(&T) -> Value, stamp_ns: fn(&T) -> u64) -> Box<dyn Tapped> {
+        Box::new(Self { topic, subscriber: None, render, stamp_ns })
+    }
+}
+
+/// What the recording loop does with each topic, whatever its payload.
+trait Tapped {
+    /// Opens the service if it exists now and is not open yet.
+    fn open(&mut self, connection: &Connection);
+    /// Writes what arrived since the last call.
+    fn drain(
+        &mut self,
+        channels: &mut BTreeMap<&'static str, Channel>,
+        writer: &mut McapWriter,
+    ) -> anyhow::Result<u64>;
+}
+
+impl<T: Copy + std::fmt::Debug + ZeroCopySend + 'static> Tapped for Tap<T> {
+    fn open(&mut self, connection: &Connection) {
+        if self.subscriber.is_none() {
+            self.subscriber = connection.subscriber::<T>(self.topic).ok();
+        }
+    }
+
+    fn drain(
+        &mut self,
+        channels: &mut BTreeMap<&'static str, Channel>,
+        writer: &mut McapWriter,
+    ) -> anyhow::Result<u64> {
+        match &self.subscriber {
+            Some(subscriber) => {
+                drain(subscriber, self.render, self.stamp_ns, get(channels, self.topic.name())?, writer)
+            }
+            None => Ok(0),
+        }
+    }
 }
 
 fn get<'a>(channels: &'a mut BTreeMap<&'static str, Channel>, name: &str) -> anyhow::Result<&'a mut Channel> {

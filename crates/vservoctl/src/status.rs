@@ -3,7 +3,6 @@
 
 use std::time::{Duration, Instant};
 
-use anyhow::bail;
 use clap::Args;
 use vservo_protocol::{DaemonStatusMsg, NodeRole, SCHEMA_VERSION, TelemetryMsg, Topic};
 use vservo_runtime::status::{StatusView, TimingUs};
@@ -20,16 +19,31 @@ pub struct StatusArgs {
     #[arg(long)]
     json: bool,
     /// How long to wait for the daemon (s).
-    #[arg(long, default_value_t = 2.0)]
+    #[arg(long, default_value_t = 2.0, value_parser = crate::seconds_arg::seconds)]
     timeout_s: f64,
 }
 
 pub fn run(args: &StatusArgs) -> anyhow::Result<()> {
     let connection = Connection::open(&args.instance)?;
-    let status = connection.subscriber::<DaemonStatusMsg>(Topic::Status)?;
-    let telemetry = connection.subscriber::<TelemetryMsg>(Topic::Telemetry)?;
-    let timeout = Duration::from_secs_f64(args.timeout_s.max(0.0));
-    let latest = wait_for(timeout, || {
+    let timeout = Duration::from_secs_f64(args.timeout_s);
+    let no_daemon = || {
+        anyhow::anyhow!(
+            "no vservod of instance {:?} answered within {} s (is it running, as the same user?)",
+            connection.instance,
+            args.timeout_s
+        )
+    };
+    // a client opens the daemon's services, never creates them: until the timeout, a daemon may be starting
+    let started = Instant::now();
+    let status = loop {
+        match connection.subscriber::<DaemonStatusMsg>(Topic::Status) {
+            Ok(subscriber) => break subscriber,
+            Err(_) if started.elapsed() < timeout => std::thread::sleep(Duration::from_millis(20)),
+            Err(_) => return Err(no_daemon()),
+        }
+    };
+    let telemetry = connection.subscriber::<TelemetryMsg>(Topic::Telemetry).map_err(|_| no_daemon())?;
+    let latest = wait_for(timeout.saturating_sub(started.elapsed()), || {
         let mut latest = None;
         while let Ok(Some(sample)) = status.receive() {
             if sample.schema == SCHEMA_VERSION {
@@ -39,11 +53,7 @@ pub fn run(args: &StatusArgs) -> anyhow::Result<()> {
         latest
     });
     let Some(daemon) = latest else {
-        bail!(
-            "no vservod of instance {:?} answered within {} s (is it running, as the same user?)",
-            connection.instance,
-            args.timeout_s
-        );
+        return Err(no_daemon());
     };
     // each node's latest telemetry (its history) arrives with its next publication, within one period
     let mut nodes: [Option<TelemetryMsg>; 4] = [None; 4];
@@ -92,7 +102,11 @@ fn text(view: &StatusView) -> String {
         out.push_str(&format!(
             "  {:<8} {:<3} {:>8}  {:<8} {:>9} {:>8} {:>5}   {:<27} {:<27} {}\n",
             role.name(),
-            if n.running { "yes" } else { "no" },
+            match n.state {
+                "running" => "yes",
+                "hung" => "HUNG",
+                _ => "no",
+            },
             n.restarts,
             n.pid,
             n.overruns,

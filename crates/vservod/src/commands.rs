@@ -75,13 +75,22 @@ impl Commander {
             object_sequence: 0,
             gains_publisher: vservo_protocol::publisher(node, &instance, Topic::Gains)?,
             object_publisher: vservo_protocol::publisher(node, &instance, Topic::Object)?,
-            server: vservo_protocol::open_command_service(node, &instance)?
-                .server_builder()
-                .create()
-                .map_err(|e| anyhow::anyhow!("creating the command server: {e}"))?,
+            server: vservo_protocol::open_command_service(
+                node,
+                &instance,
+                vservo_protocol::Opening::OpenOrCreate,
+            )?
+            .server_builder()
+            .create()
+            .map_err(|e| anyhow::anyhow!("creating the command server: {e}"))?,
         };
         commander.adopt(spec).map_err(anyhow::Error::msg)?;
         Ok(commander)
+    }
+
+    /// The configuration text in force: the file as it was last loaded or reloaded successfully.
+    pub fn config_text(&self) -> &str {
+        &self.config_text
     }
 
     /// The gains version in force.

@@ -66,36 +66,50 @@ fn init_logging() {
 /// handler is involved: iceoryx2 installs its own handlers when it first needs them (zeroing new shared
 /// memory, for one), which would silently replace ours. Call this before any other thread starts: threads
 /// inherit the mask.
-fn stop_and_reload_flags() -> anyhow::Result<(Arc<AtomicBool>, Arc<AtomicBool>)> {
+/// What the signals ask of this process.
+struct Flags {
+    /// SIGTERM or SIGINT: stop.
+    stop: Arc<AtomicBool>,
+    /// SIGHUP: reload the configuration (the daemon).
+    reload: Arc<AtomicBool>,
+    /// SIGUSR1, the nodes' parent-death signal: the daemon is gone, bring the arm to rest and exit.
+    orphaned: Arc<AtomicBool>,
+}
+
+fn signal_flags() -> anyhow::Result<Flags> {
     use nix::sys::signal::{SigSet, Signal};
-    let stop = Arc::new(AtomicBool::new(false));
-    let reload = Arc::new(AtomicBool::new(false));
+    let flags = Flags {
+        stop: Arc::new(AtomicBool::new(false)),
+        reload: Arc::new(AtomicBool::new(false)),
+        orphaned: Arc::new(AtomicBool::new(false)),
+    };
     let mut signals = SigSet::empty();
-    for signal in [Signal::SIGTERM, Signal::SIGINT, Signal::SIGHUP] {
+    for signal in [Signal::SIGTERM, Signal::SIGINT, Signal::SIGHUP, Signal::SIGUSR1] {
         signals.add(signal);
     }
-    signals.thread_block().context("blocking SIGTERM, SIGINT and SIGHUP")?;
-    let (stop_flag, reload_flag) = (stop.clone(), reload.clone());
+    signals.thread_block().context("blocking SIGTERM, SIGINT, SIGHUP and SIGUSR1")?;
+    let (stop, reload, orphaned) = (flags.stop.clone(), flags.reload.clone(), flags.orphaned.clone());
     std::thread::Builder::new()
         .name("signals".into())
         .spawn(move || {
             while let Ok(signal) = signals.wait() {
                 match signal {
-                    Signal::SIGHUP => reload_flag.store(true, Ordering::Relaxed),
-                    _ => stop_flag.store(true, Ordering::Relaxed),
+                    Signal::SIGHUP => reload.store(true, Ordering::Relaxed),
+                    Signal::SIGUSR1 => orphaned.store(true, Ordering::Relaxed),
+                    _ => stop.store(true, Ordering::Relaxed),
                 }
             }
         })
         .context("starting the signal thread")?;
-    Ok((stop, reload))
+    Ok(flags)
 }
 
 fn main() -> ExitCode {
     init_logging();
     let cli = Cli::parse();
-    let result = stop_and_reload_flags().and_then(|(stop, reload)| match &cli.command {
-        Some(Command::Node(args)) => node_process::run(&cli.config, args, stop),
-        None => supervisor::run(&cli.config, cli.status_every_s, stop, reload),
+    let result = signal_flags().and_then(|flags| match &cli.command {
+        Some(Command::Node(args)) => node_process::run(&cli.config, args, flags.stop, flags.orphaned),
+        None => supervisor::run(&cli.config, cli.status_every_s, flags.stop, flags.reload),
     });
     match result {
         Ok(()) => ExitCode::SUCCESS,

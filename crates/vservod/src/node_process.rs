@@ -23,15 +23,41 @@ pub struct NodeArgs {
     /// plant: the tick to start counting from.
     #[arg(long, default_value_t = 0)]
     resume_tick: u64,
+    /// Read the configuration from stdin (the daemon hands over the one in force) instead of the file;
+    /// `--config` then only names it in messages.
+    #[arg(long)]
+    config_stdin: bool,
 }
 
-pub fn run(config_path: &Path, args: &NodeArgs, stop: Arc<AtomicBool>) -> anyhow::Result<()> {
+/// The environment variable that tells a node its daemon's pid.
+pub const DAEMON_PID_ENV: &str = "VSERVO_DAEMON_PID";
+
+pub fn run(
+    config_path: &Path,
+    args: &NodeArgs,
+    stop: Arc<AtomicBool>,
+    orphaned: Arc<AtomicBool>,
+) -> anyhow::Result<()> {
     let Some(role) = NodeRole::from_name(&args.role) else {
         bail!("unknown node role {:?}: expected plant, rmrc, servo or vision", args.role);
     };
-    // stop with the daemon, whichever way it ends
-    nix::sys::prctl::set_pdeathsig(nix::sys::signal::Signal::SIGTERM).context("prctl(PR_SET_PDEATHSIG)")?;
-    let config = vservo_config::Config::load(config_path)?;
+    // however the daemon ends (SIGKILL, a panic, systemd's watchdog), the nodes hear it (SIGUSR1) and bring
+    // the arm to rest in order: servo and vision stop (a zero twist), the rmrc ramps the reference to rest,
+    // the plant holds the arm and goes last
+    nix::sys::prctl::set_pdeathsig(nix::sys::signal::Signal::SIGUSR1).context("prctl(PR_SET_PDEATHSIG)")?;
+    let daemon_pid = std::env::var(DAEMON_PID_ENV).ok().and_then(|v| v.parse::<i32>().ok());
+    if daemon_pid.is_some_and(|pid| nix::unistd::getppid().as_raw() != pid) {
+        // the daemon died before the signal was armed
+        orphaned.store(true, std::sync::atomic::Ordering::Relaxed);
+    }
+    let config = if args.config_stdin {
+        let mut text = String::new();
+        std::io::Read::read_to_string(&mut std::io::stdin(), &mut text)
+            .context("reading the configuration from stdin")?;
+        vservo_config::Config::from_toml(&text, &config_path.display().to_string())?
+    } else {
+        vservo_config::Config::load(config_path)?
+    };
     let cell = vservo_cell::Cell::new(&config).with_context(|| format!("{}", config_path.display()))?;
     let resume = match &args.resume_q {
         Some(q) if q.len() == 6 && q.iter().all(|v| v.is_finite()) => {
@@ -47,7 +73,8 @@ pub fn run(config_path: &Path, args: &NodeArgs, stop: Arc<AtomicBool>) -> anyhow
         Some(xi) => bail!("--resume-features {xi:?}: expected eight finite features (px)"),
         None => None,
     };
-    let context = NodeContext { cell, instance: config.instance.clone(), stop, resume, resume_features };
+    let context =
+        NodeContext { cell, instance: config.instance.clone(), stop, orphaned, resume, resume_features };
     match role {
         NodeRole::Plant => nodes::plant::run(&context)?,
         NodeRole::Rmrc => nodes::rmrc::run(&context)?,

@@ -46,9 +46,38 @@ struct Supervised {
     last_exit: i32,
     telemetry: Option<TelemetryMsg>,
     telemetry_at: Option<Instant>,
+    /// The loop's progress counter, and when it last moved.
+    progress: u64,
+    progress_at: Instant,
 }
 
+/// Before its first telemetry a started node gets at least this long (creating its iceoryx2 ports, the
+/// gain design, a debug build's start).
+const START_GRACE: Duration = Duration::from_secs(5);
+
 impl Supervised {
+    /// Why the node counts as hung, if it does: its process runs but its loop shows no progress — no
+    /// telemetry for `timeout` (a stopped or dead-locked process), or, for the plant, no new tick.
+    fn hung(&self, now: Instant, timeout: Duration) -> Option<String> {
+        self.process.as_ref()?;
+        let own_telemetry = self.telemetry_at.filter(|_| self.telemetry.is_some_and(|t| t.pid == self.pid()));
+        let silent_since = own_telemetry.unwrap_or(self.started_at);
+        let allowed = if own_telemetry.is_some() { timeout } else { timeout.max(START_GRACE) };
+        if now.duration_since(silent_since) > allowed {
+            return Some(format!("no telemetry for {:.1} s", now.duration_since(silent_since).as_secs_f64()));
+        }
+        if self.role == NodeRole::Plant
+            && own_telemetry.is_some()
+            && now.duration_since(self.progress_at.max(self.started_at)) > timeout
+        {
+            return Some(format!(
+                "no new tick for {:.1} s",
+                now.duration_since(self.progress_at.max(self.started_at)).as_secs_f64()
+            ));
+        }
+        None
+    }
+
     fn healthy(&self, now: Instant) -> bool {
         self.process.is_some()
             && self.telemetry_at.is_some_and(|at| now.duration_since(at) < TELEMETRY_STALE)
@@ -73,9 +102,11 @@ struct Launcher {
 }
 
 impl Launcher {
-    fn spawn(&self, role: NodeRole, heard: Option<&Heard>) -> std::io::Result<Child> {
+    /// Starts a node on `config_text`, the configuration in force (handed over on its stdin: a node
+    /// restarted after an edit that was not reloaded, or was refused, runs what the others run).
+    fn spawn(&self, role: NodeRole, heard: Option<&Heard>, config_text: &str) -> std::io::Result<Child> {
         let mut command = Command::new(&self.executable);
-        command.arg("--config").arg(&self.config_path).arg("node").arg(role.name());
+        command.arg("--config").arg(&self.config_path).arg("node").arg(role.name()).arg("--config-stdin");
         let list = |values: &[f64]| values.iter().map(|v| format!("{v:e}")).collect::<Vec<_>>().join(",");
         match (role, heard) {
             // the arm stopped where it was last seen
@@ -91,15 +122,22 @@ impl Launcher {
             }
             _ => {}
         }
-        command
-            .stdin(Stdio::null())
+        let mut child = command
+            .stdin(Stdio::piped())
+            .env(crate::node_process::DAEMON_PID_ENV, std::process::id().to_string())
             // only the daemon talks to systemd
             .env_remove("NOTIFY_SOCKET")
             .env_remove("WATCHDOG_USEC")
             .env_remove("WATCHDOG_PID")
             // a terminal's Ctrl-C reaches the daemon only; it stops the nodes in order
             .process_group(0)
-            .spawn()
+            .spawn()?;
+        // a few kB: the pipe takes it whole; closing it ends the node's read
+        if let Some(mut stdin) = child.stdin.take() {
+            use std::io::Write;
+            stdin.write_all(config_text.as_bytes())?;
+        }
+        Ok(child)
     }
 }
 
@@ -158,6 +196,10 @@ impl Heard {
                 continue;
             };
             if let Some(node) = nodes.iter_mut().find(|n| n.role == role) {
+                if sample.progress != node.progress {
+                    node.progress = sample.progress;
+                    node.progress_at = now;
+                }
                 node.telemetry = Some(*sample);
                 node.telemetry_at = Some(now);
             }
@@ -187,9 +229,10 @@ pub fn run(
     stop: Arc<AtomicBool>,
     reload: Arc<AtomicBool>,
 ) -> anyhow::Result<()> {
-    let config = Config::load(config_path)?;
+    // read once: the text the nodes are handed is the text validated here
     let config_text = std::fs::read_to_string(config_path)
         .with_context(|| format!("{}: reading the configuration", config_path.display()))?;
+    let config = Config::from_toml(&config_text, &config_path.display().to_string())?;
     // design the gains and place the arm now: a configuration that cannot run is refused before any node starts
     vservo_cell::Cell::new(&config).with_context(|| format!("{}", config_path.display()))?;
     if let vservo_config::VisionSource::Directory(directory) = &config.vision.source {
@@ -236,6 +279,7 @@ pub fn run(
     let runtime = &config.runtime;
     let initial_backoff = Duration::from_secs_f64(runtime.restart_backoff_initial_s);
     let max_backoff = Duration::from_secs_f64(runtime.restart_backoff_max_s);
+    let hang_timeout = Duration::from_secs_f64(runtime.hang_timeout_s);
 
     tracing::info!(instance, config = %launcher.config_path.display(), "starting the nodes");
     if external_robot {
@@ -249,8 +293,9 @@ pub fn run(
     let mut nodes: Vec<Supervised> = Vec::new();
     // an external robot driver is the user's process: vservod starts no plant for it
     for role in NodeRole::ALL.into_iter().filter(|r| !(external_robot && *r == NodeRole::Plant)) {
-        let process =
-            launcher.spawn(role, None).with_context(|| format!("starting the {} node", role.name()))?;
+        let process = launcher
+            .spawn(role, None, commander.config_text())
+            .with_context(|| format!("starting the {} node", role.name()))?;
         nodes.push(Supervised {
             role,
             process: Some(process),
@@ -262,6 +307,8 @@ pub fn run(
             last_exit: 0,
             telemetry: None,
             telemetry_at: None,
+            progress: 0,
+            progress_at: Instant::now(),
         });
     }
 
@@ -314,19 +361,34 @@ pub fn run(
             tracing::info!(cleaned, "removed the shared-memory leftovers of dead nodes");
         }
         heard.drain(&ports, &mut nodes);
+        // a hung node is ended like a crashed one: killed here, reaped and restarted by the next cycles
+        for n in nodes.iter_mut().filter(|n| n.state != node_state::HUNG) {
+            if let Some(why) = n.hung(now, hang_timeout) {
+                tracing::error!(
+                    node = n.role.name(),
+                    pid = n.pid(),
+                    "node hung ({why}): killing it (SIGKILL) to restart it"
+                );
+                n.state = node_state::HUNG;
+                n.signal(Signal::SIGKILL);
+                // a stopped process dies of SIGKILL only once it runs again
+                n.signal(Signal::SIGCONT);
+            }
+        }
         commander.serve(
             &LoopState { joint_state: heard.joint_state.as_ref(), features: heard.features.as_ref() },
             &mut systemd,
         );
         for n in nodes.iter_mut() {
             if n.process.is_none() && n.restart_at.is_some_and(|at| now >= at) {
-                match launcher.spawn(n.role, Some(&heard)) {
+                match launcher.spawn(n.role, Some(&heard), commander.config_text()) {
                     Ok(child) => {
                         n.process = Some(child);
                         n.state = node_state::RUNNING;
                         n.restarts += 1;
                         n.restart_at = None;
                         n.started_at = now;
+                        n.progress_at = now;
                         tracing::info!(node = n.role.name(), restarts = n.restarts, "restarted");
                     }
                     Err(e) => {
@@ -418,7 +480,11 @@ fn status_message(
         // the version the servo runs, once it has said; until then the one designed
         gains_version: if heard.gains_version > 0 { heard.gains_version } else { designed_gains_version },
         nodes: statuses,
-        tick_rate_hz: heard.tick_rate_hz,
+        // no rate from stale data: a driver (or plant) silent for a second ticks at 0/s
+        tick_rate_hz: match heard.joint_state_at {
+            Some(at) if now.duration_since(at) < Duration::from_secs(1) => heard.tick_rate_hz,
+            _ => 0.0,
+        },
         feature_error_px: heard.feature_error_px,
         pid: std::process::id(),
         robot: robot_state::WAITING,

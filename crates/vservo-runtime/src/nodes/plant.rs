@@ -125,6 +125,9 @@ pub fn run(context: &NodeContext) -> Result<(), RuntimeError> {
         "the arm at rest, first tick"
     );
 
+    // the daemon gone: the plant goes last, once the rmrc has stopped answering and the arm is at rest
+    let mut orphaned_at: Option<u64> = None;
+    let orphan_timeout_ns = ((config.runtime.stop_timeout_s + 2.0) * 1e9) as u64;
     let mut last_command: Option<ActuatorCommand> = None;
     let mut object_sequence = 0;
     let mut missed_in_a_row: u64 = 0;
@@ -212,6 +215,37 @@ pub fn run(context: &NodeContext) -> Result<(), RuntimeError> {
             round_trip_ns,
             ..CycleSample::default()
         });
+        if context.orphaned() {
+            let since = *orphaned_at.get_or_insert_with(|| {
+                tracing::warn!(
+                    node = "plant",
+                    "the daemon is gone: holding the arm once the rmrc has brought it to rest"
+                );
+                started
+            });
+            let rmrc_gone = missed_in_a_row > hold_after;
+            let at_rest = stage.state().qd.iter().all(|v| v.abs() < crate::AT_REST_RAD_S);
+            if rmrc_gone && at_rest {
+                tracing::info!(
+                    node = "plant",
+                    tick = stage.state().tick,
+                    "the arm is at rest and held; stopping (the daemon is gone)"
+                );
+                break;
+            }
+            if started.saturating_sub(since) > orphan_timeout_ns {
+                tracing::error!(
+                    node = "plant",
+                    "the daemon is gone and the arm did not come to rest in time; stopping"
+                );
+                break;
+            }
+        }
+    }
+    // the last word: the state the arm stopped in
+    let state = *stage.state();
+    if let Ok(sample) = state_publisher.loan_uninit() {
+        let _ = sample.write_payload(state_message(&stage, &state, &declared)).send();
     }
     tracing::info!(node = "plant", tick = stage.state().tick, "stopped");
     Ok(())

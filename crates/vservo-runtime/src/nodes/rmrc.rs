@@ -46,10 +46,24 @@ pub fn run(context: &NodeContext) -> Result<(), RuntimeError> {
     let gap_ns = period_ns * u64::from(config.robot.state_timeout_periods);
     let counters = monitor.counters();
     let mut following: Option<Following> = None;
+    // the daemon gone: when, and how long the ramp to rest may take before the rmrc gives up (the plant then
+    // brakes the arm itself)
+    let mut orphaned_at: Option<u64> = None;
+    let orphan_timeout_ns = ((config.runtime.stop_timeout_s + 1.0) * 1e9) as u64;
 
     while !context.stopping() {
         let _ = state_listener.timed_wait(|_| {}, IDLE_WAIT);
         let woke_at = monotonic_ns();
+        if context.orphaned() {
+            let since = *orphaned_at.get_or_insert_with(|| {
+                tracing::warn!(node = "rmrc", "the daemon is gone: ramping the arm to rest, then stopping");
+                woke_at
+            });
+            if woke_at.saturating_sub(since) > orphan_timeout_ns {
+                tracing::error!(node = "rmrc", "the daemon is gone and the arm did not come to rest in time");
+                break;
+            }
+        }
         let latest = latest(&state_subscriber, |m: &JointStateMsg| m.schema, counters);
         let Some(state) = latest else { continue };
         let q = JointVector::from(state.q_rad);
@@ -92,6 +106,10 @@ pub fn run(context: &NodeContext) -> Result<(), RuntimeError> {
                 counters.rejected();
             }
         }
+        if orphaned_at.is_some() {
+            // no daemon, no servo to trust: a zero twist, which the interpolator ramps to at its limits
+            rmrc.set_twist(Twist::zeros(), now_s);
+        }
         let command = rmrc.step(now_s + dt, &q, &qd);
         let reference = rmrc.reference();
         let torque = match command {
@@ -124,6 +142,16 @@ pub fn run(context: &NodeContext) -> Result<(), RuntimeError> {
             execution_ns: done - woke_at,
             ..CycleSample::default()
         });
+        let at_rest = message.qd_ref_rad_s.iter().all(|v| *v == 0.0)
+            && state.qd_rad_s.iter().all(|v| v.abs() < crate::AT_REST_RAD_S);
+        if orphaned_at.is_some() && at_rest {
+            tracing::info!(
+                node = "rmrc",
+                tick = state.tick,
+                "the arm is at rest; stopping (the daemon is gone)"
+            );
+            break;
+        }
     }
     tracing::info!(node = "rmrc", "stopped");
     Ok(())

@@ -47,7 +47,8 @@ pub fn run(context: &NodeContext) -> Result<(), RuntimeError> {
     };
     let mut last = (0u64, 0u64);
 
-    while !context.stopping() {
+    // the daemon gone: stop, with a zero twist, so that the rmrc ramps the arm to rest
+    while !context.stopping() && !context.orphaned() {
         let _ = features_listener.timed_wait(|_| {}, IDLE_WAIT);
         let woke_at = monotonic_ns();
         // new gains take effect at a frame boundary, before the next feature vector

@@ -1,5 +1,6 @@
-//! The vision node. With the simulated camera it runs on its own vision-period timer, renders the board
-//! from the latest joint state and the simulation's `sim_world`, and publishes each image on
+//! The vision node. With the simulated camera it runs on the simulation's time (an image every vision
+//! period of plant ticks), renders the board from that tick's joint state and the simulation's `sim_world`,
+//! and publishes each image on
 //! `camera_image` (so every user can see what the extractor saw). With an external camera it wakes on each
 //! frame a camera driver publishes on `camera_image`, works on it at once and stamps the features with the
 //! frame's capture time: the camera paces the loop. A frame older than one vision period on arrival is
@@ -18,7 +19,7 @@ use vservo_vision::GrayImage;
 use vservo_vision::{Extraction, MarkStatus};
 
 use super::{IDLE_WAIT, NodeBase, go_realtime, latest, start};
-use crate::clock::{PeriodicTimer, monotonic_ns};
+use crate::clock::monotonic_ns;
 use crate::telemetry::{Counters, CycleSample, LoopMonitor};
 use crate::wire::{pose_from_wire, to_array};
 use crate::{NodeContext, RuntimeError};
@@ -100,7 +101,11 @@ pub fn run(context: &NodeContext) -> Result<(), RuntimeError> {
     }
     match &config.vision.source {
         VisionSource::External => {
-            let images = vservo_protocol::camera_image_subscriber(&node, instance)?;
+            let images = vservo_protocol::camera_image_subscriber(
+                &node,
+                instance,
+                vservo_protocol::Opening::OpenOrCreate,
+            )?;
             let listener = vservo_protocol::camera_image_listener(&node, instance)?;
             go_realtime(context, NodeRole::Vision);
             let (width, height) = (config.camera.width_px(), config.camera.height_px());
@@ -109,7 +114,7 @@ pub fn run(context: &NodeContext) -> Result<(), RuntimeError> {
             let counters = monitor.counters();
             // an image older than a vision period on arrival would steer the arm by where it was: dropped
             let stale_after_ns = (config.timing.vision_period_s * 1e9).round() as u64;
-            while !context.stopping() {
+            while !context.stopping() && !context.orphaned() {
                 let _ = listener.timed_wait(|_| {}, IDLE_WAIT);
                 while let Ok(Some(sample)) = images.receive() {
                     let woke_at = monotonic_ns();
@@ -173,9 +178,12 @@ fn copy_image(header: &CameraImageHeader, payload: &[u8], image: &mut GrayImage)
     true
 }
 
-/// The simulated camera: every vision period, publish the frame whose processing finished (at the start of
-/// the period, so that the processing time does not add to the pipeline delay), then render and extract
-/// the next, and publish its image on `camera_image`.
+/// The simulated camera runs on the simulation's time, as the lockstep simulator does: it wakes on each
+/// joint state and takes an image every `control_ticks_per_frame` plant ticks (the vision period of
+/// simulated time), of the state of exactly that tick. A plant that falls behind the wall clock (skipped
+/// periods on a loaded machine) then delays the camera with it instead of changing what it samples. At
+/// each capture it first publishes the frame whose processing finished (so the processing time does not add
+/// to the pipeline delay), then renders and extracts the new one, and publishes its image on `camera_image`.
 fn run_simulated_camera(
     context: &NodeContext,
     node: &iceoryx2::prelude::Node<ipc::Service>,
@@ -186,33 +194,55 @@ fn run_simulated_camera(
 ) -> Result<(), RuntimeError> {
     let config = context.cell.config();
     let instance = &context.instance;
+    let state_listener = vservo_protocol::listener(node, instance, Topic::JointState)?;
     let world_subscriber = vservo_protocol::subscriber::<SimWorldMsg>(node, instance, Topic::SimWorld)?;
     let image_publisher = vservo_protocol::camera_image_publisher(node, instance)?;
     let image_notifier = vservo_protocol::camera_image_notifier(node, instance)?;
     go_realtime(context, NodeRole::Vision);
     let counters: &Counters = monitor.counters();
-    let period_ns = (config.timing.vision_period_s * 1e9).round() as u64;
+    let ticks_per_frame = u64::from(config.timing.control_ticks_per_frame);
     let mut frame: u64 = 0;
     let mut previous_capture_ns = 0;
     let mut world: Option<SimWorldMsg> = None;
-    let mut timer = PeriodicTimer::start(period_ns);
-    while !context.stopping() {
-        let wake = timer.wait();
-        let started = monotonic_ns();
-        if wake.skipped_periods > 0 {
-            counters.overrun();
-            counters.skipped(wake.skipped_periods);
+    // the tick of the next image: the first joint state heard, then every ticks_per_frame ticks
+    let mut next_tick: Option<u64> = None;
+    while !context.stopping() && !context.orphaned() {
+        let _ = state_listener.timed_wait(|_| {}, IDLE_WAIT);
+        let woke_at = monotonic_ns();
+        if let Some(newest) = latest(&world_subscriber, |m: &SimWorldMsg| m.schema, counters) {
+            world = Some(newest);
         }
+        // the state of the capture tick (or the first after it, had this node been late)
+        let mut due = None;
+        while let Ok(Some(sample)) = state_subscriber.receive() {
+            let state = *sample;
+            if !crate::schema_ok(state.schema) {
+                counters.rejected();
+                continue;
+            }
+            let wanted = *next_tick.get_or_insert(state.tick);
+            // a restarted plant starts again at rest where the arm was: capture from its first state
+            if state.tick + ticks_per_frame < wanted {
+                next_tick = Some(state.tick);
+            }
+            if due.is_none() && state.tick >= next_tick.unwrap_or(state.tick) {
+                due = Some(state);
+            }
+        }
+        // no plant yet (or a restart under way), or not yet the capture tick: no image to take
+        let (Some(state), Some(world)) = (due, world) else { continue };
+        if let Some(wanted) = next_tick
+            && state.tick > wanted
+        {
+            // this node woke after the capture tick's state was gone: the image is of a later tick
+            counters.overrun();
+            counters.skipped((state.tick - wanted) / ticks_per_frame);
+        }
+        next_tick = Some(state.tick + ticks_per_frame);
         // the frame processed during the last period leaves the pipeline now, before the new image is taken
         if let Some(delivered) = stage.take_delivered() {
             out.publish(&delivered);
         }
-        if let Some(newest) = latest(&world_subscriber, |m: &SimWorldMsg| m.schema, counters) {
-            world = Some(newest);
-        }
-        let latest = latest(state_subscriber, |m: &JointStateMsg| m.schema, counters);
-        // no plant yet (or a restart under way): no image to take
-        let (Some(state), Some(world)) = (latest, world) else { continue };
         let q = JointVector::from(state.q_rad);
         let Some(base_from_board) =
             pose_from_wire(&world.base_from_board).filter(|_| q.iter().all(|v| v.is_finite()))
@@ -220,20 +250,22 @@ fn run_simulated_camera(
             counters.rejected();
             continue;
         };
+        let started = monotonic_ns();
         let taken = stage.capture(frame, state.tick, &q, &base_from_board);
-        out.remember(frame, started, &taken.captured);
+        out.remember(frame, state.stamp_ns, &taken.captured);
         // with no pipeline delay the new frame leaves at once
         if let Some(delivered) = taken.delivered {
             out.publish(&delivered);
         }
-        publish_image(&image_publisher, stage.image(), frame, started);
+        publish_image(&image_publisher, stage.image(), frame, state.stamp_ns);
         let _ = image_notifier.notify();
         frame += 1;
         counters.set_progress(frame);
-        let frame_period_ns = if previous_capture_ns > 0 { started - previous_capture_ns } else { 0 };
-        previous_capture_ns = started;
+        let frame_period_ns =
+            if previous_capture_ns > 0 { state.stamp_ns.saturating_sub(previous_capture_ns) } else { 0 };
+        previous_capture_ns = state.stamp_ns;
         monitor.record(CycleSample {
-            wake_latency_ns: wake.lateness_ns,
+            wake_latency_ns: woke_at.saturating_sub(state.stamp_ns),
             execution_ns: monotonic_ns().saturating_sub(started),
             frame_period_ns,
             ..CycleSample::default()
