@@ -231,3 +231,121 @@ fn clients_with_no_daemon_say_so_and_create_nothing_that_stops_the_daemon() {
     );
     daemon.stop();
 }
+
+/// A process of the daemon's user publishes absurd messages on the real services for three seconds: torques
+/// of 1e9 N·m answering the plant's ticks, twists of 1e9, features 40 px off, gains × 1e6 and an object
+/// circle of 5 m at 1000 rev/min. None is applied: the arm stays within its speed limits, the daemon's
+/// gains and object stay in force, and the nodes count what they refused.
+#[test]
+fn absurd_messages_from_a_rogue_publisher_are_refused_and_counted() {
+    use vservo_protocol::{
+        CameraTwistMsg, FeaturesMsg, GainsMsg, JointCommandMsg, JointStateMsg, ObjectMsg, SCHEMA_VERSION,
+        Topic, command_kind, command_mode, verdict,
+    };
+    let _one = exclusive();
+    let instance = unique("rogue");
+    let config = instance_config(&instance);
+    let daemon = Daemon::start(&config);
+    assert!(
+        wait_until(Duration::from_secs(10), || status(&instance).is_some_and(|s| running(&s))),
+        "{}",
+        daemon.log()
+    );
+    let rejected_before: i64 = ["plant", "rmrc", "servo"]
+        .iter()
+        .map(|r| status(&instance).map_or(0, |s| node(&s, r)["rejected_messages"].as_i64().unwrap_or(0)))
+        .sum();
+
+    let rogue = vservo_protocol::create_node(&instance, "rogue").expect("a node");
+    let states =
+        vservo_protocol::subscriber::<JointStateMsg>(&rogue, &instance, Topic::JointState).expect("sub");
+    let torques =
+        vservo_protocol::publisher::<JointCommandMsg>(&rogue, &instance, Topic::JointCommand).expect("pub");
+    let twists =
+        vservo_protocol::publisher::<CameraTwistMsg>(&rogue, &instance, Topic::CameraTwist).expect("pub");
+    let features =
+        vservo_protocol::publisher::<FeaturesMsg>(&rogue, &instance, Topic::Features).expect("pub");
+    let gains = vservo_protocol::publisher::<GainsMsg>(&rogue, &instance, Topic::Gains).expect("pub");
+    let objects = vservo_protocol::publisher::<ObjectMsg>(&rogue, &instance, Topic::Object).expect("pub");
+    let mut fastest = 0.0f64;
+    let started = Instant::now();
+    let mut round = 0u64;
+    while started.elapsed() < Duration::from_secs(3) {
+        round += 1;
+        while let Ok(Some(state)) = states.receive() {
+            fastest = state.qd_rad_s.iter().fold(fastest, |m, v| m.max(v.abs()));
+            let command = JointCommandMsg {
+                schema: SCHEMA_VERSION,
+                mode: command_mode::TORQUE,
+                answers_tick: state.tick,
+                driver_epoch: state.driver_epoch,
+                state_stamp_ns: state.stamp_ns,
+                stamp_ns: state.stamp_ns,
+                torque_nm: [1e9; 6],
+                q_ref_rad: state.q_rad,
+                qd_ref_rad_s: [0.0; 6],
+            };
+            let _ = torques.send_copy(command);
+        }
+        if round.is_multiple_of(10) {
+            let _ = twists.send_copy(CameraTwistMsg {
+                schema: SCHEMA_VERSION,
+                verdict: verdict::SERVOING,
+                frame: round,
+                capture_tick: 0,
+                gains_version: 1,
+                stamp_ns: 0,
+                twist: [1e9; 6],
+                feature_error_px: 0.0,
+                missing_mask: 0,
+                reserved: 0,
+            });
+            let _ = features.send_copy(FeaturesMsg {
+                schema: SCHEMA_VERSION,
+                valid_mask: 0b1111,
+                frame: round,
+                capture_tick: 0,
+                capture_stamp_ns: 0,
+                stamp_ns: 0,
+                features_px: [5000.0, 168.0, 318.0, 178.0, 339.0, 75.0, 172.0, -400.0],
+                mark_status: [0; 4],
+                reserved: [0; 4],
+            });
+            let _ = gains.send_copy(GainsMsg {
+                schema: SCHEMA_VERSION,
+                used_past_gains: 0,
+                version: 1000 + round,
+                feature_gain: [1e6; 48],
+                past_input_gains: [0.0; 144],
+                desired_features_px: [5000.0; 8],
+                seal: round,
+            });
+            let _ = objects.send_copy(ObjectMsg {
+                schema: SCHEMA_VERSION,
+                kind: command_kind::OBJECT_CIRCLE,
+                sequence: 1000 + round,
+                translation_m: [0.0; 3],
+                radius_m: 5.0,
+                rev_per_min: 1000.0,
+                seal: round,
+            });
+        }
+        std::thread::sleep(Duration::from_millis(1));
+    }
+    let after = status(&instance).expect("status");
+    let rejected_after: i64 = ["plant", "rmrc", "servo"]
+        .iter()
+        .map(|r| node(&after, r)["rejected_messages"].as_i64().unwrap_or(0))
+        .sum();
+    println!(
+        "rogue publisher for 3 s: fastest joint {fastest:.3} rad/s; refused {} messages; gains version {}",
+        rejected_after - rejected_before,
+        after["gains_version"]
+    );
+    // the PUMA 560's slowest joint limit is 5 rad/s
+    assert!(fastest < 5.0, "joint speed {fastest} rad/s");
+    assert!(rejected_after - rejected_before > 100, "{after}");
+    assert_eq!(after["gains_version"], 1, "the rogue gains were not taken: {after}");
+    assert!(running(&after), "{after}\n{}", daemon.log());
+    daemon.stop();
+}

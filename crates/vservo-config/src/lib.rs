@@ -75,6 +75,10 @@ pub struct Robot {
     pub period_s: f64,
     /// No joint state for this many periods is a stalled driver: no motion is commanded until it is back.
     pub state_timeout_periods: u32,
+    /// A camera twist faster than this (m/s, the linear part's norm) is refused by the rmrc.
+    pub max_camera_speed_m_s: f64,
+    /// A camera twist turning faster than this (rad/s, the angular part's norm) is refused by the rmrc.
+    pub max_camera_rotation_rad_s: f64,
 }
 
 impl Robot {

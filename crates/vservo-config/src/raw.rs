@@ -29,6 +29,8 @@ pub struct RawRobot {
     pub command: Option<String>,
     pub period_s: Option<f64>,
     pub state_timeout_periods: i64,
+    pub max_camera_speed_m_s: f64,
+    pub max_camera_rotation_rad_s: f64,
     pub arm: RawArm,
 }
 
@@ -39,6 +41,8 @@ impl Default for RawRobot {
             command: None,
             period_s: None,
             state_timeout_periods: 50,
+            max_camera_speed_m_s: 2.0,
+            max_camera_rotation_rad_s: 6.0,
             arm: RawArm::default(),
         }
     }

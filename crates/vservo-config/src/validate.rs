@@ -715,7 +715,18 @@ fn validate_robot(
             "must be from 2 to 1000 driver periods",
         ));
     }
-    Ok(Robot { driver, command, period_s, state_timeout_periods: r.state_timeout_periods as u32 })
+    let max_camera_speed_m_s =
+        check.within("robot.max_camera_speed_m_s", r.max_camera_speed_m_s, 0.001, 10.0, "m/s")?;
+    let max_camera_rotation_rad_s =
+        check.within("robot.max_camera_rotation_rad_s", r.max_camera_rotation_rad_s, 0.001, 20.0, "rad/s")?;
+    Ok(Robot {
+        driver,
+        command,
+        period_s,
+        state_timeout_periods: r.state_timeout_periods as u32,
+        max_camera_speed_m_s,
+        max_camera_rotation_rad_s,
+    })
 }
 
 fn validate_vision(

@@ -215,6 +215,7 @@ pub fn layout_tables() -> String {
             feature_gain: "f64[48]", "K_ξ, 6×8 row-major (m/s and rad/s per px)";
             past_input_gains: "f64[144]", "K_j on the command sent j + 1 frames ago, four 6×6 row-major";
             desired_features_px: "f64[8]", "ξ_d (px)";
+            seal: "u64", "the daemon's seal (SipHash-2-4 of the fields under the run's key): other gains are refused";
         },
     );
     table(
@@ -229,6 +230,7 @@ pub fn layout_tables() -> String {
             translation_m: "f64[3]", "step: the jump in the desired camera frame (m)";
             radius_m: "f64", "circle: radius (m)";
             rev_per_min: "f64", "circle: speed (rev/min)";
+            seal: "u64", "the daemon's seal (SipHash-2-4 of the fields under the run's key): other object commands are refused";
         },
     );
     table(

@@ -7,6 +7,7 @@
 
 pub mod layout;
 pub mod messages;
+pub mod seal;
 
 pub use messages::*;
 

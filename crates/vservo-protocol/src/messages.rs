@@ -549,6 +549,8 @@ pub struct GainsMsg {
     pub past_input_gains: [f64; 36 * MAX_PAST_GAINS],
     /// ξ_d (px).
     pub desired_features_px: [f64; FEATURES],
+    /// The daemon's seal ([`crate::seal`]): a servo takes gains with a valid seal only.
+    pub seal: u64,
 }
 
 /// vservod → plant (history 1): how the simulated board moves from now on.
@@ -568,6 +570,8 @@ pub struct ObjectMsg {
     pub radius_m: f64,
     /// OBJECT_CIRCLE: speed (rev/min).
     pub rev_per_min: f64,
+    /// The daemon's seal ([`crate::seal`]): the plant takes object commands with a valid seal only.
+    pub seal: u64,
 }
 
 #[cfg(test)]
@@ -602,7 +606,7 @@ mod tests {
         assert_eq!(size_of::<CommandMsg>(), 16 + 64 + 48 + 16);
         assert_eq!(size_of::<CommandReplyMsg>(), 24 + 64 + REASON_BYTES);
         assert_eq!(offset_of!(GainsMsg, feature_gain), 16);
-        assert_eq!(size_of::<ObjectMsg>(), 16 + 24 + 16);
+        assert_eq!(size_of::<ObjectMsg>(), 16 + 24 + 16 + 8);
     }
 
     #[test]

@@ -49,6 +49,9 @@ pub struct NodeContext {
     /// Set when the daemon is gone: servo and vision stop; the rmrc brings the reference to rest and stops;
     /// the plant holds the arm and stops once the rmrc is gone and the arm is at rest.
     pub orphaned: Arc<AtomicBool>,
+    /// The run's key from the daemon: gains (servo) and object commands (plant) sealed with it are taken,
+    /// others refused and counted. A node started without it takes none.
+    pub seal_key: Option<vservo_protocol::seal::SealKey>,
     /// plant only: start at rest at these joints and this tick (a restart after a crash) instead of the
     /// scenario's start.
     pub resume: Option<(JointVector, u64)>,

@@ -48,7 +48,7 @@ pub fn pose_from_wire(m: &[f64; 12]) -> Option<IsometryMatrix3<f64>> {
 }
 
 /// The law's gains as a [`GainsMsg`] of `version`.
-pub fn gains_message(gains: &LawGains, version: u64) -> GainsMsg {
+pub fn gains_message(gains: &LawGains, version: u64, key: &vservo_protocol::seal::SealKey) -> GainsMsg {
     let mut feature_gain = [0.0; 48];
     for r in 0..6 {
         for c in 0..8 {
@@ -63,14 +63,17 @@ pub fn gains_message(gains: &LawGains, version: u64) -> GainsMsg {
             }
         }
     }
-    GainsMsg {
+    let mut message = GainsMsg {
         schema: SCHEMA_VERSION,
         used_past_gains: gains.used_past_gains as u32,
         version,
         feature_gain,
         past_input_gains,
         desired_features_px: to_array(&gains.desired_features),
-    }
+        seal: 0,
+    };
+    message.seal = key.seal_gains(&message);
+    message
 }
 
 /// The law's gains from a [`GainsMsg`]; `None` if a number is not finite or the count is out of range.
@@ -118,9 +121,12 @@ mod tests {
         spec.law = vservo_control::ControlLaw::DelayAware;
         let gains = vservo_control::Gains::design(&spec).expect("design");
         let law = LawGains::from(&gains);
-        let back = law_gains(&gains_message(&law, 3)).expect("valid");
+        let key = vservo_protocol::seal::SealKey::random().expect("a key");
+        let message = gains_message(&law, 3, &key);
+        assert_eq!(key.seal_gains(&message), message.seal, "sealed");
+        let back = law_gains(&message).expect("valid");
         assert_eq!(back, law);
-        let mut broken = gains_message(&law, 3);
+        let mut broken = gains_message(&law, 3, &key);
         broken.feature_gain[5] = f64::NAN;
         assert_eq!(law_gains(&broken), None);
     }

@@ -50,6 +50,8 @@ pub struct Commander {
     spec: GainsSpec,
     version: u64,
     object_sequence: u64,
+    /// The run's key: gains and object commands are sealed with it (the nodes take no others).
+    seal_key: vservo_protocol::seal::SealKey,
     gains_publisher: Publisher<ipc::Service, GainsMsg, ()>,
     object_publisher: Publisher<ipc::Service, ObjectMsg, ()>,
     server: Server<ipc::Service, CommandMsg, (), CommandReplyMsg, ()>,
@@ -62,6 +64,7 @@ impl Commander {
         config_path: &Path,
         config: Config,
         text: String,
+        seal_key: vservo_protocol::seal::SealKey,
     ) -> anyhow::Result<Self> {
         let instance = config.instance.clone();
         let spec = config.gains_spec();
@@ -73,6 +76,7 @@ impl Commander {
             config_text: text,
             version: 0,
             object_sequence: 0,
+            seal_key,
             gains_publisher: vservo_protocol::publisher(node, &instance, Topic::Gains)?,
             object_publisher: vservo_protocol::publisher(node, &instance, Topic::Object)?,
             server: vservo_protocol::open_command_service(
@@ -108,7 +112,7 @@ impl Commander {
     /// Designs gains for `spec`, publishes them as the next version and makes them current.
     fn adopt(&mut self, spec: GainsSpec) -> Result<(), String> {
         let gains = Gains::design(&spec).map_err(|e| format!("the gain cannot be designed: {e}"))?;
-        let message = gains_message(&LawGains::from(&gains), self.version + 1);
+        let message = gains_message(&LawGains::from(&gains), self.version + 1, &self.seal_key);
         let sample = self.gains_publisher.loan_uninit().map_err(|e| format!("publishing the gains: {e}"))?;
         sample.write_payload(message).send().map_err(|e| format!("publishing the gains: {e}"))?;
         self.version += 1;
@@ -381,14 +385,16 @@ impl Commander {
             }
             _ => "the board holds still".to_string(),
         };
-        let message = ObjectMsg {
+        let mut message = ObjectMsg {
             schema: SCHEMA_VERSION,
             kind: command.kind,
             sequence: self.object_sequence + 1,
             translation_m: command.translation_m,
             radius_m: command.radius_m,
             rev_per_min: command.rev_per_min,
+            seal: 0,
         };
+        message.seal = self.seal_key.seal_object(&message);
         let sample = self.object_publisher.loan_uninit().map_err(|e| format!("object: {e}"))?;
         sample.write_payload(message).send().map_err(|e| format!("object: {e}"))?;
         self.object_sequence += 1;

@@ -29,6 +29,9 @@ pub struct NodeArgs {
     config_stdin: bool,
 }
 
+/// The first line of what the daemon writes on a node's stdin: the run's seal key, then the configuration.
+pub const SEAL_KEY_LINE: &str = "vservo-seal-key=";
+
 /// The environment variable that tells a node its daemon's pid.
 pub const DAEMON_PID_ENV: &str = "VSERVO_DAEMON_PID";
 
@@ -50,13 +53,18 @@ pub fn run(
         // the daemon died before the signal was armed
         orphaned.store(true, std::sync::atomic::Ordering::Relaxed);
     }
-    let config = if args.config_stdin {
+    let (config, seal_key) = if args.config_stdin {
         let mut text = String::new();
         std::io::Read::read_to_string(&mut std::io::stdin(), &mut text)
             .context("reading the configuration from stdin")?;
-        vservo_config::Config::from_toml(&text, &config_path.display().to_string())?
+        // the daemon's key first, on a line of its own
+        let (key, toml) = match text.strip_prefix(SEAL_KEY_LINE).and_then(|rest| rest.split_once('\n')) {
+            Some((hex, toml)) => (vservo_protocol::seal::SealKey::from_hex(hex), toml),
+            None => (None, text.as_str()),
+        };
+        (vservo_config::Config::from_toml(toml, &config_path.display().to_string())?, key)
     } else {
-        vservo_config::Config::load(config_path)?
+        (vservo_config::Config::load(config_path)?, None)
     };
     let cell = vservo_cell::Cell::new(&config).with_context(|| format!("{}", config_path.display()))?;
     let resume = match &args.resume_q {
@@ -73,8 +81,15 @@ pub fn run(
         Some(xi) => bail!("--resume-features {xi:?}: expected eight finite features (px)"),
         None => None,
     };
-    let context =
-        NodeContext { cell, instance: config.instance.clone(), stop, orphaned, resume, resume_features };
+    let context = NodeContext {
+        cell,
+        instance: config.instance.clone(),
+        stop,
+        orphaned,
+        seal_key,
+        resume,
+        resume_features,
+    };
     match role {
         NodeRole::Plant => nodes::plant::run(&context)?,
         NodeRole::Rmrc => nodes::rmrc::run(&context)?,

@@ -104,7 +104,13 @@ struct Launcher {
 impl Launcher {
     /// Starts a node on `config_text`, the configuration in force (handed over on its stdin: a node
     /// restarted after an edit that was not reloaded, or was refused, runs what the others run).
-    fn spawn(&self, role: NodeRole, heard: Option<&Heard>, config_text: &str) -> std::io::Result<Child> {
+    fn spawn(
+        &self,
+        role: NodeRole,
+        heard: Option<&Heard>,
+        config_text: &str,
+        seal_key: &vservo_protocol::seal::SealKey,
+    ) -> std::io::Result<Child> {
         let mut command = Command::new(&self.executable);
         command.arg("--config").arg(&self.config_path).arg("node").arg(role.name()).arg("--config-stdin");
         let list = |values: &[f64]| values.iter().map(|v| format!("{v:e}")).collect::<Vec<_>>().join(",");
@@ -135,7 +141,10 @@ impl Launcher {
         // a few kB: the pipe takes it whole; closing it ends the node's read
         if let Some(mut stdin) = child.stdin.take() {
             use std::io::Write;
-            stdin.write_all(config_text.as_bytes())?;
+            stdin.write_all(
+                format!("{}{}\n{config_text}", crate::node_process::SEAL_KEY_LINE, seal_key.to_hex())
+                    .as_bytes(),
+            )?;
         }
         Ok(child)
     }
@@ -273,7 +282,9 @@ pub fn run(
         features: vservo_protocol::subscriber(&node, &instance, Topic::Features)?,
         status: vservo_protocol::publisher(&node, &instance, Topic::Status)?,
     };
-    let mut commander = Commander::new(&node, &launcher.config_path, config.clone(), config_text)?;
+    // the run's key: the nodes take gains and object commands sealed with it only (never in a message)
+    let seal_key = vservo_protocol::seal::SealKey::random().context("drawing the run's seal key")?;
+    let mut commander = Commander::new(&node, &launcher.config_path, config.clone(), config_text, seal_key)?;
     let daemon_started = monotonic_ns();
     let mut systemd = Systemd::new();
     let runtime = &config.runtime;
@@ -294,7 +305,7 @@ pub fn run(
     // an external robot driver is the user's process: vservod starts no plant for it
     for role in NodeRole::ALL.into_iter().filter(|r| !(external_robot && *r == NodeRole::Plant)) {
         let process = launcher
-            .spawn(role, None, commander.config_text())
+            .spawn(role, None, commander.config_text(), &seal_key)
             .with_context(|| format!("starting the {} node", role.name()))?;
         nodes.push(Supervised {
             role,
@@ -381,7 +392,7 @@ pub fn run(
         );
         for n in nodes.iter_mut() {
             if n.process.is_none() && n.restart_at.is_some_and(|at| now >= at) {
-                match launcher.spawn(n.role, Some(&heard), commander.config_text()) {
+                match launcher.spawn(n.role, Some(&heard), commander.config_text(), &seal_key) {
                     Ok(child) => {
                         n.process = Some(child);
                         n.state = node_state::RUNNING;

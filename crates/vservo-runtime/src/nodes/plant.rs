@@ -56,12 +56,22 @@ fn state_message(stage: &PlantStage, state: &JointState, declared: &Declared) ->
     }
 }
 
-/// The command a joint command carries, if it is in the interface this driver declared and finite.
-fn command_of(message: &JointCommandMsg, declared: u32) -> Option<ActuatorCommand> {
+/// A commanded torque beyond this many times a joint's torque limit is refused (the plant then holds the
+/// arm); up to it, the drives saturate at the limit, as real ones do.
+const TORQUE_REFUSED_ABOVE_LIMITS: f64 = 1.5;
+
+/// The command a joint command carries, if it is in the interface this driver declared, finite and, for
+/// torques, within [`TORQUE_REFUSED_ABOVE_LIMITS`] of the limits.
+fn command_of(message: &JointCommandMsg, declared: u32, torque_max_nm: &[f64; 6]) -> Option<ActuatorCommand> {
     let all_finite = |v: &[f64; 6]| v.iter().all(|x| x.is_finite());
+    let torque_in_range = message
+        .torque_nm
+        .iter()
+        .zip(torque_max_nm)
+        .all(|(t, max)| t.abs() <= TORQUE_REFUSED_ABOVE_LIMITS * max);
     match message.mode {
         _ if message.mode != declared => None,
-        command_mode::TORQUE if all_finite(&message.torque_nm) => {
+        command_mode::TORQUE if all_finite(&message.torque_nm) && torque_in_range => {
             Some(ActuatorCommand::Torque(JointVector::from(message.torque_nm)))
         }
         command_mode::POSITION if all_finite(&message.q_ref_rad) && all_finite(&message.qd_ref_rad_s) => {
@@ -116,6 +126,8 @@ pub fn run(context: &NodeContext) -> Result<(), RuntimeError> {
         command_mode: crate::wire::command_mode_code(config.command_interface()),
     };
     let epoch = declared.epoch;
+    let torque_max_nm: [f64; 6] = std::array::from_fn(|j| context.cell.arm().links[j].limits.torque_max);
+    let speed_max_rad_s: [f64; 6] = std::array::from_fn(|j| context.cell.arm().links[j].limits.velocity_max);
     let hold_after = u64::from(config.runtime.hold_after_missed_ticks);
     let counters = monitor.counters();
     tracing::info!(
@@ -164,7 +176,7 @@ pub fn run(context: &NodeContext) -> Result<(), RuntimeError> {
             if !schema_ok(reply.schema) || reply.driver_epoch != epoch {
                 counters.rejected();
             } else if reply.answers_tick == state.tick {
-                match command_of(&reply, declared.command_mode) {
+                match command_of(&reply, declared.command_mode, &torque_max_nm) {
                     Some(command) => {
                         answer = Some(command);
                         // state published → answer in the plant's queue (the rmrc stamps it as it sends)
@@ -184,10 +196,19 @@ pub fn run(context: &NodeContext) -> Result<(), RuntimeError> {
             && message.sequence != object_sequence
         {
             object_sequence = message.sequence;
-            match object_motion(&message) {
+            // the daemon's command only: sealed with the run's key (the daemon has checked its limits)
+            let sealed = context.seal_key.is_some_and(|key| key.seal_object(&message) == message.seal);
+            match object_motion(&message).filter(|_| sealed) {
                 Some(motion) => stage.set_object_motion(motion),
                 None => counters.rejected(),
             }
+        }
+        // a joint over its speed limit: the drives brake the arm, whatever is commanded (an overspeed trip)
+        let overspeed = stage.state().qd.iter().zip(&speed_max_rad_s).any(|(v, max)| v.abs() > *max);
+        if overspeed && answer.is_some() {
+            counters.rejected();
+            answer = None;
+            missed_in_a_row = hold_after;
         }
         // a late tick still advances one tick of simulated time
         match answer {

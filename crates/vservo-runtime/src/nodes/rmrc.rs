@@ -19,6 +19,13 @@ use crate::telemetry::CycleSample;
 use crate::wire::{command_mode_code, to_array};
 use crate::{NodeContext, RuntimeError, schema_ok};
 
+/// Whether a twist is finite and inside the configured limits: linear speed (m/s), angular speed (rad/s).
+fn twist_within(twist: &Twist, (linear_m_s, angular_rad_s): (f64, f64)) -> bool {
+    twist.iter().all(|v| v.is_finite())
+        && twist.fixed_rows::<3>(0).norm() <= linear_m_s
+        && twist.fixed_rows::<3>(3).norm() <= angular_rad_s
+}
+
 /// The stage and the driver state it follows.
 struct Following {
     epoch: u64,
@@ -45,6 +52,7 @@ pub fn run(context: &NodeContext) -> Result<(), RuntimeError> {
     // the driver's stall deadline; the rmrc's own lateness (states it drained at once) is no gap
     let gap_ns = period_ns * u64::from(config.robot.state_timeout_periods);
     let counters = monitor.counters();
+    let limits = (config.robot.max_camera_speed_m_s, config.robot.max_camera_rotation_rad_s);
     let mut following: Option<Following> = None;
     // the daemon gone: when, and how long the ramp to rest may take before the rmrc gives up (the plant then
     // brakes the arm itself)
@@ -100,10 +108,16 @@ pub fn run(context: &NodeContext) -> Result<(), RuntimeError> {
         let rmrc = &mut f.stage;
         while let Ok(Some(sample)) = twist_subscriber.receive() {
             let twist = Twist::from(sample.twist);
-            if schema_ok(sample.schema) && twist.iter().all(|v| v.is_finite()) {
+            // any verdict but "servoing" means stop, whatever the numbers say
+            let servoing = sample.verdict == vservo_protocol::verdict::SERVOING;
+            let twist = if servoing { twist } else { Twist::zeros() };
+            if schema_ok(sample.schema) && twist_within(&twist, limits) {
                 rmrc.set_twist(twist, now_s);
             } else {
+                // out of range: refused, counted, and the arm is brought to rest rather than left on the
+                // last good twist
                 counters.rejected();
+                rmrc.set_twist(Twist::zeros(), now_s);
             }
         }
         if orphaned_at.is_some() {

@@ -55,7 +55,9 @@ pub fn run(context: &NodeContext) -> Result<(), RuntimeError> {
         if let Some(message) = latest(&gains_subscriber, |m: &GainsMsg| m.schema, counters)
             && message.version != gains_version
         {
-            match law_gains(&message) {
+            // the daemon's design only: sealed with the run's key, and newer than the one in use
+            let sealed = context.seal_key.is_some_and(|key| key.seal_gains(&message) == message.seal);
+            match law_gains(&message).filter(|_| sealed && message.version > gains_version) {
                 Some(gains) => {
                     stage.set_gains(&gains);
                     gains_version = message.version;
@@ -70,7 +72,24 @@ pub fn run(context: &NodeContext) -> Result<(), RuntimeError> {
                 counters.rejected();
                 continue;
             }
-            let features = FeatureVector::from(message.features_px);
+            // a mark outside the image is no measurement: taken as missing, the message counted refused
+            let mut features = FeatureVector::from(message.features_px);
+            let (width, height) = (f64::from(config.camera.width_px()), f64::from(config.camera.height_px()));
+            let mut outside = false;
+            for mark in 0..vservo_scene::MARKS {
+                let (x, y) = (features[2 * mark], features[2 * mark + 1]);
+                if x.is_finite()
+                    && y.is_finite()
+                    && !((0.0..=width).contains(&x) && (0.0..=height).contains(&y))
+                {
+                    features[2 * mark] = f64::NAN;
+                    features[2 * mark + 1] = f64::NAN;
+                    outside = true;
+                }
+            }
+            if outside {
+                counters.rejected();
+            }
             let (twist, why) = stage.step(Some(&features));
             let error_px = feature_error_px(&features, stage.desired_features());
             let (verdict_code, missing_mask) = match why {
