@@ -35,17 +35,23 @@ impl Drop for Reaper {
     }
 }
 
+/// A daemon of the default cell under `instance`, once every node runs.
+fn running_daemon(instance: &str) -> (vservo_system_tests::TempConfig, Daemon) {
+    let config = instance_config(instance);
+    let daemon = Daemon::start(&config);
+    assert!(
+        wait_until(Duration::from_secs(10), || status(instance).is_some_and(|s| running(&s))),
+        "{}",
+        daemon.log()
+    );
+    (config, daemon)
+}
+
 #[test]
 fn a_stopped_node_is_found_hung_killed_and_restarted() {
     let _one = exclusive();
     let instance = unique("hang");
-    let config = instance_config(&instance);
-    let daemon = Daemon::start(&config);
-    assert!(
-        wait_until(Duration::from_secs(10), || status(&instance).is_some_and(|s| running(&s))),
-        "{}",
-        daemon.log()
-    );
+    let (_config, daemon) = running_daemon(&instance);
     for role in ["servo", "plant"] {
         let pid = pid_of(&instance, role);
         let _reaper = Reaper(vec![pid]);
@@ -82,13 +88,7 @@ fn a_stopped_node_is_found_hung_killed_and_restarted() {
 fn when_the_daemon_is_killed_the_nodes_bring_the_arm_to_rest_in_order() {
     let _one = exclusive();
     let instance = unique("orphan");
-    let config = instance_config(&instance);
-    let mut daemon = Daemon::start(&config);
-    assert!(
-        wait_until(Duration::from_secs(10), || status(&instance).is_some_and(|s| running(&s))),
-        "{}",
-        daemon.log()
-    );
+    let (_config, mut daemon) = running_daemon(&instance);
     let roles = ["servo", "vision", "rmrc", "plant"];
     let pids: Vec<i32> = roles.iter().map(|r| pid_of(&instance, r)).collect();
     let _reaper = Reaper(pids.clone());
@@ -156,13 +156,7 @@ fn when_the_daemon_is_killed_the_nodes_bring_the_arm_to_rest_in_order() {
 fn a_restarted_node_runs_the_configuration_in_force_not_an_edited_file() {
     let _one = exclusive();
     let instance = unique("in-force");
-    let config = instance_config(&instance);
-    let daemon = Daemon::start(&config);
-    assert!(
-        wait_until(Duration::from_secs(10), || status(&instance).is_some_and(|s| running(&s))),
-        "{}",
-        daemon.log()
-    );
+    let (config, daemon) = running_daemon(&instance);
     // an edit that was never reloaded, and that does not even parse
     std::fs::write(&config.path, "this is [not a configuration").expect("overwrite");
     let pid = pid_of(&instance, "vision");
@@ -222,13 +216,7 @@ fn clients_with_no_daemon_say_so_and_create_nothing_that_stops_the_daemon() {
         .expect("python runs");
     assert_eq!(out.status.code(), Some(1), "{}", String::from_utf8_lossy(&out.stderr));
     // the daemon then starts as if no client had been there
-    let config = instance_config(&instance);
-    let daemon = Daemon::start(&config);
-    assert!(
-        wait_until(Duration::from_secs(10), || status(&instance).is_some_and(|s| running(&s))),
-        "{}",
-        daemon.log()
-    );
+    let (_config, daemon) = running_daemon(&instance);
     daemon.stop();
 }
 
@@ -244,13 +232,7 @@ fn absurd_messages_from_a_rogue_publisher_are_refused_and_counted() {
     };
     let _one = exclusive();
     let instance = unique("rogue");
-    let config = instance_config(&instance);
-    let daemon = Daemon::start(&config);
-    assert!(
-        wait_until(Duration::from_secs(10), || status(&instance).is_some_and(|s| running(&s))),
-        "{}",
-        daemon.log()
-    );
+    let (_config, daemon) = running_daemon(&instance);
     let rejected_before: i64 = ["plant", "rmrc", "servo"]
         .iter()
         .map(|r| status(&instance).map_or(0, |s| node(&s, r)["rejected_messages"].as_i64().unwrap_or(0)))

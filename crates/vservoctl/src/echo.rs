@@ -54,10 +54,20 @@ fn echo<T: std::fmt::Debug + iceoryx2::prelude::ZeroCopySend + 'static>(
 ) -> anyhow::Result<()> {
     let until = args.duration_s.map(|s| Instant::now() + Duration::from_secs_f64(s));
     let subscriber = when_there(until, || connection.subscriber::<T>(topic))?;
+    print_lines(args, until, || Ok(subscriber.receive()?.map(|sample| render(&sample))))
+}
+
+/// Prints what `next` yields as JSON lines, polling every millisecond, until `--count` lines are out or
+/// `until` has passed.
+fn print_lines(
+    args: &EchoArgs,
+    until: Option<Instant>,
+    mut next: impl FnMut() -> anyhow::Result<Option<Value>>,
+) -> anyhow::Result<()> {
     let mut printed = 0u64;
     loop {
-        while let Some(sample) = subscriber.receive()? {
-            print_stdout(&format!("{}\n", render(&sample)))?;
+        while let Some(line) = next()? {
+            print_stdout(&format!("{line}\n"))?;
             printed += 1;
             if args.count.is_some_and(|n| printed >= n) {
                 return Ok(());
@@ -97,26 +107,15 @@ fn echo_images(connection: &Connection, args: &EchoArgs) -> anyhow::Result<()> {
         vservo_protocol::Opening::OpenOnly,
     )?;
     let until = args.duration_s.map(|s| Instant::now() + Duration::from_secs_f64(s.max(0.0)));
-    let mut printed = 0u64;
-    loop {
-        while let Some(sample) = subscriber.receive()? {
-            let h = sample.user_header();
-            let pixels = sample.payload();
-            let mean = pixels.iter().map(|&p| f64::from(p)).sum::<f64>() / pixels.len().max(1) as f64;
-            let line = serde_json::json!({"schema": h.schema, "format": h.format, "width": h.width,
-                "height": h.height, "stride_bytes": h.stride_bytes, "frame": h.frame,
-                "capture_stamp_ns": h.capture_stamp_ns, "bytes": pixels.len(), "mean_gray": mean});
-            print_stdout(&format!("{line}\n"))?;
-            printed += 1;
-            if args.count.is_some_and(|n| printed >= n) {
-                return Ok(());
-            }
-        }
-        if until.is_some_and(|u| Instant::now() >= u) {
-            return Ok(());
-        }
-        std::thread::sleep(Duration::from_millis(1));
-    }
+    print_lines(args, until, || {
+        let Some(sample) = subscriber.receive()? else { return Ok(None) };
+        let h = sample.user_header();
+        let pixels = sample.payload();
+        let mean = pixels.iter().map(|&p| f64::from(p)).sum::<f64>() / pixels.len().max(1) as f64;
+        Ok(Some(serde_json::json!({"schema": h.schema, "format": h.format, "width": h.width,
+            "height": h.height, "stride_bytes": h.stride_bytes, "frame": h.frame,
+            "capture_stamp_ns": h.capture_stamp_ns, "bytes": pixels.len(), "mean_gray": mean})))
+    })
 }
 
 pub fn run(args: &EchoArgs) -> anyhow::Result<()> {
