@@ -7,7 +7,9 @@
 //!   and waits (on an iceoryx2 event) for the rmrc's answer; a late answer is counted and the previous
 //!   command held, and after `hold_after_missed_ticks` the plant brakes the arm itself.
 //! - [`nodes::rmrc`] wakes on the `joint_state` event and answers with `joint_command` in the driver's interface.
-//! - [`nodes::vision`] runs on its own vision-period timer; [`nodes::servo`] wakes on `features`.
+//! - [`nodes::vision`] with the simulated camera wakes on `joint_state` and takes an image every vision
+//!   period of plant ticks; with an external camera it wakes on each `camera_image`. [`nodes::servo`] wakes
+//!   on `features`.
 //!
 //! Every node publishes `telemetry` from a normal-priority thread ([`telemetry`]); the hot loops only push
 //! timings into a bounded lock-free channel. Real-time settings come from the config's `[runtime]`
@@ -69,7 +71,8 @@ impl NodeContext {
     }
 }
 
-/// Below this joint speed (rad/s) the arm is at rest: a node that outlives the daemon stops there.
+/// Below this joint speed (rad/s) the arm is at rest (the joint servo's last friction corrections stay
+/// below it): a node that outlives the daemon stops there, and so does the daemon's own safe stop.
 pub const AT_REST_RAD_S: f64 = 0.01;
 
 /// A sample's schema is the one this build speaks.

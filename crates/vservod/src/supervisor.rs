@@ -30,9 +30,9 @@ const CYCLE: Duration = Duration::from_millis(50);
 const TELEMETRY_STALE: Duration = Duration::from_millis(500);
 /// A node that ran this long healthy has its restart backoff reset.
 const STABLE_AFTER: Duration = Duration::from_secs(10);
-/// The arm is at rest when the rmrc's reference has stopped and no joint moves faster than this (rad/s):
-/// the joint servo's last corrections (friction) stay below it.
-const AT_REST_RAD_S: f64 = 0.01;
+// The arm is at rest when the rmrc's reference has stopped and no joint moves faster than this (rad/s):
+// the nodes' own rule when they outlive the daemon.
+use vservo_runtime::AT_REST_RAD_S;
 
 /// One supervised node.
 struct Supervised {

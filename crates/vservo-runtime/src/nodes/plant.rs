@@ -125,7 +125,6 @@ pub fn run(context: &NodeContext) -> Result<(), RuntimeError> {
         period_ns,
         command_mode: crate::wire::command_mode_code(config.command_interface()),
     };
-    let epoch = declared.epoch;
     let torque_max_nm: [f64; 6] = std::array::from_fn(|j| context.cell.arm().links[j].limits.torque_max);
     let speed_max_rad_s: [f64; 6] = std::array::from_fn(|j| context.cell.arm().links[j].limits.velocity_max);
     let hold_after = u64::from(config.runtime.hold_after_missed_ticks);
@@ -173,7 +172,7 @@ pub fn run(context: &NodeContext) -> Result<(), RuntimeError> {
         let mut round_trip_ns = 0;
         while let Ok(Some(sample)) = command_subscriber.receive() {
             let reply = *sample;
-            if !schema_ok(reply.schema) || reply.driver_epoch != epoch {
+            if !schema_ok(reply.schema) || reply.driver_epoch != declared.epoch {
                 counters.rejected();
             } else if reply.answers_tick == state.tick {
                 match command_of(&reply, declared.command_mode, &torque_max_nm) {
