@@ -2,7 +2,7 @@
 """A MuJoCo arm and hand camera for vservo: the reference robot + camera driver.
 
 Copy this file to write a driver for a real arm and camera: replace `Arm` (`step`: send the joint velocities
-and wait for the next encoder reading) and `Camera.grab` (take an image), keep the rest. It speaks docs/PROTOCOL.md (schema 2) over
+and wait for the next encoder reading) and `Camera.grab` (take an image), keep the rest. It speaks docs/PROTOCOL.md (schema 3) over
 iceoryx2 0.10 shared memory:
 
 - every robot period (1 ms) it publishes `joint_state` and notifies the `joint_state` event;
@@ -37,7 +37,7 @@ import iceoryx2 as iox2
 import mujoco
 import numpy as np
 
-SCHEMA = 2
+SCHEMA = 3
 TORQUE, VELOCITY, POSITION = 0, 1, 2  # command modes
 FOLLOWING, HOLDING = 0, 1  # driver_status
 COMMAND_TIMEOUT_NS = 20_000_000  # no valid command for this long: hold
@@ -60,12 +60,12 @@ class JointState(ctypes.Structure):
 
 
 class JointCommand(ctypes.Structure):
-    """vservo::JointCommand, 184 bytes."""
+    """vservo::JointCommand, 192 bytes (the seal is the rmrc's, for the simulated driver: ignored here)."""
 
     _fields_ = [("schema", ctypes.c_uint32), ("mode", ctypes.c_uint32), ("answers_tick", ctypes.c_uint64),
                 ("driver_epoch", ctypes.c_uint64), ("state_stamp_ns", ctypes.c_uint64), ("stamp_ns", ctypes.c_uint64),
                 ("torque_nm", ctypes.c_double * 6), ("q_ref_rad", ctypes.c_double * 6),
-                ("qd_ref_rad_s", ctypes.c_double * 6)]
+                ("qd_ref_rad_s", ctypes.c_double * 6), ("seal", ctypes.c_uint64)]
 
     @staticmethod
     def type_name() -> str:

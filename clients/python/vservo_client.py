@@ -1,16 +1,17 @@
 #!/usr/bin/env python3
 """A Python client for a running vservo instance, over iceoryx2 shared memory (PyPI `iceoryx2` 0.10).
 
-It speaks the layout of docs/PROTOCOL.md: it sends commands (targets, object motion, reload) to the daemon's
+It speaks the layout of docs/PROTOCOL.md: it sends commands (targets, object motion, reload, safe stop and
+resume) to the daemon's
 `command` request-response service and reads the replies, and it reads the `status` and `camera_twist` topics.
 
     python3 vservo_client.py [--instance NAME] target x1,y1,x2,y2,x3,y3,x4,y4
     python3 vservo_client.py [--instance NAME] pose x,y,z [roll,pitch,yaw in degrees]
-    python3 vservo_client.py [--instance NAME] teach | reload | status | twist
+    python3 vservo_client.py [--instance NAME] teach | reload | safe-stop | resume | status | twist
     python3 vservo_client.py [--instance NAME] object hold | object step x,y,z | object circle RADIUS_M REV_PER_MIN
 
 Exit code 0 when the daemon accepted the command, 3 when it refused it (the reason is printed), 1 when no
-daemon answered, 2 on bad arguments. Use it as a library too: `Client("default").set_target([...])`.
+daemon answered, 2 on bad arguments, 75 when every command slot was taken (nothing was sent: try again). Use it as a library too: `Client("default").set_target([...])`.
 """
 
 import argparse
@@ -22,8 +23,12 @@ import time
 
 import iceoryx2 as iox2
 
-SCHEMA_VERSION = 2
-TARGET_FEATURES, TARGET_POSE, TARGET_TEACH, OBJECT_HOLD, OBJECT_STEP, OBJECT_CIRCLE, RELOAD = range(1, 8)
+SCHEMA_VERSION = 3
+(TARGET_FEATURES, TARGET_POSE, TARGET_TEACH, OBJECT_HOLD, OBJECT_STEP, OBJECT_CIRCLE, RELOAD, RESUME,
+ SAFE_STOP) = range(1, 10)
+STATES = ["starting", "running", "degraded", "stopping", "safe-stop"]
+FAULTS = ["none", "position_limit", "velocity_limit", "torque_saturated", "driver_fault", "target_lost",
+          "robot_stalled", "requested"]
 
 
 class Command(ctypes.Structure):
@@ -101,7 +106,7 @@ class NodeStatus(ctypes.Structure):
 
 
 class DaemonStatus(ctypes.Structure):
-    """vservo::DaemonStatus, 184 bytes."""
+    """vservo::DaemonStatus, 208 bytes."""
 
     _fields_ = [
         ("schema", ctypes.c_uint32),
@@ -114,6 +119,10 @@ class DaemonStatus(ctypes.Structure):
         ("feature_error_px", ctypes.c_double),
         ("pid", ctypes.c_uint32),
         ("robot", ctypes.c_uint32),
+        ("fault", ctypes.c_uint32),
+        ("fault_joints", ctypes.c_uint32),
+        ("fault_since_ns", ctypes.c_uint64),
+        ("safe_stops", ctypes.c_uint64),
     ]
 
     @staticmethod
@@ -123,6 +132,10 @@ class DaemonStatus(ctypes.Structure):
 
 class NoAnswer(Exception):
     """No daemon answered in time."""
+
+
+class Busy(Exception):
+    """Every command slot of the instance was taken at that moment: nothing was sent; try again."""
 
 
 class Client:
@@ -136,35 +149,45 @@ class Client:
         config.global_cfg.prefix = iox2.FileName.new(f"vservo_{instance}_")
         self.node = iox2.NodeBuilder.new().config(config).create(iox2.ServiceType.Ipc)
         self._next_id = os.getpid() << 32
-        self._commands = None
 
     def _service_name(self, service: str):
         return iox2.ServiceName.new(f"vservo/{self.instance}/{service}")
 
     def request(self, command: Command) -> CommandReply:
-        """Sends one command and returns the daemon's reply."""
-        if self._commands is None:
-            try:
-                service = (
-                    self.node.service_builder(self._service_name("command"))
-                    .request_response(Command, CommandReply)
-                    .open()
-                )
-            except Exception as error:  # the service exists only while a daemon runs
-                raise NoAnswer(f"no vservod of instance {self.instance!r} ({error})") from error
-            self._commands = service.client_builder().create()
+        """Sends one command and returns the daemon's reply.
+
+        The command slot is held only while the answer is awaited: an idle client locks nobody out."""
+        try:
+            service = (
+                self.node.service_builder(self._service_name("command"))
+                .request_response(Command, CommandReply)
+                .open()
+            )
+        except Exception as error:  # the service exists only while a daemon runs
+            raise NoAnswer(f"no vservod of instance {self.instance!r} ({error})") from error
+        try:
+            commands = service.client_builder().create()
+        except Exception as error:
+            if "ExceedsMaxSupportedClients" in repr(error) or "ExceedsMaxSupportedClients" in str(error):
+                raise Busy(f"instance {self.instance!r} is busy: every command slot is taken; "
+                           "nothing was sent, try again") from error
+            raise
         self._next_id += 1
         command.schema = SCHEMA_VERSION
         command.id = self._next_id
-        pending = self._commands.send_copy(command)
-        deadline = time.monotonic() + self.timeout_s
-        while time.monotonic() < deadline:
-            response = pending.receive()
-            if response is not None:
-                reply = CommandReply.from_buffer_copy(response.payload().contents)
-                if reply.id == command.id:
-                    return reply
-            time.sleep(0.001)
+        try:
+            pending = commands.send_copy(command)
+            deadline = time.monotonic() + self.timeout_s
+            while time.monotonic() < deadline:
+                response = pending.receive()
+                if response is not None:
+                    reply = CommandReply.from_buffer_copy(response.payload().contents)
+                    if reply.id == command.id:
+                        return reply
+                time.sleep(0.001)
+        finally:
+            # let go of the slot now, not when the garbage collector gets to it
+            del commands
         raise NoAnswer(f"no answer from vservod of instance {self.instance!r} within {self.timeout_s} s")
 
     def set_target(self, features_px) -> CommandReply:
@@ -187,6 +210,14 @@ class Client:
 
     def reload(self) -> CommandReply:
         return self.request(Command(kind=RELOAD))
+
+    def resume(self) -> CommandReply:
+        """Servo again after a safe stop (refused, with each cause, while a fault's cause is still there)."""
+        return self.request(Command(kind=RESUME))
+
+    def safe_stop(self) -> CommandReply:
+        """Bring the arm to rest and hold it until `resume`."""
+        return self.request(Command(kind=SAFE_STOP))
 
     def object_hold(self) -> CommandReply:
         return self.request(Command(kind=OBJECT_HOLD))
@@ -240,14 +271,17 @@ def _numbers(text: str, count: int):
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--instance", default="default")
-    parser.add_argument("command", choices=["target", "pose", "teach", "reload", "status", "twist", "object"])
+    parser.add_argument("command", choices=["target", "pose", "teach", "reload", "safe-stop", "resume", "status",
+                                            "twist", "object"])
     parser.add_argument("args", nargs="*")
     options = parser.parse_args(argv)
     try:
         client = Client(options.instance)
         if options.command == "status":
             s = client.status()
-            print(f"state {s.state} gains version {s.gains_version} ticks {s.tick_rate_hz:.1f}/s "
+            state = STATES[s.state] if s.state < len(STATES) else str(s.state)
+            fault = FAULTS[s.fault] if s.fault < len(FAULTS) else str(s.fault)
+            print(f"state {state} fault {fault} gains version {s.gains_version} ticks {s.tick_rate_hz:.1f}/s "
                   f"error {s.feature_error_px:.3f} px restarts {[n.restarts for n in s.nodes]}")
             return 0
         if options.command == "twist":
@@ -263,6 +297,10 @@ def main(argv=None) -> int:
             reply = client.teach()
         elif options.command == "reload":
             reply = client.reload()
+        elif options.command == "safe-stop":
+            reply = client.safe_stop()
+        elif options.command == "resume":
+            reply = client.resume()
         elif options.args[:1] == ["hold"]:
             reply = client.object_hold()
         elif options.args[:1] == ["step"]:
@@ -277,6 +315,9 @@ def main(argv=None) -> int:
     except NoAnswer as error:
         print(f"vservo_client: {error}", file=sys.stderr)
         return 1
+    except Busy as error:
+        print(f"vservo_client: {error}", file=sys.stderr)
+        return 75
     if reply.accepted:
         target = ", ".join(f"{v:.2f}" for v in reply.target_features_px)
         print(f"accepted: {reply.reason_text()}\n  gains version {reply.gains_version}, target [{target}] px")

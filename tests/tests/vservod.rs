@@ -243,7 +243,7 @@ fn two_instances_run_side_by_side_and_sigterm_stops_each_within_two_seconds() {
 }
 
 #[test]
-fn systemd_hears_ready_status_and_watchdog_only_while_the_loops_are_healthy() {
+fn systemd_hears_ready_status_and_watchdog_only_while_the_cell_can_be_made_safe() {
     use std::os::unix::net::UnixDatagram;
     let _one = exclusive();
     let instance = unique("notify");
@@ -307,6 +307,17 @@ fn systemd_hears_ready_status_and_watchdog_only_while_the_loops_are_healthy() {
         daemon.log()
     );
     assert!(daemon.log().contains("node hung"), "{}", daemon.log());
+
+    // a safe stop is a cell made safe: the keep-alives go on
+    let out = vservo_system_tests::run("vservoctl", &["safe-stop", "--instance", &instance]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    heard.clear();
+    listen(Duration::from_millis(1200), &mut heard);
+    assert!(
+        heard.iter().filter(|(_, m)| m.contains("WATCHDOG=1")).count() >= 2,
+        "keep-alives in a safe stop: {heard:?}"
+    );
+    assert!(heard.iter().any(|(_, m)| m.contains("STATUS=safe-stop (requested")), "{heard:?}");
 
     daemon.signal(Signal::SIGTERM);
     heard.clear();

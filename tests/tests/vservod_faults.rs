@@ -220,15 +220,16 @@ fn clients_with_no_daemon_say_so_and_create_nothing_that_stops_the_daemon() {
     daemon.stop();
 }
 
-/// A process of the daemon's user publishes absurd messages on the real services for three seconds: torques
-/// of 1e9 N·m answering the plant's ticks, twists of 1e9, features 40 px off, gains × 1e6 and an object
-/// circle of 5 m at 1000 rev/min. None is applied: the arm stays within its speed limits, the daemon's
-/// gains and object stay in force, and the nodes count what they refused.
+/// A process of the daemon's user publishes absurd messages on the real services for ten seconds: torques
+/// answering the plant's ticks (1e9 N·m, and, unsealed, 0.9 of each limit), twists of 1e9, features 40 px
+/// off, gains × 1e6, an object circle of 5 m at 1000 rev/min, and cell modes that would hold or release the
+/// cell. None is applied: the arm stays within its speed limits, the daemon's gains, object and mode stay in
+/// force, and the nodes count what they refused.
 #[test]
 fn absurd_messages_from_a_rogue_publisher_are_refused_and_counted() {
     use vservo_protocol::{
-        CameraTwistMsg, FeaturesMsg, GainsMsg, JointCommandMsg, JointStateMsg, ObjectMsg, SCHEMA_VERSION,
-        Topic, command_kind, command_mode, verdict,
+        CameraTwistMsg, CellModeMsg, FeaturesMsg, GainsMsg, JointCommandMsg, JointStateMsg, ObjectMsg,
+        SCHEMA_VERSION, Topic, cell_mode, command_kind, command_mode, verdict,
     };
     let _one = exclusive();
     let instance = unique("rogue");
@@ -249,10 +250,13 @@ fn absurd_messages_from_a_rogue_publisher_are_refused_and_counted() {
         vservo_protocol::publisher::<FeaturesMsg>(&rogue, &instance, Topic::Features).expect("pub");
     let gains = vservo_protocol::publisher::<GainsMsg>(&rogue, &instance, Topic::Gains).expect("pub");
     let objects = vservo_protocol::publisher::<ObjectMsg>(&rogue, &instance, Topic::Object).expect("pub");
+    let modes = vservo_protocol::publisher::<CellModeMsg>(&rogue, &instance, Topic::CellMode).expect("pub");
+    // inside every limit: only the seal refuses these
+    let within_limits_nm = [87.8, 167.8, 80.5, 21.8, 18.1, 19.2];
     let mut fastest = 0.0f64;
     let started = Instant::now();
     let mut round = 0u64;
-    while started.elapsed() < Duration::from_secs(3) {
+    while started.elapsed() < Duration::from_secs(10) {
         round += 1;
         while let Ok(Some(state)) = states.receive() {
             fastest = state.qd_rad_s.iter().fold(fastest, |m, v| m.max(v.abs()));
@@ -263,9 +267,10 @@ fn absurd_messages_from_a_rogue_publisher_are_refused_and_counted() {
                 driver_epoch: state.driver_epoch,
                 state_stamp_ns: state.stamp_ns,
                 stamp_ns: state.stamp_ns,
-                torque_nm: [1e9; 6],
+                torque_nm: if state.tick % 2 == 0 { [1e9; 6] } else { within_limits_nm },
                 q_ref_rad: state.q_rad,
                 qd_ref_rad_s: [0.0; 6],
+                seal: round,
             };
             let _ = torques.send_copy(command);
         }
@@ -302,6 +307,15 @@ fn absurd_messages_from_a_rogue_publisher_are_refused_and_counted() {
                 desired_features_px: [5000.0; 8],
                 seal: round,
             });
+            let _ = modes.send_copy(CellModeMsg {
+                schema: SCHEMA_VERSION,
+                mode: if round.is_multiple_of(20) { cell_mode::SAFE_STOP } else { cell_mode::SERVOING },
+                sequence: 1000 + round,
+                fault: 7,
+                fault_joints: 0,
+                stamp_ns: 0,
+                seal: round,
+            });
             let _ = objects.send_copy(ObjectMsg {
                 schema: SCHEMA_VERSION,
                 kind: command_kind::OBJECT_CIRCLE,
@@ -320,7 +334,7 @@ fn absurd_messages_from_a_rogue_publisher_are_refused_and_counted() {
         .map(|r| node(&after, r)["rejected_messages"].as_i64().unwrap_or(0))
         .sum();
     println!(
-        "rogue publisher for 3 s: fastest joint {fastest:.3} rad/s; refused {} messages; gains version {}",
+        "rogue publisher for 10 s: fastest joint {fastest:.3} rad/s; refused {} messages; gains version {}",
         rejected_after - rejected_before,
         after["gains_version"]
     );
@@ -329,5 +343,6 @@ fn absurd_messages_from_a_rogue_publisher_are_refused_and_counted() {
     assert!(rejected_after - rejected_before > 100, "{after}");
     assert_eq!(after["gains_version"], 1, "the rogue gains were not taken: {after}");
     assert!(running(&after), "{after}\n{}", daemon.log());
+    assert_eq!(after["safe_stops"], 0, "no forged mode was taken: {after}");
     daemon.stop();
 }

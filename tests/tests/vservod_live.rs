@@ -193,7 +193,7 @@ fn a_recording_holds_every_service_in_order_and_plots() {
     for image in &images {
         assert_eq!((image["width"].as_u64(), image["height"].as_u64()), (Some(512), Some(512)), "{image}");
         assert_eq!(image["bytes"], 512 * 512);
-        assert_eq!(image["schema"], 2);
+        assert_eq!(image["schema"], vservo_protocol::SCHEMA_VERSION);
         let mean = image["mean_gray"].as_f64().expect("a mean");
         assert!((60.0..230.0).contains(&mean), "{image}");
     }

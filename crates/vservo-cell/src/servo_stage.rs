@@ -35,6 +35,12 @@ impl ServoStage {
         self.law.set_law_gains(gains);
     }
 
+    /// A frame while the cell is held in a safe stop: zero twist, and the law remembers that zero was sent
+    /// (so that a delay-aware law resumes from what the arm really got).
+    pub fn hold(&mut self) -> Twist {
+        self.law.hold()
+    }
+
     /// The twist for the frame leaving the pipeline now (`None` before the first one has).
     pub fn step(&mut self, delivered: Option<&FeatureVector>) -> (Twist, ServoVerdict) {
         match delivered {

@@ -1,7 +1,7 @@
 //! # vservo-client — talk to a running vservo instance from Rust
 //!
 //! This crate owns the client side of vservo's shared-memory protocol (docs/PROTOCOL.md): commands
-//! (targets, object motion, reload) over the `command` request-response service, each answered with
+//! (targets, object motion, reload, safe stop and resume) over the `command` request-response service, each answered with
 //! whether it was accepted and why not, and reading the instance's status and loop messages.
 //!
 //! ```no_run
@@ -40,6 +40,17 @@ pub enum ClientError {
         /// iceoryx2's reason.
         reason: String,
     },
+    /// Every command slot of the instance is taken (by other clients sending at this moment): nothing was
+    /// sent; try again.
+    #[error(
+        "instance {instance:?} is busy: all {slots} command slots are taken by other clients; nothing was sent, try again"
+    )]
+    Busy {
+        /// The instance.
+        instance: String,
+        /// Its command slots.
+        slots: usize,
+    },
     /// No answer within the time allowed: no daemon runs this instance, or it runs as another user.
     #[error(
         "no answer from vservod of instance {instance:?} within {waited:?} (is it running, as the same user?)"
@@ -65,11 +76,12 @@ pub struct Reply {
     pub target_features_px: [f64; FEATURES],
 }
 
-/// A connection to one instance.
+/// A connection to one instance. It holds none of the instance's command slots while idle: each command
+/// opens the service, sends, waits for its answer and lets go, so clients that are idle or gone never lock
+/// others out.
 pub struct Client {
     instance: String,
     node: Node<ipc::Service>,
-    commands: IceoryxClient<ipc::Service, CommandMsg, (), vservo_protocol::CommandReplyMsg, ()>,
     next_id: u64,
     /// How long a command waits for its answer (2 s unless changed).
     pub timeout: Duration,
@@ -83,14 +95,11 @@ impl Client {
     /// Connects to the instance named `instance` (its `[instance] name`).
     pub fn connect(instance: &str) -> Result<Self, ClientError> {
         let node = vservo_protocol::create_node(instance, &format!("client-{}", std::process::id()))?;
-        let commands = vservo_protocol::open_command_service(&node, instance, Opening::OpenOnly)?
-            .client_builder()
-            .create()
-            .map_err(|e| transport("creating the command client")(e.to_string()))?;
+        // the daemon's service must be there: a client never creates it
+        drop(vservo_protocol::open_command_service(&node, instance, Opening::OpenOnly)?);
         Ok(Self {
             instance: instance.to_string(),
             node,
-            commands,
             next_id: u64::from(std::process::id()) << 32,
             timeout: Duration::from_secs(2),
         })
@@ -106,8 +115,9 @@ impl Client {
         self.next_id += 1;
         command.id = self.next_id;
         command.schema = SCHEMA_VERSION;
+        let commands = self.command_port()?;
         let pending =
-            self.commands.send_copy(command).map_err(|e| transport("sending the command")(e.to_string()))?;
+            commands.send_copy(command).map_err(|e| transport("sending the command")(e.to_string()))?;
         let started = Instant::now();
         loop {
             if let Some(response) =
@@ -126,6 +136,21 @@ impl Client {
             }
             std::thread::sleep(Duration::from_millis(1));
         }
+    }
+
+    /// A command port for one request; [`ClientError::Busy`] when every slot is taken.
+    fn command_port(
+        &self,
+    ) -> Result<IceoryxClient<ipc::Service, CommandMsg, (), vservo_protocol::CommandReplyMsg, ()>, ClientError>
+    {
+        use iceoryx2::service::port_factory::client::ClientCreateError;
+        let service = vservo_protocol::open_command_service(&self.node, &self.instance, Opening::OpenOnly)?;
+        service.client_builder().create().map_err(|e| match e {
+            ClientCreateError::ExceedsMaxSupportedClients => {
+                ClientError::Busy { instance: self.instance.clone(), slots: vservo_protocol::COMMAND_SLOTS }
+            }
+            other => transport("creating the command client")(other.to_string()),
+        })
     }
 
     /// ξ_d = `features_px` ([x₁ y₁ … x₄ y₄], px).
@@ -176,6 +201,16 @@ impl Client {
     /// Reloads the daemon's configuration file (as SIGHUP does) and says what came of it.
     pub fn reload(&mut self) -> Result<Reply, ClientError> {
         self.request(CommandMsg::new(command_kind::RELOAD, 0))
+    }
+
+    /// Servo again after a safe stop; refused, naming each cause, while a fault's cause is still there.
+    pub fn resume(&mut self) -> Result<Reply, ClientError> {
+        self.request(CommandMsg::new(command_kind::RESUME, 0))
+    }
+
+    /// Bring the arm to rest and hold it (a safe stop; [`Client::resume`] ends it).
+    pub fn safe_stop(&mut self) -> Result<Reply, ClientError> {
+        self.request(CommandMsg::new(command_kind::SAFE_STOP, 0))
     }
 
     /// A subscriber to one of the instance's topics (payload type as in docs/PROTOCOL.md).

@@ -60,6 +60,45 @@ pub struct Config {
     pub robot: Robot,
     /// `[robot.arm]`: the arm's model (the PUMA 560 by default; a custom arm's DH table and limits).
     pub arm: vservo_arm::SerialArm,
+    /// `[faults]`: when a fault stops the cell, and how it resumes.
+    pub faults: Faults,
+}
+
+/// `[faults]`: the fault reaction of the real-time shell. Optional in the file (the defaults below apply).
+/// A position or velocity limit, a driver fault, a torque saturation that lasts, lost marks that stay lost
+/// and a stalled external driver each end in a safe stop: the arm ramps to rest at the acceleration limits
+/// and is held until the cell resumes.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Faults {
+    /// Marks missing (the servo cannot servo) for longer than this is a lost target (s).
+    pub target_lost_s: f64,
+    /// A joint's torque cut to its limit for longer than this is a fault (s); a moment's saturation while
+    /// accelerating is not.
+    pub saturation_s: f64,
+    /// How the cell resumes after a safe stop.
+    pub resume: ResumePolicy,
+    /// With [`ResumePolicy::Automatic`]: how long the fault's cause must have been gone (s).
+    pub resume_after_s: f64,
+}
+
+/// How the cell resumes after a safe stop (`faults.resume`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ResumePolicy {
+    /// On a command only (`vservoctl resume`), the default.
+    Command,
+    /// By itself once the cause has been gone for `faults.resume_after_s` (a WARN line says so), or on a
+    /// command.
+    Automatic,
+}
+
+impl ResumePolicy {
+    /// The name in the file.
+    pub fn name(self) -> &'static str {
+        match self {
+            ResumePolicy::Command => "command",
+            ResumePolicy::Automatic => "automatic",
+        }
+    }
 }
 
 /// `[robot]`: which process drives the arm and how it is commanded. Optional in the file: the simulated

@@ -20,6 +20,23 @@ pub struct RawConfig {
     pub runtime: RawRuntime,
     #[serde(default)]
     pub robot: RawRobot,
+    #[serde(default)]
+    pub faults: RawFaults,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct RawFaults {
+    pub target_lost_s: f64,
+    pub saturation_s: f64,
+    pub resume: String,
+    pub resume_after_s: f64,
+}
+
+impl Default for RawFaults {
+    fn default() -> Self {
+        Self { target_lost_s: 1.0, saturation_s: 0.5, resume: "command".into(), resume_after_s: 2.0 }
+    }
 }
 
 #[derive(Debug, Deserialize)]

@@ -15,6 +15,9 @@ use crate::{
     RobotDriver, Scenario, Timing, Vision, VisionSource, pose_from_rpy,
 };
 
+/// The largest entry of Q or R: beyond it the Riccati iteration loses its digits.
+const MAX_WEIGHT: f64 = 1e12;
+
 /// Builds errors for one file.
 struct Checker<'a> {
     file: &'a str,
@@ -55,9 +58,33 @@ impl Checker<'_> {
         }
     }
 
-    fn pose(&self, key: &str, raw: &RawPose) -> Result<nalgebra::IsometryMatrix3<f64>, ConfigError> {
-        let translation = self.finite(&format!("{key}.translation_m"), raw.translation_m)?;
-        let rpy = self.finite(&format!("{key}.rotation_rpy_deg"), raw.rotation_rpy_deg)?;
+    /// Every value inside [low, high], else an error saying the range.
+    fn all_within<const N: usize>(
+        &self,
+        key: &str,
+        values: [f64; N],
+        low: f64,
+        high: f64,
+        unit: &str,
+    ) -> Result<[f64; N], ConfigError> {
+        if values.iter().all(|v| v.is_finite() && (low..=high).contains(v)) {
+            Ok(values)
+        } else {
+            Err(self.invalid(key, format!("{values:?}"), format!("each must be from {low} to {high} {unit}")))
+        }
+    }
+
+    /// A pose whose translation stays within ±`reach_m` per axis, its angles within ±360°.
+    fn pose(
+        &self,
+        key: &str,
+        raw: &RawPose,
+        reach_m: f64,
+    ) -> Result<nalgebra::IsometryMatrix3<f64>, ConfigError> {
+        let translation =
+            self.all_within(&format!("{key}.translation_m"), raw.translation_m, -reach_m, reach_m, "m")?;
+        let rpy =
+            self.all_within(&format!("{key}.rotation_rpy_deg"), raw.rotation_rpy_deg, -360.0, 360.0, "°")?;
         Ok(pose_from_rpy(Vector3::from(translation), Vector3::from(rpy.map(f64::to_radians))))
     }
 
@@ -115,6 +142,9 @@ impl Checker<'_> {
         } else {
             return Err(self.invalid(key, value, format!("expected {shape}")));
         };
+        if !matrix.iter().all(|v| v.is_finite() && v.abs() <= MAX_WEIGHT) {
+            return Err(self.invalid(key, value, format!("every entry must be within ±{MAX_WEIGHT:e}")));
+        }
         Ok(matrix)
     }
 }
@@ -134,8 +164,8 @@ pub fn validate(raw: RawConfig, file: &str) -> Result<Config, ConfigError> {
 
     // timing
     let t = &raw.timing;
-    let vision_period_s = check.positive("timing.vision_period_s", t.vision_period_s)?;
-    let control_period_s = check.positive("timing.control_period_s", t.control_period_s)?;
+    let vision_period_s = check.within("timing.vision_period_s", t.vision_period_s, 0.001, 10.0, "s")?;
+    let control_period_s = check.within("timing.control_period_s", t.control_period_s, 1e-4, 0.1, "s")?;
     let ticks = vision_period_s / control_period_s;
     if (ticks - ticks.round()).abs() > 1e-6 * ticks || ticks.round() < 1.0 || ticks > 1e6 {
         return Err(check.invalid(
@@ -171,14 +201,23 @@ pub fn validate(raw: RawConfig, file: &str) -> Result<Config, ConfigError> {
     let width_px = size("camera.width_px", c.width_px)?;
     let height_px = size("camera.height_px", c.height_px)?;
     let principal = check.finite("camera.principal_point_px", c.principal_point_px)?;
-    let focal_px = check.positive("camera.focal_px", c.focal_px)?;
+    if !(0.0..=f64::from(width_px)).contains(&principal[0])
+        || !(0.0..=f64::from(height_px)).contains(&principal[1])
+    {
+        return Err(check.invalid(
+            "camera.principal_point_px",
+            format!("{principal:?}"),
+            format!("must lie in the {width_px}×{height_px} image"),
+        ));
+    }
+    let focal_px = check.within("camera.focal_px", c.focal_px, 1.0, 1e5, "px")?;
     let camera = CameraIntrinsics::new(focal_px, Point2::from(principal), width_px, height_px)
         .map_err(|e| check.invalid("camera", format!("{c:?}"), e.to_string()))?;
-    let tool_from_camera = check.pose("camera.tool_from_camera", &c.tool_from_camera)?;
+    let tool_from_camera = check.pose("camera.tool_from_camera", &c.tool_from_camera, 2.0)?;
 
     // object
     let o = &raw.object;
-    let mark_diameter_m = check.positive("object.mark_diameter_m", o.mark_diameter_m)?;
+    let mark_diameter_m = check.within("object.mark_diameter_m", o.mark_diameter_m, 0.001, 1.0, "m")?;
     if o.marks_in_board_m.len() != MARKS {
         return Err(check.invalid(
             "object.marks_in_board_m",
@@ -188,7 +227,7 @@ pub fn validate(raw: RawConfig, file: &str) -> Result<Config, ConfigError> {
     }
     let mut marks_in_board = [Point3::origin(); MARKS];
     for (i, m) in o.marks_in_board_m.iter().enumerate() {
-        let [x, y] = check.finite("object.marks_in_board_m", *m)?;
+        let [x, y] = check.all_within("object.marks_in_board_m", *m, -5.0, 5.0, "m")?;
         marks_in_board[i] = Point3::new(x, y, 0.0);
     }
     for i in 0..MARKS {
@@ -208,7 +247,7 @@ pub fn validate(raw: RawConfig, file: &str) -> Result<Config, ConfigError> {
         }
     }
     let [[x0, y0], [x1, y1]] = o.board_extent_m;
-    let extent_ok = [x0, y0, x1, y1].iter().all(|v| v.is_finite()) && x0 < x1 && y0 < y1;
+    let extent_ok = [x0, y0, x1, y1].iter().all(|v| v.is_finite() && v.abs() <= 5.0) && x0 < x1 && y0 < y1;
     let radius = 0.5 * mark_diameter_m;
     let marks_on_board = marks_in_board
         .iter()
@@ -217,7 +256,7 @@ pub fn validate(raw: RawConfig, file: &str) -> Result<Config, ConfigError> {
         return Err(check.invalid(
             "object.board_extent_m",
             format!("{:?}", o.board_extent_m),
-            "must be [[x_min, y_min], [x_max, y_max]] with min < max, holding every mark whole",
+            "must be [[x_min, y_min], [x_max, y_max]] within ±5 m with min < max, holding every mark whole",
         ));
     }
     let extent_in_board = [Point2::new(x0, y0), Point2::new(x1, y1)];
@@ -238,7 +277,8 @@ pub fn validate(raw: RawConfig, file: &str) -> Result<Config, ConfigError> {
     arm.check_positions(&joints).map_err(|v| {
         check.invalid(joints_key, format!("{:?}", d.joints_rad), format!("{v} (the {}'s range)", arm.name))
     })?;
-    let camera_from_board = check.pose("desired.camera_from_board", &d.camera_from_board)?;
+    // a board beyond 5 m is no visual-servo cell (its marks would be a few pixels)
+    let camera_from_board = check.pose("desired.camera_from_board", &d.camera_from_board, 5.0)?;
     let (features, depths) = camera.project_marks_with_depths(&board, &camera_from_board).map_err(|e| {
         check.invalid("desired.camera_from_board", format!("{:?}", d.camera_from_board), e.to_string())
     })?;
@@ -317,6 +357,27 @@ pub fn validate(raw: RawConfig, file: &str) -> Result<Config, ConfigError> {
         runtime: validate_runtime(&check, &raw.runtime)?,
         robot,
         arm,
+        faults: validate_faults(&check, &raw.faults)?,
+    })
+}
+
+fn validate_faults(check: &Checker, f: &crate::raw::RawFaults) -> Result<crate::Faults, ConfigError> {
+    let resume = match f.resume.as_str() {
+        "command" => crate::ResumePolicy::Command,
+        "automatic" => crate::ResumePolicy::Automatic,
+        other => {
+            return Err(check.invalid(
+                "faults.resume",
+                format!("{other:?}"),
+                "must be \"command\" (vservoctl resume) or \"automatic\"",
+            ));
+        }
+    };
+    Ok(crate::Faults {
+        target_lost_s: check.within("faults.target_lost_s", f.target_lost_s, 0.1, 600.0, "s")?,
+        saturation_s: check.within("faults.saturation_s", f.saturation_s, 0.01, 60.0, "s")?,
+        resume,
+        resume_after_s: check.within("faults.resume_after_s", f.resume_after_s, 0.1, 3600.0, "s")?,
     })
 }
 
@@ -336,10 +397,10 @@ fn validate_runtime(check: &Checker, r: &crate::raw::RawRuntime) -> Result<crate
             .ok_or_else(|| check.invalid(&key, format!("{:?}", n.cpus), "CPU numbers must be 0–1023"))?;
         Ok(crate::NodeRealtime { fifo_priority, cpus })
     };
-    let timer_slack_ns = u64::try_from(r.timer_slack_ns)
-        .ok()
-        .filter(|s| *s >= 1)
-        .ok_or_else(|| check.invalid("runtime.timer_slack_ns", r.timer_slack_ns, "must be at least 1"))?;
+    let timer_slack_ns =
+        u64::try_from(r.timer_slack_ns).ok().filter(|s| (1..=1_000_000_000).contains(s)).ok_or_else(
+            || check.invalid("runtime.timer_slack_ns", r.timer_slack_ns, "must be from 1 to 1000000000 ns"),
+        )?;
     let hold_after_missed_ticks = u32::try_from(r.hold_after_missed_ticks)
         .ok()
         .filter(|t| (1..=10_000).contains(t))
@@ -420,28 +481,24 @@ fn validate_simulation(
             ));
         }
     };
-    let manipulability_threshold = i.manipulability_threshold;
-    if !(manipulability_threshold.is_finite() && manipulability_threshold >= 0.0) {
-        return Err(check.invalid(
-            "interpolator.manipulability_threshold",
-            manipulability_threshold,
-            "must be a number ≥ 0",
-        ));
-    }
-    let max_damping = i.max_damping;
-    if !(max_damping.is_finite() && max_damping >= 0.0) {
-        return Err(check.invalid("interpolator.max_damping", max_damping, "must be a number ≥ 0"));
-    }
-    let stale_frames = check.positive("interpolator.stale_twist_frames", i.stale_twist_frames)?;
-    let stop_ramp_s = check.positive("interpolator.stop_ramp_s", i.stop_ramp_s)?;
-    let limits = check.finite("interpolator.acceleration_limit_rad_s2", i.acceleration_limit_rad_s2)?;
-    if limits.iter().any(|&a| a <= 0.0) {
-        return Err(check.invalid(
-            "interpolator.acceleration_limit_rad_s2",
-            format!("{limits:?}"),
-            "each must be positive",
-        ));
-    }
+    let manipulability_threshold =
+        check.within("interpolator.manipulability_threshold", i.manipulability_threshold, 0.0, 10.0, "")?;
+    let max_damping = check.within("interpolator.max_damping", i.max_damping, 0.0, 10.0, "")?;
+    let stale_frames = check.within(
+        "interpolator.stale_twist_frames",
+        i.stale_twist_frames,
+        0.5,
+        100.0,
+        "vision periods",
+    )?;
+    let stop_ramp_s = check.within("interpolator.stop_ramp_s", i.stop_ramp_s, 0.001, 10.0, "s")?;
+    let limits = check.all_within(
+        "interpolator.acceleration_limit_rad_s2",
+        i.acceleration_limit_rad_s2,
+        0.01,
+        1000.0,
+        "rad/s²",
+    )?;
     let interpolator = InterpolatorSettings {
         hold,
         vision_period_s: timing.vision_period_s,
@@ -465,34 +522,37 @@ fn validate_simulation(
             ));
         }
     };
-    let kp = check.finite("joint_servo.kp", j.kp)?;
-    let kv = check.finite("joint_servo.kv", j.kv)?;
-    if kp.iter().any(|&k| k <= 0.0) {
-        return Err(check.invalid("joint_servo.kp", format!("{kp:?}"), "each gain must be positive"));
-    }
-    if kv.iter().any(|&k| k < 0.0) {
-        return Err(check.invalid("joint_servo.kv", format!("{kv:?}"), "each gain must be ≥ 0"));
-    }
+    // bands a 1 ms joint servo can hold (computed torque: kp 1e6 /s² is a 1000 rad/s loop)
+    let kp = check.all_within("joint_servo.kp", j.kp, 1e-3, 1e6, "")?;
+    let kv = check.all_within("joint_servo.kv", j.kv, 0.0, 1e4, "")?;
     let joint_servo = JointServoSettings { law, kp: JointVector::from(kp), kv: JointVector::from(kv) };
 
     let s = &raw.scenario;
-    let duration_s = check.positive("scenario.duration_s", s.duration_s)?;
-    let translation =
-        check.finite("scenario.initial_camera_translation_m", s.initial_camera_translation_m)?;
-    let rotation = check.finite("scenario.initial_camera_rotation_deg", s.initial_camera_rotation_deg)?;
+    let duration_s = check.within("scenario.duration_s", s.duration_s, 0.001, 86_400.0, "s")?;
+    let translation = check.all_within(
+        "scenario.initial_camera_translation_m",
+        s.initial_camera_translation_m,
+        -1.0,
+        1.0,
+        "m",
+    )?;
+    let rotation = check.all_within(
+        "scenario.initial_camera_rotation_deg",
+        s.initial_camera_rotation_deg,
+        -180.0,
+        180.0,
+        "°",
+    )?;
+    // every key is checked, whichever motion uses it
+    let at_s = check.within("scenario.step_at_s", s.step_at_s, 0.0, 86_400.0, "s")?;
+    let by = check.all_within("scenario.step_translation_m", s.step_translation_m, -1.0, 1.0, "m")?;
+    let radius_m = check.within("scenario.circle_radius_m", s.circle_radius_m, 0.001, 1.0, "m")?;
+    let rev_per_min =
+        check.within("scenario.circle_rev_per_min", s.circle_rev_per_min, 0.001, 60.0, "rev/min")?;
     let object = match s.object_motion.as_str() {
         "hold" => ObjectMotion::Hold,
-        "step" => {
-            if !(s.step_at_s.is_finite() && s.step_at_s >= 0.0) {
-                return Err(check.invalid("scenario.step_at_s", s.step_at_s, "must be a time ≥ 0"));
-            }
-            let by = check.finite("scenario.step_translation_m", s.step_translation_m)?;
-            ObjectMotion::Step { at_s: s.step_at_s, translation_m: Vector3::from(by) }
-        }
-        "circle" => ObjectMotion::Circle {
-            radius_m: check.positive("scenario.circle_radius_m", s.circle_radius_m)?,
-            rev_per_min: check.positive("scenario.circle_rev_per_min", s.circle_rev_per_min)?,
-        },
+        "step" => ObjectMotion::Step { at_s, translation_m: Vector3::from(by) },
+        "circle" => ObjectMotion::Circle { radius_m, rev_per_min },
         other => {
             return Err(check.invalid(
                 "scenario.object_motion",
@@ -760,17 +820,11 @@ fn validate_vision(
             format!("must exceed vision.min_mark_area_px ({min_area_px})"),
         ));
     }
-    if !(v.max_elongation.is_finite() && v.max_elongation >= 1.0) {
-        return Err(check.invalid(
-            "vision.max_elongation",
-            v.max_elongation,
-            "must be a number of at least 1",
-        ));
-    }
+    check.within("vision.max_elongation", v.max_elongation, 1.0, 100.0, "")?;
     if !(v.min_ellipse_fill.is_finite() && (0.0..=1.0).contains(&v.min_ellipse_fill)) {
         return Err(check.invalid("vision.min_ellipse_fill", v.min_ellipse_fill, "must be between 0 and 1"));
     }
-    let gate_px = check.positive("vision.gate_px", v.gate_px)?;
+    let gate_px = check.within("vision.gate_px", v.gate_px, 0.1, 16384.0, "px")?;
     let r = &v.render;
     let gray = |key: &str, value: f64| {
         if value.is_finite() && (0.0..=255.0).contains(&value) {

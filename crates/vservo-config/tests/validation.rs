@@ -208,3 +208,66 @@ fn a_custom_arm_is_taken_from_its_dh_table() {
     let error = refused(&simulated);
     assert_eq!(error.key(), Some("robot.arm.preset"), "{error}");
 }
+
+/// Every number in the default file, replaced by an absurd value (1e300, −1e300, NaN; the largest and the
+/// most negative integer), is refused naming its own key. Only the render noise seed takes any integer.
+#[test]
+fn every_numeric_key_has_a_range() {
+    fn numbers(value: &toml::Value, path: &str, out: &mut Vec<String>) {
+        match value {
+            toml::Value::Table(table) => {
+                for (key, item) in table {
+                    let child = if path.is_empty() { key.clone() } else { format!("{path}.{key}") };
+                    numbers(item, &child, out);
+                }
+            }
+            toml::Value::Integer(_) | toml::Value::Float(_) => out.push(path.to_string()),
+            toml::Value::Array(items) if items.iter().any(|i| !matches!(i, toml::Value::String(_))) => {
+                out.push(path.to_string())
+            }
+            _ => {}
+        }
+    }
+    fn replace(value: &mut toml::Value, path: &[&str], with: &dyn Fn(&toml::Value) -> toml::Value) {
+        let item = value.get_mut(path[0]).expect("the key");
+        if path.len() == 1 {
+            *item = with(item);
+        } else {
+            replace(item, &path[1..], with);
+        }
+    }
+    /// The value with every number in it (nested arrays too) replaced.
+    fn absurd(value: &toml::Value, float: f64, integer: i64) -> toml::Value {
+        match value {
+            toml::Value::Integer(_) => toml::Value::Integer(integer),
+            toml::Value::Float(_) => toml::Value::Float(float),
+            toml::Value::Array(items) => {
+                toml::Value::Array(items.iter().map(|i| absurd(i, float, integer)).collect())
+            }
+            other => other.clone(),
+        }
+    }
+    let default: toml::Value = toml::from_str(DEFAULT).expect("the default parses");
+    let mut keys = Vec::new();
+    numbers(&default, "", &mut keys);
+    assert!(keys.len() > 50, "{keys:?}");
+    let mut checked = 0;
+    let mut wrong = Vec::new();
+    for key in keys.iter().filter(|k| *k != "vision.render.noise_seed") {
+        let path: Vec<&str> = key.split('.').collect();
+        for (float, integer) in [(1e300, i64::MAX), (-1e300, i64::MIN), (f64::NAN, i64::MAX)] {
+            let mut file = default.clone();
+            replace(&mut file, &path, &|v| absurd(v, float, integer));
+            let text = toml::to_string(&file).expect("serialises");
+            match Config::from_toml(&text, "test.toml") {
+                Ok(_) => wrong.push(format!("{key} = {float} (or {integer}) is taken")),
+                Err(error) if error.key() != Some(key.as_str()) => wrong
+                    .push(format!("{key} = {float}/{integer}: the error names {:?}: {error}", error.key())),
+                Err(_) => {}
+            }
+            checked += 1;
+        }
+    }
+    assert!(wrong.is_empty(), "{}", wrong.join("\n"));
+    println!("{checked} absurd values over {} numeric keys refused, each naming its key", keys.len());
+}

@@ -40,6 +40,8 @@ pub enum Topic {
     Gains,
     /// vservod → plant: [`ObjectMsg`], on each accepted object command.
     Object,
+    /// vservod → rmrc, servo: [`CellModeMsg`], on each change (servoing, safe stop).
+    CellMode,
 }
 
 /// How a service is sized. Openers that ask for no more than these open it whoever created it.
@@ -57,7 +59,7 @@ pub struct TopicSettings {
 
 impl Topic {
     /// Every topic.
-    pub const ALL: [Topic; 9] = [
+    pub const ALL: [Topic; 10] = [
         Topic::JointState,
         Topic::JointCommand,
         Topic::SimWorld,
@@ -67,6 +69,7 @@ impl Topic {
         Topic::Status,
         Topic::Gains,
         Topic::Object,
+        Topic::CellMode,
     ];
 
     /// The last part of the service name.
@@ -81,6 +84,7 @@ impl Topic {
             Topic::Status => "status",
             Topic::Gains => "gains",
             Topic::Object => "object",
+            Topic::CellMode => "cell_mode",
         }
     }
 
@@ -96,6 +100,7 @@ impl Topic {
             Topic::Status => "vservo::DaemonStatus",
             Topic::Gains => "vservo::Gains",
             Topic::Object => "vservo::Object",
+            Topic::CellMode => "vservo::CellMode",
         }
     }
 
@@ -111,6 +116,7 @@ impl Topic {
             Topic::Status => (2, 8, 1, 8),
             Topic::Gains => (2, 8, 1, 8),
             Topic::Object => (2, 8, 1, 8),
+            Topic::CellMode => (2, 8, 1, 8),
         };
         TopicSettings { max_publishers, max_subscribers, history_size, subscriber_max_buffer_size }
     }
@@ -416,7 +422,8 @@ pub fn open_command_service(
         .service_builder(&service)
         .request_response::<CommandMsg, CommandReplyMsg>()
         .max_servers(2)
-        .max_clients(16)
+        .max_clients(COMMAND_SLOTS)
+        .max_nodes(64)
         .max_active_requests_per_client(4)
         .max_response_buffer_size(4);
     match opening {
@@ -430,6 +437,10 @@ pub fn open_command_service(
         }),
     }
 }
+
+/// Clients that may have a command in flight at once (a client holds a slot only while it waits for its
+/// answer).
+pub const COMMAND_SLOTS: usize = 16;
 
 /// The node name of a vservo process: `vservo/<instance>/<role>`.
 pub fn node_name(instance: &str, role: &str) -> String {

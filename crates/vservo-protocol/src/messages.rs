@@ -8,7 +8,7 @@ use iceoryx2::prelude::ZeroCopySend;
 /// The schema version every payload carries in its first four bytes. Bumped on any layout change.
 /// 2: `joint_state` carries the robot only (the board's pose moved to `sim_world`), the driver declares its
 /// command interface and period; `joint_torque` became `joint_command`; `camera_image` added.
-pub const SCHEMA_VERSION: u32 = 2;
+pub const SCHEMA_VERSION: u32 = 3;
 
 /// Joints of the arm.
 pub const JOINTS: usize = 6;
@@ -105,6 +105,9 @@ pub struct JointCommandMsg {
     pub q_ref_rad: [f64; JOINTS],
     /// q̇_d (rad/s) over the next period.
     pub qd_ref_rad_s: [f64; JOINTS],
+    /// The rmrc's seal under the run's key ([`crate::seal`]): the simulated driver applies sealed commands
+    /// only; an external driver, which is not given the key, ignores it.
+    pub seal: u64,
 }
 
 /// simulated plant → simulated camera (every tick; simulation only): what only a simulation knows.
@@ -208,6 +211,8 @@ pub mod verdict {
     pub const MARKS_MISSING: u32 = 2;
     /// The servo is stopping (shutdown): zero twist.
     pub const STOPPING: u32 = 3;
+    /// The cell is in a safe stop ([`CellModeMsg`]): zero twist until the daemon resumes it.
+    pub const SAFE_STOP: u32 = 4;
 }
 
 /// servo → rmrc (every frame): the camera twist.
@@ -382,6 +387,9 @@ pub mod daemon_state {
     pub const DEGRADED: u32 = 2;
     /// Stopping.
     pub const STOPPING: u32 = 3;
+    /// A fault stopped the cell ([`DaemonStatusMsg::fault`] says which, `fault_since_ns` since when): the
+    /// arm is brought to rest and held until the cell is resumed.
+    pub const SAFE_STOP: u32 = 4;
 }
 
 /// vservod → anyone (10 Hz): the nodes as the supervisor sees them.
@@ -409,6 +417,79 @@ pub struct DaemonStatusMsg {
     pub pid: u32,
     /// [`robot_state`]: whether the robot driver's joint states arrive.
     pub robot: u32,
+    /// The [`fault`] that holds the cell in a safe stop, or the last one (0: none since the start).
+    pub fault: u32,
+    /// The joints the fault concerns (bit j: joint j + 1), or 0.
+    pub fault_joints: u32,
+    /// CLOCK_MONOTONIC (ns) when the fault was found; 0 when none.
+    pub fault_since_ns: u64,
+    /// Safe stops since the daemon started.
+    pub safe_stops: u64,
+}
+
+/// Faults that end in a safe stop ([`DaemonStatusMsg::fault`], [`CellModeMsg::fault`]).
+pub mod fault {
+    /// None.
+    pub const NONE: u32 = 0;
+    /// A joint beyond its position range (`fault_joints` says which).
+    pub const POSITION_LIMIT: u32 = 1;
+    /// A joint faster than its velocity limit.
+    pub const VELOCITY_LIMIT: u32 = 2;
+    /// A joint's torque cut to its limit for longer than `faults.saturation_s`.
+    pub const TORQUE_SATURATED: u32 = 3;
+    /// The robot driver reports a fault (`driver_status` FAULT, or the driver-failed bit).
+    pub const DRIVER_FAULT: u32 = 4;
+    /// Marks missing (the servo could not servo) for longer than `faults.target_lost_s`.
+    pub const TARGET_LOST: u32 = 5;
+    /// An external robot driver's joint states stopped for longer than its deadline.
+    pub const ROBOT_STALLED: u32 = 6;
+    /// A safe stop asked for by a client (`vservoctl safe-stop`).
+    pub const REQUESTED: u32 = 7;
+
+    /// The fault's name, as the status and the logs write it.
+    pub fn name(code: u32) -> &'static str {
+        match code {
+            NONE => "none",
+            POSITION_LIMIT => "position_limit",
+            VELOCITY_LIMIT => "velocity_limit",
+            TORQUE_SATURATED => "torque_saturated",
+            DRIVER_FAULT => "driver_fault",
+            TARGET_LOST => "target_lost",
+            ROBOT_STALLED => "robot_stalled",
+            REQUESTED => "requested",
+            _ => "unknown",
+        }
+    }
+}
+
+/// Modes of [`CellModeMsg::mode`].
+pub mod cell_mode {
+    /// The servo's twists move the arm.
+    pub const SERVOING: u32 = 0;
+    /// Safe stop: the servo sends zero twists, the rmrc ramps the reference to rest at its acceleration
+    /// limits and holds it there, whatever twist arrives.
+    pub const SAFE_STOP: u32 = 1;
+}
+
+/// vservod → rmrc, servo (history 1, on each change): whether the cell servos or is held in a safe stop.
+#[derive(Debug, Clone, Copy, PartialEq, ZeroCopySend)]
+#[type_name("vservo::CellMode")]
+#[repr(C)]
+pub struct CellModeMsg {
+    /// [`SCHEMA_VERSION`].
+    pub schema: u32,
+    /// [`cell_mode`].
+    pub mode: u32,
+    /// Counts the changes (1 for the first, at the daemon's start); a node takes only a newer one.
+    pub sequence: u64,
+    /// SAFE_STOP: the [`fault`] that caused it.
+    pub fault: u32,
+    /// SAFE_STOP: the joints concerned (bit j: joint j + 1).
+    pub fault_joints: u32,
+    /// CLOCK_MONOTONIC (ns) when the mode was decided.
+    pub stamp_ns: u64,
+    /// The daemon's seal ([`crate::seal`]): the nodes take a mode with a valid seal only.
+    pub seal: u64,
 }
 
 /// States of the robot driver as the daemon sees it ([`DaemonStatusMsg::robot`]).
@@ -439,6 +520,10 @@ pub mod command_kind {
     pub const OBJECT_CIRCLE: u32 = 6;
     /// Reload the configuration file (as SIGHUP does).
     pub const RELOAD: u32 = 7;
+    /// Resume servoing after a safe stop (refused, saying why, while the fault's cause is still there).
+    pub const RESUME: u32 = 8;
+    /// Bring the arm to rest and hold it: a safe stop asked for by the client (fault `requested`).
+    pub const SAFE_STOP: u32 = 9;
 }
 
 /// client → vservod (request-response service `command`): one command.
@@ -585,7 +670,7 @@ mod tests {
         assert_eq!(size_of::<JointStateMsg>(), 48 + 3 * 48);
         assert_eq!(offset_of!(JointStateMsg, tick), 8);
         assert_eq!(offset_of!(JointStateMsg, q_rad), 48);
-        assert_eq!(size_of::<JointCommandMsg>(), 40 + 3 * 48);
+        assert_eq!(size_of::<JointCommandMsg>(), 40 + 3 * 48 + 8);
         assert_eq!(offset_of!(JointCommandMsg, torque_nm), 40);
         assert_eq!(size_of::<SimWorldMsg>(), 16 + 96);
         assert_eq!(size_of::<CameraImageHeader>(), 40);
@@ -602,7 +687,8 @@ mod tests {
         assert_eq!(size_of::<NodeStatusMsg>(), 32);
         assert_eq!(offset_of!(DaemonStatusMsg, nodes), 32);
         assert_eq!(offset_of!(DaemonStatusMsg, tick_rate_hz), 160);
-        assert_eq!(size_of::<DaemonStatusMsg>(), 32 + 4 * 32 + 16 + 8);
+        assert_eq!(size_of::<DaemonStatusMsg>(), 32 + 4 * 32 + 16 + 8 + 24);
+        assert_eq!(size_of::<CellModeMsg>(), 40);
         assert_eq!(size_of::<CommandMsg>(), 16 + 64 + 48 + 16);
         assert_eq!(size_of::<CommandReplyMsg>(), 24 + 64 + REASON_BYTES);
         assert_eq!(offset_of!(GainsMsg, feature_gain), 16);

@@ -5,7 +5,7 @@ use std::collections::BTreeMap;
 
 use serde::Serialize;
 use vservo_protocol::{
-    DaemonStatusMsg, NodeRole, TelemetryMsg, TimingMsg, daemon_state, node_state, robot_state,
+    DaemonStatusMsg, NodeRole, TelemetryMsg, TimingMsg, daemon_state, fault, node_state, robot_state,
 };
 
 /// Percentiles in microseconds.
@@ -66,13 +66,34 @@ pub struct NodeView {
     pub capture_latency_us: Option<TimingUs>,
 }
 
+/// The fault that holds the cell in a safe stop, or the last one.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct FaultView {
+    /// "position_limit", "velocity_limit", "torque_saturated", "driver_fault", "target_lost",
+    /// "robot_stalled" or "requested".
+    pub name: &'static str,
+    /// The joints it concerns (1–6), if any.
+    pub joints: Vec<u32>,
+    /// Whether it holds the cell now (false: it was resumed).
+    pub active: bool,
+    /// How long ago it was found (s).
+    pub since_s: f64,
+    /// The daemon's uptime when it was found (s).
+    pub at_uptime_s: f64,
+}
+
 /// The whole instance.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct StatusView {
     /// The instance name.
     pub instance: String,
-    /// "starting", "running", "degraded" or "stopping".
+    /// "starting", "running", "degraded", "stopping" or "safe-stop" (a fault holds the arm at rest: see
+    /// `fault`).
     pub state: &'static str,
+    /// The fault that holds the cell, or the last one; null when none since the start.
+    pub fault: Option<FaultView>,
+    /// Safe stops since the daemon started.
+    pub safe_stops: u64,
     /// Since the daemon started (s).
     pub uptime_s: f64,
     /// The daemon's process id.
@@ -99,6 +120,7 @@ fn state_name(state: u32) -> &'static str {
         daemon_state::RUNNING => "running",
         daemon_state::DEGRADED => "degraded",
         daemon_state::STOPPING => "stopping",
+        daemon_state::SAFE_STOP => "safe-stop",
         _ => "unknown",
     }
 }
@@ -141,9 +163,22 @@ impl StatusView {
             overruns.insert(role.name(), view.overruns);
             nodes.insert(role.name(), view);
         }
+        let fault = (daemon.fault != fault::NONE).then(|| FaultView {
+            name: fault::name(daemon.fault),
+            joints: (0..6).filter(|j| daemon.fault_joints & (1 << j) != 0).map(|j| j + 1).collect(),
+            active: daemon.state == daemon_state::SAFE_STOP,
+            since_s: daemon.stamp_ns.saturating_sub(daemon.fault_since_ns) as f64 / 1e9,
+            at_uptime_s: daemon
+                .uptime_ns
+                .saturating_sub(daemon.stamp_ns.saturating_sub(daemon.fault_since_ns))
+                as f64
+                / 1e9,
+        });
         Self {
             instance: instance.to_string(),
             state: state_name(daemon.state),
+            fault,
+            safe_stops: daemon.safe_stops,
             uptime_s: daemon.uptime_ns as f64 / 1e9,
             daemon_pid: daemon.pid,
             robot: match daemon.robot {
@@ -171,9 +206,19 @@ impl StatusView {
             t.map_or("-".to_string(), |t| format!("{:.1}/{:.1}", t.p50 / 1e3, t.max / 1e3))
         };
         let error = self.feature_error_px.map_or("-".to_string(), |e| format!("{e:.2}"));
+        let state = match &self.fault {
+            Some(f) if f.active => {
+                let joints = if f.joints.is_empty() {
+                    String::new()
+                } else {
+                    format!(" joint {}", f.joints.iter().map(u32::to_string).collect::<Vec<_>>().join(","))
+                };
+                format!("{} ({}{joints} for {:.1} s)", self.state, f.name, f.since_s)
+            }
+            _ => self.state.to_string(),
+        };
         format!(
-            "{} nodes {up}/{} robot {} ticks {:.0}/s late(p50/p99 µs) {} round-trip {} frame(p50/max ms) {} capture→twist {} overruns {} restarts {restarts} error {error} px gains v{}",
-            self.state,
+            "{state} nodes {up}/{} robot {} ticks {:.0}/s late(p50/p99 µs) {} round-trip {} frame(p50/max ms) {} capture→twist {} overruns {} restarts {restarts} error {error} px gains v{}",
             self.supervised_nodes,
             self.robot,
             self.tick_rate_hz,

@@ -1,4 +1,4 @@
-//! `vservoctl target`, `vservoctl object` and `vservoctl reload`: commands to a running instance, each
+//! `vservoctl target`, `object`, `reload`, `safe-stop` and `resume`: commands to a running instance, each
 //! answered by the daemon with whether it was accepted and why not.
 
 use clap::{Args, Subcommand};
@@ -75,7 +75,7 @@ pub struct ObjectArgs {
     instance: InstanceArg,
 }
 
-/// Arguments of `vservoctl reload`.
+/// Arguments of `vservoctl reload`, `safe-stop` and `resume`: the instance only.
 #[derive(Args, Debug)]
 pub struct ReloadArgs {
     #[command(flatten)]
@@ -130,4 +130,14 @@ pub fn object(args: &ObjectArgs) -> anyhow::Result<()> {
 pub fn reload(args: &ReloadArgs) -> anyhow::Result<()> {
     let mut client = Client::connect(&args.instance.name()?)?;
     report(client.reload()?)
+}
+
+pub fn safe_stop(args: &ReloadArgs) -> anyhow::Result<()> {
+    let mut client = Client::connect(&args.instance.name()?)?;
+    report(client.safe_stop()?)
+}
+
+pub fn resume(args: &ReloadArgs) -> anyhow::Result<()> {
+    let mut client = Client::connect(&args.instance.name()?)?;
+    report(client.resume()?)
 }

@@ -8,7 +8,8 @@ use vservo_protocol::Topic;
 
 use crate::instance::{Connection, InstanceArg};
 use crate::json_messages::{
-    camera_twist, features, gains, joint_command, joint_state, object, sim_world, status, telemetry,
+    camera_twist, cell_mode, features, gains, joint_command, joint_state, object, sim_world, status,
+    telemetry,
 };
 use crate::output::print_stdout;
 
@@ -134,5 +135,6 @@ pub fn run(args: &EchoArgs) -> anyhow::Result<()> {
         Topic::Status => echo(&connection, topic, args, status),
         Topic::Gains => echo(&connection, topic, args, gains),
         Topic::Object => echo(&connection, topic, args, object),
+        Topic::CellMode => echo(&connection, topic, args, cell_mode),
     }
 }

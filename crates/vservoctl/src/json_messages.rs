@@ -3,8 +3,8 @@
 
 use serde_json::{Value, json};
 use vservo_protocol::{
-    CameraTwistMsg, DaemonStatusMsg, FeaturesMsg, GainsMsg, JointCommandMsg, JointStateMsg, ObjectMsg,
-    SimWorldMsg, TelemetryMsg, TimingMsg,
+    CameraTwistMsg, CellModeMsg, DaemonStatusMsg, FeaturesMsg, GainsMsg, JointCommandMsg, JointStateMsg,
+    ObjectMsg, SimWorldMsg, TelemetryMsg, TimingMsg,
 };
 
 fn timing(t: &TimingMsg) -> Value {
@@ -72,7 +72,14 @@ pub fn status(m: &DaemonStatusMsg) -> Value {
         .collect();
     json!({"schema": m.schema, "state": m.state, "stamp_ns": m.stamp_ns, "uptime_ns": m.uptime_ns,
         "gains_version": m.gains_version, "tick_rate_hz": number(m.tick_rate_hz),
-        "feature_error_px": number(m.feature_error_px), "pid": m.pid, "robot": m.robot, "nodes": nodes})
+        "feature_error_px": number(m.feature_error_px), "pid": m.pid, "robot": m.robot, "nodes": nodes,
+        "fault": m.fault, "fault_joints": m.fault_joints, "fault_since_ns": m.fault_since_ns, "safe_stops": m.safe_stops})
+}
+
+/// One message as JSON.
+pub fn cell_mode(m: &CellModeMsg) -> Value {
+    json!({"schema": m.schema, "mode": m.mode, "sequence": m.sequence, "fault": m.fault,
+        "fault_joints": m.fault_joints, "stamp_ns": m.stamp_ns})
 }
 
 /// One message as JSON.

@@ -61,6 +61,10 @@ enum Command {
     Object(commands::ObjectArgs),
     /// Make a running instance reload its configuration file (as SIGHUP does).
     Reload(commands::ReloadArgs),
+    /// Bring a running instance's arm to rest and hold it (a safe stop, ended by `resume`).
+    SafeStop(commands::ReloadArgs),
+    /// Servo again after a safe stop (refused, with each cause, while a fault's cause is still there).
+    Resume(commands::ReloadArgs),
     /// Record every service of a running instance to an MCAP file.
     Record(record::RecordArgs),
     /// Draw the figures of `sim` from an MCAP recording.
@@ -82,6 +86,8 @@ fn main() -> ExitCode {
         Command::Target(args) => commands::target(&args),
         Command::Object(args) => commands::object(&args),
         Command::Reload(args) => commands::reload(&args),
+        Command::SafeStop(args) => commands::safe_stop(&args),
+        Command::Resume(args) => commands::resume(&args),
         Command::Record(args) => record::run(&args),
         Command::Plot(args) => plot_recording::run(&args),
         Command::Scene(args) => scene::run(&args),
@@ -94,6 +100,9 @@ fn main() -> ExitCode {
                 ExitCode::from(2)
             } else if error.is::<commands::Refused>() {
                 ExitCode::from(3)
+            } else if matches!(error.downcast_ref(), Some(vservo_client::ClientError::Busy { .. })) {
+                // EX_TEMPFAIL: try again
+                ExitCode::from(75)
             } else {
                 ExitCode::FAILURE
             }

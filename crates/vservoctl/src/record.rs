@@ -15,8 +15,8 @@ use iceoryx2::port::subscriber::Subscriber;
 use iceoryx2::prelude::{ZeroCopySend, ipc};
 use serde_json::Value;
 use vservo_protocol::{
-    CameraTwistMsg, DaemonStatusMsg, FeaturesMsg, GainsMsg, JointCommandMsg, JointStateMsg, ObjectMsg,
-    SimWorldMsg, TelemetryMsg, Topic,
+    CameraTwistMsg, CellModeMsg, DaemonStatusMsg, FeaturesMsg, GainsMsg, JointCommandMsg, JointStateMsg,
+    ObjectMsg, SimWorldMsg, TelemetryMsg, Topic,
 };
 
 use crate::instance::{Connection, InstanceArg};
@@ -124,6 +124,7 @@ pub fn run(args: &RecordArgs) -> anyhow::Result<()> {
         Tap::<DaemonStatusMsg>::boxed(Topic::Status, json::status, |m| m.stamp_ns),
         Tap::<GainsMsg>::boxed(Topic::Gains, json::gains, |_| 0),
         Tap::<ObjectMsg>::boxed(Topic::Object, json::object, |_| 0),
+        Tap::<CellModeMsg>::boxed(Topic::CellMode, json::cell_mode, |m| m.stamp_ns),
     ];
     let until = args.duration_s.map(|s| Instant::now() + Duration::from_secs_f64(s));
     let mut written = 0;

@@ -94,6 +94,22 @@ fn text(view: &StatusView) -> String {
         view.feature_error_px.map_or("-".to_string(), |e| format!("{e:.3}")),
         view.gains_version
     );
+    if let Some(fault) = &view.fault {
+        let joints = if fault.joints.is_empty() {
+            String::new()
+        } else {
+            format!(", joint {}", fault.joints.iter().map(u32::to_string).collect::<Vec<_>>().join(", "))
+        };
+        out.push_str(&format!(
+            "  {} {}{joints}, found {:.1} s ago (at uptime {:.1} s); safe stops {}{}\n",
+            if fault.active { "fault" } else { "last fault" },
+            fault.name,
+            fault.since_s,
+            fault.at_uptime_s,
+            view.safe_stops,
+            if fault.active { "; `vservoctl resume` once its cause is gone" } else { "" }
+        ));
+    }
     out.push_str(
         "  node     up  restarts  pid       overruns  skipped  late   wake µs p50/p99/p99.9/max   exec µs p50/p99/p99.9/max   round trip µs\n",
     );

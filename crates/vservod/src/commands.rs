@@ -1,5 +1,5 @@
-//! What users do with a running instance: reload the configuration (SIGHUP or the `command` service) and
-//! send targets and object commands (the `command` request-response service). Every request is validated
+//! What users do with a running instance: reload the configuration (SIGHUP or the `command` service), send
+//! targets and object commands, stop the arm safely and resume (the `command` request-response service). Every request is validated
 //! here, off the hot path; gains are designed here and handed to the servo (`gains`, history 1), object
 //! commands to the plant (`object`). Each request gets a reply saying whether it was accepted, and why not.
 
@@ -20,6 +20,9 @@ use vservo_protocol::{
 use vservo_runtime::wire::gains_message;
 use vservo_scene::{FeatureVector, IsometryMatrix3, MARKS};
 
+use crate::faults::Conditions;
+use crate::log_limit::LogLimit;
+use crate::safety::Safety;
 use crate::systemd::Systemd;
 
 /// Keys a reload may change while the arm runs; every other key shapes the running processes.
@@ -39,6 +42,8 @@ pub struct LoopState<'a> {
     pub joint_state: Option<&'a JointStateMsg>,
     /// The latest features.
     pub features: Option<&'a FeaturesMsg>,
+    /// What a resume depends on.
+    pub conditions: Conditions,
 }
 
 /// The daemon's command side: the running configuration and design, and the ports to hand them on.
@@ -55,6 +60,8 @@ pub struct Commander {
     gains_publisher: Publisher<ipc::Service, GainsMsg, ()>,
     object_publisher: Publisher<ipc::Service, ObjectMsg, ()>,
     server: Server<ipc::Service, CommandMsg, (), CommandReplyMsg, ()>,
+    /// One log line per command, up to a rate journald keeps; a summary line for floods.
+    log_limit: LogLimit,
 }
 
 impl Commander {
@@ -87,6 +94,7 @@ impl Commander {
             .server_builder()
             .create()
             .map_err(|e| anyhow::anyhow!("creating the command server: {e}"))?,
+            log_limit: LogLimit::new(std::time::Duration::from_secs(1), 10),
         };
         commander.adopt(spec).map_err(anyhow::Error::msg)?;
         Ok(commander)
@@ -123,7 +131,8 @@ impl Commander {
     /// Answers every pending request, and hands the latest gains and object command to subscribers that
     /// came since (a restarted servo or plant): iceoryx2 delivers a publisher's history when it updates
     /// its connections.
-    pub fn serve(&mut self, heard: &LoopState, systemd: &mut Systemd) {
+    pub fn serve(&mut self, heard: &LoopState, systemd: &mut Systemd, safety: &mut Safety) {
+        let now = std::time::Instant::now();
         for result in [self.gains_publisher.update_connections(), self.object_publisher.update_connections()]
         {
             if let Err(e) = result {
@@ -136,12 +145,22 @@ impl Commander {
                 Err(format!("schema {} is not this daemon's ({SCHEMA_VERSION})", command.schema))
             } else if command.kind == command_kind::RELOAD {
                 self.reload(systemd)
+            } else if command.kind == command_kind::RESUME {
+                safety.resume(&heard.conditions)
+            } else if command.kind == command_kind::SAFE_STOP {
+                safety.request_safe_stop()
             } else {
                 self.handle(&command, heard)
             };
-            match &outcome {
-                Ok(what) => tracing::info!(id = command.id, kind = command.kind, "command accepted: {what}"),
-                Err(why) => tracing::warn!(id = command.id, kind = command.kind, "command refused: {why}"),
+            if self.log_limit.admit(now, outcome.is_ok()) {
+                match &outcome {
+                    Ok(what) => {
+                        tracing::info!(id = command.id, kind = command.kind, "command accepted: {what}")
+                    }
+                    Err(why) => {
+                        tracing::warn!(id = command.id, kind = command.kind, "command refused: {why}")
+                    }
+                }
             }
             let (accepted, text) = match outcome {
                 Ok(what) => (true, what),
@@ -151,6 +170,9 @@ impl Commander {
             if let Err(e) = request.send_copy(reply) {
                 tracing::warn!(id = command.id, "the reply could not be sent: {e}");
             }
+        }
+        if let Some(summary) = self.log_limit.summary(now) {
+            tracing::warn!("{summary}");
         }
     }
 

@@ -7,7 +7,10 @@
 //! the arm to rest before it stops the nodes. Logs go to stderr through `tracing` (journald-friendly).
 
 mod commands;
+mod faults;
+mod log_limit;
 mod node_process;
+mod safety;
 mod supervisor;
 mod systemd;
 

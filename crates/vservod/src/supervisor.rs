@@ -22,6 +22,8 @@ use vservo_runtime::clock::{PeriodicTimer, monotonic_ns};
 use vservo_runtime::status::StatusView;
 
 use crate::commands::{Commander, LoopState};
+use crate::faults::{Conditions, FaultMonitor};
+use crate::safety::Safety;
 use crate::systemd::Systemd;
 
 /// The supervisor's cycle.
@@ -30,6 +32,9 @@ const CYCLE: Duration = Duration::from_millis(50);
 const TELEMETRY_STALE: Duration = Duration::from_millis(500);
 /// A node that ran this long healthy has its restart backoff reset.
 const STABLE_AFTER: Duration = Duration::from_secs(10);
+/// How often the daemon frees what processes that died left behind (a client killed while it held a
+/// command slot, a subscriber of a crashed `vservoctl echo`).
+const CLEANUP_EVERY: Duration = Duration::from_secs(2);
 // The arm is at rest when the rmrc's reference has stopped and no joint moves faster than this (rad/s):
 // the nodes' own rule when they outlive the daemon.
 use vservo_runtime::AT_REST_RAD_S;
@@ -175,9 +180,11 @@ struct Heard {
 }
 
 impl Heard {
-    fn drain(&mut self, ports: &Ports, nodes: &mut [Supervised]) {
+    /// Takes what arrived; every joint state, twist and feature vector also goes to the fault monitor.
+    fn drain(&mut self, ports: &Ports, nodes: &mut [Supervised], monitor: &mut FaultMonitor) {
         while let Ok(Some(sample)) = ports.joint_state.receive() {
             if sample.schema == SCHEMA_VERSION {
+                monitor.on_joint_state(&sample);
                 self.joint_state = Some(*sample);
                 self.joint_state_at = Some(Instant::now());
             }
@@ -189,11 +196,13 @@ impl Heard {
         }
         while let Ok(Some(sample)) = ports.features.receive() {
             if sample.schema == SCHEMA_VERSION {
+                monitor.on_features(&sample, monotonic_ns());
                 self.features = Some(*sample);
             }
         }
         while let Ok(Some(sample)) = ports.twist.receive() {
             if sample.schema == SCHEMA_VERSION {
+                monitor.on_twist(&sample);
                 self.gains_version = sample.gains_version;
                 self.feature_error_px = sample.feature_error_px;
             }
@@ -284,6 +293,8 @@ pub fn run(
     };
     // the run's key: the nodes take gains and object commands sealed with it only (never in a message)
     let seal_key = vservo_protocol::seal::SealKey::random().context("drawing the run's seal key")?;
+    // the cell mode first: every node finds it in the service's history
+    let mut safety = Safety::new(&node, &instance, config.faults, seal_key)?;
     let mut commander = Commander::new(&node, &launcher.config_path, config.clone(), config_text, seal_key)?;
     let daemon_started = monotonic_ns();
     let mut systemd = Systemd::new();
@@ -329,6 +340,7 @@ pub fn run(
     let mut last_watchdog = Instant::now();
     let mut ever_ready = false;
     let mut robot = robot_state::WAITING;
+    let mut last_cleanup = Instant::now();
     while !stop.load(Ordering::Relaxed) {
         timer.wait();
         let now = Instant::now();
@@ -370,8 +382,16 @@ pub fn run(
         if lost {
             let cleaned = vservo_protocol::cleanup_dead_nodes(&node);
             tracing::info!(cleaned, "removed the shared-memory leftovers of dead nodes");
+            last_cleanup = now;
+        } else if now.duration_since(last_cleanup) >= CLEANUP_EVERY {
+            // dead clients' ports: their command slots and subscriptions are free again
+            let cleaned = vservo_protocol::cleanup_dead_nodes(&node);
+            if cleaned > 0 {
+                tracing::debug!(cleaned, "removed the leftovers of processes that died (clients)");
+            }
+            last_cleanup = now;
         }
-        heard.drain(&ports, &mut nodes);
+        heard.drain(&ports, &mut nodes, safety.monitor());
         // a hung node is ended like a crashed one: killed here, reaped and restarted by the next cycles
         for n in nodes.iter_mut().filter(|n| n.state != node_state::HUNG) {
             if let Some(why) = n.hung(now, hang_timeout) {
@@ -386,9 +406,23 @@ pub fn run(
                 n.signal(Signal::SIGCONT);
             }
         }
+        robot =
+            robot_transition(robot, heard.joint_state_at.map(|at| now.duration_since(at)), robot_deadline);
+        // the nodes that move the arm and bring it to rest: while they run, the cell can be made safe
+        let motion_nodes_healthy = nodes
+            .iter()
+            .filter(|n| matches!(n.role, NodeRole::Rmrc | NodeRole::Plant))
+            .all(|n| n.healthy(now));
+        let conditions = Conditions { now_ns: monotonic_ns(), robot, external_robot, motion_nodes_healthy };
+        safety.cycle(&conditions);
         commander.serve(
-            &LoopState { joint_state: heard.joint_state.as_ref(), features: heard.features.as_ref() },
+            &LoopState {
+                joint_state: heard.joint_state.as_ref(),
+                features: heard.features.as_ref(),
+                conditions,
+            },
             &mut systemd,
+            &mut safety,
         );
         for n in nodes.iter_mut() {
             if n.process.is_none() && n.restart_at.is_some_and(|at| now >= at) {
@@ -410,10 +444,9 @@ pub fn run(
             }
         }
 
-        robot =
-            robot_transition(robot, heard.joint_state_at.map(|at| now.duration_since(at)), robot_deadline);
         let all_healthy = nodes.iter().all(|n| n.healthy(now));
         let state = match (all_healthy && robot == robot_state::RUNNING, ever_ready) {
+            _ if safety.holding() => daemon_state::SAFE_STOP,
             (true, _) => daemon_state::RUNNING,
             (false, false) => daemon_state::STARTING,
             (false, true) => daemon_state::DEGRADED,
@@ -421,6 +454,7 @@ pub fn run(
         let mut message =
             status_message(&nodes, &heard, commander.gains_version(), state, daemon_started, now);
         message.robot = robot;
+        safety.fill(&mut message);
         if let Ok(sample) = ports.status.loan_uninit() {
             let _ = sample.write_payload(message).send();
         }
@@ -431,8 +465,12 @@ pub fn run(
             systemd.ready(&view.one_line());
             tracing::info!("ready: every node runs");
         }
+        // the keep-alive says the cell can be made safe: withheld only while a node that brings the arm to
+        // rest (the rmrc; the simulated plant) is not healthy. A servo or vision restart, a safe stop or a
+        // stalled external driver (whose own deadline holds the arm) do not stop it
         if let Some(every) = systemd.watchdog_every
-            && all_healthy
+            && ever_ready
+            && motion_nodes_healthy
             && now.duration_since(last_watchdog) >= every
         {
             systemd.watchdog();
@@ -446,7 +484,7 @@ pub fn run(
         }
     }
 
-    stop_safely(&mut nodes, &ports, &mut heard, &mut systemd, runtime.stop_timeout_s);
+    stop_safely(&mut nodes, &ports, &mut heard, &mut systemd, runtime.stop_timeout_s, safety.monitor());
     let cleaned = vservo_protocol::cleanup_dead_nodes(&node);
     if cleaned > 0 {
         tracing::info!(cleaned, "removed the leftovers of nodes that did not stop cleanly");
@@ -499,6 +537,10 @@ fn status_message(
         feature_error_px: heard.feature_error_px,
         pid: std::process::id(),
         robot: robot_state::WAITING,
+        fault: 0,
+        fault_joints: 0,
+        fault_since_ns: 0,
+        safe_stops: 0,
     }
 }
 
@@ -550,6 +592,7 @@ fn stop_safely(
     heard: &mut Heard,
     systemd: &mut Systemd,
     timeout_s: f64,
+    monitor: &mut FaultMonitor,
 ) {
     systemd.stopping();
     tracing::info!("stopping: zero twist, ramping the arm to rest");
@@ -574,7 +617,7 @@ fn stop_safely(
     let mut speeds = (f64::NAN, f64::NAN);
     while loop_alive && Instant::now() < deadline {
         std::thread::sleep(Duration::from_millis(10));
-        heard.drain(ports, nodes);
+        heard.drain(ports, nodes, monitor);
         if let (Some(state), Some(command)) = (&heard.joint_state, &heard.command) {
             speeds = (fastest(&command.qd_ref_rad_s), fastest(&state.qd_rad_s));
             if speeds.0 == 0.0 && speeds.1 < AT_REST_RAD_S {

@@ -64,3 +64,50 @@ fn latest<T: Copy + std::fmt::Debug + ZeroCopySend>(
     }
     latest
 }
+
+/// The cell mode the daemon set: the newest sealed [`CellModeMsg`] heard so far. A message without the run's
+/// seal, or not newer than the one in force, is refused and counted.
+pub(crate) struct CellModeFollower {
+    subscriber: Subscriber<ipc::Service, vservo_protocol::CellModeMsg, ()>,
+    in_force: vservo_protocol::CellModeMsg,
+}
+
+impl CellModeFollower {
+    pub(crate) fn open(node: &Node<ipc::Service>, instance: &str) -> Result<Self, RuntimeError> {
+        Ok(Self {
+            subscriber: vservo_protocol::subscriber(node, instance, vservo_protocol::Topic::CellMode)?,
+            // until the daemon's first word: servoing (the daemon publishes its mode before it starts a node)
+            in_force: vservo_protocol::CellModeMsg {
+                schema: vservo_protocol::SCHEMA_VERSION,
+                mode: vservo_protocol::cell_mode::SERVOING,
+                sequence: 0,
+                fault: 0,
+                fault_joints: 0,
+                stamp_ns: 0,
+                seal: 0,
+            },
+        })
+    }
+
+    /// Takes what arrived; whether the cell is held in a safe stop.
+    pub(crate) fn safe_stop(
+        &mut self,
+        key: Option<&vservo_protocol::seal::SealKey>,
+        counters: &Counters,
+    ) -> bool {
+        while let Ok(Some(sample)) = self.subscriber.receive() {
+            let message = *sample;
+            let sealed = key.is_some_and(|key| key.seal_cell_mode(&message) == message.seal);
+            let known = matches!(
+                message.mode,
+                vservo_protocol::cell_mode::SERVOING | vservo_protocol::cell_mode::SAFE_STOP
+            );
+            if schema_ok(message.schema) && sealed && known && message.sequence > self.in_force.sequence {
+                self.in_force = message;
+            } else if message.sequence != self.in_force.sequence || !sealed {
+                counters.rejected();
+            }
+        }
+        self.in_force.mode == vservo_protocol::cell_mode::SAFE_STOP
+    }
+}

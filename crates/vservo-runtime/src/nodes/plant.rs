@@ -172,7 +172,9 @@ pub fn run(context: &NodeContext) -> Result<(), RuntimeError> {
         let mut round_trip_ns = 0;
         while let Ok(Some(sample)) = command_subscriber.receive() {
             let reply = *sample;
-            if !schema_ok(reply.schema) || reply.driver_epoch != declared.epoch {
+            // the rmrc's commands only: sealed with the run's key
+            let sealed = context.seal_key.is_some_and(|key| key.seal_joint_command(&reply) == reply.seal);
+            if !schema_ok(reply.schema) || reply.driver_epoch != declared.epoch || !sealed {
                 counters.rejected();
             } else if reply.answers_tick == state.tick {
                 match command_of(&reply, declared.command_mode, &torque_max_nm) {

@@ -13,7 +13,7 @@ use vservo_cell::{ActuatorCommand, RmrcStage};
 use vservo_control::Twist;
 use vservo_protocol::{CameraTwistMsg, JointCommandMsg, JointStateMsg, NodeRole, SCHEMA_VERSION, Topic};
 
-use super::{IDLE_WAIT, NodeBase, go_realtime, latest, start};
+use super::{CellModeFollower, IDLE_WAIT, NodeBase, go_realtime, latest, start};
 use crate::clock::monotonic_ns;
 use crate::telemetry::CycleSample;
 use crate::wire::{command_mode_code, to_array};
@@ -45,6 +45,8 @@ pub fn run(context: &NodeContext) -> Result<(), RuntimeError> {
         vservo_protocol::subscriber::<CameraTwistMsg>(&node, instance, Topic::CameraTwist)?;
     let command_publisher =
         vservo_protocol::publisher::<JointCommandMsg>(&node, instance, Topic::JointCommand)?;
+    // the daemon's safe stop: the reference ramps to rest and is held, whatever twist arrives
+    let mut cell_mode = CellModeFollower::open(&node, instance)?;
     go_realtime(context, NodeRole::Rmrc);
     let dt = config.robot.period_s;
     let period_ns = (dt * 1e9).round() as u64;
@@ -120,8 +122,9 @@ pub fn run(context: &NodeContext) -> Result<(), RuntimeError> {
                 rmrc.set_twist(Twist::zeros(), now_s);
             }
         }
-        if orphaned_at.is_some() {
-            // no daemon, no servo to trust: a zero twist, which the interpolator ramps to at its limits
+        // a safe stop, or no daemon and so no servo to trust: a zero twist, which the interpolator ramps to at
+        // its acceleration limits and then holds
+        if orphaned_at.is_some() || cell_mode.safe_stop(context.seal_key.as_ref(), counters) {
             rmrc.set_twist(Twist::zeros(), now_s);
         }
         let command = rmrc.step(now_s + dt, &q, &qd);
@@ -140,9 +143,12 @@ pub fn run(context: &NodeContext) -> Result<(), RuntimeError> {
             torque_nm: torque,
             q_ref_rad: to_array(&reference.q),
             qd_ref_rad_s: to_array(&reference.qd),
+            seal: 0,
         };
         if let Ok(sample) = command_publisher.loan_uninit() {
             message.stamp_ns = monotonic_ns();
+            // the simulated driver applies sealed commands only
+            message.seal = context.seal_key.as_ref().map_or(0, |key| key.seal_joint_command(&message));
             let _ = sample.write_payload(message).send();
         }
         let done = monotonic_ns();

@@ -5,7 +5,7 @@ use vservo_control::Twist;
 use vservo_protocol::{CameraTwistMsg, FeaturesMsg, GainsMsg, NodeRole, SCHEMA_VERSION, Topic, verdict};
 use vservo_scene::FeatureVector;
 
-use super::{IDLE_WAIT, NodeBase, go_realtime, latest, start};
+use super::{CellModeFollower, IDLE_WAIT, NodeBase, go_realtime, latest, start};
 use crate::clock::monotonic_ns;
 use crate::telemetry::CycleSample;
 use crate::wire::law_gains;
@@ -34,6 +34,8 @@ pub fn run(context: &NodeContext) -> Result<(), RuntimeError> {
     let twist_publisher = vservo_protocol::publisher::<CameraTwistMsg>(&node, instance, Topic::CameraTwist)?;
     // the daemon's latest design (history 1: a restarted servo takes it at once)
     let gains_subscriber = vservo_protocol::subscriber::<GainsMsg>(&node, instance, Topic::Gains)?;
+    // the daemon's safe stop: zero twists until it resumes the cell
+    let mut cell_mode = CellModeFollower::open(&node, instance)?;
     go_realtime(context, NodeRole::Servo);
     let mut stage = context.cell.servo();
     let mut gains_version = 1;
@@ -90,13 +92,19 @@ pub fn run(context: &NodeContext) -> Result<(), RuntimeError> {
             if outside {
                 counters.rejected();
             }
-            let (twist, why) = stage.step(Some(&features));
             let error_px = feature_error_px(&features, stage.desired_features());
-            let (verdict_code, missing_mask) = match why {
-                ServoVerdict::Waiting => (verdict::WAITING, 0),
-                ServoVerdict::Servoing => (verdict::SERVOING, 0),
-                ServoVerdict::MarksMissing(mask) => (verdict::MARKS_MISSING, u32::from(mask)),
-            };
+            let (twist, verdict_code, missing_mask) =
+                if cell_mode.safe_stop(context.seal_key.as_ref(), counters) {
+                    (stage.hold(), verdict::SAFE_STOP, 0)
+                } else {
+                    match stage.step(Some(&features)) {
+                        (twist, ServoVerdict::Waiting) => (twist, verdict::WAITING, 0),
+                        (twist, ServoVerdict::Servoing) => (twist, verdict::SERVOING, 0),
+                        (twist, ServoVerdict::MarksMissing(mask)) => {
+                            (twist, verdict::MARKS_MISSING, u32::from(mask))
+                        }
+                    }
+                };
             send(CameraTwistMsg {
                 schema: SCHEMA_VERSION,
                 verdict: verdict_code,

@@ -1,0 +1,127 @@
+//! The safe stop as the daemon carries it out: the [`FaultMonitor`]'s decisions become sealed `cell_mode`
+//! messages (the rmrc ramps the arm to rest at its acceleration limits and holds it, the servo sends zero
+//! twists), one log line each, and the fault in the status.
+
+use iceoryx2::port::publisher::Publisher;
+use iceoryx2::port::update_connections::UpdateConnections;
+use iceoryx2::prelude::{Node, ipc};
+use vservo_protocol::{CellModeMsg, DaemonStatusMsg, SCHEMA_VERSION, Topic, cell_mode, fault};
+use vservo_runtime::clock::monotonic_ns;
+
+use crate::faults::{Conditions, Decision, Fault, FaultMonitor};
+
+/// The monitor and the `cell_mode` publisher.
+pub struct Safety {
+    monitor: FaultMonitor,
+    publisher: Publisher<ipc::Service, CellModeMsg, ()>,
+    seal_key: vservo_protocol::seal::SealKey,
+    sequence: u64,
+}
+
+impl Safety {
+    /// Opens `cell_mode` and publishes "servoing" (sequence 1): call before any node starts, so that every
+    /// node finds the mode in the service's history.
+    pub fn new(
+        node: &Node<ipc::Service>,
+        instance: &str,
+        settings: vservo_config::Faults,
+        seal_key: vservo_protocol::seal::SealKey,
+    ) -> anyhow::Result<Self> {
+        let mut safety = Self {
+            monitor: FaultMonitor::new(settings),
+            publisher: vservo_protocol::publisher(node, instance, Topic::CellMode)?,
+            seal_key,
+            sequence: 0,
+        };
+        safety.publish(cell_mode::SERVOING, None)?;
+        Ok(safety)
+    }
+
+    /// The monitor, to feed it what the loop published.
+    pub fn monitor(&mut self) -> &mut FaultMonitor {
+        &mut self.monitor
+    }
+
+    /// Whether the cell is held in a safe stop.
+    pub fn holding(&self) -> bool {
+        self.monitor.latched().is_some()
+    }
+
+    fn publish(&mut self, mode: u32, fault: Option<&Fault>) -> anyhow::Result<()> {
+        let mut message = CellModeMsg {
+            schema: SCHEMA_VERSION,
+            mode,
+            sequence: self.sequence + 1,
+            fault: fault.map_or(fault::NONE, |f| f.code),
+            fault_joints: fault.map_or(0, |f| f.joints),
+            stamp_ns: monotonic_ns(),
+            seal: 0,
+        };
+        message.seal = self.seal_key.seal_cell_mode(&message);
+        let sample = self.publisher.loan_uninit()?;
+        sample.write_payload(message).send()?;
+        self.sequence += 1;
+        Ok(())
+    }
+
+    fn enter(&mut self, fault: &Fault, how: &str) {
+        tracing::error!(
+            fault = fault::name(fault.code),
+            "safe stop ({how}): {}; the arm is brought to rest and held; `vservoctl resume` servos again once the cause is gone",
+            fault.detail
+        );
+        if let Err(e) = self.publish(cell_mode::SAFE_STOP, Some(fault)) {
+            // the nodes cannot hear it: the rmrc is out of reach, which the supervisor sees as unhealthy
+            tracing::error!("publishing the safe stop: {e}");
+        }
+    }
+
+    fn leave(&mut self, fault: &Fault, how: &str) -> Result<String, String> {
+        self.publish(cell_mode::SERVOING, None).map_err(|e| format!("publishing the resume: {e}"))?;
+        let held_s = monotonic_ns().saturating_sub(fault.since_ns) as f64 / 1e9;
+        let what = format!("resumed {how} after {} (held {held_s:.1} s)", fault::name(fault.code));
+        tracing::warn!("{what}");
+        Ok(what)
+    }
+
+    /// One supervisor cycle: hands subscribers that came since (a restarted node) the mode in force, and
+    /// acts on the monitor's decision.
+    pub fn cycle(&mut self, conditions: &Conditions) {
+        if let Err(e) = self.publisher.update_connections() {
+            tracing::warn!("handing on the cell mode: {e}");
+        }
+        match self.monitor.cycle(conditions) {
+            Decision::Same => {}
+            Decision::SafeStop(fault) => self.enter(&fault, "fault"),
+            Decision::ResumeAutomatically => {
+                if let Ok(fault) = self.monitor.resume(conditions) {
+                    let _ = self
+                        .leave(&fault, "automatically (faults.resume = \"automatic\"): the cause is gone");
+                }
+            }
+        }
+    }
+
+    /// A client's `resume`.
+    pub fn resume(&mut self, conditions: &Conditions) -> Result<String, String> {
+        let fault = self.monitor.resume(conditions)?;
+        self.leave(&fault, "on command")
+    }
+
+    /// A client's `safe-stop`.
+    pub fn request_safe_stop(&mut self) -> Result<String, String> {
+        let fault = self.monitor.request_safe_stop(monotonic_ns())?;
+        self.enter(&fault, "on command");
+        Ok("safe stop: the arm is brought to rest and held; `vservoctl resume` servos again".into())
+    }
+
+    /// The fault fields of the status.
+    pub fn fill(&self, status: &mut DaemonStatusMsg) {
+        if let Some(fault) = self.monitor.shown() {
+            status.fault = fault.code;
+            status.fault_joints = fault.joints;
+            status.fault_since_ns = fault.since_ns;
+        }
+        status.safe_stops = self.monitor.safe_stops();
+    }
+}
