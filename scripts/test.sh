@@ -5,3 +5,5 @@ cd "$(dirname "$0")/.."
 scripts/setup.sh
 cargo build --workspace --all-targets --locked
 cargo test --workspace --locked
+# the Debian package under a real systemd, in a container (needs root; says why when it cannot run)
+scripts/test-systemd.sh

@@ -346,3 +346,29 @@ fn absurd_messages_from_a_rogue_publisher_are_refused_and_counted() {
     assert_eq!(after["safe_stops"], 0, "no forged mode was taken: {after}");
     daemon.stop();
 }
+
+/// A client of another user is refused by iceoryx2 (the instance's shared memory is the daemon's user's), and
+/// the message says which user runs the instance and how to run the client. Needs root (to be `nobody`).
+#[test]
+fn a_client_of_another_user_is_told_who_runs_the_instance() {
+    use std::os::unix::fs::MetadataExt;
+    if std::fs::metadata("/proc/self").map(|m| m.uid()).ok() != Some(0) {
+        println!("skipped: needs root to run a client as nobody");
+        return;
+    }
+    let _one = exclusive();
+    let instance = unique("other-user");
+    let (_config, daemon) = running_daemon(&instance);
+    let binary = vservo_system_tests::binary("vservoctl");
+    let out = std::process::Command::new("runuser")
+        .args(["-u", "nobody", "--"])
+        .arg(&binary)
+        .args(["status", "--instance", &instance, "--timeout-s", "1"])
+        .current_dir("/")
+        .output()
+        .expect("runuser runs");
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{stderr}");
+    assert!(stderr.contains("is run by user \"root\"") && stderr.contains("sudo -u root"), "{stderr}");
+    daemon.stop();
+}

@@ -306,6 +306,30 @@ impl Config {
         Self::from_toml(&text, &origin)
     }
 
+    /// The `[instance] name` of a file, read on its own: the instance a client talks to even when the rest
+    /// of the file does not validate (a file edited since the daemon started, whose reload the daemon
+    /// refuses).
+    pub fn instance_of(path: impl AsRef<Path>) -> Result<String, ConfigError> {
+        let path = path.as_ref();
+        let origin = path.display().to_string();
+        let text = std::fs::read_to_string(path)
+            .map_err(|e| ConfigError::Read { file: origin.clone(), reason: e.to_string() })?;
+        let table: toml::Table = toml::from_str(&text)
+            .map_err(|e| ConfigError::Parse { file: origin.clone(), message: e.to_string() })?;
+        let name =
+            table.get("instance").and_then(|i| i.get("name")).and_then(|n| n.as_str()).unwrap_or_default();
+        if is_instance_name(name.trim()) {
+            Ok(name.trim().to_string())
+        } else {
+            Err(ConfigError::Invalid {
+                file: origin,
+                key: "instance.name".into(),
+                value: format!("{name:?}"),
+                reason: INSTANCE_NAME_RULE.into(),
+            })
+        }
+    }
+
     /// Validates configuration text; `origin` names it in messages.
     pub fn from_toml(text: &str, origin: &str) -> Result<Config, ConfigError> {
         let raw: raw::RawConfig = toml::from_str(text)

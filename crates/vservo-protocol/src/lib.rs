@@ -162,7 +162,40 @@ fn named(name: &str) -> Result<(String, ServiceName), ProtocolError> {
 }
 fn port_error(what: &'static str, service: &str) -> impl FnOnce(String) -> ProtocolError {
     let service = service.to_string();
-    move |reason| ProtocolError::Port { what, service, reason }
+    move |reason| {
+        // `vservo/<instance>/…`: refused because another user runs the instance? Say who, and what to do
+        let instance = service.split('/').nth(1).unwrap_or_default();
+        let reason = match other_owner(instance) {
+            Some(user) => format!(
+                "{reason} — instance {instance:?} is run by user {user:?}, and its shared memory is that user's only: run the client as that user (for example `sudo -u {user} vservoctl …`)"
+            ),
+            None => reason,
+        };
+        ProtocolError::Port { what, service, reason }
+    }
+}
+
+/// The user that owns an instance's private shared-memory objects (`/dev/shm/vservo_<instance>_…`, mode
+/// 0600), when that is not the calling process's user.
+fn other_owner(instance: &str) -> Option<String> {
+    use std::os::unix::fs::MetadataExt;
+    let own_uid = std::fs::metadata("/proc/self").ok()?.uid();
+    let prefix = resource_prefix(instance);
+    let owner_uid = std::fs::read_dir("/dev/shm").ok()?.flatten().find_map(|entry| {
+        let name = entry.file_name();
+        let metadata = entry.metadata().ok()?;
+        // the node counter iceoryx2 shares with every user (mode 0666) says nothing about who runs it
+        (name.to_string_lossy().starts_with(&prefix)
+            && metadata.mode() & 0o077 == 0
+            && metadata.uid() != own_uid)
+            .then_some(metadata.uid())
+    })?;
+    let passwd = std::fs::read_to_string("/etc/passwd").unwrap_or_default();
+    let user = passwd.lines().find_map(|line| {
+        let fields: Vec<&str> = line.split(':').collect();
+        (fields.get(2) == Some(&owner_uid.to_string().as_str())).then(|| fields[0].to_string())
+    });
+    Some(user.unwrap_or_else(|| format!("uid {owner_uid}")))
 }
 
 /// Whether opening a service may create it. The daemon's processes create; clients only open, so that no

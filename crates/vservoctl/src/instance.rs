@@ -7,7 +7,6 @@ use std::time::{Duration, Instant};
 use clap::Args;
 use iceoryx2::port::subscriber::Subscriber;
 use iceoryx2::prelude::{Node, ZeroCopySend, ipc};
-use vservo_config::Config;
 use vservo_protocol::Topic;
 
 use crate::UsageError;
@@ -34,8 +33,10 @@ impl InstanceArg {
             };
         }
         let path = self.config.clone().unwrap_or_else(|| PathBuf::from("config/vservo.toml"));
-        match Config::load(&path) {
-            Ok(config) => Ok(config.instance),
+        // only the instance's name is needed: a file that no longer validates as a whole (edited since the
+        // daemon started) still names its instance, so `reload` reaches the daemon, which refuses it and says why
+        match vservo_config::Config::instance_of(&path) {
+            Ok(name) => Ok(name),
             // without a file to read, the default instance
             Err(vservo_config::ConfigError::Read { .. }) if self.config.is_none() => {
                 Ok("default".to_string())
