@@ -32,6 +32,13 @@ if ! "${venv}/bin/python" -c 'import iceoryx2' >/dev/null 2>&1; then
     "${venv}/bin/pip" install -q iceoryx2==0.10.0
 fi
 
+# `vservoctl top`'s test runs it in a terminal: tmux, from Debian
+if ! command -v tmux >/dev/null 2>&1; then
+    sudo_if_needed=""
+    [ "$(id -u)" -ne 0 ] && sudo_if_needed="sudo"
+    ${sudo_if_needed} apt-get install -y -qq tmux >/dev/null
+fi
+
 # The MuJoCo reference driver (clients/python/mujoco_driver.py, scripts/run-mujoco.sh and its test): headless
 # OpenGL from Debian and PyPI's mujoco in the same venv.
 scripts/setup-mujoco.sh

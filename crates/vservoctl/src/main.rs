@@ -21,6 +21,7 @@ mod seconds_arg;
 mod sim;
 mod stability;
 mod status;
+mod top;
 mod vision;
 
 use std::process::ExitCode;
@@ -65,6 +66,8 @@ enum Command {
     SafeStop(commands::ReloadArgs),
     /// Servo again after a safe stop (refused, with each cause, while a fault's cause is still there).
     Resume(commands::ReloadArgs),
+    /// A live terminal view of a running instance: nodes, loop timing, fault, servo, feature error (q quits).
+    Top(top::TopArgs),
     /// Record every service of a running instance to an MCAP file.
     Record(record::RecordArgs),
     /// Draw the figures of `sim` from an MCAP recording.
@@ -88,6 +91,7 @@ fn main() -> ExitCode {
         Command::Reload(args) => commands::reload(&args),
         Command::SafeStop(args) => commands::safe_stop(&args),
         Command::Resume(args) => commands::resume(&args),
+        Command::Top(args) => top::run(&args),
         Command::Record(args) => record::run(&args),
         Command::Plot(args) => plot_recording::run(&args),
         Command::Scene(args) => scene::run(&args),

@@ -1,0 +1,71 @@
+//! `vservoctl top` in a real terminal (a tmux pane): it shows the nodes, refreshes, and `q` quits with exit 0.
+
+use std::process::Command;
+use std::time::Duration;
+
+use vservo_system_tests::{Daemon, binary, instance_config, running, status, unique, wait_until};
+
+/// A detached tmux session, killed when the test ends, passed or not.
+struct Session(String);
+
+impl Session {
+    fn capture(&self) -> String {
+        let out =
+            Command::new("tmux").args(["capture-pane", "-p", "-t", &self.0]).output().expect("tmux runs");
+        String::from_utf8_lossy(&out.stdout).to_string()
+    }
+}
+
+impl Drop for Session {
+    fn drop(&mut self) {
+        let _ = Command::new("tmux").args(["kill-session", "-t", &self.0]).output();
+    }
+}
+
+/// The refresh counter `top` prints on its last line.
+fn refreshes(screen: &str) -> Option<u64> {
+    screen.split("refresh ").nth(1)?.split_whitespace().next()?.parse().ok()
+}
+
+#[test]
+fn top_shows_the_nodes_refreshes_and_quits_on_q() {
+    let instance = unique("top");
+    let config = instance_config(&instance);
+    let daemon = Daemon::start(&config);
+    assert!(
+        wait_until(Duration::from_secs(10), || status(&instance).is_some_and(|s| running(&s))),
+        "{}",
+        daemon.log()
+    );
+    let session = Session(instance.clone());
+    let command =
+        format!("{} top --instance {instance}; echo top-exit=$?; sleep 60", binary("vservoctl").display());
+    let started = Command::new("tmux")
+        .args(["new-session", "-d", "-s", &session.0, "-x", "150", "-y", "40", &command])
+        .status()
+        .expect("tmux runs");
+    assert!(started.success());
+    assert!(
+        wait_until(Duration::from_secs(10), || {
+            let screen = session.capture();
+            ["plant", "rmrc", "servo", "vision", "running", "feature error"]
+                .iter()
+                .all(|w| screen.contains(w))
+        }),
+        "{}",
+        session.capture()
+    );
+    let first = refreshes(&session.capture()).expect("a refresh count");
+    std::thread::sleep(Duration::from_secs(1));
+    let later = refreshes(&session.capture()).expect("a refresh count");
+    println!("top refreshed {} times in 1 s", later - first);
+    assert!(later >= first + 3, "several refreshes a second: {first} → {later}");
+    let sent = Command::new("tmux").args(["send-keys", "-t", &session.0, "q"]).status().expect("tmux runs");
+    assert!(sent.success());
+    assert!(
+        wait_until(Duration::from_secs(5), || session.capture().contains("top-exit=0")),
+        "{}",
+        session.capture()
+    );
+    daemon.stop();
+}
