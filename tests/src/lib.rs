@@ -188,6 +188,19 @@ pub fn running(status: &Value) -> bool {
     status["state"] == "running"
 }
 
+/// A daemon of the default cell under `instance`, once every node runs (its configuration lives as long as
+/// the returned guard).
+pub fn running_daemon(instance: &str) -> (TempConfig, Daemon) {
+    let config = instance_config(instance);
+    let daemon = Daemon::start(&config);
+    assert!(
+        wait_until(Duration::from_secs(10), || status(instance).is_some_and(|s| running(&s))),
+        "{}",
+        daemon.log()
+    );
+    (config, daemon)
+}
+
 impl Daemon {
     /// SIGTERM, and the daemon exits 0.
     pub fn stop(mut self) {

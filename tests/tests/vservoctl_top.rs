@@ -3,7 +3,7 @@
 use std::process::Command;
 use std::time::Duration;
 
-use vservo_system_tests::{Daemon, binary, instance_config, running, status, unique, wait_until};
+use vservo_system_tests::{binary, running_daemon, unique, wait_until};
 
 /// A detached tmux session, killed when the test ends, passed or not.
 struct Session(String);
@@ -30,13 +30,7 @@ fn refreshes(screen: &str) -> Option<u64> {
 #[test]
 fn top_shows_the_nodes_refreshes_and_quits_on_q() {
     let instance = unique("top");
-    let config = instance_config(&instance);
-    let daemon = Daemon::start(&config);
-    assert!(
-        wait_until(Duration::from_secs(10), || status(&instance).is_some_and(|s| running(&s))),
-        "{}",
-        daemon.log()
-    );
+    let (_config, daemon) = running_daemon(&instance);
     let session = Session(instance.clone());
     let command =
         format!("{} top --instance {instance}; echo top-exit=$?; sleep 60", binary("vservoctl").display());

@@ -7,7 +7,7 @@ use std::time::{Duration, Instant};
 use nix::sys::signal::{Signal, kill};
 use nix::unistd::Pid;
 use serde_json::Value;
-use vservo_system_tests::{Daemon, exclusive, instance_config, run, running, status, unique, wait_until};
+use vservo_system_tests::{exclusive, run, running, running_daemon, status, unique, wait_until};
 
 fn node(status: &Value, role: &str) -> Value {
     status["nodes"][role].clone()
@@ -33,18 +33,6 @@ impl Drop for Reaper {
             let _ = kill(Pid::from_raw(pid), Signal::SIGKILL);
         }
     }
-}
-
-/// A daemon of the default cell under `instance`, once every node runs.
-fn running_daemon(instance: &str) -> (vservo_system_tests::TempConfig, Daemon) {
-    let config = instance_config(instance);
-    let daemon = Daemon::start(&config);
-    assert!(
-        wait_until(Duration::from_secs(10), || status(instance).is_some_and(|s| running(&s))),
-        "{}",
-        daemon.log()
-    );
-    (config, daemon)
 }
 
 #[test]

@@ -9,7 +9,7 @@ use std::time::{Duration, Instant};
 
 use serde_json::Value;
 use vservo_system_tests::{
-    Daemon, config_from, exclusive, instance_config, run, running, status, unique, wait_until,
+    Daemon, config_from, exclusive, run, running, running_daemon, status, unique, wait_until,
 };
 
 fn vservoctl(args: &[&str]) -> (Option<i32>, String) {
@@ -44,13 +44,7 @@ fn fastest_joint_rad_s(instance: &str, seconds: &str) -> f64 {
 fn lost_marks_end_in_a_safe_stop_at_rest_and_the_cell_resumes_once_they_are_seen() {
     let _one = exclusive();
     let instance = unique("lost");
-    let config = instance_config(&instance);
-    let daemon = Daemon::start(&config);
-    assert!(
-        wait_until(Duration::from_secs(10), || status(&instance).is_some_and(|s| running(&s))),
-        "{}",
-        daemon.log()
-    );
+    let (_config, daemon) = running_daemon(&instance);
     let (code, out) = vservoctl(&["object", "step", "--by-m", "-0.2,0,0", "--instance", &instance]);
     assert_eq!(code, Some(0), "{out}");
     let stepped = Instant::now();
@@ -299,13 +293,7 @@ fn faults_of_the_robot_end_in_a_named_safe_stop_and_resume_waits_for_their_cause
 fn idle_or_gone_clients_hold_no_slot_a_full_service_answers_busy_and_floods_are_summarised() {
     let _one = exclusive();
     let instance = unique("slots");
-    let config = instance_config(&instance);
-    let daemon = Daemon::start(&config);
-    assert!(
-        wait_until(Duration::from_secs(10), || status(&instance).is_some_and(|s| running(&s))),
-        "{}",
-        daemon.log()
-    );
+    let (_config, daemon) = running_daemon(&instance);
     let python = vservo_system_tests::repository_root().join("target/python-venv/bin/python");
     let client_dir = vservo_system_tests::repository_root().join("clients/python");
     let script = format!(
