@@ -157,6 +157,28 @@ wait_for 50 '[ "$(status | field "d[\"nodes\"][\"servo\"][\"restarts\"]")" -ge 1
 [ "$(inside systemctl show -p MainPID --value vservo)" = "${main_pid}" ] || fail "the service was restarted"
 say "a frozen servo (SIGSTOP) was ended and restarted by vservod; the service stayed up"
 
+# another user: nothing of the instance to read, write, create or remove (docs/PROTOCOL.md)
+prefix="$(inside cat /run/vservo/default/prefix)"
+case "${prefix}" in vservo_*_) ;; *) fail "the instance's prefix: ${prefix}" ;; esac
+# shellcheck disable=SC2016
+targets="$(inside sh -c 'find /run/vservo; ls -d /dev/shm/"$1"*' sh "${prefix}" || true)"
+[ "$(grep -c global_mgmt <<<"${targets}")" = 1 ] || fail "no node counter among ${targets}"
+# shellcheck disable=SC2086
+managed="$(inside runuser -u nobody -- sh -c '
+for f in "$@"; do
+  if [ -d "$f" ]; then
+    ls "$f" >/dev/null 2>&1 && echo "listed $f"
+    ( : > "$f/nobody-was-here" ) 2>/dev/null && echo "created in $f"
+  else
+    dd if="$f" of=/dev/null count=1 2>/dev/null && echo "read $f"
+    dd if=/dev/null of="$f" conv=notrunc,nocreat 2>/dev/null && echo "opened for writing $f"
+    rm "$f" 2>/dev/null && echo "removed $f"
+  fi
+done; true' sh ${targets})"
+[ -z "${managed}" ] || fail "nobody managed: ${managed}"
+[ "$(status | field "d['state']")" = running ] || fail "not running after nobody's attempts"
+say "nobody could read, write, create in or remove any of the instance's $(wc -l <<<"${targets}") files, directories and shared-memory objects"
+
 # stop: the arm at rest, exit 0
 inside systemctl stop vservo
 result="$(inside systemctl show -p Result --value vservo)"

@@ -37,6 +37,8 @@ import iceoryx2 as iox2
 import mujoco
 import numpy as np
 
+import vservo_client  # finds the instance as every vservo client does (clients/python/vservo_client.py)
+
 SCHEMA = 3
 TORQUE, VELOCITY, POSITION = 0, 1, 2  # command modes
 FOLLOWING, HOLDING = 0, 1  # driver_status
@@ -110,8 +112,17 @@ def set_fifo_priority(priority: int) -> None:
 
 # --- iceoryx2: services exactly as vservo creates them (docs/PROTOCOL.md) ---
 def make_node(instance: str):
-    config = iox2.config.default()
-    config.global_cfg.prefix = iox2.FileName.new(f"vservo_{instance}_")  # each instance has its own prefix
+    # the instance's runtime directory and prefix (docs/PROTOCOL.md): vservod makes them, so wait for it
+    waited = False
+    while True:
+        try:
+            config = vservo_client.instance_config(instance)
+            break
+        except vservo_client.NotRunning as why:
+            if not waited:
+                print(f"mujoco_driver: {why}; waiting for it", file=sys.stderr)
+                waited = True
+            time.sleep(0.2)
     return (iox2.NodeBuilder.new().config(config)
             .signal_handling_mode(iox2.SignalHandlingMode.Disabled)  # SIGINT/SIGTERM are ours (see main)
             .create(iox2.ServiceType.Ipc))

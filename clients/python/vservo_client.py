@@ -134,6 +134,73 @@ class NoAnswer(Exception):
     """No daemon answered in time."""
 
 
+RUNTIME_DIR_ENV = "VSERVO_RUNTIME_DIR"
+SYSTEM_RUNTIME_DIR = "/run/vservo"
+
+
+class NotRunning(Exception):
+    """No vservod of the instance has made its runtime directory (docs/PROTOCOL.md, "Where an instance lives")."""
+
+
+class OtherUser(PermissionError):
+    """The instance is another user's: run the client as that user."""
+
+
+def _user_name(uid: int) -> str:
+    try:
+        import pwd
+        return pwd.getpwuid(uid).pw_name
+    except (KeyError, ImportError):
+        return f"uid {uid}"
+
+
+def locate_instance(instance: str):
+    """The base directory and shared-memory prefix of a vservo instance, found as vservoctl finds them:
+    `$VSERVO_RUNTIME_DIR/<instance>` when that is set, else `/run/vservo/<instance>`, else the user's own
+    (`$XDG_RUNTIME_DIR/vservo/<instance>` or `/tmp/vservo-<uid>/<instance>`)."""
+    if os.environ.get(RUNTIME_DIR_ENV):
+        bases = [os.environ[RUNTIME_DIR_ENV]]
+    else:
+        bases = [SYSTEM_RUNTIME_DIR]
+        if os.geteuid() != 0:
+            xdg = os.environ.get("XDG_RUNTIME_DIR")
+            bases.append(os.path.join(xdg, "vservo") if xdg else f"/tmp/vservo-{os.geteuid()}")
+    for base in bases:
+        path = os.path.join(base, instance)
+        try:
+            info = os.lstat(path)
+        except PermissionError:
+            owner = _user_name(os.stat(base).st_uid)
+            raise OtherUser(f"instance {instance!r} is run by user {owner!r} ({base} is that user's): "
+                            f"run the client as that user (for example `sudo -u {owner} python3 …`)") from None
+        except FileNotFoundError:
+            continue
+        if info.st_uid != os.geteuid():
+            owner = _user_name(info.st_uid)
+            raise OtherUser(f"instance {instance!r} is run by user {owner!r} ({path} is that user's): "
+                            f"run the client as that user (for example `sudo -u {owner} python3 …`)")
+        try:
+            with open(os.path.join(path, "prefix")) as f:
+                prefix = f.read().strip()
+        except FileNotFoundError:
+            break
+        random = prefix[len("vservo_"):-1]
+        if not (prefix.startswith("vservo_") and prefix.endswith("_") and len(random) == 16
+                and all(c in "0123456789abcdef" for c in random)):
+            raise ValueError(f"{path}/prefix: {prefix!r} is not a prefix vservod writes")
+        return base, prefix
+    raise NotRunning(f"no vservod of instance {instance!r} is running (looked in {', '.join(bases)})")
+
+
+def instance_config(instance: str):
+    """The iceoryx2 configuration of a running instance: its root path and prefix (docs/PROTOCOL.md)."""
+    base, prefix = locate_instance(instance)
+    config = iox2.config.default()
+    config.global_cfg.prefix = iox2.FileName.new(prefix)
+    config.global_cfg.root_path = iox2.Path.new(os.path.join(base, "iceoryx2") + "/")
+    return config
+
+
 class Busy(Exception):
     """Every command slot of the instance was taken at that moment: nothing was sent; try again."""
 
@@ -144,10 +211,8 @@ class Client:
     def __init__(self, instance: str = "default", timeout_s: float = 2.0):
         self.instance = instance
         self.timeout_s = timeout_s
-        config = iox2.config.default()
-        # every vservo instance lives under its own iceoryx2 prefix (docs/PROTOCOL.md)
-        config.global_cfg.prefix = iox2.FileName.new(f"vservo_{instance}_")
-        self.node = iox2.NodeBuilder.new().config(config).create(iox2.ServiceType.Ipc)
+        # every vservo instance lives in its own runtime directory, under its own prefix (docs/PROTOCOL.md)
+        self.node = iox2.NodeBuilder.new().config(instance_config(instance)).create(iox2.ServiceType.Ipc)
         self._next_id = os.getpid() << 32
 
     def _service_name(self, service: str):

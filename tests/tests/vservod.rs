@@ -2,7 +2,7 @@
 //! observed through `vservoctl` as a user would. These tests run one at a time (they share the CPUs).
 
 use std::io::{BufRead, BufReader};
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
@@ -14,23 +14,28 @@ use vservo_system_tests::{
     wait_until,
 };
 
-/// Files of the instance left in shared memory or iceoryx2's directory, except the one 16-byte
-/// management segment iceoryx2 keeps by design.
+/// Files of the instance left in shared memory or in iceoryx2's directory, except the one 16-byte node
+/// counter iceoryx2 keeps by design — which must be the daemon's user's only (mode 0600).
 fn leftovers(instance: &str) -> Vec<PathBuf> {
-    let prefix = format!("vservo_{instance}_");
+    use std::os::unix::fs::MetadataExt;
+    let dir = vservo_protocol::InstanceDir::locate(instance).expect("the instance's directory stays");
     let mut found = Vec::new();
-    let mut visit = |dir: &Path| {
-        if let Ok(entries) = std::fs::read_dir(dir) {
-            for entry in entries.flatten() {
-                let name = entry.file_name().to_string_lossy().to_string();
-                if name.starts_with(&prefix) && !name.ends_with(".global_mgmt") {
-                    found.push(entry.path());
-                }
+    for entry in std::fs::read_dir("/dev/shm").expect("/dev/shm").flatten() {
+        let name = entry.file_name().to_string_lossy().to_string();
+        let private = entry.metadata().is_ok_and(|m| m.mode() & 0o077 == 0);
+        if name.starts_with(&dir.prefix) && !(name.ends_with(".global_mgmt") && private) {
+            found.push(entry.path());
+        }
+    }
+    let mut pending = vec![dir.iceoryx2_root()];
+    while let Some(path) = pending.pop() {
+        for entry in std::fs::read_dir(&path).into_iter().flatten().flatten() {
+            if entry.file_name().to_string_lossy().starts_with(&dir.prefix) {
+                found.push(entry.path());
+            } else if entry.file_type().is_ok_and(|t| t.is_dir()) {
+                pending.push(entry.path());
             }
         }
-    };
-    for dir in ["/dev/shm", "/tmp/iceoryx2", "/tmp/iceoryx2/services", "/tmp/iceoryx2/nodes"] {
-        visit(Path::new(dir));
     }
     found
 }

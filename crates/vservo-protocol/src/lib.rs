@@ -5,10 +5,12 @@
 //! and the one function every participant uses to open each service with the same settings. A client in
 //! another language follows docs/PROTOCOL.md, which documents the same names, type names and offsets.
 
+pub mod instance_dir;
 pub mod layout;
 pub mod messages;
 pub mod seal;
 
+pub use instance_dir::{InstanceClaim, InstanceDir, InstanceDirError};
 pub use messages::*;
 
 use iceoryx2::port::listener::Listener;
@@ -148,6 +150,9 @@ pub enum ProtocolError {
         /// iceoryx2's reason.
         reason: String,
     },
+    /// The instance's runtime directory could not be found or trusted.
+    #[error(transparent)]
+    Instance(#[from] InstanceDirError),
 }
 
 fn service_name(topic: Topic, instance: &str) -> Result<(String, ServiceName), ProtocolError> {
@@ -160,42 +165,11 @@ fn named(name: &str) -> Result<(String, ServiceName), ProtocolError> {
         .map_err(|e| ProtocolError::Name { name: name.to_string(), reason: format!("{e:?}") })?;
     Ok((name.to_string(), service))
 }
+
+/// An iceoryx2 refusal on `service`, saying what was being done.
 fn port_error(what: &'static str, service: &str) -> impl FnOnce(String) -> ProtocolError {
     let service = service.to_string();
-    move |reason| {
-        // `vservo/<instance>/…`: refused because another user runs the instance? Say who, and what to do
-        let instance = service.split('/').nth(1).unwrap_or_default();
-        let reason = match other_owner(instance) {
-            Some(user) => format!(
-                "{reason} — instance {instance:?} is run by user {user:?}, and its shared memory is that user's only: run the client as that user (for example `sudo -u {user} vservoctl …`)"
-            ),
-            None => reason,
-        };
-        ProtocolError::Port { what, service, reason }
-    }
-}
-
-/// The user that owns an instance's private shared-memory objects (`/dev/shm/vservo_<instance>_…`, mode
-/// 0600), when that is not the calling process's user.
-fn other_owner(instance: &str) -> Option<String> {
-    use std::os::unix::fs::MetadataExt;
-    let own_uid = std::fs::metadata("/proc/self").ok()?.uid();
-    let prefix = resource_prefix(instance);
-    let owner_uid = std::fs::read_dir("/dev/shm").ok()?.flatten().find_map(|entry| {
-        let name = entry.file_name();
-        let metadata = entry.metadata().ok()?;
-        // the node counter iceoryx2 shares with every user (mode 0666) says nothing about who runs it
-        (name.to_string_lossy().starts_with(&prefix)
-            && metadata.mode() & 0o077 == 0
-            && metadata.uid() != own_uid)
-            .then_some(metadata.uid())
-    })?;
-    let passwd = std::fs::read_to_string("/etc/passwd").unwrap_or_default();
-    let user = passwd.lines().find_map(|line| {
-        let fields: Vec<&str> = line.split(':').collect();
-        (fields.get(2) == Some(&owner_uid.to_string().as_str())).then(|| fields[0].to_string())
-    });
-    Some(user.unwrap_or_else(|| format!("uid {owner_uid}")))
+    move |reason| ProtocolError::Port { what, service, reason }
 }
 
 /// Whether opening a service may create it. The daemon's processes create; clients only open, so that no
@@ -336,23 +310,6 @@ pub fn cleanup_dead_nodes(node: &Node<ipc::Service>) -> u64 {
     node.try_cleanup_dead_nodes().cleanups
 }
 
-/// The process ids of the live nodes of the instance called `vservo/<instance>/<role>`.
-pub fn live_node_pids(node: &Node<ipc::Service>, instance: &str, role: &str) -> Vec<u32> {
-    use iceoryx2::node::NodeView;
-    let wanted = node_name(instance, role);
-    let mut pids = Vec::new();
-    let _ = Node::<ipc::Service>::list(node.config(), |state| {
-        if let NodeState::Alive(view) = &state
-            && let Some(details) = view.details()
-            && details.name().as_str() == wanted
-        {
-            pids.push(details.process_id().value() as u32);
-        }
-        CallbackProgression::Continue
-    });
-    pids
-}
-
 /// The publish-subscribe service `vservo/<instance>/camera_image`: a slice of `u8` (the image) with a
 /// [`CameraImageHeader`]; with an event of the same name that wakes the vision node.
 pub const CAMERA_IMAGE_SERVICE: &str = "camera_image";
@@ -480,31 +437,27 @@ pub fn node_name(instance: &str, role: &str) -> String {
     format!("vservo/{instance}/{role}")
 }
 
-/// The iceoryx2 resource prefix of an instance: `vservo_<instance>_`. Every shared-memory file and socket
-/// of the instance starts with it, so instances are isolated below the service names too, and a dead
-/// instance's leftovers are easy to find.
-pub fn resource_prefix(instance: &str) -> String {
-    format!("vservo_{instance}_")
-}
-
-/// The iceoryx2 configuration of an instance: the defaults with [`resource_prefix`].
+/// The iceoryx2 configuration of an instance: the defaults with the root path and prefix of its runtime
+/// directory ([`InstanceDir::locate`]).
 pub fn iceoryx2_config(instance: &str) -> Result<Config, ProtocolError> {
-    let prefix = resource_prefix(instance);
-    let mut config = Config::default();
-    config.global.prefix = FileName::new(prefix.as_bytes())
-        .map_err(|e| ProtocolError::Name { name: prefix.clone(), reason: format!("{e:?}") })?;
-    Ok(config)
+    Ok(InstanceDir::locate(instance)?.iceoryx2_config()?)
 }
 
-/// A node with vservo's settings: the instance's [`iceoryx2_config`], named, and without iceoryx2's own
-/// signal handling (the processes handle SIGTERM and SIGINT themselves).
+/// A node with vservo's settings: the configuration of the instance's runtime directory (found with
+/// [`InstanceDir::locate`]), named, and without iceoryx2's own signal handling (the processes handle SIGTERM
+/// and SIGINT themselves).
 pub fn create_node(instance: &str, role: &str) -> Result<Node<ipc::Service>, ProtocolError> {
-    let name = node_name(instance, role);
+    create_node_in(&InstanceDir::locate(instance)?, role)
+}
+
+/// [`create_node`] in a known runtime directory (the daemon's own, from its [`InstanceClaim`]).
+pub fn create_node_in(dir: &InstanceDir, role: &str) -> Result<Node<ipc::Service>, ProtocolError> {
+    let name = node_name(&dir.instance, role);
     let node_name = NodeName::new(&name)
         .map_err(|e| ProtocolError::Name { name: name.clone(), reason: format!("{e:?}") })?;
     NodeBuilder::new()
         .name(&node_name)
-        .config(&iceoryx2_config(instance)?)
+        .config(&dir.iceoryx2_config()?)
         .signal_handling_mode(SignalHandlingMode::Disabled)
         .create::<ipc::Service>()
         .map_err(|e| port_error("creating the node", &name)(e.to_string()))

@@ -11,7 +11,9 @@ use vservo_vision::GrayImage;
 
 fn camera_image(c: &mut Criterion) {
     let instance = format!("bench-{}", std::process::id());
-    let node = vservo_protocol::create_node(&instance, "bench").expect("an iceoryx2 node");
+    // the bench stands in for the daemon: it claims the instance (its directory, lock and prefix)
+    let claim = vservo_protocol::InstanceClaim::claim(&instance).expect("the instance");
+    let node = vservo_protocol::create_node_in(claim.dir(), "bench").expect("an iceoryx2 node");
     let publisher = vservo_protocol::camera_image_publisher(&node, &instance).expect("a publisher");
     let subscriber =
         vservo_protocol::camera_image_subscriber(&node, &instance, vservo_protocol::Opening::OpenOrCreate)

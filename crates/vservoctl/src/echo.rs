@@ -120,7 +120,9 @@ fn echo_images(connection: &Connection, args: &EchoArgs) -> anyhow::Result<()> {
 }
 
 pub fn run(args: &EchoArgs) -> anyhow::Result<()> {
-    let connection = Connection::open(&args.instance)?;
+    // a daemon still starting may not have made the instance's directory yet
+    let until = args.duration_s.map(|s| Instant::now() + Duration::from_secs_f64(s.max(0.0)));
+    let connection = when_there(until, || Connection::open(&args.instance))?;
     let topic = match args.service {
         Service::Topic(topic) => topic,
         Service::CameraImage => return echo_images(&connection, args),

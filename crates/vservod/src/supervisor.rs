@@ -104,6 +104,8 @@ impl Supervised {
 struct Launcher {
     executable: PathBuf,
     config_path: PathBuf,
+    /// The base of the instance's runtime directory, handed to the nodes (`VSERVO_RUNTIME_DIR`).
+    runtime_base: PathBuf,
 }
 
 impl Launcher {
@@ -136,6 +138,7 @@ impl Launcher {
         let mut child = command
             .stdin(Stdio::piped())
             .env(crate::node_process::DAEMON_PID_ENV, std::process::id().to_string())
+            .env(vservo_protocol::instance_dir::RUNTIME_DIR_ENV, &self.runtime_base)
             // only the daemon talks to systemd
             .env_remove("NOTIFY_SOCKET")
             .env_remove("WATCHDOG_USEC")
@@ -263,22 +266,19 @@ pub fn run(
     let external_robot = config.robot.driver == vservo_config::RobotDriver::External;
     let robot_deadline = Duration::from_secs_f64(config.robot.state_timeout_s());
     let instance = config.instance.clone();
+    // the instance's runtime directory, lock and shared-memory prefix, out of other users' reach
+    let claim = vservo_protocol::InstanceClaim::claim(&instance)?;
+    if let Some(reason) = &claim.renewed_because {
+        tracing::warn!(instance, reason, "the instance's shared-memory prefix was replaced by a new one");
+    }
     let launcher = Launcher {
         executable: std::env::current_exe().context("finding the vservod executable")?,
         config_path: config_path
             .canonicalize()
             .with_context(|| format!("{}: resolving the path", config_path.display()))?,
+        runtime_base: claim.base().to_path_buf(),
     };
-    let node = vservo_protocol::create_node(&instance, "daemon")?;
-    let others: Vec<u32> = vservo_protocol::live_node_pids(&node, &instance, "daemon")
-        .into_iter()
-        .filter(|pid| *pid != std::process::id())
-        .collect();
-    if !others.is_empty() {
-        anyhow::bail!(
-            "instance {instance:?} is already run by vservod (pid {others:?}); stop it first, or give this configuration another [instance] name"
-        );
-    }
+    let node = vservo_protocol::create_node_in(claim.dir(), "daemon")?;
     let cleaned = vservo_protocol::cleanup_dead_nodes(&node);
     if cleaned > 0 {
         tracing::info!(instance, cleaned, "removed the leftovers of dead nodes of an earlier run");
@@ -296,6 +296,8 @@ pub fn run(
     // the cell mode first: every node finds it in the service's history
     let mut safety = Safety::new(&node, &instance, config.faults, seal_key)?;
     let mut commander = Commander::new(&node, &launcher.config_path, config.clone(), config_text, seal_key)?;
+    // every shared-memory object of the instance made so far is ours and owner-only
+    claim.check_private().context("the instance's shared memory is not private")?;
     let daemon_started = monotonic_ns();
     let mut systemd = Systemd::new();
     let runtime = &config.runtime;
