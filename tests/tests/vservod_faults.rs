@@ -258,6 +258,8 @@ fn absurd_messages_from_a_rogue_publisher_are_refused_and_counted() {
                 torque_nm: if state.tick % 2 == 0 { [1e9; 6] } else { within_limits_nm },
                 q_ref_rad: state.q_rad,
                 qd_ref_rad_s: [0.0; 6],
+                twist_capture_tick: u64::MAX,
+                twist_applied_tick: u64::MAX,
                 seal: round,
             };
             let _ = torques.send_copy(command);

@@ -154,6 +154,7 @@ impl FakeDriver {
                     q_rad: joints,
                     qd_rad_s: [0.0; 6],
                     torque_nm: [f64::NAN; 6],
+                    applied_command_tick: u64::MAX,
                 });
                 let _ = notifier.notify();
             }

@@ -11,7 +11,7 @@ use vservo_control::{Gains, Twist};
 use vservo_scene::{FeatureVector, IsometryMatrix3};
 
 pub use vservo_cell::CellError as SimError;
-use vservo_cell::{Cell, PlantStage, RmrcStage, ServoStage, VisionStage};
+use vservo_cell::{ActuatorCommand, Cell, PlantStage, RmrcStage, ServoStage, VisionStage};
 use vservo_sim::plant::Faults;
 
 /// One vision frame.
@@ -60,6 +60,9 @@ pub struct Trace {
     pub desired_features: FeatureVector,
 }
 
+/// How many of the latest commands [`Lockstep::run_replaying`] keeps for a replayed late answer.
+pub const REPLAY_COMMANDS: usize = 16;
+
 /// The loop.
 pub struct Lockstep {
     config: Config,
@@ -93,7 +96,28 @@ impl Lockstep {
     }
 
     /// Runs the scenario; `progress` is called with the simulated time at every vision frame.
-    pub fn run(&mut self, mut progress: impl FnMut(f64)) -> Trace {
+    pub fn run(&mut self, progress: impl FnMut(f64)) -> Trace {
+        self.run_replaying(progress, |_, frame_tick| frame_tick, Some)
+    }
+
+    /// [`Lockstep::run`] with each twist taken in at a tick of the caller's choosing: `taken_at(delivered
+    /// capture tick, frame tick)` says when the twist computed at `frame tick` (from the features of the image
+    /// captured at `delivered capture tick`) reaches the interpolator; [`Lockstep::run`] takes it at once.
+    /// This replays a real-time run's own answer latency (its joint commands carry the tick each twist was
+    /// taken in), so that the two can be compared frame by frame. A tick earlier than the frame's counts as
+    /// the frame's; a twist still waiting when the next one is computed is dropped, as the rmrc, draining
+    /// both at once, would keep the newer.
+    ///
+    /// `applied(tick)` says which command the arm follows over the period from `tick`: `Some(tick)` the one
+    /// computed now (as [`Lockstep::run`] does), `Some(older)` one computed at an earlier tick (of the last
+    /// [`REPLAY_COMMANDS`]; a driver that kept its last command because the answer came late), `None` none
+    /// (the plant holds the arm).
+    pub fn run_replaying(
+        &mut self,
+        mut progress: impl FnMut(f64),
+        mut taken_at: impl FnMut(u64, u64) -> u64,
+        mut applied: impl FnMut(u64) -> Option<u64>,
+    ) -> Trace {
         let dt = self.config.timing.control_period_s;
         let ticks_per_frame = u64::from(self.config.timing.control_ticks_per_frame);
         let ticks = (self.config.scenario.duration_s / dt).round() as u64;
@@ -104,6 +128,8 @@ impl Lockstep {
         let joints_every = (0.01 / dt).round().max(1.0) as u64;
         let desired_camera_from_base = self.base_from_desired_camera.inverse();
 
+        let mut waiting: Option<(u64, Twist)> = None;
+        let mut computed: [Option<(u64, ActuatorCommand)>; REPLAY_COMMANDS] = [None; REPLAY_COMMANDS];
         for tick in 0..ticks {
             let t = tick as f64 * dt;
             let state = *self.plant.state();
@@ -116,7 +142,8 @@ impl Lockstep {
                 );
                 // the servo acts on the frame that leaves the pipeline now
                 let (twist, _) = self.servo.step(frame.delivered.as_ref().map(|d| &d.features));
-                self.rmrc.set_twist(twist, t);
+                let at = frame.delivered.as_ref().map_or(tick, |d| taken_at(d.capture_tick, tick).max(tick));
+                waiting = Some((at, twist));
                 frames.push(FrameRecord {
                     t_s: t,
                     measured: frame.captured.features,
@@ -129,8 +156,22 @@ impl Lockstep {
                 });
                 progress(t);
             }
+            if let Some((at, twist)) = waiting
+                && at == tick
+            {
+                self.rmrc.set_twist(twist, t);
+                waiting = None;
+            }
             let command = self.rmrc.step(t + dt, &state.q, &state.qd);
-            let state = *self.plant.apply(&command);
+            computed[(tick % REPLAY_COMMANDS as u64) as usize] = Some((tick, command));
+            let state = match applied(tick) {
+                Some(answered) if answered == tick => *self.plant.apply(&command),
+                Some(answered) => match computed[(answered % REPLAY_COMMANDS as u64) as usize] {
+                    Some((at, older)) if at == answered => *self.plant.apply(&older),
+                    _ => *self.plant.hold(),
+                },
+                None => *self.plant.hold(),
+            };
             faults.position_limit |= state.faults.position_limit;
             faults.velocity_limit |= state.faults.velocity_limit;
             faults.torque_saturated |= state.faults.torque_saturated;

@@ -38,7 +38,7 @@ pub fn layout_tables() -> String {
         "vservo::JointState",
         size_of::<JointStateMsg>(),
         &fields! { JointStateMsg;
-            schema: "u32", "schema version (3)";
+            schema: "u32", "schema version (4)";
             faults: "u32", "bits 0–5 position limit (joint 1–6), 8–13 velocity limit, 16–21 torque saturated, 24 driver failed";
             tick: "u64", "driver periods since the driver started";
             stamp_ns: "u64", "CLOCK_MONOTONIC when `q` was measured (ns)";
@@ -49,6 +49,7 @@ pub fn layout_tables() -> String {
             q_rad: "f64[6]", "joint angles (rad)";
             qd_rad_s: "f64[6]", "joint velocities (rad/s)";
             torque_nm: "f64[6]", "joint torques, measured or applied (N·m); NaN where unknown";
+            applied_command_tick: "u64", "the `answers_tick` of the command applied over the period that ended here (`tick − 1` in time, older if the driver kept an earlier one); 2⁶⁴−1 if none (holding)";
         },
     );
     table(
@@ -57,7 +58,7 @@ pub fn layout_tables() -> String {
         "vservo::JointCommand",
         size_of::<JointCommandMsg>(),
         &fields! { JointCommandMsg;
-            schema: "u32", "schema version (3)";
+            schema: "u32", "schema version (4)";
             mode: "u32", "the driver's declared `command_mode`: 0 torque, 1 velocity, 2 position";
             answers_tick: "u64", "the `tick` of the joint state this answers";
             driver_epoch: "u64", "that joint state's `driver_epoch`";
@@ -66,6 +67,8 @@ pub fn layout_tables() -> String {
             torque_nm: "f64[6]", "joint torques (N·m); mode 0 only, else zero";
             q_ref_rad: "f64[6]", "joint reference q_d at the end of the next period (rad)";
             qd_ref_rad_s: "f64[6]", "joint reference velocity q̇_d over the next period (rad/s)";
+            twist_capture_tick: "u64", "the `capture_tick` of the `camera_twist` this command follows (2⁶⁴−1 before the first)";
+            twist_applied_tick: "u64", "the joint-state tick at which the rmrc took that twist in (2⁶⁴−1 before the first)";
             seal: "u64", "the rmrc's seal under the run's key: the simulated driver applies sealed commands only; an external driver ignores it";
         },
     );
@@ -75,7 +78,7 @@ pub fn layout_tables() -> String {
         "vservo::SimWorld",
         size_of::<SimWorldMsg>(),
         &fields! { SimWorldMsg;
-            schema: "u32", "schema version (3)";
+            schema: "u32", "schema version (4)";
             reserved: "u32", "zero";
             tick: "u64", "the plant tick (as in `joint_state`)";
             base_from_board: "f64[12]", "the board's pose in the base frame, 3×4 [R \\| t] row-major (t in m)";
@@ -87,7 +90,7 @@ pub fn layout_tables() -> String {
         "vservo::CameraImageHeader",
         size_of::<CameraImageHeader>(),
         &fields! { CameraImageHeader;
-            schema: "u32", "schema version (3)";
+            schema: "u32", "schema version (4)";
             format: "u32", "0: 8-bit grayscale";
             width: "u32", "pixels per row";
             height: "u32", "rows";
@@ -103,7 +106,7 @@ pub fn layout_tables() -> String {
         "vservo::Features",
         size_of::<FeaturesMsg>(),
         &fields! { FeaturesMsg;
-            schema: "u32", "schema version (3)";
+            schema: "u32", "schema version (4)";
             valid_mask: "u32", "bit m set when mark m is valid";
             frame: "u64", "frame number (counted by the vision node from its start)";
             capture_tick: "u64", "tick of the latest joint state when the image was taken";
@@ -120,7 +123,7 @@ pub fn layout_tables() -> String {
         "vservo::CameraTwist",
         size_of::<CameraTwistMsg>(),
         &fields! { CameraTwistMsg;
-            schema: "u32", "schema version (3)";
+            schema: "u32", "schema version (4)";
             verdict: "u32", "0 waiting (no frame yet), 1 servoing, 2 marks missing, 3 stopping, 4 safe stop (held by the daemon); all but 1 come with a zero twist";
             frame: "u64", "the frame the twist was computed from";
             capture_tick: "u64", "its capture tick";
@@ -138,7 +141,7 @@ pub fn layout_tables() -> String {
         "vservo::Telemetry",
         size_of::<TelemetryMsg>(),
         &fields! { TelemetryMsg;
-            schema: "u32", "schema version (3)";
+            schema: "u32", "schema version (4)";
             node: "u32", "0 plant, 1 vision, 2 servo, 3 rmrc";
             stamp_ns: "u64", "CLOCK_MONOTONIC at publication (ns)";
             window_ns: "u64", "length of the window the timings cover (ns)";
@@ -178,7 +181,7 @@ pub fn layout_tables() -> String {
         "vservo::DaemonStatus",
         size_of::<DaemonStatusMsg>(),
         &fields! { DaemonStatusMsg;
-            schema: "u32", "schema version (3)";
+            schema: "u32", "schema version (4)";
             state: "u32", "0 starting, 1 running, 2 degraded, 3 stopping, 4 safe stop (a fault holds the arm at rest)";
             stamp_ns: "u64", "CLOCK_MONOTONIC at publication (ns)";
             uptime_ns: "u64", "since the daemon started (ns)";
@@ -214,7 +217,7 @@ pub fn layout_tables() -> String {
         "vservo::Gains",
         size_of::<GainsMsg>(),
         &fields! { GainsMsg;
-            schema: "u32", "schema version (3)";
+            schema: "u32", "schema version (4)";
             used_past_gains: "u32", "how many of `past_input_gains` the law uses (0 for the paper's law)";
             version: "u64", "1 at start, +1 per accepted reload or target";
             feature_gain: "f64[48]", "K_ξ, 6×8 row-major (m/s and rad/s per px)";
@@ -229,7 +232,7 @@ pub fn layout_tables() -> String {
         "vservo::Object",
         size_of::<ObjectMsg>(),
         &fields! { ObjectMsg;
-            schema: "u32", "schema version (3)";
+            schema: "u32", "schema version (4)";
             kind: "u32", "4 hold, 5 step, 6 circle (as in `command`)";
             sequence: "u64", "counts the object commands (1 for the first)";
             translation_m: "f64[3]", "step: the jump in the desired camera frame (m)";
@@ -244,7 +247,7 @@ pub fn layout_tables() -> String {
         "vservo::CellMode",
         size_of::<CellModeMsg>(),
         &fields! { CellModeMsg;
-            schema: "u32", "schema version (3)";
+            schema: "u32", "schema version (4)";
             mode: "u32", "0 servoing, 1 safe stop (the rmrc ramps the reference to rest and holds it; the servo sends zero twists)";
             sequence: "u64", "counts the changes (1 at the daemon's start); only a newer one is taken";
             fault: "u32", "safe stop: the fault that caused it (as in `status`)";
@@ -259,7 +262,7 @@ pub fn layout_tables() -> String {
         "vservo::Command",
         size_of::<CommandMsg>(),
         &fields! { CommandMsg;
-            schema: "u32", "schema version (3)";
+            schema: "u32", "schema version (4)";
             kind: "u32", "1 target features, 2 target pose, 3 teach, 4 object hold, 5 object step, 6 object circle, 7 reload, 8 resume, 9 safe stop";
             id: "u64", "chosen by the client; the reply carries it back";
             features_px: "f64[8]", "kind 1: ξ_d (px)";
@@ -275,7 +278,7 @@ pub fn layout_tables() -> String {
         "vservo::CommandReply",
         size_of::<CommandReplyMsg>(),
         &fields! { CommandReplyMsg;
-            schema: "u32", "schema version (3)";
+            schema: "u32", "schema version (4)";
             accepted: "u32", "1 accepted, 0 refused";
             id: "u64", "the request's `id`";
             gains_version: "u64", "the gains version in force after the command";

@@ -8,7 +8,7 @@ use iceoryx2::prelude::ZeroCopySend;
 /// The schema version every payload carries in its first four bytes. Bumped on any layout change.
 /// 2: `joint_state` carries the robot only (the board's pose moved to `sim_world`), the driver declares its
 /// command interface and period; `joint_torque` became `joint_command`; `camera_image` added.
-pub const SCHEMA_VERSION: u32 = 3;
+pub const SCHEMA_VERSION: u32 = 4;
 
 /// Joints of the arm.
 pub const JOINTS: usize = 6;
@@ -67,6 +67,10 @@ pub struct JointStateMsg {
     pub qd_rad_s: [f64; JOINTS],
     /// Joint torques, measured or applied (N·m); NaN where the driver does not know them.
     pub torque_nm: [f64; JOINTS],
+    /// The `answers_tick` of the joint command the driver applied over the period that ended with this
+    /// state: `tick − 1` when the answer to the last state came in time, older when the driver kept an
+    /// earlier command, `u64::MAX` when it applied none (holding the arm, or before the first command).
+    pub applied_command_tick: u64,
 }
 
 /// Fault bits of [`JointStateMsg::faults`].
@@ -105,6 +109,11 @@ pub struct JointCommandMsg {
     pub q_ref_rad: [f64; JOINTS],
     /// q̇_d (rad/s) over the next period.
     pub qd_ref_rad_s: [f64; JOINTS],
+    /// The twist this command follows: the `capture_tick` of its `camera_twist` (`u64::MAX` before the
+    /// first). `answers_tick − twist_capture_tick` is the camera-to-actuation latency in ticks.
+    pub twist_capture_tick: u64,
+    /// The joint-state tick at which the rmrc took that twist in (`u64::MAX` before the first).
+    pub twist_applied_tick: u64,
     /// The rmrc's seal under the run's key ([`crate::seal`]): the simulated driver applies sealed commands
     /// only; an external driver, which is not given the key, ignores it.
     pub seal: u64,
@@ -667,11 +676,14 @@ mod tests {
     // the layout docs/PROTOCOL.md documents; a change here must change the document and SCHEMA_VERSION
     #[test]
     fn layouts_are_the_documented_ones() {
-        assert_eq!(size_of::<JointStateMsg>(), 48 + 3 * 48);
+        assert_eq!(size_of::<JointStateMsg>(), 48 + 3 * 48 + 8);
         assert_eq!(offset_of!(JointStateMsg, tick), 8);
         assert_eq!(offset_of!(JointStateMsg, q_rad), 48);
-        assert_eq!(size_of::<JointCommandMsg>(), 40 + 3 * 48 + 8);
+        assert_eq!(offset_of!(JointStateMsg, applied_command_tick), 192);
+        assert_eq!(size_of::<JointCommandMsg>(), 40 + 3 * 48 + 16 + 8);
         assert_eq!(offset_of!(JointCommandMsg, torque_nm), 40);
+        assert_eq!(offset_of!(JointCommandMsg, twist_capture_tick), 184);
+        assert_eq!(offset_of!(JointCommandMsg, seal), 200);
         assert_eq!(size_of::<SimWorldMsg>(), 16 + 96);
         assert_eq!(size_of::<CameraImageHeader>(), 40);
         assert_eq!(size_of::<FeaturesMsg>(), 40 + 64 + 8);

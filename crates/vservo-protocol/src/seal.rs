@@ -109,7 +109,7 @@ impl SealKey {
 
     /// The seal of a joint command (its `seal` field left out); allocates nothing.
     pub fn seal_joint_command(&self, m: &JointCommandMsg) -> u64 {
-        let mut words = Words::<{ 8 + 32 + 3 * 48 }>::new();
+        let mut words = Words::<{ 8 + 32 + 3 * 48 + 16 }>::new();
         words
             .put(&m.schema.to_le_bytes())
             .put(&m.mode.to_le_bytes())
@@ -119,7 +119,9 @@ impl SealKey {
             .put(&m.stamp_ns.to_le_bytes())
             .floats(&m.torque_nm)
             .floats(&m.q_ref_rad)
-            .floats(&m.qd_ref_rad_s);
+            .floats(&m.qd_ref_rad_s)
+            .put(&m.twist_capture_tick.to_le_bytes())
+            .put(&m.twist_applied_tick.to_le_bytes());
         siphash24(self.k0, self.k1, words.bytes())
     }
 
@@ -228,6 +230,8 @@ mod tests {
             torque_nm: [1.0; 6],
             q_ref_rad: [0.5; 6],
             qd_ref_rad_s: [0.0; 6],
+            twist_capture_tick: 0,
+            twist_applied_tick: 2,
             seal: 0,
         };
         let seal = key.seal_joint_command(&command);
@@ -237,6 +241,7 @@ mod tests {
             crate::JointCommandMsg { stamp_ns: 12, ..command },
             crate::JointCommandMsg { torque_nm: [1.0, 1.0, 1.0, 1.0, 1.0, 1e9], ..command },
             crate::JointCommandMsg { qd_ref_rad_s: [0.0, 0.0, 0.0, 0.0, 0.0, 1e-9], ..command },
+            crate::JointCommandMsg { twist_applied_tick: 3, ..command },
         ] {
             assert_ne!(key.seal_joint_command(&changed), seal);
         }

@@ -65,8 +65,10 @@ fn print_lines(
     until: Option<Instant>,
     mut next: impl FnMut() -> anyhow::Result<Option<Value>>,
 ) -> anyhow::Result<()> {
+    // SIGINT and SIGTERM end it cleanly: the node's resources go with it
+    let stop = crate::stop::stop_flag()?;
     let mut printed = 0u64;
-    loop {
+    while !crate::stop::stopped(&stop) {
         while let Some(line) = next()? {
             print_stdout(&format!("{line}\n"))?;
             printed += 1;
@@ -79,6 +81,7 @@ fn print_lines(
         }
         std::thread::sleep(Duration::from_millis(1));
     }
+    Ok(())
 }
 
 /// A service `echo` prints.

@@ -24,7 +24,8 @@ fn number(v: f64) -> Value {
 pub fn joint_state(m: &JointStateMsg) -> Value {
     json!({"schema": m.schema, "tick": m.tick, "stamp_ns": m.stamp_ns, "driver_epoch": m.driver_epoch,
         "period_ns": m.period_ns, "command_mode": m.command_mode, "driver_status": m.driver_status, "faults": m.faults,
-        "q_rad": numbers(&m.q_rad), "qd_rad_s": numbers(&m.qd_rad_s), "torque_nm": numbers(&m.torque_nm)})
+        "q_rad": numbers(&m.q_rad), "qd_rad_s": numbers(&m.qd_rad_s), "torque_nm": numbers(&m.torque_nm),
+        "applied_command_tick": m.applied_command_tick})
 }
 
 /// One message as JSON.
@@ -36,7 +37,8 @@ pub fn sim_world(m: &SimWorldMsg) -> Value {
 pub fn joint_command(m: &JointCommandMsg) -> Value {
     json!({"schema": m.schema, "mode": m.mode, "answers_tick": m.answers_tick, "driver_epoch": m.driver_epoch,
         "state_stamp_ns": m.state_stamp_ns, "stamp_ns": m.stamp_ns, "torque_nm": numbers(&m.torque_nm),
-        "q_ref_rad": numbers(&m.q_ref_rad), "qd_ref_rad_s": numbers(&m.qd_ref_rad_s)})
+        "q_ref_rad": numbers(&m.q_ref_rad), "qd_ref_rad_s": numbers(&m.qd_ref_rad_s),
+        "twist_capture_tick": m.twist_capture_tick, "twist_applied_tick": m.twist_applied_tick})
 }
 
 /// One message as JSON.

@@ -21,6 +21,7 @@ mod seconds_arg;
 mod sim;
 mod stability;
 mod status;
+mod stop;
 mod top;
 mod vision;
 

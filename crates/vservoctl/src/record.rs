@@ -5,8 +5,7 @@ use std::collections::BTreeMap;
 use std::fs::File;
 use std::io::BufWriter;
 use std::path::PathBuf;
-use std::sync::Arc;
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::Ordering;
 use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 
 use anyhow::Context;
@@ -70,25 +69,9 @@ fn drain<T: Copy + std::fmt::Debug + ZeroCopySend>(
     Ok(written)
 }
 
-/// SIGINT and SIGTERM end the recording cleanly (the file gets its summary).
-fn stop_flag() -> anyhow::Result<Arc<AtomicBool>> {
-    use nix::sys::signal::{SigSet, Signal};
-    let stop = Arc::new(AtomicBool::new(false));
-    let mut signals = SigSet::empty();
-    signals.add(Signal::SIGINT);
-    signals.add(Signal::SIGTERM);
-    signals.thread_block().context("blocking SIGINT and SIGTERM")?;
-    let flag = stop.clone();
-    std::thread::spawn(move || {
-        if signals.wait().is_ok() {
-            flag.store(true, Ordering::Relaxed);
-        }
-    });
-    Ok(stop)
-}
-
 pub fn run(args: &RecordArgs) -> anyhow::Result<()> {
-    let stop = stop_flag()?;
+    // SIGINT and SIGTERM end the recording cleanly (the file gets its summary)
+    let stop = crate::stop::stop_flag()?;
     let connection = Connection::open(&args.instance)?;
     let file = File::create(&args.out).with_context(|| format!("creating {}", args.out.display()))?;
     let mut writer = mcap::WriteOptions::new()

@@ -336,6 +336,7 @@ mod tests {
             q_rad: [0.0; 6],
             qd_rad_s: [0.0; 6],
             torque_nm: [0.0; 6],
+            applied_command_tick: u64::MAX,
         }
     }
 

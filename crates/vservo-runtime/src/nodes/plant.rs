@@ -26,7 +26,12 @@ struct Declared {
     command_mode: u32,
 }
 
-fn state_message(stage: &PlantStage, state: &JointState, declared: &Declared) -> JointStateMsg {
+fn state_message(
+    stage: &PlantStage,
+    state: &JointState,
+    declared: &Declared,
+    applied_command_tick: u64,
+) -> JointStateMsg {
     let f = &state.faults;
     let mut faults = u32::from(f.position_limit) << fault_bits::POSITION_LIMIT_SHIFT
         | u32::from(f.velocity_limit) << fault_bits::VELOCITY_LIMIT_SHIFT
@@ -53,6 +58,7 @@ fn state_message(stage: &PlantStage, state: &JointState, declared: &Declared) ->
         q_rad: to_array(&state.q),
         qd_rad_s: to_array(&state.qd),
         torque_nm: to_array(&state.applied_torque),
+        applied_command_tick,
     }
 }
 
@@ -139,14 +145,16 @@ pub fn run(context: &NodeContext) -> Result<(), RuntimeError> {
     // the daemon gone: the plant goes last, once the rmrc has stopped answering and the arm is at rest
     let mut orphaned_at: Option<u64> = None;
     let orphan_timeout_ns = ((config.runtime.stop_timeout_s + 2.0) * 1e9) as u64;
-    let mut last_command: Option<ActuatorCommand> = None;
+    // the command applied and the tick it answered (reported in the next joint state)
+    let mut last_command: Option<(ActuatorCommand, u64)> = None;
+    let mut applied_command_tick = u64::MAX;
     let mut object_sequence = 0;
     let mut missed_in_a_row: u64 = 0;
     let mut timer = PeriodicTimer::start(period_ns);
     while !context.stopping() {
         // publish the state, wake the rmrc
         let state = *stage.state();
-        let message = state_message(&stage, &state, &declared);
+        let message = state_message(&stage, &state, &declared, applied_command_tick);
         let published_at = message.stamp_ns;
         if let Ok(sample) = world_publisher.loan_uninit() {
             let world = SimWorldMsg {
@@ -215,17 +223,20 @@ pub fn run(context: &NodeContext) -> Result<(), RuntimeError> {
         match answer {
             Some(command) => {
                 missed_in_a_row = 0;
-                last_command = Some(command);
+                last_command = Some((command, state.tick));
+                applied_command_tick = state.tick;
                 stage.apply(&command);
             }
             None => {
                 counters.late_answer();
                 missed_in_a_row += 1;
                 match last_command {
-                    Some(command) if missed_in_a_row <= hold_after => {
+                    Some((command, answered)) if missed_in_a_row <= hold_after => {
+                        applied_command_tick = answered;
                         stage.apply(&command);
                     }
                     _ => {
+                        applied_command_tick = u64::MAX;
                         stage.hold();
                     }
                 }
@@ -267,7 +278,7 @@ pub fn run(context: &NodeContext) -> Result<(), RuntimeError> {
     // the last word: the state the arm stopped in
     let state = *stage.state();
     if let Ok(sample) = state_publisher.loan_uninit() {
-        let _ = sample.write_payload(state_message(&stage, &state, &declared)).send();
+        let _ = sample.write_payload(state_message(&stage, &state, &declared, applied_command_tick)).send();
     }
     tracing::info!(node = "plant", tick = stage.state().tick, "stopped");
     Ok(())

@@ -52,10 +52,13 @@ pub fn run(context: &NodeContext) -> Result<(), RuntimeError> {
     let period_ns = (dt * 1e9).round() as u64;
     let mode = command_mode_code(config.command_interface());
     // the driver's stall deadline; the rmrc's own lateness (states it drained at once) is no gap
-    let gap_ns = period_ns * u64::from(config.robot.state_timeout_periods);
+    let gap_periods = u64::from(config.robot.state_timeout_periods);
+    let gap_ns = period_ns * gap_periods;
     let counters = monitor.counters();
     let limits = (config.robot.max_camera_speed_m_s, config.robot.max_camera_rotation_rad_s);
     let mut following: Option<Following> = None;
+    // the twist in force: its frame's capture tick and the tick it was taken in (reported in each command)
+    let mut twist_in_force = (u64::MAX, u64::MAX);
     // the daemon gone: when, and how long the ramp to rest may take before the rmrc gives up (the plant then
     // brakes the arm itself)
     let mut orphaned_at: Option<u64> = None;
@@ -91,6 +94,8 @@ pub fn run(context: &NodeContext) -> Result<(), RuntimeError> {
                 f.epoch != state.driver_epoch
                     || state.tick <= f.last_tick
                     || state.stamp_ns.saturating_sub(f.last_stamp_ns) > gap_ns
+                    // a jump of more ticks than a gap allows (the catch-up below stays bounded)
+                    || state.tick - f.last_tick > gap_periods
             }
             None => true,
         };
@@ -105,6 +110,16 @@ pub fn run(context: &NodeContext) -> Result<(), RuntimeError> {
             });
         }
         let Some(f) = following.as_mut() else { continue };
+        // states this node woke too late to answer (it takes the newest): the reference is a function of
+        // time, so it advances through those ticks too, as the lockstep simulator's does, instead of lagging
+        // one tick behind the arm's clock for every state missed
+        let missed = state.tick.saturating_sub(f.last_tick + 1);
+        if missed > 0 {
+            counters.skipped(missed);
+            for tick in f.last_tick + 1..state.tick {
+                f.stage.step((tick + 1) as f64 * dt, &q, &qd);
+            }
+        }
         f.last_tick = state.tick;
         f.last_stamp_ns = state.stamp_ns;
         let rmrc = &mut f.stage;
@@ -115,6 +130,7 @@ pub fn run(context: &NodeContext) -> Result<(), RuntimeError> {
             let twist = if servoing { twist } else { Twist::zeros() };
             if schema_ok(sample.schema) && twist_within(&twist, limits) {
                 rmrc.set_twist(twist, now_s);
+                twist_in_force = (sample.capture_tick, state.tick);
             } else {
                 // out of range: refused, counted, and the arm is brought to rest rather than left on the
                 // last good twist
@@ -143,6 +159,8 @@ pub fn run(context: &NodeContext) -> Result<(), RuntimeError> {
             torque_nm: torque,
             q_ref_rad: to_array(&reference.q),
             qd_ref_rad_s: to_array(&reference.qd),
+            twist_capture_tick: twist_in_force.0,
+            twist_applied_tick: twist_in_force.1,
             seal: 0,
         };
         if let Ok(sample) = command_publisher.loan_uninit() {
