@@ -4,25 +4,41 @@
 # clock_nanosleep(TIMER_ABSTIME) loop with the plant's real-time settings, running at the same time.
 # Prints p50/p99/p99.9/max and the ratios to the floor.
 #
-#   scripts/latency.sh [SECONDS=30] [CONFIG=config/vservo.toml]
+#   scripts/latency.sh [SECONDS=30] [CONFIG=config/vservo.toml] [viewer]
 #
+# With `viewer`, vservod also serves the cell to Foxglove ([viewer] enabled) and a Foxglove WebSocket client
+# (tests/python/foxglove_client.py) takes every image, annotation and transform during the measurement.
 # The config's instance must not be running already. Release builds; the figures go in docs/BENCHMARKS.md.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 seconds="${1:-30}"
 config="${2:-config/vservo.toml}"
+viewer="${3:-}"
 scripts/setup.sh
-cargo build --release --locked -q -p vservod
+cargo build --release --locked -q -p vservod -p vservoctl
 cargo build --release --locked -q -p vservo-runtime --example bare_loop
 log="$(mktemp)"
 floor="$(mktemp)"
-trap 'rm -f "$log" "$floor"' EXIT
+with_viewer="$(mktemp --suffix=.toml)"
+trap 'rm -f "$log" "$floor" "$with_viewer"' EXIT
+if [ "${viewer}" = viewer ]; then
+    sed '/^\[viewer\]/,$ s/^enabled = false/enabled = true/' "${config}" >"${with_viewer}"
+    config="${with_viewer}"
+fi
 
 ./target/release/vservod --config "$config" --status-every-s 0 2>"$log" &
 daemon=$!
 # let the nodes start before both loops are measured side by side
 sleep 1
+client=""
+if [ "${viewer}" = viewer ]; then
+    instance="$(sed -n 's/^name = "\(.*\)"/\1/p' "${config}" | head -1)"
+    port="$(sed -n '/^\[viewer\]/,$ s/^port = \([0-9]*\)/\1/p' "${config}" | head -1)"
+    target/python-venv/bin/python tests/python/foxglove_client.py "ws://127.0.0.1:${port}" "${instance}" "${seconds}" &
+    client=$!
+fi
 ./target/release/examples/bare_loop "$seconds" "$config" >"$floor"
+[ -n "${client}" ] && { wait "${client}" || echo "latency: the Foxglove client failed" >&2; }
 kill -TERM "$daemon"
 wait "$daemon"
 

@@ -31,6 +31,11 @@ if ! "${venv}/bin/python" -c 'import iceoryx2' >/dev/null 2>&1; then
     fi
     "${venv}/bin/pip" install -q iceoryx2==0.10.0
 fi
+# the recording and live-view tests read as a user's own tooling would: mcap with its protobuf decoder, and a
+# WebSocket client, from PyPI
+if ! "${venv}/bin/python" -c 'import mcap, mcap_protobuf, websockets' >/dev/null 2>&1; then
+    "${venv}/bin/pip" install -q mcap==1.6.0 mcap-protobuf-support==0.6.0 websockets==17.4
+fi
 
 # `vservoctl top`'s test runs it in a terminal: tmux, from Debian
 if ! command -v tmux >/dev/null 2>&1; then

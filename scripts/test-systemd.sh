@@ -103,7 +103,10 @@ done
 say "booted ${suite} in a container (systemd $(inside systemctl --version | head -1 | cut -d' ' -f2))"
 
 # the whole installation
-inside dpkg -i /root/vservo.deb >/dev/null || fail "dpkg -i"
+# as README.md says: apt install, then enable --now (apt resolves the package's dependencies; on this minimal
+# system they are all there already)
+inside env DEBIAN_FRONTEND=noninteractive apt-get install -y -qq /root/vservo.deb >/dev/null ||
+    fail "apt install ./vservo_*.deb"
 inside systemctl enable --now vservo || fail "systemctl enable --now vservo: $(inside journalctl -u vservo --no-pager | tail -20)"
 status() { inside runuser -u vservo -- vservoctl status --json --config /etc/vservo/vservo.toml 2>/dev/null; }
 field() { python3 -c "import json,sys; d=json.load(sys.stdin); print($1)"; }

@@ -205,6 +205,10 @@ fn a_recording_holds_every_service_in_order_and_plots() {
     let mut per_topic: std::collections::BTreeMap<String, Vec<(u32, Value)>> = Default::default();
     for message in mcap::MessageStream::new(&bytes).expect("an MCAP file") {
         let message = message.expect("a message");
+        // Foxglove's views (protobuf) are checked below, with Python's mcap package
+        if message.channel.message_encoding != "json" {
+            continue;
+        }
         let data: Value = serde_json::from_slice(&message.data).expect("JSON");
         per_topic.entry(message.channel.topic.clone()).or_default().push((message.sequence, data));
     }
@@ -237,6 +241,22 @@ fn a_recording_holds_every_service_in_order_and_plots() {
         .collect();
     assert!(frames.windows(2).all(|w| w[1] == w[0] + 1), "every frame, in order: {frames:?}");
 
+    // as pictures: read back with the `mcap` package from PyPI, compressed, with images, annotations
+    // exactly at the servo's features and the arm's, camera's and board's frames under Foxglove's schemas
+    let python = vservo_system_tests::repository_root().join("target/python-venv/bin/python");
+    let checked = Command::new(&python)
+        .arg(vservo_system_tests::repository_root().join("tests/python/check_recording.py"))
+        .arg(&file)
+        .arg(&instance)
+        .output()
+        .expect("python runs");
+    assert!(checked.status.success(), "{}", String::from_utf8_lossy(&checked.stderr));
+    let figures: Value = serde_json::from_slice(&checked.stdout).expect("JSON figures");
+    eprintln!("recording: {} bytes over 6 s; {figures}", bytes.len());
+    assert!(figures["images"].as_u64() >= Some(40), "{figures}");
+    assert!(figures["annotated_frames"].as_u64() >= Some(40), "{figures}");
+    assert!(figures["images_with_annotations"].as_u64() >= Some(40), "{figures}");
+
     let out_dir = config.path.with_extension("plots");
     let out = run(
         "vservoctl",
@@ -256,4 +276,43 @@ fn a_recording_holds_every_service_in_order_and_plots() {
     }
     let _ = std::fs::remove_dir_all(&out_dir);
     let _ = std::fs::remove_file(&file);
+}
+
+/// `[viewer] enabled = true`: vservod serves the cell to Foxglove; a client of the public WebSocket protocol
+/// (Python, `websockets` from PyPI) sees the channels with Foxglove's schema names, images, and annotations
+/// whose marks are exactly the features the servo used in that frame.
+#[test]
+fn the_live_view_serves_foxglove_the_image_and_the_marks_the_servo_used() {
+    let _one = exclusive();
+    let instance = unique("view");
+    // a port of this test run's own (tests of several checkouts may run at once)
+    let port = 20_000 + std::process::id() % 20_000;
+    let config = vservo_system_tests::config_from(
+        "config/vservo.toml",
+        &[
+            ("name = \"default\"", &format!("name = \"{instance}\"")),
+            ("enabled = false", "enabled = true"),
+            ("port = 8765", &format!("port = {port}")),
+        ],
+    );
+    let daemon = Daemon::start(&config);
+    assert!(wait_until(Duration::from_secs(10), || up(&instance)), "{}", daemon.log());
+    assert!(
+        wait_until(Duration::from_secs(10), || daemon.log().contains("the Foxglove viewer started")),
+        "{}",
+        daemon.log()
+    );
+    let python = vservo_system_tests::repository_root().join("target/python-venv/bin/python");
+    let client = vservo_system_tests::repository_root().join("tests/python/foxglove_client.py");
+    let url = format!("ws://127.0.0.1:{port}");
+    // the client waits up to 10 s for the server to listen
+    let out = Command::new(&python).arg(&client).args([&url, &instance, "4"]).output().expect("python runs");
+    assert!(out.status.success(), "{}\n{}", String::from_utf8_lossy(&out.stderr), daemon.log());
+    let figures: Value = serde_json::from_slice(&out.stdout).expect("JSON figures");
+    eprintln!("live view, 4 s: {figures}");
+    assert!(figures["images"].as_u64() >= Some(20), "{figures}");
+    assert!(figures["annotated_frames_checked"].as_u64() >= Some(20), "{figures}");
+    assert!(figures["images_with_annotations"].as_u64() >= Some(20), "{figures}");
+    assert!(up(&instance), "the cell still runs");
+    daemon.stop();
 }

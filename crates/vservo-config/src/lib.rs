@@ -62,6 +62,22 @@ pub struct Config {
     pub arm: vservo_arm::SerialArm,
     /// `[faults]`: when a fault stops the cell, and how it resumes.
     pub faults: Faults,
+    /// `[viewer]`: the live view in Foxglove.
+    pub viewer: Viewer,
+}
+
+/// `[viewer]`: vservod serves the running cell live to Foxglove over its WebSocket protocol (a
+/// `vservoctl view` process it starts and stops; a client of the instance like any other). Optional in the
+/// file: off, and on localhost only, by default.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Viewer {
+    /// Whether vservod starts the viewer.
+    pub enabled: bool,
+    /// The address it serves on (an IP address; `127.0.0.1` by default, reached from another machine over
+    /// SSH: `ssh -L 8765:localhost:8765 host`).
+    pub address: String,
+    /// The TCP port.
+    pub port: u16,
 }
 
 /// `[faults]`: the fault reaction of the real-time shell. Optional in the file (the defaults below apply).

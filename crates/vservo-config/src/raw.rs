@@ -22,6 +22,21 @@ pub struct RawConfig {
     pub robot: RawRobot,
     #[serde(default)]
     pub faults: RawFaults,
+    pub viewer: RawViewer,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct RawViewer {
+    pub enabled: bool,
+    pub address: String,
+    pub port: i64,
+}
+
+impl Default for RawViewer {
+    fn default() -> Self {
+        Self { enabled: false, address: "127.0.0.1".into(), port: 8765 }
+    }
 }
 
 #[derive(Debug, Deserialize)]

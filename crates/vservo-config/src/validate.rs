@@ -358,7 +358,23 @@ pub fn validate(raw: RawConfig, file: &str) -> Result<Config, ConfigError> {
         robot,
         arm,
         faults: validate_faults(&check, &raw.faults)?,
+        viewer: validate_viewer(&check, &raw.viewer)?,
     })
+}
+
+fn validate_viewer(check: &Checker, v: &crate::raw::RawViewer) -> Result<crate::Viewer, ConfigError> {
+    if v.address.parse::<std::net::IpAddr>().is_err() {
+        return Err(check.invalid(
+            "viewer.address",
+            format!("{:?}", v.address),
+            "must be an IP address (127.0.0.1: this machine only; 0.0.0.0: every interface)",
+        ));
+    }
+    let port = u16::try_from(v.port)
+        .ok()
+        .filter(|p| *p >= 1)
+        .ok_or_else(|| check.invalid("viewer.port", v.port, "must be a TCP port from 1 to 65535"))?;
+    Ok(crate::Viewer { enabled: v.enabled, address: v.address.clone(), port })
 }
 
 fn validate_faults(check: &Checker, f: &crate::raw::RawFaults) -> Result<crate::Faults, ConfigError> {

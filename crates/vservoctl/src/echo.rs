@@ -124,8 +124,9 @@ fn echo_images(connection: &Connection, args: &EchoArgs) -> anyhow::Result<()> {
 
 pub fn run(args: &EchoArgs) -> anyhow::Result<()> {
     // a daemon still starting may not have made the instance's directory yet
-    let until = args.duration_s.map(|s| Instant::now() + Duration::from_secs_f64(s.max(0.0)));
-    let connection = when_there(until, || Connection::open(&args.instance))?;
+    let give_up =
+        Instant::now() + args.duration_s.map_or(WAIT_FOR_SERVICE, |s| Duration::from_secs_f64(s.max(0.0)));
+    let connection = Connection::open_when_there(&args.instance, || Instant::now() >= give_up)?;
     let topic = match args.service {
         Service::Topic(topic) => topic,
         Service::CameraImage => return echo_images(&connection, args),

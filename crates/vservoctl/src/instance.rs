@@ -62,6 +62,26 @@ impl Connection {
         Ok(Self { instance, node })
     }
 
+    /// [`Connection::open`], waiting while no daemon has made the instance's directory yet (one still
+    /// starting) until `give_up()` says so; any other refusal is at once.
+    pub fn open_when_there(arg: &InstanceArg, mut give_up: impl FnMut() -> bool) -> anyhow::Result<Self> {
+        loop {
+            match Self::open(arg) {
+                Err(error)
+                    if matches!(
+                        error.downcast_ref::<vservo_protocol::ProtocolError>(),
+                        Some(vservo_protocol::ProtocolError::Instance(
+                            vservo_protocol::InstanceDirError::NotRunning { .. }
+                        ))
+                    ) && !give_up() =>
+                {
+                    std::thread::sleep(Duration::from_millis(50));
+                }
+                result => return result,
+            }
+        }
+    }
+
     /// A subscriber on a topic.
     pub fn subscriber<T: std::fmt::Debug + ZeroCopySend + 'static>(
         &self,

@@ -4,9 +4,11 @@
 //! running instance). Each subcommand lives in its own module; input errors are reported as
 //! [`UsageError`] and end with exit code 2, other failures with exit code 1.
 
+mod bridge;
 mod commands;
 mod config_arg;
 mod echo;
+mod foxglove_view;
 mod gains;
 mod instance;
 mod joint_args;
@@ -23,6 +25,7 @@ mod stability;
 mod status;
 mod stop;
 mod top;
+mod view;
 mod vision;
 
 use std::process::ExitCode;
@@ -71,6 +74,8 @@ enum Command {
     Top(top::TopArgs),
     /// Record every service of a running instance to an MCAP file.
     Record(record::RecordArgs),
+    /// Serve a running instance live to Foxglove (WebSocket): the camera image with the marks, the arm in 3D, every service.
+    View(view::ViewArgs),
     /// Draw the figures of `sim` from an MCAP recording.
     Plot(plot_recording::PlotArgs),
     /// The cell a configuration describes (arm, camera, board, start joints, periods) as JSON, for drivers.
@@ -94,6 +99,7 @@ fn main() -> ExitCode {
         Command::Resume(args) => commands::resume(&args),
         Command::Top(args) => top::run(&args),
         Command::Record(args) => record::run(&args),
+        Command::View(args) => view::run(&args),
         Command::Plot(args) => plot_recording::run(&args),
         Command::Scene(args) => scene::run(&args),
     };

@@ -44,6 +44,10 @@ pub fn trace_of(bytes: &[u8], config: &vservo_config::Config) -> anyhow::Result<
     let mut desired = config.desired.features;
     for message in mcap::MessageStream::new(bytes)? {
         let message = message?;
+        // vservo's services as JSON; Foxglove's views (images, annotations, transforms) are for Foxglove
+        if message.channel.message_encoding != "json" {
+            continue;
+        }
         let topic = message.channel.topic.rsplit('/').next().unwrap_or_default().to_string();
         let data: Value = serde_json::from_slice(&message.data).context("a message that is not JSON")?;
         match topic.as_str() {

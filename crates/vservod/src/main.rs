@@ -13,6 +13,7 @@ mod node_process;
 mod safety;
 mod supervisor;
 mod systemd;
+mod viewer;
 
 use std::path::PathBuf;
 use std::process::ExitCode;

@@ -336,6 +336,12 @@ pub fn run(
         });
     }
 
+    let mut viewer = crate::viewer::Viewer::start(
+        &config.viewer,
+        &launcher.executable,
+        &launcher.config_path,
+        claim.base(),
+    );
     let mut heard = Heard { feature_error_px: f64::NAN, ..Heard::default() };
     let mut timer = PeriodicTimer::start(CYCLE.as_nanos() as u64);
     let mut last_report = Instant::now();
@@ -346,6 +352,7 @@ pub fn run(
     while !stop.load(Ordering::Relaxed) {
         timer.wait();
         let now = Instant::now();
+        viewer.poll();
         if reload.swap(false, Ordering::Relaxed) {
             match commander.reload(&mut systemd) {
                 Ok(what) => tracing::info!("SIGHUP: reloaded: {what}"),
@@ -486,6 +493,7 @@ pub fn run(
         }
     }
 
+    viewer.stop();
     stop_safely(&mut nodes, &ports, &mut heard, &mut systemd, runtime.stop_timeout_s, safety.monitor());
     let cleaned = vservo_protocol::cleanup_dead_nodes(&node);
     if cleaned > 0 {

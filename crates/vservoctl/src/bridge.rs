@@ -1,0 +1,319 @@
+//! From an instance's services to a sink of channels (an MCAP file for `vservoctl record`, Foxglove's
+//! WebSocket server for `vservoctl view`): every service as JSON with a JSON schema, and the cell as
+//! Foxglove shows it (`crate::foxglove_view`): the camera's images, the marks on them, the frames of the arm,
+//! the camera and the board. A bridge only opens services (it never creates them) and reads them with
+//! iceoryx2's safe overflow: a slow bridge loses its oldest samples, it never slows the loop.
+
+use std::collections::BTreeMap;
+use std::path::PathBuf;
+use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
+
+use anyhow::Context;
+use iceoryx2::port::subscriber::Subscriber;
+use iceoryx2::prelude::{ZeroCopySend, ipc};
+use nalgebra::IsometryMatrix3;
+use serde_json::Value;
+use vservo_protocol::{
+    CameraImageHeader, CameraTwistMsg, CellModeMsg, DaemonStatusMsg, FeaturesMsg, GainsMsg, JointCommandMsg,
+    JointStateMsg, ObjectMsg, SimWorldMsg, TelemetryMsg, Topic,
+};
+
+use crate::foxglove_view;
+use crate::instance::{Connection, InstanceArg};
+use crate::json_messages as json;
+
+/// A channel's schema and encoding.
+pub struct ChannelSpec<'a> {
+    pub topic: &'a str,
+    pub schema_name: &'a str,
+    pub schema_encoding: &'a str,
+    pub schema: &'a [u8],
+    pub message_encoding: &'a str,
+    pub metadata: BTreeMap<String, String>,
+}
+
+/// Where the bridge's messages go.
+pub trait Sink {
+    /// Declares a channel; messages are then written by its topic.
+    fn add_channel(&mut self, spec: ChannelSpec<'_>) -> anyhow::Result<()>;
+    /// One message: its bytes, the wall-clock time it was received (ns since 1970) and its own stamp.
+    fn write(&mut self, topic: &str, bytes: &[u8], log_ns: u64, publish_ns: u64) -> anyhow::Result<()>;
+}
+
+/// Transforms of the arm at most this often (the joint states come every ms).
+const TRANSFORMS_EVERY_NS: u64 = 20_000_000;
+
+fn wall_ns() -> u64 {
+    SystemTime::now().duration_since(UNIX_EPOCH).map_or(0, |d| d.as_nanos() as u64)
+}
+
+/// The bridge's state: the sink, and what the Foxglove view of a message needs from earlier ones.
+pub struct Bridge<S: Sink> {
+    pub sink: S,
+    pub written: u64,
+    /// ξ_d, from the latest `gains`.
+    desired_px: Option<[f64; 8]>,
+    arm: vservo_arm::SerialArm,
+    /// Where the camera sits on the hand, from the instance's configuration file (if it could be read).
+    tool_from_camera: Option<IsometryMatrix3<f64>>,
+    last_transforms_ns: u64,
+    last_state_stamp_ns: u64,
+    image_every: u64,
+}
+
+impl<S: Sink> Bridge<S> {
+    /// A bridge of the instance's services into `sink`, which gets every channel now.
+    pub fn new(
+        mut sink: S,
+        connection: &Connection,
+        instance: &InstanceArg,
+        image_every: u64,
+    ) -> anyhow::Result<Self> {
+        for topic in Topic::ALL {
+            let schema = serde_json::json!({"type": "object", "title": topic.type_name()}).to_string();
+            let metadata = BTreeMap::from([
+                ("type_name".to_string(), topic.type_name().to_string()),
+                ("schema_version".to_string(), vservo_protocol::SCHEMA_VERSION.to_string()),
+                (
+                    "publish_time".to_string(),
+                    "the message's stamp_ns: CLOCK_MONOTONIC of the host (0: none)".to_string(),
+                ),
+            ]);
+            sink.add_channel(ChannelSpec {
+                topic: &topic.service_name(&connection.instance),
+                schema_name: topic.type_name(),
+                schema_encoding: "jsonschema",
+                schema: schema.as_bytes(),
+                message_encoding: "json",
+                metadata,
+            })?;
+        }
+        let mut bridge = Self {
+            sink,
+            written: 0,
+            desired_px: None,
+            arm: vservo_arm::puma560::puma560(),
+            tool_from_camera: tool_from_camera(instance),
+            last_transforms_ns: 0,
+            last_state_stamp_ns: 0,
+            image_every,
+        };
+        bridge.add_foxglove_channel::<foxglove::messages::RawImage>(foxglove_view::IMAGE_TOPIC)?;
+        bridge
+            .add_foxglove_channel::<foxglove::messages::ImageAnnotations>(foxglove_view::ANNOTATIONS_TOPIC)?;
+        bridge
+            .add_foxglove_channel::<foxglove::messages::FrameTransforms>(foxglove_view::TRANSFORMS_TOPIC)?;
+        Ok(bridge)
+    }
+
+    fn write(&mut self, topic: &str, bytes: &[u8], publish_ns: u64) -> anyhow::Result<()> {
+        self.sink.write(topic, bytes, wall_ns(), publish_ns)?;
+        self.written += 1;
+        Ok(())
+    }
+
+    fn write_foxglove<M: foxglove::Encode>(
+        &mut self,
+        topic: &str,
+        message: &M,
+        publish_ns: u64,
+    ) -> anyhow::Result<()> {
+        let mut bytes = Vec::with_capacity(message.encoded_len().unwrap_or(256));
+        message.encode(&mut bytes).map_err(|e| anyhow::anyhow!("encoding {topic}: {e}"))?;
+        self.write(topic, &bytes, publish_ns)
+    }
+
+    fn add_foxglove_channel<M: foxglove::Encode>(&mut self, topic: &str) -> anyhow::Result<()> {
+        let schema = M::get_schema().with_context(|| format!("{topic}: no schema"))?;
+        self.sink.add_channel(ChannelSpec {
+            topic,
+            schema_name: &schema.name,
+            schema_encoding: &schema.encoding,
+            schema: &schema.data,
+            message_encoding: &M::get_message_encoding(),
+            metadata: BTreeMap::new(),
+        })
+    }
+
+    /// Runs until `stop()` says so: opens what exists every 0.1 s (a daemon still starting, a node not up;
+    /// a service the cell does not have, such as sim_world with an external robot, is simply never heard)
+    /// and writes what arrived every 0.5 ms.
+    pub fn run(&mut self, connection: &Connection, mut stop: impl FnMut() -> bool) -> anyhow::Result<()> {
+        let mut taps: Vec<Box<dyn Tapped<S>>> = vec![
+            Tap::<JointStateMsg>::boxed(Topic::JointState, json::joint_state, |m| m.stamp_ns),
+            Tap::<JointCommandMsg>::boxed(Topic::JointCommand, json::joint_command, |m| m.stamp_ns),
+            Tap::<SimWorldMsg>::boxed(Topic::SimWorld, json::sim_world, |_| 0),
+            Tap::<FeaturesMsg>::boxed(Topic::Features, json::features, |m| m.stamp_ns),
+            Tap::<CameraTwistMsg>::boxed(Topic::CameraTwist, json::camera_twist, |m| m.stamp_ns),
+            Tap::<TelemetryMsg>::boxed(Topic::Telemetry, json::telemetry, |m| m.stamp_ns),
+            Tap::<DaemonStatusMsg>::boxed(Topic::Status, json::status, |m| m.stamp_ns),
+            Tap::<GainsMsg>::boxed(Topic::Gains, json::gains, |_| 0),
+            Tap::<ObjectMsg>::boxed(Topic::Object, json::object, |_| 0),
+            Tap::<CellModeMsg>::boxed(Topic::CellMode, json::cell_mode, |m| m.stamp_ns),
+        ];
+        if self.image_every > 0 {
+            taps.push(Box::new(ImageTap { subscriber: None, every: self.image_every }));
+        }
+        let mut next_look = Instant::now();
+        while !stop() {
+            let look = Instant::now() >= next_look;
+            if look {
+                next_look = Instant::now() + Duration::from_millis(100);
+            }
+            for tap in &mut taps {
+                if look {
+                    tap.open(connection);
+                }
+                tap.drain(self)?;
+            }
+            std::thread::sleep(Duration::from_micros(500));
+        }
+        Ok(())
+    }
+}
+
+/// What the Foxglove view adds for a message of the instance's services.
+trait Viewed: Sized {
+    fn view<S: Sink>(&self, _bridge: &mut Bridge<S>) -> anyhow::Result<()> {
+        Ok(())
+    }
+}
+
+impl Viewed for JointStateMsg {
+    fn view<S: Sink>(&self, bridge: &mut Bridge<S>) -> anyhow::Result<()> {
+        bridge.last_state_stamp_ns = self.stamp_ns;
+        if self.stamp_ns.saturating_sub(bridge.last_transforms_ns) < TRANSFORMS_EVERY_NS {
+            return Ok(());
+        }
+        bridge.last_transforms_ns = self.stamp_ns;
+        let tool_from_camera = bridge.tool_from_camera.unwrap_or_else(IsometryMatrix3::identity);
+        let transforms = foxglove_view::arm_transforms(&bridge.arm, &tool_from_camera, self);
+        bridge.write_foxglove(foxglove_view::TRANSFORMS_TOPIC, &transforms, self.stamp_ns)
+    }
+}
+
+impl Viewed for FeaturesMsg {
+    fn view<S: Sink>(&self, bridge: &mut Bridge<S>) -> anyhow::Result<()> {
+        let drawn = foxglove_view::annotations(self, bridge.desired_px.as_ref());
+        bridge.write_foxglove(foxglove_view::ANNOTATIONS_TOPIC, &drawn, self.stamp_ns)
+    }
+}
+
+impl Viewed for GainsMsg {
+    fn view<S: Sink>(&self, bridge: &mut Bridge<S>) -> anyhow::Result<()> {
+        bridge.desired_px = Some(self.desired_features_px);
+        Ok(())
+    }
+}
+
+impl Viewed for SimWorldMsg {
+    fn view<S: Sink>(&self, bridge: &mut Bridge<S>) -> anyhow::Result<()> {
+        // the board moves slowly if at all: with the arm's transforms
+        if bridge.last_transforms_ns != bridge.last_state_stamp_ns {
+            return Ok(());
+        }
+        let board = foxglove_view::board_transform(self, bridge.last_state_stamp_ns);
+        bridge.write_foxglove(foxglove_view::TRANSFORMS_TOPIC, &board, bridge.last_state_stamp_ns)
+    }
+}
+
+impl Viewed for JointCommandMsg {}
+impl Viewed for CameraTwistMsg {}
+impl Viewed for TelemetryMsg {}
+impl Viewed for DaemonStatusMsg {}
+impl Viewed for ObjectMsg {}
+impl Viewed for CellModeMsg {}
+
+fn drain<T: Copy + std::fmt::Debug + ZeroCopySend + Viewed, S: Sink>(
+    subscriber: &Subscriber<ipc::Service, T, ()>,
+    service: &str,
+    render: fn(&T) -> Value,
+    stamp_ns: fn(&T) -> u64,
+    bridge: &mut Bridge<S>,
+) -> anyhow::Result<()> {
+    while let Some(sample) = subscriber.receive()? {
+        let message = *sample;
+        bridge.write(service, render(&message).to_string().as_bytes(), stamp_ns(&message))?;
+        message.view(bridge)?;
+    }
+    Ok(())
+}
+
+/// The configuration's `tool_from_camera`, if the instance's configuration file can be read.
+fn tool_from_camera(instance: &InstanceArg) -> Option<IsometryMatrix3<f64>> {
+    let path = instance.config.clone().unwrap_or_else(|| PathBuf::from("config/vservo.toml"));
+    let text = std::fs::read_to_string(&path).ok()?;
+    let config = vservo_config::Config::from_toml(&text, &path.display().to_string()).ok()?;
+    (instance.instance.as_ref().is_none_or(|name| *name == config.instance))
+        .then_some(config.tool_from_camera)
+}
+
+/// One service: its subscriber once the service exists.
+struct Tap<T: std::fmt::Debug + ZeroCopySend + 'static> {
+    topic: Topic,
+    subscriber: Option<Subscriber<ipc::Service, T, ()>>,
+    service: String,
+    render: fn(&T) -> Value,
+    stamp_ns: fn(&T) -> u64,
+}
+
+impl<T: Copy + std::fmt::Debug + ZeroCopySend + Viewed + 'static> Tap<T> {
+    fn boxed<S: Sink>(topic: Topic, render: fn(&T) -> Value, stamp_ns: fn(&T) -> u64) -> Box<dyn Tapped<S>> {
+        Box::new(Self { topic, subscriber: None, service: String::new(), render, stamp_ns })
+    }
+}
+
+/// What the bridge does with each service, whatever its payload.
+trait Tapped<S: Sink> {
+    /// Opens the service if it exists now and is not open yet.
+    fn open(&mut self, connection: &Connection);
+    /// Writes what arrived since the last call.
+    fn drain(&mut self, bridge: &mut Bridge<S>) -> anyhow::Result<()>;
+}
+
+impl<T: Copy + std::fmt::Debug + ZeroCopySend + Viewed + 'static, S: Sink> Tapped<S> for Tap<T> {
+    fn open(&mut self, connection: &Connection) {
+        if self.subscriber.is_none() {
+            self.subscriber = connection.subscriber::<T>(self.topic).ok();
+            self.service = self.topic.service_name(&connection.instance);
+        }
+    }
+
+    fn drain(&mut self, bridge: &mut Bridge<S>) -> anyhow::Result<()> {
+        match &self.subscriber {
+            Some(subscriber) => drain(subscriber, &self.service, self.render, self.stamp_ns, bridge),
+            None => Ok(()),
+        }
+    }
+}
+
+/// The camera's images, every n-th, as `foxglove.RawImage`.
+struct ImageTap {
+    subscriber: Option<Subscriber<ipc::Service, [u8], CameraImageHeader>>,
+    every: u64,
+}
+
+impl<S: Sink> Tapped<S> for ImageTap {
+    fn open(&mut self, connection: &Connection) {
+        if self.subscriber.is_none() {
+            self.subscriber = vservo_protocol::camera_image_subscriber(
+                &connection.node,
+                &connection.instance,
+                vservo_protocol::Opening::OpenOnly,
+            )
+            .ok();
+        }
+    }
+
+    fn drain(&mut self, bridge: &mut Bridge<S>) -> anyhow::Result<()> {
+        let Some(subscriber) = &self.subscriber else { return Ok(()) };
+        while let Some(sample) = subscriber.receive()? {
+            let header = *sample.user_header();
+            if header.frame % self.every == 0 {
+                let image = foxglove_view::raw_image(&header, sample.payload());
+                bridge.write_foxglove(foxglove_view::IMAGE_TOPIC, &image, header.capture_stamp_ns)?;
+            }
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,227 @@
+//! The cell as Foxglove shows it: vservo's messages turned into Foxglove's well-known schemas
+//! (`foxglove.RawImage`, `foxglove.ImageAnnotations`, `foxglove.FrameTransforms`), so that a recording opens
+//! as the camera's picture with the marks on it and the arm in 3D. Pure conversions; the recorder writes them.
+//!
+//! Every stamp in these messages is the host's CLOCK_MONOTONIC (as in vservo's own messages): an image and
+//! its annotations carry the same capture stamp, which is how Foxglove's image panel pairs them.
+
+use foxglove::messages::{
+    CircleAnnotation, Color, FrameTransform, FrameTransforms, ImageAnnotations, Point2, PointsAnnotation,
+    Quaternion, RawImage, TextAnnotation, Timestamp, Vector3,
+};
+use nalgebra::{IsometryMatrix3, UnitQuaternion};
+use vservo_protocol::{CameraImageHeader, FeaturesMsg, JointStateMsg, SimWorldMsg, mark_status};
+
+/// Foxglove's topics of a recording.
+pub const IMAGE_TOPIC: &str = "/camera/image";
+/// The marks on the image.
+pub const ANNOTATIONS_TOPIC: &str = "/camera/annotations";
+/// The arm's links, the camera and the board.
+pub const TRANSFORMS_TOPIC: &str = "/tf";
+/// The image's frame.
+pub const CAMERA_FRAME: &str = "camera";
+
+/// A stamp in ns as Foxglove's timestamp.
+fn timestamp(stamp_ns: u64) -> Timestamp {
+    Timestamp::new((stamp_ns / 1_000_000_000) as u32, (stamp_ns % 1_000_000_000) as u32)
+}
+
+fn color(r: f64, g: f64, b: f64) -> Option<Color> {
+    Some(Color { r, g, b, a: 1.0 })
+}
+
+/// The camera's 8-bit gray image (`mono8`).
+pub fn raw_image(header: &CameraImageHeader, pixels: &[u8]) -> RawImage {
+    RawImage {
+        timestamp: Some(timestamp(header.capture_stamp_ns)),
+        frame_id: CAMERA_FRAME.to_string(),
+        width: header.width,
+        height: header.height,
+        encoding: "mono8".to_string(),
+        step: header.stride_bytes,
+        data: pixels.to_vec().into(),
+    }
+}
+
+/// The marks of a frame on its image: each mark the servo used as a green circle, where it should be
+/// (`desired_px`) as a blue circle, the error between them as a line, and each mark the frame lacks as a
+/// red text saying why, at its desired position.
+pub fn annotations(features: &FeaturesMsg, desired_px: Option<&[f64; 8]>) -> ImageAnnotations {
+    let stamp = Some(timestamp(features.capture_stamp_ns));
+    let mut circles = Vec::with_capacity(8);
+    let mut lines = Vec::with_capacity(8);
+    let mut texts = Vec::new();
+    for mark in 0..4 {
+        let measured = Point2 { x: features.features_px[2 * mark], y: features.features_px[2 * mark + 1] };
+        let valid =
+            features.valid_mask & (1 << mark) != 0 && measured.x.is_finite() && measured.y.is_finite();
+        let desired = desired_px.map(|d| Point2 { x: d[2 * mark], y: d[2 * mark + 1] });
+        if valid {
+            circles.push(CircleAnnotation {
+                timestamp: stamp,
+                position: Some(measured),
+                diameter: 14.0,
+                thickness: 2.0,
+                fill_color: None,
+                outline_color: color(0.1, 0.9, 0.2),
+                metadata: Vec::new(),
+            });
+            if let Some(desired) = desired {
+                lines.extend([measured, desired]);
+            }
+        } else {
+            let why = match features.mark_status[mark] {
+                mark_status::OUTSIDE_IMAGE => "outside the image",
+                _ => "not found",
+            };
+            texts.push(TextAnnotation {
+                timestamp: stamp,
+                position: Some(desired.unwrap_or(Point2 { x: 10.0, y: 20.0 + 18.0 * mark as f64 })),
+                text: format!("mark {} {why}", mark + 1),
+                font_size: 14.0,
+                text_color: color(1.0, 0.2, 0.2),
+                background_color: Some(Color { r: 0.0, g: 0.0, b: 0.0, a: 0.6 }),
+                metadata: Vec::new(),
+            });
+        }
+        if let Some(desired) = desired {
+            circles.push(CircleAnnotation {
+                timestamp: stamp,
+                position: Some(desired),
+                diameter: 10.0,
+                thickness: 1.0,
+                fill_color: None,
+                outline_color: color(0.2, 0.5, 1.0),
+                metadata: Vec::new(),
+            });
+        }
+    }
+    let points = if lines.is_empty() {
+        Vec::new()
+    } else {
+        vec![PointsAnnotation {
+            timestamp: stamp,
+            // LINE_LIST: each pair of points is a segment
+            r#type: 4,
+            points: lines,
+            outline_color: color(1.0, 0.8, 0.1),
+            outline_colors: Vec::new(),
+            fill_color: None,
+            thickness: 1.5,
+            metadata: Vec::new(),
+        }]
+    };
+    ImageAnnotations { timestamp: stamp, circles, points, texts, metadata: Vec::new() }
+}
+
+fn transform(stamp_ns: u64, parent: &str, child: &str, pose: &IsometryMatrix3<f64>) -> FrameTransform {
+    let t = pose.translation.vector;
+    let q = UnitQuaternion::from_rotation_matrix(&pose.rotation);
+    FrameTransform {
+        timestamp: Some(timestamp(stamp_ns)),
+        parent_frame_id: parent.to_string(),
+        child_frame_id: child.to_string(),
+        translation: Some(Vector3 { x: t.x, y: t.y, z: t.z }),
+        rotation: Some(Quaternion { x: q.i, y: q.j, z: q.k, w: q.w }),
+    }
+}
+
+/// The arm's links (`base` → `link1` … `link6`) and the camera (`link6` → `camera`) at a joint state.
+pub fn arm_transforms(
+    arm: &vservo_arm::SerialArm,
+    tool_from_camera: &IsometryMatrix3<f64>,
+    state: &JointStateMsg,
+) -> FrameTransforms {
+    let q = vservo_arm::JointVector::from(state.q_rad);
+    let frames = arm.link_frames(&q);
+    let mut transforms: Vec<FrameTransform> = frames
+        .iter()
+        .enumerate()
+        .map(|(i, base_from_link)| {
+            transform(state.stamp_ns, "base", &format!("link{}", i + 1), base_from_link)
+        })
+        .collect();
+    transforms.push(transform(state.stamp_ns, "link6", CAMERA_FRAME, tool_from_camera));
+    FrameTransforms { transforms }
+}
+
+/// The board (`base` → `board`), which only a simulation knows; stamped with the joint state of its tick.
+pub fn board_transform(world: &SimWorldMsg, stamp_ns: u64) -> FrameTransforms {
+    let m = &world.base_from_board;
+    let rotation = nalgebra::Matrix3::new(m[0], m[1], m[2], m[4], m[5], m[6], m[8], m[9], m[10]);
+    let pose = IsometryMatrix3::from_parts(
+        nalgebra::Translation3::new(m[3], m[7], m[11]),
+        nalgebra::Rotation3::from_matrix(&rotation),
+    );
+    FrameTransforms { transforms: vec![transform(stamp_ns, "base", "board", &pose)] }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn features(valid_mask: u32) -> FeaturesMsg {
+        FeaturesMsg {
+            schema: vservo_protocol::SCHEMA_VERSION,
+            valid_mask,
+            frame: 3,
+            capture_tick: 255,
+            capture_stamp_ns: 12_345_678_901,
+            stamp_ns: 12_400_000_000,
+            features_px: [100.0, 110.0, 300.0, 120.0, 310.0, 330.0, 90.0, 320.0],
+            mark_status: [
+                mark_status::VALID,
+                mark_status::VALID,
+                mark_status::OUTSIDE_IMAGE,
+                mark_status::VALID,
+            ],
+            reserved: [0; 4],
+        }
+    }
+
+    #[test]
+    fn the_marks_the_servo_used_are_drawn_where_the_features_say_and_a_missing_one_is_named() {
+        let desired = [151.0, 168.0, 318.0, 178.0, 339.0, 75.0, 172.0, 70.0];
+        let message = features(0b1011);
+        let drawn = annotations(&message, Some(&desired));
+        let measured: Vec<(f64, f64)> = drawn
+            .circles
+            .iter()
+            .filter(|c| c.diameter == 14.0)
+            .map(|c| c.position.map_or((f64::NAN, f64::NAN), |p| (p.x, p.y)))
+            .collect();
+        assert_eq!(measured, vec![(100.0, 110.0), (300.0, 120.0), (90.0, 320.0)]);
+        assert_eq!(drawn.circles.iter().filter(|c| c.diameter == 10.0).count(), 4);
+        assert_eq!(drawn.points[0].points.len(), 6, "one error segment per mark used");
+        assert_eq!(drawn.texts.len(), 1);
+        assert_eq!(drawn.texts[0].text, "mark 3 outside the image");
+        let stamp = drawn.timestamp.expect("stamped");
+        assert_eq!((stamp.sec(), stamp.nsec()), (12, 345_678_901));
+    }
+
+    #[test]
+    fn the_camera_sits_on_the_last_link_and_the_links_chain_from_the_base() {
+        let arm = vservo_arm::puma560::puma560();
+        let state = JointStateMsg {
+            schema: vservo_protocol::SCHEMA_VERSION,
+            faults: 0,
+            tick: 1,
+            stamp_ns: 5,
+            driver_epoch: 1,
+            period_ns: 1_000_000,
+            command_mode: 0,
+            driver_status: 0,
+            q_rad: [0.1, -0.5, 0.3, 0.0, 0.4, 0.2],
+            qd_rad_s: [0.0; 6],
+            torque_nm: [0.0; 6],
+            applied_command_tick: u64::MAX,
+        };
+        let tool_from_camera = IsometryMatrix3::translation(0.0, 0.0, 0.1);
+        let frames = arm_transforms(&arm, &tool_from_camera, &state);
+        assert_eq!(frames.transforms.len(), 7);
+        let tool = arm.base_from_tool(&vservo_arm::JointVector::from(state.q_rad));
+        let link6 = frames.transforms[5].translation.expect("translation");
+        assert!((link6.x - tool.translation.x).abs() < 1e-12 && (link6.z - tool.translation.z).abs() < 1e-12);
+        assert_eq!(frames.transforms[6].parent_frame_id, "link6");
+    }
+}
