@@ -22,6 +22,7 @@ pub struct RawConfig {
     pub robot: RawRobot,
     #[serde(default)]
     pub faults: RawFaults,
+    #[serde(default)]
     pub viewer: RawViewer,
 }
 

@@ -271,3 +271,18 @@ fn every_numeric_key_has_a_range() {
     assert!(wrong.is_empty(), "{}", wrong.join("\n"));
     println!("{checked} absurd values over {} numeric keys refused, each naming its key", keys.len());
 }
+
+#[test]
+fn the_viewer_is_off_on_localhost_by_default_and_takes_ip_addresses_only() {
+    let config =
+        Config::from_toml(&with("enabled = false", "enabled = false"), "vservo.toml").expect("valid");
+    assert!(!config.viewer.enabled);
+    assert_eq!((config.viewer.address.as_str(), config.viewer.port), ("127.0.0.1", 8765));
+    let error = refused(&with("address = \"127.0.0.1\"", "address = \"robot-pc\""));
+    assert!(
+        error.to_string().contains("viewer.address") && error.to_string().contains("robot-pc"),
+        "{error}"
+    );
+    let error = refused(&with("port = 8765", "port = 0"));
+    assert!(error.to_string().contains("viewer.port"), "{error}");
+}
