@@ -244,3 +244,21 @@ impl Drop for Killed {
         let _ = self.0.wait();
     }
 }
+
+/// A detached tmux session (a real terminal for a command), killed when the test ends, passed or not.
+pub struct TmuxSession(pub String);
+
+impl TmuxSession {
+    /// What the pane shows now.
+    pub fn capture(&self) -> String {
+        let out =
+            Command::new("tmux").args(["capture-pane", "-p", "-t", &self.0]).output().expect("tmux runs");
+        String::from_utf8_lossy(&out.stdout).to_string()
+    }
+}
+
+impl Drop for TmuxSession {
+    fn drop(&mut self) {
+        let _ = Command::new("tmux").args(["kill-session", "-t", &self.0]).output();
+    }
+}

@@ -1,6 +1,9 @@
 //! `vservoctl sim` as a user runs it: it writes the summary, the data and the plots.
 
-use vservo_system_tests::{repository_root, run};
+use std::process::Command;
+use std::time::Duration;
+
+use vservo_system_tests::{binary, repository_root, run, wait_until};
 
 #[test]
 fn sim_writes_summary_csvs_and_plots() {
@@ -48,4 +51,41 @@ fn sim_writes_summary_csvs_and_plots() {
     // overrides are checked
     let output = run("vservoctl", &["sim", "--config", config.to_str().expect("utf-8"), "--duration", "-1"]);
     assert_eq!(output.status.code(), Some(2));
+}
+
+/// A progress bar (indicatif) on a terminal only: in a tmux pane the bar shows while the scenario runs; with
+/// stderr in a pipe (a script, a log) there is none.
+#[test]
+fn sim_shows_progress_on_a_terminal_only() {
+    let config = repository_root().join("config/scenarios/translation-step.toml");
+    let out = std::env::temp_dir().join(format!("vservo-sim-progress-{}", std::process::id()));
+    let args = |seconds: &str| {
+        format!(
+            "sim --config {} --duration {seconds} --plant kinematic --out {}",
+            config.display(),
+            out.display()
+        )
+    };
+    let piped = run("vservoctl", &args("3").split(' ').collect::<Vec<_>>());
+    assert!(piped.status.success());
+    let stderr = String::from_utf8_lossy(&piped.stderr);
+    assert!(!stderr.contains("simulating"), "no bar in a pipe: {stderr}");
+
+    let session = vservo_system_tests::TmuxSession(format!("sim-progress-{}", std::process::id()));
+    let command = format!("{} {}; echo sim-exit=$?; sleep 60", binary("vservoctl").display(), args("120"));
+    let started = Command::new("tmux")
+        .args(["new-session", "-d", "-s", &session.0, "-x", "150", "-y", "10", &command])
+        .status()
+        .expect("tmux runs");
+    assert!(started.success());
+    let mut seen_bar = false;
+    let done = wait_until(Duration::from_secs(120), || {
+        let screen = session.capture();
+        seen_bar |= screen.contains("simulating") && screen.contains("of 120.0 s");
+        screen.contains("sim-exit=")
+    });
+    let screen = session.capture();
+    assert!(done && screen.contains("sim-exit=0"), "{screen}");
+    assert!(seen_bar, "a progress bar while it ran: {screen}");
+    let _ = std::fs::remove_dir_all(&out);
 }

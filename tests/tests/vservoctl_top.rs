@@ -3,24 +3,7 @@
 use std::process::Command;
 use std::time::Duration;
 
-use vservo_system_tests::{binary, running_daemon, unique, wait_until};
-
-/// A detached tmux session, killed when the test ends, passed or not.
-struct Session(String);
-
-impl Session {
-    fn capture(&self) -> String {
-        let out =
-            Command::new("tmux").args(["capture-pane", "-p", "-t", &self.0]).output().expect("tmux runs");
-        String::from_utf8_lossy(&out.stdout).to_string()
-    }
-}
-
-impl Drop for Session {
-    fn drop(&mut self) {
-        let _ = Command::new("tmux").args(["kill-session", "-t", &self.0]).output();
-    }
-}
+use vservo_system_tests::{TmuxSession as Session, binary, running_daemon, unique, wait_until};
 
 /// The refresh counter `top` prints on its last line.
 fn refreshes(screen: &str) -> Option<u64> {

@@ -115,7 +115,10 @@ impl FakeDriver {
         let (f, d, q, s) = (faults.clone(), driver_status.clone(), silent.clone(), stop.clone());
         let instance = instance.to_string();
         let thread = std::thread::spawn(move || {
-            let node = vservo_protocol::create_node(&instance, "test-driver").expect("a node");
+            // started with the daemon: it waits for the instance, as a driver does (docs/DRIVERS.md)
+            let dir = vservo_protocol::InstanceDir::locate_waiting(&instance, Duration::from_secs(10))
+                .expect("the instance");
+            let node = vservo_protocol::create_node_in(&dir, "test-driver").expect("a node");
             let states = vservo_protocol::publisher::<JointStateMsg>(&node, &instance, Topic::JointState)
                 .expect("joint_state");
             let notifier = vservo_protocol::notifier(&node, &instance, Topic::JointState).expect("event");

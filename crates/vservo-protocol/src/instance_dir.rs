@@ -212,6 +212,20 @@ impl InstanceDir {
         Err(InstanceDirError::NotRunning { instance: instance.to_string(), looked_in: candidates })
     }
 
+    /// [`InstanceDir::locate`], waiting up to `timeout` while no daemon has made the instance's directory
+    /// yet (a driver started with or before vservod); any other refusal is at once.
+    pub fn locate_waiting(instance: &str, timeout: std::time::Duration) -> Result<Self, InstanceDirError> {
+        let until = std::time::Instant::now() + timeout;
+        loop {
+            match Self::locate(instance) {
+                Err(InstanceDirError::NotRunning { .. }) if std::time::Instant::now() < until => {
+                    std::thread::sleep(std::time::Duration::from_millis(20));
+                }
+                result => return result,
+            }
+        }
+    }
+
     /// iceoryx2's root path for the instances of this base.
     pub fn iceoryx2_root(&self) -> PathBuf {
         self.base.join("iceoryx2")

@@ -70,17 +70,27 @@ pub fn run(args: &SimArgs) -> Result<()> {
     }
     let mut lockstep = Lockstep::new(&config).map_err(|e| UsageError(format!("{}: {e}", config.origin)))?;
     let duration = config.scenario.duration_s;
-    let mut next_report = 0.1;
     let started = std::time::Instant::now();
+    // a progress bar on a terminal only (never in a pipe or a log); indicatif redraws at most 20 times a second
+    let bar = std::io::IsTerminal::is_terminal(&std::io::stderr()).then(|| {
+        let bar = indicatif::ProgressBar::new((duration * 1000.0).round() as u64);
+        bar.set_style(
+            indicatif::ProgressStyle::with_template("simulating {bar:40} {msg} ({elapsed}, {eta} left)")
+                .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+        );
+        bar
+    });
     let trace = lockstep.run(|t| {
-        // progress on stderr for long runs, every tenth of the way
-        if duration >= 10.0 && t >= next_report * duration {
-            eprint!("\rsimulated {t:6.1} of {duration:.1} s");
-            next_report += 0.1;
+        if let Some(bar) = &bar {
+            bar.set_position((t * 1000.0).round() as u64);
+            bar.set_message(format!("{t:.1} of {duration:.1} s"));
         }
     });
+    if let Some(bar) = bar {
+        bar.finish_and_clear();
+    }
     if duration >= 10.0 {
-        eprintln!("\rsimulated {duration:.1} s in {:.2} s of wall time", started.elapsed().as_secs_f64());
+        eprintln!("simulated {duration:.1} s in {:.2} s of wall time", started.elapsed().as_secs_f64());
     }
     std::fs::create_dir_all(&args.out).with_context(|| format!("creating {}", args.out.display()))?;
     let summary = summarize(&trace, &config.scenario.object);
