@@ -71,6 +71,8 @@ if [ ! -x "${root}/usr/lib/systemd/systemd" ]; then
         skip "mmdebstrap could not build a ${suite} root from ${mirror}"
 fi
 cp "${package}" "${root}/root/vservo.deb"
+# the checks another user tries on the instance (tests/nobody-tries.sh), readable by nobody inside
+install -D -m 0644 tests/nobody-tries.sh "${root}/usr/local/share/nobody-tries.sh"
 
 machine="vservo-test-$$"
 # nspawn's default capability set for a container lacks CAP_IPC_LOCK, which a real host's systemd has: grant it,
@@ -167,17 +169,7 @@ case "${prefix}" in vservo_*_) ;; *) fail "the instance's prefix: ${prefix}" ;; 
 targets="$(inside sh -c 'find /run/vservo; ls -d /dev/shm/"$1"*' sh "${prefix}" || true)"
 [ "$(grep -c global_mgmt <<<"${targets}")" = 1 ] || fail "no node counter among ${targets}"
 # shellcheck disable=SC2086
-managed="$(inside runuser -u nobody -- sh -c '
-for f in "$@"; do
-  if [ -d "$f" ]; then
-    ls "$f" >/dev/null 2>&1 && echo "listed $f"
-    ( : > "$f/nobody-was-here" ) 2>/dev/null && echo "created in $f"
-  else
-    dd if="$f" of=/dev/null count=1 2>/dev/null && echo "read $f"
-    dd if=/dev/null of="$f" conv=notrunc,nocreat 2>/dev/null && echo "opened for writing $f"
-    rm "$f" 2>/dev/null && echo "removed $f"
-  fi
-done; true' sh ${targets})"
+managed="$(inside runuser -u nobody -- sh /usr/local/share/nobody-tries.sh ${targets})"
 [ -z "${managed}" ] || fail "nobody managed: ${managed}"
 [ "$(status | field "d['state']")" = running ] || fail "not running after nobody's attempts"
 say "nobody could read, write, create in or remove any of the instance's $(wc -l <<<"${targets}") files, directories and shared-memory objects"

@@ -49,20 +49,12 @@ fn tree(dir: &Path) -> Vec<String> {
     found
 }
 
-/// What `nobody` managed to do to each path: read it, open it for writing, list it, remove it, or create a
-/// file in it. One line per success.
-const TRY_EVERYTHING: &str = r#"
-for f in "$@"; do
-  if [ -d "$f" ]; then
-    ls "$f" >/dev/null 2>&1 && echo "listed $f"
-    ( : > "$f/nobody-was-here" ) 2>/dev/null && echo "created in $f"
-  else
-    dd if="$f" of=/dev/null count=1 2>/dev/null && echo "read $f"
-    dd if=/dev/null of="$f" conv=notrunc,nocreat 2>/dev/null && echo "opened for writing $f"
-    rm "$f" 2>/dev/null && echo "removed $f"
-  fi
-done
-"#;
+/// What `nobody` managed to do to each path (tests/nobody-tries.sh): one line per success.
+fn nobody_tries(paths: &[String]) -> String {
+    let script = vservo_system_tests::repository_root().join("tests/nobody-tries.sh");
+    let text = std::fs::read_to_string(&script).expect("tests/nobody-tries.sh");
+    as_nobody(&text, paths)
+}
 
 /// Creates each named file with garbage, open to everyone, as another user would to block a name.
 const PLANT: &str = r#"
@@ -94,7 +86,7 @@ fn another_user_can_neither_touch_nor_pre_create_what_an_instance_runs_on() {
     assert!(shm.iter().any(|f| f.ends_with(".global_mgmt")), "the node counter is there: {shm:?}");
     let mut targets: Vec<String> = shm.clone();
     targets.extend(tree(&dir.base));
-    let done = as_nobody(TRY_EVERYTHING, &targets);
+    let done = nobody_tries(&targets);
     assert!(done.is_empty(), "nobody managed:\n{done}");
 
     // the instance still runs, and still makes nodes (a restarted node takes a number from the counter)

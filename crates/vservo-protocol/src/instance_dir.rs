@@ -311,7 +311,6 @@ fn private_dir(path: &Path, mode: u32) -> Result<(), InstanceDirError> {
 #[derive(Debug)]
 pub struct InstanceClaim {
     dir: InstanceDir,
-    base: PathBuf,
     /// Held while the daemon runs; the lock goes with the process.
     _lock: File,
     /// Why the prefix was replaced (another user's or an exposed file under the old one), if it was.
@@ -386,7 +385,7 @@ impl InstanceClaim {
         };
         prepare_node_counter(&dir)?;
         write_file_atomically(&prefix_path, format!("{}\n", dir.prefix).as_bytes())?;
-        Ok(Self { dir, base: base.to_path_buf(), _lock: lock, renewed_because })
+        Ok(Self { dir, _lock: lock, renewed_because })
     }
 
     /// The instance's directory and prefix.
@@ -396,7 +395,7 @@ impl InstanceClaim {
 
     /// The base directory, for the daemon's nodes ([`RUNTIME_DIR_ENV`]).
     pub fn base(&self) -> &Path {
-        &self.base
+        &self.dir.base
     }
 
     /// Refuses if any shared-memory object of the instance is another user's or reachable by another user.
