@@ -287,6 +287,8 @@ fn absurd_messages_from_a_rogue_publisher_are_refused_and_counted() {
                 features_px: [5000.0, 168.0, 318.0, 178.0, 339.0, 75.0, 172.0, -400.0],
                 mark_status: [0; 4],
                 reserved: [0; 4],
+                // not a rigid motion: the servo must not steer by it
+                base_from_camera: [3.0, 0.0, 0.0, 1e9, 0.0, 2.0, 0.0, -1e9, 0.0, 0.0, 1.0, 0.0],
             });
             let _ = gains.send_copy(GainsMsg {
                 schema: SCHEMA_VERSION,
@@ -295,6 +297,12 @@ fn absurd_messages_from_a_rogue_publisher_are_refused_and_counted() {
                 feature_gain: [1e6; 48],
                 past_input_gains: [0.0; 144],
                 desired_features_px: [5000.0; 8],
+                desired_depths_m: [-1.0; 4],
+                q: [f64::NAN; 64],
+                r_si: [0.0; 36],
+                interaction: 7,
+                feedforward: 3,
+                border_margin_px: -5.0,
                 seal: round,
             });
             let _ = modes.send_copy(CellModeMsg {

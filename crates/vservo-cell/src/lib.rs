@@ -5,7 +5,7 @@
 //!
 //! - [`PlantStage`]: the simulated arm and its world (the board's motion); one call per 1 ms tick;
 //! - [`VisionStage`]: simulated camera, extractor, mark tracking and the pipeline delay; one call per frame;
-//! - [`ServoStage`]: the LQ law and the rule for frames without usable features; one call per frame;
+//! - [`ServoStage`]: the LQ law and what it does with fewer than four marks; one call per frame;
 //! - [`RmrcStage`]: the interpolator and the joint servo; one call per tick.
 //!
 //! The lockstep shell calls them in one process on virtual time; the real-time shell runs each in its own
@@ -19,7 +19,7 @@ mod vision_stage;
 
 pub use plant_stage::PlantStage;
 pub use rmrc_stage::{ActuatorCommand, RmrcStage};
-pub use servo_stage::{ServoStage, ServoVerdict};
+pub use servo_stage::{ServoInput, ServoStage, ServoVerdict};
 pub use vision_stage::{DeliveredFrame, VisionFrame, VisionStage};
 pub use vservo_config::CommandInterface;
 
@@ -153,7 +153,17 @@ impl Cell {
 
     /// The servo at rest.
     pub fn servo(&self) -> ServoStage {
-        ServoStage::new(&self.gains)
+        ServoStage::new(self.law_geometry(), &self.gains)
+    }
+
+    /// What the law takes from the configuration and never changes.
+    pub fn law_geometry(&self) -> vservo_control::LawGeometry {
+        vservo_control::LawGeometry {
+            camera: self.config.camera,
+            board: self.config.board,
+            period_s: self.config.timing.vision_period_s,
+            delay_frames: self.config.timing.pipeline_delay_frames,
+        }
     }
 
     /// The interpolator and joint servo, their reference at rest at `q`, stepping by the driver's period and

@@ -1,7 +1,20 @@
-//! The servo stage: the LQ law, and what it does with a frame it cannot use.
+//! The servo stage: the LQ law, and what it does with a frame it cannot fully use.
+//!
+//! - All four marks: the law's twist ([`ServoVerdict::Servoing`]).
+//! - Three: the law on those three ([`ServoVerdict::ServoingOnThree`]).
+//! - Two or fewer: the camera is steered back towards where it was when all four were last seen, its own
+//!   motion since then known from the joint states at capture ([`ServoVerdict::Reacquiring`]); with no such
+//!   pose (none seen yet, or the camera's pose not known), zero twist ([`ServoVerdict::MarksMissing`]).
 
-use vservo_control::{Gains, LawGains, ServoLaw, Twist};
-use vservo_scene::FeatureVector;
+use vservo_control::{Gains, LawGains, LawGeometry, ServoLaw, Twist};
+use vservo_scene::{FeatureVector, IsometryMatrix3};
+
+/// The gain (1/s) of the steering back to the pose where all marks were last seen.
+pub const REACQUIRE_GAIN_PER_S: f64 = 1.5;
+/// The fastest the camera moves while reacquiring (m/s).
+pub const REACQUIRE_MAX_SPEED_M_S: f64 = 0.1;
+/// The fastest the camera turns while reacquiring (rad/s).
+pub const REACQUIRE_MAX_ROTATION_RAD_S: f64 = 0.5;
 
 /// Why the servo sent the twist it sent.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -10,19 +23,36 @@ pub enum ServoVerdict {
     Waiting,
     /// The law's twist for a frame with all four marks.
     Servoing,
-    /// A frame with a mark missing (bit m set for mark m): zero twist.
+    /// The law's twist on the three marks seen (bit m set for the missing mark m).
+    ServoingOnThree(u8),
+    /// Two or more marks missing (bit m set for mark m): steering back to where all were last seen.
+    Reacquiring(u8),
+    /// Marks missing and nowhere known to go back to: zero twist.
     MarksMissing(u8),
 }
 
-/// The servo: the law and its command history.
+/// A frame leaving the pipeline, as the servo takes it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ServoInput<'a> {
+    /// The frame number.
+    pub frame: u64,
+    /// ξ (px), NaN where a mark is not valid.
+    pub features: &'a FeatureVector,
+    /// The camera's pose at capture, if known.
+    pub base_from_camera: Option<&'a IsometryMatrix3<f64>>,
+}
+
+/// The servo: the law, its command history, and the pose where all marks were last seen.
 #[derive(Debug, Clone)]
 pub struct ServoStage {
     law: ServoLaw,
+    period_s: f64,
+    last_seen_whole: Option<IsometryMatrix3<f64>>,
 }
 
 impl ServoStage {
-    pub(crate) fn new(gains: &Gains) -> Self {
-        Self { law: ServoLaw::new(gains) }
+    pub(crate) fn new(geometry: LawGeometry, gains: &Gains) -> Self {
+        Self { law: ServoLaw::new(geometry, gains), period_s: geometry.period_s, last_seen_whole: None }
     }
 
     /// The desired features ξ_d.
@@ -42,22 +72,71 @@ impl ServoStage {
     }
 
     /// The twist for the frame leaving the pipeline now (`None` before the first one has).
-    pub fn step(&mut self, delivered: Option<&FeatureVector>) -> (Twist, ServoVerdict) {
-        match delivered {
-            None => (Twist::zeros(), ServoVerdict::Waiting),
-            Some(seen) => {
-                let mut missing = 0u8;
-                for mark in 0..seen.len() / 2 {
-                    if !(seen[2 * mark].is_finite() && seen[2 * mark + 1].is_finite()) {
-                        missing |= 1 << mark;
-                    }
-                }
-                if missing == 0 {
-                    (self.law.command(seen), ServoVerdict::Servoing)
-                } else {
-                    (self.law.hold(), ServoVerdict::MarksMissing(missing))
-                }
+    pub fn step(&mut self, delivered: Option<ServoInput<'_>>) -> (Twist, ServoVerdict) {
+        let Some(input) = delivered else { return (Twist::zeros(), ServoVerdict::Waiting) };
+        let seen = input.features;
+        let mut missing = 0u8;
+        for mark in 0..seen.len() / 2 {
+            if !(seen[2 * mark].is_finite() && seen[2 * mark + 1].is_finite()) {
+                missing |= 1 << mark;
             }
         }
+        if missing == 0 {
+            self.last_seen_whole = input.base_from_camera.copied();
+        }
+        match self.law.step(input.frame, seen, input.base_from_camera) {
+            Some(step) if missing == 0 => (step.twist, ServoVerdict::Servoing),
+            Some(step) => (step.twist, ServoVerdict::ServoingOnThree(missing)),
+            None => match (self.last_seen_whole, input.base_from_camera) {
+                (Some(then), Some(now)) => {
+                    let twist = steer_towards(now, &then, self.period_s);
+                    self.law.sent(twist);
+                    (twist, ServoVerdict::Reacquiring(missing))
+                }
+                _ => (self.law.hold(), ServoVerdict::MarksMissing(missing)),
+            },
+        }
+    }
+}
+
+/// The camera twist (in the camera frame) that moves the camera from `now` towards `then` with
+/// [`REACQUIRE_GAIN_PER_S`], its speeds capped, and never beyond `then` within one frame.
+pub fn steer_towards(now: &IsometryMatrix3<f64>, then: &IsometryMatrix3<f64>, period_s: f64) -> Twist {
+    let now_from_then = now.inverse() * then;
+    let translation = now_from_then.translation.vector;
+    let rotation = now_from_then.rotation.scaled_axis();
+    let gain = REACQUIRE_GAIN_PER_S.min(1.0 / period_s);
+    let mut v = translation * gain;
+    let mut w = rotation * gain;
+    if v.norm() > REACQUIRE_MAX_SPEED_M_S {
+        v *= REACQUIRE_MAX_SPEED_M_S / v.norm();
+    }
+    if w.norm() > REACQUIRE_MAX_ROTATION_RAD_S {
+        w *= REACQUIRE_MAX_ROTATION_RAD_S / w.norm();
+    }
+    Twist::new(v.x, v.y, v.z, w.x, w.y, w.z)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use nalgebra::{Rotation3, Translation3, Vector3};
+
+    #[test]
+    fn steering_back_points_the_camera_to_where_it_was_and_stays_within_its_limits() {
+        let then = IsometryMatrix3::identity();
+        let now = IsometryMatrix3::from_parts(Translation3::new(0.02, 0.0, 0.0), Rotation3::identity());
+        let twist = steer_towards(&now, &then, 0.085);
+        // back along −x of the camera, at the gain
+        assert!((twist[0] + 0.02 * REACQUIRE_GAIN_PER_S).abs() < 1e-12, "{twist}");
+        assert!(twist.rows(1, 5).amax() < 1e-12);
+        let far = IsometryMatrix3::from_parts(
+            Translation3::new(1.0, 0.5, 0.0),
+            Rotation3::from_axis_angle(&Vector3::z_axis(), 1.0),
+        );
+        let twist = steer_towards(&far, &then, 0.085);
+        assert!(twist.fixed_rows::<3>(0).norm() <= REACQUIRE_MAX_SPEED_M_S + 1e-12);
+        assert!(twist.fixed_rows::<3>(3).norm() <= REACQUIRE_MAX_ROTATION_RAD_S + 1e-12);
+        assert!(twist[5] < 0.0, "turns back");
     }
 }

@@ -22,6 +22,8 @@ pub struct DeliveredFrame {
     pub capture_tick: u64,
     /// ξ (px), NaN where a mark is not valid.
     pub features: FeatureVector,
+    /// Where the camera was when the image was taken (from the arm's joints then), if known.
+    pub base_from_camera: Option<IsometryMatrix3<f64>>,
 }
 
 /// What one frame produced.
@@ -53,6 +55,9 @@ pub struct VisionStage {
     frames_with_a_mark_missing: u32,
     pipeline: VecDeque<DeliveredFrame>,
     delay_frames: usize,
+    /// The scenario's occlusions, and the tick length that turns a tick into their time.
+    scenario: vservo_config::Scenario,
+    control_period_s: f64,
 }
 
 impl VisionStage {
@@ -79,6 +84,8 @@ impl VisionStage {
             frames_with_a_mark_missing: 0,
             pipeline: VecDeque::with_capacity(delay_frames + 1),
             delay_frames,
+            scenario: config.scenario,
+            control_period_s: config.timing.control_period_s,
         }
     }
 
@@ -152,7 +159,8 @@ impl VisionStage {
     ) -> VisionFrame {
         let base_from_camera = self.arm.base_from_tool(q) * self.tool_from_camera;
         let camera_from_board = base_from_camera.inverse() * base_from_board;
-        let image = self.camera.capture(&camera_from_board, frame);
+        let hidden = self.scenario.hidden_marks(tick as f64 * self.control_period_s);
+        let image = self.camera.capture_hiding(&camera_from_board, frame, hidden);
         let prediction = match self.tracked {
             Some(p) => Prediction::Tracking(p),
             None => Prediction::Layout(self.layout),
@@ -162,7 +170,7 @@ impl VisionStage {
             .intrinsics
             .project_marks(&self.board, &camera_from_board)
             .unwrap_or_else(|_| FeatureVector::from_element(f64::NAN));
-        let delivered = self.finish(frame, tick, &captured);
+        let delivered = self.finish(frame, tick, &captured, Some(base_from_camera));
         VisionFrame { captured, truth, base_from_camera, delivered }
     }
 
@@ -171,12 +179,14 @@ impl VisionStage {
         self.camera.image()
     }
 
-    /// Extracts frame `frame`, an image from a camera driver taken when the robot's latest tick was `tick`,
-    /// and pushes it into the pipeline. Returns the extraction and the frame leaving the pipeline.
+    /// Extracts frame `frame`, an image from a camera driver taken when the robot's latest tick was `tick`
+    /// and its joints `q` (if known), and pushes it into the pipeline. Returns the extraction and the frame
+    /// leaving the pipeline.
     pub fn process_image(
         &mut self,
         frame: u64,
         tick: u64,
+        q: Option<&JointVector>,
         image: &GrayImage,
     ) -> (Extraction, Option<DeliveredFrame>) {
         let prediction = match self.tracked {
@@ -184,14 +194,28 @@ impl VisionStage {
             None => Prediction::Layout(self.layout),
         };
         let captured = self.extractor.extract(image, &prediction);
-        let delivered = self.finish(frame, tick, &captured);
+        let base_from_camera = q
+            .filter(|q| q.iter().all(|v| v.is_finite()))
+            .map(|q| self.arm.base_from_tool(q) * self.tool_from_camera);
+        let delivered = self.finish(frame, tick, &captured, base_from_camera);
         (captured, delivered)
     }
 
     /// Updates the tracker with a frame's extraction and moves the pipeline on.
-    fn finish(&mut self, frame: u64, tick: u64, captured: &Extraction) -> Option<DeliveredFrame> {
+    fn finish(
+        &mut self,
+        frame: u64,
+        tick: u64,
+        captured: &Extraction,
+        base_from_camera: Option<IsometryMatrix3<f64>>,
+    ) -> Option<DeliveredFrame> {
         self.update_tracking(captured);
-        self.pipeline.push_back(DeliveredFrame { frame, capture_tick: tick, features: captured.features });
+        self.pipeline.push_back(DeliveredFrame {
+            frame,
+            capture_tick: tick,
+            features: captured.features,
+            base_from_camera,
+        });
         (self.pipeline.len() > self.delay_frames).then(|| self.pipeline.pop_front()).flatten()
     }
 }

@@ -5,8 +5,8 @@
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::cell::Cell as StdCell;
 
-use vservo_cell::Cell;
-use vservo_control::Twist;
+use vservo_cell::{Cell, ServoInput};
+use vservo_control::{Interaction, LawOptions, Twist};
 
 struct Counting;
 
@@ -49,6 +49,23 @@ fn ticks_and_frames_allocate_nothing_once_running() {
     let config =
         vservo_config::Config::load(concat!(env!("CARGO_MANIFEST_DIR"), "/../../config/vservo.toml"))
             .expect("the default config loads");
+    runs_without_allocating(config);
+}
+
+/// The law beyond the paper's: a gain designed on every frame, the feed-forward, the barrier, three marks
+/// and reacquiring.
+#[test]
+fn the_robust_law_allocates_nothing_per_frame_either() {
+    let mut config =
+        vservo_config::Config::load(concat!(env!("CARGO_MANIFEST_DIR"), "/../../config/vservo.toml"))
+            .expect("the default config loads");
+    config.controller.law = vservo_control::ControlLaw::DelayAware;
+    config.controller.options =
+        LawOptions { interaction: Interaction::Mean, border_margin_px: 20.0, feedforward: true };
+    runs_without_allocating(config);
+}
+
+fn runs_without_allocating(config: vservo_config::Config) {
     let cell = Cell::new(&config).expect("the default cell");
     let mut plant = cell.plant();
     let mut vision = cell.vision();
@@ -58,7 +75,25 @@ fn ticks_and_frames_allocate_nothing_once_running() {
     let mut frame = |plant: &vservo_cell::PlantStage, vision: &mut vservo_cell::VisionStage, k: u64| {
         let state = *plant.state();
         let taken = vision.capture(k, state.tick, &state.q, &plant.base_from_board());
-        servo.step(taken.delivered.as_ref().map(|d| &d.features)).0
+        let mut delivered = taken.delivered;
+        // frame 4 loses a mark, frame 5 three: the servo goes on with three, then reacquires
+        if let Some(d) = delivered.as_mut() {
+            for mark in 0..match k {
+                4 => 1,
+                5 => 3,
+                _ => 0,
+            } {
+                d.features[2 * mark] = f64::NAN;
+                d.features[2 * mark + 1] = f64::NAN;
+            }
+        }
+        servo
+            .step(delivered.as_ref().map(|d| ServoInput {
+                frame: d.frame,
+                features: &d.features,
+                base_from_camera: d.base_from_camera.as_ref(),
+            }))
+            .0
     };
     // the first frames fill the pipeline and size the extractor's buffers
     for k in 0..3 {

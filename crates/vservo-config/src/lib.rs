@@ -251,6 +251,34 @@ pub struct Scenario {
     pub initial_camera_rotation: Vector3<f64>,
     /// How the board moves.
     pub object: vservo_sim::world::ObjectMotion,
+    /// Marks the simulated camera does not see for a while (`scenario.occlusions`; none by default), at
+    /// most [`MAX_OCCLUSIONS`].
+    pub occlusions: [Option<Occlusion>; MAX_OCCLUSIONS],
+}
+
+/// The most occlusions a scenario may hold.
+pub const MAX_OCCLUSIONS: usize = 8;
+
+/// A mark hidden from the simulated camera for a while, as if something covered it (`scenario.occlusions`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Occlusion {
+    /// The mark (zero-based).
+    pub mark: usize,
+    /// From this time (s)…
+    pub from_s: f64,
+    /// …until this one (s).
+    pub until_s: f64,
+}
+
+impl Scenario {
+    /// The marks hidden at time `t_s` (bit m for mark m).
+    pub fn hidden_marks(&self, t_s: f64) -> u8 {
+        self.occlusions
+            .iter()
+            .flatten()
+            .filter(|o| o.from_s <= t_s && t_s < o.until_s)
+            .fold(0, |set, o| set | (1 << o.mark))
+    }
 }
 
 /// Where images come from, and how features are found in them.
@@ -310,6 +338,8 @@ pub struct Controller {
     pub q: StateWeight,
     /// R, with its unit.
     pub r: InputWeight,
+    /// What the law does beyond the paper's (`interaction`, `border_margin_px`, `feedforward`).
+    pub options: vservo_control::LawOptions,
 }
 
 impl Config {
@@ -392,6 +422,7 @@ impl Config {
             q: self.controller.q,
             r: self.controller.r,
             law: self.controller.law,
+            options: self.controller.options,
         }
     }
 }

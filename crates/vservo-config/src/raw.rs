@@ -201,6 +201,12 @@ pub struct RawController {
     pub q: toml::Value,
     pub r: toml::Value,
     pub r_units: String,
+    #[serde(default)]
+    pub interaction: Option<String>,
+    #[serde(default)]
+    pub border_margin_px: Option<f64>,
+    #[serde(default)]
+    pub feedforward: Option<bool>,
 }
 
 #[derive(Debug, Deserialize)]
@@ -264,4 +270,14 @@ pub struct RawScenario {
     pub step_translation_m: [f64; 3],
     pub circle_radius_m: f64,
     pub circle_rev_per_min: f64,
+    #[serde(default)]
+    pub occlusions: Vec<RawOcclusion>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawOcclusion {
+    pub mark: i64,
+    pub from_s: f64,
+    pub until_s: f64,
 }

@@ -2,10 +2,10 @@
 
 use nalgebra::{Point2, Point3, SMatrix, Vector3};
 use vservo_arm::{JointVector, puma560};
-use vservo_control::{ControlLaw, InputUnits, InputWeight, StateWeight};
-use vservo_scene::{Board, CameraIntrinsics, FEATURES, MARKS};
+use vservo_control::{ControlLaw, InputUnits, InputWeight, Interaction, LawOptions, StateWeight};
+use vservo_scene::{Board, CameraIntrinsics, FEATURES, FeatureVector, MARKS};
 
-use crate::raw::{RawConfig, RawPose};
+use crate::raw::{RawConfig, RawController, RawPose};
 use vservo_vision::{ExtractorSettings, RenderSettings, Threshold};
 
 use vservo_sim::interpolator::InterpolatorSettings;
@@ -320,6 +320,7 @@ pub fn validate(raw: RawConfig, file: &str) -> Result<Config, ConfigError> {
     let r_matrix = check.weight::<6>("controller.r", &k.r)?;
     let r =
         InputWeight::new(r_matrix, units).map_err(|e| check.invalid("controller.r", &k.r, e.to_string()))?;
+    let options = validate_law_options(&check, k, &camera, &desired.features)?;
 
     let source = validate_camera_source(&check, &raw.camera)?;
     let vision = validate_vision(&check, &raw.vision, source)?;
@@ -348,7 +349,7 @@ pub fn validate(raw: RawConfig, file: &str) -> Result<Config, ConfigError> {
         tool_from_camera,
         board,
         desired,
-        controller: Controller { law, q, r },
+        controller: Controller { law, q, r, options },
         vision,
         plant,
         interpolator,
@@ -577,11 +578,34 @@ fn validate_simulation(
             ));
         }
     };
+    let mut occlusions = [None; crate::MAX_OCCLUSIONS];
+    if raw.scenario.occlusions.len() > crate::MAX_OCCLUSIONS {
+        return Err(check.invalid(
+            "scenario.occlusions",
+            raw.scenario.occlusions.len(),
+            format!("at most {} occlusions", crate::MAX_OCCLUSIONS),
+        ));
+    }
+    for (i, o) in raw.scenario.occlusions.iter().enumerate() {
+        let key = format!("scenario.occlusions[{i}]");
+        if !(1..=MARKS as i64).contains(&o.mark) {
+            return Err(check.invalid(&format!("{key}.mark"), o.mark, "must be a mark number, 1 to 4"));
+        }
+        if !(o.from_s.is_finite() && o.until_s.is_finite() && 0.0 <= o.from_s && o.from_s < o.until_s) {
+            return Err(check.invalid(
+                &format!("{key}.until_s"),
+                o.until_s,
+                format!("must come after from_s ({}), both at least 0 s", o.from_s),
+            ));
+        }
+        occlusions[i] = Some(crate::Occlusion { mark: (o.mark - 1) as usize, from_s: o.from_s, until_s: o.until_s });
+    }
     let scenario = Scenario {
         duration_s,
         initial_camera_translation_m: Vector3::from(translation),
         initial_camera_rotation: Vector3::from(rotation.map(f64::to_radians)),
         object,
+        occlusions,
     };
     Ok((plant, interpolator, joint_servo, scenario))
 }
@@ -902,4 +926,49 @@ fn validate_vision(
             supersampling: r.supersampling as u32,
         },
     })
+}
+
+/// `controller.interaction`, `controller.border_margin_px` and `controller.feedforward`: optional, the paper's
+/// law as published when left out. A margin must leave ξ_d inside it.
+fn validate_law_options(
+    check: &Checker,
+    k: &RawController,
+    camera: &CameraIntrinsics,
+    desired_features: &FeatureVector,
+) -> Result<LawOptions, ConfigError> {
+    let interaction = match &k.interaction {
+        None => Interaction::Desired,
+        Some(name) => Interaction::from_name(name).ok_or_else(|| {
+            check.invalid(
+                "controller.interaction",
+                format!("{name:?}"),
+                "must be \"desired\" (the paper's fixed gain), \"mean\" or \"current\"",
+            )
+        })?,
+    };
+    let border_margin_px = k.border_margin_px.unwrap_or(0.0);
+    let half = f64::from(camera.width_px().min(camera.height_px())) / 2.0;
+    if !(border_margin_px.is_finite() && (0.0..half).contains(&border_margin_px)) {
+        return Err(check.invalid(
+            "controller.border_margin_px",
+            border_margin_px,
+            format!("must be at least 0 and less than half the image ({half} px)"),
+        ));
+    }
+    let (width, height) = (f64::from(camera.width_px()), f64::from(camera.height_px()));
+    for mark in 0..MARKS {
+        let (x, y) = (desired_features[2 * mark], desired_features[2 * mark + 1]);
+        let inside = |v: f64, limit: f64| v >= border_margin_px && v <= limit - border_margin_px;
+        if !(inside(x, width) && inside(y, height)) {
+            return Err(check.invalid(
+                "controller.border_margin_px",
+                border_margin_px,
+                format!(
+                    "desired mark {} images at ({x:.1}, {y:.1}) px, inside the margin: the barrier would keep the servo from its goal",
+                    mark + 1
+                ),
+            ));
+        }
+    }
+    Ok(LawOptions { interaction, border_margin_px, feedforward: k.feedforward.unwrap_or(false) })
 }

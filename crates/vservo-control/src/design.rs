@@ -33,6 +33,68 @@ impl ControlLaw {
     }
 }
 
+/// Where the servo's model B = T·J⁺ is evaluated (`controller.interaction`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Interaction {
+    /// At ξ_d and Z_d, once: the paper's fixed gain.
+    #[default]
+    Desired,
+    /// The mean of J⁺ at ξ_d, Z_d and at the current features and depths, the gain designed anew on every
+    /// frame: the camera's path stays near a straight line for large displacements and rolls.
+    Mean,
+    /// At the current features and depths, designed anew on every frame (classic IBVS's choice).
+    Current,
+}
+
+impl Interaction {
+    /// The name in configuration files.
+    pub fn name(&self) -> &'static str {
+        match self {
+            Interaction::Desired => "desired",
+            Interaction::Mean => "mean",
+            Interaction::Current => "current",
+        }
+    }
+
+    /// From the name in configuration files.
+    pub fn from_name(name: &str) -> Option<Interaction> {
+        [Interaction::Desired, Interaction::Mean, Interaction::Current].into_iter().find(|i| i.name() == name)
+    }
+
+    /// Its code on the wire.
+    pub fn code(&self) -> u32 {
+        match self {
+            Interaction::Desired => 0,
+            Interaction::Mean => 1,
+            Interaction::Current => 2,
+        }
+    }
+
+    /// From its code on the wire.
+    pub fn from_code(code: u32) -> Option<Interaction> {
+        [Interaction::Desired, Interaction::Mean, Interaction::Current].into_iter().find(|i| i.code() == code)
+    }
+}
+
+/// What the law does beyond the paper's (all off by default: the paper's law as published).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct LawOptions {
+    /// Where B is evaluated.
+    pub interaction: Interaction,
+    /// Keep every seen mark this far inside the image (px); 0 for no barrier ([`crate::border`]).
+    pub border_margin_px: f64,
+    /// Estimate the target's image motion and feed it forward through the delay
+    /// ([`crate::target_motion`]).
+    pub feedforward: bool,
+}
+
+impl LawOptions {
+    /// Whether the law needs the current mark depths (from the board pose the features give).
+    pub fn needs_depths(&self) -> bool {
+        self.interaction != Interaction::Desired || self.feedforward
+    }
+}
+
 /// Everything a gain is designed from.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct GainsSpec {
@@ -52,6 +114,8 @@ pub struct GainsSpec {
     pub r: InputWeight,
     /// The law to run.
     pub law: ControlLaw,
+    /// What it does beyond the paper's.
+    pub options: LawOptions,
 }
 
 /// Why gains could not be made.
@@ -92,6 +156,14 @@ pub struct Gains {
     pub delay_frames: usize,
     /// ξ_d.
     pub desired_features: FeatureVector,
+    /// Z_d (m).
+    pub desired_depths: MarkDepths,
+    /// Q.
+    pub q: StateWeight,
+    /// R in SI units.
+    pub r_si: Matrix6<f64>,
+    /// What the law does beyond the paper's.
+    pub options: LawOptions,
 }
 
 impl Gains {
@@ -130,6 +202,10 @@ impl Gains {
             past_input_gains,
             delay_frames: spec.delay_frames,
             desired_features: spec.desired_features,
+            desired_depths: spec.desired_depths,
+            q: spec.q,
+            r_si,
+            options: spec.options,
         })
     }
 

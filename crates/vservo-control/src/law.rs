@@ -1,21 +1,47 @@
 //! The per-frame control law, run by the servo on every feature vector. No allocation.
+//!
+//! With all four marks seen and B at ξ_d ([`Interaction::Desired`]) this is the law as designed:
+//! u = −K_ξ (ξ − ξ_d) − Σ K_j u(k − j) (the paper's, or the delay-aware one). Beyond that:
+//! - **Three marks.** With one mark missing the law runs the paper's design on the three seen (the rows of
+//!   the missing mark zeroed in B; with N = 3 there are no uncontrollable modes), the four gains designed
+//!   when the gains arrive, off the per-frame path. The delay-aware law is the paper's gain on the features
+//!   predicted through the pipeline (K_j = K B, docs/ARCHITECTURE.md), so it carries over to three marks
+//!   as u = −K (ξ̄ + B Σ u(k − j)).
+//! - **Scheduled gain** ([`Interaction::Mean`], [`Interaction::Current`]): B at the current features and the
+//!   depths of the board pose they give, and the gain designed on every frame ([`crate::frame_design`]).
+//! - **Feed-forward** of the target's own image motion ([`crate::target_motion`]) through the delay.
+//! - **A barrier** at the image border ([`crate::border`]).
 
-use vservo_scene::FeatureVector;
+use nalgebra::{Matrix6, SMatrix};
+use vservo_scene::{Board, CameraIntrinsics, FEATURES, FeatureVector, IsometryMatrix3, MARKS, MarkDepths};
 
-use crate::{FeatureGain, Gains, MAX_DELAY_FRAMES, Twist};
+use crate::border::Barrier;
+use crate::frame_design::{self, ALL_MARKS, FrameDesign, MarkSet};
+use crate::image_jacobian::{extended_image_jacobian, interaction_matrix};
+use crate::target_motion::TargetMotion;
+use crate::{FeatureGain, Gains, Interaction, InteractionMatrix, LawOptions, MAX_DELAY_FRAMES, Twist};
 
-/// What the law needs of a design: the gain on the feature error, the gains on past commands and ξ_d. This
-/// is what crosses from the process that designs gains (off the hot path) to the one that runs the law.
+/// What the law needs of a design: the gain on the feature error, the gains on past commands, ξ_d, and what
+/// the law designs from on the frame. This is what crosses from the process that designs gains (off the hot
+/// path) to the one that runs the law.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct LawGains {
     /// K_ξ (K for the paper's law).
     pub feature_gain: FeatureGain,
     /// K_j on the command sent j + 1 frames ago.
-    pub past_input_gains: [nalgebra::Matrix6<f64>; MAX_DELAY_FRAMES],
+    pub past_input_gains: [Matrix6<f64>; MAX_DELAY_FRAMES],
     /// How many of `past_input_gains` are used.
     pub used_past_gains: usize,
     /// ξ_d.
     pub desired_features: FeatureVector,
+    /// Z_d (m).
+    pub desired_depths: MarkDepths,
+    /// Q.
+    pub q: SMatrix<f64, FEATURES, FEATURES>,
+    /// R in SI units.
+    pub r_si: Matrix6<f64>,
+    /// What the law does beyond the paper's.
+    pub options: LawOptions,
 }
 
 impl From<&Gains> for LawGains {
@@ -25,32 +51,76 @@ impl From<&Gains> for LawGains {
             past_input_gains: gains.past_input_gains,
             used_past_gains: gains.active_past_input_gains().len(),
             desired_features: gains.desired_features,
+            desired_depths: gains.desired_depths,
+            q: *gains.q.matrix(),
+            r_si: gains.r_si,
+            options: gains.options,
         }
     }
+}
+
+/// What does not change while the cell runs: the camera, the board, the vision period and the pipeline's
+/// delay.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LawGeometry {
+    /// The camera.
+    pub camera: CameraIntrinsics,
+    /// The board (for the depths of its pose).
+    pub board: Board,
+    /// The vision period T (s).
+    pub period_s: f64,
+    /// The image pipeline's delay (frames).
+    pub delay_frames: usize,
+}
+
+/// One frame's command and how it was made.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LawStep {
+    /// The twist.
+    pub twist: Twist,
+    /// The marks it was computed from.
+    pub marks: MarkSet,
+    /// Barrier conditions that changed the twist.
+    pub border_corrections: u32,
+    /// The frame's gain could not be designed (degenerate image); the fixed gain for these marks served.
+    pub design_fell_back: bool,
 }
 
 /// The servo's state: its gains and the commands it sent in the last frames.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ServoLaw {
-    feature_gain: FeatureGain,
-    past_input_gains: [nalgebra::Matrix6<f64>; MAX_DELAY_FRAMES],
-    used_past_gains: usize,
-    desired_features: FeatureVector,
+    geometry: LawGeometry,
+    gains: LawGains,
+    /// B at ξ_d, Z_d.
+    b_desired: InteractionMatrix,
+    /// The fixed design on all four marks (for its pseudo-inverse).
+    full: Option<FrameDesign>,
+    /// The fixed design on the marks other than m.
+    without: [Option<FrameDesign>; MARKS],
+    r_inverse: Matrix6<f64>,
     /// Commands sent, most recent first.
     history: [Twist; MAX_DELAY_FRAMES],
+    /// The depths the law last estimated (Z_d before any).
+    depths: MarkDepths,
+    target: TargetMotion,
 }
 
 impl ServoLaw {
     /// A law at rest (no command sent yet) with these gains.
-    pub fn new(gains: &Gains) -> Self {
+    pub fn new(geometry: LawGeometry, gains: &Gains) -> Self {
+        let law_gains = LawGains::from(gains);
         let mut law = Self {
-            feature_gain: gains.feature_gain,
-            past_input_gains: gains.past_input_gains,
-            used_past_gains: 0,
-            desired_features: gains.desired_features,
+            geometry,
+            gains: law_gains,
+            b_desired: InteractionMatrix::zeros(),
+            full: None,
+            without: [None; MARKS],
+            r_inverse: Matrix6::identity(),
             history: [Twist::zeros(); MAX_DELAY_FRAMES],
+            depths: gains.desired_depths,
+            target: TargetMotion::default(),
         };
-        law.set_gains(gains);
+        law.set_law_gains(&law_gains);
         law
     }
 
@@ -60,39 +130,198 @@ impl ServoLaw {
         self.set_law_gains(&LawGains::from(gains));
     }
 
-    /// [`ServoLaw::set_gains`] from the law's part of a design.
+    /// [`ServoLaw::set_gains`] from the law's part of a design; designs the gains on three marks.
     pub fn set_law_gains(&mut self, gains: &LawGains) {
-        self.feature_gain = gains.feature_gain;
-        self.past_input_gains = gains.past_input_gains;
-        self.used_past_gains = gains.used_past_gains.min(MAX_DELAY_FRAMES);
-        self.desired_features = gains.desired_features;
+        let target_changed = gains.desired_features != self.gains.desired_features;
+        self.gains = *gains;
+        self.gains.used_past_gains = gains.used_past_gains.min(MAX_DELAY_FRAMES);
+        let g = &self.geometry;
+        self.b_desired =
+            interaction_matrix(&g.camera, &gains.desired_features, &gains.desired_depths, g.period_s);
+        self.full = frame_design::design(&self.b_desired, &gains.q, &gains.r_si).ok();
+        for mark in 0..MARKS {
+            let b = frame_design::masked(&self.b_desired, ALL_MARKS & !(1 << mark));
+            self.without[mark] = frame_design::design(&b, &gains.q, &gains.r_si).ok();
+        }
+        self.r_inverse = gains.r_si.try_inverse().unwrap_or_else(Matrix6::identity);
+        if target_changed {
+            self.target.reset();
+        }
     }
 
     /// The desired features ξ_d.
     pub fn desired_features(&self) -> &FeatureVector {
-        &self.desired_features
+        &self.gains.desired_features
     }
 
-    /// The twist for a measured feature vector: u = −K_ξ (ξ − ξ_d) − Σ K_j u(k − j).
+    /// The options in force.
+    pub fn options(&self) -> &LawOptions {
+        &self.gains.options
+    }
+
+    /// The twist for a measured feature vector with all four marks: u = −K_ξ (ξ − ξ_d) − Σ K_j u(k − j).
     pub fn command(&mut self, measured: &FeatureVector) -> Twist {
-        let error = measured - self.desired_features;
-        let mut twist = -(self.feature_gain * error);
-        for (gain, past) in self.past_input_gains.iter().zip(&self.history).take(self.used_past_gains) {
+        let error = measured - self.gains.desired_features;
+        let mut twist = -(self.gains.feature_gain * error);
+        for (gain, past) in
+            self.gains.past_input_gains.iter().zip(&self.history).take(self.gains.used_past_gains)
+        {
             twist -= gain * past;
         }
         self.remember(twist);
         twist
     }
 
+    /// The twist for frame `frame` with the features seen (NaN where a mark is not), and the camera's pose
+    /// at capture when known. `None` (and nothing remembered) with fewer than three marks: the caller
+    /// decides what to send, and tells the law with [`ServoLaw::sent`].
+    pub fn step(
+        &mut self,
+        frame: u64,
+        measured: &FeatureVector,
+        base_from_camera: Option<&IsometryMatrix3<f64>>,
+    ) -> Option<LawStep> {
+        let marks = frame_design::finite_marks(measured);
+        let options = self.gains.options;
+        if options.needs_depths() && marks == ALL_MARKS {
+            let g = &self.geometry;
+            if let Some(pose) = g.camera.board_pose_from_features(&g.board, measured) {
+                for (depth, mark) in self.depths.iter_mut().zip(&g.board.marks_in_board) {
+                    let z = (pose * mark).z;
+                    if z.is_finite() && z > 0.0 {
+                        *depth = z;
+                    }
+                }
+            }
+        }
+        if options.feedforward {
+            self.target.update(&self.geometry.camera, frame, measured, &self.depths, marks, base_from_camera);
+        }
+        if frame_design::mark_count(marks) < 3 {
+            return None;
+        }
+        let plain = marks == ALL_MARKS && options == LawOptions::default();
+        if plain {
+            let twist = self.command(measured);
+            return Some(LawStep { twist, marks, border_corrections: 0, design_fell_back: false });
+        }
+
+        let mut error = measured - self.gains.desired_features;
+        for value in error.iter_mut() {
+            if !value.is_finite() {
+                *value = 0.0;
+            }
+        }
+        let fixed = if marks == ALL_MARKS {
+            self.full
+        } else {
+            let missing = (0..MARKS).find(|m| marks & (1 << m) == 0).unwrap_or(0);
+            self.without[missing]
+        };
+        let (b, design, fell_back) = match options.interaction {
+            Interaction::Desired => (frame_design::masked(&self.b_desired, marks), fixed, false),
+            Interaction::Mean | Interaction::Current => {
+                let g = &self.geometry;
+                let filled = filled_with(measured, &self.gains.desired_features);
+                let seen = extended_image_jacobian(&g.camera, &filled, &self.depths);
+                let jacobian = if options.interaction == Interaction::Mean {
+                    let desired = extended_image_jacobian(
+                        &g.camera,
+                        &self.gains.desired_features,
+                        &self.gains.desired_depths,
+                    );
+                    (seen + desired) * 0.5
+                } else {
+                    seen
+                };
+                let b = frame_design::masked(&(jacobian * g.period_s), marks);
+                match frame_design::design(&b, &self.gains.q, &self.gains.r_si) {
+                    Ok(design) => (b, Some(design), false),
+                    Err(_) => (frame_design::masked(&self.b_desired, marks), fixed, true),
+                }
+            }
+        };
+        // the marks seen with no design for them (a degenerate ξ_d): hold
+        let design = design?;
+
+        let use_fixed_full = marks == ALL_MARKS && options.interaction == Interaction::Desired;
+        let delay = self.geometry.delay_frames.min(MAX_DELAY_FRAMES);
+        // the features as they are now: the delayed error plus what the commands in the pipeline did
+        let mut in_pipeline = FeatureVector::zeros();
+        for past in self.history.iter().take(delay) {
+            in_pipeline += b * past;
+        }
+        let drift_to_now = if options.feedforward && self.target.settled() {
+            masked_features(&self.target.motion_over(delay), marks)
+        } else {
+            FeatureVector::zeros()
+        };
+        let drift_next = if options.feedforward && self.target.settled() {
+            masked_features(&self.target.motion_in_frame(delay), marks)
+        } else {
+            FeatureVector::zeros()
+        };
+        let mut twist = if use_fixed_full {
+            let mut twist = -(self.gains.feature_gain * error);
+            for (gain, past) in
+                self.gains.past_input_gains.iter().zip(&self.history).take(self.gains.used_past_gains)
+            {
+                twist -= gain * past;
+            }
+            twist - self.gains.feature_gain * drift_to_now
+        } else {
+            // the delay-aware law is the paper's gain on the predicted features (K_j = K B)
+            let mut predicted = error + drift_to_now;
+            if self.gains.used_past_gains > 0 {
+                predicted += in_pipeline;
+            }
+            -(design.gain * predicted)
+        };
+        // cancel the target's motion over the coming frame
+        twist -= design.pseudo_inverse * drift_next;
+        let mut border_corrections = 0;
+        if options.border_margin_px > 0.0 {
+            let predicted = measured_or_zero(measured) + in_pipeline + drift_to_now;
+            let barrier = Barrier::new(&self.geometry.camera, options.border_margin_px, self.r_inverse);
+            let (kept, corrections) = barrier.keep_inside(twist, &b, &predicted, &drift_next, marks);
+            twist = kept;
+            border_corrections = corrections;
+        }
+        self.remember(twist);
+        Some(LawStep { twist, marks, border_corrections, design_fell_back: fell_back })
+    }
+
     /// No usable features this frame: command zero, and remember that zero was sent.
     pub fn hold(&mut self) -> Twist {
-        let twist = Twist::zeros();
+        self.sent(Twist::zeros());
+        Twist::zeros()
+    }
+
+    /// Tells the law the twist sent this frame when it did not compute it (reacquiring the marks).
+    pub fn sent(&mut self, twist: Twist) {
         self.remember(twist);
-        twist
     }
 
     fn remember(&mut self, twist: Twist) {
         self.history.rotate_right(1);
         self.history[0] = twist;
     }
+}
+
+/// ξ with the marks not seen set to ξ_d (their rows are zeroed in B anyway; J needs finite numbers).
+fn filled_with(measured: &FeatureVector, desired: &FeatureVector) -> FeatureVector {
+    measured.zip_map(desired, |m, d| if m.is_finite() { m } else { d })
+}
+
+fn measured_or_zero(measured: &FeatureVector) -> FeatureVector {
+    measured.map(|v| if v.is_finite() { v } else { 0.0 })
+}
+
+fn masked_features(features: &FeatureVector, marks: MarkSet) -> FeatureVector {
+    let mut out = *features;
+    for mark in (0..MARKS).filter(|m| marks & (1 << m) == 0) {
+        out[2 * mark] = 0.0;
+        out[2 * mark + 1] = 0.0;
+    }
+    out
 }

@@ -10,7 +10,10 @@
 //!   and a structure-preserving doubling solver for any A;
 //! - [`lq`]: the LQ gain on the controllable/uncontrollable mode decomposition (eq. 19–41), and the
 //!   delay-aware gain, LQ on the state augmented with the commands still in the image pipeline;
-//! - [`law`]: the per-frame control law u = −K (ξ − ξ_d) − Σ K_j u(k−j), allocation-free;
+//! - [`law`]: the per-frame control law u = −K (ξ − ξ_d) − Σ K_j u(k−j), allocation-free, and what it does
+//!   beyond the paper's when configured to: servo on the three marks left when one is missing, a gain
+//!   scheduled on the current features ([`frame_design`]), a barrier that keeps the marks inside the image
+//!   ([`border`]), and the target's own motion fed forward ([`target_motion`]);
 //! - [`analysis`]: closed-loop eigenvalues with and without the pipeline delay, and the Corollary 1
 //!   stability margins.
 //!
@@ -18,15 +21,18 @@
 //! so K is in m/s and rad/s per pixel.
 
 pub mod analysis;
+pub mod border;
 pub mod dare;
 pub mod design;
+pub mod frame_design;
 pub mod image_jacobian;
 pub mod law;
 pub mod lq;
+pub mod target_motion;
 pub mod weights;
 
-pub use design::{ControlLaw, Gains, GainsError, GainsSpec};
-pub use law::{LawGains, ServoLaw};
+pub use design::{ControlLaw, Gains, GainsError, GainsSpec, Interaction, LawOptions};
+pub use law::{LawGains, LawGeometry, LawStep, ServoLaw};
 pub use weights::{InputUnits, InputWeight, StateWeight, WeightError};
 
 /// The camera twist u = [v; ω] in the camera frame (m/s, rad/s).

@@ -33,6 +33,7 @@ fn spec(law: ControlLaw, delay_frames: usize) -> GainsSpec {
         q: StateWeight::scalar(300.0).expect("valid"),
         r: paper_r(),
         law,
+        options: vservo_control::LawOptions::default(),
     }
 }
 
@@ -281,7 +282,15 @@ proptest! {
 fn delay_aware_law_beats_the_paper_law_on_the_delayed_linear_loop() {
     let run = |law: ControlLaw| -> f64 {
         let gains = Gains::design(&spec(law, 1)).expect("designable");
-        let mut servo = ServoLaw::new(&gains);
+        let mut servo = ServoLaw::new(
+            vservo_control::LawGeometry {
+                camera: CameraIntrinsics::paper(),
+                board: Board::paper(),
+                period_s: 0.085,
+                delay_frames: 1,
+            },
+            &gains,
+        );
         // a translational step: what the camera would see displaced by (6, −30, 1) mm
         let displaced = Translation3::new(-0.006, 0.030, -0.001) * desired_pose();
         let start = CameraIntrinsics::paper().project_marks(&Board::paper(), &displaced).expect("in front");

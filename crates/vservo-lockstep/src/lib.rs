@@ -11,7 +11,8 @@ use vservo_control::{Gains, Twist};
 use vservo_scene::{FeatureVector, IsometryMatrix3};
 
 pub use vservo_cell::CellError as SimError;
-use vservo_cell::{ActuatorCommand, Cell, PlantStage, RmrcStage, ServoStage, VisionStage};
+pub use vservo_cell::ServoVerdict;
+use vservo_cell::{ActuatorCommand, Cell, PlantStage, RmrcStage, ServoInput, ServoStage, VisionStage};
 use vservo_sim::plant::Faults;
 
 /// One vision frame.
@@ -26,6 +27,8 @@ pub struct FrameRecord {
     pub truth: FeatureVector,
     /// The twist the servo sent at this frame's time (from the features of `delay` frames before).
     pub twist: Twist,
+    /// Why it sent that twist (`None` where not known: a frame rebuilt from a recording).
+    pub verdict: Option<ServoVerdict>,
     /// The camera's position in the base frame at capture time (m).
     pub camera_position_m: Vector3<f64>,
     /// The camera's position in the desired camera frame at capture time (m): zero at the desired pose.
@@ -114,9 +117,25 @@ impl Lockstep {
     /// (the plant holds the arm).
     pub fn run_replaying(
         &mut self,
+        progress: impl FnMut(f64),
+        taken_at: impl FnMut(u64, u64) -> u64,
+        applied: impl FnMut(u64) -> Option<u64>,
+    ) -> Trace {
+        self.run_inner(progress, taken_at, applied, |_| false)
+    }
+
+    /// [`Lockstep::run`], ended early at the first frame for which `stop(frames so far)` says so (a Monte
+    /// Carlo of starts stops a run once it has settled long enough).
+    pub fn run_until(&mut self, stop: impl FnMut(&[FrameRecord]) -> bool) -> Trace {
+        self.run_inner(|_| {}, |_, frame_tick| frame_tick, Some, stop)
+    }
+
+    fn run_inner(
+        &mut self,
         mut progress: impl FnMut(f64),
         mut taken_at: impl FnMut(u64, u64) -> u64,
         mut applied: impl FnMut(u64) -> Option<u64>,
+        mut stop: impl FnMut(&[FrameRecord]) -> bool,
     ) -> Trace {
         let dt = self.config.timing.control_period_s;
         let ticks_per_frame = u64::from(self.config.timing.control_ticks_per_frame);
@@ -141,7 +160,11 @@ impl Lockstep {
                     &self.plant.base_from_board(),
                 );
                 // the servo acts on the frame that leaves the pipeline now
-                let (twist, _) = self.servo.step(frame.delivered.as_ref().map(|d| &d.features));
+                let (twist, verdict) = self.servo.step(frame.delivered.as_ref().map(|d| ServoInput {
+                    frame: d.frame,
+                    features: &d.features,
+                    base_from_camera: d.base_from_camera.as_ref(),
+                }));
                 let at = frame.delivered.as_ref().map_or(tick, |d| taken_at(d.capture_tick, tick).max(tick));
                 waiting = Some((at, twist));
                 frames.push(FrameRecord {
@@ -149,12 +172,16 @@ impl Lockstep {
                     measured: frame.captured.features,
                     truth: frame.truth,
                     twist,
+                    verdict: Some(verdict),
                     camera_position_m: frame.base_from_camera.translation.vector,
                     camera_in_desired_m: (desired_camera_from_base * frame.base_from_camera)
                         .translation
                         .vector,
                 });
                 progress(t);
+                if stop(&frames) {
+                    break;
+                }
             }
             if let Some((at, twist)) = waiting
                 && at == tick

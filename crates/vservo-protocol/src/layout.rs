@@ -38,7 +38,7 @@ pub fn layout_tables() -> String {
         "vservo::JointState",
         size_of::<JointStateMsg>(),
         &fields! { JointStateMsg;
-            schema: "u32", "schema version (4)";
+            schema: "u32", "schema version (5)";
             faults: "u32", "bits 0–5 position limit (joint 1–6), 8–13 velocity limit, 16–21 torque saturated, 24 driver failed";
             tick: "u64", "driver periods since the driver started";
             stamp_ns: "u64", "CLOCK_MONOTONIC when `q` was measured (ns)";
@@ -58,7 +58,7 @@ pub fn layout_tables() -> String {
         "vservo::JointCommand",
         size_of::<JointCommandMsg>(),
         &fields! { JointCommandMsg;
-            schema: "u32", "schema version (4)";
+            schema: "u32", "schema version (5)";
             mode: "u32", "the driver's declared `command_mode`: 0 torque, 1 velocity, 2 position";
             answers_tick: "u64", "the `tick` of the joint state this answers";
             driver_epoch: "u64", "that joint state's `driver_epoch`";
@@ -78,7 +78,7 @@ pub fn layout_tables() -> String {
         "vservo::SimWorld",
         size_of::<SimWorldMsg>(),
         &fields! { SimWorldMsg;
-            schema: "u32", "schema version (4)";
+            schema: "u32", "schema version (5)";
             reserved: "u32", "zero";
             tick: "u64", "the plant tick (as in `joint_state`)";
             base_from_board: "f64[12]", "the board's pose in the base frame, 3×4 [R \\| t] row-major (t in m)";
@@ -90,7 +90,7 @@ pub fn layout_tables() -> String {
         "vservo::CameraImageHeader",
         size_of::<CameraImageHeader>(),
         &fields! { CameraImageHeader;
-            schema: "u32", "schema version (4)";
+            schema: "u32", "schema version (5)";
             format: "u32", "0: 8-bit grayscale";
             width: "u32", "pixels per row";
             height: "u32", "rows";
@@ -106,7 +106,7 @@ pub fn layout_tables() -> String {
         "vservo::Features",
         size_of::<FeaturesMsg>(),
         &fields! { FeaturesMsg;
-            schema: "u32", "schema version (4)";
+            schema: "u32", "schema version (5)";
             valid_mask: "u32", "bit m set when mark m is valid";
             frame: "u64", "frame number (counted by the vision node from its start)";
             capture_tick: "u64", "tick of the latest joint state when the image was taken";
@@ -115,6 +115,7 @@ pub fn layout_tables() -> String {
             features_px: "f64[8]", "ξ = [x₁ y₁ … x₄ y₄] (px, origin top-left), NaN where a mark is not valid";
             mark_status: "u8[4]", "per mark: 0 valid, 1 outside the image, 2 cut by the border, 3 merged, 4 irregular, 5 not found, 6 bad image";
             reserved: "u8[4]", "zero";
+            base_from_camera: "f64[12]", "the camera's pose in the robot's base frame at capture (from the joint state of `capture_tick`): the top 3 rows of the 4×4 transform, row-major; NaN when not known";
         },
     );
     table(
@@ -123,8 +124,8 @@ pub fn layout_tables() -> String {
         "vservo::CameraTwist",
         size_of::<CameraTwistMsg>(),
         &fields! { CameraTwistMsg;
-            schema: "u32", "schema version (4)";
-            verdict: "u32", "0 waiting (no frame yet), 1 servoing, 2 marks missing, 3 stopping, 4 safe stop (held by the daemon); all but 1 come with a zero twist";
+            schema: "u32", "schema version (5)";
+            verdict: "u32", "0 waiting (no frame yet), 1 servoing, 2 marks missing (nowhere to go back to), 3 stopping, 4 safe stop (held by the daemon), 5 servoing on the three marks seen, 6 reacquiring (steering back to where all marks were last seen); 0, 2, 3 and 4 come with a zero twist";
             frame: "u64", "the frame the twist was computed from";
             capture_tick: "u64", "its capture tick";
             gains_version: "u64", "version of the gains used (1 at start)";
@@ -141,7 +142,7 @@ pub fn layout_tables() -> String {
         "vservo::Telemetry",
         size_of::<TelemetryMsg>(),
         &fields! { TelemetryMsg;
-            schema: "u32", "schema version (4)";
+            schema: "u32", "schema version (5)";
             node: "u32", "0 plant, 1 vision, 2 servo, 3 rmrc";
             stamp_ns: "u64", "CLOCK_MONOTONIC at publication (ns)";
             window_ns: "u64", "length of the window the timings cover (ns)";
@@ -181,7 +182,7 @@ pub fn layout_tables() -> String {
         "vservo::DaemonStatus",
         size_of::<DaemonStatusMsg>(),
         &fields! { DaemonStatusMsg;
-            schema: "u32", "schema version (4)";
+            schema: "u32", "schema version (5)";
             state: "u32", "0 starting, 1 running, 2 degraded, 3 stopping, 4 safe stop (a fault holds the arm at rest)";
             stamp_ns: "u64", "CLOCK_MONOTONIC at publication (ns)";
             uptime_ns: "u64", "since the daemon started (ns)";
@@ -217,12 +218,18 @@ pub fn layout_tables() -> String {
         "vservo::Gains",
         size_of::<GainsMsg>(),
         &fields! { GainsMsg;
-            schema: "u32", "schema version (4)";
+            schema: "u32", "schema version (5)";
             used_past_gains: "u32", "how many of `past_input_gains` the law uses (0 for the paper's law)";
             version: "u64", "1 at start, +1 per accepted reload or target";
             feature_gain: "f64[48]", "K_ξ, 6×8 row-major (m/s and rad/s per px)";
             past_input_gains: "f64[144]", "K_j on the command sent j + 1 frames ago, four 6×6 row-major";
             desired_features_px: "f64[8]", "ξ_d (px)";
+            desired_depths_m: "f64[4]", "Z_d, the marks' depths at the desired pose (m)";
+            q: "f64[64]", "Q, 8×8 row-major (for the gains on three marks and a scheduled gain, designed by the servo)";
+            r_si: "f64[36]", "R in SI units, 6×6 row-major";
+            interaction: "u32", "where B is evaluated: 0 at ξ_d (fixed gain), 1 the mean of ξ_d's and the current, 2 the current";
+            feedforward: "u32", "1: the target's image motion is fed forward";
+            border_margin_px: "f64", "the barrier keeps seen marks this far inside the image (0: none)";
             seal: "u64", "the daemon's seal (SipHash-2-4 of the fields under the run's key): other gains are refused";
         },
     );
@@ -232,7 +239,7 @@ pub fn layout_tables() -> String {
         "vservo::Object",
         size_of::<ObjectMsg>(),
         &fields! { ObjectMsg;
-            schema: "u32", "schema version (4)";
+            schema: "u32", "schema version (5)";
             kind: "u32", "4 hold, 5 step, 6 circle (as in `command`)";
             sequence: "u64", "counts the object commands (1 for the first)";
             translation_m: "f64[3]", "step: the jump in the desired camera frame (m)";
@@ -247,7 +254,7 @@ pub fn layout_tables() -> String {
         "vservo::CellMode",
         size_of::<CellModeMsg>(),
         &fields! { CellModeMsg;
-            schema: "u32", "schema version (4)";
+            schema: "u32", "schema version (5)";
             mode: "u32", "0 servoing, 1 safe stop (the rmrc ramps the reference to rest and holds it; the servo sends zero twists)";
             sequence: "u64", "counts the changes (1 at the daemon's start); only a newer one is taken";
             fault: "u32", "safe stop: the fault that caused it (as in `status`)";
@@ -262,7 +269,7 @@ pub fn layout_tables() -> String {
         "vservo::Command",
         size_of::<CommandMsg>(),
         &fields! { CommandMsg;
-            schema: "u32", "schema version (4)";
+            schema: "u32", "schema version (5)";
             kind: "u32", "1 target features, 2 target pose, 3 teach, 4 object hold, 5 object step, 6 object circle, 7 reload, 8 resume, 9 safe stop";
             id: "u64", "chosen by the client; the reply carries it back";
             features_px: "f64[8]", "kind 1: ξ_d (px)";
@@ -278,7 +285,7 @@ pub fn layout_tables() -> String {
         "vservo::CommandReply",
         size_of::<CommandReplyMsg>(),
         &fields! { CommandReplyMsg;
-            schema: "u32", "schema version (4)";
+            schema: "u32", "schema version (5)";
             accepted: "u32", "1 accepted, 0 refused";
             id: "u64", "the request's `id`";
             gains_version: "u64", "the gains version in force after the command";

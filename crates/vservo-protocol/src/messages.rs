@@ -8,7 +8,7 @@ use iceoryx2::prelude::ZeroCopySend;
 /// The schema version every payload carries in its first four bytes. Bumped on any layout change.
 /// 2: `joint_state` carries the robot only (the board's pose moved to `sim_world`), the driver declares its
 /// command interface and period; `joint_torque` became `joint_command`; `camera_image` added.
-pub const SCHEMA_VERSION: u32 = 4;
+pub const SCHEMA_VERSION: u32 = 5;
 
 /// Joints of the arm.
 pub const JOINTS: usize = 6;
@@ -208,6 +208,10 @@ pub struct FeaturesMsg {
     pub mark_status: [u8; MARKS],
     /// Zero.
     pub reserved: [u8; 4],
+    /// The camera's pose in the robot's base frame when the image was taken (from the joint state of
+    /// `capture_tick`), the top 3 rows of the 4×4 transform, row-major; NaN when not known. The servo takes
+    /// the camera's own motion from it (reacquiring lost marks, the target's motion).
+    pub base_from_camera: [f64; 12],
 }
 
 /// Verdicts of [`CameraTwistMsg::verdict`].
@@ -222,6 +226,10 @@ pub mod verdict {
     pub const STOPPING: u32 = 3;
     /// The cell is in a safe stop ([`CellModeMsg`]): zero twist until the daemon resumes it.
     pub const SAFE_STOP: u32 = 4;
+    /// One mark missing (`missing_mask`): the law's twist on the other three.
+    pub const SERVOING_ON_THREE: u32 = 5;
+    /// Two or more marks missing (`missing_mask`): steering the camera back to where all were last seen.
+    pub const REACQUIRING: u32 = 6;
 }
 
 /// servo → rmrc (every frame): the camera twist.
@@ -643,6 +651,18 @@ pub struct GainsMsg {
     pub past_input_gains: [f64; 36 * MAX_PAST_GAINS],
     /// ξ_d (px).
     pub desired_features_px: [f64; FEATURES],
+    /// Z_d, the marks' depths at the desired pose (m).
+    pub desired_depths_m: [f64; MARKS],
+    /// Q, 8×8 row-major: the servo designs the gains on three marks and a scheduled gain from it.
+    pub q: [f64; FEATURES * FEATURES],
+    /// R in SI units, 6×6 row-major.
+    pub r_si: [f64; 36],
+    /// `controller.interaction`: 0 desired, 1 mean, 2 current.
+    pub interaction: u32,
+    /// `controller.feedforward`: 1 on, 0 off.
+    pub feedforward: u32,
+    /// `controller.border_margin_px` (0: no barrier).
+    pub border_margin_px: f64,
     /// The daemon's seal ([`crate::seal`]): a servo takes gains with a valid seal only.
     pub seal: u64,
 }
@@ -686,7 +706,7 @@ mod tests {
         assert_eq!(offset_of!(JointCommandMsg, seal), 200);
         assert_eq!(size_of::<SimWorldMsg>(), 16 + 96);
         assert_eq!(size_of::<CameraImageHeader>(), 40);
-        assert_eq!(size_of::<FeaturesMsg>(), 40 + 64 + 8);
+        assert_eq!(size_of::<FeaturesMsg>(), 40 + 64 + 8 + 96);
         assert_eq!(offset_of!(FeaturesMsg, features_px), 40);
         assert_eq!(offset_of!(FeaturesMsg, mark_status), 104);
         assert_eq!(size_of::<CameraTwistMsg>(), 40 + 48 + 8 + 8);

@@ -85,11 +85,15 @@ impl SealKey {
 
     /// The seal of a gains message (its `seal` field left out).
     pub fn seal_gains(&self, m: &GainsMsg) -> u64 {
-        let mut bytes = Vec::with_capacity(16 + 8 * (48 + 144 + 8));
+        let mut bytes = Vec::with_capacity(24 + 8 * (48 + 144 + 8 + 4 + 64 + 36 + 1));
         bytes.extend_from_slice(&m.schema.to_le_bytes());
         bytes.extend_from_slice(&m.used_past_gains.to_le_bytes());
         bytes.extend_from_slice(&m.version.to_le_bytes());
-        for v in m.feature_gain.iter().chain(&m.past_input_gains).chain(&m.desired_features_px) {
+        bytes.extend_from_slice(&m.interaction.to_le_bytes());
+        bytes.extend_from_slice(&m.feedforward.to_le_bytes());
+        let numbers = m.feature_gain.iter().chain(&m.past_input_gains).chain(&m.desired_features_px);
+        let design = m.desired_depths_m.iter().chain(&m.q).chain(&m.r_si).chain([&m.border_margin_px]);
+        for v in numbers.chain(design) {
             bytes.extend_from_slice(&v.to_bits().to_le_bytes());
         }
         siphash24(self.k0, self.k1, &bytes)

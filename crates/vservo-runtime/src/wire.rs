@@ -35,12 +35,17 @@ pub fn pose_to_wire(pose: &IsometryMatrix3<f64>) -> [f64; 12] {
     out
 }
 
-/// The pose from a 3×4 [R | t] row-major array; `None` if a number is not finite.
+/// The pose from a 3×4 [R | t] row-major array; `None` if a number is not finite or R is not a rotation
+/// (RᵀR = I and det R = 1 to 1e-6).
 pub fn pose_from_wire(m: &[f64; 12]) -> Option<IsometryMatrix3<f64>> {
     if !m.iter().all(|v| v.is_finite()) {
         return None;
     }
     let rotation = nalgebra::Matrix3::new(m[0], m[1], m[2], m[4], m[5], m[6], m[8], m[9], m[10]);
+    let orthonormal = (rotation.transpose() * rotation - nalgebra::Matrix3::identity()).amax() < 1e-6;
+    if !orthonormal || (rotation.determinant() - 1.0).abs() > 1e-6 {
+        return None;
+    }
     Some(IsometryMatrix3::from_parts(
         nalgebra::Vector3::new(m[3], m[7], m[11]).into(),
         nalgebra::Rotation3::from_matrix_unchecked(rotation),
@@ -63,6 +68,18 @@ pub fn gains_message(gains: &LawGains, version: u64, key: &vservo_protocol::seal
             }
         }
     }
+    let mut q = [0.0; 64];
+    for r in 0..8 {
+        for c in 0..8 {
+            q[8 * r + c] = gains.q[(r, c)];
+        }
+    }
+    let mut r_si = [0.0; 36];
+    for r in 0..6 {
+        for c in 0..6 {
+            r_si[6 * r + c] = gains.r_si[(r, c)];
+        }
+    }
     let mut message = GainsMsg {
         schema: SCHEMA_VERSION,
         used_past_gains: gains.used_past_gains as u32,
@@ -70,6 +87,17 @@ pub fn gains_message(gains: &LawGains, version: u64, key: &vservo_protocol::seal
         feature_gain,
         past_input_gains,
         desired_features_px: to_array(&gains.desired_features),
+        desired_depths_m: [
+            gains.desired_depths[0],
+            gains.desired_depths[1],
+            gains.desired_depths[2],
+            gains.desired_depths[3],
+        ],
+        q,
+        r_si,
+        interaction: gains.options.interaction.code(),
+        feedforward: u32::from(gains.options.feedforward),
+        border_margin_px: gains.options.border_margin_px,
         seal: 0,
     };
     message.seal = key.seal_gains(&message);
@@ -78,9 +106,23 @@ pub fn gains_message(gains: &LawGains, version: u64, key: &vservo_protocol::seal
 
 /// The law's gains from a [`GainsMsg`]; `None` if a number is not finite or the count is out of range.
 pub fn law_gains(message: &GainsMsg) -> Option<LawGains> {
-    let finite =
-        message.feature_gain.iter().chain(&message.past_input_gains).chain(&message.desired_features_px);
+    let finite = message
+        .feature_gain
+        .iter()
+        .chain(&message.past_input_gains)
+        .chain(&message.desired_features_px)
+        .chain(&message.desired_depths_m)
+        .chain(&message.q)
+        .chain(&message.r_si);
     if !finite.into_iter().all(|v| v.is_finite()) || message.used_past_gains as usize > MAX_PAST_GAINS {
+        return None;
+    }
+    let interaction = vservo_control::Interaction::from_code(message.interaction)?;
+    let margin = message.border_margin_px;
+    if !(margin.is_finite() && margin >= 0.0) || message.feedforward > 1 {
+        return None;
+    }
+    if !message.desired_depths_m.iter().all(|z| *z > 0.0) {
         return None;
     }
     let feature_gain = FeatureGain::from_row_slice(&message.feature_gain);
@@ -93,6 +135,14 @@ pub fn law_gains(message: &GainsMsg) -> Option<LawGains> {
         past_input_gains,
         used_past_gains: message.used_past_gains as usize,
         desired_features: FeatureVector::from(message.desired_features_px),
+        desired_depths: vservo_scene::MarkDepths::from(message.desired_depths_m),
+        q: nalgebra::SMatrix::<f64, 8, 8>::from_row_slice(&message.q),
+        r_si: Matrix6::from_row_slice(&message.r_si),
+        options: vservo_control::LawOptions {
+            interaction,
+            border_margin_px: margin,
+            feedforward: message.feedforward == 1,
+        },
     })
 }
 

@@ -181,8 +181,9 @@ impl CameraIntrinsics {
         // alone (a second near-zero one: the marks' images do not fix a homography)
         let svd = a.svd(false, true);
         let v_t = svd.v_t?;
-        let mut order: Vec<usize> = (0..9).collect();
-        order.sort_by(|&i, &j| svd.singular_values[i].total_cmp(&svd.singular_values[j]));
+        // (an array, not a Vec: the servo estimates depths with this on every frame)
+        let mut order: [usize; 9] = std::array::from_fn(|i| i);
+        order.sort_unstable_by(|&i, &j| svd.singular_values[i].total_cmp(&svd.singular_values[j]));
         let largest = svd.singular_values[order[8]];
         // (the inputs are finite, so are the singular values)
         if svd.singular_values[order[1]] <= 1e-9 * largest {

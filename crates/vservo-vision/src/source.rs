@@ -65,6 +65,28 @@ impl SimulatedCamera {
         self.renderer.render(&self.board, camera_from_board, frame)
     }
 
+    /// [`SimulatedCamera::capture`] with the marks of `hidden` (bit m for mark m) covered, as if by something
+    /// the board's colour: a scenario's occlusion.
+    pub fn capture_hiding(
+        &mut self,
+        camera_from_board: &IsometryMatrix3<f64>,
+        frame: u64,
+        hidden: u8,
+    ) -> &GrayImage {
+        if hidden == 0 {
+            return self.capture(camera_from_board, frame);
+        }
+        let mut board = self.board;
+        for (index, mark) in board.marks_in_board.iter_mut().enumerate() {
+            if hidden & (1 << index) != 0 {
+                // off the board, where nothing of it is drawn
+                let [lo, _] = board.extent_in_board;
+                *mark = nalgebra::Point3::new(lo.x - 10.0, lo.y - 10.0, 0.0);
+            }
+        }
+        self.renderer.render(&board, camera_from_board, frame)
+    }
+
     /// The last image captured.
     pub fn image(&self) -> &GrayImage {
         self.renderer.image()

@@ -176,6 +176,7 @@ mod tests {
                 mark_status::VALID,
             ],
             reserved: [0; 4],
+            base_from_camera: [f64::NAN; 12],
         }
     }
 

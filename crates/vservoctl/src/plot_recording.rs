@@ -107,6 +107,7 @@ pub fn trace_of(bytes: &[u8], config: &vservo_config::Config) -> anyhow::Result<
             measured: *measured,
             truth: FeatureVector::from_element(f64::NAN),
             twist: twists.get(frame).copied().unwrap_or_else(Twist::zeros),
+            verdict: None,
             camera_position_m: base_from_camera.translation.vector,
             camera_in_desired_m: (desired_from_base * base_from_camera).translation.vector,
         });

@@ -117,11 +117,11 @@ impl FaultMonitor {
 
     /// Takes one twist of the servo.
     pub fn on_twist(&mut self, twist: &CameraTwistMsg) {
+        // servoing on three marks is servoing; reacquiring is not: the target is lost until it is back
+        let lost = matches!(twist.verdict, verdict::MARKS_MISSING | verdict::REACQUIRING);
         self.missing = match (self.missing, twist.verdict) {
-            (Some((first, _, _)), verdict::MARKS_MISSING) => {
-                Some((first, twist.stamp_ns, twist.missing_mask))
-            }
-            (None, verdict::MARKS_MISSING) => Some((twist.stamp_ns, twist.stamp_ns, twist.missing_mask)),
+            (Some((first, _, _)), _) if lost => Some((first, twist.stamp_ns, twist.missing_mask)),
+            (None, _) if lost => Some((twist.stamp_ns, twist.stamp_ns, twist.missing_mask)),
             // held in a safe stop, the servo does not look at the marks: the run goes on
             (run, verdict::SAFE_STOP) => run,
             _ => None,
@@ -428,6 +428,7 @@ mod tests {
             features_px: [0.0; 8],
             mark_status: [0; 4],
             reserved: [0; 4],
+            base_from_camera: [f64::NAN; 12],
         };
         monitor.on_features(&features, 1100 * MS);
         assert!(monitor.resume(&running(1100 * MS)).expect_err("refused").contains("four marks"));

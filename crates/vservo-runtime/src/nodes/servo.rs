@@ -1,6 +1,6 @@
 //! The servo node: wakes on each feature vector and answers with the camera twist.
 
-use vservo_cell::ServoVerdict;
+use vservo_cell::{ServoInput, ServoVerdict};
 use vservo_control::Twist;
 use vservo_protocol::{CameraTwistMsg, FeaturesMsg, GainsMsg, NodeRole, SCHEMA_VERSION, Topic, verdict};
 use vservo_scene::FeatureVector;
@@ -8,8 +8,8 @@ use vservo_scene::FeatureVector;
 use super::{CellModeFollower, IDLE_WAIT, NodeBase, go_realtime, latest, start};
 use crate::clock::monotonic_ns;
 use crate::telemetry::CycleSample;
-use crate::wire::law_gains;
 use crate::wire::to_array;
+use crate::wire::{law_gains, pose_from_wire};
 use crate::{NodeContext, RuntimeError, schema_ok};
 
 /// RMS of ξ − ξ_d over the finite features (px); NaN when none is.
@@ -97,9 +97,21 @@ pub fn run(context: &NodeContext) -> Result<(), RuntimeError> {
                 if cell_mode.safe_stop(context.seal_key.as_ref(), counters) {
                     (stage.hold(), verdict::SAFE_STOP, 0)
                 } else {
-                    match stage.step(Some(&features)) {
+                    let base_from_camera = pose_from_wire(&message.base_from_camera);
+                    let input = ServoInput {
+                        frame: message.frame,
+                        features: &features,
+                        base_from_camera: base_from_camera.as_ref(),
+                    };
+                    match stage.step(Some(input)) {
                         (twist, ServoVerdict::Waiting) => (twist, verdict::WAITING, 0),
                         (twist, ServoVerdict::Servoing) => (twist, verdict::SERVOING, 0),
+                        (twist, ServoVerdict::ServoingOnThree(mask)) => {
+                            (twist, verdict::SERVOING_ON_THREE, u32::from(mask))
+                        }
+                        (twist, ServoVerdict::Reacquiring(mask)) => {
+                            (twist, verdict::REACQUIRING, u32::from(mask))
+                        }
                         (twist, ServoVerdict::MarksMissing(mask)) => {
                             (twist, verdict::MARKS_MISSING, u32::from(mask))
                         }

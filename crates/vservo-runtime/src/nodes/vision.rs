@@ -21,7 +21,7 @@ use vservo_vision::{Extraction, MarkStatus};
 use super::{IDLE_WAIT, NodeBase, go_realtime, latest, start};
 use crate::clock::monotonic_ns;
 use crate::telemetry::{Counters, CycleSample, LoopMonitor};
-use crate::wire::{pose_from_wire, to_array};
+use crate::wire::{pose_from_wire, pose_to_wire, to_array};
 use crate::{NodeContext, RuntimeError};
 
 fn status_code(status: &MarkStatus) -> u8 {
@@ -75,6 +75,7 @@ impl FeaturesOut {
             features_px: to_array(&delivered.features),
             mark_status: info.status,
             reserved: [0; 4],
+            base_from_camera: delivered.base_from_camera.as_ref().map_or([f64::NAN; 12], pose_to_wire),
         };
         if let Ok(sample) = self.publisher.loan_uninit() {
             let _ = sample.write_payload(message).send();
@@ -125,9 +126,10 @@ pub fn run(context: &NodeContext) -> Result<(), RuntimeError> {
                         continue;
                     }
                     drop(sample);
-                    let tick = latest(&state_subscriber, |m: &JointStateMsg| m.schema, counters)
-                        .map_or(0, |state| state.tick);
-                    let (captured, delivered) = stage.process_image(header.frame, tick, &image);
+                    let state = latest(&state_subscriber, |m: &JointStateMsg| m.schema, counters);
+                    let tick = state.map_or(0, |state| state.tick);
+                    let q = state.map(|state| JointVector::from(state.q_rad));
+                    let (captured, delivered) = stage.process_image(header.frame, tick, q.as_ref(), &image);
                     out.remember(header.frame, header.capture_stamp_ns, &captured);
                     if let Some(delivered) = delivered {
                         out.publish(&delivered);

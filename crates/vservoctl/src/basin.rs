@@ -1,0 +1,471 @@
+//! `vservoctl basin`: a Monte Carlo of starting poses around the desired one, run in the lockstep simulator
+//! on all cores, to see from where a law converges: per class the share that settles to 1 px, the median
+//! and p90 settling time, and why the others did not.
+//!
+//! Classes (the starts are split evenly among them): translations and rotations (rotation vector, per axis)
+//! drawn uniformly within ±range in the desired camera frame, and rolls about the optical axis of 30–90°
+//! either way. A start whose first image does not show all four marks whole, or which the arm cannot
+//! reach, is not counted (it says nothing about the law). A run stops once every mark has stayed within
+//! 1 px for `--settled-for` seconds; its settling time is when it last entered.
+
+use std::path::{Path, PathBuf};
+
+use anyhow::{Context, Result};
+use clap::Args;
+use nalgebra::Vector3;
+use plotters::prelude::*;
+use rayon::prelude::*;
+use serde_json::{Value, json};
+use vservo_config::Config;
+use vservo_lockstep::{FrameRecord, Lockstep};
+use vservo_scene::MARKS;
+
+use crate::UsageError;
+use crate::config_arg::ConfigArg;
+
+/// Arguments of `vservoctl basin`.
+#[derive(Args)]
+pub struct BasinArgs {
+    #[command(flatten)]
+    config: ConfigArg,
+    /// Starts in all, split evenly among the classes.
+    #[arg(long, default_value_t = 400)]
+    starts: usize,
+    /// The seed of the starts: the same seed, the same starts.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// The longest a run may take to settle (simulated s).
+    #[arg(long, default_value_t = 30.0)]
+    duration: f64,
+    /// A run has settled once every mark has stayed within 1 px this long (s).
+    #[arg(long, default_value_t = 2.0)]
+    settled_for: f64,
+    /// Print the result as JSON instead of a table.
+    #[arg(long)]
+    json: bool,
+    /// Write basin.json and basin.svg here.
+    #[arg(long, value_name = "DIR")]
+    out: Option<PathBuf>,
+}
+
+/// A class of starts.
+#[derive(Debug, Clone, Copy)]
+struct Class {
+    name: &'static str,
+    /// ±, per axis (m).
+    translation_m: f64,
+    /// ±, per axis (deg).
+    rotation_deg: f64,
+    /// A roll about the optical axis of this many degrees (lowest, highest), either way; no other motion.
+    roll_deg: Option<(f64, f64)>,
+}
+
+const CLASSES: [Class; 4] = [
+    Class { name: "small", translation_m: 0.05, rotation_deg: 5.0, roll_deg: None },
+    Class { name: "medium", translation_m: 0.10, rotation_deg: 15.0, roll_deg: None },
+    Class { name: "large", translation_m: 0.15, rotation_deg: 30.0, roll_deg: None },
+    Class { name: "roll", translation_m: 0.0, rotation_deg: 0.0, roll_deg: Some((30.0, 90.0)) },
+];
+
+/// How one start ended.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Outcome {
+    Converged,
+    MarksLeftImage,
+    Limits,
+    NotConverged,
+    /// Not counted: the first image does not show all four marks whole.
+    NotAllSeenAtStart,
+    /// Not counted: no inverse-kinematics solution within the joint limits.
+    Unreachable,
+}
+
+impl Outcome {
+    fn name(self) -> &'static str {
+        match self {
+            Outcome::Converged => "converged",
+            Outcome::MarksLeftImage => "marks left the image",
+            Outcome::Limits => "joint limits",
+            Outcome::NotConverged => "not converged in time",
+            Outcome::NotAllSeenAtStart => "not all marks seen at start",
+            Outcome::Unreachable => "unreachable",
+        }
+    }
+
+    fn counted(self) -> bool {
+        !matches!(self, Outcome::NotAllSeenAtStart | Outcome::Unreachable)
+    }
+
+    fn colour(self) -> RGBColor {
+        match self {
+            Outcome::Converged => RGBColor(30, 150, 60),
+            Outcome::MarksLeftImage => RGBColor(230, 140, 0),
+            Outcome::Limits => RGBColor(150, 60, 170),
+            Outcome::NotConverged => RGBColor(200, 30, 30),
+            _ => RGBColor(170, 170, 170),
+        }
+    }
+}
+
+#[derive(Debug, Clone, Copy)]
+struct Start {
+    class: usize,
+    translation_m: Vector3<f64>,
+    rotation: Vector3<f64>,
+}
+
+#[derive(Debug, Clone, Copy)]
+struct Run {
+    start: Start,
+    outcome: Outcome,
+    settling_time_s: Option<f64>,
+    /// A mark's true image left the image at some frame (even if the run converged).
+    left_image: bool,
+}
+
+/// SplitMix64: a small, well-mixed generator, so that a seed gives the same starts everywhere.
+struct SplitMix64(u64);
+
+impl SplitMix64 {
+    fn next(&mut self) -> u64 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        z ^ (z >> 31)
+    }
+
+    /// Uniform in [lo, hi).
+    fn uniform(&mut self, lo: f64, hi: f64) -> f64 {
+        lo + (hi - lo) * ((self.next() >> 11) as f64 / (1u64 << 53) as f64)
+    }
+}
+
+fn starts(count: usize, seed: u64) -> Vec<Start> {
+    let mut rng = SplitMix64(seed);
+    (0..count)
+        .map(|i| {
+            let class = i % CLASSES.len();
+            let c = CLASSES[class];
+            let mut axis = |range: f64| Vector3::from_fn(|_, _| rng.uniform(-range, range));
+            let (translation_m, rotation) = match c.roll_deg {
+                None => (axis(c.translation_m), axis(c.rotation_deg.to_radians())),
+                Some((lo, hi)) => {
+                    let roll = rng.uniform(lo, hi).to_radians();
+                    let sign = if rng.next() & 1 == 0 { 1.0 } else { -1.0 };
+                    (Vector3::zeros(), Vector3::new(0.0, 0.0, sign * roll))
+                }
+            };
+            Start { class, translation_m, rotation }
+        })
+        .collect()
+}
+
+/// The largest true error of any mark in a frame (px).
+fn error_px(frame: &FrameRecord, desired: &vservo_scene::FeatureVector) -> f64 {
+    (0..MARKS)
+        .map(|m| {
+            let dx = frame.truth[2 * m] - desired[2 * m];
+            let dy = frame.truth[2 * m + 1] - desired[2 * m + 1];
+            (dx * dx + dy * dy).sqrt()
+        })
+        .fold(0.0, f64::max)
+}
+
+fn run_one(config: &Config, start: Start, settled_for_s: f64) -> Run {
+    let mut config = config.clone();
+    config.scenario.initial_camera_translation_m = start.translation_m;
+    config.scenario.initial_camera_rotation = start.rotation;
+    let unreachable = Run { start, outcome: Outcome::Unreachable, settling_time_s: None, left_image: false };
+    let Ok(mut lockstep) = Lockstep::new(&config) else { return unreachable };
+    let desired = lockstep.gains().desired_features;
+    let (width, height) = (f64::from(config.camera.width_px()), f64::from(config.camera.height_px()));
+    let mut entered: Option<f64> = None;
+    let trace = lockstep.run_until(|frames| {
+        let Some(last) = frames.last() else { return false };
+        // a start not counted ends at once
+        if frames.len() == 1 && !last.measured.iter().all(|v| v.is_finite()) {
+            return true;
+        }
+        if error_px(last, &desired) < 1.0 {
+            let since = *entered.get_or_insert(last.t_s);
+            last.t_s - since >= settled_for_s
+        } else {
+            entered = None;
+            false
+        }
+    });
+    let first_whole = trace.frames.first().is_some_and(|f| f.measured.iter().all(|v| v.is_finite()));
+    if !first_whole {
+        return Run { outcome: Outcome::NotAllSeenAtStart, ..unreachable };
+    }
+    let left_image = trace.frames.iter().any(|f| {
+        (0..MARKS).any(|m| {
+            let (x, y) = (f.truth[2 * m], f.truth[2 * m + 1]);
+            !(x.is_finite() && y.is_finite() && (0.0..=width).contains(&x) && (0.0..=height).contains(&y))
+        })
+    });
+    let settled = trace.frames.last().is_some_and(|last| {
+        entered.is_some_and(|since| last.t_s - since >= settled_for_s) && error_px(last, &desired) < 1.0
+    });
+    let outcome = if settled {
+        Outcome::Converged
+    } else if trace.faults.position_limit != 0 || trace.faults.velocity_limit != 0 {
+        Outcome::Limits
+    } else if left_image {
+        Outcome::MarksLeftImage
+    } else {
+        Outcome::NotConverged
+    };
+    Run { start, outcome, settling_time_s: settled.then_some(entered).flatten(), left_image }
+}
+
+fn percentile(sorted: &[f64], p: f64) -> Option<f64> {
+    if sorted.is_empty() {
+        return None;
+    }
+    let rank = (p * (sorted.len() - 1) as f64).round() as usize;
+    Some(sorted[rank.min(sorted.len() - 1)])
+}
+
+fn class_summary(runs: &[Run], class: usize) -> Value {
+    let mine: Vec<&Run> = runs.iter().filter(|r| r.start.class == class).collect();
+    let counted: Vec<&&Run> = mine.iter().filter(|r| r.outcome.counted()).collect();
+    let mut times: Vec<f64> = counted.iter().filter_map(|r| r.settling_time_s).collect();
+    times.sort_by(f64::total_cmp);
+    let converged = times.len();
+    let mut reasons = serde_json::Map::new();
+    for outcome in [
+        Outcome::MarksLeftImage,
+        Outcome::Limits,
+        Outcome::NotConverged,
+        Outcome::NotAllSeenAtStart,
+        Outcome::Unreachable,
+    ] {
+        let n = mine.iter().filter(|r| r.outcome == outcome).count();
+        if n > 0 {
+            reasons.insert(outcome.name().into(), json!(n));
+        }
+    }
+    let c = CLASSES[class];
+    json!({
+        "class": c.name,
+        "translation_m": c.translation_m,
+        "rotation_deg": c.rotation_deg,
+        "roll_deg": c.roll_deg.map(|(lo, hi)| [lo, hi]),
+        "starts": mine.len(),
+        "counted": counted.len(),
+        "converged": converged,
+        "converged_share": if counted.is_empty() { None } else { Some(converged as f64 / counted.len() as f64) },
+        "median_settling_s": percentile(&times, 0.5),
+        "p90_settling_s": percentile(&times, 0.9),
+        "marks_left_image": counted.iter().filter(|r| r.left_image).count(),
+        "not_converged": reasons,
+    })
+}
+
+/// Runs the command.
+pub fn run(args: &BasinArgs) -> Result<()> {
+    let config = args.config.load()?;
+    if args.starts == 0 {
+        return Err(UsageError("--starts 0: at least one start is needed".into()).into());
+    }
+    for (name, value) in [("--duration", args.duration), ("--settled-for", args.settled_for)] {
+        if !(value.is_finite() && value > 0.0) {
+            return Err(UsageError(format!("{name} {value}: must be a positive number of seconds")).into());
+        }
+    }
+    let mut config = config;
+    config.scenario.duration_s = args.duration;
+    config.scenario.object = vservo_sim::world::ObjectMotion::Hold;
+    // the configuration itself must make a cell (a bad one is the user's to fix, not a failed start)
+    Lockstep::new(&config).map_err(|e| UsageError(format!("{}: {e}", config.origin)))?;
+
+    let all = starts(args.starts, args.seed);
+    let bar = std::io::IsTerminal::is_terminal(&std::io::stderr()).then(|| {
+        let bar = indicatif::ProgressBar::new(all.len() as u64);
+        bar.set_style(
+            indicatif::ProgressStyle::with_template("starts {bar:40} {pos}/{len} ({elapsed}, {eta} left)")
+                .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+        );
+        bar
+    });
+    let started = std::time::Instant::now();
+    let runs: Vec<Run> = all
+        .par_iter()
+        .map(|&start| {
+            let run = run_one(&config, start, args.settled_for);
+            if let Some(bar) = &bar {
+                bar.inc(1);
+            }
+            run
+        })
+        .collect();
+    if let Some(bar) = bar {
+        bar.finish_and_clear();
+    }
+    let wall_s = started.elapsed().as_secs_f64();
+
+    let classes: Vec<Value> = (0..CLASSES.len()).map(|c| class_summary(&runs, c)).collect();
+    let result = json!({
+        "config": config.origin,
+        "law": config.controller.law.name(),
+        "interaction": config.controller.options.interaction.name(),
+        "border_margin_px": config.controller.options.border_margin_px,
+        "feedforward": config.controller.options.feedforward,
+        "plant": config.plant.mode.name(),
+        "starts": args.starts,
+        "seed": args.seed,
+        "duration_s": args.duration,
+        "settled_for_s": args.settled_for,
+        "threads": rayon::current_num_threads(),
+        "wall_s": wall_s,
+        "classes": classes,
+        "runs": runs.iter().map(|r| json!({
+            "class": CLASSES[r.start.class].name,
+            "translation_m": [r.start.translation_m.x, r.start.translation_m.y, r.start.translation_m.z],
+            "rotation_deg": [
+                r.start.rotation.x.to_degrees(),
+                r.start.rotation.y.to_degrees(),
+                r.start.rotation.z.to_degrees(),
+            ],
+            "outcome": r.outcome.name(),
+            "settling_time_s": r.settling_time_s,
+            "marks_left_image": r.left_image,
+        })).collect::<Vec<_>>(),
+    });
+    if let Some(dir) = &args.out {
+        std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+        let path = dir.join("basin.json");
+        std::fs::write(&path, format!("{result:#}\n"))
+            .with_context(|| format!("writing {}", path.display()))?;
+        draw(&runs, &dir.join("basin.svg"))?;
+    }
+    if args.json {
+        let mut summary = result.clone();
+        if let Some(object) = summary.as_object_mut() {
+            object.remove("runs");
+        }
+        println!("{summary}");
+    } else {
+        print_table(&result);
+    }
+    Ok(())
+}
+
+fn print_table(result: &Value) {
+    println!(
+        "{} — law {}, interaction {}, margin {} px, feed-forward {}, {} plant; {} starts (seed {}) in {:.1} s on {} threads",
+        result["config"].as_str().unwrap_or(""),
+        result["law"].as_str().unwrap_or(""),
+        result["interaction"].as_str().unwrap_or(""),
+        result["border_margin_px"],
+        result["feedforward"],
+        result["plant"].as_str().unwrap_or(""),
+        result["starts"],
+        result["seed"],
+        result["wall_s"].as_f64().unwrap_or(f64::NAN),
+        result["threads"],
+    );
+    println!(
+        "{:<8} {:>7} {:>10} {:>10} {:>9} {:>9} {:>6}  not converged",
+        "class", "counted", "converged", "share", "median s", "p90 s", "left"
+    );
+    let seconds = |v: &Value| v.as_f64().map_or("-".to_string(), |s| format!("{s:.2}"));
+    for class in result["classes"].as_array().into_iter().flatten() {
+        let reasons = class["not_converged"]
+            .as_object()
+            .map(|m| m.iter().map(|(k, v)| format!("{k}: {v}")).collect::<Vec<_>>().join(", "))
+            .unwrap_or_default();
+        let count = |key: &str| class[key].as_u64().unwrap_or(0);
+        println!(
+            "{:<8} {:>7} {:>10} {:>9.1}% {:>9} {:>9} {:>6}  {}",
+            class["class"].as_str().unwrap_or(""),
+            count("counted"),
+            count("converged"),
+            class["converged_share"].as_f64().unwrap_or(f64::NAN) * 100.0,
+            seconds(&class["median_settling_s"]),
+            seconds(&class["p90_settling_s"]),
+            count("marks_left_image"),
+            reasons,
+        );
+    }
+}
+
+/// One panel per class: each start at its translation (cm, norm) and rotation (deg, norm), coloured by
+/// outcome.
+fn draw(runs: &[Run], path: &Path) -> Result<()> {
+    let plot_error = |e: &dyn std::fmt::Debug| anyhow::anyhow!("drawing {}: {e:?}", path.display());
+    let root = SVGBackend::new(path, (1200, 360)).into_drawing_area();
+    root.fill(&WHITE).map_err(|e| plot_error(&e))?;
+    let panels = root.split_evenly((1, CLASSES.len()));
+    for (class, panel) in panels.iter().enumerate() {
+        let c = CLASSES[class];
+        let mine: Vec<&Run> = runs.iter().filter(|r| r.start.class == class).collect();
+        let max_t = mine.iter().map(|r| r.start.translation_m.norm() * 100.0).fold(1.0, f64::max);
+        let max_r = mine.iter().map(|r| r.start.rotation.norm().to_degrees()).fold(1.0, f64::max);
+        let mut chart = ChartBuilder::on(panel)
+            .caption(c.name, ("sans-serif", 16))
+            .margin(8)
+            .x_label_area_size(32)
+            .y_label_area_size(40)
+            .build_cartesian_2d(0.0..max_t * 1.05, 0.0..max_r * 1.05)
+            .map_err(|e| plot_error(&e))?;
+        chart
+            .configure_mesh()
+            .x_desc("translation [cm]")
+            .y_desc("rotation [deg]")
+            .draw()
+            .map_err(|e| plot_error(&e))?;
+        chart
+            .draw_series(mine.iter().map(|r| {
+                let point = (r.start.translation_m.norm() * 100.0, r.start.rotation.norm().to_degrees());
+                let style = r.outcome.colour();
+                if r.outcome.counted() {
+                    Circle::new(point, 3, style.filled())
+                } else {
+                    Circle::new(point, 3, style.stroke_width(1))
+                }
+            }))
+            .map_err(|e| plot_error(&e))?;
+    }
+    root.present().map_err(|e| plot_error(&e))?;
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn starts_are_drawn_within_their_class_and_the_same_seed_gives_the_same_starts() {
+        let a = starts(400, 7);
+        let b = starts(400, 7);
+        assert!(
+            a.iter().zip(&b).all(|(x, y)| x.translation_m == y.translation_m && x.rotation == y.rotation)
+        );
+        assert_ne!(starts(4, 8)[0].translation_m, a[0].translation_m);
+        for s in &a {
+            let c = CLASSES[s.class];
+            match c.roll_deg {
+                None => {
+                    assert!(s.translation_m.amax() <= c.translation_m);
+                    assert!(s.rotation.amax() <= c.rotation_deg.to_radians());
+                }
+                Some((lo, hi)) => {
+                    let roll = s.rotation.z.abs().to_degrees();
+                    assert!((lo..=hi).contains(&roll) && s.translation_m == Vector3::zeros());
+                }
+            }
+        }
+        assert_eq!(a.iter().filter(|s| s.class == 3).count(), 100);
+    }
+
+    #[test]
+    fn percentiles_of_a_sorted_list() {
+        let v: Vec<f64> = (1..=10).map(f64::from).collect();
+        assert_eq!(percentile(&v, 0.5), Some(6.0));
+        assert_eq!(percentile(&v, 0.9), Some(9.0));
+        assert_eq!(percentile(&[], 0.5), None);
+    }
+}
