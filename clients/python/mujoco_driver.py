@@ -2,7 +2,7 @@
 """A MuJoCo arm and hand camera for vservo: the reference robot + camera driver.
 
 Copy this file to write a driver for a real arm and camera: replace `Arm` (`step`: send the joint velocities
-and wait for the next encoder reading) and `Camera.grab` (take an image), keep the rest. It speaks docs/PROTOCOL.md (schema 4) over
+and wait for the next encoder reading) and `Camera.grab` (take an image), keep the rest. It speaks docs/PROTOCOL.md (schema 5) over
 iceoryx2 0.10 shared memory:
 
 - every robot period (1 ms) it publishes `joint_state` and notifies the `joint_state` event;
@@ -39,7 +39,7 @@ import numpy as np
 
 import vservo_client  # finds the instance as every vservo client does (clients/python/vservo_client.py)
 
-SCHEMA = 4
+SCHEMA = 5
 TORQUE, VELOCITY, POSITION = 0, 1, 2  # command modes
 FOLLOWING, HOLDING = 0, 1  # driver_status
 COMMAND_TIMEOUT_NS = 20_000_000  # no valid command for this long: hold

@@ -45,7 +45,7 @@ pub fn joint_command(m: &JointCommandMsg) -> Value {
 pub fn features(m: &FeaturesMsg) -> Value {
     json!({"schema": m.schema, "frame": m.frame, "capture_tick": m.capture_tick, "capture_stamp_ns": m.capture_stamp_ns,
         "stamp_ns": m.stamp_ns, "valid_mask": m.valid_mask, "features_px": numbers(&m.features_px),
-        "mark_status": m.mark_status})
+        "mark_status": m.mark_status, "base_from_camera": numbers(&m.base_from_camera)})
 }
 
 /// One message as JSON.
@@ -88,7 +88,9 @@ pub fn cell_mode(m: &CellModeMsg) -> Value {
 pub fn gains(m: &GainsMsg) -> Value {
     json!({"schema": m.schema, "version": m.version, "used_past_gains": m.used_past_gains,
         "feature_gain": numbers(&m.feature_gain), "past_input_gains": numbers(&m.past_input_gains),
-        "desired_features_px": numbers(&m.desired_features_px)})
+        "desired_features_px": numbers(&m.desired_features_px), "desired_depths_m": numbers(&m.desired_depths_m),
+        "q": numbers(&m.q), "r_si": numbers(&m.r_si), "interaction": m.interaction, "feedforward": m.feedforward,
+        "border_margin_px": number(m.border_margin_px)})
 }
 
 /// One message as JSON.

@@ -47,6 +47,8 @@ fn verdict_name(code: u32) -> &'static str {
         verdict::MARKS_MISSING => "marks missing",
         verdict::STOPPING => "stopping",
         verdict::SAFE_STOP => "held (safe stop)",
+        verdict::SERVOING_ON_THREE => "servoing on three marks",
+        verdict::REACQUIRING => "reacquiring the marks",
         _ => "unknown",
     }
 }
