@@ -286,3 +286,37 @@ fn the_viewer_is_off_on_localhost_by_default_and_takes_ip_addresses_only() {
     let error = refused(&with("port = 8765", "port = 0"));
     assert!(error.to_string().contains("viewer.port"), "{error}");
 }
+
+#[test]
+fn the_law_beyond_the_paper_is_off_by_default_and_its_keys_are_checked() {
+    let config = Config::from_toml(&with("feedforward = false", "feedforward = false"), "vservo.toml").expect("valid");
+    assert_eq!(config.controller.options, vservo_control::LawOptions::default());
+    let robust = Config::load(concat!(env!("CARGO_MANIFEST_DIR"), "/../../config/vservo-robust.toml"))
+        .expect("config/vservo-robust.toml is valid");
+    assert_eq!(robust.controller.options.interaction, vservo_control::Interaction::Mean);
+    assert!(robust.controller.options.feedforward && robust.controller.options.border_margin_px == 20.0);
+
+    let error = refused(&with("interaction = \"desired\"", "interaction = \"nearest\""));
+    assert!(error.to_string().contains("controller.interaction") && error.to_string().contains("nearest"), "{error}");
+    let error = refused(&with("border_margin_px = 0.0", "border_margin_px = -3.0"));
+    assert!(error.to_string().contains("controller.border_margin_px"), "{error}");
+    // ξ_d has a mark at y = 70 px: a margin of 80 px would keep the servo from its goal
+    let error = refused(&with("border_margin_px = 0.0", "border_margin_px = 80.0"));
+    assert!(error.to_string().contains("desired mark") && error.to_string().contains("inside the margin"), "{error}");
+}
+
+#[test]
+fn occlusions_name_a_mark_and_a_time_span() {
+    let config = Config::from_toml(
+        &with("occlusions = []", "occlusions = [{ mark = 2, from_s = 3.0, until_s = 4.5 }]"),
+        "vservo.toml",
+    )
+    .expect("valid");
+    assert_eq!(config.scenario.hidden_marks(2.9), 0);
+    assert_eq!(config.scenario.hidden_marks(3.0), 0b0010);
+    assert_eq!(config.scenario.hidden_marks(4.5), 0);
+    let error = refused(&with("occlusions = []", "occlusions = [{ mark = 5, from_s = 3.0, until_s = 4.5 }]"));
+    assert!(error.to_string().contains("scenario.occlusions[0].mark"), "{error}");
+    let error = refused(&with("occlusions = []", "occlusions = [{ mark = 1, from_s = 3.0, until_s = 2.0 }]"));
+    assert!(error.to_string().contains("scenario.occlusions[0].until_s"), "{error}");
+}

@@ -78,3 +78,66 @@ pub fn design(
         pseudo_inverse: v_t.transpose() * sigma_inverse * controllable_rows,
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::image_jacobian::interaction_matrix;
+    use crate::weights::{InputUnits, InputWeight, StateWeight};
+    use nalgebra::{Matrix6, SMatrix, Vector6};
+    use vservo_scene::{CameraIntrinsics, FeatureVector, MarkDepths};
+
+    fn paper() -> (InteractionMatrix, StateWeight, Matrix6<f64>) {
+        let features = FeatureVector::from([151.0, 168.0, 318.0, 178.0, 339.0, 75.0, 172.0, 70.0]);
+        let b = interaction_matrix(&CameraIntrinsics::paper(), &features, &MarkDepths::from_element(0.5), 0.085);
+        let r = InputWeight::new(
+            Matrix6::from_diagonal(&Vector6::new(1.0, 1.0, 1.0, 6.0, 6.0, 6.0)),
+            InputUnits::MillimetreMilliradian,
+        )
+        .expect("valid");
+        (b, StateWeight::scalar(300.0).expect("valid"), r.si())
+    }
+
+    #[test]
+    fn on_four_marks_it_is_the_paper_s_gain() {
+        let (b, q, r) = paper();
+        let ours = design(&b, q.matrix(), &r).expect("designable");
+        let decomposition = crate::lq::ModeDecomposition::of(&b).expect("non-degenerate");
+        let theirs = crate::lq::paper_gain(&decomposition, &q, &r).expect("designable");
+        assert!((ours.gain - theirs.k).norm() < 1e-9 * theirs.k.norm());
+        // B⁺ B = I
+        assert!((ours.pseudo_inverse * b - Matrix6::identity()).amax() < 1e-9);
+    }
+
+    #[test]
+    fn on_three_marks_the_gain_ignores_the_fourth_and_stabilizes_the_three() {
+        let (b, q, r) = paper();
+        for missing in 0..MARKS {
+            let seen = ALL_MARKS & !(1 << missing);
+            let b3 = masked(&b, seen);
+            let three = design(&b3, q.matrix(), &r).expect("three marks are not degenerate");
+            // zero to rounding (the law zeroes the missing mark's error before the product anyway)
+            let columns = three.gain.fixed_view::<6, 2>(0, 2 * missing).amax();
+            assert!(columns < 1e-12 * three.gain.amax(), "mark {missing}'s columns: {columns}");
+            // the seen features' loop ξ ← (I − B K) ξ: all six modes inside the unit circle
+            let mut rows = [0usize; 6];
+            let mut n = 0;
+            for row in (0..FEATURES).filter(|r| r / 2 != missing) {
+                rows[n] = row;
+                n += 1;
+            }
+            let loop_matrix = SMatrix::<f64, 6, 6>::from_fn(|i, j| {
+                let identity = if i == j { 1.0 } else { 0.0 };
+                identity - (b3.row(rows[i]) * three.gain.column(rows[j]))[0]
+            });
+            let largest = loop_matrix.complex_eigenvalues().iter().map(|e| e.norm()).fold(0.0, f64::max);
+            assert!(largest < 1.0, "mark {missing} missing: spectral radius {largest}");
+        }
+    }
+
+    #[test]
+    fn two_marks_are_degenerate() {
+        let (b, q, r) = paper();
+        assert!(matches!(design(&masked(&b, 0b0011), q.matrix(), &r), Err(LqError::Degenerate(_))));
+    }
+}

@@ -6,7 +6,8 @@
 //! drawn uniformly within ±range in the desired camera frame, and rolls about the optical axis of 30–90°
 //! either way. A start whose first image does not show all four marks whole, or which the arm cannot
 //! reach, is not counted (it says nothing about the law). A run stops once every mark has stayed within
-//! 1 px for `--settled-for` seconds; its settling time is when it last entered.
+//! 1 px for `--settled-for` seconds (with `--full` it runs the whole duration and must stay within 1 px to
+//! the end); its settling time is when it last entered.
 
 use std::path::{Path, PathBuf};
 
@@ -37,9 +38,13 @@ pub struct BasinArgs {
     /// The longest a run may take to settle (simulated s).
     #[arg(long, default_value_t = 30.0)]
     duration: f64,
-    /// A run has settled once every mark has stayed within 1 px this long (s).
+    /// A run has settled once every mark has stayed within 1 px this long (s); it stops there.
     #[arg(long, default_value_t = 2.0)]
     settled_for: f64,
+    /// Run every start for the whole duration instead: it has settled if every mark stays within 1 px from
+    /// some time to the end.
+    #[arg(long)]
+    full: bool,
     /// Print the result as JSON instead of a table.
     #[arg(long)]
     json: bool,
@@ -172,7 +177,7 @@ fn error_px(frame: &FrameRecord, desired: &vservo_scene::FeatureVector) -> f64 {
         .fold(0.0, f64::max)
 }
 
-fn run_one(config: &Config, start: Start, settled_for_s: f64) -> Run {
+fn run_one(config: &Config, start: Start, settled_for_s: f64, full: bool) -> Run {
     let mut config = config.clone();
     config.scenario.initial_camera_translation_m = start.translation_m;
     config.scenario.initial_camera_rotation = start.rotation;
@@ -189,7 +194,7 @@ fn run_one(config: &Config, start: Start, settled_for_s: f64) -> Run {
         }
         if error_px(last, &desired) < 1.0 {
             let since = *entered.get_or_insert(last.t_s);
-            last.t_s - since >= settled_for_s
+            !full && last.t_s - since >= settled_for_s
         } else {
             entered = None;
             false
@@ -206,7 +211,8 @@ fn run_one(config: &Config, start: Start, settled_for_s: f64) -> Run {
         })
     });
     let settled = trace.frames.last().is_some_and(|last| {
-        entered.is_some_and(|since| last.t_s - since >= settled_for_s) && error_px(last, &desired) < 1.0
+        let long_enough = |since: f64| full || last.t_s - since >= settled_for_s;
+        entered.is_some_and(long_enough) && error_px(last, &desired) < 1.0
     });
     let outcome = if settled {
         Outcome::Converged
@@ -294,7 +300,7 @@ pub fn run(args: &BasinArgs) -> Result<()> {
     let runs: Vec<Run> = all
         .par_iter()
         .map(|&start| {
-            let run = run_one(&config, start, args.settled_for);
+            let run = run_one(&config, start, args.settled_for, args.full);
             if let Some(bar) = &bar {
                 bar.inc(1);
             }
@@ -317,7 +323,8 @@ pub fn run(args: &BasinArgs) -> Result<()> {
         "starts": args.starts,
         "seed": args.seed,
         "duration_s": args.duration,
-        "settled_for_s": args.settled_for,
+        "settled_for_s": if args.full { None } else { Some(args.settled_for) },
+        "full": args.full,
         "threads": rayon::current_num_threads(),
         "wall_s": wall_s,
         "classes": classes,
