@@ -598,7 +598,8 @@ fn validate_simulation(
                 format!("must come after from_s ({}), both at least 0 s", o.from_s),
             ));
         }
-        occlusions[i] = Some(crate::Occlusion { mark: (o.mark - 1) as usize, from_s: o.from_s, until_s: o.until_s });
+        occlusions[i] =
+            Some(crate::Occlusion { mark: (o.mark - 1) as usize, from_s: o.from_s, until_s: o.until_s });
     }
     let scenario = Scenario {
         duration_s,

@@ -289,7 +289,8 @@ fn the_viewer_is_off_on_localhost_by_default_and_takes_ip_addresses_only() {
 
 #[test]
 fn the_law_beyond_the_paper_is_off_by_default_and_its_keys_are_checked() {
-    let config = Config::from_toml(&with("feedforward = false", "feedforward = false"), "vservo.toml").expect("valid");
+    let config =
+        Config::from_toml(&with("feedforward = false", "feedforward = false"), "vservo.toml").expect("valid");
     assert_eq!(config.controller.options, vservo_control::LawOptions::default());
     let robust = Config::load(concat!(env!("CARGO_MANIFEST_DIR"), "/../../config/vservo-robust.toml"))
         .expect("config/vservo-robust.toml is valid");
@@ -297,12 +298,18 @@ fn the_law_beyond_the_paper_is_off_by_default_and_its_keys_are_checked() {
     assert!(robust.controller.options.feedforward && robust.controller.options.border_margin_px == 20.0);
 
     let error = refused(&with("interaction = \"desired\"", "interaction = \"nearest\""));
-    assert!(error.to_string().contains("controller.interaction") && error.to_string().contains("nearest"), "{error}");
+    assert!(
+        error.to_string().contains("controller.interaction") && error.to_string().contains("nearest"),
+        "{error}"
+    );
     let error = refused(&with("border_margin_px = 0.0", "border_margin_px = -3.0"));
     assert!(error.to_string().contains("controller.border_margin_px"), "{error}");
     // ξ_d has a mark at y = 70 px: a margin of 80 px would keep the servo from its goal
     let error = refused(&with("border_margin_px = 0.0", "border_margin_px = 80.0"));
-    assert!(error.to_string().contains("desired mark") && error.to_string().contains("inside the margin"), "{error}");
+    assert!(
+        error.to_string().contains("desired mark") && error.to_string().contains("inside the margin"),
+        "{error}"
+    );
 }
 
 #[test]

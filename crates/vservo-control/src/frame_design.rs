@@ -89,7 +89,8 @@ mod tests {
 
     fn paper() -> (InteractionMatrix, StateWeight, Matrix6<f64>) {
         let features = FeatureVector::from([151.0, 168.0, 318.0, 178.0, 339.0, 75.0, 172.0, 70.0]);
-        let b = interaction_matrix(&CameraIntrinsics::paper(), &features, &MarkDepths::from_element(0.5), 0.085);
+        let b =
+            interaction_matrix(&CameraIntrinsics::paper(), &features, &MarkDepths::from_element(0.5), 0.085);
         let r = InputWeight::new(
             Matrix6::from_diagonal(&Vector6::new(1.0, 1.0, 1.0, 6.0, 6.0, 6.0)),
             InputUnits::MillimetreMilliradian,
@@ -121,10 +122,8 @@ mod tests {
             assert!(columns < 1e-12 * three.gain.amax(), "mark {missing}'s columns: {columns}");
             // the seen features' loop ξ ← (I − B K) ξ: all six modes inside the unit circle
             let mut rows = [0usize; 6];
-            let mut n = 0;
-            for row in (0..FEATURES).filter(|r| r / 2 != missing) {
+            for (n, row) in (0..FEATURES).filter(|r| r / 2 != missing).enumerate() {
                 rows[n] = row;
-                n += 1;
             }
             let loop_matrix = SMatrix::<f64, 6, 6>::from_fn(|i, j| {
                 let identity = if i == j { 1.0 } else { 0.0 };
