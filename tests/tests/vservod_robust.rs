@@ -1,0 +1,65 @@
+//! The robust controller (config/vservo-robust.toml) as four real-time processes: the gains with Q, R, Z_d
+//! and the options cross the wire, the servo takes the camera's pose from each feature message, goes on
+//! with three marks when one is covered, steers back while two are, and converges again.
+
+use std::io::{BufRead, BufReader};
+use std::process::{Command, Stdio};
+use std::time::Duration;
+
+use serde_json::Value;
+use vservo_protocol::verdict;
+use vservo_system_tests::{
+    Daemon, Killed, binary, config_from, exclusive, running, status, unique, wait_until,
+};
+
+#[test]
+fn covered_marks_do_not_stop_the_robust_servo_in_real_time() {
+    let _one = exclusive();
+    let instance = unique("robust");
+    let config = config_from(
+        "config/vservo-robust.toml",
+        &[
+            ("name = \"default\"", &format!("name = \"{instance}\"")),
+            (
+                "occlusions = []",
+                "occlusions = [{ mark = 2, from_s = 3.0, until_s = 4.0 }, { mark = 1, from_s = 5.0, until_s = 5.5 }, \
+                 { mark = 3, from_s = 5.0, until_s = 5.5 }]",
+            ),
+        ],
+    );
+    let daemon = Daemon::start(&config);
+    assert!(
+        wait_until(Duration::from_secs(10), || status(&instance).is_some_and(|s| running(&s))),
+        "{}",
+        daemon.log()
+    );
+    let mut echo = Killed(
+        Command::new(binary("vservoctl"))
+            .args(["echo", "camera_twist", "--instance", &instance, "--duration-s", "8"])
+            .stdout(Stdio::piped())
+            .spawn()
+            .expect("echo starts"),
+    );
+    let stdout = echo.0.stdout.take().expect("piped");
+    let twists: Vec<Value> = BufReader::new(stdout)
+        .lines()
+        .map(|l| serde_json::from_str(&l.expect("line")).expect("JSON"))
+        .collect();
+    let _ = echo.0.wait();
+    let verdicts: Vec<(u64, u64)> = twists
+        .iter()
+        .map(|t| (t["verdict"].as_u64().unwrap_or(99), t["missing_mask"].as_u64().unwrap_or(99)))
+        .collect();
+    let seen = |v: u32, mask: u64| verdicts.contains(&(u64::from(v), mask));
+    assert!(seen(verdict::SERVOING_ON_THREE, 0b0010), "mark 2 covered: {verdicts:?}\n{}", daemon.log());
+    assert!(seen(verdict::REACQUIRING, 0b0101), "marks 1 and 3 covered: {verdicts:?}");
+    assert!(!verdicts.iter().any(|(v, _)| *v == u64::from(verdict::MARKS_MISSING)), "{verdicts:?}");
+    // converged again by the end, and never stopped for a lost target (0.5 s < target_lost_s)
+    let last = twists.last().expect("twists");
+    assert_eq!(last["verdict"].as_u64(), Some(u64::from(verdict::SERVOING)), "{last}");
+    let error = last["feature_error_px"].as_f64().unwrap_or(f64::NAN);
+    assert!(error < 1.0, "feature error at the end {error} px");
+    let state = status(&instance).expect("status");
+    assert!(running(&state), "{state}");
+    daemon.stop();
+}
