@@ -89,3 +89,51 @@ fn sim_shows_progress_on_a_terminal_only() {
     assert!(seen_bar, "a progress bar while it ran: {screen}");
     let _ = std::fs::remove_dir_all(&out);
 }
+
+#[test]
+fn basin_reports_each_class_as_json_and_draws_the_starts() {
+    let out = std::env::temp_dir().join(format!("vservo-basin-{}", std::process::id()));
+    let config = repository_root().join("config/vservo-robust.toml");
+    let output = run(
+        "vservoctl",
+        &[
+            "basin",
+            "--config",
+            config.to_str().expect("utf-8"),
+            "--starts",
+            "8",
+            "--seed",
+            "3",
+            "--json",
+            "--out",
+            out.to_str().expect("utf-8"),
+        ],
+    );
+    assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stderr));
+    let result: serde_json::Value = serde_json::from_slice(&output.stdout).expect("JSON");
+    let classes = result["classes"].as_array().expect("classes");
+    let names: Vec<&str> = classes.iter().filter_map(|c| c["class"].as_str()).collect();
+    assert_eq!(names, ["small", "medium", "large", "roll"]);
+    assert_eq!(classes.iter().filter_map(|c| c["starts"].as_u64()).sum::<u64>(), 8);
+    // the robust controller: every counted start converges, none lets a mark leave the image
+    for class in classes {
+        assert_eq!(class["converged"], class["counted"], "{class}");
+        assert_eq!(class["marks_left_image"], 0, "{class}");
+    }
+    let written: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("basin.json")).expect("basin.json"))
+            .expect("JSON");
+    assert_eq!(written["runs"].as_array().expect("runs").len(), 8);
+    let svg = std::fs::read_to_string(out.join("basin.svg")).expect("basin.svg");
+    assert!(
+        svg.starts_with("<svg") && svg.matches("<circle").count() >= 8,
+        "{} circles",
+        svg.matches("<circle").count()
+    );
+    let _ = std::fs::remove_dir_all(&out);
+
+    // a bad argument is the user's to fix
+    let output = run("vservoctl", &["basin", "--config", config.to_str().expect("utf-8"), "--starts", "0"]);
+    assert_eq!(output.status.code(), Some(2), "{}", String::from_utf8_lossy(&output.stderr));
+    assert!(String::from_utf8_lossy(&output.stderr).contains("--starts 0"));
+}
