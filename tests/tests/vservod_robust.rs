@@ -61,5 +61,10 @@ fn covered_marks_do_not_stop_the_robust_servo_in_real_time() {
     assert!(error < 1.0, "feature error at the end {error} px");
     let state = status(&instance).expect("status");
     assert!(running(&state), "{state}");
+    // one line per change, saying which marks and why
+    let log = daemon.log();
+    assert!(log.contains("servoing on three marks: mark 2 (not found) missing"), "{log}");
+    assert!(log.contains("reacquiring: mark 1 (not found), mark 3 (not found) missing"), "{log}");
+    assert!(log.contains("servoing on all four marks again"), "{log}");
     daemon.stop();
 }

@@ -24,6 +24,58 @@ pub fn feature_error_px(features: &FeatureVector, desired: &FeatureVector) -> f6
     if n == 0 { f64::NAN } else { (sum / n as f64).sqrt() }
 }
 
+/// Why the marks of `missing` are missing, for people: "mark 2 (not found)".
+fn missing_marks(missing: u32, status: &[u8; vservo_scene::MARKS]) -> String {
+    let reason = |code: u8| match code {
+        vservo_protocol::mark_status::OUTSIDE_IMAGE => "outside the image",
+        vservo_protocol::mark_status::CUT_BY_BORDER => "cut by the border",
+        vservo_protocol::mark_status::MERGED => "merged with another",
+        vservo_protocol::mark_status::IRREGULAR => "irregular",
+        vservo_protocol::mark_status::NOT_FOUND => "not found",
+        vservo_protocol::mark_status::BAD_IMAGE => "bad image",
+        // valid for vision, refused by the servo
+        vservo_protocol::mark_status::VALID => "outside the image",
+        _ => "unknown reason",
+    };
+    (0..vservo_scene::MARKS)
+        .filter(|m| missing & (1 << m) != 0)
+        .map(|m| format!("mark {} ({})", m + 1, reason(status[m])))
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
+/// One line when the servo starts or stops servoing on three marks, reacquiring or holding for lost marks.
+fn log_change(before: (u32, u32), now: (u32, u32), status: &[u8; vservo_scene::MARKS]) {
+    match now {
+        (verdict::SERVOING_ON_THREE, missing) => {
+            tracing::warn!(
+                node = "servo",
+                "servoing on three marks: {} missing",
+                missing_marks(missing, status)
+            );
+        }
+        (verdict::REACQUIRING, missing) => tracing::warn!(
+            node = "servo",
+            "reacquiring: {} missing; steering the camera back to where all four were last seen",
+            missing_marks(missing, status)
+        ),
+        (verdict::MARKS_MISSING, missing) => tracing::warn!(
+            node = "servo",
+            "holding: {} missing and no pose where all four were seen",
+            missing_marks(missing, status)
+        ),
+        (verdict::SERVOING, _)
+            if matches!(
+                before.0,
+                verdict::SERVOING_ON_THREE | verdict::REACQUIRING | verdict::MARKS_MISSING
+            ) =>
+        {
+            tracing::info!(node = "servo", "servoing on all four marks again");
+        }
+        _ => {}
+    }
+}
+
 /// Runs the servo until the stop flag is set; then sends one zero twist marked STOPPING.
 pub fn run(context: &NodeContext) -> Result<(), RuntimeError> {
     let config = context.cell.config();
@@ -48,6 +100,8 @@ pub fn run(context: &NodeContext) -> Result<(), RuntimeError> {
         }
     };
     let mut last = (0u64, 0u64);
+    // (verdict, missing marks) of the last frame, for one log line per change of what the servo does
+    let mut doing = (verdict::WAITING, 0u32);
 
     // the daemon gone: stop, with a zero twist, so that the rmrc ramps the arm to rest
     while !context.stopping() && !context.orphaned() {
@@ -129,6 +183,11 @@ pub fn run(context: &NodeContext) -> Result<(), RuntimeError> {
                 missing_mask,
                 reserved: 0,
             });
+            // said after the twist is sent, and only when it changes
+            if (verdict_code, missing_mask) != doing {
+                log_change(doing, (verdict_code, missing_mask), &message.mark_status);
+                doing = (verdict_code, missing_mask);
+            }
             last = (message.frame, message.capture_tick);
             counters.set_progress(message.frame);
             counters.set_mode(verdict_code);
