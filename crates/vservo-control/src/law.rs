@@ -161,14 +161,19 @@ impl ServoLaw {
 
     /// The twist for a measured feature vector with all four marks: u = −K_ξ (ξ − ξ_d) − Σ K_j u(k − j).
     pub fn command(&mut self, measured: &FeatureVector) -> Twist {
-        let error = measured - self.gains.desired_features;
+        let twist = self.designed_law(&(measured - self.gains.desired_features));
+        self.remember(twist);
+        twist
+    }
+
+    /// The law as designed, on the error of all four marks: −K_ξ e − Σ K_j u(k − j).
+    fn designed_law(&self, error: &FeatureVector) -> Twist {
         let mut twist = -(self.gains.feature_gain * error);
         for (gain, past) in
             self.gains.past_input_gains.iter().zip(&self.history).take(self.gains.used_past_gains)
         {
             twist -= gain * past;
         }
-        self.remember(twist);
         twist
     }
 
@@ -262,13 +267,7 @@ impl ServoLaw {
             FeatureVector::zeros()
         };
         let mut twist = if use_fixed_full {
-            let mut twist = -(self.gains.feature_gain * error);
-            for (gain, past) in
-                self.gains.past_input_gains.iter().zip(&self.history).take(self.gains.used_past_gains)
-            {
-                twist -= gain * past;
-            }
-            twist - self.gains.feature_gain * drift_to_now
+            self.designed_law(&error) - self.gains.feature_gain * drift_to_now
         } else {
             // the delay-aware law is the paper's gain on the predicted features (K_j = K B)
             let mut predicted = error + drift_to_now;

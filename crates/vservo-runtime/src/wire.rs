@@ -160,6 +160,12 @@ mod tests {
         let mut broken = pose_to_wire(&pose);
         broken[7] = f64::INFINITY;
         assert_eq!(pose_from_wire(&broken), None);
+        // a matrix that is not a rotation is no pose
+        let mut scaled = pose_to_wire(&pose);
+        scaled[0] *= 1.01;
+        assert_eq!(pose_from_wire(&scaled), None);
+        let mirrored = [-1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0];
+        assert_eq!(pose_from_wire(&mirrored), None);
     }
 
     #[test]
@@ -169,6 +175,12 @@ mod tests {
                 .expect("default config");
         let mut spec = config.gains_spec();
         spec.law = vservo_control::ControlLaw::DelayAware;
+        // the options travel with the gains (a reload applies them)
+        spec.options = vservo_control::LawOptions {
+            interaction: vservo_control::Interaction::Mean,
+            border_margin_px: 20.0,
+            feedforward: true,
+        };
         let gains = vservo_control::Gains::design(&spec).expect("design");
         let law = LawGains::from(&gains);
         let key = vservo_protocol::seal::SealKey::random().expect("a key");
@@ -179,5 +191,22 @@ mod tests {
         let mut broken = gains_message(&law, 3, &key);
         broken.feature_gain[5] = f64::NAN;
         assert_eq!(law_gains(&broken), None);
+        // the design's fields are sealed and checked too
+        let mut changed = gains_message(&law, 3, &key);
+        changed.border_margin_px = 0.0;
+        assert_ne!(key.seal_gains(&changed), changed.seal, "the margin is under the seal");
+        let spoilers: [fn(&mut GainsMsg); 6] = [
+            |m: &mut GainsMsg| m.interaction = 3,
+            |m: &mut GainsMsg| m.feedforward = 2,
+            |m: &mut GainsMsg| m.border_margin_px = -1.0,
+            |m: &mut GainsMsg| m.desired_depths_m[2] = 0.0,
+            |m: &mut GainsMsg| m.q[9] = f64::NAN,
+            |m: &mut GainsMsg| m.r_si[0] = f64::INFINITY,
+        ];
+        for spoil in spoilers {
+            let mut bad = gains_message(&law, 3, &key);
+            spoil(&mut bad);
+            assert_eq!(law_gains(&bad), None);
+        }
     }
 }
