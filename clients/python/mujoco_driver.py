@@ -63,13 +63,14 @@ class JointState(ctypes.Structure):
 
 
 class JointCommand(ctypes.Structure):
-    """vservo::JointCommand, 208 bytes (the seal is the rmrc's, for the simulated driver: ignored here)."""
+    """vservo::JointCommand, 216 bytes (the seal is the rmrc's, for the simulated driver: ignored here)."""
 
     _fields_ = [("schema", ctypes.c_uint32), ("mode", ctypes.c_uint32), ("answers_tick", ctypes.c_uint64),
                 ("driver_epoch", ctypes.c_uint64), ("state_stamp_ns", ctypes.c_uint64), ("stamp_ns", ctypes.c_uint64),
                 ("torque_nm", ctypes.c_double * 6), ("q_ref_rad", ctypes.c_double * 6),
                 ("qd_ref_rad_s", ctypes.c_double * 6), ("twist_capture_tick", ctypes.c_uint64),
-                ("twist_applied_tick", ctypes.c_uint64), ("seal", ctypes.c_uint64)]
+                ("twist_applied_tick", ctypes.c_uint64), ("reference_since_tick", ctypes.c_uint64),
+                ("seal", ctypes.c_uint64)]
 
     @staticmethod
     def type_name() -> str:

@@ -1,7 +1,7 @@
 //! The real-time shell end to end: vservod and its four node processes over iceoryx2, driven and
 //! observed through `vservoctl` as a user would. These tests run one at a time (they share the CPUs).
 
-use std::collections::HashMap;
+use std::collections::{HashMap, HashSet};
 use std::io::{BufRead, BufReader};
 use std::path::PathBuf;
 use std::process::{Child, Command, Stdio};
@@ -119,11 +119,14 @@ fn interpolate(reference: &[(f64, [f64; 8])], t: f64) -> [f64; 8] {
 /// The ticks at which the real-time rmrc took each twist in, from `vservoctl echo joint_command` started
 /// before the daemon: capture tick of the twist's features → the tick it was taken in. Every command carries
 /// both, so a command the echo missed loses nothing.
-fn read_taken_in(echo: Child) -> (Child, std::thread::JoinHandle<HashMap<u64, u64>>) {
+#[allow(clippy::type_complexity)]
+fn read_taken_in(echo: Child) -> (Child, std::thread::JoinHandle<(HashMap<u64, u64>, HashSet<u64>)>) {
     let mut echo = echo;
     let stdout = echo.stdout.take().expect("piped");
     let reader = std::thread::spawn(move || {
         let mut taken = HashMap::new();
+        // the ticks from which the rmrc's reference ran: its start, and a resync after a stall
+        let mut resyncs = HashSet::new();
         for line in BufReader::new(stdout).lines() {
             let Ok(line) = line else { break };
             let Ok(message) = serde_json::from_str::<Value>(&line) else { continue };
@@ -133,8 +136,11 @@ fn read_taken_in(echo: Child) -> (Child, std::thread::JoinHandle<HashMap<u64, u6
             {
                 taken.entry(capture).or_insert(applied);
             }
+            if let Some(since) = message["reference_since_tick"].as_u64() {
+                resyncs.insert(since);
+            }
         }
-        taken
+        (taken, resyncs)
     });
     (echo, reader)
 }
@@ -168,6 +174,7 @@ fn lockstep_replaying(
     config: &TempConfig,
     taken_in: &HashMap<u64, u64>,
     applied: &HashMap<u64, Option<u64>>,
+    resyncs: &HashSet<u64>,
     first_tick: u64,
 ) -> Vec<(u64, [f64; 8])> {
     let text = std::fs::read_to_string(&config.path).expect("the configuration");
@@ -183,6 +190,8 @@ fn lockstep_replaying(
             Some(None) => None,
             None => Some(tick),
         },
+        // the rmrc's start is the lockstep run's own; a later resync (a stall) is replayed
+        |tick| resyncs.contains(&(tick + first_tick)) && tick > 0,
     );
     let dt = config.timing.control_period_s;
     trace
@@ -229,7 +238,7 @@ fn the_daemon_runs_the_translation_step_like_the_lockstep_simulator() {
         kill(Pid::from_raw(echo.id() as i32), Signal::SIGTERM).expect("stop the echo");
         let _ = echo.wait();
     }
-    let taken_in = commands_reader.join().expect("the reader");
+    let (taken_in, resyncs) = commands_reader.join().expect("the reader");
     let applied = states_reader.join().expect("the reader");
     assert_eq!(runtime.len(), frames, "{}", daemon.log());
 
@@ -260,7 +269,8 @@ fn the_daemon_runs_the_translation_step_like_the_lockstep_simulator() {
     let nominal = lockstep_features(&config);
     let nominal_rms_px = rms_to(&|tick| interpolate(&nominal, tick as f64 * 0.001));
     // against the lockstep run that takes each twist in when the real-time run did
-    let replayed = lockstep_replaying(&config, &taken_in, &applied, first_tick);
+    let replayed = lockstep_replaying(&config, &taken_in, &applied, &resyncs, first_tick);
+    let stalls = resyncs.iter().filter(|since| **since > first_tick).count();
     let held = applied.values().filter(|a| a.is_none()).count();
     let kept = applied.iter().filter(|(tick, a)| a.is_some_and(|a| a != **tick)).count();
     let replayed_at = |tick| replayed.iter().find(|(t, _)| *t == tick).map_or([f64::NAN; 8], |(_, xi)| *xi);
@@ -283,7 +293,8 @@ fn the_daemon_runs_the_translation_step_like_the_lockstep_simulator() {
     eprintln!(
         "real time vs lockstep over {frames} frames: RMS {replayed_rms_px:.2e} px, max {replayed_max_px:.2e} px replaying the run's answer ticks \
          ({nominal_rms_px:.3} px against twists taken in at once); camera-to-actuation latency p50 {} ticks, max {} ticks; \
-         plant ticks without a fresh answer {late_answers} ({kept} seen keeping an older command, {held} holding, of {} seen; {unseen} unseen); final error to ξ_d {final_to_desired:.3} px",
+         plant ticks without a fresh answer {late_answers} ({kept} seen keeping an older command, {held} holding, of {} seen; {unseen} unseen); \
+         {stalls} rmrc resyncs after a stall (replayed); final error to ξ_d {final_to_desired:.3} px",
         latency_ticks[latency_ticks.len() / 2],
         latency_ticks.last().copied().unwrap_or_default(),
         applied.len()

@@ -260,6 +260,7 @@ fn absurd_messages_from_a_rogue_publisher_are_refused_and_counted() {
                 qd_ref_rad_s: [0.0; 6],
                 twist_capture_tick: u64::MAX,
                 twist_applied_tick: u64::MAX,
+                reference_since_tick: 0,
                 seal: round,
             };
             let _ = torques.send_copy(command);

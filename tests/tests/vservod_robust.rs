@@ -22,7 +22,7 @@ fn covered_marks_do_not_stop_the_robust_servo_in_real_time() {
             ("name = \"default\"", &format!("name = \"{instance}\"")),
             (
                 "occlusions = []",
-                "occlusions = [{ mark = 2, from_s = 3.0, until_s = 4.0 }, { mark = 1, from_s = 5.0, until_s = 5.5 }, \
+                "occlusions = [{ mark = 2, from_s = 0.0, until_s = 4.0 }, { mark = 1, from_s = 5.0, until_s = 5.5 }, \
                  { mark = 3, from_s = 5.0, until_s = 5.5 }]",
             ),
         ],
@@ -52,6 +52,14 @@ fn covered_marks_do_not_stop_the_robust_servo_in_real_time() {
         .collect();
     let seen = |v: u32, mask: u64| verdicts.contains(&(u64::from(v), mask));
     assert!(seen(verdict::SERVOING_ON_THREE, 0b0010), "mark 2 covered: {verdicts:?}\n{}", daemon.log());
+    // the translation step is taken on three marks: the rmrc follows those twists, the three converge
+    let on_three: Vec<f64> = twists
+        .iter()
+        .filter(|t| t["verdict"].as_u64() == Some(u64::from(verdict::SERVOING_ON_THREE)))
+        .filter_map(|t| t["feature_error_px"].as_f64())
+        .collect();
+    let settled_on_three = on_three.last().copied().unwrap_or(f64::NAN);
+    assert!(settled_on_three < 1.0, "error on the three seen marks at the end of the cover: {on_three:?}");
     assert!(seen(verdict::REACQUIRING, 0b0101), "marks 1 and 3 covered: {verdicts:?}");
     assert!(!verdicts.iter().any(|(v, _)| *v == u64::from(verdict::MARKS_MISSING)), "{verdicts:?}");
     // converged again by the end, and never stopped for a lost target (0.5 s < target_lost_s)

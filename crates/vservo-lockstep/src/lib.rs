@@ -69,6 +69,7 @@ pub const REPLAY_COMMANDS: usize = 16;
 /// The loop.
 pub struct Lockstep {
     config: Config,
+    cell: Cell,
     gains: Gains,
     plant: PlantStage,
     vision: VisionStage,
@@ -84,6 +85,7 @@ impl Lockstep {
         let cell = Cell::simulated(config)?;
         Ok(Self {
             config: config.clone(),
+            cell: cell.clone(),
             gains: cell.gains().clone(),
             plant: cell.plant(),
             vision: cell.vision(),
@@ -100,7 +102,7 @@ impl Lockstep {
 
     /// Runs the scenario; `progress` is called with the simulated time at every vision frame.
     pub fn run(&mut self, progress: impl FnMut(f64)) -> Trace {
-        self.run_replaying(progress, |_, frame_tick| frame_tick, Some)
+        self.run_replaying(progress, |_, frame_tick| frame_tick, Some, |_| false)
     }
 
     /// [`Lockstep::run`] with each twist taken in at a tick of the caller's choosing: `taken_at(delivered
@@ -115,19 +117,24 @@ impl Lockstep {
     /// computed now (as [`Lockstep::run`] does), `Some(older)` one computed at an earlier tick (of the last
     /// [`REPLAY_COMMANDS`]; a driver that kept its last command because the answer came late), `None` none
     /// (the plant holds the arm).
+    ///
+    /// `resynced(tick)` says whether the rmrc started again at rest from the measured joints at `tick` (a
+    /// real-time rmrc does after a stall longer than `robot.state_timeout_periods`; its joint commands say
+    /// from which tick their reference runs), dropping the twist it held.
     pub fn run_replaying(
         &mut self,
         progress: impl FnMut(f64),
         taken_at: impl FnMut(u64, u64) -> u64,
         applied: impl FnMut(u64) -> Option<u64>,
+        resynced: impl FnMut(u64) -> bool,
     ) -> Trace {
-        self.run_inner(progress, taken_at, applied, |_| false)
+        self.run_inner(progress, taken_at, applied, resynced, |_| false)
     }
 
     /// [`Lockstep::run`], ended early at the first frame for which `stop(frames so far)` says so (a Monte
     /// Carlo of starts stops a run once it has settled long enough).
     pub fn run_until(&mut self, stop: impl FnMut(&[FrameRecord]) -> bool) -> Trace {
-        self.run_inner(|_| {}, |_, frame_tick| frame_tick, Some, stop)
+        self.run_inner(|_| {}, |_, frame_tick| frame_tick, Some, |_| false, stop)
     }
 
     fn run_inner(
@@ -135,6 +142,7 @@ impl Lockstep {
         mut progress: impl FnMut(f64),
         mut taken_at: impl FnMut(u64, u64) -> u64,
         mut applied: impl FnMut(u64) -> Option<u64>,
+        mut resynced: impl FnMut(u64) -> bool,
         mut stop: impl FnMut(&[FrameRecord]) -> bool,
     ) -> Trace {
         let dt = self.config.timing.control_period_s;
@@ -182,6 +190,10 @@ impl Lockstep {
                 if stop(&frames) {
                     break;
                 }
+            }
+            // as the real-time rmrc: a resync first, then the twists that came in
+            if resynced(tick) {
+                self.rmrc = self.cell.rmrc(&state.q);
             }
             if let Some((at, twist)) = waiting
                 && at == tick

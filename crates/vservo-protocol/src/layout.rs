@@ -69,6 +69,7 @@ pub fn layout_tables() -> String {
             qd_ref_rad_s: "f64[6]", "joint reference velocity q̇_d over the next period (rad/s)";
             twist_capture_tick: "u64", "the `capture_tick` of the `camera_twist` this command follows (2⁶⁴−1 before the first)";
             twist_applied_tick: "u64", "the joint-state tick at which the rmrc took that twist in (2⁶⁴−1 before the first)";
+            reference_since_tick: "u64", "the joint-state tick from which the rmrc's reference runs: where it last started at rest from the measured joints (the first state, a new driver epoch, a driver back after a gap)";
             seal: "u64", "the rmrc's seal under the run's key: the simulated driver applies sealed commands only; an external driver ignores it";
         },
     );

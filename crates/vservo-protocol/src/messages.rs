@@ -114,6 +114,9 @@ pub struct JointCommandMsg {
     pub twist_capture_tick: u64,
     /// The joint-state tick at which the rmrc took that twist in (`u64::MAX` before the first).
     pub twist_applied_tick: u64,
+    /// The joint-state tick from which the rmrc's reference runs: where it last started at rest from the
+    /// measured joints (the first state, a new driver epoch, or a driver back after a gap).
+    pub reference_since_tick: u64,
     /// The rmrc's seal under the run's key ([`crate::seal`]): the simulated driver applies sealed commands
     /// only; an external driver, which is not given the key, ignores it.
     pub seal: u64,
@@ -230,6 +233,11 @@ pub mod verdict {
     pub const SERVOING_ON_THREE: u32 = 5;
     /// Two or more marks missing (`missing_mask`): steering the camera back to where all were last seen.
     pub const REACQUIRING: u32 = 6;
+
+    /// Whether a twist of this verdict is to be followed (the others mean: bring the arm to rest).
+    pub fn moves(verdict: u32) -> bool {
+        matches!(verdict, SERVOING | SERVOING_ON_THREE | REACQUIRING)
+    }
 }
 
 /// servo → rmrc (every frame): the camera twist.
@@ -700,10 +708,10 @@ mod tests {
         assert_eq!(offset_of!(JointStateMsg, tick), 8);
         assert_eq!(offset_of!(JointStateMsg, q_rad), 48);
         assert_eq!(offset_of!(JointStateMsg, applied_command_tick), 192);
-        assert_eq!(size_of::<JointCommandMsg>(), 40 + 3 * 48 + 16 + 8);
+        assert_eq!(size_of::<JointCommandMsg>(), 40 + 3 * 48 + 24 + 8);
         assert_eq!(offset_of!(JointCommandMsg, torque_nm), 40);
         assert_eq!(offset_of!(JointCommandMsg, twist_capture_tick), 184);
-        assert_eq!(offset_of!(JointCommandMsg, seal), 200);
+        assert_eq!(offset_of!(JointCommandMsg, seal), 208);
         assert_eq!(size_of::<SimWorldMsg>(), 16 + 96);
         assert_eq!(size_of::<CameraImageHeader>(), 40);
         assert_eq!(size_of::<FeaturesMsg>(), 40 + 64 + 8 + 96);

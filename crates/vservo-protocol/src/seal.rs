@@ -113,7 +113,7 @@ impl SealKey {
 
     /// The seal of a joint command (its `seal` field left out); allocates nothing.
     pub fn seal_joint_command(&self, m: &JointCommandMsg) -> u64 {
-        let mut words = Words::<{ 8 + 32 + 3 * 48 + 16 }>::new();
+        let mut words = Words::<{ 8 + 32 + 3 * 48 + 24 }>::new();
         words
             .put(&m.schema.to_le_bytes())
             .put(&m.mode.to_le_bytes())
@@ -125,7 +125,8 @@ impl SealKey {
             .floats(&m.q_ref_rad)
             .floats(&m.qd_ref_rad_s)
             .put(&m.twist_capture_tick.to_le_bytes())
-            .put(&m.twist_applied_tick.to_le_bytes());
+            .put(&m.twist_applied_tick.to_le_bytes())
+            .put(&m.reference_since_tick.to_le_bytes());
         siphash24(self.k0, self.k1, words.bytes())
     }
 
@@ -236,6 +237,7 @@ mod tests {
             qd_ref_rad_s: [0.0; 6],
             twist_capture_tick: 0,
             twist_applied_tick: 2,
+            reference_since_tick: 1,
             seal: 0,
         };
         let seal = key.seal_joint_command(&command);
@@ -246,6 +248,7 @@ mod tests {
             crate::JointCommandMsg { torque_nm: [1.0, 1.0, 1.0, 1.0, 1.0, 1e9], ..command },
             crate::JointCommandMsg { qd_ref_rad_s: [0.0, 0.0, 0.0, 0.0, 0.0, 1e-9], ..command },
             crate::JointCommandMsg { twist_applied_tick: 3, ..command },
+            crate::JointCommandMsg { reference_since_tick: 4, ..command },
         ] {
             assert_ne!(key.seal_joint_command(&changed), seal);
         }

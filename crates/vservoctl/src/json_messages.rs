@@ -38,7 +38,8 @@ pub fn joint_command(m: &JointCommandMsg) -> Value {
     json!({"schema": m.schema, "mode": m.mode, "answers_tick": m.answers_tick, "driver_epoch": m.driver_epoch,
         "state_stamp_ns": m.state_stamp_ns, "stamp_ns": m.stamp_ns, "torque_nm": numbers(&m.torque_nm),
         "q_ref_rad": numbers(&m.q_ref_rad), "qd_ref_rad_s": numbers(&m.qd_ref_rad_s),
-        "twist_capture_tick": m.twist_capture_tick, "twist_applied_tick": m.twist_applied_tick})
+        "twist_capture_tick": m.twist_capture_tick, "twist_applied_tick": m.twist_applied_tick,
+        "reference_since_tick": m.reference_since_tick})
 }
 
 /// One message as JSON.

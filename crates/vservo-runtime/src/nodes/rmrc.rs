@@ -31,6 +31,8 @@ struct Following {
     epoch: u64,
     last_tick: u64,
     last_stamp_ns: u64,
+    /// The tick of the state it last started at rest from.
+    since_tick: u64,
     stage: RmrcStage,
 }
 
@@ -106,6 +108,7 @@ pub fn run(context: &NodeContext) -> Result<(), RuntimeError> {
                 epoch: state.driver_epoch,
                 last_tick: state.tick,
                 last_stamp_ns: state.stamp_ns,
+                since_tick: state.tick,
                 stage: context.cell.rmrc(&q),
             });
         }
@@ -125,8 +128,9 @@ pub fn run(context: &NodeContext) -> Result<(), RuntimeError> {
         let rmrc = &mut f.stage;
         while let Ok(Some(sample)) = twist_subscriber.receive() {
             let twist = Twist::from(sample.twist);
-            // any verdict but "servoing" means stop, whatever the numbers say
-            let servoing = sample.verdict == vservo_protocol::verdict::SERVOING;
+            // any verdict but servoing (on four or three marks) or reacquiring means stop, whatever the
+            // numbers say
+            let servoing = vservo_protocol::verdict::moves(sample.verdict);
             let twist = if servoing { twist } else { Twist::zeros() };
             if schema_ok(sample.schema) && twist_within(&twist, limits) {
                 rmrc.set_twist(twist, now_s);
@@ -161,6 +165,7 @@ pub fn run(context: &NodeContext) -> Result<(), RuntimeError> {
             qd_ref_rad_s: to_array(&reference.qd),
             twist_capture_tick: twist_in_force.0,
             twist_applied_tick: twist_in_force.1,
+            reference_since_tick: f.since_tick,
             seal: 0,
         };
         if let Ok(sample) = command_publisher.loan_uninit() {
