@@ -85,8 +85,8 @@ impl ServoStage {
             self.last_seen_whole = input.base_from_camera.copied();
         }
         match self.law.step(input.frame, seen, input.base_from_camera) {
-            Some(step) if missing == 0 => (step.twist, ServoVerdict::Servoing),
-            Some(step) => (step.twist, ServoVerdict::ServoingOnThree(missing)),
+            Some(twist) if missing == 0 => (twist, ServoVerdict::Servoing),
+            Some(twist) => (twist, ServoVerdict::ServoingOnThree(missing)),
             None => match (self.last_seen_whole, input.base_from_camera) {
                 (Some(then), Some(now)) => {
                     let twist = steer_towards(now, &then, self.period_s);

@@ -73,19 +73,6 @@ pub struct LawGeometry {
     pub delay_frames: usize,
 }
 
-/// One frame's command and how it was made.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct LawStep {
-    /// The twist.
-    pub twist: Twist,
-    /// The marks it was computed from.
-    pub marks: MarkSet,
-    /// Barrier conditions that changed the twist.
-    pub border_corrections: u32,
-    /// The frame's gain could not be designed (degenerate image); the fixed gain for these marks served.
-    pub design_fell_back: bool,
-}
-
 /// The servo's state: its gains and the commands it sent in the last frames.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ServoLaw {
@@ -154,11 +141,6 @@ impl ServoLaw {
         &self.gains.desired_features
     }
 
-    /// The options in force.
-    pub fn options(&self) -> &LawOptions {
-        &self.gains.options
-    }
-
     /// The twist for a measured feature vector with all four marks: u = −K_ξ (ξ − ξ_d) − Σ K_j u(k − j).
     pub fn command(&mut self, measured: &FeatureVector) -> Twist {
         let twist = self.designed_law(&(measured - self.gains.desired_features));
@@ -185,7 +167,7 @@ impl ServoLaw {
         frame: u64,
         measured: &FeatureVector,
         base_from_camera: Option<&IsometryMatrix3<f64>>,
-    ) -> Option<LawStep> {
+    ) -> Option<Twist> {
         let marks = frame_design::finite_marks(measured);
         let options = self.gains.options;
         if options.needs_depths() && marks == ALL_MARKS {
@@ -207,8 +189,7 @@ impl ServoLaw {
         }
         let plain = marks == ALL_MARKS && options == LawOptions::default();
         if plain {
-            let twist = self.command(measured);
-            return Some(LawStep { twist, marks, border_corrections: 0, design_fell_back: false });
+            return Some(self.command(measured));
         }
 
         let mut error = measured - self.gains.desired_features;
@@ -223,8 +204,9 @@ impl ServoLaw {
             let missing = (0..MARKS).find(|m| marks & (1 << m) == 0).unwrap_or(0);
             self.without[missing]
         };
-        let (b, design, fell_back) = match options.interaction {
-            Interaction::Desired => (frame_design::masked(&self.b_desired, marks), fixed, false),
+        // a frame whose own design fails (a degenerate image) takes the fixed gain for its marks
+        let (b, design) = match options.interaction {
+            Interaction::Desired => (frame_design::masked(&self.b_desired, marks), fixed),
             Interaction::Mean | Interaction::Current => {
                 let g = &self.geometry;
                 let filled = filled_with(measured, &self.gains.desired_features);
@@ -241,8 +223,8 @@ impl ServoLaw {
                 };
                 let b = frame_design::masked(&(jacobian * g.period_s), marks);
                 match frame_design::design(&b, &self.gains.q, &self.gains.r_si) {
-                    Ok(design) => (b, Some(design), false),
-                    Err(_) => (frame_design::masked(&self.b_desired, marks), fixed, true),
+                    Ok(design) => (b, Some(design)),
+                    Err(_) => (frame_design::masked(&self.b_desired, marks), fixed),
                 }
             }
         };
@@ -278,16 +260,13 @@ impl ServoLaw {
         };
         // cancel the target's motion over the coming frame
         twist -= design.pseudo_inverse * drift_next;
-        let mut border_corrections = 0;
         if options.border_margin_px > 0.0 {
             let predicted = measured_or_zero(measured) + in_pipeline + drift_to_now;
             let barrier = Barrier::new(&self.geometry.camera, options.border_margin_px, self.r_inverse);
-            let (kept, corrections) = barrier.keep_inside(twist, &b, &predicted, &drift_next, marks);
-            twist = kept;
-            border_corrections = corrections;
+            twist = barrier.keep_inside(twist, &b, &predicted, &drift_next, marks).0;
         }
         self.remember(twist);
-        Some(LawStep { twist, marks, border_corrections, design_fell_back: fell_back })
+        Some(twist)
     }
 
     /// No usable features this frame: command zero, and remember that zero was sent.
