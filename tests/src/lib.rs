@@ -183,6 +183,26 @@ pub fn wait_until(timeout: Duration, mut condition: impl FnMut() -> bool) -> boo
     false
 }
 
+/// The pace a healthy cell's loop keeps: joint states per wall-clock second, over the supervisor's last
+/// second (the control period is 1 ms).
+pub const PACE_HZ: f64 = 900.0;
+
+/// Waits up to `timeout` for one poll in which every instance runs and its loop kept [`PACE_HZ`] over the
+/// last second. A single sample is not enough on these shared VMs: a stall of the whole machine (100 ms
+/// and more, seen in CI with the plant at FIFO 80 skipping 300 periods) takes any one second below the pace
+/// through no fault of the cell, while a cell that cannot keep the pace never reaches it. On failure,
+/// the statuses of the last poll.
+pub fn keep_pace(instances: &[&str], timeout: Duration) -> Result<(), Vec<Option<Value>>> {
+    let mut last = Vec::new();
+    let paced = wait_until(timeout, || {
+        last = instances.iter().map(|instance| status(instance)).collect();
+        last.iter().all(|s| {
+            s.as_ref().is_some_and(|s| running(s) && s["tick_rate_hz"].as_f64().is_some_and(|r| r > PACE_HZ))
+        })
+    });
+    if paced { Ok(()) } else { Err(last) }
+}
+
 /// The status says every node runs and is healthy.
 pub fn running(status: &Value) -> bool {
     status["state"] == "running"
