@@ -46,7 +46,7 @@ fn paper_twist(config: &vservo_config::Config, features: &[f64]) -> [f64; 6] {
 }
 
 #[test]
-fn sighup_with_a_changed_r_swaps_the_gain_at_a_frame_without_any_other_jump() {
+fn reloads_swap_the_gain_and_the_law_options_at_a_frame_and_bad_files_change_nothing() {
     let _one = exclusive();
     let instance = unique("reload");
     let config = config_with("name = \"default\"", &format!("name = \"{instance}\""));
@@ -111,6 +111,40 @@ fn sighup_with_a_changed_r_swaps_the_gain_at_a_frame_without_any_other_jump() {
     assert!(stderr.contains("plant.mode") && stderr.contains("restart vservod"), "{stderr}");
     assert_eq!(gains_version(&instance), Some(2));
     assert!(up(&instance));
+
+    // the law's options are live keys: a reload takes them to the servo sealed with the gains, and a bad one
+    // is refused by name with the running gains kept
+    let robust = text
+        .replace("interaction = \"desired\"", "interaction = \"mean\"")
+        .replace("border_margin_px = 0.0", "border_margin_px = 20.0")
+        .replace("feedforward = false", "feedforward = true");
+    assert_ne!(robust, text, "the default file names the options");
+    std::fs::write(&config.path, robust.replace("border_margin_px = 20.0", "border_margin_px = -1.0"))
+        .expect("write");
+    let out = run("vservoctl", &["reload", "--instance", &instance]);
+    assert_eq!(out.status.code(), Some(3));
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(stderr.contains("border_margin_px") && stderr.contains("version 2) stay"), "{stderr}");
+    std::fs::write(&config.path, &robust).expect("write");
+    let out = run("vservoctl", &["reload", "--instance", &instance]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(stdout.contains("controller.interaction") && stdout.contains("gains version 3"), "{stdout}");
+    let gains = lines(echo(&instance, "gains", 0.5));
+    let latest = gains.last().expect("gains history");
+    assert_eq!(latest["version"], 3, "{latest}");
+    assert_eq!(latest["interaction"], vservo_control::Interaction::Mean.code(), "{latest}");
+    assert_eq!(latest["border_margin_px"], 20.0, "{latest}");
+    assert_eq!(latest["feedforward"], 1, "{latest}");
+    // the servo runs them: its twists name version 3, and the loop stays on ξ_d
+    let twists = lines(echo(&instance, "camera_twist", 0.5));
+    assert!(!twists.is_empty() && twists.iter().all(|t| t["gains_version"] == 3), "{twists:?}");
+    assert!(
+        wait_until(Duration::from_secs(5), || status(&instance)
+            .is_some_and(|s| running(&s) && s["feature_error_px"].as_f64().is_some_and(|e| e < 1.0))),
+        "{}",
+        daemon.log()
+    );
     daemon.stop();
 }
 
