@@ -84,7 +84,7 @@ class CameraTwist(ctypes.Structure):
         ("twist", ctypes.c_double * 6),
         ("feature_error_px", ctypes.c_double),
         ("missing_mask", ctypes.c_uint32),
-        ("reserved", ctypes.c_uint32),
+        ("law_flags", ctypes.c_uint32),
     ]
 
     @staticmethod

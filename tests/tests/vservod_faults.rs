@@ -276,7 +276,7 @@ fn absurd_messages_from_a_rogue_publisher_are_refused_and_counted() {
                 twist: [1e9; 6],
                 feature_error_px: 0.0,
                 missing_mask: 0,
-                reserved: 0,
+                law_flags: 0,
             });
             let _ = features.send_copy(FeaturesMsg {
                 schema: SCHEMA_VERSION,

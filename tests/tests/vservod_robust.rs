@@ -7,7 +7,7 @@ use std::process::{Command, Stdio};
 use std::time::Duration;
 
 use serde_json::Value;
-use vservo_protocol::verdict;
+use vservo_protocol::{law_flag, verdict};
 use vservo_system_tests::{
     Daemon, Killed, binary, config_from, exclusive, running, status, unique, wait_until,
 };
@@ -67,6 +67,17 @@ fn covered_marks_do_not_stop_the_robust_servo_in_real_time() {
     assert_eq!(last["verdict"].as_u64(), Some(u64::from(verdict::SERVOING)), "{last}");
     let error = last["feature_error_px"].as_f64().unwrap_or(f64::NAN);
     assert!(error < 1.0, "feature error at the end {error} px");
+    // the twists say what the law did: the target's motion (none here) fed forward once its estimate
+    // settled; the reacquiring twists are not the law's
+    let flags = |t: &Value| t["law_flags"].as_u64().unwrap_or(u64::MAX);
+    assert_ne!(flags(last) & u64::from(law_flag::FEEDFORWARD), 0, "{last}");
+    assert!(
+        twists
+            .iter()
+            .filter(|t| t["verdict"].as_u64() == Some(u64::from(verdict::REACQUIRING)))
+            .all(|t| flags(t) == 0),
+        "{twists:?}"
+    );
     let state = status(&instance).expect("status");
     assert!(running(&state), "{state}");
     // one line per change, saying which marks and why

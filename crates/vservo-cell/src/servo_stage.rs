@@ -6,7 +6,7 @@
 //!   motion since then known from the joint states at capture ([`ServoVerdict::Reacquiring`]); with no such
 //!   pose (none seen yet, or the camera's pose not known), zero twist ([`ServoVerdict::MarksMissing`]).
 
-use vservo_control::{Gains, LawGains, LawGeometry, ServoLaw, Twist};
+use vservo_control::{Gains, LawFlags, LawGains, LawGeometry, ServoLaw, Twist};
 use vservo_scene::{FeatureVector, IsometryMatrix3};
 
 /// The gain (1/s) of the steering back to the pose where all marks were last seen.
@@ -63,6 +63,12 @@ impl ServoStage {
     /// Swaps in new gains, keeping the command history (no twist jump beyond the new gain's own).
     pub fn set_gains(&mut self, gains: &LawGains) {
         self.law.set_law_gains(gains);
+    }
+
+    /// What the law did beyond the law as designed on the last frame [`ServoStage::step`] took (all false
+    /// when it reacquired or held).
+    pub fn law_flags(&self) -> LawFlags {
+        self.law.flags()
     }
 
     /// A frame while the cell is held in a safe stop: zero twist, and the law remembers that zero was sent

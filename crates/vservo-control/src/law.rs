@@ -73,6 +73,17 @@ pub struct LawGeometry {
     pub delay_frames: usize,
 }
 
+/// What the law did on a frame beyond the law as designed (the servo publishes it with the twist).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct LawFlags {
+    /// The border barrier changed the twist.
+    pub barrier: bool,
+    /// The frame's own design (a scheduled interaction) failed: the fixed gain for its marks was used.
+    pub fixed_gain_fallback: bool,
+    /// The target's estimated motion was fed forward.
+    pub feedforward: bool,
+}
+
 /// The servo's state: its gains and the commands it sent in the last frames.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ServoLaw {
@@ -90,6 +101,8 @@ pub struct ServoLaw {
     /// The depths the law last estimated (Z_d before any).
     depths: MarkDepths,
     target: TargetMotion,
+    /// What the law did on the last frame it computed a twist for.
+    flags: LawFlags,
 }
 
 impl ServoLaw {
@@ -106,6 +119,7 @@ impl ServoLaw {
             history: [Twist::zeros(); MAX_DELAY_FRAMES],
             depths: gains.desired_depths,
             target: TargetMotion::default(),
+            flags: LawFlags::default(),
         };
         law.set_law_gains(&law_gains);
         law
@@ -141,6 +155,12 @@ impl ServoLaw {
         &self.gains.desired_features
     }
 
+    /// What the law did beyond the law as designed on the last frame [`ServoLaw::step`] computed a twist
+    /// for (all false after a frame it did not).
+    pub fn flags(&self) -> LawFlags {
+        self.flags
+    }
+
     /// The twist for a measured feature vector with all four marks: u = −K_ξ (ξ − ξ_d) − Σ K_j u(k − j).
     pub fn command(&mut self, measured: &FeatureVector) -> Twist {
         let twist = self.designed_law(&(measured - self.gains.desired_features));
@@ -170,6 +190,7 @@ impl ServoLaw {
     ) -> Option<Twist> {
         let marks = frame_design::finite_marks(measured);
         let options = self.gains.options;
+        self.flags = LawFlags::default();
         if options.needs_depths() && marks == ALL_MARKS {
             let g = &self.geometry;
             if let Some(pose) = g.camera.board_pose_from_features(&g.board, measured) {
@@ -224,12 +245,18 @@ impl ServoLaw {
                 let b = frame_design::masked(&(jacobian * g.period_s), marks);
                 match frame_design::design(&b, &self.gains.q, &self.gains.r_si) {
                     Ok(design) => (b, Some(design)),
-                    Err(_) => (frame_design::masked(&self.b_desired, marks), fixed),
+                    Err(_) => {
+                        self.flags.fixed_gain_fallback = true;
+                        (frame_design::masked(&self.b_desired, marks), fixed)
+                    }
                 }
             }
         };
         // the marks seen with no design for them (a degenerate ξ_d): hold
-        let design = design?;
+        let Some(design) = design else {
+            self.flags = LawFlags::default();
+            return None;
+        };
 
         let use_fixed_full = marks == ALL_MARKS && options.interaction == Interaction::Desired;
         let delay = self.geometry.delay_frames.min(MAX_DELAY_FRAMES);
@@ -238,12 +265,13 @@ impl ServoLaw {
         for past in self.history.iter().take(delay) {
             in_pipeline += b * past;
         }
-        let drift_to_now = if options.feedforward && self.target.settled() {
+        self.flags.feedforward = options.feedforward && self.target.settled();
+        let drift_to_now = if self.flags.feedforward {
             masked_features(&self.target.motion_over(delay), marks)
         } else {
             FeatureVector::zeros()
         };
-        let drift_next = if options.feedforward && self.target.settled() {
+        let drift_next = if self.flags.feedforward {
             masked_features(&self.target.motion_in_frame(delay), marks)
         } else {
             FeatureVector::zeros()
@@ -263,7 +291,9 @@ impl ServoLaw {
         if options.border_margin_px > 0.0 {
             let predicted = measured_or_zero(measured) + in_pipeline + drift_to_now;
             let barrier = Barrier::new(&self.geometry.camera, options.border_margin_px, self.r_inverse);
-            twist = barrier.keep_inside(twist, &b, &predicted, &drift_next, marks).0;
+            let (kept, corrections) = barrier.keep_inside(twist, &b, &predicted, &drift_next, marks);
+            self.flags.barrier = corrections > 0;
+            twist = kept;
         }
         self.remember(twist);
         Some(twist)

@@ -32,7 +32,7 @@ pub mod target_motion;
 pub mod weights;
 
 pub use design::{ControlLaw, Gains, GainsError, GainsSpec, Interaction, LawOptions};
-pub use law::{LawGains, LawGeometry, ServoLaw};
+pub use law::{LawFlags, LawGains, LawGeometry, ServoLaw};
 pub use weights::{InputUnits, InputWeight, StateWeight, WeightError};
 
 /// The camera twist u = [v; ω] in the camera frame (m/s, rad/s).

@@ -366,3 +366,78 @@ fn a_stability_margin_is_stable_just_inside_and_unstable_just_outside() {
         );
     }
 }
+
+/// The law says what it did beyond its design: the barrier's cut, and the target's motion fed forward.
+#[test]
+fn the_law_flags_the_barrier_cutting_its_twist_and_the_target_motion_fed_forward() {
+    let mut s = spec(ControlLaw::DelayAware, 1);
+    s.q = StateWeight::scalar(1000.0).expect("valid");
+    let geometry = vservo_control::LawGeometry {
+        camera: CameraIntrinsics::paper(),
+        board: Board::paper(),
+        period_s: 0.085,
+        delay_frames: 1,
+    };
+    // the mark nearest the top at ξ_d; the image seen 20 px lower, so that the law moves it up
+    let desired = s.desired_features;
+    let top = (0..4).min_by(|&a, &b| desired[2 * a + 1].total_cmp(&desired[2 * b + 1])).expect("marks");
+    let mut measured = desired;
+    for mark in 0..4 {
+        measured[2 * mark + 1] += 20.0;
+    }
+    let pose = IsometryMatrix3::identity();
+    let design = |options: vservo_control::LawOptions| {
+        let mut with = s;
+        with.options = options;
+        Gains::design(&with).expect("designable")
+    };
+    let rise_px = |twist: &vservo_control::Twist, gains: &Gains| -(gains.b * twist)[2 * top + 1];
+
+    // the plain law: no flags, and it moves the top mark up by more than a barrier 10 px away allows
+    let plain = design(vservo_control::LawOptions::default());
+    let mut law = ServoLaw::new(geometry, &plain);
+    let twist = law.step(1, &measured, Some(&pose)).expect("four marks");
+    assert_eq!(law.flags(), vservo_control::LawFlags::default());
+    let margin_px = desired[2 * top + 1] + 10.0;
+    let allowed_px = 0.5 * (measured[2 * top + 1] - margin_px);
+    assert!(rise_px(&twist, &plain) > allowed_px, "premise: {} px", rise_px(&twist, &plain));
+
+    // with the barrier there: the twist is cut, and the law says so
+    let fenced = design(vservo_control::LawOptions { border_margin_px: margin_px, ..Default::default() });
+    let mut law = ServoLaw::new(geometry, &fenced);
+    let twist = law.step(1, &measured, Some(&pose)).expect("four marks");
+    assert!(law.flags().barrier && !law.flags().feedforward, "{:?}", law.flags());
+    assert!(rise_px(&twist, &fenced) <= allowed_px + 1e-9, "{} px", rise_px(&twist, &fenced));
+    // a barrier 20 px in, and the marks near where they are wanted: nothing to cut
+    let fenced = design(vservo_control::LawOptions { border_margin_px: 20.0, ..Default::default() });
+    let mut calm = ServoLaw::new(geometry, &fenced);
+    calm.step(1, &(desired + FeatureVector::from_element(0.5)), Some(&pose));
+    assert!(!calm.flags().barrier, "{:?}", calm.flags());
+
+    // feed-forward: flagged once the estimate has settled on consecutive frames, not before
+    let ahead = design(vservo_control::LawOptions { feedforward: true, ..Default::default() });
+    let mut law = ServoLaw::new(geometry, &ahead);
+    let flagged: Vec<bool> = (1..=8)
+        .map(|frame| {
+            law.step(frame, &measured, Some(&pose));
+            law.flags().feedforward
+        })
+        .collect();
+    assert!(!flagged[0] && flagged[7], "{flagged:?}");
+    // a frame without the camera's pose restarts the estimate
+    law.step(9, &measured, None);
+    assert!(!law.flags().feedforward);
+
+    // the gain scheduled on the current features cannot be designed when the four marks image as one
+    // point (B loses rank): the fixed gain for the marks is used, and the law says so
+    let current = design(vservo_control::LawOptions {
+        interaction: vservo_control::Interaction::Current,
+        ..Default::default()
+    });
+    let mut law = ServoLaw::new(geometry, &current);
+    law.step(1, &measured, Some(&pose)).expect("four marks");
+    assert!(!law.flags().fixed_gain_fallback, "{:?}", law.flags());
+    let one_point = FeatureVector::from_fn(|row, _| if row % 2 == 0 { 250.0 } else { 240.0 });
+    law.step(2, &one_point, Some(&pose)).expect("the fixed gain");
+    assert!(law.flags().fixed_gain_fallback, "{:?}", law.flags());
+}

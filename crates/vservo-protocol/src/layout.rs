@@ -134,7 +134,7 @@ pub fn layout_tables() -> String {
             twist: "f64[6]", "u = [v_x v_y v_z ω_x ω_y ω_z] in the camera frame (m/s, rad/s)";
             feature_error_px: "f64", "RMS of ξ − ξ_d over the valid features (px); NaN when none";
             missing_mask: "u32", "bit m set when mark m was missing";
-            reserved: "u32", "zero";
+            law_flags: "u32", "what the law did beyond its design: 1 the border barrier changed the twist, 2 the frame's own design failed and the fixed gain was used, 4 the target's motion was fed forward; 0 unless the law computed the twist";
         },
     );
     table(

@@ -247,7 +247,7 @@ pub mod verdict {
 pub struct CameraTwistMsg {
     /// [`SCHEMA_VERSION`].
     pub schema: u32,
-    /// [`verdict`]; any verdict but SERVOING comes with a zero twist.
+    /// [`verdict`]; a twist to follow with the verdicts that move ([`verdict::moves`]), zero with the others.
     pub verdict: u32,
     /// The frame the twist was computed from.
     pub frame: u64,
@@ -263,8 +263,21 @@ pub struct CameraTwistMsg {
     pub feature_error_px: f64,
     /// Bit m set when mark m was missing.
     pub missing_mask: u32,
-    /// Zero.
-    pub reserved: u32,
+    /// What the law did beyond the law as designed ([`law_flag`] bits; zero unless the law computed the
+    /// twist).
+    pub law_flags: u32,
+}
+
+/// The bits of [`CameraTwistMsg::law_flags`].
+pub mod law_flag {
+    /// The border barrier (`controller.border_margin_px`) changed the twist to keep a mark inside.
+    pub const BARRIER: u32 = 1;
+    /// The frame's own design (a scheduled `controller.interaction`) failed on a degenerate image: the fixed
+    /// gain for its marks was used.
+    pub const FIXED_GAIN_FALLBACK: u32 = 2;
+    /// The target's estimated image motion was fed forward (`controller.feedforward`, once the estimate has
+    /// settled).
+    pub const FEEDFORWARD: u32 = 4;
 }
 
 /// The nodes, as numbered in [`TelemetryMsg::node`] and [`DaemonStatusMsg::nodes`].

@@ -53,7 +53,8 @@ pub fn features(m: &FeaturesMsg) -> Value {
 pub fn camera_twist(m: &CameraTwistMsg) -> Value {
     json!({"schema": m.schema, "verdict": m.verdict, "frame": m.frame, "capture_tick": m.capture_tick,
         "gains_version": m.gains_version, "stamp_ns": m.stamp_ns, "twist": numbers(&m.twist),
-        "feature_error_px": number(m.feature_error_px), "missing_mask": m.missing_mask})
+        "feature_error_px": number(m.feature_error_px), "missing_mask": m.missing_mask,
+        "law_flags": m.law_flags})
 }
 
 /// One message as JSON.

@@ -351,7 +351,7 @@ mod tests {
             twist: [0.0; 6],
             feature_error_px: 0.0,
             missing_mask,
-            reserved: 0,
+            law_flags: 0,
         }
     }
 

@@ -1,8 +1,10 @@
 //! The servo node: wakes on each feature vector and answers with the camera twist.
 
 use vservo_cell::{ServoInput, ServoVerdict};
-use vservo_control::Twist;
-use vservo_protocol::{CameraTwistMsg, FeaturesMsg, GainsMsg, NodeRole, SCHEMA_VERSION, Topic, verdict};
+use vservo_control::{LawFlags, Twist};
+use vservo_protocol::{
+    CameraTwistMsg, FeaturesMsg, GainsMsg, NodeRole, SCHEMA_VERSION, Topic, law_flag, verdict,
+};
 use vservo_scene::FeatureVector;
 
 use super::{CellModeFollower, IDLE_WAIT, NodeBase, go_realtime, latest, start};
@@ -25,6 +27,18 @@ pub fn feature_error_px(features: &FeatureVector, desired: &FeatureVector) -> f6
 }
 
 /// Why the marks of `missing` are missing, for people: "mark 2 (not found)".
+/// The law's flags as `camera_twist.law_flags` bits.
+fn law_flags_on_wire(flags: LawFlags) -> u32 {
+    [
+        (flags.barrier, law_flag::BARRIER),
+        (flags.fixed_gain_fallback, law_flag::FIXED_GAIN_FALLBACK),
+        (flags.feedforward, law_flag::FEEDFORWARD),
+    ]
+    .into_iter()
+    .filter(|(set, _)| *set)
+    .fold(0, |bits, (_, bit)| bits | bit)
+}
+
 fn missing_marks(missing: u32, status: &[u8; vservo_scene::MARKS]) -> String {
     let reason = |code: u8| match code {
         vservo_protocol::mark_status::OUTSIDE_IMAGE => "outside the image",
@@ -147,30 +161,29 @@ pub fn run(context: &NodeContext) -> Result<(), RuntimeError> {
                 counters.rejected();
             }
             let error_px = feature_error_px(&features, stage.desired_features());
-            let (twist, verdict_code, missing_mask) =
-                if cell_mode.safe_stop(context.seal_key.as_ref(), counters) {
-                    (stage.hold(), verdict::SAFE_STOP, 0)
-                } else {
-                    let base_from_camera = pose_from_wire(&message.base_from_camera);
-                    let input = ServoInput {
-                        frame: message.frame,
-                        features: &features,
-                        base_from_camera: base_from_camera.as_ref(),
-                    };
-                    match stage.step(Some(input)) {
-                        (twist, ServoVerdict::Waiting) => (twist, verdict::WAITING, 0),
-                        (twist, ServoVerdict::Servoing) => (twist, verdict::SERVOING, 0),
-                        (twist, ServoVerdict::ServoingOnThree(mask)) => {
-                            (twist, verdict::SERVOING_ON_THREE, u32::from(mask))
-                        }
-                        (twist, ServoVerdict::Reacquiring(mask)) => {
-                            (twist, verdict::REACQUIRING, u32::from(mask))
-                        }
-                        (twist, ServoVerdict::MarksMissing(mask)) => {
-                            (twist, verdict::MARKS_MISSING, u32::from(mask))
-                        }
-                    }
+            let (twist, verdict_code, missing_mask, flags) = if cell_mode
+                .safe_stop(context.seal_key.as_ref(), counters)
+            {
+                (stage.hold(), verdict::SAFE_STOP, 0, 0)
+            } else {
+                let base_from_camera = pose_from_wire(&message.base_from_camera);
+                let input = ServoInput {
+                    frame: message.frame,
+                    features: &features,
+                    base_from_camera: base_from_camera.as_ref(),
                 };
+                let (twist, verdict) = stage.step(Some(input));
+                let flags = law_flags_on_wire(stage.law_flags());
+                match verdict {
+                    ServoVerdict::Waiting => (twist, verdict::WAITING, 0, 0),
+                    ServoVerdict::Servoing => (twist, verdict::SERVOING, 0, flags),
+                    ServoVerdict::ServoingOnThree(mask) => {
+                        (twist, verdict::SERVOING_ON_THREE, u32::from(mask), flags)
+                    }
+                    ServoVerdict::Reacquiring(mask) => (twist, verdict::REACQUIRING, u32::from(mask), 0),
+                    ServoVerdict::MarksMissing(mask) => (twist, verdict::MARKS_MISSING, u32::from(mask), 0),
+                }
+            };
             send(CameraTwistMsg {
                 schema: SCHEMA_VERSION,
                 verdict: verdict_code,
@@ -181,7 +194,7 @@ pub fn run(context: &NodeContext) -> Result<(), RuntimeError> {
                 twist: to_array(&twist),
                 feature_error_px: error_px,
                 missing_mask,
-                reserved: 0,
+                law_flags: flags,
             });
             // said after the twist is sent, and only when it changes
             if (verdict_code, missing_mask) != doing {
@@ -215,7 +228,7 @@ pub fn run(context: &NodeContext) -> Result<(), RuntimeError> {
         twist: to_array(&Twist::zeros()),
         feature_error_px: f64::NAN,
         missing_mask: 0,
-        reserved: 0,
+        law_flags: 0,
     });
     tracing::info!(node = "servo", "stopped: zero twist sent");
     Ok(())
