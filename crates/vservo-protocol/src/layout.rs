@@ -116,7 +116,7 @@ pub fn layout_tables() -> String {
             features_px: "f64[8]", "ξ = [x₁ y₁ … x₄ y₄] (px, origin top-left), NaN where a mark is not valid";
             mark_status: "u8[4]", "per mark: 0 valid, 1 outside the image, 2 cut by the border, 3 merged, 4 irregular, 5 not found, 6 bad image";
             reserved: "u8[4]", "zero";
-            base_from_camera: "f64[12]", "the camera's pose in the robot's base frame at capture (from the joint state of `capture_tick`): the top 3 rows of the 4×4 transform, row-major; NaN when not known";
+            base_from_camera: "f64[12]", "the camera's pose in the robot's base frame at capture (the joint state of `capture_tick`; for an external camera the joint states around `capture_stamp_ns`, interpolated): the top 3 rows of the 4×4 transform, row-major; NaN when not known";
         },
     );
     table(

@@ -211,8 +211,9 @@ pub struct FeaturesMsg {
     pub mark_status: [u8; MARKS],
     /// Zero.
     pub reserved: [u8; 4],
-    /// The camera's pose in the robot's base frame when the image was taken (from the joint state of
-    /// `capture_tick`), the top 3 rows of the 4×4 transform, row-major; NaN when not known. The servo takes
+    /// The camera's pose in the robot's base frame when the image was taken (the simulated camera: from the
+    /// joint state of `capture_tick`; an external camera: from the joint states around `capture_stamp_ns`,
+    /// interpolated), the top 3 rows of the 4×4 transform, row-major; NaN when not known. The servo takes
     /// the camera's own motion from it (reacquiring lost marks, the target's motion).
     pub base_from_camera: [f64; 12],
 }

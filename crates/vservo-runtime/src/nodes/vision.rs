@@ -3,7 +3,8 @@
 //! and publishes each image on
 //! `camera_image` (so every user can see what the extractor saw). With an external camera it wakes on each
 //! frame a camera driver publishes on `camera_image`, works on it at once and stamps the features with the
-//! frame's capture time: the camera paces the loop. A frame older than one vision period on arrival is
+//! frame's capture time and the camera's pose at that time (the joint states around it, kept in a
+//! [`JointHistory`]): the camera paces the loop. A frame older than one vision period on arrival is
 //! dropped and counted (it would steer the arm by where it was).
 
 use iceoryx2::port::publisher::Publisher;
@@ -20,9 +21,14 @@ use vservo_vision::{Extraction, MarkStatus};
 
 use super::{IDLE_WAIT, NodeBase, go_realtime, latest, start};
 use crate::clock::monotonic_ns;
+use crate::joint_history::JointHistory;
 use crate::telemetry::{Counters, CycleSample, LoopMonitor};
 use crate::wire::{pose_from_wire, pose_to_wire, to_array};
-use crate::{NodeContext, RuntimeError};
+use crate::{NodeContext, RuntimeError, schema_ok};
+
+/// How long an external camera's vision node waits for a frame before it takes in the joint states heard
+/// (the joint_state queue holds 64 ms of them at 1 kHz).
+const DRAIN_WAIT: std::time::Duration = std::time::Duration::from_millis(20);
 
 fn status_code(status: &MarkStatus) -> u8 {
     match status {
@@ -115,8 +121,13 @@ pub fn run(context: &NodeContext) -> Result<(), RuntimeError> {
             let counters = monitor.counters();
             // an image older than a vision period on arrival would steer the arm by where it was: dropped
             let stale_after_ns = (config.timing.vision_period_s * 1e9).round() as u64;
+            // the camera's pose is the arm's at the frame's exposure: the joint states heard are kept, and
+            // drained often enough that none is lost (the joint_state queue holds 64 states)
+            let mut joints = JointHistory::new((2.0 * config.timing.control_period_s * 1e9).round() as u64);
+            let mut said_unplaced = false;
             while !context.stopping() && !context.orphaned() {
-                let _ = listener.timed_wait(|_| {}, IDLE_WAIT);
+                let _ = listener.timed_wait(|_| {}, DRAIN_WAIT);
+                hear_joints(&state_subscriber, &mut joints, counters);
                 while let Ok(Some(sample)) = images.receive() {
                     let woke_at = monotonic_ns();
                     let header = *sample.user_header();
@@ -126,9 +137,19 @@ pub fn run(context: &NodeContext) -> Result<(), RuntimeError> {
                         continue;
                     }
                     drop(sample);
-                    let state = latest(&state_subscriber, |m: &JointStateMsg| m.schema, counters);
-                    let tick = state.map_or(0, |state| state.tick);
-                    let q = state.map(|state| JointVector::from(state.q_rad));
+                    hear_joints(&state_subscriber, &mut joints, counters);
+                    let at_exposure = joints.at(header.capture_stamp_ns);
+                    if at_exposure.is_none() && !said_unplaced {
+                        tracing::warn!(
+                            node = "vision",
+                            frame = header.frame,
+                            "no joint state around the frame's exposure (capture_stamp_ns {}): its camera pose is unknown; a camera stamps CLOCK_MONOTONIC at exposure (docs/DRIVERS.md)",
+                            header.capture_stamp_ns
+                        );
+                        said_unplaced = true;
+                    }
+                    let tick = at_exposure.map_or_else(|| joints.newest_tick().unwrap_or(0), |at| at.tick);
+                    let q = at_exposure.map(|at| at.q);
                     let (captured, delivered) = stage.process_image(header.frame, tick, q.as_ref(), &image);
                     out.remember(header.frame, header.capture_stamp_ns, &captured);
                     if let Some(delivered) = delivered {
@@ -157,6 +178,21 @@ pub fn run(context: &NodeContext) -> Result<(), RuntimeError> {
     }
     tracing::info!(node = "vision", "stopped");
     Ok(())
+}
+
+/// Takes the joint states waiting into the history (others' schemas refused and counted).
+fn hear_joints(
+    subscriber: &iceoryx2::port::subscriber::Subscriber<ipc::Service, JointStateMsg, ()>,
+    joints: &mut JointHistory,
+    counters: &Counters,
+) {
+    while let Ok(Some(state)) = subscriber.receive() {
+        if schema_ok(state.schema) {
+            joints.push(state.stamp_ns, state.tick, &JointVector::from(state.q_rad));
+        } else {
+            counters.rejected();
+        }
+    }
 }
 
 /// Copies a `camera_image` sample into `image` if it is of this build's schema, 8-bit gray, of the
