@@ -155,8 +155,8 @@ impl ServoLaw {
         &self.gains.desired_features
     }
 
-    /// What the law did beyond the law as designed on the last frame [`ServoLaw::step`] computed a twist
-    /// for (all false after a frame it did not).
+    /// What the law did beyond the law as designed on the last frame: all false after a frame it did not
+    /// compute the twist for ([`ServoLaw::step`] gave none, or [`ServoLaw::hold`], [`ServoLaw::sent`]).
     pub fn flags(&self) -> LawFlags {
         self.flags
     }
@@ -307,6 +307,7 @@ impl ServoLaw {
 
     /// Tells the law the twist sent this frame when it did not compute it (reacquiring the marks).
     pub fn sent(&mut self, twist: Twist) {
+        self.flags = LawFlags::default();
         self.remember(twist);
     }
 

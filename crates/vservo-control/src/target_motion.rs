@@ -69,7 +69,7 @@ impl TargetMotion {
         };
         let now = Seen { frame, features: *features, depths: *depths, marks, base_from_camera: *pose };
         let Some(before) = self.previous.replace(now) else { return };
-        if frame != before.frame + 1 {
+        if frame != before.frame.wrapping_add(1) {
             self.rate = FeatureVector::zeros();
             self.change = FeatureVector::zeros();
             self.consecutive = 0;
@@ -79,13 +79,29 @@ impl TargetMotion {
         let centre = camera.principal_point_px();
         let f = camera.focal_px();
         let mut measured_any = false;
-        for mark in (0..MARKS).filter(|m| before.marks & now.marks & (1 << m) != 0) {
-            let z = before.depths[mark];
-            let (u, v) = (before.features[2 * mark], before.features[2 * mark + 1]);
-            let point = Point3::new((u - centre.x) * z / f, (v - centre.y) * z / f, z);
-            let Some(still) = camera.project(&(now_from_before * point)) else { continue };
-            for (axis, still_px) in [still.x, still.y].into_iter().enumerate() {
-                let row = 2 * mark + axis;
+        for mark in 0..MARKS {
+            let rows = [2 * mark, 2 * mark + 1];
+            // a mark not seen in both frames has no motion measured: what was estimated of it is forgotten,
+            // so that a mark coming back is not fed forward with a rate from before it was lost
+            let still = (before.marks & now.marks & (1 << mark) != 0)
+                .then(|| {
+                    let z = before.depths[mark];
+                    let (u, v) = (before.features[rows[0]], before.features[rows[1]]);
+                    let point = Point3::new((u - centre.x) * z / f, (v - centre.y) * z / f, z);
+                    camera.project(&(now_from_before * point))
+                })
+                .flatten()
+                .filter(|still| {
+                    (features[rows[0]] - still.x).is_finite() && (features[rows[1]] - still.y).is_finite()
+                });
+            let Some(still) = still else {
+                for row in rows {
+                    self.rate[row] = 0.0;
+                    self.change[row] = 0.0;
+                }
+                continue;
+            };
+            for (row, still_px) in rows.into_iter().zip([still.x, still.y]) {
                 let measured = features[row] - still_px;
                 let predicted = self.rate[row] + self.change[row];
                 let residual = measured - predicted;
@@ -160,19 +176,76 @@ mod tests {
         assert!(truth.amax() > 2.0, "the board must move in the test: {truth}");
     }
 
+    /// The board's image drifts 1 px per frame in x, the camera still; `marks` seen.
+    fn drifting(estimator: &mut TargetMotion, frames: std::ops::Range<u64>, marks: MarkSet) {
+        let camera = CameraIntrinsics::paper();
+        let pose = IsometryMatrix3::identity();
+        for k in frames {
+            let mut features = FeatureVector::from([151.0, 168.0, 318.0, 178.0, 339.0, 75.0, 172.0, 70.0]);
+            for mark in 0..MARKS {
+                features[2 * mark] += k as f64;
+                if marks & (1 << mark) == 0 {
+                    features[2 * mark] = f64::NAN;
+                    features[2 * mark + 1] = f64::NAN;
+                }
+            }
+            estimator.update(&camera, k, &features, &MarkDepths::from_element(0.5), marks, Some(&pose));
+        }
+    }
+
     #[test]
     fn a_gap_in_the_frames_restarts_the_estimate() {
-        let camera = CameraIntrinsics::paper();
         let mut estimator = TargetMotion::default();
-        let pose = IsometryMatrix3::identity();
-        let features = FeatureVector::from([151.0, 168.0, 318.0, 178.0, 339.0, 75.0, 172.0, 70.0]);
-        for k in 0..6 {
-            estimator.update(&camera, k, &features, &MarkDepths::from_element(0.5), 0b1111, Some(&pose));
-        }
+        drifting(&mut estimator, 0..8, 0b1111);
         assert!(estimator.settled());
-        estimator.update(&camera, 9, &features, &MarkDepths::from_element(0.5), 0b1111, Some(&pose));
+        assert!(estimator.motion_in_frame(0)[0] > 0.8, "{}", estimator.motion_in_frame(0));
+        // frames 8 and 9 lost
+        drifting(&mut estimator, 10..11, 0b1111);
         assert!(!estimator.settled());
-        estimator.update(&camera, 10, &features, &MarkDepths::from_element(0.5), 0b1111, None);
+        assert_eq!(estimator.motion_in_frame(0), FeatureVector::zeros(), "the rate is forgotten");
+        // a frame without the camera's pose
+        drifting(&mut estimator, 11..16, 0b1111);
+        assert!(estimator.settled());
+        let features = FeatureVector::from([151.0, 168.0, 318.0, 178.0, 339.0, 75.0, 172.0, 70.0]);
+        let camera = CameraIntrinsics::paper();
+        estimator.update(&camera, 16, &features, &MarkDepths::from_element(0.5), 0b1111, None);
         assert!(!estimator.settled());
+        assert_eq!(estimator.motion_in_frame(0), FeatureVector::zeros());
+        // the frame after u64::MAX is 0, and nothing overflows
+        let mut estimator = TargetMotion::default();
+        drifting(&mut estimator, u64::MAX - 1..u64::MAX, 0b1111);
+        estimator.update(
+            &camera,
+            u64::MAX,
+            &features,
+            &MarkDepths::from_element(0.5),
+            0b1111,
+            Some(&IsometryMatrix3::identity()),
+        );
+        estimator.update(
+            &camera,
+            0,
+            &features,
+            &MarkDepths::from_element(0.5),
+            0b1111,
+            Some(&IsometryMatrix3::identity()),
+        );
+        assert_eq!(estimator.consecutive, 2);
+    }
+
+    #[test]
+    fn a_mark_lost_and_back_is_not_fed_forward_with_its_rate_from_before() {
+        let mut estimator = TargetMotion::default();
+        drifting(&mut estimator, 0..8, 0b1111);
+        // mark 2 lost for a frame: its rate is forgotten, the others' kept
+        drifting(&mut estimator, 8..9, 0b1101);
+        let motion = estimator.motion_in_frame(0);
+        assert!(estimator.settled());
+        assert_eq!((motion[2], motion[3]), (0.0, 0.0), "{motion}");
+        assert!(motion[0] > 0.8 && motion[4] > 0.8, "{motion}");
+        // back: measured again from the frame after its return, from zero
+        drifting(&mut estimator, 9..11, 0b1111);
+        let motion = estimator.motion_in_frame(0);
+        assert!(motion[2] > 0.0 && motion[2] < motion[0], "{motion}");
     }
 }

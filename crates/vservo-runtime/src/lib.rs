@@ -18,6 +18,7 @@
 pub mod clock;
 pub mod joint_history;
 pub mod nodes;
+pub mod notes;
 pub mod realtime;
 pub mod status;
 pub mod telemetry;

@@ -12,6 +12,8 @@ use vservo_protocol::{NodeRole, SCHEMA_VERSION, TelemetryMsg, TimingMsg, Topic};
 
 use crate::RuntimeError;
 use crate::clock::{PeriodicTimer, monotonic_ns};
+use crate::notes::NOTES_PER_PERIOD;
+pub use crate::notes::Note;
 
 /// Counters a node keeps since it started, shared with its telemetry thread.
 #[derive(Debug, Default)]
@@ -36,6 +38,8 @@ pub struct Counters {
     pub feature_error_bits: AtomicU64,
     /// rmrc: times it re-synchronised to a new plant epoch (logged by the telemetry thread, not the loop).
     pub resyncs: AtomicU64,
+    /// Notes the loop could not hand over (the channel full).
+    pub notes_dropped: AtomicU64,
 }
 
 impl Counters {
@@ -108,6 +112,7 @@ pub struct CycleSample {
 #[derive(Debug, Clone)]
 pub struct LoopMonitor {
     samples: Sender<CycleSample>,
+    notes: Sender<Note>,
     counters: Arc<Counters>,
 }
 
@@ -117,6 +122,14 @@ impl LoopMonitor {
         Counters::add(&self.counters.cycles, 1);
         if let Err(TrySendError::Full(_)) = self.samples.try_send(sample) {
             // the window's percentiles lose a sample; the counters stay exact
+        }
+    }
+
+    /// Hands a note to the telemetry thread, which writes it. Never blocks: if 64 are waiting, it is
+    /// dropped and counted in the thread's next summary.
+    pub fn note(&self, note: Note) {
+        if self.notes.try_send(note).is_err() {
+            self.counters.notes_dropped.fetch_add(1, Ordering::Relaxed);
         }
     }
 
@@ -137,6 +150,7 @@ impl TelemetryThread {
     /// Starts the thread (call before the calling thread raises its own priority: threads inherit it).
     pub fn spawn(instance: &str, role: NodeRole, period_s: f64) -> Result<(Self, LoopMonitor), RuntimeError> {
         let (samples, receiver) = crossbeam_channel::bounded(8192);
+        let (notes, notes_receiver) = crossbeam_channel::bounded(64);
         let counters = Arc::new(Counters::default());
         counters.set_feature_error_px(f64::NAN);
         let stop = Arc::new(AtomicBool::new(false));
@@ -156,7 +170,9 @@ impl TelemetryThread {
                 match publisher {
                     Ok((_node, publisher)) => {
                         let _ = ready_tx.send(Ok(()));
-                        publish_loop(&publisher, role, period_ns, &receiver, &thread_counters, &thread_stop);
+                        let inputs =
+                            Inputs { samples: &receiver, notes: &notes_receiver, counters: &thread_counters };
+                        publish_loop(&publisher, role, period_ns, &inputs, &thread_stop);
                     }
                     Err(e) => {
                         let _ = ready_tx.send(Err(e.into()));
@@ -171,7 +187,7 @@ impl TelemetryThread {
                 return Err(RuntimeError::Thread("the telemetry thread ended before it started".into()));
             }
         }
-        Ok((Self { stop, handle: Some(handle) }, LoopMonitor { samples, counters }))
+        Ok((Self { stop, handle: Some(handle) }, LoopMonitor { samples, notes, counters }))
     }
 }
 
@@ -208,14 +224,44 @@ fn timing(histogram: &Histogram<u64>) -> TimingMsg {
     }
 }
 
+/// What the loop hands the telemetry thread.
+struct Inputs<'a> {
+    samples: &'a Receiver<CycleSample>,
+    notes: &'a Receiver<Note>,
+    counters: &'a Counters,
+}
+
+/// Writes the notes waiting, at most [`NOTES_PER_PERIOD`], and one line counting the rest, those the loop
+/// dropped since `dropped_before` included. Returns (lines of notes written, notes counted in the summary).
+fn write_notes(role: NodeRole, notes: &Receiver<Note>, dropped: u64, dropped_before: u64) -> (usize, u64) {
+    let mut unwritten = dropped.saturating_sub(dropped_before);
+    let mut written = 0;
+    for note in notes.try_iter() {
+        if written < NOTES_PER_PERIOD {
+            note.log();
+            written += 1;
+        } else {
+            unwritten += 1;
+        }
+    }
+    if unwritten > 0 {
+        tracing::warn!(
+            node = role.name(),
+            "{unwritten} more changes in the last telemetry period, not written one by one"
+        );
+    }
+    (written, unwritten)
+}
+
 fn publish_loop(
     publisher: &iceoryx2::port::publisher::Publisher<iceoryx2::prelude::ipc::Service, TelemetryMsg, ()>,
     role: NodeRole,
     period_ns: u64,
-    receiver: &Receiver<CycleSample>,
-    counters: &Counters,
+    inputs: &Inputs<'_>,
     stop: &AtomicBool,
 ) {
+    let (receiver, counters) = (inputs.samples, inputs.counters);
+    let mut notes_dropped = 0;
     // wake latency, execution, round trip, frame period, capture latency: the window's and the whole run's
     const NAMES: [&str; 5] = ["wake_latency", "execution", "round_trip", "frame_period", "capture_latency"];
     let Some(mut window) = new_histograms() else { return };
@@ -235,6 +281,9 @@ fn publish_loop(
                 "following a new driver epoch (or a driver back after a gap) from its joints, at rest"
             );
         }
+        let dropped = counters.notes_dropped.load(Ordering::Relaxed);
+        let _ = write_notes(role, inputs.notes, dropped, notes_dropped);
+        notes_dropped = dropped;
         for sample in receiver.try_iter() {
             window[0].saturating_record(sample.wake_latency_ns.max(1));
             window[1].saturating_record(sample.execution_ns.max(1));
@@ -276,6 +325,7 @@ fn publish_loop(
         }
         window_start = now;
     }
+    let _ = write_notes(role, inputs.notes, counters.notes_dropped.load(Ordering::Relaxed), notes_dropped);
     tracing::info!(
         node = role.name(),
         "loop totals {}",
@@ -303,4 +353,29 @@ pub fn totals_json(histograms: &[(&str, &Histogram<u64>)]) -> String {
         })
         .collect();
     format!("{{{}}}", parts.join(", "))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_flood_of_notes_is_written_as_a_few_lines_and_a_count_and_the_loop_never_waits() {
+        let (receiver, monitor) = {
+            // the monitor alone, without a telemetry thread draining it
+            let (samples, _) = crossbeam_channel::bounded(1);
+            let (notes, receiver) = crossbeam_channel::bounded(64);
+            (receiver, LoopMonitor { samples, notes, counters: Arc::new(Counters::default()) })
+        };
+        let note = Note::ServoVerdict { before: (1, 0), now: (5, 2), mark_status: [0, 5, 0, 0] };
+        for _ in 0..100 {
+            monitor.note(note);
+        }
+        let dropped = monitor.counters().notes_dropped.load(Ordering::Relaxed);
+        assert_eq!(dropped, 36, "64 held, the rest dropped without waiting");
+        let (written, counted) = write_notes(NodeRole::Servo, &receiver, dropped, 0);
+        assert_eq!((written, counted), (NOTES_PER_PERIOD, 100 - NOTES_PER_PERIOD as u64));
+        // the next period: nothing new
+        assert_eq!(write_notes(NodeRole::Servo, &receiver, dropped, dropped), (0, 0));
+    }
 }

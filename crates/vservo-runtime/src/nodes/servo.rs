@@ -9,7 +9,7 @@ use vservo_scene::FeatureVector;
 
 use super::{CellModeFollower, IDLE_WAIT, NodeBase, go_realtime, latest, start};
 use crate::clock::monotonic_ns;
-use crate::telemetry::CycleSample;
+use crate::telemetry::{CycleSample, Note};
 use crate::wire::to_array;
 use crate::wire::{law_gains, pose_from_wire};
 use crate::{NodeContext, RuntimeError, schema_ok};
@@ -26,7 +26,6 @@ pub fn feature_error_px(features: &FeatureVector, desired: &FeatureVector) -> f6
     if n == 0 { f64::NAN } else { (sum / n as f64).sqrt() }
 }
 
-/// Why the marks of `missing` are missing, for people: "mark 2 (not found)".
 /// The law's flags as `camera_twist.law_flags` bits.
 fn law_flags_on_wire(flags: LawFlags) -> u32 {
     [
@@ -37,57 +36,6 @@ fn law_flags_on_wire(flags: LawFlags) -> u32 {
     .into_iter()
     .filter(|(set, _)| *set)
     .fold(0, |bits, (_, bit)| bits | bit)
-}
-
-fn missing_marks(missing: u32, status: &[u8; vservo_scene::MARKS]) -> String {
-    let reason = |code: u8| match code {
-        vservo_protocol::mark_status::OUTSIDE_IMAGE => "outside the image",
-        vservo_protocol::mark_status::CUT_BY_BORDER => "cut by the border",
-        vservo_protocol::mark_status::MERGED => "merged with another",
-        vservo_protocol::mark_status::IRREGULAR => "irregular",
-        vservo_protocol::mark_status::NOT_FOUND => "not found",
-        vservo_protocol::mark_status::BAD_IMAGE => "bad image",
-        // valid for vision, refused by the servo
-        vservo_protocol::mark_status::VALID => "outside the image",
-        _ => "unknown reason",
-    };
-    (0..vservo_scene::MARKS)
-        .filter(|m| missing & (1 << m) != 0)
-        .map(|m| format!("mark {} ({})", m + 1, reason(status[m])))
-        .collect::<Vec<_>>()
-        .join(", ")
-}
-
-/// One line when the servo starts or stops servoing on three marks, reacquiring or holding for lost marks.
-fn log_change(before: (u32, u32), now: (u32, u32), status: &[u8; vservo_scene::MARKS]) {
-    match now {
-        (verdict::SERVOING_ON_THREE, missing) => {
-            tracing::warn!(
-                node = "servo",
-                "servoing on three marks: {} missing",
-                missing_marks(missing, status)
-            );
-        }
-        (verdict::REACQUIRING, missing) => tracing::warn!(
-            node = "servo",
-            "reacquiring: {} missing; steering the camera back to where all four were last seen",
-            missing_marks(missing, status)
-        ),
-        (verdict::MARKS_MISSING, missing) => tracing::warn!(
-            node = "servo",
-            "holding: {} missing and no pose where all four were seen",
-            missing_marks(missing, status)
-        ),
-        (verdict::SERVOING, _)
-            if matches!(
-                before.0,
-                verdict::SERVOING_ON_THREE | verdict::REACQUIRING | verdict::MARKS_MISSING
-            ) =>
-        {
-            tracing::info!(node = "servo", "servoing on all four marks again");
-        }
-        _ => {}
-    }
 }
 
 /// Runs the servo until the stop flag is set; then sends one zero twist marked STOPPING.
@@ -198,7 +146,11 @@ pub fn run(context: &NodeContext) -> Result<(), RuntimeError> {
             });
             // said after the twist is sent, and only when it changes
             if (verdict_code, missing_mask) != doing {
-                log_change(doing, (verdict_code, missing_mask), &message.mark_status);
+                monitor.note(Note::ServoVerdict {
+                    before: doing,
+                    now: (verdict_code, missing_mask),
+                    mark_status: message.mark_status,
+                });
                 doing = (verdict_code, missing_mask);
             }
             last = (message.frame, message.capture_tick);

@@ -1,0 +1,84 @@
+//! What a node's loop has to say to people, said by its telemetry thread: the loop hands a [`Note`] to a
+//! bounded channel (no allocation, no I/O, never blocking) and the telemetry thread writes the line, at most
+//! [`NOTES_PER_PERIOD`] a telemetry period and a count of the rest, so that a mark flickering at the border
+//! neither slows the servo nor floods the journal.
+
+use vservo_protocol::{MARKS, verdict};
+
+/// Lines written per telemetry period; the notes beyond are counted in one line.
+pub const NOTES_PER_PERIOD: usize = 4;
+
+/// Something a loop noticed.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Note {
+    /// The servo's (verdict, missing marks) changed; `mark_status` is the frame's per mark.
+    ServoVerdict {
+        /// Before.
+        before: (u32, u32),
+        /// Now.
+        now: (u32, u32),
+        /// The frame's [`vservo_protocol::mark_status`] codes.
+        mark_status: [u8; MARKS],
+    },
+}
+
+impl Note {
+    /// Writes its line (the telemetry thread does, off the loop's path).
+    pub fn log(&self) {
+        match *self {
+            Note::ServoVerdict { before, now, mark_status } => log_servo_verdict(before, now, &mark_status),
+        }
+    }
+}
+
+/// Why the marks of `missing` are missing, for people: "mark 2 (not found)".
+fn missing_marks(missing: u32, status: &[u8; MARKS]) -> String {
+    let reason = |code: u8| match code {
+        vservo_protocol::mark_status::OUTSIDE_IMAGE => "outside the image",
+        vservo_protocol::mark_status::CUT_BY_BORDER => "cut by the border",
+        vservo_protocol::mark_status::MERGED => "merged with another",
+        vservo_protocol::mark_status::IRREGULAR => "irregular",
+        vservo_protocol::mark_status::NOT_FOUND => "not found",
+        vservo_protocol::mark_status::BAD_IMAGE => "bad image",
+        // valid for vision, refused by the servo
+        vservo_protocol::mark_status::VALID => "outside the image",
+        _ => "unknown reason",
+    };
+    (0..MARKS)
+        .filter(|m| missing & (1 << m) != 0)
+        .map(|m| format!("mark {} ({})", m + 1, reason(status[m])))
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
+/// One line when the servo starts or stops servoing on three marks, reacquiring or holding for lost marks.
+fn log_servo_verdict(before: (u32, u32), now: (u32, u32), status: &[u8; MARKS]) {
+    match now {
+        (verdict::SERVOING_ON_THREE, missing) => {
+            tracing::warn!(
+                node = "servo",
+                "servoing on three marks: {} missing",
+                missing_marks(missing, status)
+            );
+        }
+        (verdict::REACQUIRING, missing) => tracing::warn!(
+            node = "servo",
+            "reacquiring: {} missing; steering the camera back to where all four were last seen",
+            missing_marks(missing, status)
+        ),
+        (verdict::MARKS_MISSING, missing) => tracing::warn!(
+            node = "servo",
+            "holding: {} missing and no pose where all four were seen",
+            missing_marks(missing, status)
+        ),
+        (verdict::SERVOING, _)
+            if matches!(
+                before.0,
+                verdict::SERVOING_ON_THREE | verdict::REACQUIRING | verdict::MARKS_MISSING
+            ) =>
+        {
+            tracing::info!(node = "servo", "servoing on all four marks again");
+        }
+        _ => {}
+    }
+}
