@@ -136,6 +136,14 @@ fn reloads_swap_the_gain_and_the_law_options_at_a_frame_and_bad_files_change_not
     assert_eq!(latest["interaction"], vservo_control::Interaction::Mean.code(), "{latest}");
     assert_eq!(latest["border_margin_px"], 20.0, "{latest}");
     assert_eq!(latest["feedforward"], 1, "{latest}");
+    // a target inside the barrier's margin (mark 4 at 15 px from the top) is refused by name
+    let out = run(
+        "vservoctl",
+        &["target", "set", "--features", "151,168,318,178,339,75,172,15", "--instance", &instance],
+    );
+    assert_eq!(out.status.code(), Some(3));
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(stderr.contains("controller.border_margin_px"), "{stderr}");
     // the servo runs them: its twists name version 3, and the loop stays on ξ_d
     let twists = lines(echo(&instance, "camera_twist", 0.5));
     assert!(!twists.is_empty() && twists.iter().all(|t| t["gains_version"] == 3), "{twists:?}");

@@ -7,7 +7,8 @@
 //! either way. A start whose first image does not show all four marks whole, or which the arm cannot
 //! reach, is not counted (it says nothing about the law). A run stops once every mark has stayed within
 //! 1 px for `--settled-for` seconds (with `--full` it runs the whole duration and must stay within 1 px to
-//! the end); its settling time is when it last entered.
+//! the end); its settling time is when it last entered. The configuration's scenario object motion and
+//! occlusions are left out: the board holds still and every mark can be seen.
 
 use std::path::{Path, PathBuf};
 
@@ -283,7 +284,9 @@ pub fn run(args: &BasinArgs) -> Result<()> {
     }
     let mut config = config;
     config.scenario.duration_s = args.duration;
+    // the board holds still and every mark can be seen: what is measured is the law's reach from a start
     config.scenario.object = vservo_sim::world::ObjectMotion::Hold;
+    config.scenario.occlusions = Default::default();
     // the configuration itself must make a cell (a bad one is the user's to fix, not a failed start)
     Lockstep::new(&config).map_err(|e| UsageError(format!("{}: {e}", config.origin)))?;
 

@@ -210,10 +210,16 @@ impl Commander {
             return Ok(format!("{path}: nothing changed; gains version {}", self.version));
         }
         let mut spec = config.gains_spec();
-        // a target a client set stays unless the file's [desired] changed
+        // a target a client set stays unless the file's [desired] changed; it must be clear of the new margin
         if !changed.iter().any(|k| k.starts_with("desired.")) {
             spec.desired_features = self.spec.desired_features;
             spec.desired_depths = self.spec.desired_depths;
+            inside_margin(&config.camera, &spec.desired_features, spec.options.border_margin_px).map_err(|e| {
+                format!(
+                    "{path}: the target in force (set by a client): {e}; the running gains (version {}) stay",
+                    self.version
+                )
+            })?;
         }
         self.adopt(spec)
             .map_err(|e| format!("{path}: {e}; the running gains (version {}) stay", self.version))?;
@@ -302,17 +308,8 @@ impl Commander {
         if !features.iter().all(|v| v.is_finite()) {
             return Err("target: a feature is not finite".into());
         }
-        let (w, h) = (f64::from(self.config.camera.width_px()), f64::from(self.config.camera.height_px()));
-        let m = TARGET_BORDER_MARGIN_PX;
-        for mark in 0..MARKS {
-            let (x, y) = (features[2 * mark], features[2 * mark + 1]);
-            if !(m..=w - m).contains(&x) || !(m..=h - m).contains(&y) {
-                return Err(format!(
-                    "target: mark {} at ({x:.1}, {y:.1}) px is outside the image or within {m} px of its border ({w}×{h} px)",
-                    mark + 1
-                ));
-            }
-        }
+        inside_margin(&self.config.camera, features, self.spec.options.border_margin_px)
+            .map_err(|e| format!("target: {e}"))?;
         for a in 0..MARKS {
             for b in a + 1..MARKS {
                 let d = ((features[2 * a] - features[2 * b]).powi(2)
@@ -457,6 +454,30 @@ pub fn changed_keys(old: &str, new: &str) -> Vec<String> {
     out
 }
 
+/// Every mark of `features` inside the image, [`TARGET_BORDER_MARGIN_PX`] or the barrier's margin
+/// (`controller.border_margin_px`, whichever is wider) from its border: the barrier would keep the servo from
+/// a target inside its margin.
+fn inside_margin(
+    camera: &vservo_scene::CameraIntrinsics,
+    features: &FeatureVector,
+    barrier_margin_px: f64,
+) -> Result<(), String> {
+    let (w, h) = (f64::from(camera.width_px()), f64::from(camera.height_px()));
+    let m = TARGET_BORDER_MARGIN_PX.max(barrier_margin_px);
+    let whose =
+        if barrier_margin_px > TARGET_BORDER_MARGIN_PX { " (controller.border_margin_px)" } else { "" };
+    for mark in 0..MARKS {
+        let (x, y) = (features[2 * mark], features[2 * mark + 1]);
+        if !(m..=w - m).contains(&x) || !(m..=h - m).contains(&y) {
+            return Err(format!(
+                "mark {} at ({x:.1}, {y:.1}) px is outside the image or within {m} px{whose} of its border ({w}×{h} px)",
+                mark + 1
+            ));
+        }
+    }
+    Ok(())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -476,5 +497,17 @@ mod tests {
         let mirrored = FeatureVector::from([0.0, 0.0, 0.0, 10.0, 10.0, 10.0, 10.0, 0.0]);
         assert_eq!(quad_area(&square), 100.0);
         assert_eq!(quad_area(&mirrored), -100.0);
+    }
+
+    #[test]
+    fn a_target_is_kept_clear_of_the_barriers_margin_when_it_is_wider_than_the_border_margin() {
+        let camera = vservo_scene::CameraIntrinsics::paper();
+        // mark 4 at 15 px from the top
+        let target = FeatureVector::from([151.0, 168.0, 318.0, 178.0, 339.0, 75.0, 172.0, 15.0]);
+        assert!(inside_margin(&camera, &target, 0.0).is_ok());
+        let refused = inside_margin(&camera, &target, 20.0).expect_err("inside the barrier's margin");
+        assert!(refused.contains("mark 4") && refused.contains("controller.border_margin_px"), "{refused}");
+        let refused = inside_margin(&camera, &target.map(|v| v - 10.0), 0.0).expect_err("within 10 px");
+        assert!(!refused.contains("controller.border_margin_px"), "{refused}");
     }
 }
