@@ -25,7 +25,8 @@ pub enum ServoVerdict {
     Servoing,
     /// The law's twist on the three marks seen (bit m set for the missing mark m).
     ServoingOnThree(u8),
-    /// Two or more marks missing (bit m set for mark m): steering back to where all were last seen.
+    /// Two or more marks missing (bit m set for mark m), or one and no design for the three seen (their
+    /// desired images in a line): steering back to where all were last seen.
     Reacquiring(u8),
     /// Marks missing and nowhere known to go back to: zero twist.
     MarksMissing(u8),

@@ -224,7 +224,7 @@ pub mod verdict {
     pub const WAITING: u32 = 0;
     /// The law's twist.
     pub const SERVOING: u32 = 1;
-    /// A mark missing: zero twist (`missing_mask` says which).
+    /// Marks missing and no camera pose known where all four were seen: zero twist (`missing_mask` says which).
     pub const MARKS_MISSING: u32 = 2;
     /// The servo is stopping (shutdown): zero twist.
     pub const STOPPING: u32 = 3;
@@ -232,7 +232,8 @@ pub mod verdict {
     pub const SAFE_STOP: u32 = 4;
     /// One mark missing (`missing_mask`): the law's twist on the other three.
     pub const SERVOING_ON_THREE: u32 = 5;
-    /// Two or more marks missing (`missing_mask`): steering the camera back to where all were last seen.
+    /// Two or more marks missing (`missing_mask`), or one and no design for the three seen (their desired
+    /// images in a line): steering the camera back to where all were last seen.
     pub const REACQUIRING: u32 = 6;
 
     /// Whether a twist of this verdict is to be followed (the others mean: bring the arm to rest).
