@@ -153,7 +153,7 @@ impl Cell {
 
     /// The servo at rest.
     pub fn servo(&self) -> ServoStage {
-        ServoStage::new(self.law_geometry(), &self.gains)
+        ServoStage::new(self.law_geometry(), &self.gains, self.config.reacquire)
     }
 
     /// What the law takes from the configuration and never changes.

@@ -6,15 +6,9 @@
 //!   motion since then known from the joint states at capture ([`ServoVerdict::Reacquiring`]); with no such
 //!   pose (none seen yet, or the camera's pose not known), zero twist ([`ServoVerdict::MarksMissing`]).
 
+use vservo_config::Reacquire;
 use vservo_control::{Gains, LawFlags, LawGains, LawGeometry, ServoLaw, Twist};
 use vservo_scene::{FeatureVector, IsometryMatrix3};
-
-/// The gain (1/s) of the steering back to the pose where all marks were last seen.
-pub const REACQUIRE_GAIN_PER_S: f64 = 1.5;
-/// The fastest the camera moves while reacquiring (m/s).
-pub const REACQUIRE_MAX_SPEED_M_S: f64 = 0.1;
-/// The fastest the camera turns while reacquiring (rad/s).
-pub const REACQUIRE_MAX_ROTATION_RAD_S: f64 = 0.5;
 
 /// Why the servo sent the twist it sent.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -48,12 +42,18 @@ pub struct ServoInput<'a> {
 pub struct ServoStage {
     law: ServoLaw,
     period_s: f64,
+    reacquire: Reacquire,
     last_seen_whole: Option<IsometryMatrix3<f64>>,
 }
 
 impl ServoStage {
-    pub(crate) fn new(geometry: LawGeometry, gains: &Gains) -> Self {
-        Self { law: ServoLaw::new(geometry, gains), period_s: geometry.period_s, last_seen_whole: None }
+    pub(crate) fn new(geometry: LawGeometry, gains: &Gains, reacquire: Reacquire) -> Self {
+        Self {
+            law: ServoLaw::new(geometry, gains),
+            period_s: geometry.period_s,
+            reacquire,
+            last_seen_whole: None,
+        }
     }
 
     /// The desired features ξ_d.
@@ -96,7 +96,7 @@ impl ServoStage {
             Some(twist) => (twist, ServoVerdict::ServoingOnThree(missing)),
             None => match (self.last_seen_whole, input.base_from_camera) {
                 (Some(then), Some(now)) => {
-                    let twist = steer_towards(now, &then, self.period_s);
+                    let twist = steer_towards(now, &then, self.period_s, &self.reacquire);
                     self.law.sent(twist);
                     (twist, ServoVerdict::Reacquiring(missing))
                 }
@@ -106,20 +106,25 @@ impl ServoStage {
     }
 }
 
-/// The camera twist (in the camera frame) that moves the camera from `now` towards `then` with
-/// [`REACQUIRE_GAIN_PER_S`], its speeds capped, and never beyond `then` within one frame.
-pub fn steer_towards(now: &IsometryMatrix3<f64>, then: &IsometryMatrix3<f64>, period_s: f64) -> Twist {
+/// The camera twist (in the camera frame) that moves the camera from `now` towards `then` with the
+/// `[reacquire]` gain, its speeds capped, and never beyond `then` within one frame.
+pub fn steer_towards(
+    now: &IsometryMatrix3<f64>,
+    then: &IsometryMatrix3<f64>,
+    period_s: f64,
+    reacquire: &Reacquire,
+) -> Twist {
     let now_from_then = now.inverse() * then;
     let translation = now_from_then.translation.vector;
     let rotation = now_from_then.rotation.scaled_axis();
-    let gain = REACQUIRE_GAIN_PER_S.min(1.0 / period_s);
+    let gain = reacquire.gain_per_s.min(1.0 / period_s);
     let mut v = translation * gain;
     let mut w = rotation * gain;
-    if v.norm() > REACQUIRE_MAX_SPEED_M_S {
-        v *= REACQUIRE_MAX_SPEED_M_S / v.norm();
+    if v.norm() > reacquire.max_speed_m_s {
+        v *= reacquire.max_speed_m_s / v.norm();
     }
-    if w.norm() > REACQUIRE_MAX_ROTATION_RAD_S {
-        w *= REACQUIRE_MAX_ROTATION_RAD_S / w.norm();
+    if w.norm() > reacquire.max_rotation_rad_s {
+        w *= reacquire.max_rotation_rad_s / w.norm();
     }
     Twist::new(v.x, v.y, v.z, w.x, w.y, w.z)
 }
@@ -133,17 +138,25 @@ mod tests {
     fn steering_back_points_the_camera_to_where_it_was_and_stays_within_its_limits() {
         let then = IsometryMatrix3::identity();
         let now = IsometryMatrix3::from_parts(Translation3::new(0.02, 0.0, 0.0), Rotation3::identity());
-        let twist = steer_towards(&now, &then, 0.085);
+        let reacquire = Reacquire::default();
+        let twist = steer_towards(&now, &then, 0.085, &reacquire);
         // back along −x of the camera, at the gain
-        assert!((twist[0] + 0.02 * REACQUIRE_GAIN_PER_S).abs() < 1e-12, "{twist}");
+        assert!((twist[0] + 0.02 * reacquire.gain_per_s).abs() < 1e-12, "{twist}");
         assert!(twist.rows(1, 5).amax() < 1e-12);
         let far = IsometryMatrix3::from_parts(
             Translation3::new(1.0, 0.5, 0.0),
             Rotation3::from_axis_angle(&Vector3::z_axis(), 1.0),
         );
-        let twist = steer_towards(&far, &then, 0.085);
-        assert!(twist.fixed_rows::<3>(0).norm() <= REACQUIRE_MAX_SPEED_M_S + 1e-12);
-        assert!(twist.fixed_rows::<3>(3).norm() <= REACQUIRE_MAX_ROTATION_RAD_S + 1e-12);
+        let twist = steer_towards(&far, &then, 0.085, &reacquire);
+        assert!(twist.fixed_rows::<3>(0).norm() <= reacquire.max_speed_m_s + 1e-12);
+        assert!(twist.fixed_rows::<3>(3).norm() <= reacquire.max_rotation_rad_s + 1e-12);
         assert!(twist[5] < 0.0, "turns back");
+        // slower caps, as configured
+        let gentle = Reacquire { gain_per_s: 0.5, max_speed_m_s: 0.02, max_rotation_rad_s: 0.1 };
+        let twist = steer_towards(&far, &then, 0.085, &gentle);
+        assert!((twist.fixed_rows::<3>(0).norm() - 0.02).abs() < 1e-12, "{twist}");
+        assert!((twist.fixed_rows::<3>(3).norm() - 0.1).abs() < 1e-12, "{twist}");
+        let twist = steer_towards(&now, &then, 0.085, &gentle);
+        assert!((twist[0] + 0.02 * 0.5).abs() < 1e-12, "{twist}");
     }
 }

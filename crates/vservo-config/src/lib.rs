@@ -62,6 +62,8 @@ pub struct Config {
     pub arm: vservo_arm::SerialArm,
     /// `[faults]`: when a fault stops the cell, and how it resumes.
     pub faults: Faults,
+    /// `[reacquire]`: how the servo steers back to lost marks.
+    pub reacquire: Reacquire,
     /// `[viewer]`: the live view in Foxglove.
     pub viewer: Viewer,
 }
@@ -78,6 +80,25 @@ pub struct Viewer {
     pub address: String,
     /// The TCP port.
     pub port: u16,
+}
+
+/// `[reacquire]`: with fewer than three marks seen, the servo steers the camera back to its pose when it last
+/// saw all four, proportionally with speed caps. Optional in the file (the defaults below apply); read at
+/// start (a reload that changes it is refused).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Reacquire {
+    /// The proportional gain (1/s): the twist is this times the pose error, translation and rotation.
+    pub gain_per_s: f64,
+    /// The fastest the camera moves while reacquiring (m/s).
+    pub max_speed_m_s: f64,
+    /// The fastest the camera turns while reacquiring (rad/s).
+    pub max_rotation_rad_s: f64,
+}
+
+impl Default for Reacquire {
+    fn default() -> Self {
+        Self { gain_per_s: 1.5, max_speed_m_s: 0.1, max_rotation_rad_s: 0.5 }
+    }
 }
 
 /// `[faults]`: the fault reaction of the real-time shell. Optional in the file (the defaults below apply).

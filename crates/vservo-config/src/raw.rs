@@ -23,6 +23,8 @@ pub struct RawConfig {
     #[serde(default)]
     pub faults: RawFaults,
     #[serde(default)]
+    pub reacquire: RawReacquire,
+    #[serde(default)]
     pub viewer: RawViewer,
 }
 
@@ -37,6 +39,25 @@ pub struct RawViewer {
 impl Default for RawViewer {
     fn default() -> Self {
         Self { enabled: false, address: "127.0.0.1".into(), port: 8765 }
+    }
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct RawReacquire {
+    pub gain_per_s: f64,
+    pub max_speed_m_s: f64,
+    pub max_rotation_rad_s: f64,
+}
+
+impl Default for RawReacquire {
+    fn default() -> Self {
+        let d = crate::Reacquire::default();
+        Self {
+            gain_per_s: d.gain_per_s,
+            max_speed_m_s: d.max_speed_m_s,
+            max_rotation_rad_s: d.max_rotation_rad_s,
+        }
     }
 }
 

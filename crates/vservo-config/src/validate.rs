@@ -326,6 +326,7 @@ pub fn validate(raw: RawConfig, file: &str) -> Result<Config, ConfigError> {
     let vision = validate_vision(&check, &raw.vision, source)?;
     let (plant, interpolator, joint_servo, scenario) = validate_simulation(&check, &raw, &timing)?;
     let robot = validate_robot(&check, &raw.robot, &plant, &timing)?;
+    let reacquire = validate_reacquire(&check, &raw.reacquire, &robot, timing.vision_period_s)?;
     if robot.driver == RobotDriver::Simulated && raw.robot.arm.preset != "puma560" {
         return Err(check.invalid(
             "robot.arm.preset",
@@ -359,7 +360,41 @@ pub fn validate(raw: RawConfig, file: &str) -> Result<Config, ConfigError> {
         robot,
         arm,
         faults: validate_faults(&check, &raw.faults)?,
+        reacquire,
         viewer: validate_viewer(&check, &raw.viewer)?,
+    })
+}
+
+/// `[reacquire]`: a gain that does not overshoot within a frame, caps within the robot's camera limits.
+fn validate_reacquire(
+    check: &Checker,
+    r: &crate::raw::RawReacquire,
+    robot: &crate::Robot,
+    vision_period_s: f64,
+) -> Result<crate::Reacquire, ConfigError> {
+    let most_gain_per_s = 1.0 / vision_period_s;
+    Ok(crate::Reacquire {
+        gain_per_s: check.within(
+            "reacquire.gain_per_s",
+            r.gain_per_s,
+            0.01,
+            most_gain_per_s,
+            "1/s (1 / vision period)",
+        )?,
+        max_speed_m_s: check.within(
+            "reacquire.max_speed_m_s",
+            r.max_speed_m_s,
+            0.001,
+            robot.max_camera_speed_m_s,
+            "m/s (robot.max_camera_speed_m_s)",
+        )?,
+        max_rotation_rad_s: check.within(
+            "reacquire.max_rotation_rad_s",
+            r.max_rotation_rad_s,
+            0.001,
+            robot.max_camera_rotation_rad_s,
+            "rad/s (robot.max_camera_rotation_rad_s)",
+        )?,
     })
 }
 

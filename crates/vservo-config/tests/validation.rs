@@ -327,3 +327,28 @@ fn occlusions_name_a_mark_and_a_time_span() {
     let error = refused(&with("occlusions = []", "occlusions = [{ mark = 1, from_s = 3.0, until_s = 2.0 }]"));
     assert!(error.to_string().contains("scenario.occlusions[0].until_s"), "{error}");
 }
+
+#[test]
+fn reacquiring_has_the_defaults_and_its_keys_are_checked_against_the_period_and_the_robot() {
+    let config = Config::from_toml(DEFAULT, "test.toml").expect("the default loads");
+    assert_eq!(config.reacquire, vservo_config::Reacquire::default());
+    let without: String = DEFAULT
+        .lines()
+        .filter(|l| !["gain_per_s", "max_speed_m_s", "max_rotation_rad_s"].iter().any(|k| l.starts_with(k)))
+        .collect::<Vec<_>>()
+        .join("\n");
+    let config = Config::from_toml(&without, "test.toml").expect("the section is optional");
+    assert_eq!(config.reacquire, vservo_config::Reacquire::default());
+    let gentle = with("max_speed_m_s = 0.1", "max_speed_m_s = 0.02");
+    assert_eq!(Config::from_toml(&gentle, "test.toml").expect("loads").reacquire.max_speed_m_s, 0.02);
+    for (text, key) in [
+        // faster than 1 / vision period would overshoot within a frame
+        (with("gain_per_s = 1.5", "gain_per_s = 12.0"), "reacquire.gain_per_s"),
+        (with("max_speed_m_s = 0.1", "max_speed_m_s = 0.0"), "reacquire.max_speed_m_s"),
+        // beyond what the robot lets the camera do
+        (with("max_rotation_rad_s = 0.5", "max_rotation_rad_s = 9.0"), "reacquire.max_rotation_rad_s"),
+    ] {
+        let error = refused(&text);
+        assert_eq!(error.key(), Some(key), "{error}");
+    }
+}
