@@ -52,14 +52,20 @@ impl JointHistory {
         }
     }
 
-    /// Takes in a state. One not measured after the newest (a driver restarted with another clock origin,
-    /// a repeat) starts the history anew from it; one with joints that are not finite is not kept.
+    /// Takes in a state. One stamped as the newest replaces it (a clock too coarse to tell them apart); one
+    /// stamped before it (a driver restarted with another clock origin) starts the history anew; one with
+    /// joints that are not finite is not kept.
     pub fn push(&mut self, stamp_ns: u64, tick: u64, q: &JointVector) {
         if !q.iter().all(|v| v.is_finite()) {
             return;
         }
-        if self.newest().is_some_and(|newest| stamp_ns <= newest.stamp_ns) {
-            self.len = 0;
+        match self.newest() {
+            Some(newest) if stamp_ns == newest.stamp_ns => {
+                self.ring[(self.next + KEPT_STATES - 1) % KEPT_STATES] = Heard { stamp_ns, tick, q: *q };
+                return;
+            }
+            Some(newest) if stamp_ns < newest.stamp_ns => self.len = 0,
+            _ => {}
         }
         self.ring[self.next] = Heard { stamp_ns, tick, q: *q };
         self.next = (self.next + 1) % KEPT_STATES;
@@ -138,6 +144,15 @@ mod tests {
         assert_eq!(history.at(newest + 1_500_000).map(|a| a.tick), Some(299));
         assert!(history.at(newest + 2_500_000).is_none());
         assert!(JointHistory::new(2_000_000).at(5).is_none());
+    }
+
+    #[test]
+    fn a_state_stamped_as_the_newest_replaces_it_and_keeps_the_history() {
+        let mut history = heard(50);
+        let newest = 1_000_000_000 + 49_000_000;
+        history.push(newest, 50, &q(7.0));
+        assert_eq!(history.at(newest).map(|a| (a.tick, a.q)), Some((50, q(7.0))));
+        assert_eq!(history.at(1_000_000_000 + 10_000_000).map(|a| a.tick), Some(10), "the older states stay");
     }
 
     #[test]
