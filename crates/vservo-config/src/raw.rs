@@ -42,23 +42,12 @@ impl Default for RawViewer {
     }
 }
 
-#[derive(Debug, Deserialize)]
+#[derive(Debug, Default, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct RawReacquire {
-    pub gain_per_s: f64,
-    pub max_speed_m_s: f64,
-    pub max_rotation_rad_s: f64,
-}
-
-impl Default for RawReacquire {
-    fn default() -> Self {
-        let d = crate::Reacquire::default();
-        Self {
-            gain_per_s: d.gain_per_s,
-            max_speed_m_s: d.max_speed_m_s,
-            max_rotation_rad_s: d.max_rotation_rad_s,
-        }
-    }
+    pub gain_per_s: Option<f64>,
+    pub max_speed_m_s: Option<f64>,
+    pub max_rotation_rad_s: Option<f64>,
 }
 
 #[derive(Debug, Deserialize)]

@@ -365,32 +365,41 @@ pub fn validate(raw: RawConfig, file: &str) -> Result<Config, ConfigError> {
     })
 }
 
-/// `[reacquire]`: a gain that does not overshoot within a frame, caps within the robot's camera limits.
+/// `[reacquire]`: a gain that does not overshoot within a frame, caps within the robot's camera limits. A key
+/// left out takes its default, lowered to those limits where they are tighter.
 fn validate_reacquire(
     check: &Checker,
     r: &crate::raw::RawReacquire,
     robot: &crate::Robot,
     vision_period_s: f64,
 ) -> Result<crate::Reacquire, ConfigError> {
+    let defaults = crate::Reacquire::default();
     let most_gain_per_s = 1.0 / vision_period_s;
+    let key = |key: &str, value: Option<f64>, default: f64, low: f64, high: f64, unit: &str| match value {
+        Some(value) => check.within(key, value, low, high, unit),
+        None => Ok(default.min(high)),
+    };
     Ok(crate::Reacquire {
-        gain_per_s: check.within(
+        gain_per_s: key(
             "reacquire.gain_per_s",
             r.gain_per_s,
+            defaults.gain_per_s,
             0.01,
             most_gain_per_s,
             "1/s (1 / vision period)",
         )?,
-        max_speed_m_s: check.within(
+        max_speed_m_s: key(
             "reacquire.max_speed_m_s",
             r.max_speed_m_s,
+            defaults.max_speed_m_s,
             0.001,
             robot.max_camera_speed_m_s,
             "m/s (robot.max_camera_speed_m_s)",
         )?,
-        max_rotation_rad_s: check.within(
+        max_rotation_rad_s: key(
             "reacquire.max_rotation_rad_s",
             r.max_rotation_rad_s,
+            defaults.max_rotation_rad_s,
             0.001,
             robot.max_camera_rotation_rad_s,
             "rad/s (robot.max_camera_rotation_rad_s)",

@@ -339,6 +339,9 @@ fn reacquiring_has_the_defaults_and_its_keys_are_checked_against_the_period_and_
         .join("\n");
     let config = Config::from_toml(&without, "test.toml").expect("the section is optional");
     assert_eq!(config.reacquire, vservo_config::Reacquire::default());
+    // left out under a robot slower than the defaults: the defaults are lowered to its limits
+    let slow_robot = without.replace("max_camera_speed_m_s = 2.0", "max_camera_speed_m_s = 0.05");
+    assert_eq!(Config::from_toml(&slow_robot, "test.toml").expect("loads").reacquire.max_speed_m_s, 0.05);
     let gentle = with("max_speed_m_s = 0.1", "max_speed_m_s = 0.02");
     assert_eq!(Config::from_toml(&gentle, "test.toml").expect("loads").reacquire.max_speed_m_s, 0.02);
     for (text, key) in [

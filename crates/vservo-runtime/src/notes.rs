@@ -5,6 +5,8 @@
 
 use vservo_protocol::{MARKS, verdict};
 
+use crate::joint_history::NoJoints;
+
 /// Lines written per telemetry period; the notes beyond are counted in one line.
 pub const NOTES_PER_PERIOD: usize = 4;
 
@@ -20,6 +22,15 @@ pub enum Note {
         /// The frame's [`vservo_protocol::mark_status`] codes.
         mark_status: [u8; MARKS],
     },
+    /// An external camera's frame with no joint state around its exposure: its camera pose is unknown.
+    FrameWithoutPose {
+        /// The camera's frame number.
+        frame: u64,
+        /// Its exposure stamp.
+        capture_stamp_ns: u64,
+        /// Where the stamp fell.
+        why: NoJoints,
+    },
 }
 
 impl Note {
@@ -27,6 +38,19 @@ impl Note {
     pub fn log(&self) {
         match *self {
             Note::ServoVerdict { before, now, mark_status } => log_servo_verdict(before, now, &mark_status),
+            Note::FrameWithoutPose { frame, capture_stamp_ns, why } => {
+                let where_ = match why {
+                    NoJoints::Empty => "no joint state heard yet",
+                    NoJoints::BeforeHistory => "before the joint states kept",
+                    NoJoints::AfterNewest => "after the newest joint state (ahead of the robot's clock)",
+                    NoJoints::InGap => "in a gap between joint states (a stalled driver)",
+                };
+                tracing::warn!(
+                    node = "vision",
+                    frame,
+                    "frame {frame}'s exposure (capture_stamp_ns {capture_stamp_ns}) is {where_}: its camera pose is unknown, the feed-forward restarts and reacquiring cannot steer; a camera stamps CLOCK_MONOTONIC at exposure (docs/DRIVERS.md); said once"
+                );
+            }
         }
     }
 }

@@ -231,24 +231,30 @@ struct Inputs<'a> {
     counters: &'a Counters,
 }
 
-/// Writes the notes waiting, at most [`NOTES_PER_PERIOD`], and one line counting the rest, those the loop
-/// dropped since `dropped_before` included. Returns (lines of notes written, notes counted in the summary).
+/// Writes the notes waiting: the first [`NOTES_PER_PERIOD`], then, if there were more, one line counting the
+/// rest (those the loop dropped since `dropped_before` included) and the newest, so that the last line says
+/// how things stand. Returns (notes written, notes counted in the summary).
 fn write_notes(role: NodeRole, notes: &Receiver<Note>, dropped: u64, dropped_before: u64) -> (usize, u64) {
     let mut unwritten = dropped.saturating_sub(dropped_before);
     let mut written = 0;
+    let mut newest_unwritten = None;
     for note in notes.try_iter() {
         if written < NOTES_PER_PERIOD {
             note.log();
             written += 1;
-        } else {
+        } else if newest_unwritten.replace(note).is_some() {
             unwritten += 1;
         }
     }
     if unwritten > 0 {
         tracing::warn!(
             node = role.name(),
-            "{unwritten} more changes in the last telemetry period, not written one by one"
+            "{unwritten} more changes in the last telemetry period, not written one by one; the latest:"
         );
+    }
+    if let Some(newest) = newest_unwritten {
+        newest.log();
+        written += 1;
     }
     (written, unwritten)
 }
@@ -374,7 +380,8 @@ mod tests {
         let dropped = monitor.counters().notes_dropped.load(Ordering::Relaxed);
         assert_eq!(dropped, 36, "64 held, the rest dropped without waiting");
         let (written, counted) = write_notes(NodeRole::Servo, &receiver, dropped, 0);
-        assert_eq!((written, counted), (NOTES_PER_PERIOD, 100 - NOTES_PER_PERIOD as u64));
+        // the first four and the newest written, the rest counted
+        assert_eq!((written, counted), (NOTES_PER_PERIOD + 1, 100 - NOTES_PER_PERIOD as u64 - 1));
         // the next period: nothing new
         assert_eq!(write_notes(NodeRole::Servo, &receiver, dropped, dropped), (0, 0));
     }

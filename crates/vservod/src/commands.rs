@@ -214,12 +214,14 @@ impl Commander {
         if !changed.iter().any(|k| k.starts_with("desired.")) {
             spec.desired_features = self.spec.desired_features;
             spec.desired_depths = self.spec.desired_depths;
-            inside_margin(&config.camera, &spec.desired_features, spec.options.border_margin_px).map_err(|e| {
-                format!(
-                    "{path}: the target in force (set by a client): {e}; the running gains (version {}) stay",
-                    self.version
-                )
-            })?;
+            inside_margin(&config.camera, &spec.desired_features, spec.options.border_margin_px).map_err(
+                |e| {
+                    format!(
+                        "{path}: the target in force: {e}; the running gains (version {}) stay",
+                        self.version
+                    )
+                },
+            )?;
         }
         self.adopt(spec)
             .map_err(|e| format!("{path}: {e}; the running gains (version {}) stay", self.version))?;

@@ -21,14 +21,15 @@ use vservo_vision::{Extraction, MarkStatus};
 
 use super::{IDLE_WAIT, NodeBase, go_realtime, latest, start};
 use crate::clock::monotonic_ns;
-use crate::joint_history::JointHistory;
+use crate::joint_history::{JointHistory, NoJoints};
+use crate::telemetry::Note;
 use crate::telemetry::{Counters, CycleSample, LoopMonitor};
 use crate::wire::{pose_from_wire, pose_to_wire, to_array};
 use crate::{NodeContext, RuntimeError, schema_ok};
 
-/// How long an external camera's vision node waits for a frame before it takes in the joint states heard
-/// (the joint_state queue holds 64 ms of them at 1 kHz).
-const DRAIN_WAIT: std::time::Duration = std::time::Duration::from_millis(20);
+/// How often, at the least, an external camera's vision node takes in the joint states heard: 32 driver
+/// periods (the joint_state queue holds 64 states), and at most this.
+const LONGEST_DRAIN_WAIT_S: f64 = 0.02;
 
 fn status_code(status: &MarkStatus) -> u8 {
     match status {
@@ -121,12 +122,16 @@ pub fn run(context: &NodeContext) -> Result<(), RuntimeError> {
             let counters = monitor.counters();
             // an image older than a vision period on arrival would steer the arm by where it was: dropped
             let stale_after_ns = (config.timing.vision_period_s * 1e9).round() as u64;
-            // the camera's pose is the arm's at the frame's exposure: the joint states heard are kept, and
-            // drained often enough that none is lost (the joint_state queue holds 64 states)
-            let mut joints = JointHistory::new((2.0 * config.timing.control_period_s * 1e9).round() as u64);
+            // the camera's pose is the arm's at the frame's exposure: the joint states heard are kept (two
+            // vision periods of them, more than a frame may be late), and drained often enough that none is
+            // lost (the joint_state queue holds 64 states)
+            let driver_period_s = config.robot.period_s;
+            let mut joints = JointHistory::new(driver_period_s, 2.0 * config.timing.vision_period_s);
+            let drain_wait =
+                std::time::Duration::from_secs_f64((32.0 * driver_period_s).min(LONGEST_DRAIN_WAIT_S));
             let mut said_unplaced = false;
             while !context.stopping() && !context.orphaned() {
-                let _ = listener.timed_wait(|_| {}, DRAIN_WAIT);
+                let _ = listener.timed_wait(|_| {}, drain_wait);
                 hear_joints(&state_subscriber, &mut joints, counters);
                 while let Ok(Some(sample)) = images.receive() {
                     let woke_at = monotonic_ns();
@@ -139,17 +144,21 @@ pub fn run(context: &NodeContext) -> Result<(), RuntimeError> {
                     drop(sample);
                     hear_joints(&state_subscriber, &mut joints, counters);
                     let at_exposure = joints.at(header.capture_stamp_ns);
-                    if at_exposure.is_none() && !said_unplaced {
-                        tracing::warn!(
-                            node = "vision",
-                            frame = header.frame,
-                            "no joint state around the frame's exposure (capture_stamp_ns {}): its camera pose is unknown; a camera stamps CLOCK_MONOTONIC at exposure (docs/DRIVERS.md)",
-                            header.capture_stamp_ns
-                        );
-                        said_unplaced = true;
+                    // said once, and not for the frames that come before the history has filled (a node
+                    // that has just started): then a camera's stamps do not match the robot's clock
+                    if let Err(why) = at_exposure {
+                        let filled = joints.span_ns() >= stale_after_ns;
+                        if !said_unplaced && (filled || why == NoJoints::AfterNewest) {
+                            monitor.note(Note::FrameWithoutPose {
+                                frame: header.frame,
+                                capture_stamp_ns: header.capture_stamp_ns,
+                                why,
+                            });
+                            said_unplaced = true;
+                        }
                     }
-                    let tick = at_exposure.map_or_else(|| joints.newest_tick().unwrap_or(0), |at| at.tick);
-                    let q = at_exposure.map(|at| at.q);
+                    let tick = at_exposure.map_or_else(|_| joints.newest_tick().unwrap_or(0), |at| at.tick);
+                    let q = at_exposure.ok().map(|at| at.q);
                     let (captured, delivered) = stage.process_image(header.frame, tick, q.as_ref(), &image);
                     out.remember(header.frame, header.capture_stamp_ns, &captured);
                     if let Some(delivered) = delivered {
@@ -188,7 +197,7 @@ fn hear_joints(
 ) {
     while let Ok(Some(state)) = subscriber.receive() {
         if schema_ok(state.schema) {
-            joints.push(state.stamp_ns, state.tick, &JointVector::from(state.q_rad));
+            joints.push(state.stamp_ns, state.tick, state.driver_epoch, &JointVector::from(state.q_rad));
         } else {
             counters.rejected();
         }
