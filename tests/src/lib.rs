@@ -75,6 +75,7 @@ impl Drop for TempConfig {
 
 // ---- the daemon, for the tests that run it (one at a time per test binary) ----
 
+use std::io::{BufRead, BufReader};
 use std::path::Path;
 use std::process::{Child, Stdio};
 use std::sync::Mutex;
@@ -201,6 +202,29 @@ pub fn keep_pace(instances: &[&str], timeout: Duration) -> Result<(), Vec<Option
         })
     });
     if paced { Ok(()) } else { Err(last) }
+}
+
+/// The numbers of a JSON array (NaN for `null`: a NaN on the wire prints as `null`).
+pub fn numbers(value: &Value) -> Vec<f64> {
+    value.as_array().expect("array").iter().map(|v| v.as_f64().unwrap_or(f64::NAN)).collect()
+}
+
+/// `vservoctl echo TOPIC` on the instance for `seconds`: every message heard, as JSON (the echo is killed if
+/// the test ends early).
+pub fn echo_lines(instance: &str, topic: &str, seconds: &str) -> Vec<Value> {
+    let mut echo = Killed(
+        Command::new(binary("vservoctl"))
+            .args(["echo", topic, "--instance", instance, "--duration-s", seconds])
+            .stdout(Stdio::piped())
+            .spawn()
+            .expect("echo starts"),
+    );
+    let stdout = echo.0.stdout.take().expect("piped");
+    let lines =
+        BufReader::new(stdout).lines().map(|l| serde_json::from_str(&l.expect("line")).expect("JSON"));
+    let values = lines.collect();
+    let _ = echo.0.wait();
+    values
 }
 
 /// The status says every node runs and is healthy.

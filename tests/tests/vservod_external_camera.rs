@@ -3,16 +3,13 @@
 //! exposure, from the joint states around its `capture_stamp_ns`, not the arm's pose when the frame
 //! arrived. Real processes over iceoryx2.
 
-use std::io::{BufRead, BufReader};
-use std::process::{Command, Stdio};
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Duration;
 
-use serde_json::Value;
 use vservo_arm::JointVector;
 use vservo_scene::IsometryMatrix3;
-use vservo_system_tests::{Killed, binary, config_from, exclusive, running, status, unique, wait_until};
+use vservo_system_tests::{config_from, echo_lines, exclusive, numbers, running, status, unique, wait_until};
 
 /// How long after its exposure the test's camera delivers a frame.
 const LATENCY_NS: u64 = 40_000_000;
@@ -45,26 +42,6 @@ fn start_camera(
             std::thread::sleep(period);
         }
     })
-}
-
-fn echo(instance: &str, topic: &str, seconds: &str) -> Vec<Value> {
-    let mut child = Killed(
-        Command::new(binary("vservoctl"))
-            .args(["echo", topic, "--instance", instance, "--duration-s", seconds])
-            .stdout(Stdio::piped())
-            .spawn()
-            .expect("echo starts"),
-    );
-    let stdout = child.0.stdout.take().expect("piped");
-    let lines =
-        BufReader::new(stdout).lines().map(|l| serde_json::from_str(&l.expect("line")).expect("JSON"));
-    let values = lines.collect();
-    let _ = child.0.wait();
-    values
-}
-
-fn numbers(value: &Value) -> Vec<f64> {
-    value.as_array().expect("array").iter().map(|v| v.as_f64().unwrap_or(f64::NAN)).collect()
 }
 
 /// The joints at `stamp_ns`, interpolated between the echoed states around it.
@@ -104,9 +81,9 @@ fn an_external_cameras_features_carry_the_camera_pose_at_exposure() {
     std::thread::sleep(Duration::from_millis(500));
     let states_echo = {
         let instance = instance.clone();
-        std::thread::spawn(move || echo(&instance, "joint_state", "2.5"))
+        std::thread::spawn(move || echo_lines(&instance, "joint_state", "2.5"))
     };
-    let features = echo(&instance, "features", "2");
+    let features = echo_lines(&instance, "features", "2");
     let states: Vec<(u64, JointVector)> = states_echo
         .join()
         .expect("echo")

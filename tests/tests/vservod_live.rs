@@ -8,7 +8,7 @@ use std::time::Duration;
 use nix::sys::signal::Signal;
 use serde_json::Value;
 use vservo_system_tests::{
-    Daemon, binary, config_with, exclusive, keep_pace, run, running, status, unique, wait_until,
+    Daemon, binary, config_with, exclusive, keep_pace, numbers, run, running, status, unique, wait_until,
 };
 
 fn up(instance: &str) -> bool {
@@ -31,10 +31,6 @@ fn echo(instance: &str, topic: &str, seconds: f64) -> Child {
 fn lines(child: Child) -> Vec<Value> {
     let stdout = child.stdout.expect("piped");
     BufReader::new(stdout).lines().map(|l| serde_json::from_str(&l.expect("line")).expect("JSON")).collect()
-}
-
-fn numbers(value: &Value) -> Vec<f64> {
-    value.as_array().expect("array").iter().map(|v| v.as_f64().unwrap_or(f64::NAN)).collect()
 }
 
 /// −K(ξ − ξ_d) for the paper's law of a configuration.

@@ -2,15 +2,11 @@
 //! and the options cross the wire, the servo takes the camera's pose from each feature message, goes on
 //! with three marks when one is covered, steers back while two are, and converges again.
 
-use std::io::{BufRead, BufReader};
-use std::process::{Command, Stdio};
 use std::time::Duration;
 
 use serde_json::Value;
 use vservo_protocol::{law_flag, verdict};
-use vservo_system_tests::{
-    Daemon, Killed, binary, config_from, exclusive, running, status, unique, wait_until,
-};
+use vservo_system_tests::{Daemon, config_from, echo_lines, exclusive, running, status, unique, wait_until};
 
 #[test]
 fn covered_marks_do_not_stop_the_robust_servo_in_real_time() {
@@ -33,19 +29,7 @@ fn covered_marks_do_not_stop_the_robust_servo_in_real_time() {
         "{}",
         daemon.log()
     );
-    let mut echo = Killed(
-        Command::new(binary("vservoctl"))
-            .args(["echo", "camera_twist", "--instance", &instance, "--duration-s", "8"])
-            .stdout(Stdio::piped())
-            .spawn()
-            .expect("echo starts"),
-    );
-    let stdout = echo.0.stdout.take().expect("piped");
-    let twists: Vec<Value> = BufReader::new(stdout)
-        .lines()
-        .map(|l| serde_json::from_str(&l.expect("line")).expect("JSON"))
-        .collect();
-    let _ = echo.0.wait();
+    let twists = echo_lines(&instance, "camera_twist", "8");
     let verdicts: Vec<(u64, u64)> = twists
         .iter()
         .map(|t| (t["verdict"].as_u64().unwrap_or(99), t["missing_mask"].as_u64().unwrap_or(99)))

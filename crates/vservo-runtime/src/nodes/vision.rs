@@ -22,8 +22,7 @@ use vservo_vision::{Extraction, MarkStatus};
 use super::{IDLE_WAIT, NodeBase, go_realtime, latest, start};
 use crate::clock::monotonic_ns;
 use crate::joint_history::{JointHistory, NoJoints};
-use crate::telemetry::Note;
-use crate::telemetry::{Counters, CycleSample, LoopMonitor};
+use crate::telemetry::{Counters, CycleSample, LoopMonitor, Note};
 use crate::wire::{pose_from_wire, pose_to_wire, to_array};
 use crate::{NodeContext, RuntimeError, schema_ok};
 
