@@ -1,7 +1,7 @@
 //! What a node's loop has to say to people, said by its telemetry thread: the loop hands a [`Note`] to a
-//! bounded channel (no allocation, no I/O, never blocking) and the telemetry thread writes the line, at most
-//! [`NOTES_PER_PERIOD`] a telemetry period, a count of the rest and the newest, so that a mark flickering at the border
-//! neither slows the servo nor floods the journal.
+//! bounded channel (no allocation, no I/O, never blocking) and the telemetry thread writes the lines: at
+//! most [`NOTES_PER_PERIOD`] a telemetry period, a count of the rest and the newest, so that a mark
+//! flickering at the border neither slows the servo nor floods the journal.
 
 use vservo_protocol::{MARKS, verdict};
 
