@@ -5,11 +5,17 @@
 //! and the one function every participant uses to open each service with the same settings. A client in
 //! another language follows docs/PROTOCOL.md, which documents the same names, type names and offsets.
 
+pub mod codes;
+pub mod declare;
+pub mod inbox;
 pub mod instance_dir;
 pub mod layout;
 pub mod messages;
 pub mod seal;
 
+pub use codes::*;
+pub use declare::{FieldInfo, WireField, WireMessage};
+pub use inbox::{Payload, Refused, TakeMessages};
 pub use instance_dir::{InstanceClaim, InstanceDir, InstanceDirError};
 pub use messages::*;
 

@@ -1,8 +1,11 @@
 //! The payloads: `#[repr(C)]`, fixed size, no pointers, each starting with the schema version.
 //!
 //! Field order is chosen so that no padding is needed: 8-byte fields first, then 4-byte, then bytes.
-//! docs/PROTOCOL.md lists the offsets, which the tests in this module check.
+//! Each is declared once ([`wire_message!`](crate::declare)): docs/PROTOCOL.md's tables, the JSON view,
+//! `Default`, the schema check and the seal's bytes all come from that declaration.
 
+use crate::codes::*;
+use crate::declare::wire_message;
 use iceoryx2::prelude::ZeroCopySend;
 
 /// The schema version every payload carries in its first four bytes. Bumped on any layout change.
@@ -17,60 +20,36 @@ pub const FEATURES: usize = 8;
 /// Marks.
 pub const MARKS: usize = 4;
 
-/// The command interfaces a robot driver may take ([`JointStateMsg::command_mode`],
-/// [`JointCommandMsg::mode`]).
-pub mod command_mode {
-    /// Joint torques (`torque_nm`): the rmrc runs the joint servo (the simulated dynamic PUMA 560).
-    pub const TORQUE: u32 = 0;
-    /// Joint velocities (`qd_ref_rad_s`, with `q_ref_rad` for drivers that correct drift): the interpolator's
-    /// q̇ reference, velocity- and acceleration-limited.
-    pub const VELOCITY: u32 = 1;
-    /// Joint positions (`q_ref_rad`, with `qd_ref_rad_s` as feed-forward): the interpolator's q reference.
-    pub const POSITION: u32 = 2;
-}
-
-/// Driver states of [`JointStateMsg::driver_status`].
-pub mod driver_status {
-    /// Following the commands it receives.
-    pub const FOLLOWING: u32 = 0;
-    /// Holding the arm at rest: no valid command came in time (or none yet).
-    pub const HOLDING: u32 = 1;
-    /// The driver or the arm is in fault (protective stop, drive error): it does not move.
-    pub const FAULT: u32 = 2;
-}
-
-/// robot driver → rmrc, vision, vservod (every driver period): the arm's measured state. The robot only:
-/// nothing here is known only to a simulation.
-#[derive(Debug, Clone, Copy, PartialEq, ZeroCopySend)]
-#[type_name("vservo::JointState")]
-#[repr(C)]
-pub struct JointStateMsg {
-    /// [`SCHEMA_VERSION`].
-    pub schema: u32,
-    /// [`fault_bits`].
-    pub faults: u32,
-    /// Driver periods since the driver started.
-    pub tick: u64,
-    /// CLOCK_MONOTONIC (ns) when `q` was measured.
-    pub stamp_ns: u64,
-    /// Changes each time the driver starts: a consumer that sees a new one re-synchronises.
-    pub driver_epoch: u64,
-    /// The driver's period (ns): a joint state comes this often.
-    pub period_ns: u64,
-    /// The [`command_mode`] the driver takes.
-    pub command_mode: u32,
-    /// [`driver_status`].
-    pub driver_status: u32,
-    /// Joint angles (rad).
-    pub q_rad: [f64; JOINTS],
-    /// Joint velocities (rad/s).
-    pub qd_rad_s: [f64; JOINTS],
-    /// Joint torques, measured or applied (N·m); NaN where the driver does not know them.
-    pub torque_nm: [f64; JOINTS],
-    /// The `answers_tick` of the joint command the driver applied over the period that ended with this
-    /// state: `tick − 1` when the answer to the last state came in time, older when the driver kept an
-    /// earlier command, `u64::MAX` when it applied none (holding the arm, or before the first command).
-    pub applied_command_tick: u64,
+wire_message! {
+    /// robot driver → rmrc, vision, vservod (every driver period): the arm's measured state. The robot only:
+    /// nothing here is known only to a simulation.
+    payload JointStateMsg = "vservo::JointState" {
+        /// schema version (5)
+        schema: u32,
+        /// bits 0–5 position limit (joint 1–6), 8–13 velocity limit, 16–21 torque saturated, 24 driver failed
+        faults: u32,
+        /// driver periods since the driver started
+        tick: u64,
+        /// CLOCK_MONOTONIC when `q` was measured (ns)
+        stamp_ns: u64,
+        /// changes each time the driver starts: a consumer that sees a new one re-synchronises
+        driver_epoch: u64,
+        /// the driver's period (ns): a joint state comes this often
+        period_ns: u64,
+        /// the command the driver takes
+        command_mode: u32 as CommandMode,
+        /// the driver's state (holding: no valid command in time)
+        driver_status: u32 as DriverStatus,
+        /// joint angles (rad)
+        q_rad: [f64; JOINTS],
+        /// joint velocities (rad/s)
+        qd_rad_s: [f64; JOINTS],
+        /// joint torques, measured or applied (N·m); NaN where unknown
+        torque_nm: [f64; JOINTS],
+        /// the `answers_tick` of the command applied over the period that ended here (`tick − 1` in time, older
+        /// if the driver kept an earlier one); 2⁶⁴−1 if none (holding)
+        applied_command_tick: u64 = u64::MAX,
+    }
 }
 
 /// Fault bits of [`JointStateMsg::faults`].
@@ -85,189 +64,138 @@ pub mod fault_bits {
     pub const DRIVER_FAILED: u32 = 1 << 24;
 }
 
-/// rmrc → robot driver (in answer to each joint state): the command for the driver's next period, in the
-/// interface the driver declared. Every field is filled whatever the mode (torque zero where not computed).
-#[derive(Debug, Clone, Copy, PartialEq, ZeroCopySend)]
-#[type_name("vservo::JointCommand")]
-#[repr(C)]
-pub struct JointCommandMsg {
-    /// [`SCHEMA_VERSION`].
-    pub schema: u32,
-    /// The [`command_mode`] this command is in (the one the driver declared).
-    pub mode: u32,
-    /// The `tick` of the joint state this answers.
-    pub answers_tick: u64,
-    /// The `driver_epoch` of that joint state.
-    pub driver_epoch: u64,
-    /// That joint state's `stamp_ns` (echoed, for the round trip).
-    pub state_stamp_ns: u64,
-    /// CLOCK_MONOTONIC (ns) when the command was published.
-    pub stamp_ns: u64,
-    /// Joint torques (N·m), TORQUE mode.
-    pub torque_nm: [f64; JOINTS],
-    /// q_d (rad) at the end of the next period.
-    pub q_ref_rad: [f64; JOINTS],
-    /// q̇_d (rad/s) over the next period.
-    pub qd_ref_rad_s: [f64; JOINTS],
-    /// The twist this command follows: the `capture_tick` of its `camera_twist` (`u64::MAX` before the
-    /// first). `answers_tick − twist_capture_tick` is the camera-to-actuation latency in ticks.
-    pub twist_capture_tick: u64,
-    /// The joint-state tick at which the rmrc took that twist in (`u64::MAX` before the first).
-    pub twist_applied_tick: u64,
-    /// The joint-state tick from which the rmrc's reference runs: where it last started at rest from the
-    /// measured joints (the first state, a new driver epoch, or a driver back after a gap).
-    pub reference_since_tick: u64,
-    /// The rmrc's seal under the run's key ([`crate::seal`]): the simulated driver applies sealed commands
-    /// only; an external driver, which is not given the key, ignores it.
-    pub seal: u64,
+wire_message! {
+    /// rmrc → robot driver (in answer to each joint state): the command for the driver's next period, in the
+    /// interface the driver declared. Every field is filled whatever the mode (torque zero where not computed).
+    payload JointCommandMsg = "vservo::JointCommand" {
+        /// schema version (5)
+        schema: u32,
+        /// the driver's declared `command_mode`
+        mode: u32 as CommandMode,
+        /// the `tick` of the joint state this answers
+        answers_tick: u64,
+        /// that joint state's `driver_epoch`
+        driver_epoch: u64,
+        /// that joint state's `stamp_ns`
+        state_stamp_ns: u64,
+        /// CLOCK_MONOTONIC as the command is sent (ns)
+        stamp_ns: u64,
+        /// joint torques (N·m); mode 0 only, else zero
+        torque_nm: [f64; JOINTS],
+        /// joint reference q_d at the end of the next period (rad)
+        q_ref_rad: [f64; JOINTS],
+        /// joint reference velocity q̇_d over the next period (rad/s)
+        qd_ref_rad_s: [f64; JOINTS],
+        /// the `capture_tick` of the `camera_twist` this command follows (2⁶⁴−1 before the first);
+        /// `answers_tick − twist_capture_tick` is the camera-to-actuation latency in ticks
+        twist_capture_tick: u64 = u64::MAX,
+        /// the joint-state tick at which the rmrc took that twist in (2⁶⁴−1 before the first)
+        twist_applied_tick: u64 = u64::MAX,
+        /// the joint-state tick from which the rmrc's reference runs: where it last started at rest from the
+        /// measured joints (the first state, a new driver epoch, a driver back after a gap)
+        reference_since_tick: u64,
+        /// the rmrc's seal under the run's key: the simulated driver applies sealed commands only; an
+        /// external driver ignores it
+        seal: u64,
+    }
 }
 
-/// simulated plant → simulated camera (every tick; simulation only): what only a simulation knows.
-#[derive(Debug, Clone, Copy, PartialEq, ZeroCopySend)]
-#[type_name("vservo::SimWorld")]
-#[repr(C)]
-pub struct SimWorldMsg {
-    /// [`SCHEMA_VERSION`].
-    pub schema: u32,
-    /// Zero.
-    pub reserved: u32,
-    /// The plant tick (the `joint_state` of the same tick).
-    pub tick: u64,
-    /// The board's pose in the base frame, 3×4 [R | t] row-major (t in m).
-    pub base_from_board: [f64; 12],
-}
-
-/// Pixel formats of [`CameraImageHeader::format`].
-pub mod pixel_format {
-    /// 8 bits per pixel, gray.
-    pub const MONO8: u32 = 0;
+wire_message! {
+    /// simulated plant → simulated camera (every tick; simulation only): what only a simulation knows.
+    payload SimWorldMsg = "vservo::SimWorld" {
+        /// schema version (5)
+        schema: u32,
+        /// zero
+        reserved: u32,
+        /// the plant tick (as in `joint_state`)
+        tick: u64,
+        /// the board's pose in the base frame, 3×4 [R \| t] row-major (t in m)
+        base_from_board: [f64; 12],
+    }
 }
 
 /// The largest image `camera_image` carries (bytes): 1280 × 1024 pixels of 8 bits.
 pub const MAX_IMAGE_BYTES: usize = 1280 * 1024;
 
-/// camera driver → vision (each frame): the user header of a `camera_image` sample, whose payload is the
-/// image as a slice of `u8`, rows top to bottom, `stride_bytes` apart.
-#[derive(Debug, Clone, Copy, PartialEq, Default, ZeroCopySend)]
-#[type_name("vservo::CameraImageHeader")]
-#[repr(C)]
-pub struct CameraImageHeader {
-    /// [`SCHEMA_VERSION`].
-    pub schema: u32,
-    /// [`pixel_format`].
-    pub format: u32,
-    /// Pixels per row.
-    pub width: u32,
-    /// Rows.
-    pub height: u32,
-    /// Bytes from one row's start to the next (≥ width).
-    pub stride_bytes: u32,
-    /// Zero.
-    pub reserved: u32,
-    /// Counts the camera's frames from 0.
-    pub frame: u64,
-    /// CLOCK_MONOTONIC (ns) when the image was exposed.
-    pub capture_stamp_ns: u64,
-}
-
-/// Per-mark status codes of [`FeaturesMsg::mark_status`].
-pub mod mark_status {
-    /// Found; its feature is valid.
-    pub const VALID: u8 = 0;
-    /// Its expected position is outside the image.
-    pub const OUTSIDE_IMAGE: u8 = 1;
-    /// Its blob touches the image border.
-    pub const CUT_BY_BORDER: u8 = 2;
-    /// Run together with another mark into one blob.
-    pub const MERGED: u8 = 3;
-    /// Its blob has the wrong shape.
-    pub const IRREGULAR: u8 = 4;
-    /// No blob where it should be.
-    pub const NOT_FOUND: u8 = 5;
-    /// The image itself is unusable.
-    pub const BAD_IMAGE: u8 = 6;
-}
-
-/// vision → servo (every frame): the features of the frame leaving the image pipeline.
-#[derive(Debug, Clone, Copy, PartialEq, ZeroCopySend)]
-#[type_name("vservo::Features")]
-#[repr(C)]
-pub struct FeaturesMsg {
-    /// [`SCHEMA_VERSION`].
-    pub schema: u32,
-    /// Bit m set when mark m is valid.
-    pub valid_mask: u32,
-    /// Frame number of the image (counted by the vision node from its start).
-    pub frame: u64,
-    /// The plant tick of the joint state the image was taken at.
-    pub capture_tick: u64,
-    /// CLOCK_MONOTONIC (ns) when the image was taken.
-    pub capture_stamp_ns: u64,
-    /// CLOCK_MONOTONIC (ns) when the features were published (the pipeline delay later).
-    pub stamp_ns: u64,
-    /// ξ = [x₁ y₁ … x₄ y₄] (px, image origin top-left), NaN where a mark is not valid.
-    pub features_px: [f64; FEATURES],
-    /// Each mark's [`mark_status`] code.
-    pub mark_status: [u8; MARKS],
-    /// Zero.
-    pub reserved: [u8; 4],
-    /// The camera's pose in the robot's base frame when the image was taken (the simulated camera: from the
-    /// joint state of `capture_tick`; an external camera: from the joint states around `capture_stamp_ns`,
-    /// interpolated), the top 3 rows of the 4×4 transform, row-major; NaN when not known. The servo takes
-    /// the camera's own motion from it (reacquiring lost marks, the target's motion).
-    pub base_from_camera: [f64; 12],
-}
-
-/// Verdicts of [`CameraTwistMsg::verdict`].
-pub mod verdict {
-    /// No frame yet: zero twist.
-    pub const WAITING: u32 = 0;
-    /// The law's twist.
-    pub const SERVOING: u32 = 1;
-    /// Marks missing and no camera pose known where all four were seen: zero twist (`missing_mask` says which).
-    pub const MARKS_MISSING: u32 = 2;
-    /// The servo is stopping (shutdown): zero twist.
-    pub const STOPPING: u32 = 3;
-    /// The cell is in a safe stop ([`CellModeMsg`]): zero twist until the daemon resumes it.
-    pub const SAFE_STOP: u32 = 4;
-    /// One mark missing (`missing_mask`): the law's twist on the other three.
-    pub const SERVOING_ON_THREE: u32 = 5;
-    /// Two or more marks missing (`missing_mask`), or one and no design for the three seen (their desired
-    /// images in a line): steering the camera back to where all were last seen.
-    pub const REACQUIRING: u32 = 6;
-
-    /// Whether a twist of this verdict is to be followed (the others mean: bring the arm to rest).
-    pub fn moves(verdict: u32) -> bool {
-        matches!(verdict, SERVOING | SERVOING_ON_THREE | REACQUIRING)
+wire_message! {
+    /// camera driver → vision (each frame): the user header of a `camera_image` sample, whose payload is the
+    /// image as a slice of `u8`, rows top to bottom, `stride_bytes` apart.
+    payload CameraImageHeader = "vservo::CameraImageHeader" {
+        /// schema version (5)
+        schema: u32,
+        /// the pixel format
+        format: u32 as PixelFormat,
+        /// pixels per row
+        width: u32,
+        /// rows
+        height: u32,
+        /// bytes from one row's start to the next (≥ width); the payload holds height × stride bytes
+        stride_bytes: u32,
+        /// zero
+        reserved: u32,
+        /// the camera's frame counter, from 0
+        frame: u64,
+        /// CLOCK_MONOTONIC when the image was exposed (ns)
+        capture_stamp_ns: u64,
     }
 }
 
-/// servo → rmrc (every frame): the camera twist.
-#[derive(Debug, Clone, Copy, PartialEq, ZeroCopySend)]
-#[type_name("vservo::CameraTwist")]
-#[repr(C)]
-pub struct CameraTwistMsg {
-    /// [`SCHEMA_VERSION`].
-    pub schema: u32,
-    /// [`verdict`]; a twist to follow with the verdicts that move ([`verdict::moves`]), zero with the others.
-    pub verdict: u32,
-    /// The frame the twist was computed from.
-    pub frame: u64,
-    /// Its capture tick.
-    pub capture_tick: u64,
-    /// Version of the gains used (1 at start, +1 per accepted reload).
-    pub gains_version: u64,
-    /// CLOCK_MONOTONIC (ns) when published.
-    pub stamp_ns: u64,
-    /// u = [v_x v_y v_z ω_x ω_y ω_z] in the camera frame (m/s, rad/s).
-    pub twist: [f64; 6],
-    /// RMS of ξ − ξ_d over the valid features (px); NaN when none.
-    pub feature_error_px: f64,
-    /// Bit m set when mark m was missing.
-    pub missing_mask: u32,
-    /// What the law did beyond the law as designed ([`law_flag`] bits; zero unless the law computed the
-    /// twist).
-    pub law_flags: u32,
+wire_message! {
+    /// vision → servo (every frame): the features of the frame leaving the image pipeline.
+    payload FeaturesMsg = "vservo::Features" {
+        /// schema version (5)
+        schema: u32,
+        /// bit m set when mark m is valid
+        valid_mask: u32,
+        /// frame number (counted by the vision node from its start)
+        frame: u64,
+        /// tick of the latest joint state when the image was taken
+        capture_tick: u64,
+        /// CLOCK_MONOTONIC when the image was taken (ns)
+        capture_stamp_ns: u64,
+        /// CLOCK_MONOTONIC at publication, the pipeline delay later (ns)
+        stamp_ns: u64,
+        /// ξ = [x₁ y₁ … x₄ y₄] (px, origin top-left), NaN where a mark is not valid
+        features_px: [f64; FEATURES] = [f64::NAN; FEATURES],
+        /// per mark
+        mark_status: [u8; MARKS] as MarkStatus,
+        /// zero
+        reserved: [u8; 4],
+        /// the camera's pose in the robot's base frame at capture (the joint state of `capture_tick`; for an
+        /// external camera the joint states around `capture_stamp_ns`, interpolated): the top 3 rows of the
+        /// 4×4 transform, row-major; NaN when not known
+        base_from_camera: [f64; 12] = [f64::NAN; 12],
+    }
+}
+
+wire_message! {
+    /// servo → rmrc (every frame): the camera twist.
+    payload CameraTwistMsg = "vservo::CameraTwist" {
+        /// schema version (5)
+        schema: u32,
+        /// what the servo did (waiting: no frame yet; marks missing: nowhere to go back to; safe stop: held by
+        /// the daemon; reacquiring: steering back to where all marks were last seen); servoing, servoing on
+        /// three marks and reacquiring come with a twist to follow, the others with a zero twist
+        verdict: u32 as Verdict,
+        /// the frame the twist was computed from
+        frame: u64,
+        /// its capture tick
+        capture_tick: u64,
+        /// version of the gains used (1 at start)
+        gains_version: u64,
+        /// CLOCK_MONOTONIC at publication (ns)
+        stamp_ns: u64,
+        /// u = [v_x v_y v_z ω_x ω_y ω_z] in the camera frame (m/s, rad/s)
+        twist: [f64; 6],
+        /// RMS of ξ − ξ_d over the valid features (px); NaN when none
+        feature_error_px: f64 = f64::NAN,
+        /// bit m set when mark m was missing
+        missing_mask: u32,
+        /// what the law did beyond its design: 1 the border barrier changed the twist, 2 the frame's own
+        /// design failed and the fixed gain was used, 4 the target's motion was fed forward; 0 unless the
+        /// law computed the twist
+        law_flags: u32,
+    }
 }
 
 /// The bits of [`CameraTwistMsg::law_flags`].
@@ -319,69 +247,351 @@ impl NodeRole {
     pub fn from_index(index: u32) -> Option<NodeRole> {
         Self::ALL.into_iter().find(|role| *role as u32 == index)
     }
+
+    /// The legend docs/PROTOCOL.md prints: "0 plant, 1 vision, …".
+    pub fn legend() -> String {
+        let mut roles = Self::ALL;
+        roles.sort();
+        roles.iter().map(|role| format!("{} {}", *role as u32, role.name())).collect::<Vec<_>>().join(", ")
+    }
 }
 
-/// Percentiles of one timing over a telemetry window (ns; zero when the window had no samples).
-#[derive(Debug, Clone, Copy, PartialEq, Default, ZeroCopySend)]
-#[type_name("vservo::Timing")]
-#[repr(C)]
-pub struct TimingMsg {
-    /// Samples in the window.
-    pub count: u64,
-    /// Median.
-    pub p50_ns: u64,
-    /// 99th percentile.
-    pub p99_ns: u64,
-    /// 99.9th percentile.
-    pub p999_ns: u64,
-    /// Largest.
-    pub max_ns: u64,
+wire_message! {
+    /// Percentiles of one timing over a telemetry window (ns; zero when the window had no samples).
+    part TimingMsg = "vservo::Timing" {
+        /// samples in the window
+        count: u64,
+        /// median (ns)
+        p50_ns: u64,
+        /// 99th percentile (ns)
+        p99_ns: u64,
+        /// 99.9th percentile (ns)
+        p999_ns: u64,
+        /// largest (ns)
+        max_ns: u64,
+    }
 }
 
-/// every node → anyone (10 Hz): loop timing over the last window and counters since the node started.
-#[derive(Debug, Clone, Copy, PartialEq, ZeroCopySend)]
-#[type_name("vservo::Telemetry")]
-#[repr(C)]
-pub struct TelemetryMsg {
-    /// [`SCHEMA_VERSION`].
-    pub schema: u32,
-    /// [`NodeRole`] as a number.
-    pub node: u32,
-    /// CLOCK_MONOTONIC (ns) when published.
-    pub stamp_ns: u64,
-    /// Length of the window the timings cover (ns).
-    pub window_ns: u64,
-    /// Loop cycles since the node started.
-    pub cycles: u64,
-    /// Cycles that started more than one period late, since the node started.
-    pub overruns: u64,
-    /// Periods skipped after a stall (not replayed), since the node started.
-    pub skipped_periods: u64,
-    /// plant: ticks whose answer from the rmrc came late (the previous command was held).
-    pub late_answers: u64,
-    /// Input messages refused (wrong schema, epoch or tick), since the node started.
-    pub rejected_messages: u64,
-    /// Gains version in use (servo; zero for the other nodes).
-    pub gains_version: u64,
-    /// plant: the latest tick; vision/servo: the latest frame; rmrc: the latest tick answered.
-    pub progress: u64,
-    /// How late each cycle woke after its deadline (periodic nodes) or after its input was sent (event
-    /// driven nodes).
-    pub wake_latency: TimingMsg,
-    /// Time from wake-up to the cycle's output.
-    pub execution: TimingMsg,
-    /// plant only: from publishing a joint state to the rmrc's answer arriving.
-    pub round_trip: TimingMsg,
-    /// vision only: between the capture stamps of successive images (the camera's frame period).
-    pub frame_period: TimingMsg,
-    /// servo only: from an image's capture to the twist computed from it.
-    pub capture_latency: TimingMsg,
-    /// servo: RMS feature error (px) of the latest frame; NaN otherwise.
-    pub feature_error_px: f64,
-    /// The node's process id.
-    pub pid: u32,
-    /// Node-specific state: plant 1 = holding the arm; servo = the last verdict; else 0.
-    pub mode: u32,
+wire_message! {
+    /// every node → anyone (10 Hz): loop timing over the last window and counters since the node started.
+    payload TelemetryMsg = "vservo::Telemetry" {
+        /// schema version (5)
+        schema: u32,
+        /// the node
+        node: u32 as NodeRole,
+        /// CLOCK_MONOTONIC at publication (ns)
+        stamp_ns: u64,
+        /// length of the window the timings cover (ns)
+        window_ns: u64,
+        /// loop cycles since the node started
+        cycles: u64,
+        /// cycles a period or more late (event-driven nodes: answer later than one period)
+        overruns: u64,
+        /// periods skipped after stalls (not replayed)
+        skipped_periods: u64,
+        /// plant: ticks whose rmrc answer came late (previous command held)
+        late_answers: u64,
+        /// input messages refused (schema, epoch, tick, not finite)
+        rejected_messages: u64,
+        /// servo: gains version in use; else 0
+        gains_version: u64,
+        /// plant: tick; vision, servo: frame; rmrc: tick answered
+        progress: u64,
+        /// wake-up after the deadline (periodic nodes) or after the input was sent (event-driven)
+        wake_latency: TimingMsg,
+        /// wake-up to output
+        execution: TimingMsg,
+        /// plant: joint state published → the rmrc's answer in the plant's queue
+        round_trip: TimingMsg,
+        /// vision: between the capture stamps of successive images
+        frame_period: TimingMsg,
+        /// servo: an image's capture → the twist computed from it
+        capture_latency: TimingMsg,
+        /// servo: RMS feature error of the latest frame (px); else NaN
+        feature_error_px: f64 = f64::NAN,
+        /// process id
+        pid: u32,
+        /// plant: 1 while holding the arm; servo: the last verdict; else 0
+        mode: u32,
+    }
+}
+
+wire_message! {
+    /// One node as the daemon sees it.
+    part NodeStatusMsg = "vservo::NodeStatus" {
+        /// restarts since the daemon started
+        restarts: u64,
+        /// CLOCK_MONOTONIC of the node's latest telemetry (0: none yet)
+        last_telemetry_ns: u64,
+        /// the node's state (backing off: restart pending; hung: being killed, then restarted)
+        state: u32 as NodeState,
+        /// process id (0 when not running)
+        pid: u32,
+        /// exit status of the last run; a signal as its negated number
+        last_exit: i32,
+        /// 1 when the node's telemetry is fresh (under 0.5 s old)
+        healthy: u32,
+    }
+}
+
+wire_message! {
+    /// vservod → anyone (10 Hz): the nodes as the supervisor sees them.
+    payload DaemonStatusMsg = "vservo::DaemonStatus" {
+        /// schema version (5)
+        schema: u32,
+        /// the daemon's state (safe-stop: a fault holds the arm at rest)
+        state: u32 as DaemonState,
+        /// CLOCK_MONOTONIC at publication (ns)
+        stamp_ns: u64,
+        /// since the daemon started (ns)
+        uptime_ns: u64,
+        /// gains version in use
+        gains_version: u64,
+        /// indexed by node number (0 plant, 1 vision, 2 servo, 3 rmrc)
+        nodes: [NodeStatusMsg; 4],
+        /// joint states per wall-clock second over the last second
+        tick_rate_hz: f64,
+        /// the servo's latest RMS feature error (px); NaN before the first frame
+        feature_error_px: f64 = f64::NAN,
+        /// the daemon's process id
+        pid: u32,
+        /// the robot driver (running: joint states on time; stalled: none within the deadline)
+        robot: u32 as RobotState,
+        /// the fault holding the cell (state safe-stop), or the last one
+        fault: u32 as Fault,
+        /// bit j: the fault concerns joint j + 1
+        fault_joints: u32,
+        /// CLOCK_MONOTONIC when the fault was found (ns); 0 when none
+        fault_since_ns: u64,
+        /// safe stops since the daemon started
+        safe_stops: u64,
+    }
+}
+
+wire_message! {
+    /// vservod → rmrc, servo (history 1, on each change): whether the cell servos or is held in a safe stop.
+    payload CellModeMsg = "vservo::CellMode" {
+        /// schema version (5)
+        schema: u32,
+        /// whether the cell servos (in a safe stop the rmrc ramps the reference to rest and holds it, and the
+        /// servo sends zero twists)
+        mode: u32 as CellMode,
+        /// counts the changes (1 at the daemon's start); only a newer one is taken
+        sequence: u64,
+        /// safe stop: the fault that caused it (as in `status`)
+        fault: u32 as Fault,
+        /// safe stop: bit j, joint j + 1 concerned
+        fault_joints: u32,
+        /// CLOCK_MONOTONIC when decided (ns)
+        stamp_ns: u64,
+        /// the daemon's seal (SipHash-2-4 of the fields under the run's key): other modes are refused
+        seal: u64,
+    }
+}
+
+wire_message! {
+    /// client → vservod (request-response service `command`): one command.
+    payload CommandMsg = "vservo::Command" {
+        /// schema version (5)
+        schema: u32,
+        /// what the client asks
+        kind: u32 as CommandKind,
+        /// chosen by the client; the reply carries it back
+        id: u64,
+        /// target features: ξ_d (px)
+        features_px: [f64; FEATURES],
+        /// target pose: the board's position in the desired camera frame (m); object step: the jump (m)
+        translation_m: [f64; 3],
+        /// target pose: the board's orientation in the desired camera frame, roll, pitch, yaw (rad),
+        /// R = Rz·Ry·Rx
+        rotation_rpy_rad: [f64; 3],
+        /// object circle: radius (m)
+        radius_m: f64,
+        /// object circle: speed (rev/min)
+        rev_per_min: f64,
+    }
+}
+
+impl CommandMsg {
+    /// A command of `kind` with every parameter zero.
+    pub fn new(kind: u32, id: u64) -> Self {
+        Self { kind, id, ..Self::default() }
+    }
+}
+
+/// Room for the reason text of a reply (bytes).
+pub const REASON_BYTES: usize = 256;
+
+wire_message! {
+    /// vservod → client: the answer to a [`CommandMsg`].
+    payload CommandReplyMsg = "vservo::CommandReply" {
+        /// schema version (5)
+        schema: u32,
+        /// 1 accepted, 0 refused
+        accepted: u32,
+        /// the request's `id`
+        id: u64,
+        /// the gains version in force after the command
+        gains_version: u64,
+        /// ξ_d in force after the command (px)
+        target_features_px: [f64; FEATURES],
+        /// why it was refused, or what was done: UTF-8, zero-padded
+        reason: [u8; REASON_BYTES],
+    }
+}
+
+impl CommandReplyMsg {
+    /// A reply with `reason` (cut at a character boundary to fit).
+    pub fn new(id: u64, accepted: bool, gains_version: u64, target: [f64; FEATURES], reason: &str) -> Self {
+        let mut bytes = [0u8; REASON_BYTES];
+        let mut end = reason.len().min(REASON_BYTES);
+        while !reason.is_char_boundary(end) {
+            end -= 1;
+        }
+        bytes[..end].copy_from_slice(&reason.as_bytes()[..end]);
+        Self {
+            accepted: u32::from(accepted),
+            id,
+            gains_version,
+            target_features_px: target,
+            reason: bytes,
+            ..Self::default()
+        }
+    }
+
+    /// The reason as text (up to the first zero byte; invalid UTF-8 replaced).
+    pub fn reason(&self) -> String {
+        let end = self.reason.iter().position(|b| *b == 0).unwrap_or(REASON_BYTES);
+        String::from_utf8_lossy(&self.reason[..end]).into_owned()
+    }
+}
+
+/// Most past-command gains a [`GainsMsg`] carries.
+pub const MAX_PAST_GAINS: usize = 4;
+
+wire_message! {
+    /// vservod → servo (history 1): the gains to swap in at the next frame, designed off the hot path.
+    payload GainsMsg = "vservo::Gains" {
+        /// schema version (5)
+        schema: u32,
+        /// how many of `past_input_gains` the law uses (0 for the paper's law)
+        used_past_gains: u32,
+        /// 1 at start, +1 per accepted reload or target
+        version: u64,
+        /// K_ξ, 6×8 row-major (m/s and rad/s per px)
+        feature_gain: [f64; 48],
+        /// K_j on the command sent j + 1 frames ago, four 6×6 row-major
+        past_input_gains: [f64; 36 * MAX_PAST_GAINS],
+        /// ξ_d (px)
+        desired_features_px: [f64; FEATURES],
+        /// Z_d, the marks' depths at the desired pose (m)
+        desired_depths_m: [f64; MARKS],
+        /// Q, 8×8 row-major (for the gains on three marks and a scheduled gain, designed by the servo)
+        q: [f64; FEATURES * FEATURES],
+        /// R in SI units, 6×6 row-major
+        r_si: [f64; 36],
+        /// where B is evaluated (desired: at ξ_d, the fixed gain; mean: the mean of ξ_d's and the current;
+        /// current: the current)
+        interaction: u32 as Interaction,
+        /// 1: the target's image motion is fed forward
+        feedforward: u32,
+        /// the barrier keeps seen marks this far inside the image (0: none)
+        border_margin_px: f64,
+        /// the daemon's seal (SipHash-2-4 of the fields under the run's key): other gains are refused
+        seal: u64,
+    }
+}
+
+wire_message! {
+    /// vservod → plant (history 1): how the simulated board moves from now on.
+    payload ObjectMsg = "vservo::Object" {
+        /// schema version (5)
+        schema: u32,
+        /// what the board does, 4–6 only (as in `command`)
+        kind: u32 as CommandKind,
+        /// counts the object commands (1 for the first)
+        sequence: u64,
+        /// step: the jump in the desired camera frame (m)
+        translation_m: [f64; 3],
+        /// circle: radius (m)
+        radius_m: f64,
+        /// circle: speed (rev/min)
+        rev_per_min: f64,
+        /// the daemon's seal (SipHash-2-4 of the fields under the run's key): other object commands are refused
+        seal: u64,
+    }
+}
+
+// The codes as plain numbers, for the code not yet moved to the enums of `crate::codes` (to be removed).
+
+/// The command interfaces a robot driver may take ([`JointStateMsg::command_mode`],
+/// [`JointCommandMsg::mode`]).
+pub mod command_mode {
+    /// Joint torques (`torque_nm`): the rmrc runs the joint servo (the simulated dynamic PUMA 560).
+    pub const TORQUE: u32 = 0;
+    /// Joint velocities (`qd_ref_rad_s`, with `q_ref_rad` for drivers that correct drift): the interpolator's
+    /// q̇ reference, velocity- and acceleration-limited.
+    pub const VELOCITY: u32 = 1;
+    /// Joint positions (`q_ref_rad`, with `qd_ref_rad_s` as feed-forward): the interpolator's q reference.
+    pub const POSITION: u32 = 2;
+}
+
+/// Driver states of [`JointStateMsg::driver_status`].
+pub mod driver_status {
+    /// Following the commands it receives.
+    pub const FOLLOWING: u32 = 0;
+    /// Holding the arm at rest: no valid command came in time (or none yet).
+    pub const HOLDING: u32 = 1;
+    /// The driver or the arm is in fault (protective stop, drive error): it does not move.
+    pub const FAULT: u32 = 2;
+}
+
+/// Pixel formats of [`CameraImageHeader::format`].
+pub mod pixel_format {
+    /// 8 bits per pixel, gray.
+    pub const MONO8: u32 = 0;
+}
+
+/// Per-mark status codes of [`FeaturesMsg::mark_status`].
+pub mod mark_status {
+    /// Found; its feature is valid.
+    pub const VALID: u8 = 0;
+    /// Its expected position is outside the image.
+    pub const OUTSIDE_IMAGE: u8 = 1;
+    /// Its blob touches the image border.
+    pub const CUT_BY_BORDER: u8 = 2;
+    /// Run together with another mark into one blob.
+    pub const MERGED: u8 = 3;
+    /// Its blob has the wrong shape.
+    pub const IRREGULAR: u8 = 4;
+    /// No blob where it should be.
+    pub const NOT_FOUND: u8 = 5;
+    /// The image itself is unusable.
+    pub const BAD_IMAGE: u8 = 6;
+}
+
+/// Verdicts of [`CameraTwistMsg::verdict`].
+pub mod verdict {
+    /// No frame yet: zero twist.
+    pub const WAITING: u32 = 0;
+    /// The law's twist.
+    pub const SERVOING: u32 = 1;
+    /// Marks missing and no camera pose known where all four were seen: zero twist (`missing_mask` says which).
+    pub const MARKS_MISSING: u32 = 2;
+    /// The servo is stopping (shutdown): zero twist.
+    pub const STOPPING: u32 = 3;
+    /// The cell is in a safe stop ([`CellModeMsg`]): zero twist until the daemon resumes it.
+    pub const SAFE_STOP: u32 = 4;
+    /// One mark missing (`missing_mask`): the law's twist on the other three.
+    pub const SERVOING_ON_THREE: u32 = 5;
+    /// Two or more marks missing (`missing_mask`), or one and no design for the three seen (their desired
+    /// images in a line): steering the camera back to where all were last seen.
+    pub const REACQUIRING: u32 = 6;
+
+    /// Whether a twist of this verdict is to be followed (the others mean: bring the arm to rest).
+    pub fn moves(verdict: u32) -> bool {
+        matches!(verdict, SERVOING | SERVOING_ON_THREE | REACQUIRING)
+    }
 }
 
 /// Node states in [`NodeStatusMsg::state`].
@@ -398,25 +608,6 @@ pub mod node_state {
     pub const HUNG: u32 = 4;
 }
 
-/// One node as the daemon sees it.
-#[derive(Debug, Clone, Copy, PartialEq, Default, ZeroCopySend)]
-#[type_name("vservo::NodeStatus")]
-#[repr(C)]
-pub struct NodeStatusMsg {
-    /// Restarts since the daemon started.
-    pub restarts: u64,
-    /// CLOCK_MONOTONIC (ns) of the node's latest telemetry (0 if none yet).
-    pub last_telemetry_ns: u64,
-    /// [`node_state`].
-    pub state: u32,
-    /// Process id (0 when not running).
-    pub pid: u32,
-    /// Exit status of the last run (signal number negated; 0 if none).
-    pub last_exit: i32,
-    /// 1 when the node's telemetry is fresh (within 0.5 s).
-    pub healthy: u32,
-}
-
 /// Daemon states in [`DaemonStatusMsg::state`].
 pub mod daemon_state {
     /// Starting the nodes.
@@ -430,41 +621,6 @@ pub mod daemon_state {
     /// A fault stopped the cell ([`DaemonStatusMsg::fault`] says which, `fault_since_ns` since when): the
     /// arm is brought to rest and held until the cell is resumed.
     pub const SAFE_STOP: u32 = 4;
-}
-
-/// vservod → anyone (10 Hz): the nodes as the supervisor sees them.
-#[derive(Debug, Clone, Copy, PartialEq, ZeroCopySend)]
-#[type_name("vservo::DaemonStatus")]
-#[repr(C)]
-pub struct DaemonStatusMsg {
-    /// [`SCHEMA_VERSION`].
-    pub schema: u32,
-    /// [`daemon_state`].
-    pub state: u32,
-    /// CLOCK_MONOTONIC (ns) when published.
-    pub stamp_ns: u64,
-    /// Since the daemon started (ns).
-    pub uptime_ns: u64,
-    /// Gains version in use.
-    pub gains_version: u64,
-    /// Indexed by [`NodeRole`] number.
-    pub nodes: [NodeStatusMsg; 4],
-    /// Joint states per second of wall time over the last second (the driver's rate when on time).
-    pub tick_rate_hz: f64,
-    /// The servo's latest RMS feature error (px); NaN before the first frame.
-    pub feature_error_px: f64,
-    /// The daemon's process id.
-    pub pid: u32,
-    /// [`robot_state`]: whether the robot driver's joint states arrive.
-    pub robot: u32,
-    /// The [`fault`] that holds the cell in a safe stop, or the last one (0: none since the start).
-    pub fault: u32,
-    /// The joints the fault concerns (bit j: joint j + 1), or 0.
-    pub fault_joints: u32,
-    /// CLOCK_MONOTONIC (ns) when the fault was found; 0 when none.
-    pub fault_since_ns: u64,
-    /// Safe stops since the daemon started.
-    pub safe_stops: u64,
 }
 
 /// Faults that end in a safe stop ([`DaemonStatusMsg::fault`], [`CellModeMsg::fault`]).
@@ -511,27 +667,6 @@ pub mod cell_mode {
     pub const SAFE_STOP: u32 = 1;
 }
 
-/// vservod → rmrc, servo (history 1, on each change): whether the cell servos or is held in a safe stop.
-#[derive(Debug, Clone, Copy, PartialEq, ZeroCopySend)]
-#[type_name("vservo::CellMode")]
-#[repr(C)]
-pub struct CellModeMsg {
-    /// [`SCHEMA_VERSION`].
-    pub schema: u32,
-    /// [`cell_mode`].
-    pub mode: u32,
-    /// Counts the changes (1 for the first, at the daemon's start); a node takes only a newer one.
-    pub sequence: u64,
-    /// SAFE_STOP: the [`fault`] that caused it.
-    pub fault: u32,
-    /// SAFE_STOP: the joints concerned (bit j: joint j + 1).
-    pub fault_joints: u32,
-    /// CLOCK_MONOTONIC (ns) when the mode was decided.
-    pub stamp_ns: u64,
-    /// The daemon's seal ([`crate::seal`]): the nodes take a mode with a valid seal only.
-    pub seal: u64,
-}
-
 /// States of the robot driver as the daemon sees it ([`DaemonStatusMsg::robot`]).
 pub mod robot_state {
     /// No joint state yet.
@@ -564,151 +699,6 @@ pub mod command_kind {
     pub const RESUME: u32 = 8;
     /// Bring the arm to rest and hold it: a safe stop asked for by the client (fault `requested`).
     pub const SAFE_STOP: u32 = 9;
-}
-
-/// client → vservod (request-response service `command`): one command.
-#[derive(Debug, Clone, Copy, PartialEq, ZeroCopySend)]
-#[type_name("vservo::Command")]
-#[repr(C)]
-pub struct CommandMsg {
-    /// [`SCHEMA_VERSION`].
-    pub schema: u32,
-    /// [`command_kind`].
-    pub kind: u32,
-    /// Chosen by the client; the reply carries it back.
-    pub id: u64,
-    /// TARGET_FEATURES: ξ_d (px).
-    pub features_px: [f64; FEATURES],
-    /// TARGET_POSE: the board's position in the desired camera frame (m); OBJECT_STEP: the jump (m).
-    pub translation_m: [f64; 3],
-    /// TARGET_POSE: the board's orientation in the desired camera frame, roll–pitch–yaw (rad),
-    /// R = Rz(yaw)·Ry(pitch)·Rx(roll).
-    pub rotation_rpy_rad: [f64; 3],
-    /// OBJECT_CIRCLE: radius (m).
-    pub radius_m: f64,
-    /// OBJECT_CIRCLE: speed (revolutions per minute).
-    pub rev_per_min: f64,
-}
-
-impl CommandMsg {
-    /// A command of `kind` with every parameter zero.
-    pub fn new(kind: u32, id: u64) -> Self {
-        Self {
-            schema: SCHEMA_VERSION,
-            kind,
-            id,
-            features_px: [0.0; FEATURES],
-            translation_m: [0.0; 3],
-            rotation_rpy_rad: [0.0; 3],
-            radius_m: 0.0,
-            rev_per_min: 0.0,
-        }
-    }
-}
-
-/// Room for the reason text of a reply (bytes).
-pub const REASON_BYTES: usize = 256;
-
-/// vservod → client: the answer to a [`CommandMsg`].
-#[derive(Debug, Clone, Copy, PartialEq, ZeroCopySend)]
-#[type_name("vservo::CommandReply")]
-#[repr(C)]
-pub struct CommandReplyMsg {
-    /// [`SCHEMA_VERSION`].
-    pub schema: u32,
-    /// 1 accepted, 0 refused.
-    pub accepted: u32,
-    /// The command's `id`.
-    pub id: u64,
-    /// The gains version in force after the command.
-    pub gains_version: u64,
-    /// ξ_d in force after the command (px).
-    pub target_features_px: [f64; FEATURES],
-    /// Why it was refused, or what was done: UTF-8, zero-padded.
-    pub reason: [u8; REASON_BYTES],
-}
-
-impl CommandReplyMsg {
-    /// A reply with `reason` (cut at a character boundary to fit).
-    pub fn new(id: u64, accepted: bool, gains_version: u64, target: [f64; FEATURES], reason: &str) -> Self {
-        let mut bytes = [0u8; REASON_BYTES];
-        let mut end = reason.len().min(REASON_BYTES);
-        while !reason.is_char_boundary(end) {
-            end -= 1;
-        }
-        bytes[..end].copy_from_slice(&reason.as_bytes()[..end]);
-        Self {
-            schema: SCHEMA_VERSION,
-            accepted: u32::from(accepted),
-            id,
-            gains_version,
-            target_features_px: target,
-            reason: bytes,
-        }
-    }
-
-    /// The reason as text (up to the first zero byte; invalid UTF-8 replaced).
-    pub fn reason(&self) -> String {
-        let end = self.reason.iter().position(|b| *b == 0).unwrap_or(REASON_BYTES);
-        String::from_utf8_lossy(&self.reason[..end]).into_owned()
-    }
-}
-
-/// Most past-command gains a [`GainsMsg`] carries.
-pub const MAX_PAST_GAINS: usize = 4;
-
-/// vservod → servo (history 1): the gains to swap in at the next frame, designed off the hot path.
-#[derive(Debug, Clone, Copy, PartialEq, ZeroCopySend)]
-#[type_name("vservo::Gains")]
-#[repr(C)]
-pub struct GainsMsg {
-    /// [`SCHEMA_VERSION`].
-    pub schema: u32,
-    /// How many of `past_input_gains` the law uses.
-    pub used_past_gains: u32,
-    /// The version (1 at start, +1 per accepted reload or target).
-    pub version: u64,
-    /// K_ξ, 6×8 row-major (m/s and rad/s per px).
-    pub feature_gain: [f64; 48],
-    /// K_j on the command sent j + 1 frames ago, each 6×6 row-major.
-    pub past_input_gains: [f64; 36 * MAX_PAST_GAINS],
-    /// ξ_d (px).
-    pub desired_features_px: [f64; FEATURES],
-    /// Z_d, the marks' depths at the desired pose (m).
-    pub desired_depths_m: [f64; MARKS],
-    /// Q, 8×8 row-major: the servo designs the gains on three marks and a scheduled gain from it.
-    pub q: [f64; FEATURES * FEATURES],
-    /// R in SI units, 6×6 row-major.
-    pub r_si: [f64; 36],
-    /// `controller.interaction`: 0 desired, 1 mean, 2 current.
-    pub interaction: u32,
-    /// `controller.feedforward`: 1 on, 0 off.
-    pub feedforward: u32,
-    /// `controller.border_margin_px` (0: no barrier).
-    pub border_margin_px: f64,
-    /// The daemon's seal ([`crate::seal`]): a servo takes gains with a valid seal only.
-    pub seal: u64,
-}
-
-/// vservod → plant (history 1): how the simulated board moves from now on.
-#[derive(Debug, Clone, Copy, PartialEq, ZeroCopySend)]
-#[type_name("vservo::Object")]
-#[repr(C)]
-pub struct ObjectMsg {
-    /// [`SCHEMA_VERSION`].
-    pub schema: u32,
-    /// [`command_kind`]: OBJECT_HOLD, OBJECT_STEP or OBJECT_CIRCLE.
-    pub kind: u32,
-    /// Counts the commands (1 for the first).
-    pub sequence: u64,
-    /// OBJECT_STEP: the jump in the desired camera frame (m).
-    pub translation_m: [f64; 3],
-    /// OBJECT_CIRCLE: radius (m).
-    pub radius_m: f64,
-    /// OBJECT_CIRCLE: speed (rev/min).
-    pub rev_per_min: f64,
-    /// The daemon's seal ([`crate::seal`]): the plant takes object commands with a valid seal only.
-    pub seal: u64,
 }
 
 #[cfg(test)]

@@ -1,42 +1,15 @@
 //! Seals on the daemon's own messages (`gains`, `object`, `cell_mode`) and the rmrc's `joint_command`, so
-//! that the nodes take them from the daemon (and the simulated driver from the rmrc) only. Any process of the daemon's user can publish on an instance's services; what it cannot do is seal
-//! a message: the seal is SipHash-2-4 of the message's fields, keyed with a secret the daemon draws from
-//! the system's random source at start and hands each node on its stdin (never in a message, an argument
-//! or the environment). A stray or rogue `gains` or `object` is refused and counted. SipHash-2-4 is
-//! written out here (forty lines, checked against the reference vector of its paper) rather than taken
-//! from a crate for four messages. The joint command is sealed on the 1 ms path: its bytes go through a
-//! buffer on the stack, nothing is allocated.
+//! that the nodes take them from the daemon (and the simulated driver from the rmrc) only. Any process of
+//! the daemon's user can publish on an instance's services; what it cannot do is seal a message: the seal
+//! is SipHash-2-4 of the message's fields, keyed with a secret the daemon draws from the system's random
+//! source at start and hands each node on its stdin (never in a message, an argument or the environment).
+//! A stray or rogue `gains` or `object` is refused and counted. SipHash-2-4 is written out here (sixty
+//! lines, checked against the reference vector of its paper) rather than taken from a crate for four
+//! messages. The bytes are each message's fields in order, fed to the hash field by field as its one
+//! declaration writes them: the joint command is sealed on the 1 ms path and nothing is allocated.
 
+use crate::declare::WireMessage;
 use crate::{CellModeMsg, GainsMsg, JointCommandMsg, ObjectMsg};
-
-/// Fills a fixed buffer with little-endian words (no allocation).
-struct Words<const N: usize> {
-    bytes: [u8; N],
-    len: usize,
-}
-
-impl<const N: usize> Words<N> {
-    fn new() -> Self {
-        Self { bytes: [0; N], len: 0 }
-    }
-
-    fn put(&mut self, value: &[u8]) -> &mut Self {
-        self.bytes[self.len..self.len + value.len()].copy_from_slice(value);
-        self.len += value.len();
-        self
-    }
-
-    fn floats(&mut self, values: &[f64]) -> &mut Self {
-        for v in values {
-            self.put(&v.to_bits().to_le_bytes());
-        }
-        self
-    }
-
-    fn bytes(&self) -> &[u8] {
-        &self.bytes[..self.len]
-    }
-}
 
 /// The 128-bit key of an instance's run.
 #[derive(Clone, Copy, PartialEq, Eq)]
@@ -83,76 +56,59 @@ impl SealKey {
         })
     }
 
-    /// The seal of a gains message (its `seal` field left out).
+    /// The seal of a message: SipHash-2-4 of every field but `seal`, in order, little-endian (the bytes its
+    /// declaration writes, `crate::declare`); allocates nothing.
+    pub fn seal<M: WireMessage>(&self, message: &M) -> u64 {
+        let mut hasher = SipHasher24::new(self.k0, self.k1);
+        message.write_sealed_bytes(&mut |bytes| hasher.write(bytes));
+        hasher.finish()
+    }
+
+    /// The seal of a gains message.
     pub fn seal_gains(&self, m: &GainsMsg) -> u64 {
-        let mut bytes = Vec::with_capacity(24 + 8 * (48 + 144 + 8 + 4 + 64 + 36 + 1));
-        bytes.extend_from_slice(&m.schema.to_le_bytes());
-        bytes.extend_from_slice(&m.used_past_gains.to_le_bytes());
-        bytes.extend_from_slice(&m.version.to_le_bytes());
-        bytes.extend_from_slice(&m.interaction.to_le_bytes());
-        bytes.extend_from_slice(&m.feedforward.to_le_bytes());
-        let numbers = m.feature_gain.iter().chain(&m.past_input_gains).chain(&m.desired_features_px);
-        let design = m.desired_depths_m.iter().chain(&m.q).chain(&m.r_si).chain([&m.border_margin_px]);
-        for v in numbers.chain(design) {
-            bytes.extend_from_slice(&v.to_bits().to_le_bytes());
-        }
-        siphash24(self.k0, self.k1, &bytes)
+        self.seal(m)
     }
 
-    /// The seal of an object message (its `seal` field left out).
+    /// The seal of an object message.
     pub fn seal_object(&self, m: &ObjectMsg) -> u64 {
-        let mut bytes = Vec::with_capacity(64);
-        bytes.extend_from_slice(&m.schema.to_le_bytes());
-        bytes.extend_from_slice(&m.kind.to_le_bytes());
-        bytes.extend_from_slice(&m.sequence.to_le_bytes());
-        for v in m.translation_m.iter().chain([&m.radius_m, &m.rev_per_min]) {
-            bytes.extend_from_slice(&v.to_bits().to_le_bytes());
-        }
-        siphash24(self.k0, self.k1, &bytes)
+        self.seal(m)
     }
 
-    /// The seal of a joint command (its `seal` field left out); allocates nothing.
+    /// The seal of a joint command; allocates nothing.
     pub fn seal_joint_command(&self, m: &JointCommandMsg) -> u64 {
-        let mut words = Words::<{ 8 + 32 + 3 * 48 + 24 }>::new();
-        words
-            .put(&m.schema.to_le_bytes())
-            .put(&m.mode.to_le_bytes())
-            .put(&m.answers_tick.to_le_bytes())
-            .put(&m.driver_epoch.to_le_bytes())
-            .put(&m.state_stamp_ns.to_le_bytes())
-            .put(&m.stamp_ns.to_le_bytes())
-            .floats(&m.torque_nm)
-            .floats(&m.q_ref_rad)
-            .floats(&m.qd_ref_rad_s)
-            .put(&m.twist_capture_tick.to_le_bytes())
-            .put(&m.twist_applied_tick.to_le_bytes())
-            .put(&m.reference_since_tick.to_le_bytes());
-        siphash24(self.k0, self.k1, words.bytes())
+        self.seal(m)
     }
 
-    /// The seal of a cell mode (its `seal` field left out); allocates nothing.
+    /// The seal of a cell mode; allocates nothing.
     pub fn seal_cell_mode(&self, m: &CellModeMsg) -> u64 {
-        let mut words = Words::<32>::new();
-        words
-            .put(&m.schema.to_le_bytes())
-            .put(&m.mode.to_le_bytes())
-            .put(&m.sequence.to_le_bytes())
-            .put(&m.fault.to_le_bytes())
-            .put(&m.fault_joints.to_le_bytes())
-            .put(&m.stamp_ns.to_le_bytes());
-        siphash24(self.k0, self.k1, words.bytes())
+        self.seal(m)
     }
 }
 
-/// SipHash-2-4 (Aumasson & Bernstein 2012) of `data` under the key (k0, k1).
-pub fn siphash24(k0: u64, k1: u64, data: &[u8]) -> u64 {
-    let mut v = [
-        k0 ^ 0x736f_6d65_7073_6575,
-        k1 ^ 0x646f_7261_6e64_6f6d,
-        k0 ^ 0x6c79_6765_6e65_7261,
-        k1 ^ 0x7465_6462_7974_6573,
-    ];
-    fn round(v: &mut [u64; 4]) {
+/// SipHash-2-4 (Aumasson & Bernstein 2012), fed in pieces: the bytes of a message field by field, with
+/// no buffer but the last incomplete word.
+struct SipHasher24 {
+    v: [u64; 4],
+    /// The bytes of the word being filled, little-endian.
+    tail: u64,
+    /// How many bytes `tail` holds.
+    tail_len: usize,
+    length: u64,
+}
+
+impl SipHasher24 {
+    fn new(k0: u64, k1: u64) -> Self {
+        let v = [
+            k0 ^ 0x736f_6d65_7073_6575,
+            k1 ^ 0x646f_7261_6e64_6f6d,
+            k0 ^ 0x6c79_6765_6e65_7261,
+            k1 ^ 0x7465_6462_7974_6573,
+        ];
+        Self { v, tail: 0, tail_len: 0, length: 0 }
+    }
+
+    fn round(&mut self) {
+        let v = &mut self.v;
         v[0] = v[0].wrapping_add(v[1]);
         v[1] = v[1].rotate_left(13) ^ v[0];
         v[0] = v[0].rotate_left(32);
@@ -164,27 +120,44 @@ pub fn siphash24(k0: u64, k1: u64, data: &[u8]) -> u64 {
         v[1] = v[1].rotate_left(17) ^ v[2];
         v[2] = v[2].rotate_left(32);
     }
-    let compress = |m: u64, v: &mut [u64; 4]| {
-        v[3] ^= m;
-        round(v);
-        round(v);
-        v[0] ^= m;
-    };
-    let chunks = data.chunks_exact(8);
-    let tail = chunks.remainder();
-    for chunk in chunks {
-        compress(u64::from_le_bytes(std::array::from_fn(|i| chunk[i])), &mut v);
+
+    fn compress(&mut self, word: u64) {
+        self.v[3] ^= word;
+        self.round();
+        self.round();
+        self.v[0] ^= word;
     }
-    let mut last = (data.len() as u64 & 0xff) << 56;
-    for (i, byte) in tail.iter().enumerate() {
-        last |= u64::from(*byte) << (8 * i);
+
+    fn write(&mut self, bytes: &[u8]) {
+        for &byte in bytes {
+            self.tail |= u64::from(byte) << (8 * self.tail_len);
+            self.tail_len += 1;
+            if self.tail_len == 8 {
+                let word = self.tail;
+                self.compress(word);
+                self.tail = 0;
+                self.tail_len = 0;
+            }
+        }
+        self.length = self.length.wrapping_add(bytes.len() as u64);
     }
-    compress(last, &mut v);
-    v[2] ^= 0xff;
-    for _ in 0..4 {
-        round(&mut v);
+
+    fn finish(mut self) -> u64 {
+        let last = ((self.length & 0xff) << 56) | self.tail;
+        self.compress(last);
+        self.v[2] ^= 0xff;
+        for _ in 0..4 {
+            self.round();
+        }
+        self.v[0] ^ self.v[1] ^ self.v[2] ^ self.v[3]
     }
-    v[0] ^ v[1] ^ v[2] ^ v[3]
+}
+
+/// SipHash-2-4 of `data` under the key (k0, k1).
+pub fn siphash24(k0: u64, k1: u64, data: &[u8]) -> u64 {
+    let mut hasher = SipHasher24::new(k0, k1);
+    hasher.write(data);
+    hasher.finish()
 }
 
 #[cfg(test)]
@@ -197,6 +170,18 @@ mod tests {
         let key = SealKey::from_bytes(std::array::from_fn(|i| i as u8));
         let message: Vec<u8> = (0u8..15).collect();
         assert_eq!(siphash24(key.k0, key.k1, &message), 0xa129_ca61_49be_45e5);
+    }
+
+    #[test]
+    fn siphash_fed_in_pieces_equals_siphash_fed_at_once() {
+        let data: Vec<u8> = (0u8..=200).collect();
+        for split in [0, 1, 7, 8, 9, 63, 64, 65, 200] {
+            let mut hasher = SipHasher24::new(3, 5);
+            let (a, b) = data.split_at(split);
+            hasher.write(a);
+            hasher.write(b);
+            assert_eq!(hasher.finish(), siphash24(3, 5, &data), "split at {split}");
+        }
     }
 
     #[test]
