@@ -216,8 +216,8 @@ fn clients_with_no_daemon_say_so_and_create_nothing_that_stops_the_daemon() {
 #[test]
 fn absurd_messages_from_a_rogue_publisher_are_refused_and_counted() {
     use vservo_protocol::{
-        CameraTwistMsg, CellModeMsg, FeaturesMsg, GainsMsg, JointCommandMsg, JointStateMsg, ObjectMsg,
-        SCHEMA_VERSION, Topic, cell_mode, command_kind, command_mode, verdict,
+        CameraTwistMsg, CellMode, CellModeMsg, CommandKind, CommandMode, FeaturesMsg, GainsMsg,
+        JointCommandMsg, JointStateMsg, ObjectMsg, Topic, Verdict,
     };
     let _one = exclusive();
     let instance = unique("rogue");
@@ -249,80 +249,63 @@ fn absurd_messages_from_a_rogue_publisher_are_refused_and_counted() {
         while let Ok(Some(state)) = states.receive() {
             fastest = state.qd_rad_s.iter().fold(fastest, |m, v| m.max(v.abs()));
             let command = JointCommandMsg {
-                schema: SCHEMA_VERSION,
-                mode: command_mode::TORQUE,
+                mode: CommandMode::Torque.into(),
                 answers_tick: state.tick,
                 driver_epoch: state.driver_epoch,
                 state_stamp_ns: state.stamp_ns,
                 stamp_ns: state.stamp_ns,
                 torque_nm: if state.tick % 2 == 0 { [1e9; 6] } else { within_limits_nm },
                 q_ref_rad: state.q_rad,
-                qd_ref_rad_s: [0.0; 6],
-                twist_capture_tick: u64::MAX,
-                twist_applied_tick: u64::MAX,
-                reference_since_tick: 0,
                 seal: round,
+                ..JointCommandMsg::default()
             };
             let _ = torques.send_copy(command);
         }
         if round.is_multiple_of(10) {
             let _ = twists.send_copy(CameraTwistMsg {
-                schema: SCHEMA_VERSION,
-                verdict: verdict::SERVOING,
+                verdict: Verdict::Servoing.into(),
                 frame: round,
-                capture_tick: 0,
                 gains_version: 1,
-                stamp_ns: 0,
                 twist: [1e9; 6],
                 feature_error_px: 0.0,
-                missing_mask: 0,
-                law_flags: 0,
+                ..CameraTwistMsg::default()
             });
             let _ = features.send_copy(FeaturesMsg {
-                schema: SCHEMA_VERSION,
                 valid_mask: 0b1111,
                 frame: round,
-                capture_tick: 0,
-                capture_stamp_ns: 0,
-                stamp_ns: 0,
                 features_px: [5000.0, 168.0, 318.0, 178.0, 339.0, 75.0, 172.0, -400.0],
                 mark_status: [0; 4],
-                reserved: [0; 4],
                 // not a rigid motion: the servo must not steer by it
                 base_from_camera: [3.0, 0.0, 0.0, 1e9, 0.0, 2.0, 0.0, -1e9, 0.0, 0.0, 1.0, 0.0],
+                ..FeaturesMsg::default()
             });
             let _ = gains.send_copy(GainsMsg {
-                schema: SCHEMA_VERSION,
-                used_past_gains: 0,
                 version: 1000 + round,
                 feature_gain: [1e6; 48],
-                past_input_gains: [0.0; 144],
                 desired_features_px: [5000.0; 8],
                 desired_depths_m: [-1.0; 4],
                 q: [f64::NAN; 64],
-                r_si: [0.0; 36],
                 interaction: 7,
                 feedforward: 3,
                 border_margin_px: -5.0,
                 seal: round,
+                ..GainsMsg::default()
             });
+            let mode = if round.is_multiple_of(20) { CellMode::SafeStop } else { CellMode::Servoing };
             let _ = modes.send_copy(CellModeMsg {
-                schema: SCHEMA_VERSION,
-                mode: if round.is_multiple_of(20) { cell_mode::SAFE_STOP } else { cell_mode::SERVOING },
+                mode: mode.into(),
                 sequence: 1000 + round,
                 fault: 7,
-                fault_joints: 0,
-                stamp_ns: 0,
                 seal: round,
+                ..CellModeMsg::default()
             });
             let _ = objects.send_copy(ObjectMsg {
-                schema: SCHEMA_VERSION,
-                kind: command_kind::OBJECT_CIRCLE,
+                kind: CommandKind::ObjectCircle.into(),
                 sequence: 1000 + round,
-                translation_m: [0.0; 3],
                 radius_m: 5.0,
                 rev_per_min: 1000.0,
                 seal: round,
+                ..ObjectMsg::default()
             });
         }
         std::thread::sleep(Duration::from_millis(1));

@@ -5,7 +5,7 @@
 use std::time::Duration;
 
 use serde_json::Value;
-use vservo_protocol::{law_flag, verdict};
+use vservo_protocol::{Verdict, law_flag};
 use vservo_system_tests::{Daemon, config_from, echo_lines, exclusive, running, status, unique, wait_until};
 
 #[test]
@@ -34,21 +34,21 @@ fn covered_marks_do_not_stop_the_robust_servo_in_real_time() {
         .iter()
         .map(|t| (t["verdict"].as_u64().unwrap_or(99), t["missing_mask"].as_u64().unwrap_or(99)))
         .collect();
-    let seen = |v: u32, mask: u64| verdicts.contains(&(u64::from(v), mask));
-    assert!(seen(verdict::SERVOING_ON_THREE, 0b0010), "mark 2 covered: {verdicts:?}\n{}", daemon.log());
+    let seen = |v: Verdict, mask: u64| verdicts.contains(&(u64::from(v.code()), mask));
+    assert!(seen(Verdict::ServoingOnThree, 0b0010), "mark 2 covered: {verdicts:?}\n{}", daemon.log());
     // the translation step is taken on three marks: the rmrc follows those twists, the three converge
     let on_three: Vec<f64> = twists
         .iter()
-        .filter(|t| t["verdict"].as_u64() == Some(u64::from(verdict::SERVOING_ON_THREE)))
+        .filter(|t| t["verdict"].as_u64() == Some(u64::from(Verdict::ServoingOnThree.code())))
         .filter_map(|t| t["feature_error_px"].as_f64())
         .collect();
     let settled_on_three = on_three.last().copied().unwrap_or(f64::NAN);
     assert!(settled_on_three < 1.0, "error on the three seen marks at the end of the cover: {on_three:?}");
-    assert!(seen(verdict::REACQUIRING, 0b0101), "marks 1 and 3 covered: {verdicts:?}");
-    assert!(!verdicts.iter().any(|(v, _)| *v == u64::from(verdict::MARKS_MISSING)), "{verdicts:?}");
+    assert!(seen(Verdict::Reacquiring, 0b0101), "marks 1 and 3 covered: {verdicts:?}");
+    assert!(!verdicts.iter().any(|(v, _)| *v == u64::from(Verdict::MarksMissing.code())), "{verdicts:?}");
     // converged again by the end, and never stopped for a lost target (0.5 s < target_lost_s)
     let last = twists.last().expect("twists");
-    assert_eq!(last["verdict"].as_u64(), Some(u64::from(verdict::SERVOING)), "{last}");
+    assert_eq!(last["verdict"].as_u64(), Some(u64::from(Verdict::Servoing.code())), "{last}");
     let error = last["feature_error_px"].as_f64().unwrap_or(f64::NAN);
     assert!(error < 1.0, "feature error at the end {error} px");
     // the twists say what the law did: the target's motion (none here) fed forward once its estimate
@@ -58,7 +58,7 @@ fn covered_marks_do_not_stop_the_robust_servo_in_real_time() {
     assert!(
         twists
             .iter()
-            .filter(|t| t["verdict"].as_u64() == Some(u64::from(verdict::REACQUIRING)))
+            .filter(|t| t["verdict"].as_u64() == Some(u64::from(Verdict::Reacquiring.code())))
             .all(|t| flags(t) == 0),
         "{twists:?}"
     );

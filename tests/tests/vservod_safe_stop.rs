@@ -107,9 +107,9 @@ struct FakeDriver {
 
 impl FakeDriver {
     fn start(instance: &str) -> Self {
-        use vservo_protocol::{JointCommandMsg, JointStateMsg, SCHEMA_VERSION, Topic, command_mode};
+        use vservo_protocol::{CommandMode, DriverStatus, JointCommandMsg, JointStateMsg, Topic};
         let faults = Arc::new(AtomicU32::new(0));
-        let driver_status = Arc::new(AtomicU32::new(vservo_protocol::driver_status::FOLLOWING));
+        let driver_status = Arc::new(AtomicU32::new(DriverStatus::Following.into()));
         let silent = Arc::new(AtomicBool::new(false));
         let stop = Arc::new(AtomicBool::new(false));
         let (f, d, q, s) = (faults.clone(), driver_status.clone(), silent.clone(), stop.clone());
@@ -146,18 +146,16 @@ impl FakeDriver {
                 }
                 let stamp_ns = vservo_runtime::clock::monotonic_ns();
                 let _ = states.send_copy(JointStateMsg {
-                    schema: SCHEMA_VERSION,
                     faults: f.load(Ordering::Relaxed),
                     tick,
                     stamp_ns,
                     driver_epoch: epoch,
                     period_ns: 1_000_000,
-                    command_mode: command_mode::VELOCITY,
+                    command_mode: CommandMode::Velocity.into(),
                     driver_status: d.load(Ordering::Relaxed),
                     q_rad: joints,
-                    qd_rad_s: [0.0; 6],
                     torque_nm: [f64::NAN; 6],
-                    applied_command_tick: u64::MAX,
+                    ..JointStateMsg::default()
                 });
                 let _ = notifier.notify();
             }
@@ -231,9 +229,9 @@ fn faults_of_the_robot_end_in_a_named_safe_stop_and_resume_waits_for_their_cause
     assert!(wait_until(Duration::from_secs(2), || status(&instance).is_some_and(|s| running(&s))));
 
     // a driver fault, for a moment: at once
-    driver.driver_status.store(vservo_protocol::driver_status::FAULT, Ordering::Relaxed);
+    driver.driver_status.store(vservo_protocol::DriverStatus::Fault.into(), Ordering::Relaxed);
     std::thread::sleep(Duration::from_millis(20));
-    driver.driver_status.store(vservo_protocol::driver_status::FOLLOWING, Ordering::Relaxed);
+    driver.driver_status.store(vservo_protocol::DriverStatus::Following.into(), Ordering::Relaxed);
     assert!(
         wait_until(Duration::from_secs(2), || safe_stopped_by(&instance, "driver_fault")),
         "{:?}",

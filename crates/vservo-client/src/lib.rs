@@ -15,6 +15,10 @@
 //! # Ok::<(), vservo_client::ClientError>(())
 //! ```
 
+pub mod status;
+
+pub use status::{FaultView, NodeView, StatusView, TimingUs};
+
 use std::time::{Duration, Instant};
 
 use iceoryx2::port::client::Client as IceoryxClient;
@@ -22,8 +26,8 @@ use iceoryx2::port::subscriber::Subscriber;
 use iceoryx2::prelude::{Node, ZeroCopySend, ipc};
 use vservo_protocol::Opening;
 pub use vservo_protocol::{
-    CameraTwistMsg, CommandMsg, CommandReplyMsg, DaemonStatusMsg, FEATURES, FeaturesMsg, JointStateMsg,
-    SCHEMA_VERSION, TelemetryMsg, Topic, command_kind,
+    CameraTwistMsg, CommandKind, CommandMsg, CommandReplyMsg, DaemonStatusMsg, FEATURES, FeaturesMsg,
+    JointStateMsg, SCHEMA_VERSION, TelemetryMsg, Topic,
 };
 
 /// What can go wrong talking to an instance.
@@ -155,7 +159,7 @@ impl Client {
 
     /// ξ_d = `features_px` ([x₁ y₁ … x₄ y₄], px).
     pub fn set_target_features(&mut self, features_px: [f64; FEATURES]) -> Result<Reply, ClientError> {
-        let mut command = CommandMsg::new(command_kind::TARGET_FEATURES, 0);
+        let mut command = CommandMsg::new(CommandKind::TargetFeatures, 0);
         command.features_px = features_px;
         self.request(command)
     }
@@ -167,7 +171,7 @@ impl Client {
         translation_m: [f64; 3],
         rotation_rpy_rad: [f64; 3],
     ) -> Result<Reply, ClientError> {
-        let mut command = CommandMsg::new(command_kind::TARGET_POSE, 0);
+        let mut command = CommandMsg::new(CommandKind::TargetPose, 0);
         command.translation_m = translation_m;
         command.rotation_rpy_rad = rotation_rpy_rad;
         self.request(command)
@@ -175,24 +179,24 @@ impl Client {
 
     /// The current features and pose become the target.
     pub fn teach(&mut self) -> Result<Reply, ClientError> {
-        self.request(CommandMsg::new(command_kind::TARGET_TEACH, 0))
+        self.request(CommandMsg::new(CommandKind::TargetTeach, 0))
     }
 
     /// The simulated board stops where it is.
     pub fn object_hold(&mut self) -> Result<Reply, ClientError> {
-        self.request(CommandMsg::new(command_kind::OBJECT_HOLD, 0))
+        self.request(CommandMsg::new(CommandKind::ObjectHold, 0))
     }
 
     /// The simulated board jumps by `translation_m` (desired camera frame).
     pub fn object_step(&mut self, translation_m: [f64; 3]) -> Result<Reply, ClientError> {
-        let mut command = CommandMsg::new(command_kind::OBJECT_STEP, 0);
+        let mut command = CommandMsg::new(CommandKind::ObjectStep, 0);
         command.translation_m = translation_m;
         self.request(command)
     }
 
     /// The simulated board circles in the desired camera frame's y–z plane from where it is.
     pub fn object_circle(&mut self, radius_m: f64, rev_per_min: f64) -> Result<Reply, ClientError> {
-        let mut command = CommandMsg::new(command_kind::OBJECT_CIRCLE, 0);
+        let mut command = CommandMsg::new(CommandKind::ObjectCircle, 0);
         command.radius_m = radius_m;
         command.rev_per_min = rev_per_min;
         self.request(command)
@@ -200,17 +204,17 @@ impl Client {
 
     /// Reloads the daemon's configuration file (as SIGHUP does) and says what came of it.
     pub fn reload(&mut self) -> Result<Reply, ClientError> {
-        self.request(CommandMsg::new(command_kind::RELOAD, 0))
+        self.request(CommandMsg::new(CommandKind::Reload, 0))
     }
 
     /// Servo again after a safe stop; refused, naming each cause, while a fault's cause is still there.
     pub fn resume(&mut self) -> Result<Reply, ClientError> {
-        self.request(CommandMsg::new(command_kind::RESUME, 0))
+        self.request(CommandMsg::new(CommandKind::Resume, 0))
     }
 
     /// Bring the arm to rest and hold it (a safe stop; [`Client::resume`] ends it).
     pub fn safe_stop(&mut self) -> Result<Reply, ClientError> {
-        self.request(CommandMsg::new(command_kind::SAFE_STOP, 0))
+        self.request(CommandMsg::new(CommandKind::SafeStop, 0))
     }
 
     /// A subscriber to one of the instance's topics (payload type as in docs/PROTOCOL.md).

@@ -125,17 +125,17 @@ wire_code! {
         /// Found; its feature is valid.
         Valid = 0, "valid";
         /// Its expected position is outside the image.
-        OutsideImage = 1, "outside_image";
+        OutsideImage = 1, "outside the image";
         /// Its blob touches the image border.
-        CutByBorder = 2, "cut_by_border";
+        CutByBorder = 2, "cut by the border";
         /// Run together with another mark into one blob.
         Merged = 3, "merged";
         /// Its blob has the wrong shape.
         Irregular = 4, "irregular";
         /// No blob where it should be.
-        NotFound = 5, "not_found";
+        NotFound = 5, "not found";
         /// The image itself is unusable.
-        BadImage = 6, "bad_image";
+        BadImage = 6, "bad image";
     }
 }
 

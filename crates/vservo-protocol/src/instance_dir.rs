@@ -34,6 +34,9 @@ use iceoryx2::prelude::{Path as IoxPath, SemanticString};
 pub const RUNTIME_DIR_ENV: &str = "VSERVO_RUNTIME_DIR";
 /// The base directory of instances run by root or by the system service.
 pub const SYSTEM_RUNTIME_DIR: &str = "/run/vservo";
+
+/// The file in an instance's directory that holds the configuration its daemon runs.
+pub const CONFIGURATION_FILE: &str = "config.toml";
 /// Where POSIX shared memory lives on Linux.
 const SHM_DIR: &str = "/dev/shm";
 /// The suffix iceoryx2 gives its node counter segment.
@@ -226,6 +229,13 @@ impl InstanceDir {
         }
     }
 
+    /// The configuration the instance's daemon runs (resolved: every key it is run with), written by the
+    /// daemon when it starts ([`InstanceClaim::write_configuration`]): how a client that found the instance
+    /// by its name learns its arm and camera.
+    pub fn configuration(&self) -> PathBuf {
+        self.path.join(CONFIGURATION_FILE)
+    }
+
     /// iceoryx2's root path for the instances of this base.
     pub fn iceoryx2_root(&self) -> PathBuf {
         self.base.join("iceoryx2")
@@ -396,6 +406,12 @@ impl InstanceClaim {
     /// The base directory, for the daemon's nodes ([`RUNTIME_DIR_ENV`]).
     pub fn base(&self) -> &Path {
         &self.dir.base
+    }
+
+    /// Writes the configuration the daemon runs into the instance's directory ([`InstanceDir::configuration`];
+    /// readable by the instance's group only, as the directory is).
+    pub fn write_configuration(&self, text: &str) -> Result<(), InstanceDirError> {
+        write_file_atomically(&self.dir.configuration(), text.as_bytes())
     }
 
     /// Refuses if any shared-memory object of the instance is another user's or reachable by another user.

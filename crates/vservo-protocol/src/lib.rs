@@ -13,7 +13,10 @@ pub mod layout;
 pub mod messages;
 pub mod seal;
 
-pub use codes::*;
+pub use codes::{
+    CellMode, CommandKind, CommandMode, DaemonState, DriverStatus, Fault, Interaction, MarkStatus, NodeState,
+    PixelFormat, RobotState, UnknownCode, Verdict,
+};
 pub use declare::{FieldInfo, WireField, WireMessage};
 pub use inbox::{Payload, Refused, TakeMessages};
 pub use instance_dir::{InstanceClaim, InstanceDir, InstanceDirError};

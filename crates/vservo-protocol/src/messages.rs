@@ -414,8 +414,8 @@ wire_message! {
 
 impl CommandMsg {
     /// A command of `kind` with every parameter zero.
-    pub fn new(kind: u32, id: u64) -> Self {
-        Self { kind, id, ..Self::default() }
+    pub fn new(kind: CommandKind, id: u64) -> Self {
+        Self { kind: kind.into(), id, ..Self::default() }
     }
 }
 

@@ -189,13 +189,11 @@ mod tests {
         let key = SealKey::random().expect("a key");
         assert_eq!(SealKey::from_hex(&key.to_hex()), Some(key));
         let mut object = ObjectMsg {
-            schema: crate::SCHEMA_VERSION,
-            kind: crate::command_kind::OBJECT_CIRCLE,
+            kind: crate::CommandKind::ObjectCircle.into(),
             sequence: 3,
-            translation_m: [0.0; 3],
             radius_m: 0.1,
             rev_per_min: 5.0,
-            seal: 0,
+            ..ObjectMsg::default()
         };
         let seal = key.seal_object(&object);
         object.seal = seal;
@@ -211,19 +209,17 @@ mod tests {
     fn joint_commands_and_cell_modes_are_sealed_over_every_field() {
         let key = SealKey::random().expect("a key");
         let command = crate::JointCommandMsg {
-            schema: crate::SCHEMA_VERSION,
-            mode: crate::command_mode::TORQUE,
+            mode: crate::CommandMode::Torque.into(),
             answers_tick: 7,
             driver_epoch: 1,
             state_stamp_ns: 10,
             stamp_ns: 11,
             torque_nm: [1.0; 6],
             q_ref_rad: [0.5; 6],
-            qd_ref_rad_s: [0.0; 6],
             twist_capture_tick: 0,
             twist_applied_tick: 2,
             reference_since_tick: 1,
-            seal: 0,
+            ..crate::JointCommandMsg::default()
         };
         let seal = key.seal_joint_command(&command);
         assert_eq!(key.seal_joint_command(&crate::JointCommandMsg { seal, ..command }), seal);
@@ -238,17 +234,15 @@ mod tests {
             assert_ne!(key.seal_joint_command(&changed), seal);
         }
         let mode = crate::CellModeMsg {
-            schema: crate::SCHEMA_VERSION,
-            mode: crate::cell_mode::SAFE_STOP,
+            mode: crate::CellMode::SafeStop.into(),
             sequence: 2,
-            fault: crate::fault::TARGET_LOST,
-            fault_joints: 0,
+            fault: crate::Fault::TargetLost.into(),
             stamp_ns: 5,
-            seal: 0,
+            ..crate::CellModeMsg::default()
         };
         let seal = key.seal_cell_mode(&mode);
         assert_ne!(
-            key.seal_cell_mode(&crate::CellModeMsg { mode: crate::cell_mode::SERVOING, ..mode }),
+            key.seal_cell_mode(&crate::CellModeMsg { mode: crate::CellMode::Servoing.into(), ..mode }),
             seal
         );
         assert_ne!(key.seal_cell_mode(&crate::CellModeMsg { sequence: 3, ..mode }), seal);

@@ -20,7 +20,6 @@ pub mod joint_history;
 pub mod nodes;
 pub mod notes;
 pub mod realtime;
-pub mod status;
 pub mod telemetry;
 pub mod wire;
 

@@ -15,12 +15,11 @@ use nalgebra::IsometryMatrix3;
 use serde_json::Value;
 use vservo_protocol::{
     CameraImageHeader, CameraTwistMsg, CellModeMsg, DaemonStatusMsg, FeaturesMsg, GainsMsg, JointCommandMsg,
-    JointStateMsg, ObjectMsg, SimWorldMsg, TelemetryMsg, Topic,
+    JointStateMsg, ObjectMsg, SimWorldMsg, TelemetryMsg, Topic, WireField,
 };
 
 use crate::foxglove_view;
 use crate::instance::{Connection, InstanceArg};
-use crate::json_messages as json;
 
 /// A channel's schema and encoding.
 pub struct ChannelSpec<'a> {
@@ -53,9 +52,9 @@ pub struct Bridge<S: Sink> {
     pub written: u64,
     /// ξ_d, from the latest `gains`.
     desired_px: Option<[f64; 8]>,
-    arm: vservo_arm::SerialArm,
-    /// Where the camera sits on the hand, from the instance's configuration file (if it could be read).
-    tool_from_camera: Option<IsometryMatrix3<f64>>,
+    /// The arm configured and where the camera sits on its hand, from the instance's configuration file
+    /// (no arm is drawn when it could not be read: any other would be drawn wrongly).
+    drawing: Option<CellDrawing>,
     last_transforms_ns: u64,
     last_state_stamp_ns: u64,
     image_every: u64,
@@ -92,8 +91,9 @@ impl<S: Sink> Bridge<S> {
             sink,
             written: 0,
             desired_px: None,
-            arm: vservo_arm::puma560::puma560(),
-            tool_from_camera: tool_from_camera(instance),
+            drawing: cell_drawing(instance, &connection.instance)
+                .inspect_err(|why| eprintln!("vservoctl: the arm is not drawn: {why:#}"))
+                .ok(),
             last_transforms_ns: 0,
             last_state_stamp_ns: 0,
             image_every,
@@ -140,16 +140,16 @@ impl<S: Sink> Bridge<S> {
     /// and writes what arrived every 0.5 ms.
     pub fn run(&mut self, connection: &Connection, mut stop: impl FnMut() -> bool) -> anyhow::Result<()> {
         let mut taps: Vec<Box<dyn Tapped<S>>> = vec![
-            Tap::<JointStateMsg>::boxed(Topic::JointState, json::joint_state, |m| m.stamp_ns),
-            Tap::<JointCommandMsg>::boxed(Topic::JointCommand, json::joint_command, |m| m.stamp_ns),
-            Tap::<SimWorldMsg>::boxed(Topic::SimWorld, json::sim_world, |_| 0),
-            Tap::<FeaturesMsg>::boxed(Topic::Features, json::features, |m| m.stamp_ns),
-            Tap::<CameraTwistMsg>::boxed(Topic::CameraTwist, json::camera_twist, |m| m.stamp_ns),
-            Tap::<TelemetryMsg>::boxed(Topic::Telemetry, json::telemetry, |m| m.stamp_ns),
-            Tap::<DaemonStatusMsg>::boxed(Topic::Status, json::status, |m| m.stamp_ns),
-            Tap::<GainsMsg>::boxed(Topic::Gains, json::gains, |_| 0),
-            Tap::<ObjectMsg>::boxed(Topic::Object, json::object, |_| 0),
-            Tap::<CellModeMsg>::boxed(Topic::CellMode, json::cell_mode, |m| m.stamp_ns),
+            Tap::<JointStateMsg>::boxed(Topic::JointState, WireField::to_json, |m| m.stamp_ns),
+            Tap::<JointCommandMsg>::boxed(Topic::JointCommand, WireField::to_json, |m| m.stamp_ns),
+            Tap::<SimWorldMsg>::boxed(Topic::SimWorld, WireField::to_json, |_| 0),
+            Tap::<FeaturesMsg>::boxed(Topic::Features, WireField::to_json, |m| m.stamp_ns),
+            Tap::<CameraTwistMsg>::boxed(Topic::CameraTwist, WireField::to_json, |m| m.stamp_ns),
+            Tap::<TelemetryMsg>::boxed(Topic::Telemetry, WireField::to_json, |m| m.stamp_ns),
+            Tap::<DaemonStatusMsg>::boxed(Topic::Status, WireField::to_json, |m| m.stamp_ns),
+            Tap::<GainsMsg>::boxed(Topic::Gains, WireField::to_json, |_| 0),
+            Tap::<ObjectMsg>::boxed(Topic::Object, WireField::to_json, |_| 0),
+            Tap::<CellModeMsg>::boxed(Topic::CellMode, WireField::to_json, |m| m.stamp_ns),
         ];
         if self.image_every > 0 {
             taps.push(Box::new(ImageTap { subscriber: None, every: self.image_every }));
@@ -186,8 +186,8 @@ impl Viewed for JointStateMsg {
             return Ok(());
         }
         bridge.last_transforms_ns = self.stamp_ns;
-        let tool_from_camera = bridge.tool_from_camera.unwrap_or_else(IsometryMatrix3::identity);
-        let transforms = foxglove_view::arm_transforms(&bridge.arm, &tool_from_camera, self);
+        let Some(drawing) = &bridge.drawing else { return Ok(()) };
+        let transforms = foxglove_view::arm_transforms(&drawing.arm, &drawing.tool_from_camera, self);
         bridge.write_foxglove(foxglove_view::TRANSFORMS_TOPIC, &transforms, self.stamp_ns)
     }
 }
@@ -240,12 +240,28 @@ fn drain<T: Copy + std::fmt::Debug + ZeroCopySend + Viewed, S: Sink>(
 }
 
 /// The configuration's `tool_from_camera`, if the instance's configuration file can be read.
-fn tool_from_camera(instance: &InstanceArg) -> Option<IsometryMatrix3<f64>> {
-    let path = instance.config.clone().unwrap_or_else(|| PathBuf::from("config/vservo.toml"));
-    let text = std::fs::read_to_string(&path).ok()?;
-    let config = vservo_config::Config::from_toml(&text, &path.display().to_string()).ok()?;
-    (instance.instance.as_ref().is_none_or(|name| *name == config.instance))
-        .then_some(config.tool_from_camera)
+/// What drawing the cell needs from its configuration.
+struct CellDrawing {
+    /// The arm configured (`[robot.arm]`).
+    arm: vservo_arm::SerialArm,
+    /// Where the camera sits on its hand.
+    tool_from_camera: IsometryMatrix3<f64>,
+}
+
+/// The arm and camera mount of the instance: from the configuration its daemon runs, else from
+/// `--config` (else config/vservo.toml).
+fn cell_drawing(instance: &InstanceArg, name: &str) -> anyhow::Result<CellDrawing> {
+    let in_force = vservo_protocol::InstanceDir::locate(name).map(|dir| dir.configuration());
+    let path = match in_force {
+        Ok(path) if path.exists() => path,
+        _ => instance.config.clone().unwrap_or_else(|| PathBuf::from("config/vservo.toml")),
+    };
+    let text = std::fs::read_to_string(&path).with_context(|| format!("{}: reading it", path.display()))?;
+    let config = vservo_config::Config::from_toml(&text, &path.display().to_string())?;
+    if config.instance != name {
+        anyhow::bail!("{} configures instance \"{}\", not \"{name}\"", path.display(), config.instance);
+    }
+    Ok(CellDrawing { arm: config.arm, tool_from_camera: config.tool_from_camera })
 }
 
 /// One service: its subscriber once the service exists.

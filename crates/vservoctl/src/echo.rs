@@ -4,13 +4,12 @@ use std::time::{Duration, Instant};
 
 use clap::Args;
 use serde_json::Value;
-use vservo_protocol::Topic;
+use vservo_protocol::{
+    CameraTwistMsg, CellModeMsg, DaemonStatusMsg, FeaturesMsg, GainsMsg, JointCommandMsg, JointStateMsg,
+    ObjectMsg, SimWorldMsg, TelemetryMsg, Topic, WireField,
+};
 
 use crate::instance::{Connection, InstanceArg};
-use crate::json_messages::{
-    camera_twist, cell_mode, features, gains, joint_command, joint_state, object, sim_world, status,
-    telemetry,
-};
 use crate::output::print_stdout;
 
 /// Arguments of `vservoctl echo`.
@@ -47,15 +46,15 @@ fn when_there<S>(until: Option<Instant>, mut open: impl FnMut() -> anyhow::Resul
     }
 }
 
-fn echo<T: std::fmt::Debug + iceoryx2::prelude::ZeroCopySend + 'static>(
+/// Prints a topic's messages as their declaration's JSON view.
+fn echo<T: std::fmt::Debug + iceoryx2::prelude::ZeroCopySend + WireField + 'static>(
     connection: &Connection,
     topic: Topic,
     args: &EchoArgs,
-    render: fn(&T) -> Value,
 ) -> anyhow::Result<()> {
     let until = args.duration_s.map(|s| Instant::now() + Duration::from_secs_f64(s));
     let subscriber = when_there(until, || connection.subscriber::<T>(topic))?;
-    print_lines(args, until, || Ok(subscriber.receive()?.map(|sample| render(&sample))))
+    print_lines(args, until, || Ok(subscriber.receive()?.map(|sample| sample.to_json())))
 }
 
 /// Prints what `next` yields as JSON lines, polling every millisecond, until `--count` lines are out or
@@ -116,9 +115,12 @@ fn echo_images(connection: &Connection, args: &EchoArgs) -> anyhow::Result<()> {
         let h = sample.user_header();
         let pixels = sample.payload();
         let mean = pixels.iter().map(|&p| f64::from(p)).sum::<f64>() / pixels.len().max(1) as f64;
-        Ok(Some(serde_json::json!({"schema": h.schema, "format": h.format, "width": h.width,
-            "height": h.height, "stride_bytes": h.stride_bytes, "frame": h.frame,
-            "capture_stamp_ns": h.capture_stamp_ns, "bytes": pixels.len(), "mean_gray": mean})))
+        let mut line = h.to_json();
+        if let Value::Object(fields) = &mut line {
+            fields.insert("bytes".into(), pixels.len().into());
+            fields.insert("mean_gray".into(), mean.into());
+        }
+        Ok(Some(line))
     })
 }
 
@@ -132,15 +134,15 @@ pub fn run(args: &EchoArgs) -> anyhow::Result<()> {
         Service::CameraImage => return echo_images(&connection, args),
     };
     match topic {
-        Topic::JointState => echo(&connection, topic, args, joint_state),
-        Topic::JointCommand => echo(&connection, topic, args, joint_command),
-        Topic::SimWorld => echo(&connection, topic, args, sim_world),
-        Topic::Features => echo(&connection, topic, args, features),
-        Topic::CameraTwist => echo(&connection, topic, args, camera_twist),
-        Topic::Telemetry => echo(&connection, topic, args, telemetry),
-        Topic::Status => echo(&connection, topic, args, status),
-        Topic::Gains => echo(&connection, topic, args, gains),
-        Topic::Object => echo(&connection, topic, args, object),
-        Topic::CellMode => echo(&connection, topic, args, cell_mode),
+        Topic::JointState => echo::<JointStateMsg>(&connection, topic, args),
+        Topic::JointCommand => echo::<JointCommandMsg>(&connection, topic, args),
+        Topic::SimWorld => echo::<SimWorldMsg>(&connection, topic, args),
+        Topic::Features => echo::<FeaturesMsg>(&connection, topic, args),
+        Topic::CameraTwist => echo::<CameraTwistMsg>(&connection, topic, args),
+        Topic::Telemetry => echo::<TelemetryMsg>(&connection, topic, args),
+        Topic::Status => echo::<DaemonStatusMsg>(&connection, topic, args),
+        Topic::Gains => echo::<GainsMsg>(&connection, topic, args),
+        Topic::Object => echo::<ObjectMsg>(&connection, topic, args),
+        Topic::CellMode => echo::<CellModeMsg>(&connection, topic, args),
     }
 }

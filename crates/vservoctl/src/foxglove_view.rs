@@ -10,7 +10,8 @@ use foxglove::messages::{
     Quaternion, RawImage, TextAnnotation, Timestamp, Vector3,
 };
 use nalgebra::{IsometryMatrix3, UnitQuaternion};
-use vservo_protocol::{CameraImageHeader, FeaturesMsg, JointStateMsg, SimWorldMsg, mark_status};
+use vservo_protocol::MarkStatus;
+use vservo_protocol::{CameraImageHeader, FeaturesMsg, JointStateMsg, SimWorldMsg};
 
 /// Foxglove's topics of a recording.
 pub const IMAGE_TOPIC: &str = "/camera/image";
@@ -70,10 +71,7 @@ pub fn annotations(features: &FeaturesMsg, desired_px: Option<&[f64; 8]>) -> Ima
                 lines.extend([measured, desired]);
             }
         } else {
-            let why = match features.mark_status[mark] {
-                mark_status::OUTSIDE_IMAGE => "outside the image",
-                _ => "not found",
-            };
+            let why = MarkStatus::try_from(features.mark_status[mark]).map_or("unknown", MarkStatus::name);
             texts.push(TextAnnotation {
                 timestamp: stamp,
                 position: Some(desired.unwrap_or(Point2 { x: 10.0, y: 20.0 + 18.0 * mark as f64 })),
@@ -141,7 +139,9 @@ pub fn arm_transforms(
             transform(state.stamp_ns, "base", &format!("link{}", i + 1), base_from_link)
         })
         .collect();
-    transforms.push(transform(state.stamp_ns, "link6", CAMERA_FRAME, tool_from_camera));
+    // the camera rides on the last link, whatever the arm's number of joints
+    let hand = format!("link{}", frames.len());
+    transforms.push(transform(state.stamp_ns, &hand, CAMERA_FRAME, tool_from_camera));
     FrameTransforms { transforms }
 }
 
@@ -170,10 +170,10 @@ mod tests {
             stamp_ns: 12_400_000_000,
             features_px: [100.0, 110.0, 300.0, 120.0, 310.0, 330.0, 90.0, 320.0],
             mark_status: [
-                mark_status::VALID,
-                mark_status::VALID,
-                mark_status::OUTSIDE_IMAGE,
-                mark_status::VALID,
+                MarkStatus::Valid.code(),
+                MarkStatus::Valid.code(),
+                MarkStatus::OutsideImage.code(),
+                MarkStatus::Valid.code(),
             ],
             reserved: [0; 4],
             base_from_camera: [f64::NAN; 12],

@@ -13,7 +13,6 @@ mod foxglove_view;
 mod gains;
 mod instance;
 mod joint_args;
-mod json_messages;
 mod model;
 mod output;
 mod plot_recording;

@@ -4,8 +4,8 @@
 use std::time::{Duration, Instant};
 
 use clap::Args;
+use vservo_client::{StatusView, TimingUs};
 use vservo_protocol::{DaemonStatusMsg, NodeRole, SCHEMA_VERSION, TelemetryMsg, Topic};
-use vservo_runtime::status::{StatusView, TimingUs};
 
 use crate::instance::{Connection, InstanceArg, wait_for};
 use crate::output::print_stdout;

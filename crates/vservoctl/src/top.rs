@@ -11,10 +11,10 @@ use ratatui::layout::{Constraint, Layout};
 use ratatui::style::{Color, Modifier, Style};
 use ratatui::text::{Line, Span};
 use ratatui::widgets::{Block, Paragraph, Row, Sparkline, Table};
+use vservo_client::{StatusView, TimingUs};
 use vservo_protocol::{
-    CameraTwistMsg, DaemonStatusMsg, NodeRole, SCHEMA_VERSION, TelemetryMsg, Topic, verdict,
+    CameraTwistMsg, DaemonStatusMsg, NodeRole, SCHEMA_VERSION, TelemetryMsg, Topic, Verdict,
 };
-use vservo_runtime::status::{StatusView, TimingUs};
 
 use crate::instance::{Connection, InstanceArg, wait_for};
 
@@ -41,16 +41,7 @@ struct Gathered {
 }
 
 fn verdict_name(code: u32) -> &'static str {
-    match code {
-        verdict::WAITING => "waiting for a frame",
-        verdict::SERVOING => "servoing",
-        verdict::MARKS_MISSING => "marks missing",
-        verdict::STOPPING => "stopping",
-        verdict::SAFE_STOP => "held (safe stop)",
-        verdict::SERVOING_ON_THREE => "servoing on three marks",
-        verdict::REACQUIRING => "reacquiring the marks",
-        _ => "unknown",
-    }
+    Verdict::try_from(code).map_or("unknown", Verdict::name)
 }
 
 fn timing(t: Option<TimingUs>) -> String {

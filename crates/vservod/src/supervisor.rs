@@ -13,13 +13,13 @@ use iceoryx2::port::subscriber::Subscriber;
 use iceoryx2::prelude::ipc;
 use nix::sys::signal::{Signal, kill};
 use nix::unistd::Pid;
+use vservo_client::StatusView;
 use vservo_config::Config;
 use vservo_protocol::{
     CameraTwistMsg, DaemonStatusMsg, FeaturesMsg, JointCommandMsg, JointStateMsg, NodeRole, NodeStatusMsg,
     SCHEMA_VERSION, TelemetryMsg, Topic, daemon_state, node_state, robot_state,
 };
 use vservo_runtime::clock::{PeriodicTimer, monotonic_ns};
-use vservo_runtime::status::StatusView;
 
 use crate::commands::{Commander, LoopState};
 use crate::faults::{Conditions, FaultMonitor};
@@ -271,6 +271,8 @@ pub fn run(
     if let Some(reason) = &claim.renewed_because {
         tracing::warn!(instance, reason, "the instance's shared-memory prefix was replaced by a new one");
     }
+    // clients that find the instance by its name read its arm and camera from here
+    claim.write_configuration(&config_text)?;
     let launcher = Launcher {
         executable: std::env::current_exe().context("finding the vservod executable")?,
         config_path: config_path

@@ -5,7 +5,8 @@ use std::collections::BTreeMap;
 
 use serde::Serialize;
 use vservo_protocol::{
-    DaemonStatusMsg, NodeRole, TelemetryMsg, TimingMsg, daemon_state, fault, node_state, robot_state,
+    DaemonState, DaemonStatusMsg, Fault, NodeRole, NodeState, RobotState, TelemetryMsg, TimingMsg,
+    UnknownCode,
 };
 
 /// Percentiles in microseconds.
@@ -114,15 +115,9 @@ pub struct StatusView {
     pub overruns: BTreeMap<&'static str, u64>,
 }
 
-fn state_name(state: u32) -> &'static str {
-    match state {
-        daemon_state::STARTING => "starting",
-        daemon_state::RUNNING => "running",
-        daemon_state::DEGRADED => "degraded",
-        daemon_state::STOPPING => "stopping",
-        daemon_state::SAFE_STOP => "safe-stop",
-        _ => "unknown",
-    }
+/// The name of a code another process wrote: its enum's, or "unknown".
+fn name_of<E: TryFrom<u32, Error = UnknownCode>>(code: u32, name: fn(E) -> &'static str) -> &'static str {
+    E::try_from(code).map_or("unknown", name)
 }
 
 impl StatusView {
@@ -130,7 +125,8 @@ impl StatusView {
     pub fn new(instance: &str, daemon: &DaemonStatusMsg, telemetry: &[Option<TelemetryMsg>; 4]) -> Self {
         let mut nodes = BTreeMap::new();
         let mut overruns = BTreeMap::new();
-        let supervised_nodes = daemon.nodes.iter().filter(|n| n.state != node_state::NOT_STARTED).count();
+        let supervised_nodes =
+            daemon.nodes.iter().filter(|n| n.state != u32::from(NodeState::NotStarted)).count();
         for role in NodeRole::ALL {
             let status = &daemon.nodes[role as usize];
             let latest = telemetry[role as usize].as_ref();
@@ -138,14 +134,8 @@ impl StatusView {
                 latest.map(f).filter(|t| t.count > 0).map(TimingUs::from)
             };
             let view = NodeView {
-                state: match status.state {
-                    node_state::RUNNING => "running",
-                    node_state::BACKING_OFF => "backing off",
-                    node_state::STOPPED => "stopped",
-                    node_state::HUNG => "hung",
-                    _ => "not started",
-                },
-                running: status.state == node_state::RUNNING,
+                state: name_of(status.state, NodeState::name),
+                running: status.state == u32::from(NodeState::Running),
                 restarts: status.restarts,
                 healthy: status.healthy != 0,
                 pid: status.pid,
@@ -163,10 +153,10 @@ impl StatusView {
             overruns.insert(role.name(), view.overruns);
             nodes.insert(role.name(), view);
         }
-        let fault = (daemon.fault != fault::NONE).then(|| FaultView {
-            name: fault::name(daemon.fault),
+        let fault = (daemon.fault != u32::from(Fault::None)).then(|| FaultView {
+            name: name_of(daemon.fault, Fault::name),
             joints: (0..6).filter(|j| daemon.fault_joints & (1 << j) != 0).map(|j| j + 1).collect(),
-            active: daemon.state == daemon_state::SAFE_STOP,
+            active: daemon.state == u32::from(DaemonState::SafeStop),
             since_s: daemon.stamp_ns.saturating_sub(daemon.fault_since_ns) as f64 / 1e9,
             at_uptime_s: daemon
                 .uptime_ns
@@ -176,16 +166,12 @@ impl StatusView {
         });
         Self {
             instance: instance.to_string(),
-            state: state_name(daemon.state),
+            state: name_of(daemon.state, DaemonState::name),
             fault,
             safe_stops: daemon.safe_stops,
             uptime_s: daemon.uptime_ns as f64 / 1e9,
             daemon_pid: daemon.pid,
-            robot: match daemon.robot {
-                robot_state::RUNNING => "running",
-                robot_state::STALLED => "stalled",
-                _ => "waiting",
-            },
+            robot: name_of(daemon.robot, RobotState::name),
             nodes,
             supervised_nodes,
             tick_rate_hz: daemon.tick_rate_hz,
@@ -229,5 +215,31 @@ impl StatusView {
             self.overruns.values().sum::<u64>(),
             self.gains_version
         )
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_view_names_the_codes_and_says_unknown_for_a_number_it_does_not_know() {
+        let mut daemon = DaemonStatusMsg {
+            state: DaemonState::SafeStop.into(),
+            robot: RobotState::Stalled.into(),
+            fault: Fault::RobotStalled.into(),
+            fault_joints: 0b100,
+            ..DaemonStatusMsg::default()
+        };
+        daemon.nodes[NodeRole::Rmrc as usize].state = NodeState::BackingOff.into();
+        let view = StatusView::new("cell", &daemon, &[None; 4]);
+        assert_eq!((view.state, view.robot), ("safe-stop", "stalled"));
+        assert_eq!(view.nodes["rmrc"].state, "backing off");
+        assert_eq!(view.nodes["plant"].state, "not started");
+        assert_eq!(view.supervised_nodes, 1);
+        let fault = view.fault.expect("a fault");
+        assert_eq!((fault.name, fault.joints, fault.active), ("robot_stalled", vec![3], true));
+        daemon.state = 99;
+        assert_eq!(StatusView::new("cell", &daemon, &[None; 4]).state, "unknown");
     }
 }

@@ -1,0 +1,42 @@
+"""Prints, as one JSON object, the layout of every ctypes structure the Python clients declare
+(clients/python/vservo_client.py and mujoco_driver.py) and the codes they name, so that a test can check them
+against the Rust declarations they must match. Usage: dump_layouts.py CLIENTS_DIR"""
+
+import ctypes
+import json
+import os
+import sys
+
+sys.path.insert(0, sys.argv[1])
+os.environ.setdefault("MUJOCO_GL", "egl")
+
+import mujoco_driver  # noqa: E402
+import vservo_client  # noqa: E402
+
+
+def layout(structure):
+    fields = []
+    for name, _ in structure._fields_:
+        descriptor = getattr(structure, name)
+        fields.append([name, descriptor.offset, descriptor.size])
+    return {"size": ctypes.sizeof(structure), "fields": fields}
+
+
+structures = {}
+for module in (vservo_client, mujoco_driver):
+    for value in vars(module).values():
+        if isinstance(value, type) and issubclass(value, ctypes.Structure) and not value.__name__.startswith("_"):
+            structures[f"vservo::{value.__name__}"] = layout(value)
+
+codes = {
+    "schema": [vservo_client.SCHEMA_VERSION, mujoco_driver.SCHEMA],
+    "daemon_state": vservo_client.STATES,
+    "fault": vservo_client.FAULTS,
+    "command_kind": {name: getattr(vservo_client, name) for name in
+                     ["TARGET_FEATURES", "TARGET_POSE", "TARGET_TEACH", "OBJECT_HOLD", "OBJECT_STEP",
+                      "OBJECT_CIRCLE", "RELOAD", "RESUME", "SAFE_STOP"]},
+    "command_mode": {"TORQUE": mujoco_driver.TORQUE, "VELOCITY": mujoco_driver.VELOCITY,
+                     "POSITION": mujoco_driver.POSITION},
+    "driver_status": {"FOLLOWING": mujoco_driver.FOLLOWING, "HOLDING": mujoco_driver.HOLDING},
+}
+print(json.dumps({"structures": structures, "codes": codes}))

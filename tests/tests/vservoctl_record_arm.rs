@@ -1,0 +1,148 @@
+//! The arm drawn is the arm configured: a recording of a cell with a custom DH arm (a UR5's published table,
+//! driven by an external velocity driver of the test's own) shows that arm's links, checked with numpy
+//! against the DH table's forward kinematics.
+
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::{Duration, Instant};
+
+use vservo_protocol::{CommandMode, JointStateMsg, Topic};
+use vservo_system_tests::{
+    Daemon, binary, config_from, exclusive, repository_root, status, unique, wait_until,
+};
+
+/// A UR5's standard-DH table: [a (m), α (rad), d (m), θ offset (rad)] per joint.
+const UR5_DH: [[f64; 4]; 6] = [
+    [0.0, std::f64::consts::FRAC_PI_2, 0.089159, 0.0],
+    [-0.425, 0.0, 0.0, 0.0],
+    [-0.39225, 0.0, 0.0, 0.0],
+    [0.0, std::f64::consts::FRAC_PI_2, 0.10915, 0.0],
+    [0.0, -std::f64::consts::FRAC_PI_2, 0.09465, 0.0],
+    [0.0, 0.0, 0.0823, 0.0],
+];
+const START_RAD: [f64; 6] = [0.0, -1.2, 1.5, -0.3, 1.57, 0.0];
+
+/// A robot driver that ignores commands and sweeps the joints slowly around the start (1 kHz).
+struct SweepingDriver {
+    stop: Arc<AtomicBool>,
+    thread: Option<std::thread::JoinHandle<()>>,
+}
+
+impl SweepingDriver {
+    fn start(instance: &str) -> Self {
+        let stop = Arc::new(AtomicBool::new(false));
+        let stopped = stop.clone();
+        let instance = instance.to_string();
+        let thread = std::thread::spawn(move || {
+            let dir = vservo_protocol::InstanceDir::locate_waiting(&instance, Duration::from_secs(10))
+                .expect("the instance");
+            let node = vservo_protocol::create_node_in(&dir, "sweeping-driver").expect("a node");
+            let states = vservo_protocol::publisher::<JointStateMsg>(&node, &instance, Topic::JointState)
+                .expect("joint_state");
+            let notifier = vservo_protocol::notifier(&node, &instance, Topic::JointState).expect("event");
+            let started = Instant::now();
+            let mut tick = 0u64;
+            while !stopped.load(Ordering::Relaxed) {
+                tick += 1;
+                std::thread::sleep(
+                    (started + Duration::from_millis(tick)).saturating_duration_since(Instant::now()),
+                );
+                let t = started.elapsed().as_secs_f64();
+                let q_rad = std::array::from_fn(|j| START_RAD[j] + 0.2 * (t + j as f64).sin());
+                let _ = states.send_copy(JointStateMsg {
+                    tick,
+                    stamp_ns: vservo_runtime::clock::monotonic_ns(),
+                    driver_epoch: u64::from(std::process::id()),
+                    period_ns: 1_000_000,
+                    command_mode: CommandMode::Velocity.into(),
+                    q_rad,
+                    torque_nm: [f64::NAN; 6],
+                    ..JointStateMsg::default()
+                });
+                let _ = notifier.notify();
+            }
+        });
+        Self { stop, thread: Some(thread) }
+    }
+}
+
+impl Drop for SweepingDriver {
+    fn drop(&mut self) {
+        self.stop.store(true, Ordering::Relaxed);
+        if let Some(thread) = self.thread.take() {
+            let _ = thread.join();
+        }
+    }
+}
+
+#[test]
+fn a_recording_of_a_custom_dh_arm_draws_that_arm() {
+    let _one = exclusive();
+    let instance = unique("record-arm");
+    let dh = serde_json::to_string(&UR5_DH).expect("JSON");
+    let custom_arm = format!(
+        "preset = \"custom\"\ndh = {dh}\n\
+         joint_limits_rad = [[-6.28, 6.28], [-6.28, 6.28], [-3.1, 3.1], [-6.28, 6.28], [-6.28, 6.28], [-6.28, 6.28]]\n\
+         velocity_limits_rad_s = [3.0, 3.0, 3.0, 3.0, 3.0, 3.2]"
+    );
+    let start = format!("joints_rad = {}", serde_json::to_string(&START_RAD).expect("JSON"));
+    let config = config_from(
+        "config/vservo.toml",
+        &[
+            ("name = \"default\"", &format!("name = \"{instance}\"")),
+            ("source = \"simulated\"", "source = \"external\""),
+            ("driver = \"simulated\"", "driver = \"external\"\ncommand = \"velocity\""),
+            ("preset = \"puma560\"", &custom_arm),
+            (
+                "joints_rad = [0.0, 0.7853981633974483, -3.141592653589793, 0.0, 0.7853981633974483, 0.0]",
+                &start,
+            ),
+        ],
+    );
+    let daemon = Daemon::start(&config);
+    let _driver = SweepingDriver::start(&instance);
+    assert!(
+        wait_until(Duration::from_secs(10), || status(&instance).is_some_and(|s| s["robot"] == "running")),
+        "{:?}\n{}",
+        status(&instance),
+        daemon.log()
+    );
+    // found by its name only: the recorder reads the arm from the configuration the daemon runs
+    let file = config.path.with_extension("mcap");
+    let recorded = std::process::Command::new(binary("vservoctl"))
+        .args([
+            "record",
+            "--out",
+            &file.display().to_string(),
+            "--duration-s",
+            "1.5",
+            "--instance",
+            &instance,
+        ])
+        .output()
+        .expect("vservoctl record runs");
+    assert!(recorded.status.success(), "{}", String::from_utf8_lossy(&recorded.stderr));
+    daemon.stop();
+
+    let check = |dh: &str| {
+        std::process::Command::new(repository_root().join("target/python-venv/bin/python"))
+            .arg(repository_root().join("tests/python/check_arm_drawing.py"))
+            .arg(&file)
+            .arg(&instance)
+            .arg(dh)
+            .output()
+            .expect("python runs")
+    };
+    let checked = check(&dh);
+    // the check tells arms apart: the same recording is not a UR5 whose shoulder sits 1 cm higher
+    let mut other = UR5_DH;
+    other[0][2] += 0.01;
+    let refused = check(&serde_json::to_string(&other).expect("JSON"));
+    let _ = std::fs::remove_file(&file);
+    assert!(checked.status.success(), "{}", String::from_utf8_lossy(&checked.stderr));
+    assert!(!refused.status.success(), "another arm's table passed the check");
+    let figures: serde_json::Value = serde_json::from_slice(&checked.stdout).expect("JSON figures");
+    eprintln!("arm drawing: {figures}");
+    assert!(figures["transforms_checked"].as_u64() >= Some(20), "{figures}");
+    assert_eq!(figures["camera_on"], serde_json::json!(["link6"]), "{figures}");
+}
