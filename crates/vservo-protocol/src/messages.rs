@@ -291,7 +291,8 @@ wire_message! {
         skipped_periods: u64,
         /// plant: ticks whose rmrc answer came late (previous command held)
         late_answers: u64,
-        /// input messages refused (schema, epoch, tick, not finite)
+        /// input messages refused (schema, epoch, tick, not finite; the vision node counts its images and the
+        /// joint states it reads for the camera's pose)
         rejected_messages: u64,
         /// servo: gains version in use; else 0
         gains_version: u64,
