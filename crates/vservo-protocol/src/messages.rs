@@ -62,6 +62,13 @@ pub mod fault_bits {
     pub const TORQUE_SATURATED_SHIFT: u32 = 16;
     /// The driver failed (the simulated plant: its integration failed; the state was kept, stopped).
     pub const DRIVER_FAILED: u32 = 1 << 24;
+    /// The per-joint bits of one kind, before their shift.
+    pub const JOINT_MASK: u32 = (1 << super::JOINTS) - 1;
+
+    /// The joints (bit j: joint j + 1) whose bit of the kind at `shift` is set in `faults`.
+    pub fn joints(faults: u32, shift: u32) -> u32 {
+        (faults >> shift) & JOINT_MASK
+    }
 }
 
 wire_message! {

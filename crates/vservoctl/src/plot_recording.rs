@@ -10,6 +10,7 @@ use serde_json::Value;
 use vservo_arm::JointVector;
 use vservo_control::Twist;
 use vservo_lockstep::{FrameRecord, JointRecord, Trace};
+use vservo_protocol::fault_bits;
 use vservo_scene::FeatureVector;
 use vservo_sim::plant::Faults;
 
@@ -125,10 +126,11 @@ pub fn trace_of(bytes: &[u8], config: &vservo_config::Config) -> anyhow::Result<
         })
         .collect();
     for (.., bits) in states.values() {
-        faults.position_limit |= (bits & 0x3f) as u8;
-        faults.velocity_limit |= ((bits >> 8) & 0x3f) as u8;
-        faults.torque_saturated |= ((bits >> 16) & 0x3f) as u8;
-        faults.integration_failed |= bits & (1 << 24) != 0;
+        let joints = |shift| fault_bits::joints(*bits, shift) as u8;
+        faults.position_limit |= joints(fault_bits::POSITION_LIMIT_SHIFT);
+        faults.velocity_limit |= joints(fault_bits::VELOCITY_LIMIT_SHIFT);
+        faults.torque_saturated |= joints(fault_bits::TORQUE_SATURATED_SHIFT);
+        faults.integration_failed |= bits & fault_bits::DRIVER_FAILED != 0;
     }
     Ok(Trace { frames, joints, faults, desired_features: desired })
 }
