@@ -234,8 +234,8 @@ impl Client {
             while let Some(sample) =
                 subscriber.receive().map_err(|e| transport("reading the status")(e.to_string()))?
             {
-                if sample.schema == SCHEMA_VERSION {
-                    latest = Some(*sample);
+                if let Ok(status) = vservo_protocol::inbox::accept(*sample) {
+                    latest = Some(status);
                 }
             }
             if let Some(status) = latest {

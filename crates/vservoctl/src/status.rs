@@ -5,7 +5,7 @@ use std::time::{Duration, Instant};
 
 use clap::Args;
 use vservo_client::{StatusView, TimingUs};
-use vservo_protocol::{DaemonStatusMsg, NodeRole, SCHEMA_VERSION, TelemetryMsg, Topic};
+use vservo_protocol::{DaemonStatusMsg, NodeRole, TakeMessages, TelemetryMsg, Topic};
 
 use crate::instance::{Connection, InstanceArg, wait_for};
 use crate::output::print_stdout;
@@ -43,15 +43,7 @@ pub fn run(args: &StatusArgs) -> anyhow::Result<()> {
         }
     };
     let telemetry = connection.subscriber::<TelemetryMsg>(Topic::Telemetry).map_err(|_| no_daemon())?;
-    let latest = wait_for(timeout.saturating_sub(started.elapsed()), || {
-        let mut latest = None;
-        while let Ok(Some(sample)) = status.receive() {
-            if sample.schema == SCHEMA_VERSION {
-                latest = Some(*sample);
-            }
-        }
-        latest
-    });
+    let latest = wait_for(timeout.saturating_sub(started.elapsed()), || status.newest_message(&mut 0));
     let Some(daemon) = latest else {
         return Err(no_daemon());
     };
@@ -59,15 +51,13 @@ pub fn run(args: &StatusArgs) -> anyhow::Result<()> {
     let mut nodes: [Option<TelemetryMsg>; 4] = [None; 4];
     let until = Instant::now() + Duration::from_millis(250);
     while Instant::now() < until && nodes.iter().any(Option::is_none) {
-        while let Ok(Some(sample)) = telemetry.receive() {
-            let role = NodeRole::from_index(sample.node).filter(|_| sample.schema == SCHEMA_VERSION);
-            let running_pid = role.map(|r| daemon.nodes[r as usize].pid);
-            if let Some(role) = role
-                && running_pid == Some(sample.pid)
+        telemetry.each_message(|sample| {
+            if let Some(role) = NodeRole::from_index(sample.node)
+                && daemon.nodes[role as usize].pid == sample.pid
             {
-                nodes[role as usize] = Some(*sample);
+                nodes[role as usize] = Some(sample);
             }
-        }
+        });
         std::thread::sleep(Duration::from_millis(5));
     }
     let view = StatusView::new(&connection.instance, &daemon, &nodes);

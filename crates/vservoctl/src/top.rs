@@ -13,7 +13,7 @@ use ratatui::text::{Line, Span};
 use ratatui::widgets::{Block, Paragraph, Row, Sparkline, Table};
 use vservo_client::{StatusView, TimingUs};
 use vservo_protocol::{
-    CameraTwistMsg, DaemonStatusMsg, NodeRole, SCHEMA_VERSION, TelemetryMsg, Topic, Verdict,
+    CameraTwistMsg, DaemonStatusMsg, NodeRole, TakeMessages, TelemetryMsg, Topic, Verdict,
 };
 
 use crate::instance::{Connection, InstanceArg, wait_for};
@@ -175,16 +175,7 @@ pub fn run(args: &TopArgs) -> anyhow::Result<()> {
             .ok_or_else(no_daemon)?;
     let telemetry = connection.subscriber::<TelemetryMsg>(Topic::Telemetry)?;
     let twists = connection.subscriber::<CameraTwistMsg>(Topic::CameraTwist)?;
-    let first = wait_for(Duration::from_secs(2), || {
-        let mut latest = None;
-        while let Ok(Some(sample)) = status.receive() {
-            if sample.schema == SCHEMA_VERSION {
-                latest = Some(*sample);
-            }
-        }
-        latest
-    })
-    .ok_or_else(no_daemon)?;
+    let first = wait_for(Duration::from_secs(2), || status.newest_message(&mut 0)).ok_or_else(no_daemon)?;
     let mut gathered = Gathered {
         daemon: first,
         telemetry: [None; 4],
@@ -197,28 +188,23 @@ pub fn run(args: &TopArgs) -> anyhow::Result<()> {
     let outcome = (|| -> anyhow::Result<()> {
         let mut refreshes = 0u64;
         loop {
-            while let Ok(Some(sample)) = status.receive() {
-                if sample.schema == SCHEMA_VERSION {
-                    gathered.daemon = *sample;
-                }
+            if let Some(daemon) = status.newest_message(&mut 0) {
+                gathered.daemon = daemon;
             }
-            while let Ok(Some(sample)) = telemetry.receive() {
-                if let Some(role) =
-                    NodeRole::from_index(sample.node).filter(|_| sample.schema == SCHEMA_VERSION)
+            telemetry.each_message(|sample| {
+                if let Some(role) = NodeRole::from_index(sample.node)
                     && gathered.daemon.nodes[role as usize].pid == sample.pid
                 {
-                    gathered.telemetry[role as usize] = Some(*sample);
+                    gathered.telemetry[role as usize] = Some(sample);
                 }
-            }
-            while let Ok(Some(sample)) = twists.receive() {
-                if sample.schema == SCHEMA_VERSION {
-                    if gathered.errors_px.len() == HISTORY {
-                        gathered.errors_px.pop_front();
-                    }
-                    gathered.errors_px.push_back(sample.feature_error_px);
-                    gathered.twist = Some(*sample);
+            });
+            twists.each_message(|sample| {
+                if gathered.errors_px.len() == HISTORY {
+                    gathered.errors_px.pop_front();
                 }
-            }
+                gathered.errors_px.push_back(sample.feature_error_px);
+                gathered.twist = Some(sample);
+            });
             refreshes += 1;
             let view = StatusView::new(&connection.instance, &gathered.daemon, &gathered.telemetry);
             terminal.draw(|frame| draw(frame, &gathered, &view, refreshes))?;
