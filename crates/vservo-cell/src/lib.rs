@@ -15,6 +15,7 @@
 mod plant_stage;
 mod rmrc_stage;
 mod servo_stage;
+pub mod target;
 mod vision_stage;
 
 pub use plant_stage::PlantStage;
