@@ -8,7 +8,40 @@ use iceoryx2::prelude::{Node, ipc};
 use vservo_protocol::{CellModeMsg, DaemonStatusMsg, SCHEMA_VERSION, Topic, cell_mode, fault};
 use vservo_runtime::clock::monotonic_ns;
 
-use crate::faults::{Conditions, Decision, Fault, FaultMonitor};
+use crate::faults::{
+    AlreadyHeld, Conditions, Decision, FaultCode, FaultMonitor, LatchedFault, ResumeRefused,
+};
+
+/// A resume carried out.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Resumed {
+    /// How: "on command", or automatically and why.
+    pub how: String,
+    /// The fault it ended.
+    pub fault: FaultCode,
+    /// How long the cell was held (s).
+    pub held_s: f64,
+}
+
+impl std::fmt::Display for Resumed {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "resumed {} after {} (held {:.1} s)", self.how, fault::name(self.fault), self.held_s)
+    }
+}
+
+/// Why a client's safe stop or resume is refused.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum SafetyRefused {
+    /// The resume is refused.
+    #[error(transparent)]
+    Resume(#[from] ResumeRefused),
+    /// The cell is held already.
+    #[error(transparent)]
+    AlreadyHeld(#[from] AlreadyHeld),
+    /// The nodes could not be told.
+    #[error("publishing the cell mode: {0}")]
+    Publish(String),
+}
 
 /// The monitor and the `cell_mode` publisher.
 pub struct Safety {
@@ -47,7 +80,7 @@ impl Safety {
         self.monitor.latched().is_some()
     }
 
-    fn publish(&mut self, mode: u32, fault: Option<&Fault>) -> anyhow::Result<()> {
+    fn publish(&mut self, mode: u32, fault: Option<&LatchedFault>) -> anyhow::Result<()> {
         let mut message = CellModeMsg {
             schema: SCHEMA_VERSION,
             mode,
@@ -64,11 +97,11 @@ impl Safety {
         Ok(())
     }
 
-    fn enter(&mut self, fault: &Fault, how: &str) {
+    fn enter(&mut self, fault: &LatchedFault, how: &str) {
         tracing::error!(
             fault = fault::name(fault.code),
             "safe stop ({how}): {}; the arm is brought to rest and held; `vservoctl resume` servos again once the cause is gone",
-            fault.detail
+            fault.cause
         );
         if let Err(e) = self.publish(cell_mode::SAFE_STOP, Some(fault)) {
             // the nodes cannot hear it: the rmrc is out of reach, which the supervisor sees as unhealthy
@@ -76,12 +109,12 @@ impl Safety {
         }
     }
 
-    fn leave(&mut self, fault: &Fault, how: &str) -> Result<String, String> {
-        self.publish(cell_mode::SERVOING, None).map_err(|e| format!("publishing the resume: {e}"))?;
+    fn leave(&mut self, fault: &LatchedFault, how: &str) -> Result<Resumed, SafetyRefused> {
+        self.publish(cell_mode::SERVOING, None).map_err(|e| SafetyRefused::Publish(e.to_string()))?;
         let held_s = monotonic_ns().saturating_sub(fault.since_ns) as f64 / 1e9;
-        let what = format!("resumed {how} after {} (held {held_s:.1} s)", fault::name(fault.code));
-        tracing::warn!("{what}");
-        Ok(what)
+        let resumed = Resumed { how: how.to_string(), fault: fault.code, held_s };
+        tracing::warn!("{resumed}");
+        Ok(resumed)
     }
 
     /// One supervisor cycle: hands subscribers that came since (a restarted node) the mode in force, and
@@ -103,16 +136,16 @@ impl Safety {
     }
 
     /// A client's `resume`.
-    pub fn resume(&mut self, conditions: &Conditions) -> Result<String, String> {
+    pub fn resume(&mut self, conditions: &Conditions) -> Result<Resumed, SafetyRefused> {
         let fault = self.monitor.resume(conditions)?;
         self.leave(&fault, "on command")
     }
 
     /// A client's `safe-stop`.
-    pub fn request_safe_stop(&mut self) -> Result<String, String> {
+    pub fn request_safe_stop(&mut self) -> Result<(), SafetyRefused> {
         let fault = self.monitor.request_safe_stop(monotonic_ns())?;
         self.enter(&fault, "on command");
-        Ok("safe stop: the arm is brought to rest and held; `vservoctl resume` servos again".into())
+        Ok(())
     }
 
     /// The fault fields of the status.
