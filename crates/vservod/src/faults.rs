@@ -12,13 +12,8 @@
 
 use vservo_config::{Faults, ResumePolicy};
 use vservo_protocol::{
-    CameraTwistMsg, FeaturesMsg, JointStateMsg, driver_status, fault, fault_bits, robot_state, verdict,
+    CameraTwistMsg, DriverStatus, Fault, FeaturesMsg, JointStateMsg, RobotState, Verdict, fault_bits,
 };
-
-/// A fault code ([`fault`]).
-pub type FaultCode = u32;
-/// A robot driver's state ([`robot_state`]).
-pub type RobotState = u32;
 
 /// Six bits, one per joint.
 const JOINT_BITS: u32 = 0x3f;
@@ -31,7 +26,7 @@ const FRESH_FEATURES_NS: u64 = 1_000_000_000;
 #[derive(Debug, Clone, PartialEq)]
 pub struct LatchedFault {
     /// Which fault.
-    pub code: FaultCode,
+    pub code: Fault,
     /// The joints it concerns (bit j: joint j + 1).
     pub joints: u32,
     /// CLOCK_MONOTONIC (ns) when it was found.
@@ -75,16 +70,16 @@ pub enum Cause {
 
 impl Cause {
     /// The fault this cause is, if it is one.
-    pub fn fault(self) -> Option<FaultCode> {
+    pub fn fault(self) -> Option<Fault> {
         match self {
             Cause::MotionNodesDown | Cause::RobotWaiting => None,
-            Cause::PositionLimit(_) => Some(fault::POSITION_LIMIT),
-            Cause::VelocityLimit(_) => Some(fault::VELOCITY_LIMIT),
-            Cause::DriverFault => Some(fault::DRIVER_FAULT),
-            Cause::RobotStalled => Some(fault::ROBOT_STALLED),
-            Cause::TorqueSaturated(_) => Some(fault::TORQUE_SATURATED),
-            Cause::MarksMissing(_) => Some(fault::TARGET_LOST),
-            Cause::Requested => Some(fault::REQUESTED),
+            Cause::PositionLimit(_) => Some(Fault::PositionLimit),
+            Cause::VelocityLimit(_) => Some(Fault::VelocityLimit),
+            Cause::DriverFault => Some(Fault::DriverFault),
+            Cause::RobotStalled => Some(Fault::RobotStalled),
+            Cause::TorqueSaturated(_) => Some(Fault::TorqueSaturated),
+            Cause::MarksMissing(_) => Some(Fault::TargetLost),
+            Cause::Requested => Some(Fault::Requested),
         }
     }
 
@@ -103,7 +98,7 @@ impl Cause {
 /// stand now (what keeps the cell from resuming).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Evidence {
-    /// [`fault_bits`] of the joint states.
+    /// `fault_bits` of the joint states.
     pub fault_bits: u32,
     /// A joint state's driver status said FAULT.
     pub driver_fault: bool,
@@ -123,11 +118,11 @@ pub type Condition = fn(&Evidence) -> Option<Cause>;
 /// Every condition, in the order a fault is chosen when several are found at once.
 pub const CONDITIONS: [Condition; 8] = [
     |e| (!e.motion_nodes_healthy).then_some(Cause::MotionNodesDown),
-    |e| (e.robot == robot_state::WAITING).then_some(Cause::RobotWaiting),
+    |e| (e.robot == RobotState::Waiting).then_some(Cause::RobotWaiting),
     |e| nonzero(joints_of(e.fault_bits, fault_bits::POSITION_LIMIT_SHIFT)).map(Cause::PositionLimit),
     |e| nonzero(joints_of(e.fault_bits, fault_bits::VELOCITY_LIMIT_SHIFT)).map(Cause::VelocityLimit),
     |e| (e.driver_fault || e.fault_bits & fault_bits::DRIVER_FAILED != 0).then_some(Cause::DriverFault),
-    |e| (e.robot == robot_state::STALLED).then_some(Cause::RobotStalled),
+    |e| (e.robot == RobotState::Stalled).then_some(Cause::RobotStalled),
     |e| nonzero(e.saturated_joints).map(Cause::TorqueSaturated),
     |e| nonzero(e.missing_marks).map(Cause::MarksMissing),
 ];
@@ -149,7 +144,7 @@ impl Evidence {
 pub struct Conditions {
     /// CLOCK_MONOTONIC now (ns).
     pub now_ns: u64,
-    /// [`robot_state`].
+    /// The robot driver's state.
     pub robot: RobotState,
     /// An external robot driver (its stall is a fault; the simulated plant's is a node restart).
     pub external_robot: bool,
@@ -175,10 +170,10 @@ pub enum ResumeRefused {
     #[error("the cell is not in a safe stop")]
     NotHeld,
     /// Causes are still present.
-    #[error("cannot resume after {}: {}", fault::name(*fault), cause_list(causes))]
+    #[error("cannot resume after {fault}: {}", cause_list(causes))]
     CausesLeft {
         /// The latched fault.
-        fault: FaultCode,
+        fault: Fault,
         /// Every cause still present.
         causes: Vec<Cause>,
     },
@@ -186,8 +181,8 @@ pub enum ResumeRefused {
 
 /// Why a client's safe stop is refused: the cell is held already.
 #[derive(Debug, Clone, Copy, PartialEq, thiserror::Error)]
-#[error("the cell is already in a safe stop ({})", fault::name(*.0))]
-pub struct AlreadyHeld(pub FaultCode);
+#[error("the cell is already in a safe stop ({0})")]
+pub struct AlreadyHeld(pub Fault);
 
 /// A run of joint states or twists that shows a condition: when it began and the latest stamp (ns), and
 /// the joints or marks concerned.
@@ -270,7 +265,7 @@ impl FaultMonitor {
     /// Takes one joint state (every one the supervisor drains, in order).
     pub fn on_joint_state(&mut self, state: &JointStateMsg) {
         self.seen_bits |= state.faults;
-        self.driver_fault_seen |= state.driver_status == driver_status::FAULT;
+        self.driver_fault_seen |= DriverStatus::try_from(state.driver_status) == Ok(DriverStatus::Fault);
         let saturated = joints_of(state.faults, fault_bits::TORQUE_SATURATED_SHIFT);
         self.saturated = match (self.saturated, saturated) {
             (_, 0) => None,
@@ -282,16 +277,18 @@ impl FaultMonitor {
 
     /// Takes one twist of the servo.
     pub fn on_twist(&mut self, twist: &CameraTwistMsg) {
-        // servoing on three marks is servoing; reacquiring is not: the target is lost until it is back
-        let lost = matches!(twist.verdict, verdict::MARKS_MISSING | verdict::REACQUIRING);
+        // servoing on three marks is servoing; reacquiring is not: the target is lost until it is back; a
+        // verdict that is none ends a run like any twist that servos
+        let verdict = Verdict::try_from(twist.verdict).ok();
+        let lost = matches!(verdict, Some(Verdict::MarksMissing | Verdict::Reacquiring));
         let stamp_ns = twist.stamp_ns;
-        self.missing = match (self.missing, twist.verdict) {
+        self.missing = match (self.missing, verdict) {
             (Some(run), _) if lost => Some(Run { last_ns: stamp_ns, bits: twist.missing_mask, ..run }),
             (None, _) if lost => {
                 Some(Run { first_ns: stamp_ns, last_ns: stamp_ns, bits: twist.missing_mask })
             }
             // held in a safe stop, the servo does not look at the marks: the run goes on
-            (run, verdict::SAFE_STOP) => run,
+            (run, Some(Verdict::SafeStop)) => run,
             _ => None,
         };
     }
@@ -323,7 +320,7 @@ impl FaultMonitor {
             fault_bits: self.seen_bits,
             driver_fault: self.driver_fault_seen,
             // the simulated plant's stall is a node restart, not a fault
-            robot: if c.external_robot { c.robot } else { robot_state::RUNNING },
+            robot: if c.external_robot { c.robot } else { RobotState::Running },
             saturated_joints: Run::lasting(self.saturated, self.settings.saturation_s),
             missing_marks: Run::lasting(self.missing, self.settings.target_lost_s),
             motion_nodes_healthy: c.motion_nodes_healthy,
@@ -335,14 +332,15 @@ impl FaultMonitor {
     fn standing_now(&self, c: &Conditions) -> Evidence {
         let state = self.latest_state.as_ref();
         let bits = state.map_or(0, |s| s.faults);
-        let lost_target = self.latched.as_ref().is_some_and(|f| f.code == fault::TARGET_LOST);
+        let lost_target = self.latched.as_ref().is_some_and(|f| f.code == Fault::TargetLost);
         let fresh_marks = self
             .marks_seen
             .filter(|(_, at)| c.now_ns.saturating_sub(*at) < FRESH_FEATURES_NS)
             .map_or(0, |(marks, _)| marks);
         Evidence {
             fault_bits: bits,
-            driver_fault: state.is_some_and(|s| s.driver_status == driver_status::FAULT),
+            driver_fault: state
+                .is_some_and(|s| DriverStatus::try_from(s.driver_status) == Ok(DriverStatus::Fault)),
             robot: c.robot,
             saturated_joints: joints_of(bits, fault_bits::TORQUE_SATURATED_SHIFT),
             missing_marks: if lost_target { !fresh_marks & ALL_MARKS } else { 0 },
@@ -386,7 +384,7 @@ impl FaultMonitor {
     /// Latches the fault `cause` is (a cause that is none latches nothing and is never passed).
     fn latch(&mut self, cause: Cause, now_ns: u64) -> LatchedFault {
         let fault = LatchedFault {
-            code: cause.fault().unwrap_or(fault::REQUESTED),
+            code: cause.fault().unwrap_or(Fault::Requested),
             joints: cause.joints(),
             since_ns: now_ns,
             cause,
@@ -425,7 +423,7 @@ impl FaultMonitor {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use vservo_protocol::{SCHEMA_VERSION, command_mode};
+    use vservo_protocol::{CommandMode, SCHEMA_VERSION};
 
     const MS: u64 = 1_000_000;
 
@@ -441,8 +439,8 @@ mod tests {
             stamp_ns,
             driver_epoch: 1,
             period_ns: MS,
-            command_mode: command_mode::TORQUE,
-            driver_status: driver_status::FOLLOWING,
+            command_mode: CommandMode::Torque.into(),
+            driver_status: DriverStatus::Following.into(),
             q_rad: [0.0; 6],
             qd_rad_s: [0.0; 6],
             torque_nm: [0.0; 6],
@@ -450,10 +448,10 @@ mod tests {
         }
     }
 
-    fn twist(stamp_ns: u64, verdict_code: u32, missing_mask: u32) -> CameraTwistMsg {
+    fn twist(stamp_ns: u64, verdict: Verdict, missing_mask: u32) -> CameraTwistMsg {
         CameraTwistMsg {
             schema: SCHEMA_VERSION,
-            verdict: verdict_code,
+            verdict: verdict.into(),
             frame: 0,
             capture_tick: 0,
             gains_version: 1,
@@ -466,7 +464,7 @@ mod tests {
     }
 
     fn running(now_ns: u64) -> Conditions {
-        Conditions { now_ns, robot: robot_state::RUNNING, external_robot: false, motion_nodes_healthy: true }
+        Conditions { now_ns, robot: RobotState::Running, external_robot: false, motion_nodes_healthy: true }
     }
 
     #[test]
@@ -477,16 +475,16 @@ mod tests {
         monitor.on_joint_state(&state(3 * MS, 0));
         match monitor.cycle(&running(3 * MS)) {
             Decision::SafeStop(fault) => {
-                assert_eq!((fault.code, fault.joints), (fault::VELOCITY_LIMIT, 0b100));
+                assert_eq!((fault.code, fault.joints), (Fault::VelocityLimit, 0b100));
                 assert!(fault.cause.to_string().contains("joint 3"), "{}", fault.cause);
             }
             other => panic!("{other:?}"),
         }
         assert_eq!(monitor.safe_stops(), 1);
         // the cause is gone: a command resumes the cell
-        assert_eq!(monitor.resume(&running(4 * MS)).map(|f| f.code), Ok(fault::VELOCITY_LIMIT));
+        assert_eq!(monitor.resume(&running(4 * MS)).map(|f| f.code), Ok(Fault::VelocityLimit));
         assert!(monitor.latched().is_none());
-        assert_eq!(monitor.shown().map(|f| f.code), Some(fault::VELOCITY_LIMIT));
+        assert_eq!(monitor.shown().map(|f| f.code), Some(Fault::VelocityLimit));
     }
 
     #[test]
@@ -506,7 +504,7 @@ mod tests {
             monitor.on_joint_state(&state(t * MS, saturated));
         }
         match monitor.cycle(&running(1000 * MS)) {
-            Decision::SafeStop(fault) => assert_eq!((fault.code, fault.joints), (fault::TORQUE_SATURATED, 1)),
+            Decision::SafeStop(fault) => assert_eq!((fault.code, fault.joints), (Fault::TorqueSaturated, 1)),
             other => panic!("{other:?}"),
         }
         // still saturated: no resume, the cause named
@@ -514,7 +512,7 @@ mod tests {
         assert_eq!(
             refused,
             ResumeRefused::CausesLeft {
-                fault: fault::TORQUE_SATURATED,
+                fault: Fault::TorqueSaturated,
                 causes: vec![Cause::TorqueSaturated(1)]
             }
         );
@@ -524,13 +522,13 @@ mod tests {
     #[test]
     fn lost_marks_stop_the_cell_after_the_set_time_and_it_resumes_when_they_are_seen() {
         let mut monitor = FaultMonitor::new(settings(ResumePolicy::Command));
-        monitor.on_twist(&twist(0, verdict::MARKS_MISSING, 0b0100));
-        monitor.on_twist(&twist(900 * MS, verdict::MARKS_MISSING, 0b0100));
+        monitor.on_twist(&twist(0, Verdict::MarksMissing, 0b0100));
+        monitor.on_twist(&twist(900 * MS, Verdict::MarksMissing, 0b0100));
         assert_eq!(monitor.cycle(&running(900 * MS)), Decision::Same);
-        monitor.on_twist(&twist(1000 * MS, verdict::MARKS_MISSING, 0b0100));
+        monitor.on_twist(&twist(1000 * MS, Verdict::MarksMissing, 0b0100));
         match monitor.cycle(&running(1000 * MS)) {
             Decision::SafeStop(fault) => {
-                assert_eq!(fault.code, fault::TARGET_LOST);
+                assert_eq!(fault.code, Fault::TargetLost);
                 assert!(fault.cause.to_string().contains("mark 3"), "{}", fault.cause);
             }
             other => panic!("{other:?}"),
@@ -551,45 +549,42 @@ mod tests {
         let refused = monitor.resume(&running(1100 * MS)).expect_err("refused");
         assert_eq!(
             refused,
-            ResumeRefused::CausesLeft {
-                fault: fault::TARGET_LOST,
-                causes: vec![Cause::MarksMissing(0b0100)]
-            }
+            ResumeRefused::CausesLeft { fault: Fault::TargetLost, causes: vec![Cause::MarksMissing(0b0100)] }
         );
         assert!(refused.to_string().contains("four marks"), "{refused}");
         features.valid_mask = 0b1111;
         monitor.on_features(&features, 1200 * MS);
         assert!(monitor.resume(&running(1200 * MS)).is_ok());
         // a frame with marks again ends the run; losing them later counts afresh
-        monitor.on_twist(&twist(1300 * MS, verdict::SERVOING, 0));
-        monitor.on_twist(&twist(1400 * MS, verdict::MARKS_MISSING, 1));
+        monitor.on_twist(&twist(1300 * MS, Verdict::Servoing, 0));
+        monitor.on_twist(&twist(1400 * MS, Verdict::MarksMissing, 1));
         assert_eq!(monitor.cycle(&running(1400 * MS)), Decision::Same);
     }
 
     #[test]
     fn a_stalled_driver_is_a_fault_of_an_external_one_only() {
         let mut monitor = FaultMonitor::new(settings(ResumePolicy::Command));
-        let stalled = Conditions { robot: robot_state::STALLED, ..running(MS) };
+        let stalled = Conditions { robot: RobotState::Stalled, ..running(MS) };
         assert_eq!(monitor.cycle(&stalled), Decision::Same, "the simulated plant's restart is no fault");
         let external = Conditions { external_robot: true, ..stalled };
         assert!(matches!(
             monitor.cycle(&external),
-            Decision::SafeStop(LatchedFault { code: fault::ROBOT_STALLED, .. })
+            Decision::SafeStop(LatchedFault { code: Fault::RobotStalled, .. })
         ));
         let refused = monitor.resume(&external).expect_err("refused while stalled");
         assert!(refused.to_string().contains("do not arrive"), "{refused}");
-        assert!(monitor.resume(&Conditions { robot: robot_state::RUNNING, ..external }).is_ok());
+        assert!(monitor.resume(&Conditions { robot: RobotState::Running, ..external }).is_ok());
     }
 
     #[test]
     fn the_automatic_policy_resumes_once_the_cause_has_been_gone_long_enough() {
         let mut monitor = FaultMonitor::new(settings(ResumePolicy::Automatic));
         let mut faulted = state(MS, 0);
-        faulted.driver_status = driver_status::FAULT;
+        faulted.driver_status = DriverStatus::Fault.into();
         monitor.on_joint_state(&faulted);
         assert!(matches!(
             monitor.cycle(&running(MS)),
-            Decision::SafeStop(LatchedFault { code: fault::DRIVER_FAULT, .. })
+            Decision::SafeStop(LatchedFault { code: Fault::DriverFault, .. })
         ));
         // still faulted: no resume however long
         monitor.on_joint_state(&faulted);
@@ -601,10 +596,10 @@ mod tests {
         // a command policy never resumes by itself
         let mut manual = FaultMonitor::new(settings(ResumePolicy::Command));
         assert!(manual.request_safe_stop(0).is_ok());
-        assert_eq!(manual.request_safe_stop(1), Err(AlreadyHeld(fault::REQUESTED)), "already held");
+        assert_eq!(manual.request_safe_stop(1), Err(AlreadyHeld(Fault::Requested)), "already held");
         assert_eq!(manual.cycle(&running(100_000 * MS)), Decision::Same);
         assert!(manual.latched().is_some());
-        assert_eq!(manual.resume(&running(0)).map(|f| f.code), Ok(fault::REQUESTED));
+        assert_eq!(manual.resume(&running(0)).map(|f| f.code), Ok(Fault::Requested));
         assert_eq!(manual.resume(&running(0)), Err(ResumeRefused::NotHeld));
     }
 
@@ -613,7 +608,7 @@ mod tests {
         let calm = Evidence {
             fault_bits: 0,
             driver_fault: false,
-            robot: robot_state::RUNNING,
+            robot: RobotState::Running,
             saturated_joints: 0,
             missing_marks: 0,
             motion_nodes_healthy: true,
@@ -621,37 +616,33 @@ mod tests {
         assert_eq!(calm.causes(), vec![]);
         let cases = [
             (Evidence { motion_nodes_healthy: false, ..calm }, Cause::MotionNodesDown, None),
-            (Evidence { robot: robot_state::WAITING, ..calm }, Cause::RobotWaiting, None),
+            (Evidence { robot: RobotState::Waiting, ..calm }, Cause::RobotWaiting, None),
             (
                 Evidence { fault_bits: 0b10_0000, ..calm },
                 Cause::PositionLimit(0b10_0000),
-                Some(fault::POSITION_LIMIT),
+                Some(Fault::PositionLimit),
             ),
             (
                 Evidence { fault_bits: 0b1 << fault_bits::VELOCITY_LIMIT_SHIFT, ..calm },
                 Cause::VelocityLimit(1),
-                Some(fault::VELOCITY_LIMIT),
+                Some(Fault::VelocityLimit),
             ),
-            (Evidence { driver_fault: true, ..calm }, Cause::DriverFault, Some(fault::DRIVER_FAULT)),
+            (Evidence { driver_fault: true, ..calm }, Cause::DriverFault, Some(Fault::DriverFault)),
             (
                 Evidence { fault_bits: fault_bits::DRIVER_FAILED, ..calm },
                 Cause::DriverFault,
-                Some(fault::DRIVER_FAULT),
+                Some(Fault::DriverFault),
             ),
-            (
-                Evidence { robot: robot_state::STALLED, ..calm },
-                Cause::RobotStalled,
-                Some(fault::ROBOT_STALLED),
-            ),
+            (Evidence { robot: RobotState::Stalled, ..calm }, Cause::RobotStalled, Some(Fault::RobotStalled)),
             (
                 Evidence { saturated_joints: 0b11, ..calm },
                 Cause::TorqueSaturated(0b11),
-                Some(fault::TORQUE_SATURATED),
+                Some(Fault::TorqueSaturated),
             ),
             (
                 Evidence { missing_marks: 0b1000, ..calm },
                 Cause::MarksMissing(0b1000),
-                Some(fault::TARGET_LOST),
+                Some(Fault::TargetLost),
             ),
         ];
         for (evidence, cause, fault) in cases {
@@ -661,7 +652,7 @@ mod tests {
         }
         // several at once: the position limit is the fault, every cause is named
         let many =
-            Evidence { motion_nodes_healthy: false, robot: robot_state::STALLED, fault_bits: 1, ..calm };
+            Evidence { motion_nodes_healthy: false, robot: RobotState::Stalled, fault_bits: 1, ..calm };
         assert_eq!(many.first_fault(), Some(Cause::PositionLimit(1)));
         assert_eq!(many.causes(), vec![Cause::MotionNodesDown, Cause::PositionLimit(1), Cause::RobotStalled]);
         assert_eq!(Cause::PositionLimit(0b101).to_string(), "joint 1, 3 is beyond its position range");
@@ -677,7 +668,7 @@ mod tests {
             monitor.resume(&down),
             Err(ResumeRefused::CausesLeft { causes, .. }) if causes == vec![Cause::MotionNodesDown]
         ));
-        let waiting = Conditions { robot: robot_state::WAITING, ..running(MS) };
+        let waiting = Conditions { robot: RobotState::Waiting, ..running(MS) };
         assert!(monitor.resume(&waiting).expect_err("no state yet").to_string().contains("no joint state"));
         assert!(monitor.resume(&running(MS)).is_ok());
     }

@@ -5,12 +5,10 @@
 use iceoryx2::port::publisher::Publisher;
 use iceoryx2::port::update_connections::UpdateConnections;
 use iceoryx2::prelude::{Node, ipc};
-use vservo_protocol::{CellModeMsg, DaemonStatusMsg, SCHEMA_VERSION, Topic, cell_mode, fault};
+use vservo_protocol::{CellMode, CellModeMsg, DaemonStatusMsg, Fault, SCHEMA_VERSION, Topic};
 use vservo_runtime::clock::monotonic_ns;
 
-use crate::faults::{
-    AlreadyHeld, Conditions, Decision, FaultCode, FaultMonitor, LatchedFault, ResumeRefused,
-};
+use crate::faults::{AlreadyHeld, Conditions, Decision, FaultMonitor, LatchedFault, ResumeRefused};
 
 /// A resume carried out.
 #[derive(Debug, Clone, PartialEq)]
@@ -18,14 +16,14 @@ pub struct Resumed {
     /// How: "on command", or automatically and why.
     pub how: String,
     /// The fault it ended.
-    pub fault: FaultCode,
+    pub fault: Fault,
     /// How long the cell was held (s).
     pub held_s: f64,
 }
 
 impl std::fmt::Display for Resumed {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        write!(f, "resumed {} after {} (held {:.1} s)", self.how, fault::name(self.fault), self.held_s)
+        write!(f, "resumed {} after {} (held {:.1} s)", self.how, self.fault, self.held_s)
     }
 }
 
@@ -66,7 +64,7 @@ impl Safety {
             seal_key,
             sequence: 0,
         };
-        safety.publish(cell_mode::SERVOING, None)?;
+        safety.publish(CellMode::Servoing, None)?;
         Ok(safety)
     }
 
@@ -80,12 +78,12 @@ impl Safety {
         self.monitor.latched().is_some()
     }
 
-    fn publish(&mut self, mode: u32, fault: Option<&LatchedFault>) -> anyhow::Result<()> {
+    fn publish(&mut self, mode: CellMode, fault: Option<&LatchedFault>) -> anyhow::Result<()> {
         let mut message = CellModeMsg {
             schema: SCHEMA_VERSION,
-            mode,
+            mode: mode.into(),
             sequence: self.sequence + 1,
-            fault: fault.map_or(fault::NONE, |f| f.code),
+            fault: fault.map_or(Fault::None, |f| f.code).into(),
             fault_joints: fault.map_or(0, |f| f.joints),
             stamp_ns: monotonic_ns(),
             seal: 0,
@@ -99,18 +97,18 @@ impl Safety {
 
     fn enter(&mut self, fault: &LatchedFault, how: &str) {
         tracing::error!(
-            fault = fault::name(fault.code),
+            fault = fault.code.name(),
             "safe stop ({how}): {}; the arm is brought to rest and held; `vservoctl resume` servos again once the cause is gone",
             fault.cause
         );
-        if let Err(e) = self.publish(cell_mode::SAFE_STOP, Some(fault)) {
+        if let Err(e) = self.publish(CellMode::SafeStop, Some(fault)) {
             // the nodes cannot hear it: the rmrc is out of reach, which the supervisor sees as unhealthy
             tracing::error!("publishing the safe stop: {e}");
         }
     }
 
     fn leave(&mut self, fault: &LatchedFault, how: &str) -> Result<Resumed, SafetyRefused> {
-        self.publish(cell_mode::SERVOING, None).map_err(|e| SafetyRefused::Publish(e.to_string()))?;
+        self.publish(CellMode::Servoing, None).map_err(|e| SafetyRefused::Publish(e.to_string()))?;
         let held_s = monotonic_ns().saturating_sub(fault.since_ns) as f64 / 1e9;
         let resumed = Resumed { how: how.to_string(), fault: fault.code, held_s };
         tracing::warn!("{resumed}");
@@ -151,7 +149,7 @@ impl Safety {
     /// The fault fields of the status.
     pub fn fill(&self, status: &mut DaemonStatusMsg) {
         if let Some(fault) = self.monitor.shown() {
-            status.fault = fault.code;
+            status.fault = fault.code.into();
             status.fault_joints = fault.joints;
             status.fault_since_ns = fault.since_ns;
         }

@@ -22,8 +22,8 @@ use vservo_config::Config;
 use vservo_control::{Gains, GainsSpec, LawGains};
 use vservo_protocol::seal::SealKey;
 use vservo_protocol::{
-    CommandMsg, CommandReplyMsg, FEATURES, FeaturesMsg, GainsMsg, JointStateMsg, ObjectMsg, SCHEMA_VERSION,
-    Topic, command_kind,
+    CommandKind, CommandMsg, CommandReplyMsg, FEATURES, FeaturesMsg, GainsMsg, JointStateMsg, ObjectMsg,
+    SCHEMA_VERSION, Topic,
 };
 use vservo_runtime::wire::gains_message;
 use vservo_scene::FeatureVector;
@@ -180,19 +180,18 @@ impl Commander {
         if command.schema != SCHEMA_VERSION {
             return Err(CommandRefused::Schema(command.schema));
         }
-        match command.kind {
-            command_kind::RELOAD => Ok(self.reload(systemd)?),
-            command_kind::RESUME => Ok(Accepted::Resumed(safety.resume(&heard.conditions)?)),
-            command_kind::SAFE_STOP => {
-                safety.request_safe_stop().map(|()| Accepted::SafeStop).map_err(Into::into)
+        let kind =
+            CommandKind::try_from(command.kind).map_err(|_| CommandRefused::UnknownKind(command.kind))?;
+        match kind {
+            CommandKind::Reload => Ok(self.reload(systemd)?),
+            CommandKind::Resume => Ok(Accepted::Resumed(safety.resume(&heard.conditions)?)),
+            CommandKind::SafeStop => Ok(safety.request_safe_stop().map(|()| Accepted::SafeStop)?),
+            CommandKind::TargetFeatures | CommandKind::TargetPose | CommandKind::TargetTeach => {
+                self.retarget(&target_request(kind, command), heard)
             }
-            command_kind::TARGET_FEATURES | command_kind::TARGET_POSE | command_kind::TARGET_TEACH => {
-                self.retarget(&target_request(command), heard)
+            CommandKind::ObjectHold | CommandKind::ObjectStep | CommandKind::ObjectCircle => {
+                self.object(kind, command)
             }
-            command_kind::OBJECT_HOLD | command_kind::OBJECT_STEP | command_kind::OBJECT_CIRCLE => {
-                self.object(command)
-            }
-            other => Err(CommandRefused::UnknownKind(other)),
         }
     }
 
@@ -237,13 +236,13 @@ impl Commander {
     }
 
     /// Checks an object command, seals it and hands it to the plant.
-    fn object(&mut self, command: &CommandMsg) -> Result<Accepted, CommandRefused> {
-        let motion = object_motion(command);
+    fn object(&mut self, kind: CommandKind, command: &CommandMsg) -> Result<Accepted, CommandRefused> {
+        let motion = object_motion(kind, command);
         let simulated = self.config.robot.driver == vservo_config::RobotDriver::Simulated;
         object::check(&motion, simulated)?;
         let mut message = ObjectMsg {
             schema: SCHEMA_VERSION,
-            kind: command.kind,
+            kind: kind.into(),
             sequence: self.object_sequence + 1,
             translation_m: command.translation_m,
             radius_m: command.radius_m,
@@ -260,10 +259,10 @@ impl Commander {
 }
 
 /// The target a target command asks for (its kind is one of the three).
-fn target_request(command: &CommandMsg) -> TargetRequest {
-    match command.kind {
-        command_kind::TARGET_FEATURES => TargetRequest::Features(FeatureVector::from(command.features_px)),
-        command_kind::TARGET_POSE => TargetRequest::Pose {
+fn target_request(kind: CommandKind, command: &CommandMsg) -> TargetRequest {
+    match kind {
+        CommandKind::TargetFeatures => TargetRequest::Features(FeatureVector::from(command.features_px)),
+        CommandKind::TargetPose => TargetRequest::Pose {
             translation_m: Vector3::from(command.translation_m),
             rotation_rpy_rad: Vector3::from(command.rotation_rpy_rad),
         },
@@ -272,10 +271,10 @@ fn target_request(command: &CommandMsg) -> TargetRequest {
 }
 
 /// The motion an object command asks for (its kind is one of the three).
-fn object_motion(command: &CommandMsg) -> ObjectMotion {
-    match command.kind {
-        command_kind::OBJECT_STEP => ObjectMotion::Step(Vector3::from(command.translation_m)),
-        command_kind::OBJECT_CIRCLE => {
+fn object_motion(kind: CommandKind, command: &CommandMsg) -> ObjectMotion {
+    match kind {
+        CommandKind::ObjectStep => ObjectMotion::Step(Vector3::from(command.translation_m)),
+        CommandKind::ObjectCircle => {
             ObjectMotion::Circle { radius_m: command.radius_m, rev_per_min: command.rev_per_min }
         }
         _ => ObjectMotion::Hold,

@@ -4,21 +4,18 @@
 
 use std::time::{Duration, Instant};
 
-use vservo_protocol::{NodeRole, daemon_state, robot_state};
+use vservo_protocol::{DaemonState, NodeRole, RobotState};
 
 use super::node::NodeRecord;
-use crate::faults::{Conditions, RobotState};
-
-/// The daemon's state ([`daemon_state`]).
-pub type DaemonState = u32;
+use crate::faults::Conditions;
 
 /// The robot driver's state from the age of its latest joint state: waiting for the first, running, or
 /// stalled past `deadline`.
 pub fn robot_state(age: Option<Duration>, deadline: Duration) -> RobotState {
     match age {
-        None => robot_state::WAITING,
-        Some(age) if age > deadline => robot_state::STALLED,
-        Some(_) => robot_state::RUNNING,
+        None => RobotState::Waiting,
+        Some(age) if age > deadline => RobotState::Stalled,
+        Some(_) => RobotState::Running,
     }
 }
 
@@ -37,9 +34,9 @@ pub enum RobotChange {
 pub fn robot_change(was: RobotState, now: RobotState) -> Option<RobotChange> {
     match (was, now) {
         (a, b) if a == b => None,
-        (_, robot_state::STALLED) => Some(RobotChange::Stalled),
-        (robot_state::STALLED, robot_state::RUNNING) => Some(RobotChange::Back),
-        (_, robot_state::RUNNING) => Some(RobotChange::Arriving),
+        (_, RobotState::Stalled) => Some(RobotChange::Stalled),
+        (RobotState::Stalled, RobotState::Running) => Some(RobotChange::Back),
+        (_, RobotState::Running) => Some(RobotChange::Arriving),
         _ => None,
     }
 }
@@ -64,11 +61,11 @@ pub fn resume_conditions<'a>(
 /// The daemon's state: a safe stop holds; every node healthy with the robot running is running; before
 /// the first time it was, starting; after, degraded.
 pub fn daemon_state(holding: bool, all_healthy: bool, robot: RobotState, ever_ready: bool) -> DaemonState {
-    match (all_healthy && robot == robot_state::RUNNING, ever_ready) {
-        _ if holding => daemon_state::SAFE_STOP,
-        (true, _) => daemon_state::RUNNING,
-        (false, false) => daemon_state::STARTING,
-        (false, true) => daemon_state::DEGRADED,
+    match (all_healthy && robot == RobotState::Running, ever_ready) {
+        _ if holding => DaemonState::SafeStop,
+        (true, _) => DaemonState::Running,
+        (false, false) => DaemonState::Starting,
+        (false, true) => DaemonState::Degraded,
     }
 }
 
@@ -92,7 +89,7 @@ impl Readiness {
 
     /// Whether the daemon became ready just now (every node healthy, the robot running, for the first time).
     pub fn became_ready(&mut self, all_healthy: bool, robot: RobotState) -> bool {
-        let ready = all_healthy && robot == robot_state::RUNNING && !self.ever_ready;
+        let ready = all_healthy && robot == RobotState::Running && !self.ever_ready;
         self.ever_ready |= ready;
         ready
     }
@@ -126,25 +123,29 @@ mod tests {
     #[test]
     fn the_robot_waits_runs_and_stalls_by_the_age_of_its_latest_state() {
         let deadline = 50 * MS;
-        assert_eq!(robot_state(None, deadline), robot_state::WAITING);
-        assert_eq!(robot_state(Some(50 * MS), deadline), robot_state::RUNNING);
-        assert_eq!(robot_state(Some(51 * MS), deadline), robot_state::STALLED);
-        assert_eq!(robot_change(robot_state::WAITING, robot_state::RUNNING), Some(RobotChange::Arriving));
-        assert_eq!(robot_change(robot_state::RUNNING, robot_state::STALLED), Some(RobotChange::Stalled));
-        assert_eq!(robot_change(robot_state::STALLED, robot_state::RUNNING), Some(RobotChange::Back));
-        assert_eq!(robot_change(robot_state::RUNNING, robot_state::RUNNING), None);
+        assert_eq!(robot_state(None, deadline), RobotState::Waiting);
+        assert_eq!(robot_state(Some(50 * MS), deadline), RobotState::Running);
+        assert_eq!(robot_state(Some(51 * MS), deadline), RobotState::Stalled);
+        assert_eq!(robot_change(RobotState::Waiting, RobotState::Running), Some(RobotChange::Arriving));
+        assert_eq!(robot_change(RobotState::Running, RobotState::Stalled), Some(RobotChange::Stalled));
+        assert_eq!(robot_change(RobotState::Stalled, RobotState::Running), Some(RobotChange::Back));
+        assert_eq!(robot_change(RobotState::Running, RobotState::Running), None);
     }
 
     #[test]
     fn the_daemon_starts_runs_degrades_and_a_safe_stop_overrides_all() {
-        use robot_state::{RUNNING as R, STALLED as S};
-        assert_eq!(daemon_state(false, false, R, false), daemon_state::STARTING);
-        assert_eq!(daemon_state(false, true, S, false), daemon_state::STARTING, "the robot is part of it");
-        assert_eq!(daemon_state(false, true, R, false), daemon_state::RUNNING);
-        assert_eq!(daemon_state(false, false, R, true), daemon_state::DEGRADED);
-        assert_eq!(daemon_state(false, true, S, true), daemon_state::DEGRADED);
-        assert_eq!(daemon_state(true, true, R, true), daemon_state::SAFE_STOP);
-        assert_eq!(daemon_state(true, false, S, false), daemon_state::SAFE_STOP);
+        let (running, stalled) = (RobotState::Running, RobotState::Stalled);
+        assert_eq!(daemon_state(false, false, running, false), DaemonState::Starting);
+        assert_eq!(
+            daemon_state(false, true, stalled, false),
+            DaemonState::Starting,
+            "the robot is part of it"
+        );
+        assert_eq!(daemon_state(false, true, running, false), DaemonState::Running);
+        assert_eq!(daemon_state(false, false, running, true), DaemonState::Degraded);
+        assert_eq!(daemon_state(false, true, stalled, true), DaemonState::Degraded);
+        assert_eq!(daemon_state(true, true, running, true), DaemonState::SafeStop);
+        assert_eq!(daemon_state(true, false, stalled, false), DaemonState::SafeStop);
     }
 
     #[test]
@@ -153,9 +154,9 @@ mod tests {
         let mut readiness = Readiness::new(t0);
         let every = Some(100 * MS);
         assert!(!readiness.watchdog_due(every, true, t0 + 200 * MS), "not before ready");
-        assert!(!readiness.became_ready(true, robot_state::STALLED));
-        assert!(readiness.became_ready(true, robot_state::RUNNING));
-        assert!(!readiness.became_ready(true, robot_state::RUNNING), "once");
+        assert!(!readiness.became_ready(true, RobotState::Stalled));
+        assert!(readiness.became_ready(true, RobotState::Running));
+        assert!(!readiness.became_ready(true, RobotState::Running), "once");
         assert!(readiness.ever_ready());
         assert!(readiness.watchdog_due(every, true, t0 + 200 * MS));
         assert!(!readiness.watchdog_due(every, true, t0 + 250 * MS), "not again within the interval");
@@ -174,18 +175,18 @@ mod tests {
             node.heard.telemetry_at = Some(t0);
             node.heard.telemetry = Some(crate::supervisor::node::tests_support::telemetry(1, 1));
         }
-        let conditions = resume_conditions(5, robot_state::RUNNING, true, &nodes, t0);
+        let conditions = resume_conditions(5, RobotState::Running, true, &nodes, t0);
         assert!(conditions.motion_nodes_healthy);
         assert_eq!(
             (conditions.now_ns, conditions.robot, conditions.external_robot),
-            (5, robot_state::RUNNING, true)
+            (5, RobotState::Running, true)
         );
         let servo = nodes.iter().position(|n| n.role == NodeRole::Servo).expect("servo");
         nodes[servo].ended(1, t0);
         assert!(motion_nodes_healthy(&nodes, t0), "a servo restart keeps the arm safe");
         let rmrc = nodes.iter().position(|n| n.role == NodeRole::Rmrc).expect("rmrc");
         nodes[rmrc].ended(1, t0);
-        assert!(!resume_conditions(5, robot_state::RUNNING, true, &nodes, t0).motion_nodes_healthy);
+        assert!(!resume_conditions(5, RobotState::Running, true, &nodes, t0).motion_nodes_healthy);
         // an external driver: no plant among the nodes, the rmrc alone counts
         nodes.retain(|n| n.role != NodeRole::Plant && n.role != NodeRole::Rmrc);
         assert!(motion_nodes_healthy(&nodes, t0));

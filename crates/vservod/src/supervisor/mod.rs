@@ -25,11 +25,12 @@ use vservo_client::StatusView;
 use iceoryx2::prelude::{Node, ipc};
 use nix::sys::signal::Signal;
 use vservo_config::Config;
-use vservo_protocol::{InstanceClaim, NodeRole, node_state, robot_state};
+use vservo_protocol::codes::NodeState;
+use vservo_protocol::{InstanceClaim, NodeRole, RobotState};
 use vservo_runtime::clock::{PeriodicTimer, monotonic_ns};
 
 use crate::commands::{Commander, LoopState};
-use crate::faults::{Conditions, RobotState};
+use crate::faults::Conditions;
 use crate::safety::Safety;
 use crate::systemd::Systemd;
 use crate::viewer::Viewer;
@@ -198,7 +199,7 @@ impl Daemon {
             viewer,
             nodes,
             heard: LoopHeard::default(),
-            robot: robot_state::WAITING,
+            robot: RobotState::Waiting,
             readiness: Readiness::new(now),
             cleanup: CleanupClock::new(now),
             started_ns,
@@ -283,7 +284,7 @@ impl Daemon {
                 pid = node.record.pid.unwrap_or(0),
                 "node hung ({why}): killing it (SIGKILL) to restart it"
             );
-            node.record.state = node_state::HUNG;
+            node.record.state = NodeState::Hung;
             node.signal(Signal::SIGKILL);
             // a stopped process dies of SIGKILL only once it runs again
             node.signal(Signal::SIGCONT);

@@ -4,12 +4,10 @@
 
 use std::time::{Duration, Instant};
 
-use vservo_protocol::{NodeRole, NodeStatusMsg, TelemetryMsg, node_state};
+use vservo_protocol::codes::NodeState;
+use vservo_protocol::{NodeRole, NodeStatusMsg, TelemetryMsg};
 
 use super::restart::RestartPolicy;
-
-/// A node's state ([`node_state`]).
-pub type NodeState = u32;
 
 /// A node whose telemetry is older than this is not healthy.
 pub const TELEMETRY_STALE: Duration = Duration::from_millis(500);
@@ -48,7 +46,7 @@ pub struct NodeRecord {
     pub role: NodeRole,
     /// Its process's pid while it runs.
     pub pid: Option<u32>,
-    /// [`node_state`].
+    /// Its state.
     pub state: NodeState,
     /// When it starts again.
     pub restart: RestartPolicy,
@@ -64,7 +62,7 @@ impl NodeRecord {
         Self {
             role,
             pid: Some(pid),
-            state: node_state::RUNNING,
+            state: NodeState::Running,
             restart,
             last_exit: 0,
             heard: Heard::default(),
@@ -90,14 +88,14 @@ impl NodeRecord {
     pub fn ended(&mut self, exit: i32, now: Instant) -> Duration {
         self.pid = None;
         self.last_exit = exit;
-        self.state = node_state::BACKING_OFF;
+        self.state = NodeState::BackingOff;
         self.restart.ended(now)
     }
 
     /// Its process `pid` started again at `now`.
     pub fn restarted(&mut self, pid: u32, now: Instant) {
         self.pid = Some(pid);
-        self.state = node_state::RUNNING;
+        self.state = NodeState::Running;
         self.restart.restarted(now);
         self.heard.progress_at = Some(now);
     }
@@ -108,7 +106,7 @@ impl NodeRecord {
         if let Some(exit) = exit {
             self.last_exit = exit;
         }
-        self.state = node_state::STOPPED;
+        self.state = NodeState::Stopped;
     }
 
     /// Running, its own telemetry fresh.
@@ -121,7 +119,7 @@ impl NodeRecord {
     /// no telemetry for `timeout` (at least [`START_GRACE`] before the first), or, for the plant, no new
     /// tick. A node already being ended as hung is not judged again.
     pub fn hang(&self, now: Instant, timeout: Duration) -> Option<Hang> {
-        if self.pid.is_none() || self.state == node_state::HUNG {
+        if self.pid.is_none() || self.state == NodeState::Hung {
             return None;
         }
         let started_at = self.restart.started_at();
@@ -146,7 +144,7 @@ impl NodeRecord {
         NodeStatusMsg {
             restarts: self.restart.restarts(),
             last_telemetry_ns: self.heard.telemetry.map_or(0, |t| t.stamp_ns),
-            state: self.state,
+            state: self.state.into(),
             pid: self.pid.unwrap_or(0),
             last_exit: self.last_exit,
             healthy: u32::from(self.healthy(now)),
@@ -212,7 +210,7 @@ mod tests {
         let status = node.status(t0 + MS);
         assert_eq!(
             (status.state, status.pid, status.last_exit, status.healthy),
-            (node_state::BACKING_OFF, 0, -9, 0)
+            (NodeState::BackingOff.into(), 0, -9, 0)
         );
     }
 
@@ -227,7 +225,7 @@ mod tests {
         let hang = node.hang(t0 + 1101 * MS, TIMEOUT).expect("silent for the timeout");
         assert_eq!(hang.to_string(), "no telemetry for 1.0 s");
         // being ended as hung, it is not judged again; without a process, never
-        node.state = node_state::HUNG;
+        node.state = NodeState::Hung;
         assert_eq!(node.hang(t0 + 5000 * MS, TIMEOUT), None);
         node.ended(-9, t0 + 5000 * MS);
         assert_eq!(node.hang(t0 + 9000 * MS, TIMEOUT), None);
@@ -256,7 +254,7 @@ mod tests {
         let wait = node.ended(1, t0 + 10 * MS);
         node.restarted(43, t0 + 10 * MS + wait);
         let status = node.status(t0 + 10 * MS + wait);
-        assert_eq!((status.restarts, status.pid, status.state), (1, 43, node_state::RUNNING));
+        assert_eq!((status.restarts, status.pid, status.state), (1, 43, NodeState::Running.into()));
         // the old process's telemetry is not the new one's
         assert_eq!(node.own_telemetry(), None);
         assert_eq!(node.hang(t0 + 10 * MS + wait + START_GRACE, TIMEOUT), None);

@@ -2,11 +2,9 @@
 
 use std::time::{Duration, Instant};
 
-use vservo_protocol::{DaemonStatusMsg, NodeStatusMsg, SCHEMA_VERSION, fault};
+use vservo_protocol::{DaemonState, DaemonStatusMsg, Fault, NodeStatusMsg, RobotState, SCHEMA_VERSION};
 
-use super::health::DaemonState;
 use super::node::NodeRecord;
-use crate::faults::RobotState;
 
 /// A tick rate from joint states no older than this is reported; an older one is 0/s (a driver or plant
 /// silent for a second ticks at 0/s).
@@ -81,7 +79,7 @@ pub fn status_message<'a>(
     }
     DaemonStatusMsg {
         schema: SCHEMA_VERSION,
-        state: facts.state,
+        state: facts.state.into(),
         stamp_ns: facts.stamp_ns,
         uptime_ns: facts.stamp_ns.saturating_sub(facts.started_ns),
         // the version the servo runs, once it has said; until then the one designed
@@ -94,8 +92,8 @@ pub fn status_message<'a>(
         tick_rate_hz: facts.tick_rate_hz,
         feature_error_px: facts.feature_error_px,
         pid: facts.pid,
-        robot: facts.robot,
-        fault: fault::NONE,
+        robot: facts.robot.into(),
+        fault: Fault::None.into(),
         fault_joints: 0,
         fault_since_ns: 0,
         safe_stops: 0,
@@ -106,7 +104,7 @@ pub fn status_message<'a>(
 mod tests {
     use super::*;
     use crate::supervisor::restart::RestartPolicy;
-    use vservo_protocol::{NodeRole, daemon_state, node_state, robot_state};
+    use vservo_protocol::NodeRole;
 
     const S: u64 = 1_000_000_000;
 
@@ -130,8 +128,8 @@ mod tests {
         let policy = RestartPolicy::new(Duration::from_millis(100), Duration::from_secs(1), t0);
         let nodes = [NodeRecord::started(NodeRole::Vision, 77, policy)];
         let facts = StatusFacts {
-            state: daemon_state::STARTING,
-            robot: robot_state::WAITING,
+            state: DaemonState::Starting,
+            robot: RobotState::Waiting,
             stamp_ns: 5 * S,
             started_ns: 2 * S,
             servo_gains_version: 0,
@@ -143,7 +141,7 @@ mod tests {
         let message = status_message(&nodes, &facts, t0);
         assert_eq!((message.uptime_ns, message.gains_version, message.pid), (3 * S, 1, 9));
         let vision = message.nodes[NodeRole::Vision as usize];
-        assert_eq!((vision.pid, vision.state), (77, node_state::RUNNING));
+        assert_eq!((vision.pid, vision.state), (77, vservo_protocol::codes::NodeState::Running.into()));
         assert_eq!(message.nodes[NodeRole::Plant as usize], NodeStatusMsg::default(), "not supervised");
         let said = status_message(&nodes, &StatusFacts { servo_gains_version: 3, ..facts }, t0);
         assert_eq!(said.gains_version, 3);
