@@ -19,13 +19,13 @@ use nalgebra::Vector3;
 use vservo_arm::JointVector;
 use vservo_cell::target::{CellNow, Target, TargetRequest};
 use vservo_config::Config;
-use vservo_control::{Gains, GainsSpec, LawGains};
+use vservo_control::{Gains, LawGains};
 use vservo_protocol::seal::SealKey;
 use vservo_protocol::{
     CommandKind, CommandMsg, CommandReplyMsg, FEATURES, FeaturesMsg, GainsMsg, JointStateMsg, ObjectMsg,
     SCHEMA_VERSION, Topic,
 };
-use vservo_runtime::wire::gains_message;
+use vservo_runtime::gains::gains_message;
 use vservo_scene::FeatureVector;
 
 use crate::faults::Conditions;
@@ -65,7 +65,8 @@ pub struct Commander {
     config_path: PathBuf,
     config: Config,
     config_text: String,
-    spec: GainsSpec,
+    /// The target a client set (none: the file's `[desired]`).
+    target: Option<Target>,
     version: u64,
     object_sequence: u64,
     /// The run's key: gains and object commands are sealed with it (the nodes take no others).
@@ -78,16 +79,16 @@ pub struct Commander {
 }
 
 impl Commander {
-    /// Designs the configured gains (version 1) and publishes them.
+    /// Publishes `gains`, the configuration's design the daemon's start check made, as version 1.
     pub fn new(
         node: &Node<ipc::Service>,
         config_path: &Path,
         config: Config,
         text: String,
         seal_key: SealKey,
+        gains: &Gains,
     ) -> anyhow::Result<Self> {
         let instance = config.instance.clone();
-        let spec = config.gains_spec();
         let server =
             vservo_protocol::open_command_service(node, &instance, vservo_protocol::Opening::OpenOrCreate)?
                 .server_builder()
@@ -95,8 +96,8 @@ impl Commander {
                 .map_err(|e| anyhow::anyhow!("creating the command server: {e}"))?;
         let mut commander = Self {
             config_path: config_path.to_path_buf(),
-            spec,
             config,
+            target: None,
             config_text: text,
             version: 0,
             object_sequence: 0,
@@ -106,7 +107,7 @@ impl Commander {
             server,
             log_limit: LogLimit::new(std::time::Duration::from_secs(1), 10),
         };
-        commander.adopt(spec)?;
+        commander.publish_gains(gains)?;
         Ok(commander)
     }
 
@@ -121,20 +122,19 @@ impl Commander {
     }
 
     /// ξ_d in force.
-    fn target(&self) -> [f64; FEATURES] {
+    fn desired_features(&self) -> [f64; FEATURES] {
+        let features = self.target.map_or(self.config.desired.features, |t| t.features);
         let mut out = [0.0; FEATURES];
-        out.copy_from_slice(self.spec.desired_features.as_slice());
+        out.copy_from_slice(features.as_slice());
         out
     }
 
-    /// Designs gains for `spec`, publishes them as the next version and makes them current.
-    fn adopt(&mut self, spec: GainsSpec) -> Result<(), GainsRefused> {
-        let gains = Gains::design(&spec)?;
-        let message = gains_message(&LawGains::from(&gains), self.version + 1, &self.seal_key);
+    /// Publishes `gains` as the next version, which is then the one in force.
+    fn publish_gains(&mut self, gains: &Gains) -> Result<(), GainsRefused> {
+        let message = gains_message(&LawGains::from(gains), self.version + 1, &self.seal_key);
         let sample = self.gains_publisher.loan_uninit().map_err(|e| GainsRefused::Publish(e.to_string()))?;
         sample.write_payload(message).send().map_err(|e| GainsRefused::Publish(e.to_string()))?;
         self.version += 1;
-        self.spec = spec;
         Ok(())
     }
 
@@ -154,12 +154,19 @@ impl Commander {
             let outcome = self.answer(&command, heard, systemd, safety);
             let text = outcome::reply_text(&outcome, self.version);
             if self.log_limit.admit(now, outcome.is_ok()) {
+                let kind = CommandKind::try_from(command.kind).map_or("unknown", CommandKind::name);
                 match &outcome {
-                    Ok(_) => tracing::info!(id = command.id, kind = command.kind, "command accepted: {text}"),
-                    Err(_) => tracing::warn!(id = command.id, kind = command.kind, "command refused: {text}"),
+                    Ok(_) => tracing::info!(id = command.id, kind, "command accepted: {text}"),
+                    Err(_) => tracing::warn!(id = command.id, kind, "command refused: {text}"),
                 }
             }
-            let reply = CommandReplyMsg::new(command.id, outcome.is_ok(), self.version, self.target(), &text);
+            let reply = CommandReplyMsg::new(
+                command.id,
+                outcome.is_ok(),
+                self.version,
+                self.desired_features(),
+                &text,
+            );
             if let Err(e) = request.send_copy(reply) {
                 tracing::warn!(id = command.id, "the reply could not be sent: {e}");
             }
@@ -214,24 +221,28 @@ impl Commander {
         let text = std::fs::read_to_string(&self.config_path)
             .map_err(|e| ReloadRefused::Unreadable { path: path.clone(), reason: e.to_string() })?;
         let config = Config::from_toml(&text, &path)?;
-        let (spec, changed) = match reload::plan(&path, &self.config, &self.spec, &config)? {
+        let (target, changed) = match reload::plan(&path, &self.config, self.target.as_ref(), &config)? {
             ReloadPlan::Nothing => return Ok(Accepted::NothingChanged { path, gains_version: self.version }),
-            ReloadPlan::Design { spec, changed } => (*spec, changed),
+            ReloadPlan::Design { target, changed } => (target, changed),
         };
-        self.adopt(spec).map_err(|why| ReloadRefused::Gains { path: path.clone(), why })?;
+        let refused = |why| ReloadRefused::Gains { path: path.clone(), why };
+        let gains = vservo_cell::gains::design(&config, target.as_ref()).map_err(|e| refused(e.into()))?;
+        self.publish_gains(&gains).map_err(refused)?;
         self.config = config;
         self.config_text = text;
+        self.target = target;
         Ok(Accepted::Reloaded { path, changed, gains_version: self.version })
     }
 
     /// Places the target a client asks for and designs gains for it.
     fn retarget(&mut self, request: &TargetRequest, heard: &LoopState) -> Result<Accepted, CommandRefused> {
-        let margin_px = self.spec.options.border_margin_px;
-        let Target { features, depths } =
-            vservo_cell::target::place(&self.config, margin_px, request, &heard.cell_now())
-                .map_err(|why| CommandRefused::Target { request: request.name(), why })?;
-        let spec = GainsSpec { desired_features: features, desired_depths: depths, ..self.spec };
-        self.adopt(spec).map_err(CommandRefused::TargetGains)?;
+        let margin_px = self.config.controller.options.border_margin_px;
+        let target = vservo_cell::target::place(&self.config, margin_px, request, &heard.cell_now())
+            .map_err(|why| CommandRefused::Target { request: request.name(), why })?;
+        let gains = vservo_cell::gains::design(&self.config, Some(&target))
+            .map_err(|e| CommandRefused::TargetGains(e.into()))?;
+        self.publish_gains(&gains).map_err(CommandRefused::TargetGains)?;
+        self.target = Some(target);
         Ok(Accepted::Target { gains_version: self.version })
     }
 

@@ -2,9 +2,8 @@
 //! arm runs (`[controller]` and `[desired]` may; every other key shapes the running processes), and the
 //! gains specification the reload designs. Pure: the commander reads the file and publishes the result.
 
-use vservo_cell::target::{self, TargetRefused};
+use vservo_cell::target::{self, Target, TargetRefused};
 use vservo_config::{Config, ConfigError};
-use vservo_control::GainsSpec;
 
 /// Why a reload is refused; nothing is applied.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -160,23 +159,22 @@ fn runtime_keys(old: &vservo_config::Runtime, new: &vservo_config::Runtime) -> [
 pub enum ReloadPlan {
     /// Nothing changed that the daemon runs.
     Nothing,
-    /// Design and hand on `spec`; the live keys that changed.
+    /// Design gains for the new configuration and `target`; the live keys that changed.
     Design {
-        /// The gains to design.
-        spec: Box<GainsSpec>,
+        /// The target a client set that stays (none: the file's `[desired]`).
+        target: Option<Target>,
         /// The changed keys.
         changed: Vec<&'static str>,
     },
 }
 
-/// Decides a reload from the configuration in force (`old`, with the gains specification in force,
-/// `in_force`, whose target a client may have set) to `new`: refused if a restart-only key changed; a
-/// target a client set stays unless `[desired]` changed, and must then still be a target under the new
-/// `[controller]` (clear of a wider barrier margin).
+/// Decides a reload from the configuration in force (`old`, with the target a client set, if one did) to
+/// `new`: refused if a restart-only key changed; a client's target stays unless `[desired]` changed, and
+/// must then still be a target under the new `[controller]` (clear of a wider barrier margin).
 pub fn plan(
     path: &str,
     old: &Config,
-    in_force: &GainsSpec,
+    client_target: Option<&Target>,
     new: &Config,
 ) -> Result<ReloadPlan, ReloadRefused> {
     let diff = diff(old, new);
@@ -186,14 +184,12 @@ pub fn plan(
     if diff.live.is_empty() {
         return Ok(ReloadPlan::Nothing);
     }
-    let mut spec = new.gains_spec();
-    if !diff.desired_changed() {
-        spec.desired_features = in_force.desired_features;
-        spec.desired_depths = in_force.desired_depths;
-        target::check_features(new, spec.options.border_margin_px, &spec.desired_features)
+    let target = client_target.filter(|_| !diff.desired_changed()).copied();
+    if let Some(target) = &target {
+        target::check_features(new, new.controller.options.border_margin_px, &target.features)
             .map_err(|why| ReloadRefused::TargetInForce { path: path.to_string(), why })?;
     }
-    Ok(ReloadPlan::Design { spec: Box::new(spec), changed: diff.live })
+    Ok(ReloadPlan::Design { target, changed: diff.live })
 }
 
 #[cfg(test)]
@@ -217,7 +213,7 @@ mod tests {
         let old = default();
         let commented = Config::from_toml(&format!("# a comment\n{DEFAULT}"), "other.toml").expect("valid");
         assert_eq!(diff(&old, &commented), ConfigDiff::default(), "comments and the origin are no change");
-        assert_eq!(plan("f", &old, &old.gains_spec(), &commented), Ok(ReloadPlan::Nothing));
+        assert_eq!(plan("f", &old, None, &commented), Ok(ReloadPlan::Nothing));
     }
 
     #[test]
@@ -226,7 +222,7 @@ mod tests {
         let new = with("mode = \"dynamic\"", "mode = \"kinematic\"");
         // the simulated driver's command interface follows from the plant's mode: both are named
         assert_eq!(diff(&old, &new).restart_only, ["plant.mode", "robot.command"]);
-        let refused = plan("f.toml", &old, &old.gains_spec(), &new).expect_err("restart only");
+        let refused = plan("f.toml", &old, None, &new).expect_err("restart only");
         let keys = vec!["plant.mode", "robot.command"];
         assert_eq!(refused, ReloadRefused::RestartOnly { path: "f.toml".into(), keys });
         assert!(
@@ -242,20 +238,17 @@ mod tests {
             "f.toml",
         )
         .expect("valid");
-        assert!(matches!(plan("f", &old, &old.gains_spec(), &both), Err(ReloadRefused::RestartOnly { .. })));
+        assert!(matches!(plan("f", &old, None, &both), Err(ReloadRefused::RestartOnly { .. })));
     }
 
     #[test]
     fn live_keys_are_designed_and_named() {
         let old = default();
         let new = with("interaction = \"desired\"", "interaction = \"mean\"");
-        match plan("f", &old, &old.gains_spec(), &new) {
-            Ok(ReloadPlan::Design { spec, changed }) => {
-                assert_eq!(changed, ["controller.interaction"]);
-                assert_eq!(spec.options.interaction, vservo_control::Interaction::Mean);
-            }
-            other => panic!("{other:?}"),
-        }
+        assert_eq!(
+            plan("f", &old, None, &new),
+            Ok(ReloadPlan::Design { target: None, changed: vec!["controller.interaction"] })
+        );
         let weights = with("r = [1.0, 1.0, 1.0, 6.0, 6.0, 6.0]", "r = [4.0, 4.0, 4.0, 24.0, 24.0, 24.0]");
         assert_eq!(diff(&old, &weights).live, ["controller.r"]);
     }
@@ -263,20 +256,18 @@ mod tests {
     #[test]
     fn a_clients_target_stays_unless_desired_changed_and_must_clear_a_wider_margin() {
         let old = default();
-        let mut in_force = old.gains_spec();
         // a client's target with mark 4 at 15 px from the top
-        in_force.desired_features =
+        let features =
             vservo_scene::FeatureVector::from([151.0, 168.0, 318.0, 178.0, 339.0, 75.0, 172.0, 15.0]);
+        let client = Target { features, depths: old.desired.depths };
         let feedforward = with("feedforward = false", "feedforward = true");
-        match plan("f", &old, &in_force, &feedforward) {
-            Ok(ReloadPlan::Design { spec, .. }) => {
-                assert_eq!(spec.desired_features, in_force.desired_features)
-            }
-            other => panic!("{other:?}"),
-        }
+        assert_eq!(
+            plan("f", &old, Some(&client), &feedforward),
+            Ok(ReloadPlan::Design { target: Some(client), changed: vec!["controller.feedforward"] })
+        );
         let margin = with("border_margin_px = 0.0", "border_margin_px = 20.0");
         assert!(matches!(
-            plan("f", &old, &in_force, &margin),
+            plan("f", &old, Some(&client), &margin),
             Err(ReloadRefused::TargetInForce { why: TargetRefused::OutsideImage { mark: 3, .. }, .. })
         ));
         // [desired] changed: the file's target replaces the client's
@@ -284,12 +275,9 @@ mod tests {
             "joints_rad = [0.0, 0.7853981633974483, -3.141592653589793, 0.0, 0.7853981633974483, 0.0]",
             "joints_rad = [0.0, 0.78, -3.141592653589793, 0.0, 0.7853981633974483, 0.0]",
         );
-        match plan("f", &old, &in_force, &desired) {
-            Ok(ReloadPlan::Design { spec, changed }) => {
-                assert_eq!(changed, ["desired.joints_rad"]);
-                assert_eq!(spec.desired_features, desired.desired.features);
-            }
-            other => panic!("{other:?}"),
-        }
+        assert_eq!(
+            plan("f", &old, Some(&client), &desired),
+            Ok(ReloadPlan::Design { target: None, changed: vec!["desired.joints_rad"] })
+        );
     }
 }

@@ -25,6 +25,7 @@ use vservo_client::StatusView;
 use iceoryx2::prelude::{Node, ipc};
 use nix::sys::signal::Signal;
 use vservo_config::Config;
+use vservo_control::Gains;
 use vservo_protocol::codes::NodeState;
 use vservo_protocol::{InstanceClaim, NodeRole, RobotState};
 use vservo_runtime::clock::{PeriodicTimer, monotonic_ns};
@@ -119,11 +120,11 @@ struct Daemon {
 /// Reads and checks the configuration: the text the nodes are handed is the text validated here; the gains
 /// are designed and the arm placed now, so that a configuration that cannot run is refused before any node
 /// starts.
-fn load_config(config_path: &Path) -> anyhow::Result<(Config, String)> {
+fn load_config(config_path: &Path) -> anyhow::Result<(Config, String, Gains)> {
     let config_text = std::fs::read_to_string(config_path)
         .with_context(|| format!("{}: reading the configuration", config_path.display()))?;
     let config = Config::from_toml(&config_text, &config_path.display().to_string())?;
-    vservo_cell::Cell::new(&config).with_context(|| format!("{}", config_path.display()))?;
+    let cell = vservo_cell::Cell::new(&config).with_context(|| format!("{}", config_path.display()))?;
     if let vservo_config::VisionSource::Directory(directory) = &config.vision.source {
         anyhow::bail!(
             "{}: camera.source = \"directory\" ({}): recorded images cannot close the loop; check them open-loop with `vservoctl vision extract`, or set camera.source = \"simulated\" or \"external\"",
@@ -131,7 +132,7 @@ fn load_config(config_path: &Path) -> anyhow::Result<(Config, String)> {
             directory.display()
         );
     }
-    Ok((config, config_text))
+    Ok((config, config_text, cell.gains().clone()))
 }
 
 /// The instance's runtime directory, lock and shared-memory prefix, out of other users' reach, and the
@@ -156,7 +157,7 @@ impl Daemon {
     /// Checks the configuration, claims the instance, publishes the cell mode and the gains, then starts
     /// the nodes and the viewer.
     fn start(config_path: &Path, status_every_s: f64) -> anyhow::Result<Self> {
-        let (config, config_text) = load_config(config_path)?;
+        let (config, config_text, gains) = load_config(config_path)?;
         let settings = Settings::of(&config, status_every_s);
         let (claim, node) = claim_instance(&settings.instance, &config_text)?;
         let launcher = Launcher {
@@ -171,8 +172,8 @@ impl Daemon {
         let ports = Ports::open(&node, &settings.instance)?;
         // the cell mode first: every node finds it in the service's history
         let safety = Safety::new(&node, &settings.instance, config.faults, launcher.seal_key)?;
-        let commander =
-            Commander::new(&node, &launcher.config_path, config.clone(), config_text, launcher.seal_key)?;
+        let path = &launcher.config_path;
+        let commander = Commander::new(&node, path, config.clone(), config_text, launcher.seal_key, &gains)?;
         // every shared-memory object of the instance made so far is ours and owner-only
         claim.check_private().context("the instance's shared memory is not private")?;
         let started_ns = monotonic_ns();
