@@ -37,6 +37,12 @@ pub use outcome::GainsRefused;
 use outcome::{Accepted, CommandRefused};
 use reload::{ReloadPlan, ReloadRefused};
 
+/// Commands get a log line each, up to [`COMMAND_LOG_LINES`] per [`COMMAND_LOG_WINDOW`] (journald's default
+/// burst limit keeps that); a flood beyond gets one summary line per window.
+const COMMAND_LOG_WINDOW: std::time::Duration = std::time::Duration::from_secs(1);
+/// See [`COMMAND_LOG_WINDOW`].
+const COMMAND_LOG_LINES: u32 = 10;
+
 /// The latest of what the loop published, as the supervisor heard it.
 pub struct LoopState<'a> {
     /// The latest joint state.
@@ -105,7 +111,7 @@ impl Commander {
             gains_publisher: vservo_protocol::publisher(node, &instance, Topic::Gains)?,
             object_publisher: vservo_protocol::publisher(node, &instance, Topic::Object)?,
             server,
-            log_limit: LogLimit::new(std::time::Duration::from_secs(1), 10),
+            log_limit: LogLimit::new(COMMAND_LOG_WINDOW, COMMAND_LOG_LINES),
         };
         commander.publish_gains(gains)?;
         Ok(commander)

@@ -8,7 +8,7 @@ use iceoryx2::port::publisher::Publisher;
 use iceoryx2::port::subscriber::Subscriber;
 use iceoryx2::prelude::{Node, ipc};
 use vservo_protocol::{
-    CameraTwistMsg, DaemonStatusMsg, FeaturesMsg, JointCommandMsg, JointStateMsg, NodeRole, SCHEMA_VERSION,
+    CameraTwistMsg, DaemonStatusMsg, FeaturesMsg, JointCommandMsg, JointStateMsg, NodeRole, TakeMessages,
     TelemetryMsg, Topic,
 };
 use vservo_runtime::clock::monotonic_ns;
@@ -46,18 +46,6 @@ impl Ports {
     pub fn publish_status(&self, message: DaemonStatusMsg) {
         if let Ok(sample) = self.status.loan_uninit() {
             let _ = sample.write_payload(message).send();
-        }
-    }
-}
-
-/// Every sample of this daemon's schema that arrived on `subscriber`, in order.
-fn each<T>(subscriber: &Subscriber<ipc::Service, T, ()>, schema: fn(&T) -> u32, mut take: impl FnMut(T))
-where
-    T: Copy + std::fmt::Debug + iceoryx2::prelude::ZeroCopySend,
-{
-    while let Ok(Some(sample)) = subscriber.receive() {
-        if schema(&sample) == SCHEMA_VERSION {
-            take(*sample);
         }
     }
 }
@@ -100,38 +88,25 @@ impl LoopHeard {
     /// node's telemetry to its record.
     pub fn drain(&mut self, ports: &Ports, nodes: &mut [Supervised], monitor: &mut FaultMonitor) {
         let now = Instant::now();
-        each(
-            &ports.joint_state,
-            |m| m.schema,
-            |state| {
-                monitor.on_joint_state(&state);
-                self.joint_state = Some(state);
-                self.joint_state_at = Some(now);
-            },
-        );
-        each(&ports.command, |m| m.schema, |command| self.command = Some(command));
-        each(
-            &ports.features,
-            |m| m.schema,
-            |features| {
-                monitor.on_features(&features, monotonic_ns());
-                self.features = Some(features);
-            },
-        );
-        each(
-            &ports.twist,
-            |m| m.schema,
-            |twist| {
-                monitor.on_twist(&twist);
-                self.gains_version = twist.gains_version;
-                self.feature_error_px = twist.feature_error_px;
-            },
-        );
-        each(
-            &ports.telemetry,
-            |m| m.schema,
-            |telemetry| route_telemetry(nodes.iter_mut().map(|n| &mut n.record), telemetry, now),
-        );
+        // a message of another schema is refused by `TakeMessages`, the protocol's one place for it
+        ports.joint_state.each_message(|state| {
+            monitor.on_joint_state(&state);
+            self.joint_state = Some(state);
+            self.joint_state_at = Some(now);
+        });
+        ports.command.each_message(|command| self.command = Some(command));
+        ports.features.each_message(|features| {
+            monitor.on_features(&features, monotonic_ns());
+            self.features = Some(features);
+        });
+        ports.twist.each_message(|twist| {
+            monitor.on_twist(&twist);
+            self.gains_version = twist.gains_version;
+            self.feature_error_px = twist.feature_error_px;
+        });
+        ports.telemetry.each_message(|telemetry| {
+            route_telemetry(nodes.iter_mut().map(|n| &mut n.record), telemetry, now);
+        });
         if let Some(state) = &self.joint_state {
             self.tick_rate.observe(state.stamp_ns, state.tick);
         }
