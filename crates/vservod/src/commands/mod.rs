@@ -34,7 +34,7 @@ use crate::safety::Safety;
 use crate::systemd::Systemd;
 use object::ObjectMotion;
 pub use outcome::GainsRefused;
-use outcome::{Accepted, CommandRefused};
+pub use outcome::{Accepted, CommandRefused};
 use reload::{ReloadPlan, ReloadRefused};
 
 /// Commands get a log line each, up to [`COMMAND_LOG_LINES`] per [`COMMAND_LOG_WINDOW`] (journald's default
@@ -158,7 +158,7 @@ impl Commander {
         while let Ok(Some(request)) = self.server.receive() {
             let command = *request.payload();
             let outcome = self.answer(&command, heard, systemd, safety);
-            let text = outcome::reply_text(&outcome, self.version);
+            let text = self.describe(&outcome);
             if self.log_limit.admit(now, outcome.is_ok()) {
                 let kind = CommandKind::try_from(command.kind).map_or("unknown", CommandKind::name);
                 match &outcome {
@@ -196,7 +196,7 @@ impl Commander {
         let kind =
             CommandKind::try_from(command.kind).map_err(|_| CommandRefused::UnknownKind(command.kind))?;
         match kind {
-            CommandKind::Reload => Ok(self.reload(systemd)?),
+            CommandKind::Reload => self.reload(systemd),
             CommandKind::Resume => Ok(Accepted::Resumed(safety.resume(&heard.conditions)?)),
             CommandKind::SafeStop => Ok(safety.request_safe_stop().map(|()| Accepted::SafeStop)?),
             CommandKind::TargetFeatures | CommandKind::TargetPose | CommandKind::TargetTeach => {
@@ -210,16 +210,20 @@ impl Commander {
 
     /// Re-reads the configuration file; applies the live keys (`[controller]`, `[desired]`) or refuses the
     /// whole file with the reason. systemd hears RELOADING=1 first and READY=1 after, either way.
-    pub fn reload(&mut self, systemd: &mut Systemd) -> Result<Accepted, ReloadRefused> {
+    pub fn reload(&mut self, systemd: &mut Systemd) -> Result<Accepted, CommandRefused> {
         systemd.reloading();
-        let result = self.try_reload();
-        let outcome = result.clone().map_err(CommandRefused::Reload);
-        let text = outcome::reply_text(&outcome, self.version);
-        systemd.reloaded(&match &result {
+        let outcome = self.try_reload().map_err(CommandRefused::Reload);
+        let text = self.describe(&outcome);
+        systemd.reloaded(&match &outcome {
             Ok(_) => format!("reloaded: {text}"),
             Err(_) => format!("reload refused: {text}"),
         });
-        result
+        outcome
+    }
+
+    /// What a command came to, as its reply and log line say it.
+    pub fn describe(&self, outcome: &Result<Accepted, CommandRefused>) -> String {
+        outcome::reply_text(outcome, self.version)
     }
 
     fn try_reload(&mut self) -> Result<Accepted, ReloadRefused> {

@@ -233,9 +233,11 @@ impl Daemon {
 
     /// SIGHUP: re-reads the configuration.
     fn reload(&mut self) {
-        match self.commander.reload(&mut self.systemd) {
-            Ok(what) => tracing::info!("SIGHUP: reloaded: {what}"),
-            Err(why) => tracing::warn!("SIGHUP: reload refused: {why}"),
+        let outcome = self.commander.reload(&mut self.systemd);
+        let text = self.commander.describe(&outcome);
+        match outcome {
+            Ok(_) => tracing::info!("SIGHUP: reloaded: {text}"),
+            Err(_) => tracing::warn!("SIGHUP: reload refused: {text}"),
         }
     }
 
