@@ -15,8 +15,6 @@ use vservo_protocol::{
     CameraTwistMsg, DriverStatus, Fault, FeaturesMsg, JointStateMsg, RobotState, Verdict, fault_bits,
 };
 
-/// Six bits, one per joint.
-const JOINT_BITS: u32 = 0x3f;
 /// Four bits, one per mark.
 const ALL_MARKS: u32 = 0b1111;
 /// Features older than this do not show that the marks are seen (ns).
@@ -119,8 +117,8 @@ pub type Condition = fn(&Evidence) -> Option<Cause>;
 pub const CONDITIONS: [Condition; 8] = [
     |e| (!e.motion_nodes_healthy).then_some(Cause::MotionNodesDown),
     |e| (e.robot == RobotState::Waiting).then_some(Cause::RobotWaiting),
-    |e| nonzero(joints_of(e.fault_bits, fault_bits::POSITION_LIMIT_SHIFT)).map(Cause::PositionLimit),
-    |e| nonzero(joints_of(e.fault_bits, fault_bits::VELOCITY_LIMIT_SHIFT)).map(Cause::VelocityLimit),
+    |e| nonzero(fault_bits::joints(e.fault_bits, fault_bits::POSITION_LIMIT_SHIFT)).map(Cause::PositionLimit),
+    |e| nonzero(fault_bits::joints(e.fault_bits, fault_bits::VELOCITY_LIMIT_SHIFT)).map(Cause::VelocityLimit),
     |e| (e.driver_fault || e.fault_bits & fault_bits::DRIVER_FAILED != 0).then_some(Cause::DriverFault),
     |e| (e.robot == RobotState::Stalled).then_some(Cause::RobotStalled),
     |e| nonzero(e.saturated_joints).map(Cause::TorqueSaturated),
@@ -224,10 +222,6 @@ pub struct FaultMonitor {
     safe_stops: u64,
 }
 
-fn joints_of(bits: u32, shift: u32) -> u32 {
-    (bits >> shift) & JOINT_BITS
-}
-
 fn nonzero(bits: u32) -> Option<u32> {
     (bits != 0).then_some(bits)
 }
@@ -266,7 +260,7 @@ impl FaultMonitor {
     pub fn on_joint_state(&mut self, state: &JointStateMsg) {
         self.seen_bits |= state.faults;
         self.driver_fault_seen |= DriverStatus::try_from(state.driver_status) == Ok(DriverStatus::Fault);
-        let saturated = joints_of(state.faults, fault_bits::TORQUE_SATURATED_SHIFT);
+        let saturated = fault_bits::joints(state.faults, fault_bits::TORQUE_SATURATED_SHIFT);
         self.saturated = match (self.saturated, saturated) {
             (_, 0) => None,
             (Some(run), now) => Some(Run { last_ns: state.stamp_ns, bits: run.bits | now, ..run }),
@@ -342,7 +336,7 @@ impl FaultMonitor {
             driver_fault: state
                 .is_some_and(|s| DriverStatus::try_from(s.driver_status) == Ok(DriverStatus::Fault)),
             robot: c.robot,
-            saturated_joints: joints_of(bits, fault_bits::TORQUE_SATURATED_SHIFT),
+            saturated_joints: fault_bits::joints(bits, fault_bits::TORQUE_SATURATED_SHIFT),
             missing_marks: if lost_target { !fresh_marks & ALL_MARKS } else { 0 },
             motion_nodes_healthy: c.motion_nodes_healthy,
         }

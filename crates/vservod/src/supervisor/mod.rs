@@ -21,12 +21,12 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
 use anyhow::Context;
-use vservo_client::StatusView;
 use iceoryx2::prelude::{Node, ipc};
 use nix::sys::signal::Signal;
+use vservo_client::StatusView;
 use vservo_config::Config;
 use vservo_control::Gains;
-use vservo_protocol::codes::NodeState;
+use vservo_protocol::NodeState;
 use vservo_protocol::{InstanceClaim, NodeRole, RobotState};
 use vservo_runtime::clock::{PeriodicTimer, monotonic_ns};
 

@@ -4,7 +4,7 @@
 
 use std::time::{Duration, Instant};
 
-use vservo_protocol::codes::NodeState;
+use vservo_protocol::NodeState;
 use vservo_protocol::{NodeRole, NodeStatusMsg, TelemetryMsg};
 
 use super::restart::RestartPolicy;

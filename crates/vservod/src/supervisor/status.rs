@@ -141,7 +141,7 @@ mod tests {
         let message = status_message(&nodes, &facts, t0);
         assert_eq!((message.uptime_ns, message.gains_version, message.pid), (3 * S, 1, 9));
         let vision = message.nodes[NodeRole::Vision as usize];
-        assert_eq!((vision.pid, vision.state), (77, vservo_protocol::codes::NodeState::Running.into()));
+        assert_eq!((vision.pid, vision.state), (77, vservo_protocol::NodeState::Running.into()));
         assert_eq!(message.nodes[NodeRole::Plant as usize], NodeStatusMsg::default(), "not supervised");
         let said = status_message(&nodes, &StatusFacts { servo_gains_version: 3, ..facts }, t0);
         assert_eq!(said.gains_version, 3);
