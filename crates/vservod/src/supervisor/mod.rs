@@ -26,8 +26,7 @@ use nix::sys::signal::Signal;
 use vservo_client::StatusView;
 use vservo_config::Config;
 use vservo_control::Gains;
-use vservo_protocol::NodeState;
-use vservo_protocol::{InstanceClaim, NodeRole, RobotState};
+use vservo_protocol::{InstanceClaim, NodeRole, NodeState, RobotState};
 use vservo_runtime::clock::{PeriodicTimer, monotonic_ns};
 
 use crate::commands::{Commander, LoopState};

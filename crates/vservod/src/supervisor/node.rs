@@ -4,8 +4,7 @@
 
 use std::time::{Duration, Instant};
 
-use vservo_protocol::NodeState;
-use vservo_protocol::{NodeRole, NodeStatusMsg, TelemetryMsg};
+use vservo_protocol::{NodeRole, NodeState, NodeStatusMsg, TelemetryMsg};
 
 use super::restart::RestartPolicy;
 
@@ -155,31 +154,13 @@ impl NodeRecord {
 /// What the supervisor's unit tests build nodes from.
 #[cfg(test)]
 pub mod tests_support {
-    use vservo_protocol::{TelemetryMsg, TimingMsg};
+    use vservo_protocol::TelemetryMsg;
 
     /// The telemetry of process `pid` at loop progress `progress`.
     pub fn telemetry(pid: u32, progress: u64) -> TelemetryMsg {
-        TelemetryMsg {
-            schema: vservo_protocol::SCHEMA_VERSION,
-            node: 0,
-            stamp_ns: 0,
-            window_ns: 0,
-            cycles: 0,
-            overruns: 0,
-            skipped_periods: 0,
-            late_answers: 0,
-            rejected_messages: 0,
-            gains_version: 0,
-            progress,
-            wake_latency: TimingMsg::default(),
-            execution: TimingMsg::default(),
-            round_trip: TimingMsg::default(),
-            frame_period: TimingMsg::default(),
-            capture_latency: TimingMsg::default(),
-            feature_error_px: 0.0,
-            pid,
-            mode: 0,
-        }
+        // a number, not the default's NaN: the tests compare messages
+        let feature_error_px = 0.0;
+        TelemetryMsg { pid, progress, feature_error_px, ..TelemetryMsg::default() }
     }
 }
 
