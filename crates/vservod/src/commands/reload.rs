@@ -280,4 +280,43 @@ mod tests {
             Ok(ReloadPlan::Design { target: None, changed: vec!["desired.joints_rad"] })
         );
     }
+
+    #[test]
+    fn each_section_outside_controller_and_desired_is_restart_only_and_named() {
+        let old = default();
+        let cases = [
+            ("pipeline_delay_frames = 1", "pipeline_delay_frames = 2", "timing.pipeline_delay_frames"),
+            ("focal_px = 500.0", "focal_px = 520.0", "camera"),
+            (
+                "translation_m = [0.0, 0.0, 0.08]",
+                "translation_m = [0.0, 0.0, 0.09]",
+                "camera.tool_from_camera",
+            ),
+            ("mark_diameter_m = 0.015", "mark_diameter_m = 0.016", "object"),
+            ("gate_px = 40.0", "gate_px = 30.0", "vision"),
+            ("rk4_substeps = 1", "rk4_substeps = 2", "plant.rk4_substeps"),
+            ("max_damping = 0.05", "max_damping = 0.04", "interpolator"),
+            (
+                "kp = [3600.0, 3600.0, 3600.0, 3600.0, 3600.0, 3600.0]",
+                "kp = [3000.0, 3600.0, 3600.0, 3600.0, 3600.0, 3600.0]",
+                "joint_servo.kp",
+            ),
+            ("duration_s = 30.0", "duration_s = 20.0", "scenario"),
+            ("state_timeout_periods = 50", "state_timeout_periods = 60", "robot.state_timeout_periods"),
+            ("gain_per_s = 1.5", "gain_per_s = 1.0", "reacquire"),
+            ("target_lost_s = 1.0", "target_lost_s = 2.0", "faults.target_lost_s"),
+            ("fifo_priority = 80", "fifo_priority = 70", "runtime.plant"),
+            ("port = 8765", "port = 8766", "viewer.port"),
+        ];
+        for (from, to, key) in cases {
+            let new = with(from, to);
+            // a value derived from it elsewhere (the camera's ξ_d in [desired]) may change too; the refusal
+            // names what the file changed
+            assert_eq!(diff(&old, &new).restart_only, [key], "{from} → {to}");
+            assert!(matches!(
+                plan("f", &old, None, &new),
+                Err(ReloadRefused::RestartOnly { keys, .. }) if keys == [key]
+            ));
+        }
+    }
 }
