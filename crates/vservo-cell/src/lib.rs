@@ -12,9 +12,11 @@
 //! process. Neither adds control logic of its own, so the same configuration behaves the same in both.
 //! Nothing here does I/O, reads a clock or allocates per call.
 
+pub mod gains;
 mod plant_stage;
 mod rmrc_stage;
 mod servo_stage;
+pub mod target;
 mod vision_stage;
 
 pub use plant_stage::PlantStage;
@@ -82,7 +84,7 @@ impl Cell {
     /// (the solution nearest the desired joints; the simulated driver starts there).
     pub fn new(config: &Config) -> Result<Self, CellError> {
         let arm = config.arm.clone();
-        let gains = Gains::design(&config.gains_spec())?;
+        let gains = gains::design(config, None)?;
         let base_from_desired_camera = arm.base_from_tool(&config.desired.joints) * config.tool_from_camera;
         let base_from_board_desired = config.base_from_board(&arm);
         let scenario = &config.scenario;

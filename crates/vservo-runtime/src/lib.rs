@@ -16,6 +16,7 @@
 //! ([`realtime`]).
 
 pub mod clock;
+pub mod gains;
 pub mod joint_history;
 pub mod nodes;
 pub mod notes;

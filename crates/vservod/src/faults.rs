@@ -6,26 +6,135 @@
 //! external driver that stalled. Once they last: a torque cut to its limit (`faults.saturation_s`), marks
 //! missing so that the servo cannot servo (`faults.target_lost_s`). The first fault is latched; the cell
 //! resumes on a command, or by itself under `faults.resume = "automatic"`, only once no cause is left.
+//!
+//! Each condition is written once ([`CONDITIONS`]) and judged on [`Evidence`]: what was seen since the last
+//! cycle (a fault found) or how things stand now (a cause that keeps the cell from resuming).
 
 use vservo_config::{Faults, ResumePolicy};
 use vservo_protocol::{
-    CameraTwistMsg, FeaturesMsg, JointStateMsg, driver_status, fault, fault_bits, robot_state, verdict,
+    CameraTwistMsg, DriverStatus, Fault, FeaturesMsg, JointStateMsg, RobotState, Verdict, fault_bits,
 };
 
-/// Six bits, one per joint.
-const JOINT_BITS: u32 = 0x3f;
+/// Four bits, one per mark.
+const ALL_MARKS: u32 = 0b1111;
+/// Features older than this do not show that the marks are seen (ns).
+const FRESH_FEATURES_NS: u64 = 1_000_000_000;
 
 /// A latched fault.
 #[derive(Debug, Clone, PartialEq)]
-pub struct Fault {
-    /// [`fault`] code.
-    pub code: u32,
+pub struct LatchedFault {
+    /// Which fault.
+    pub code: Fault,
     /// The joints it concerns (bit j: joint j + 1).
     pub joints: u32,
     /// CLOCK_MONOTONIC (ns) when it was found.
     pub since_ns: u64,
-    /// What was seen, for the log.
-    pub detail: String,
+    /// What was seen.
+    pub cause: Cause,
+}
+
+/// One thing that stops the cell, or keeps it from servoing again; its message is the log's and the
+/// refused resume's.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+pub enum Cause {
+    /// The rmrc (and the simulated plant) do not all run healthy: not a fault of its own.
+    #[error("the nodes that move the arm are not all running")]
+    MotionNodesDown,
+    /// No joint state yet: not a fault of its own.
+    #[error("no joint state from the robot driver yet")]
+    RobotWaiting,
+    /// Joints beyond their position range.
+    #[error("joint {} is beyond its position range", joint_list(*.0))]
+    PositionLimit(u32),
+    /// Joints over their velocity limit.
+    #[error("joint {} is over its velocity limit", joint_list(*.0))]
+    VelocityLimit(u32),
+    /// The driver reports a fault.
+    #[error("the robot driver reports a fault")]
+    DriverFault,
+    /// The driver's joint states stopped (a fault of an external driver only).
+    #[error("the robot driver's joint states do not arrive")]
+    RobotStalled,
+    /// Joint torques cut to their limit.
+    #[error("joint {} torque is at its limit", joint_list(*.0))]
+    TorqueSaturated(u32),
+    /// Marks missing (bit m: mark m + 1).
+    #[error("the camera does not see all four marks (mark {} missing)", mark_list(*.0))]
+    MarksMissing(u32),
+    /// A client asked for the safe stop.
+    #[error("asked for by a client")]
+    Requested,
+}
+
+impl Cause {
+    /// The fault this cause is, if it is one.
+    pub fn fault(self) -> Option<Fault> {
+        match self {
+            Cause::MotionNodesDown | Cause::RobotWaiting => None,
+            Cause::PositionLimit(_) => Some(Fault::PositionLimit),
+            Cause::VelocityLimit(_) => Some(Fault::VelocityLimit),
+            Cause::DriverFault => Some(Fault::DriverFault),
+            Cause::RobotStalled => Some(Fault::RobotStalled),
+            Cause::TorqueSaturated(_) => Some(Fault::TorqueSaturated),
+            Cause::MarksMissing(_) => Some(Fault::TargetLost),
+            Cause::Requested => Some(Fault::Requested),
+        }
+    }
+
+    /// The joints it concerns (bit j: joint j + 1).
+    pub fn joints(self) -> u32 {
+        match self {
+            Cause::PositionLimit(joints) | Cause::VelocityLimit(joints) | Cause::TorqueSaturated(joints) => {
+                joints
+            }
+            _ => 0,
+        }
+    }
+}
+
+/// What the conditions are judged on: what was seen since the last cycle (finding a fault), or how things
+/// stand now (what keeps the cell from resuming).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Evidence {
+    /// `fault_bits` of the joint states.
+    pub fault_bits: u32,
+    /// A joint state's driver status said FAULT.
+    pub driver_fault: bool,
+    /// The robot driver's state, as far as it counts.
+    pub robot: RobotState,
+    /// Joints whose torque is at its limit, as far as it counts.
+    pub saturated_joints: u32,
+    /// Marks missing, as far as it counts (bit m: mark m + 1; 0: none).
+    pub missing_marks: u32,
+    /// The nodes that bring the arm to rest run healthy.
+    pub motion_nodes_healthy: bool,
+}
+
+/// A condition: the cause it finds in the evidence, if any.
+pub type Condition = fn(&Evidence) -> Option<Cause>;
+
+/// Every condition, in the order a fault is chosen when several are found at once.
+pub const CONDITIONS: [Condition; 8] = [
+    |e| (!e.motion_nodes_healthy).then_some(Cause::MotionNodesDown),
+    |e| (e.robot == RobotState::Waiting).then_some(Cause::RobotWaiting),
+    |e| nonzero(fault_bits::joints(e.fault_bits, fault_bits::POSITION_LIMIT_SHIFT)).map(Cause::PositionLimit),
+    |e| nonzero(fault_bits::joints(e.fault_bits, fault_bits::VELOCITY_LIMIT_SHIFT)).map(Cause::VelocityLimit),
+    |e| (e.driver_fault || e.fault_bits & fault_bits::DRIVER_FAILED != 0).then_some(Cause::DriverFault),
+    |e| (e.robot == RobotState::Stalled).then_some(Cause::RobotStalled),
+    |e| nonzero(e.saturated_joints).map(Cause::TorqueSaturated),
+    |e| nonzero(e.missing_marks).map(Cause::MarksMissing),
+];
+
+impl Evidence {
+    /// Every cause present, in [`CONDITIONS`]' order.
+    pub fn causes(&self) -> Vec<Cause> {
+        CONDITIONS.iter().filter_map(|condition| condition(self)).collect()
+    }
+
+    /// The first cause that is a fault.
+    pub fn first_fault(&self) -> Option<Cause> {
+        CONDITIONS.iter().filter_map(|condition| condition(self)).find(|cause| cause.fault().is_some())
+    }
 }
 
 /// What the supervisor knows besides the messages.
@@ -33,8 +142,8 @@ pub struct Fault {
 pub struct Conditions {
     /// CLOCK_MONOTONIC now (ns).
     pub now_ns: u64,
-    /// [`robot_state`].
-    pub robot: u32,
+    /// The robot driver's state.
+    pub robot: RobotState,
     /// An external robot driver (its stall is a fault; the simulated plant's is a node restart).
     pub external_robot: bool,
     /// The nodes that bring the arm to rest and move it (rmrc; the plant when simulated) run healthy.
@@ -47,9 +156,46 @@ pub enum Decision {
     /// Nothing changes.
     Same,
     /// A new fault: go to a safe stop.
-    SafeStop(Fault),
+    SafeStop(LatchedFault),
     /// `faults.resume = "automatic"` and no cause is left: servo again.
     ResumeAutomatically,
+}
+
+/// Why a resume is refused.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum ResumeRefused {
+    /// Nothing to resume from.
+    #[error("the cell is not in a safe stop")]
+    NotHeld,
+    /// Causes are still present.
+    #[error("cannot resume after {fault}: {}", cause_list(causes))]
+    CausesLeft {
+        /// The latched fault.
+        fault: Fault,
+        /// Every cause still present.
+        causes: Vec<Cause>,
+    },
+}
+
+/// Why a client's safe stop is refused: the cell is held already.
+#[derive(Debug, Clone, Copy, PartialEq, thiserror::Error)]
+#[error("the cell is already in a safe stop ({0})")]
+pub struct AlreadyHeld(pub Fault);
+
+/// A run of joint states or twists that shows a condition: when it began and the latest stamp (ns), and
+/// the joints or marks concerned.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Run {
+    first_ns: u64,
+    last_ns: u64,
+    bits: u32,
+}
+
+impl Run {
+    /// The bits, once the run has lasted `at_least_s`; 0 before.
+    fn lasting(run: Option<Run>, at_least_s: f64) -> u32 {
+        run.filter(|r| r.last_ns.saturating_sub(r.first_ns) as f64 / 1e9 >= at_least_s).map_or(0, |r| r.bits)
+    }
 }
 
 /// Follows the loop and latches faults.
@@ -62,26 +208,34 @@ pub struct FaultMonitor {
     /// for a tick between two cycles counts).
     seen_bits: u32,
     driver_fault_seen: bool,
-    /// The stamp where the current run of saturated states began, and the last one.
-    saturated: Option<(u64, u64, u32)>,
-    /// The stamp where the current run of "marks missing" twists began, the last one, and which marks.
-    missing: Option<(u64, u64, u32)>,
-    /// Whether the latest features show all four marks, and when they came (ns).
-    marks_seen: Option<(bool, u64)>,
-    latched: Option<Fault>,
+    /// The current run of saturated states.
+    saturated: Option<Run>,
+    /// The current run of "marks missing" twists, and which marks.
+    missing: Option<Run>,
+    /// The marks the latest features show, and when they came (ns).
+    marks_seen: Option<(u32, u64)>,
+    latched: Option<LatchedFault>,
     /// The last fault, kept for the status after a resume.
-    last: Option<Fault>,
+    last: Option<LatchedFault>,
     /// Since when no cause has been present (automatic resume).
     clear_since_ns: Option<u64>,
     safe_stops: u64,
 }
 
-fn joints_of(bits: u32, shift: u32) -> u32 {
-    (bits >> shift) & JOINT_BITS
+fn nonzero(bits: u32) -> Option<u32> {
+    (bits != 0).then_some(bits)
 }
 
 fn joint_list(joints: u32) -> String {
     (0..6).filter(|j| joints & (1 << j) != 0).map(|j| (j + 1).to_string()).collect::<Vec<_>>().join(", ")
+}
+
+fn mark_list(marks: u32) -> String {
+    (0..4).filter(|m| marks & (1 << m) != 0).map(|m| (m + 1).to_string()).collect::<Vec<_>>().join(", ")
+}
+
+fn cause_list(causes: &[Cause]) -> String {
+    causes.iter().map(Cause::to_string).collect::<Vec<_>>().join("; ")
 }
 
 impl FaultMonitor {
@@ -105,41 +259,46 @@ impl FaultMonitor {
     /// Takes one joint state (every one the supervisor drains, in order).
     pub fn on_joint_state(&mut self, state: &JointStateMsg) {
         self.seen_bits |= state.faults;
-        self.driver_fault_seen |= state.driver_status == driver_status::FAULT;
-        let saturated = joints_of(state.faults, fault_bits::TORQUE_SATURATED_SHIFT);
+        self.driver_fault_seen |= DriverStatus::try_from(state.driver_status) == Ok(DriverStatus::Fault);
+        let saturated = fault_bits::joints(state.faults, fault_bits::TORQUE_SATURATED_SHIFT);
         self.saturated = match (self.saturated, saturated) {
             (_, 0) => None,
-            (Some((first, _, joints)), now) => Some((first, state.stamp_ns, joints | now)),
-            (None, now) => Some((state.stamp_ns, state.stamp_ns, now)),
+            (Some(run), now) => Some(Run { last_ns: state.stamp_ns, bits: run.bits | now, ..run }),
+            (None, now) => Some(Run { first_ns: state.stamp_ns, last_ns: state.stamp_ns, bits: now }),
         };
         self.latest_state = Some(*state);
     }
 
     /// Takes one twist of the servo.
     pub fn on_twist(&mut self, twist: &CameraTwistMsg) {
-        // servoing on three marks is servoing; reacquiring is not: the target is lost until it is back
-        let lost = matches!(twist.verdict, verdict::MARKS_MISSING | verdict::REACQUIRING);
-        self.missing = match (self.missing, twist.verdict) {
-            (Some((first, _, _)), _) if lost => Some((first, twist.stamp_ns, twist.missing_mask)),
-            (None, _) if lost => Some((twist.stamp_ns, twist.stamp_ns, twist.missing_mask)),
+        // servoing on three marks is servoing; reacquiring is not: the target is lost until it is back; a
+        // verdict that is none ends a run like any twist that servos
+        let verdict = Verdict::try_from(twist.verdict).ok();
+        let lost = matches!(verdict, Some(Verdict::MarksMissing | Verdict::Reacquiring));
+        let stamp_ns = twist.stamp_ns;
+        self.missing = match (self.missing, verdict) {
+            (Some(run), _) if lost => Some(Run { last_ns: stamp_ns, bits: twist.missing_mask, ..run }),
+            (None, _) if lost => {
+                Some(Run { first_ns: stamp_ns, last_ns: stamp_ns, bits: twist.missing_mask })
+            }
             // held in a safe stop, the servo does not look at the marks: the run goes on
-            (run, verdict::SAFE_STOP) => run,
+            (run, Some(Verdict::SafeStop)) => run,
             _ => None,
         };
     }
 
     /// Takes one feature vector.
     pub fn on_features(&mut self, features: &FeaturesMsg, now_ns: u64) {
-        self.marks_seen = Some((features.valid_mask == 0b1111, now_ns));
+        self.marks_seen = Some((features.valid_mask & ALL_MARKS, now_ns));
     }
 
     /// The latched fault, if the cell is in a safe stop.
-    pub fn latched(&self) -> Option<&Fault> {
+    pub fn latched(&self) -> Option<&LatchedFault> {
         self.latched.as_ref()
     }
 
     /// The latched fault, or the last one since the start.
-    pub fn shown(&self) -> Option<&Fault> {
+    pub fn shown(&self) -> Option<&LatchedFault> {
         self.latched.as_ref().or(self.last.as_ref())
     }
 
@@ -148,110 +307,54 @@ impl FaultMonitor {
         self.safe_stops
     }
 
-    /// The fault found this cycle, if any (the first in the order below).
-    fn detect(&self, c: &Conditions) -> Option<(u32, u32, String)> {
-        let position = joints_of(self.seen_bits, fault_bits::POSITION_LIMIT_SHIFT);
-        if position != 0 {
-            return Some((
-                fault::POSITION_LIMIT,
-                position,
-                format!("joint {} beyond its position range", joint_list(position)),
-            ));
+    /// What was seen since the last cycle: limits crossed, driver faults, an external driver's stall,
+    /// saturation and lost marks once they have lasted.
+    fn seen_since_last_cycle(&self, c: &Conditions) -> Evidence {
+        Evidence {
+            fault_bits: self.seen_bits,
+            driver_fault: self.driver_fault_seen,
+            // the simulated plant's stall is a node restart, not a fault
+            robot: if c.external_robot { c.robot } else { RobotState::Running },
+            saturated_joints: Run::lasting(self.saturated, self.settings.saturation_s),
+            missing_marks: Run::lasting(self.missing, self.settings.target_lost_s),
+            motion_nodes_healthy: c.motion_nodes_healthy,
         }
-        let velocity = joints_of(self.seen_bits, fault_bits::VELOCITY_LIMIT_SHIFT);
-        if velocity != 0 {
-            return Some((
-                fault::VELOCITY_LIMIT,
-                velocity,
-                format!("joint {} faster than its velocity limit", joint_list(velocity)),
-            ));
+    }
+
+    /// How things stand now: the latest joint state's bits, the driver's state, and — after lost marks —
+    /// whether fresh features show all four.
+    fn standing_now(&self, c: &Conditions) -> Evidence {
+        let state = self.latest_state.as_ref();
+        let bits = state.map_or(0, |s| s.faults);
+        let lost_target = self.latched.as_ref().is_some_and(|f| f.code == Fault::TargetLost);
+        let fresh_marks = self
+            .marks_seen
+            .filter(|(_, at)| c.now_ns.saturating_sub(*at) < FRESH_FEATURES_NS)
+            .map_or(0, |(marks, _)| marks);
+        Evidence {
+            fault_bits: bits,
+            driver_fault: state
+                .is_some_and(|s| DriverStatus::try_from(s.driver_status) == Ok(DriverStatus::Fault)),
+            robot: c.robot,
+            saturated_joints: fault_bits::joints(bits, fault_bits::TORQUE_SATURATED_SHIFT),
+            missing_marks: if lost_target { !fresh_marks & ALL_MARKS } else { 0 },
+            motion_nodes_healthy: c.motion_nodes_healthy,
         }
-        if self.driver_fault_seen || self.seen_bits & fault_bits::DRIVER_FAILED != 0 {
-            return Some((fault::DRIVER_FAULT, 0, "the robot driver reports a fault".into()));
-        }
-        if c.external_robot && c.robot == robot_state::STALLED {
-            return Some((
-                fault::ROBOT_STALLED,
-                0,
-                "no joint state from the robot driver within its deadline".into(),
-            ));
-        }
-        if let Some((first, last, joints)) = self.saturated {
-            let lasted_s = last.saturating_sub(first) as f64 / 1e9;
-            if lasted_s >= self.settings.saturation_s {
-                return Some((
-                    fault::TORQUE_SATURATED,
-                    joints,
-                    format!("joint {} torque at its limit for {lasted_s:.2} s", joint_list(joints)),
-                ));
-            }
-        }
-        if let Some((first, last, marks)) = self.missing {
-            let lasted_s = last.saturating_sub(first) as f64 / 1e9;
-            if lasted_s >= self.settings.target_lost_s {
-                let list =
-                    (0..4).filter(|m| marks & (1 << m) != 0).map(|m| (m + 1).to_string()).collect::<Vec<_>>();
-                return Some((
-                    fault::TARGET_LOST,
-                    0,
-                    format!("mark {} missing for {lasted_s:.2} s", list.join(", ")),
-                ));
-            }
-        }
-        None
     }
 
     /// Why the cell cannot servo again now: every cause still present (empty: it may resume).
-    pub fn causes(&self, c: &Conditions) -> Vec<String> {
-        let mut causes = Vec::new();
-        if !c.motion_nodes_healthy {
-            causes.push("the nodes that move the arm are not all running".to_string());
-        }
-        match c.robot {
-            robot_state::RUNNING => {}
-            robot_state::STALLED => causes.push("the robot driver's joint states do not arrive".into()),
-            _ => causes.push("no joint state from the robot driver yet".into()),
-        }
-        if let Some(state) = &self.latest_state {
-            let position = joints_of(state.faults, fault_bits::POSITION_LIMIT_SHIFT);
-            if position != 0 {
-                causes.push(format!("joint {} is beyond its position range", joint_list(position)));
-            }
-            let velocity = joints_of(state.faults, fault_bits::VELOCITY_LIMIT_SHIFT);
-            if velocity != 0 {
-                causes.push(format!("joint {} is over its velocity limit", joint_list(velocity)));
-            }
-            if state.driver_status == driver_status::FAULT || state.faults & fault_bits::DRIVER_FAILED != 0 {
-                causes.push("the robot driver reports a fault".into());
-            }
-            let saturated = joints_of(state.faults, fault_bits::TORQUE_SATURATED_SHIFT);
-            if saturated != 0 {
-                causes.push(format!("joint {} torque is at its limit", joint_list(saturated)));
-            }
-        }
-        if self.latched.as_ref().is_some_and(|f| f.code == fault::TARGET_LOST) {
-            // fresh features (within a second) with all four marks
-            let seen =
-                self.marks_seen.is_some_and(|(all, at)| all && c.now_ns.saturating_sub(at) < 1_000_000_000);
-            if !seen {
-                causes.push("the camera does not see all four marks".into());
-            }
-        }
-        causes
+    pub fn causes(&self, c: &Conditions) -> Vec<Cause> {
+        self.standing_now(c).causes()
     }
 
     /// One supervisor cycle: latches a new fault, or (automatic policy) says the cell may resume.
     pub fn cycle(&mut self, c: &Conditions) -> Decision {
-        let found = self.detect(c);
+        let found = self.seen_since_last_cycle(c).first_fault();
         self.seen_bits = 0;
         self.driver_fault_seen = false;
         if self.latched.is_none() {
             return match found {
-                Some((code, joints, detail)) => {
-                    let fault = Fault { code, joints, since_ns: c.now_ns, detail };
-                    self.latch(fault.clone());
-                    Decision::SafeStop(fault)
-                }
+                Some(cause) => Decision::SafeStop(self.latch(cause, c.now_ns)),
                 None => Decision::Same,
             };
         }
@@ -259,7 +362,7 @@ impl FaultMonitor {
             return Decision::Same;
         }
         // held, the servo no longer reports the marks: whether they are back is the features' to say (causes)
-        let found_now = found.is_some_and(|(code, _, _)| code != fault::TARGET_LOST);
+        let found_now = found.is_some_and(|cause| !matches!(cause, Cause::MarksMissing(_)));
         if found_now || !self.causes(c).is_empty() {
             self.clear_since_ns = None;
             return Decision::Same;
@@ -272,35 +375,34 @@ impl FaultMonitor {
         }
     }
 
-    fn latch(&mut self, fault: Fault) {
-        self.latched = Some(fault);
+    /// Latches the fault `cause` is (a cause that is none latches nothing and is never passed).
+    fn latch(&mut self, cause: Cause, now_ns: u64) -> LatchedFault {
+        let fault = LatchedFault {
+            code: cause.fault().unwrap_or(Fault::Requested),
+            joints: cause.joints(),
+            since_ns: now_ns,
+            cause,
+        };
+        self.latched = Some(fault.clone());
         self.clear_since_ns = None;
         self.safe_stops += 1;
+        fault
     }
 
     /// A safe stop a client asked for. Refused (with the fault in force) when the cell is already held.
-    pub fn request_safe_stop(&mut self, now_ns: u64) -> Result<Fault, String> {
+    pub fn request_safe_stop(&mut self, now_ns: u64) -> Result<LatchedFault, AlreadyHeld> {
         if let Some(fault) = &self.latched {
-            return Err(format!("the cell is already in a safe stop ({})", fault::name(fault.code)));
+            return Err(AlreadyHeld(fault.code));
         }
-        let fault = Fault {
-            code: fault::REQUESTED,
-            joints: 0,
-            since_ns: now_ns,
-            detail: "asked for by a client".into(),
-        };
-        self.latch(fault.clone());
-        Ok(fault)
+        Ok(self.latch(Cause::Requested, now_ns))
     }
 
     /// Servo again: refused, naming every cause, while one is present; the fault it ends on success.
-    pub fn resume(&mut self, c: &Conditions) -> Result<Fault, String> {
-        let Some(fault) = self.latched.clone() else {
-            return Err("the cell is not in a safe stop".into());
-        };
+    pub fn resume(&mut self, c: &Conditions) -> Result<LatchedFault, ResumeRefused> {
+        let fault = self.latched.clone().ok_or(ResumeRefused::NotHeld)?;
         let causes = self.causes(c);
         if !causes.is_empty() {
-            return Err(format!("cannot resume after {}: {}", fault::name(fault.code), causes.join("; ")));
+            return Err(ResumeRefused::CausesLeft { fault: fault.code, causes });
         }
         self.latched = None;
         self.last = Some(fault.clone());
@@ -315,7 +417,7 @@ impl FaultMonitor {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use vservo_protocol::{SCHEMA_VERSION, command_mode};
+    use vservo_protocol::{CommandMode, SCHEMA_VERSION};
 
     const MS: u64 = 1_000_000;
 
@@ -331,8 +433,8 @@ mod tests {
             stamp_ns,
             driver_epoch: 1,
             period_ns: MS,
-            command_mode: command_mode::TORQUE,
-            driver_status: driver_status::FOLLOWING,
+            command_mode: CommandMode::Torque.into(),
+            driver_status: DriverStatus::Following.into(),
             q_rad: [0.0; 6],
             qd_rad_s: [0.0; 6],
             torque_nm: [0.0; 6],
@@ -340,10 +442,10 @@ mod tests {
         }
     }
 
-    fn twist(stamp_ns: u64, verdict_code: u32, missing_mask: u32) -> CameraTwistMsg {
+    fn twist(stamp_ns: u64, verdict: Verdict, missing_mask: u32) -> CameraTwistMsg {
         CameraTwistMsg {
             schema: SCHEMA_VERSION,
-            verdict: verdict_code,
+            verdict: verdict.into(),
             frame: 0,
             capture_tick: 0,
             gains_version: 1,
@@ -356,7 +458,7 @@ mod tests {
     }
 
     fn running(now_ns: u64) -> Conditions {
-        Conditions { now_ns, robot: robot_state::RUNNING, external_robot: false, motion_nodes_healthy: true }
+        Conditions { now_ns, robot: RobotState::Running, external_robot: false, motion_nodes_healthy: true }
     }
 
     #[test]
@@ -367,16 +469,16 @@ mod tests {
         monitor.on_joint_state(&state(3 * MS, 0));
         match monitor.cycle(&running(3 * MS)) {
             Decision::SafeStop(fault) => {
-                assert_eq!((fault.code, fault.joints), (fault::VELOCITY_LIMIT, 0b100));
-                assert!(fault.detail.contains("joint 3"), "{}", fault.detail);
+                assert_eq!((fault.code, fault.joints), (Fault::VelocityLimit, 0b100));
+                assert!(fault.cause.to_string().contains("joint 3"), "{}", fault.cause);
             }
             other => panic!("{other:?}"),
         }
         assert_eq!(monitor.safe_stops(), 1);
         // the cause is gone: a command resumes the cell
-        assert_eq!(monitor.resume(&running(4 * MS)).map(|f| f.code), Ok(fault::VELOCITY_LIMIT));
+        assert_eq!(monitor.resume(&running(4 * MS)).map(|f| f.code), Ok(Fault::VelocityLimit));
         assert!(monitor.latched().is_none());
-        assert_eq!(monitor.shown().map(|f| f.code), Some(fault::VELOCITY_LIMIT));
+        assert_eq!(monitor.shown().map(|f| f.code), Some(Fault::VelocityLimit));
     }
 
     #[test]
@@ -396,25 +498,32 @@ mod tests {
             monitor.on_joint_state(&state(t * MS, saturated));
         }
         match monitor.cycle(&running(1000 * MS)) {
-            Decision::SafeStop(fault) => assert_eq!((fault.code, fault.joints), (fault::TORQUE_SATURATED, 1)),
+            Decision::SafeStop(fault) => assert_eq!((fault.code, fault.joints), (Fault::TorqueSaturated, 1)),
             other => panic!("{other:?}"),
         }
         // still saturated: no resume, the cause named
         let refused = monitor.resume(&running(1000 * MS)).expect_err("refused");
-        assert!(refused.contains("joint 1 torque is at its limit"), "{refused}");
+        assert_eq!(
+            refused,
+            ResumeRefused::CausesLeft {
+                fault: Fault::TorqueSaturated,
+                causes: vec![Cause::TorqueSaturated(1)]
+            }
+        );
+        assert!(refused.to_string().contains("joint 1 torque is at its limit"), "{refused}");
     }
 
     #[test]
     fn lost_marks_stop_the_cell_after_the_set_time_and_it_resumes_when_they_are_seen() {
         let mut monitor = FaultMonitor::new(settings(ResumePolicy::Command));
-        monitor.on_twist(&twist(0, verdict::MARKS_MISSING, 0b0100));
-        monitor.on_twist(&twist(900 * MS, verdict::MARKS_MISSING, 0b0100));
+        monitor.on_twist(&twist(0, Verdict::MarksMissing, 0b0100));
+        monitor.on_twist(&twist(900 * MS, Verdict::MarksMissing, 0b0100));
         assert_eq!(monitor.cycle(&running(900 * MS)), Decision::Same);
-        monitor.on_twist(&twist(1000 * MS, verdict::MARKS_MISSING, 0b0100));
+        monitor.on_twist(&twist(1000 * MS, Verdict::MarksMissing, 0b0100));
         match monitor.cycle(&running(1000 * MS)) {
             Decision::SafeStop(fault) => {
-                assert_eq!(fault.code, fault::TARGET_LOST);
-                assert!(fault.detail.contains("mark 3"), "{}", fault.detail);
+                assert_eq!(fault.code, Fault::TargetLost);
+                assert!(fault.cause.to_string().contains("mark 3"), "{}", fault.cause);
             }
             other => panic!("{other:?}"),
         }
@@ -431,40 +540,45 @@ mod tests {
             base_from_camera: [f64::NAN; 12],
         };
         monitor.on_features(&features, 1100 * MS);
-        assert!(monitor.resume(&running(1100 * MS)).expect_err("refused").contains("four marks"));
+        let refused = monitor.resume(&running(1100 * MS)).expect_err("refused");
+        assert_eq!(
+            refused,
+            ResumeRefused::CausesLeft { fault: Fault::TargetLost, causes: vec![Cause::MarksMissing(0b0100)] }
+        );
+        assert!(refused.to_string().contains("four marks"), "{refused}");
         features.valid_mask = 0b1111;
         monitor.on_features(&features, 1200 * MS);
         assert!(monitor.resume(&running(1200 * MS)).is_ok());
         // a frame with marks again ends the run; losing them later counts afresh
-        monitor.on_twist(&twist(1300 * MS, verdict::SERVOING, 0));
-        monitor.on_twist(&twist(1400 * MS, verdict::MARKS_MISSING, 1));
+        monitor.on_twist(&twist(1300 * MS, Verdict::Servoing, 0));
+        monitor.on_twist(&twist(1400 * MS, Verdict::MarksMissing, 1));
         assert_eq!(monitor.cycle(&running(1400 * MS)), Decision::Same);
     }
 
     #[test]
     fn a_stalled_driver_is_a_fault_of_an_external_one_only() {
         let mut monitor = FaultMonitor::new(settings(ResumePolicy::Command));
-        let stalled = Conditions { robot: robot_state::STALLED, ..running(MS) };
+        let stalled = Conditions { robot: RobotState::Stalled, ..running(MS) };
         assert_eq!(monitor.cycle(&stalled), Decision::Same, "the simulated plant's restart is no fault");
         let external = Conditions { external_robot: true, ..stalled };
         assert!(matches!(
             monitor.cycle(&external),
-            Decision::SafeStop(Fault { code: fault::ROBOT_STALLED, .. })
+            Decision::SafeStop(LatchedFault { code: Fault::RobotStalled, .. })
         ));
         let refused = monitor.resume(&external).expect_err("refused while stalled");
-        assert!(refused.contains("do not arrive"), "{refused}");
-        assert!(monitor.resume(&Conditions { robot: robot_state::RUNNING, ..external }).is_ok());
+        assert!(refused.to_string().contains("do not arrive"), "{refused}");
+        assert!(monitor.resume(&Conditions { robot: RobotState::Running, ..external }).is_ok());
     }
 
     #[test]
     fn the_automatic_policy_resumes_once_the_cause_has_been_gone_long_enough() {
         let mut monitor = FaultMonitor::new(settings(ResumePolicy::Automatic));
         let mut faulted = state(MS, 0);
-        faulted.driver_status = driver_status::FAULT;
+        faulted.driver_status = DriverStatus::Fault.into();
         monitor.on_joint_state(&faulted);
         assert!(matches!(
             monitor.cycle(&running(MS)),
-            Decision::SafeStop(Fault { code: fault::DRIVER_FAULT, .. })
+            Decision::SafeStop(LatchedFault { code: Fault::DriverFault, .. })
         ));
         // still faulted: no resume however long
         monitor.on_joint_state(&faulted);
@@ -476,8 +590,80 @@ mod tests {
         // a command policy never resumes by itself
         let mut manual = FaultMonitor::new(settings(ResumePolicy::Command));
         assert!(manual.request_safe_stop(0).is_ok());
-        assert!(manual.request_safe_stop(1).is_err(), "already held");
+        assert_eq!(manual.request_safe_stop(1), Err(AlreadyHeld(Fault::Requested)), "already held");
         assert_eq!(manual.cycle(&running(100_000 * MS)), Decision::Same);
         assert!(manual.latched().is_some());
+        assert_eq!(manual.resume(&running(0)).map(|f| f.code), Ok(Fault::Requested));
+        assert_eq!(manual.resume(&running(0)), Err(ResumeRefused::NotHeld));
+    }
+
+    #[test]
+    fn each_condition_finds_its_cause_and_only_faults_stop_the_cell() {
+        let calm = Evidence {
+            fault_bits: 0,
+            driver_fault: false,
+            robot: RobotState::Running,
+            saturated_joints: 0,
+            missing_marks: 0,
+            motion_nodes_healthy: true,
+        };
+        assert_eq!(calm.causes(), vec![]);
+        let cases = [
+            (Evidence { motion_nodes_healthy: false, ..calm }, Cause::MotionNodesDown, None),
+            (Evidence { robot: RobotState::Waiting, ..calm }, Cause::RobotWaiting, None),
+            (
+                Evidence { fault_bits: 0b10_0000, ..calm },
+                Cause::PositionLimit(0b10_0000),
+                Some(Fault::PositionLimit),
+            ),
+            (
+                Evidence { fault_bits: 0b1 << fault_bits::VELOCITY_LIMIT_SHIFT, ..calm },
+                Cause::VelocityLimit(1),
+                Some(Fault::VelocityLimit),
+            ),
+            (Evidence { driver_fault: true, ..calm }, Cause::DriverFault, Some(Fault::DriverFault)),
+            (
+                Evidence { fault_bits: fault_bits::DRIVER_FAILED, ..calm },
+                Cause::DriverFault,
+                Some(Fault::DriverFault),
+            ),
+            (Evidence { robot: RobotState::Stalled, ..calm }, Cause::RobotStalled, Some(Fault::RobotStalled)),
+            (
+                Evidence { saturated_joints: 0b11, ..calm },
+                Cause::TorqueSaturated(0b11),
+                Some(Fault::TorqueSaturated),
+            ),
+            (
+                Evidence { missing_marks: 0b1000, ..calm },
+                Cause::MarksMissing(0b1000),
+                Some(Fault::TargetLost),
+            ),
+        ];
+        for (evidence, cause, fault) in cases {
+            assert_eq!(evidence.causes(), vec![cause], "{evidence:?}");
+            assert_eq!(cause.fault(), fault);
+            assert_eq!(evidence.first_fault(), fault.map(|_| cause));
+        }
+        // several at once: the position limit is the fault, every cause is named
+        let many =
+            Evidence { motion_nodes_healthy: false, robot: RobotState::Stalled, fault_bits: 1, ..calm };
+        assert_eq!(many.first_fault(), Some(Cause::PositionLimit(1)));
+        assert_eq!(many.causes(), vec![Cause::MotionNodesDown, Cause::PositionLimit(1), Cause::RobotStalled]);
+        assert_eq!(Cause::PositionLimit(0b101).to_string(), "joint 1, 3 is beyond its position range");
+    }
+
+    #[test]
+    fn the_nodes_that_move_the_arm_keep_a_resume_back_until_they_run() {
+        let mut monitor = FaultMonitor::new(settings(ResumePolicy::Command));
+        assert!(monitor.request_safe_stop(0).is_ok());
+        let down = Conditions { motion_nodes_healthy: false, ..running(MS) };
+        assert_eq!(monitor.cycle(&down), Decision::Same, "a node down is no fault of its own");
+        assert!(matches!(
+            monitor.resume(&down),
+            Err(ResumeRefused::CausesLeft { causes, .. }) if causes == vec![Cause::MotionNodesDown]
+        ));
+        let waiting = Conditions { robot: RobotState::Waiting, ..running(MS) };
+        assert!(monitor.resume(&waiting).expect_err("no state yet").to_string().contains("no joint state"));
+        assert!(monitor.resume(&running(MS)).is_ok());
     }
 }

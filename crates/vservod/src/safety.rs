@@ -5,10 +5,41 @@
 use iceoryx2::port::publisher::Publisher;
 use iceoryx2::port::update_connections::UpdateConnections;
 use iceoryx2::prelude::{Node, ipc};
-use vservo_protocol::{CellModeMsg, DaemonStatusMsg, SCHEMA_VERSION, Topic, cell_mode, fault};
+use vservo_protocol::{CellMode, CellModeMsg, DaemonStatusMsg, Fault, SCHEMA_VERSION, Topic};
 use vservo_runtime::clock::monotonic_ns;
 
-use crate::faults::{Conditions, Decision, Fault, FaultMonitor};
+use crate::faults::{AlreadyHeld, Conditions, Decision, FaultMonitor, LatchedFault, ResumeRefused};
+
+/// A resume carried out.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Resumed {
+    /// How: "on command", or automatically and why.
+    pub how: String,
+    /// The fault it ended.
+    pub fault: Fault,
+    /// How long the cell was held (s).
+    pub held_s: f64,
+}
+
+impl std::fmt::Display for Resumed {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "resumed {} after {} (held {:.1} s)", self.how, self.fault, self.held_s)
+    }
+}
+
+/// Why a client's safe stop or resume is refused.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum SafetyRefused {
+    /// The resume is refused.
+    #[error(transparent)]
+    Resume(#[from] ResumeRefused),
+    /// The cell is held already.
+    #[error(transparent)]
+    AlreadyHeld(#[from] AlreadyHeld),
+    /// The nodes could not be told.
+    #[error("publishing the cell mode: {0}")]
+    Publish(String),
+}
 
 /// The monitor and the `cell_mode` publisher.
 pub struct Safety {
@@ -33,7 +64,7 @@ impl Safety {
             seal_key,
             sequence: 0,
         };
-        safety.publish(cell_mode::SERVOING, None)?;
+        safety.publish(CellMode::Servoing, None)?;
         Ok(safety)
     }
 
@@ -47,12 +78,12 @@ impl Safety {
         self.monitor.latched().is_some()
     }
 
-    fn publish(&mut self, mode: u32, fault: Option<&Fault>) -> anyhow::Result<()> {
+    fn publish(&mut self, mode: CellMode, fault: Option<&LatchedFault>) -> anyhow::Result<()> {
         let mut message = CellModeMsg {
             schema: SCHEMA_VERSION,
-            mode,
+            mode: mode.into(),
             sequence: self.sequence + 1,
-            fault: fault.map_or(fault::NONE, |f| f.code),
+            fault: fault.map_or(Fault::None, |f| f.code).into(),
             fault_joints: fault.map_or(0, |f| f.joints),
             stamp_ns: monotonic_ns(),
             seal: 0,
@@ -64,24 +95,24 @@ impl Safety {
         Ok(())
     }
 
-    fn enter(&mut self, fault: &Fault, how: &str) {
+    fn enter(&mut self, fault: &LatchedFault, how: &str) {
         tracing::error!(
-            fault = fault::name(fault.code),
+            fault = fault.code.name(),
             "safe stop ({how}): {}; the arm is brought to rest and held; `vservoctl resume` servos again once the cause is gone",
-            fault.detail
+            fault.cause
         );
-        if let Err(e) = self.publish(cell_mode::SAFE_STOP, Some(fault)) {
+        if let Err(e) = self.publish(CellMode::SafeStop, Some(fault)) {
             // the nodes cannot hear it: the rmrc is out of reach, which the supervisor sees as unhealthy
             tracing::error!("publishing the safe stop: {e}");
         }
     }
 
-    fn leave(&mut self, fault: &Fault, how: &str) -> Result<String, String> {
-        self.publish(cell_mode::SERVOING, None).map_err(|e| format!("publishing the resume: {e}"))?;
+    fn leave(&mut self, fault: &LatchedFault, how: &str) -> Result<Resumed, SafetyRefused> {
+        self.publish(CellMode::Servoing, None).map_err(|e| SafetyRefused::Publish(e.to_string()))?;
         let held_s = monotonic_ns().saturating_sub(fault.since_ns) as f64 / 1e9;
-        let what = format!("resumed {how} after {} (held {held_s:.1} s)", fault::name(fault.code));
-        tracing::warn!("{what}");
-        Ok(what)
+        let resumed = Resumed { how: how.to_string(), fault: fault.code, held_s };
+        tracing::warn!("{resumed}");
+        Ok(resumed)
     }
 
     /// One supervisor cycle: hands subscribers that came since (a restarted node) the mode in force, and
@@ -103,22 +134,22 @@ impl Safety {
     }
 
     /// A client's `resume`.
-    pub fn resume(&mut self, conditions: &Conditions) -> Result<String, String> {
+    pub fn resume(&mut self, conditions: &Conditions) -> Result<Resumed, SafetyRefused> {
         let fault = self.monitor.resume(conditions)?;
         self.leave(&fault, "on command")
     }
 
     /// A client's `safe-stop`.
-    pub fn request_safe_stop(&mut self) -> Result<String, String> {
+    pub fn request_safe_stop(&mut self) -> Result<(), SafetyRefused> {
         let fault = self.monitor.request_safe_stop(monotonic_ns())?;
         self.enter(&fault, "on command");
-        Ok("safe stop: the arm is brought to rest and held; `vservoctl resume` servos again".into())
+        Ok(())
     }
 
     /// The fault fields of the status.
     pub fn fill(&self, status: &mut DaemonStatusMsg) {
         if let Some(fault) = self.monitor.shown() {
-            status.fault = fault.code;
+            status.fault = fault.code.into();
             status.fault_joints = fault.joints;
             status.fault_since_ns = fault.since_ns;
         }

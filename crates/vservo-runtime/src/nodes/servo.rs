@@ -52,7 +52,9 @@ pub fn run(context: &NodeContext) -> Result<(), RuntimeError> {
     let mut cell_mode = CellModeFollower::open(&node, instance)?;
     go_realtime(context, NodeRole::Servo);
     let mut stage = context.cell.servo();
-    let mut gains_version = 1;
+    // none taken yet: the version is the one the daemon's gains message names (its history hands the
+    // design in force to a servo that starts or restarts), never assumed
+    let mut gains_version = 0;
     let counters = monitor.counters();
     counters.set_gains_version(gains_version);
     let period_ns = (config.timing.vision_period_s * 1e9).round() as u64;

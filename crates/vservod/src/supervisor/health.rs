@@ -1,0 +1,194 @@
+//! The cell's health as the supervisor judges it each cycle: the robot driver's state from the age of its
+//! latest joint state, the daemon's state, the conditions a resume depends on, when the daemon is ready
+//! and when systemd's watchdog is kept alive. Pure: time is passed in.
+
+use std::time::{Duration, Instant};
+
+use vservo_protocol::{DaemonState, NodeRole, RobotState};
+
+use super::node::NodeRecord;
+use crate::faults::Conditions;
+
+/// The robot driver's state from the age of its latest joint state: waiting for the first, running, or
+/// stalled past `deadline`.
+pub fn robot_state(age: Option<Duration>, deadline: Duration) -> RobotState {
+    match age {
+        None => RobotState::Waiting,
+        Some(age) if age > deadline => RobotState::Stalled,
+        Some(_) => RobotState::Running,
+    }
+}
+
+/// A change of the robot driver's state worth a log line.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum RobotChange {
+    /// No joint state within the deadline.
+    Stalled,
+    /// Joint states again after a stall.
+    Back,
+    /// The first joint states.
+    Arriving,
+}
+
+/// What changed from `was` to `now`, if it is worth a line.
+pub fn robot_change(was: RobotState, now: RobotState) -> Option<RobotChange> {
+    match (was, now) {
+        (a, b) if a == b => None,
+        (_, RobotState::Stalled) => Some(RobotChange::Stalled),
+        (RobotState::Stalled, RobotState::Running) => Some(RobotChange::Back),
+        (_, RobotState::Running) => Some(RobotChange::Arriving),
+        _ => None,
+    }
+}
+
+/// The nodes that move the arm and bring it to rest (the rmrc; the simulated plant) all run healthy: while
+/// they do, the cell can be made safe.
+pub fn motion_nodes_healthy<'a>(nodes: impl IntoIterator<Item = &'a NodeRecord>, now: Instant) -> bool {
+    nodes.into_iter().filter(|n| matches!(n.role, NodeRole::Rmrc | NodeRole::Plant)).all(|n| n.healthy(now))
+}
+
+/// What a resume (and the fault monitor) depends on besides the messages.
+pub fn resume_conditions<'a>(
+    now_ns: u64,
+    robot: RobotState,
+    external_robot: bool,
+    nodes: impl IntoIterator<Item = &'a NodeRecord>,
+    now: Instant,
+) -> Conditions {
+    Conditions { now_ns, robot, external_robot, motion_nodes_healthy: motion_nodes_healthy(nodes, now) }
+}
+
+/// The daemon's state: a safe stop holds; every node healthy with the robot running is running; before
+/// the first time it was, starting; after, degraded.
+pub fn daemon_state(holding: bool, all_healthy: bool, robot: RobotState, ever_ready: bool) -> DaemonState {
+    match (all_healthy && robot == RobotState::Running, ever_ready) {
+        _ if holding => DaemonState::SafeStop,
+        (true, _) => DaemonState::Running,
+        (false, false) => DaemonState::Starting,
+        (false, true) => DaemonState::Degraded,
+    }
+}
+
+/// Readiness and systemd's keep-alive.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Readiness {
+    ever_ready: bool,
+    last_watchdog: Instant,
+}
+
+impl Readiness {
+    /// Not ready yet, at the start `now`.
+    pub fn new(now: Instant) -> Self {
+        Self { ever_ready: false, last_watchdog: now }
+    }
+
+    /// Whether the daemon has been ready once.
+    pub fn ever_ready(&self) -> bool {
+        self.ever_ready
+    }
+
+    /// Whether the daemon became ready just now (every node healthy, the robot running, for the first time).
+    pub fn became_ready(&mut self, all_healthy: bool, robot: RobotState) -> bool {
+        let ready = all_healthy && robot == RobotState::Running && !self.ever_ready;
+        self.ever_ready |= ready;
+        ready
+    }
+
+    /// Whether to send the keep-alive at `now`: it says the cell can be made safe, so it is withheld only
+    /// while a node that brings the arm to rest is not healthy (a servo or vision restart, a safe stop or a
+    /// stalled external driver, whose own deadline holds the arm, do not stop it); every `every`, once ready.
+    pub fn watchdog_due(
+        &mut self,
+        every: Option<Duration>,
+        motion_nodes_healthy: bool,
+        now: Instant,
+    ) -> bool {
+        let due = every.is_some_and(|every| {
+            self.ever_ready && motion_nodes_healthy && now.duration_since(self.last_watchdog) >= every
+        });
+        if due {
+            self.last_watchdog = now;
+        }
+        due
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::supervisor::restart::RestartPolicy;
+
+    const MS: Duration = Duration::from_millis(1);
+
+    #[test]
+    fn the_robot_waits_runs_and_stalls_by_the_age_of_its_latest_state() {
+        let deadline = 50 * MS;
+        assert_eq!(robot_state(None, deadline), RobotState::Waiting);
+        assert_eq!(robot_state(Some(50 * MS), deadline), RobotState::Running);
+        assert_eq!(robot_state(Some(51 * MS), deadline), RobotState::Stalled);
+        assert_eq!(robot_change(RobotState::Waiting, RobotState::Running), Some(RobotChange::Arriving));
+        assert_eq!(robot_change(RobotState::Running, RobotState::Stalled), Some(RobotChange::Stalled));
+        assert_eq!(robot_change(RobotState::Stalled, RobotState::Running), Some(RobotChange::Back));
+        assert_eq!(robot_change(RobotState::Running, RobotState::Running), None);
+    }
+
+    #[test]
+    fn the_daemon_starts_runs_degrades_and_a_safe_stop_overrides_all() {
+        let (running, stalled) = (RobotState::Running, RobotState::Stalled);
+        assert_eq!(daemon_state(false, false, running, false), DaemonState::Starting);
+        assert_eq!(
+            daemon_state(false, true, stalled, false),
+            DaemonState::Starting,
+            "the robot is part of it"
+        );
+        assert_eq!(daemon_state(false, true, running, false), DaemonState::Running);
+        assert_eq!(daemon_state(false, false, running, true), DaemonState::Degraded);
+        assert_eq!(daemon_state(false, true, stalled, true), DaemonState::Degraded);
+        assert_eq!(daemon_state(true, true, running, true), DaemonState::SafeStop);
+        assert_eq!(daemon_state(true, false, stalled, false), DaemonState::SafeStop);
+    }
+
+    #[test]
+    fn ready_once_and_the_watchdog_only_while_the_arm_can_be_brought_to_rest() {
+        let t0 = Instant::now();
+        let mut readiness = Readiness::new(t0);
+        let every = Some(100 * MS);
+        assert!(!readiness.watchdog_due(every, true, t0 + 200 * MS), "not before ready");
+        assert!(!readiness.became_ready(true, RobotState::Stalled));
+        assert!(readiness.became_ready(true, RobotState::Running));
+        assert!(!readiness.became_ready(true, RobotState::Running), "once");
+        assert!(readiness.ever_ready());
+        assert!(readiness.watchdog_due(every, true, t0 + 200 * MS));
+        assert!(!readiness.watchdog_due(every, true, t0 + 250 * MS), "not again within the interval");
+        assert!(!readiness.watchdog_due(every, false, t0 + 400 * MS), "withheld: the rmrc is down");
+        assert!(readiness.watchdog_due(every, true, t0 + 400 * MS));
+        assert!(!readiness.watchdog_due(None, true, t0 + 900 * MS), "systemd asked for none");
+    }
+
+    #[test]
+    fn the_resume_conditions_count_the_rmrc_and_plant_but_not_the_servo_or_vision() {
+        let t0 = Instant::now();
+        let policy = RestartPolicy::new(100 * MS, 100 * MS, t0);
+        let mut nodes: Vec<NodeRecord> =
+            NodeRole::ALL.into_iter().map(|role| NodeRecord::started(role, 1, policy)).collect();
+        for node in &mut nodes {
+            node.heard.telemetry_at = Some(t0);
+            node.heard.telemetry = Some(crate::supervisor::node::tests_support::telemetry(1, 1));
+        }
+        let conditions = resume_conditions(5, RobotState::Running, true, &nodes, t0);
+        assert!(conditions.motion_nodes_healthy);
+        assert_eq!(
+            (conditions.now_ns, conditions.robot, conditions.external_robot),
+            (5, RobotState::Running, true)
+        );
+        let servo = nodes.iter().position(|n| n.role == NodeRole::Servo).expect("servo");
+        nodes[servo].ended(1, t0);
+        assert!(motion_nodes_healthy(&nodes, t0), "a servo restart keeps the arm safe");
+        let rmrc = nodes.iter().position(|n| n.role == NodeRole::Rmrc).expect("rmrc");
+        nodes[rmrc].ended(1, t0);
+        assert!(!resume_conditions(5, RobotState::Running, true, &nodes, t0).motion_nodes_healthy);
+        // an external driver: no plant among the nodes, the rmrc alone counts
+        nodes.retain(|n| n.role != NodeRole::Plant && n.role != NodeRole::Rmrc);
+        assert!(motion_nodes_healthy(&nodes, t0));
+    }
+}

@@ -1,0 +1,431 @@
+//! The supervisor: starts the nodes, restarts crashed and hung ones, reports status, stops the arm safely.
+//!
+//! [`run`] is a loop of named steps over a [`Daemon`]; each decision is a pure module with its unit tests:
+//! [`restart`] (backoff, reset after a stable run), [`node`] (health, hang), [`health`] (robot driver,
+//! daemon state, resume conditions, readiness and watchdog), [`status`] (the status message, the tick
+//! rate), [`cleanup`] (when dead processes' leftovers are freed), [`shutdown`] (the stop order, at rest).
+//! [`launch`] starts processes and [`observe`] drains what the loop published.
+
+mod cleanup;
+mod health;
+mod launch;
+mod node;
+mod observe;
+mod restart;
+mod shutdown;
+mod status;
+
+use std::path::Path;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::{Duration, Instant};
+
+use anyhow::Context;
+use iceoryx2::prelude::{Node, ipc};
+use nix::sys::signal::Signal;
+use vservo_client::StatusView;
+use vservo_config::Config;
+use vservo_control::Gains;
+use vservo_protocol::{InstanceClaim, NodeRole, NodeState, RobotState};
+use vservo_runtime::clock::{PeriodicTimer, monotonic_ns};
+
+use crate::commands::{Commander, LoopState};
+use crate::faults::Conditions;
+use crate::safety::Safety;
+use crate::systemd::Systemd;
+use crate::viewer::Viewer;
+use cleanup::{Cleanup, CleanupClock};
+use health::{Readiness, RobotChange};
+use launch::{Launcher, Resume, Supervised};
+use node::NodeRecord;
+use observe::{LoopHeard, Ports};
+use restart::RestartPolicy;
+use status::StatusFacts;
+
+/// The supervisor's cycle.
+const CYCLE: Duration = Duration::from_millis(50);
+
+/// Runs the daemon until `stop` is set (SIGTERM/SIGINT); `reload` (SIGHUP) re-reads the configuration.
+pub fn run(
+    config_path: &Path,
+    status_every_s: f64,
+    stop: Arc<AtomicBool>,
+    reload: Arc<AtomicBool>,
+) -> anyhow::Result<()> {
+    let mut daemon = Daemon::start(config_path, status_every_s)?;
+    let mut timer = PeriodicTimer::start(CYCLE.as_nanos() as u64);
+    while !stop.load(Ordering::Relaxed) {
+        timer.wait();
+        daemon.cycle(reload.swap(false, Ordering::Relaxed));
+    }
+    daemon.stop();
+    Ok(())
+}
+
+/// The configuration's settings the supervisor runs by.
+struct Settings {
+    instance: String,
+    external_robot: bool,
+    robot_deadline: Duration,
+    hang_timeout: Duration,
+    stop_timeout: Duration,
+    initial_backoff: Duration,
+    max_backoff: Duration,
+    status_every: Option<Duration>,
+}
+
+impl Settings {
+    fn of(config: &Config, status_every_s: f64) -> Self {
+        let runtime = &config.runtime;
+        Self {
+            instance: config.instance.clone(),
+            external_robot: config.robot.driver == vservo_config::RobotDriver::External,
+            robot_deadline: Duration::from_secs_f64(config.robot.state_timeout_s()),
+            hang_timeout: Duration::from_secs_f64(runtime.hang_timeout_s),
+            stop_timeout: Duration::from_secs_f64(runtime.stop_timeout_s),
+            initial_backoff: Duration::from_secs_f64(runtime.restart_backoff_initial_s),
+            max_backoff: Duration::from_secs_f64(runtime.restart_backoff_max_s),
+            status_every: (status_every_s > 0.0).then(|| Duration::from_secs_f64(status_every_s)),
+        }
+    }
+
+    /// The nodes vservod starts: an external robot driver is the user's process, so no plant for it.
+    fn roles(&self) -> impl Iterator<Item = NodeRole> + '_ {
+        NodeRole::ALL.into_iter().filter(|r| !(self.external_robot && *r == NodeRole::Plant))
+    }
+}
+
+/// The running daemon: its ports, its nodes and what it knows of them.
+struct Daemon {
+    settings: Settings,
+    /// The instance's runtime directory and lock, held while the daemon runs.
+    _claim: InstanceClaim,
+    node: Node<ipc::Service>,
+    ports: Ports,
+    launcher: Launcher,
+    safety: Safety,
+    commander: Commander,
+    systemd: Systemd,
+    viewer: Viewer,
+    nodes: Vec<Supervised>,
+    heard: LoopHeard,
+    robot: RobotState,
+    readiness: Readiness,
+    cleanup: CleanupClock,
+    started_ns: u64,
+    last_report: Instant,
+}
+
+/// Reads and checks the configuration: the text the nodes are handed is the text validated here; the gains
+/// are designed and the arm placed now, so that a configuration that cannot run is refused before any node
+/// starts.
+fn load_config(config_path: &Path) -> anyhow::Result<(Config, String, Gains)> {
+    let config_text = std::fs::read_to_string(config_path)
+        .with_context(|| format!("{}: reading the configuration", config_path.display()))?;
+    let config = Config::from_toml(&config_text, &config_path.display().to_string())?;
+    let cell = vservo_cell::Cell::new(&config).with_context(|| format!("{}", config_path.display()))?;
+    if let vservo_config::VisionSource::Directory(directory) = &config.vision.source {
+        anyhow::bail!(
+            "{}: camera.source = \"directory\" ({}): recorded images cannot close the loop; check them open-loop with `vservoctl vision extract`, or set camera.source = \"simulated\" or \"external\"",
+            config_path.display(),
+            directory.display()
+        );
+    }
+    Ok((config, config_text, cell.gains().clone()))
+}
+
+/// The instance's runtime directory, lock and shared-memory prefix, out of other users' reach, and the
+/// daemon's iceoryx2 node in it (the leftovers of an earlier run's dead nodes removed); the configuration
+/// in force is written there for clients.
+fn claim_instance(instance: &str, config_text: &str) -> anyhow::Result<(InstanceClaim, Node<ipc::Service>)> {
+    let claim = InstanceClaim::claim(instance)?;
+    if let Some(reason) = &claim.renewed_because {
+        tracing::warn!(instance, reason, "the instance's shared-memory prefix was replaced by a new one");
+    }
+    // clients that find the instance by its name read its arm and camera from here
+    claim.write_configuration(config_text)?;
+    let node = vservo_protocol::create_node_in(claim.dir(), "daemon")?;
+    let cleaned = vservo_protocol::cleanup_dead_nodes(&node);
+    if cleaned > 0 {
+        tracing::info!(instance, cleaned, "removed the leftovers of dead nodes of an earlier run");
+    }
+    Ok((claim, node))
+}
+
+impl Daemon {
+    /// Checks the configuration, claims the instance, publishes the cell mode and the gains, then starts
+    /// the nodes and the viewer.
+    fn start(config_path: &Path, status_every_s: f64) -> anyhow::Result<Self> {
+        let (config, config_text, gains) = load_config(config_path)?;
+        let settings = Settings::of(&config, status_every_s);
+        let (claim, node) = claim_instance(&settings.instance, &config_text)?;
+        let launcher = Launcher {
+            executable: std::env::current_exe().context("finding the vservod executable")?,
+            config_path: config_path
+                .canonicalize()
+                .with_context(|| format!("{}: resolving the path", config_path.display()))?,
+            runtime_base: claim.base().to_path_buf(),
+            // the run's key: the nodes take gains and object commands sealed with it only (never in a message)
+            seal_key: vservo_protocol::seal::SealKey::random().context("drawing the run's seal key")?,
+        };
+        let ports = Ports::open(&node, &settings.instance)?;
+        // the cell mode first: every node finds it in the service's history
+        let safety = Safety::new(&node, &settings.instance, config.faults, launcher.seal_key)?;
+        let path = &launcher.config_path;
+        let commander = Commander::new(&node, path, config.clone(), config_text, launcher.seal_key, &gains)?;
+        // every shared-memory object of the instance made so far is ours and owner-only
+        claim.check_private().context("the instance's shared memory is not private")?;
+        let started_ns = monotonic_ns();
+        if settings.external_robot {
+            tracing::info!(
+                command = config.robot.command.name(),
+                period_s = config.robot.period_s,
+                deadline_s = settings.robot_deadline.as_secs_f64(),
+                "robot.driver = external: no plant; waiting for the driver's joint states"
+            );
+        }
+        let nodes = start_nodes(&settings, &launcher, commander.config_text())?;
+        let viewer = Viewer::start(&config.viewer, &launcher.executable, &launcher.config_path, claim.base());
+        let now = Instant::now();
+        Ok(Self {
+            settings,
+            _claim: claim,
+            node,
+            ports,
+            launcher,
+            safety,
+            commander,
+            systemd: Systemd::new(),
+            viewer,
+            nodes,
+            heard: LoopHeard::default(),
+            robot: RobotState::Waiting,
+            readiness: Readiness::new(now),
+            cleanup: CleanupClock::new(now),
+            started_ns,
+            last_report: now,
+        })
+    }
+
+    /// One supervisor cycle.
+    fn cycle(&mut self, reload_requested: bool) {
+        let now = Instant::now();
+        self.viewer.poll();
+        if reload_requested {
+            self.reload();
+        }
+        let lost = self.reap(now);
+        self.clean_up(now, lost);
+        self.heard.drain(&self.ports, &mut self.nodes, self.safety.monitor());
+        self.end_hung(now);
+        let conditions = self.judge_robot_and_conditions(now);
+        self.safety.cycle(&conditions);
+        let loop_state = LoopState {
+            joint_state: self.heard.joint_state.as_ref(),
+            features: self.heard.features.as_ref(),
+            conditions,
+        };
+        self.commander.serve(&loop_state, &mut self.systemd, &mut self.safety);
+        self.restart_due(now);
+        self.report(now, conditions.motion_nodes_healthy);
+    }
+
+    /// SIGHUP: re-reads the configuration.
+    fn reload(&mut self) {
+        let outcome = self.commander.reload(&mut self.systemd);
+        let text = self.commander.describe(&outcome);
+        match outcome {
+            Ok(_) => tracing::info!("SIGHUP: reloaded: {text}"),
+            Err(_) => tracing::warn!("SIGHUP: reload refused: {text}"),
+        }
+    }
+
+    /// Takes the exit of every node whose process ended and schedules its restart; whether one did.
+    fn reap(&mut self, now: Instant) -> bool {
+        let mut lost = false;
+        for node in &mut self.nodes {
+            let Some(exit) = node.reap() else { continue };
+            let wait = node.record.ended(exit, now);
+            tracing::warn!(
+                node = node.record.role.name(),
+                exit,
+                restart_in_s = wait.as_secs_f64(),
+                "{}",
+                match node.record.role {
+                    NodeRole::Plant =>
+                        "node lost: the arm stopped with it; restarting it at rest where it was",
+                    NodeRole::Rmrc => "node lost: the plant holds the arm until it is back",
+                    _ => "node lost: without fresh twists the rmrc ramps the arm to rest",
+                }
+            );
+            lost = true;
+        }
+        lost
+    }
+
+    /// Frees what dead nodes and clients left in shared memory, when due.
+    fn clean_up(&mut self, now: Instant, node_lost: bool) {
+        let Some(why) = self.cleanup.due(now, node_lost) else { return };
+        let cleaned = vservo_protocol::cleanup_dead_nodes(&self.node);
+        match why {
+            Cleanup::NodeLost => tracing::info!(cleaned, "removed the shared-memory leftovers of dead nodes"),
+            // dead clients' ports: their command slots and subscriptions are free again
+            Cleanup::Periodic if cleaned > 0 => {
+                tracing::debug!(cleaned, "removed the leftovers of processes that died (clients)")
+            }
+            Cleanup::Periodic => {}
+        }
+    }
+
+    /// A hung node is ended like a crashed one: killed here, reaped and restarted by the next cycles.
+    fn end_hung(&mut self, now: Instant) {
+        for node in &mut self.nodes {
+            let Some(why) = node.record.hang(now, self.settings.hang_timeout) else { continue };
+            tracing::error!(
+                node = node.record.role.name(),
+                pid = node.record.pid.unwrap_or(0),
+                "node hung ({why}): killing it (SIGKILL) to restart it"
+            );
+            node.record.state = NodeState::Hung;
+            node.signal(Signal::SIGKILL);
+            // a stopped process dies of SIGKILL only once it runs again
+            node.signal(Signal::SIGCONT);
+        }
+    }
+
+    /// The robot driver's state from its latest joint state (a change logged), and what a resume depends on.
+    fn judge_robot_and_conditions(&mut self, now: Instant) -> Conditions {
+        let age = self.heard.joint_state_at.map(|at| now.duration_since(at));
+        let robot = health::robot_state(age, self.settings.robot_deadline);
+        log_robot_change(health::robot_change(self.robot, robot), self.settings.robot_deadline);
+        self.robot = robot;
+        let records = self.nodes.iter().map(|n| &n.record);
+        health::resume_conditions(monotonic_ns(), robot, self.settings.external_robot, records, now)
+    }
+
+    /// Starts again every node whose backoff is over, resuming where the loop was.
+    fn restart_due(&mut self, now: Instant) {
+        let resume = Resume {
+            joints: self.heard.joint_state.map(|s| (s.q_rad, s.tick)),
+            features_px: self.heard.features.map(|f| f.features_px),
+        };
+        for node in self.nodes.iter_mut().filter(|n| n.process.is_none() && n.record.restart.due(now)) {
+            let role = node.record.role;
+            match self.launcher.spawn(role, &resume, self.commander.config_text()) {
+                Ok(child) => {
+                    node.record.restarted(child.id(), now);
+                    node.process = Some(child);
+                    tracing::info!(
+                        node = role.name(),
+                        restarts = node.record.restart.restarts(),
+                        "restarted"
+                    );
+                }
+                Err(e) => {
+                    tracing::error!(node = role.name(), "restart failed: {e}");
+                    node.record.restart.start_failed(now);
+                }
+            }
+        }
+    }
+
+    /// Publishes the status; tells systemd when the daemon is ready, keeps its watchdog alive, and writes
+    /// the status line every `status_every`.
+    fn report(&mut self, now: Instant, motion_nodes_healthy: bool) {
+        let all_healthy = self.nodes.iter().all(|n| n.record.healthy(now));
+        let state =
+            health::daemon_state(self.safety.holding(), all_healthy, self.robot, self.readiness.ever_ready());
+        let facts = StatusFacts {
+            state,
+            robot: self.robot,
+            stamp_ns: monotonic_ns(),
+            started_ns: self.started_ns,
+            servo_gains_version: self.heard.gains_version,
+            designed_gains_version: self.commander.gains_version(),
+            tick_rate_hz: self.heard.tick_rate_hz(now),
+            feature_error_px: self.heard.feature_error_px,
+            pid: std::process::id(),
+        };
+        let mut message = status::status_message(self.nodes.iter().map(|n| &n.record), &facts, now);
+        self.safety.fill(&mut message);
+        self.ports.publish_status(message);
+        let telemetry = telemetry_of(&self.nodes);
+        let view = StatusView::new(&self.settings.instance, &message, &telemetry);
+        if self.readiness.became_ready(all_healthy, self.robot) {
+            self.systemd.ready(&view.one_line());
+            tracing::info!("ready: every node runs");
+        }
+        if self.readiness.watchdog_due(self.systemd.watchdog_every, motion_nodes_healthy, now) {
+            self.systemd.watchdog();
+        }
+        if self.settings.status_every.is_some_and(|every| now.duration_since(self.last_report) >= every) {
+            self.last_report = now;
+            let line = view.one_line();
+            self.systemd.status(&line);
+            tracing::info!("{line}");
+        }
+    }
+
+    /// Stops the viewer and the nodes in order, the arm brought to rest first.
+    fn stop(mut self) {
+        self.viewer.stop();
+        self.systemd.stopping();
+        tracing::info!("stopping: zero twist, ramping the arm to rest");
+        shutdown::stop_safely(
+            &mut self.nodes,
+            &self.ports,
+            &mut self.heard,
+            self.settings.stop_timeout,
+            self.safety.monitor(),
+        );
+        let cleaned = vservo_protocol::cleanup_dead_nodes(&self.node);
+        if cleaned > 0 {
+            tracing::info!(cleaned, "removed the leftovers of nodes that did not stop cleanly");
+        }
+        tracing::info!("stopped");
+    }
+}
+
+/// Starts every node the configuration asks for.
+fn start_nodes(
+    settings: &Settings,
+    launcher: &Launcher,
+    config_text: &str,
+) -> anyhow::Result<Vec<Supervised>> {
+    tracing::info!(instance = settings.instance, config = %launcher.config_path.display(), "starting the nodes");
+    settings
+        .roles()
+        .map(|role| {
+            let child = launcher
+                .spawn(role, &Resume::default(), config_text)
+                .with_context(|| format!("starting the {} node", role.name()))?;
+            let policy = RestartPolicy::new(settings.initial_backoff, settings.max_backoff, Instant::now());
+            Ok(Supervised { record: NodeRecord::started(role, child.id(), policy), process: Some(child) })
+        })
+        .collect()
+}
+
+/// Each node's latest telemetry from its running process, in role order.
+fn telemetry_of(nodes: &[Supervised]) -> [Option<vservo_protocol::TelemetryMsg>; 4] {
+    let mut out = [None; 4];
+    for node in nodes {
+        out[node.record.role as usize] = node.record.own_telemetry();
+    }
+    out
+}
+
+/// One line per change of the robot driver's state. Stalled: the rmrc commands nothing (it answers joint
+/// states only) and, when states come again, starts its reference at rest from the measured joints.
+fn log_robot_change(change: Option<RobotChange>, deadline: Duration) {
+    match change {
+        Some(RobotChange::Stalled) => tracing::error!(
+            deadline_s = deadline.as_secs_f64(),
+            "robot driver stalled: no joint state within the deadline; no motion is commanded until it is back"
+        ),
+        Some(RobotChange::Back) => {
+            tracing::warn!("robot driver back: following it again from where the arm is, at rest")
+        }
+        Some(RobotChange::Arriving) => tracing::info!("robot driver: joint states arrive"),
+        None => {}
+    }
+}

@@ -1,0 +1,159 @@
+//! What the supervisor observes of the loop: it drains the services it subscribes to every cycle, keeps
+//! the latest of each ([`LoopHeard`]), hands every joint state, twist and feature vector to the fault
+//! monitor and each node's telemetry to its record.
+
+use std::time::Instant;
+
+use iceoryx2::port::publisher::Publisher;
+use iceoryx2::port::subscriber::Subscriber;
+use iceoryx2::prelude::{Node, ipc};
+use vservo_protocol::{
+    CameraTwistMsg, DaemonStatusMsg, FeaturesMsg, JointCommandMsg, JointStateMsg, NodeRole, TakeMessages,
+    TelemetryMsg, Topic,
+};
+use vservo_runtime::clock::monotonic_ns;
+
+use super::launch::Supervised;
+use super::node::NodeRecord;
+use super::status::TickRate;
+use crate::faults::FaultMonitor;
+
+/// The daemon's ports on the loop's services.
+pub struct Ports {
+    telemetry: Subscriber<ipc::Service, TelemetryMsg, ()>,
+    joint_state: Subscriber<ipc::Service, JointStateMsg, ()>,
+    twist: Subscriber<ipc::Service, CameraTwistMsg, ()>,
+    command: Subscriber<ipc::Service, JointCommandMsg, ()>,
+    features: Subscriber<ipc::Service, FeaturesMsg, ()>,
+    /// The daemon's status, published every cycle.
+    pub status: Publisher<ipc::Service, DaemonStatusMsg, ()>,
+}
+
+impl Ports {
+    /// Opens the ports of instance `instance` on `node`.
+    pub fn open(node: &Node<ipc::Service>, instance: &str) -> anyhow::Result<Self> {
+        Ok(Self {
+            telemetry: vservo_protocol::subscriber(node, instance, Topic::Telemetry)?,
+            joint_state: vservo_protocol::subscriber(node, instance, Topic::JointState)?,
+            twist: vservo_protocol::subscriber(node, instance, Topic::CameraTwist)?,
+            command: vservo_protocol::subscriber(node, instance, Topic::JointCommand)?,
+            features: vservo_protocol::subscriber(node, instance, Topic::Features)?,
+            status: vservo_protocol::publisher(node, instance, Topic::Status)?,
+        })
+    }
+
+    /// Publishes the status (a full service drops it: the next cycle sends a newer one).
+    pub fn publish_status(&self, message: DaemonStatusMsg) {
+        if let Ok(sample) = self.status.loan_uninit() {
+            let _ = sample.write_payload(message).send();
+        }
+    }
+}
+
+/// What the daemon has heard from the loop.
+#[derive(Debug, Clone, Copy)]
+pub struct LoopHeard {
+    /// The latest joint state.
+    pub joint_state: Option<JointStateMsg>,
+    /// When the latest joint state arrived.
+    pub joint_state_at: Option<Instant>,
+    /// The latest joint command.
+    pub command: Option<JointCommandMsg>,
+    /// The latest features.
+    pub features: Option<FeaturesMsg>,
+    /// The gains version the servo's latest twist names (0: none yet).
+    pub gains_version: u64,
+    /// The servo's latest feature error (px; NaN before the first twist).
+    pub feature_error_px: f64,
+    /// The robot driver's tick rate.
+    pub tick_rate: TickRate,
+}
+
+impl Default for LoopHeard {
+    fn default() -> Self {
+        Self {
+            joint_state: None,
+            joint_state_at: None,
+            command: None,
+            features: None,
+            gains_version: 0,
+            feature_error_px: f64::NAN,
+            tick_rate: TickRate::default(),
+        }
+    }
+}
+
+impl LoopHeard {
+    /// Takes what arrived; every joint state, twist and feature vector also goes to the fault monitor, each
+    /// node's telemetry to its record.
+    pub fn drain(&mut self, ports: &Ports, nodes: &mut [Supervised], monitor: &mut FaultMonitor) {
+        let now = Instant::now();
+        // a message of another schema is refused by `TakeMessages`, the protocol's one place for it
+        ports.joint_state.each_message(|state| {
+            monitor.on_joint_state(&state);
+            self.joint_state = Some(state);
+            self.joint_state_at = Some(now);
+        });
+        ports.command.each_message(|command| self.command = Some(command));
+        ports.features.each_message(|features| {
+            monitor.on_features(&features, monotonic_ns());
+            self.features = Some(features);
+        });
+        ports.twist.each_message(|twist| {
+            monitor.on_twist(&twist);
+            self.gains_version = twist.gains_version;
+            self.feature_error_px = twist.feature_error_px;
+        });
+        ports.telemetry.each_message(|telemetry| {
+            route_telemetry(nodes.iter_mut().map(|n| &mut n.record), telemetry, now);
+        });
+        if let Some(state) = &self.joint_state {
+            self.tick_rate.observe(state.stamp_ns, state.tick);
+        }
+    }
+
+    /// The tick rate to report at `now`.
+    pub fn tick_rate_hz(&self, now: Instant) -> f64 {
+        self.tick_rate.reported_hz(self.joint_state_at.map(|at| now.duration_since(at)))
+    }
+}
+
+/// Hands a telemetry message to the record of the node it names (none: a role not supervised, or not one).
+pub fn route_telemetry<'a>(
+    nodes: impl IntoIterator<Item = &'a mut NodeRecord>,
+    telemetry: TelemetryMsg,
+    now: Instant,
+) {
+    let Some(role) = NodeRole::from_index(telemetry.node) else { return };
+    if let Some(node) = nodes.into_iter().find(|n| n.role == role) {
+        node.on_telemetry(telemetry, now);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::supervisor::node::tests_support::telemetry;
+    use crate::supervisor::restart::RestartPolicy;
+    use std::time::Duration;
+
+    #[test]
+    fn telemetry_reaches_the_node_it_names_and_no_other() {
+        let t0 = Instant::now();
+        let policy = RestartPolicy::new(Duration::from_millis(100), Duration::from_secs(1), t0);
+        let mut nodes =
+            [NodeRecord::started(NodeRole::Rmrc, 5, policy), NodeRecord::started(NodeRole::Servo, 6, policy)];
+        let mut servo = telemetry(6, 3);
+        servo.node = NodeRole::Servo as u32;
+        route_telemetry(&mut nodes[..], servo, t0);
+        assert_eq!(nodes[1].heard.telemetry, Some(servo));
+        assert_eq!(nodes[0].heard.telemetry, None);
+        let mut plant = telemetry(4, 3);
+        plant.node = NodeRole::Plant as u32;
+        route_telemetry(&mut nodes[..], plant, t0);
+        let mut bogus = telemetry(4, 3);
+        bogus.node = 99;
+        route_telemetry(&mut nodes[..], bogus, t0);
+        assert_eq!(nodes[0].heard.telemetry, None, "a plant not supervised, a role that is none");
+    }
+}
