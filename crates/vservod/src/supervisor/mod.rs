@@ -342,7 +342,7 @@ impl Daemon {
             started_ns: self.started_ns,
             servo_gains_version: self.heard.gains_version,
             designed_gains_version: self.commander.gains_version(),
-            tick_rate_hz: self.heard.tick_rate_hz(now),
+            tick_rate_hz: self.heard.tick_rate_hz(now, self.robot),
             feature_error_px: self.heard.feature_error_px,
             pid: std::process::id(),
         };

@@ -8,8 +8,8 @@ use iceoryx2::port::publisher::Publisher;
 use iceoryx2::port::subscriber::Subscriber;
 use iceoryx2::prelude::{Node, ipc};
 use vservo_protocol::{
-    CameraTwistMsg, DaemonStatusMsg, FeaturesMsg, JointCommandMsg, JointStateMsg, NodeRole, TakeMessages,
-    TelemetryMsg, Topic,
+    CameraTwistMsg, DaemonStatusMsg, FeaturesMsg, JointCommandMsg, JointStateMsg, NodeRole, RobotState,
+    TakeMessages, TelemetryMsg, Topic,
 };
 use vservo_runtime::clock::monotonic_ns;
 
@@ -51,7 +51,7 @@ impl Ports {
 }
 
 /// What the daemon has heard from the loop.
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone)]
 pub struct LoopHeard {
     /// The latest joint state.
     pub joint_state: Option<JointStateMsg>,
@@ -93,6 +93,7 @@ impl LoopHeard {
             monitor.on_joint_state(&state);
             self.joint_state = Some(state);
             self.joint_state_at = Some(now);
+            self.tick_rate.on_state();
         });
         ports.command.each_message(|command| self.command = Some(command));
         ports.features.each_message(|features| {
@@ -107,14 +108,12 @@ impl LoopHeard {
         ports.telemetry.each_message(|telemetry| {
             route_telemetry(nodes.iter_mut().map(|n| &mut n.record), telemetry, now);
         });
-        if let Some(state) = &self.joint_state {
-            self.tick_rate.observe(state.stamp_ns, state.tick);
-        }
     }
 
-    /// The tick rate to report at `now`.
-    pub fn tick_rate_hz(&self, now: Instant) -> f64 {
-        self.tick_rate.reported_hz(self.joint_state_at.map(|at| now.duration_since(at)))
+    /// The tick rate to report, sampled at `now` (0 while the robot driver is stalled).
+    pub fn tick_rate_hz(&mut self, now: Instant, robot: RobotState) -> f64 {
+        self.tick_rate.sample(now, robot == RobotState::Stalled);
+        self.tick_rate.hz()
     }
 }
 

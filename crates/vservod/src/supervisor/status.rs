@@ -6,38 +6,52 @@ use vservo_protocol::{DaemonState, DaemonStatusMsg, Fault, NodeStatusMsg, RobotS
 
 use super::node::NodeRecord;
 
-/// A tick rate from joint states no older than this is reported; an older one is 0/s (a driver or plant
-/// silent for a second ticks at 0/s).
+/// The tick rate is joint states per second of the daemon's clock over this last span.
 pub const RATE_WINDOW: Duration = Duration::from_secs(1);
-/// The rate is measured over at least this span of joint-state stamps (ns).
-const RATE_SPAN_NS: u64 = 1_000_000_000;
+/// Samples kept for the window: one per supervisor cycle (50 ms), and one more at the window's start.
+const RATE_SAMPLES: usize = 24;
 
-/// The robot driver's tick rate, measured over a second of its joint states' stamps.
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
+/// The robot driver's tick rate: joint states counted as they arrive, per second of the daemon's clock over
+/// the last second. It drops to 0 as soon as the driver is found stalled (the count starts afresh), and
+/// counts again from the first states after it is back, over what has passed since.
+#[derive(Debug, Clone, Default, PartialEq)]
 pub struct TickRate {
-    /// (stamp, tick) at the start of the span being measured.
-    base: Option<(u64, u64)>,
-    hz: f64,
+    /// Joint states received since the daemon started.
+    received: u64,
+    /// (when, `received` then), oldest first, spanning at most the window.
+    samples: std::collections::VecDeque<(Instant, u64)>,
 }
 
 impl TickRate {
-    /// Takes the latest joint state's stamp (ns) and tick.
-    pub fn observe(&mut self, stamp_ns: u64, tick: u64) {
-        match self.base {
-            Some((base_stamp, base_tick)) if stamp_ns >= base_stamp + RATE_SPAN_NS => {
-                let seconds = (stamp_ns - base_stamp) as f64 / 1e9;
-                self.hz = tick.saturating_sub(base_tick) as f64 / seconds;
-                self.base = Some((stamp_ns, tick));
-            }
-            Some(_) => {}
-            None => self.base = Some((stamp_ns, tick)),
-        }
+    /// One joint state arrived.
+    pub fn on_state(&mut self) {
+        self.received += 1;
     }
 
-    /// The rate to report when the latest joint state is `age` old (none: never heard).
-    pub fn reported_hz(&self, age: Option<Duration>) -> f64 {
-        match age {
-            Some(age) if age < RATE_WINDOW => self.hz,
+    /// Takes a sample at `now` (once a supervisor cycle); a stalled driver forgets the count.
+    pub fn sample(&mut self, now: Instant, stalled: bool) {
+        if stalled {
+            self.samples.clear();
+            return;
+        }
+        // keep the newest sample at or before the window's start, and everything after it
+        while self.samples.len() >= 2
+            && self.samples.get(1).is_some_and(|(at, _)| now.duration_since(*at) >= RATE_WINDOW)
+        {
+            self.samples.pop_front();
+        }
+        if self.samples.len() == RATE_SAMPLES {
+            self.samples.pop_front();
+        }
+        self.samples.push_back((now, self.received));
+    }
+
+    /// Joint states per second over the samples kept (0 with fewer than two).
+    pub fn hz(&self) -> f64 {
+        match (self.samples.front(), self.samples.back()) {
+            (Some((first_at, first)), Some((last_at, last))) if last_at > first_at => {
+                (last - first) as f64 / last_at.duration_since(*first_at).as_secs_f64()
+            }
             _ => 0.0,
         }
     }
@@ -108,18 +122,38 @@ mod tests {
 
     const S: u64 = 1_000_000_000;
 
+    /// Feeds `rate` `per_cycle` joint states in each of `cycles` 50 ms cycles after `from`; returns the time
+    /// of the last sample.
+    fn run(rate: &mut TickRate, from: Instant, cycles: u32, per_cycle: u32, stalled: bool) -> Instant {
+        let cycle = Duration::from_millis(50);
+        for i in 1..=cycles {
+            (0..per_cycle).for_each(|_| rate.on_state());
+            rate.sample(from + cycle * i, stalled);
+        }
+        from + cycle * cycles
+    }
+
     #[test]
-    fn the_tick_rate_is_measured_over_a_second_and_zero_when_the_states_stop() {
+    fn the_tick_rate_counts_states_per_second_and_drops_at_once_to_zero_on_a_stall() {
         let mut rate = TickRate::default();
-        rate.observe(10 * S, 100);
-        rate.observe(10 * S + S / 2, 600);
-        assert_eq!(rate.reported_hz(Some(Duration::ZERO)), 0.0, "not a second yet");
-        rate.observe(11 * S, 1100);
-        assert_eq!(rate.reported_hz(Some(Duration::from_millis(999))), 1000.0);
-        assert_eq!(rate.reported_hz(Some(RATE_WINDOW)), 0.0, "silent for a second");
-        assert_eq!(rate.reported_hz(None), 0.0);
-        rate.observe(13 * S, 1600);
-        assert_eq!(rate.reported_hz(Some(Duration::ZERO)), 250.0);
+        let t0 = Instant::now();
+        assert_eq!(rate.hz(), 0.0, "nothing heard");
+        rate.sample(t0, false);
+        let t = run(&mut rate, t0, 40, 50, false);
+        assert_eq!(rate.hz(), 1000.0, "1 kHz over the last second");
+        // the driver slows to 500 Hz: within a second the rate says so
+        let t = run(&mut rate, t, 20, 25, false);
+        assert_eq!(rate.hz(), 500.0);
+        // states stop: the rate falls while the deadline has not passed, and is 0 once stalled
+        let t = run(&mut rate, t, 2, 0, false);
+        assert!(rate.hz() < 500.0 && rate.hz() > 0.0, "{}", rate.hz());
+        let t = run(&mut rate, t, 1, 0, true);
+        assert_eq!(rate.hz(), 0.0, "stalled");
+        // back: counted from its first states, not a second later
+        let t = run(&mut rate, t, 2, 50, false);
+        assert_eq!(rate.hz(), 1000.0, "back at 1 kHz after two cycles");
+        let _ = run(&mut rate, t, 40, 50, false);
+        assert_eq!(rate.hz(), 1000.0);
     }
 
     #[test]
