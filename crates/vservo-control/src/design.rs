@@ -60,20 +60,6 @@ impl Interaction {
     pub fn from_name(name: &str) -> Option<Interaction> {
         [Interaction::Desired, Interaction::Mean, Interaction::Current].into_iter().find(|i| i.name() == name)
     }
-
-    /// Its code on the wire.
-    pub fn code(&self) -> u32 {
-        match self {
-            Interaction::Desired => 0,
-            Interaction::Mean => 1,
-            Interaction::Current => 2,
-        }
-    }
-
-    /// From its code on the wire.
-    pub fn from_code(code: u32) -> Option<Interaction> {
-        [Interaction::Desired, Interaction::Mean, Interaction::Current].into_iter().find(|i| i.code() == code)
-    }
 }
 
 /// What the law does beyond the paper's (all off by default: the paper's law as published).

@@ -52,7 +52,7 @@ pub fn gains_message(gains: &LawGains, version: u64, key: &vservo_protocol::seal
         ],
         q,
         r_si,
-        interaction: gains.options.interaction.code(),
+        interaction: wire_interaction(gains.options.interaction).into(),
         feedforward: u32::from(gains.options.feedforward),
         border_margin_px: gains.options.border_margin_px,
         seal: 0,
@@ -74,7 +74,7 @@ pub fn law_gains(message: &GainsMsg) -> Option<LawGains> {
     if !finite.into_iter().all(|v| v.is_finite()) || message.used_past_gains as usize > MAX_PAST_GAINS {
         return None;
     }
-    let interaction = vservo_control::Interaction::from_code(message.interaction)?;
+    let interaction = law_interaction(vservo_protocol::Interaction::try_from(message.interaction).ok()?);
     let margin = message.border_margin_px;
     if !(margin.is_finite() && margin >= 0.0) || message.feedforward > 1 {
         return None;
@@ -101,6 +101,24 @@ pub fn law_gains(message: &GainsMsg) -> Option<LawGains> {
             feedforward: message.feedforward == 1,
         },
     })
+}
+
+/// The law's interaction as the wire's code (the law knows no codes).
+fn wire_interaction(interaction: vservo_control::Interaction) -> vservo_protocol::Interaction {
+    match interaction {
+        vservo_control::Interaction::Desired => vservo_protocol::Interaction::Desired,
+        vservo_control::Interaction::Mean => vservo_protocol::Interaction::Mean,
+        vservo_control::Interaction::Current => vservo_protocol::Interaction::Current,
+    }
+}
+
+/// The wire's interaction code as the law's.
+fn law_interaction(interaction: vservo_protocol::Interaction) -> vservo_control::Interaction {
+    match interaction {
+        vservo_protocol::Interaction::Desired => vservo_control::Interaction::Desired,
+        vservo_protocol::Interaction::Mean => vservo_control::Interaction::Mean,
+        vservo_protocol::Interaction::Current => vservo_control::Interaction::Current,
+    }
 }
 
 #[cfg(test)]
