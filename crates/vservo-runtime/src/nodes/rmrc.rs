@@ -16,12 +16,14 @@ use vservo_arm::JointVector;
 use vservo_cell::{ActuatorCommand, DriverTick, Following, RmrcStage, TwistLimits};
 use vservo_control::Twist;
 use vservo_protocol::seal::SealKey;
-use vservo_protocol::{CameraTwistMsg, JointCommandMsg, JointStateMsg, NodeRole, SCHEMA_VERSION, Topic};
+use vservo_protocol::{
+    CameraTwistMsg, CommandMode, JointCommandMsg, JointStateMsg, NodeRole, SCHEMA_VERSION, Topic, Verdict,
+};
 
 use super::{CellModeFollower, IDLE_WAIT, NodeBase, go_realtime, latest, start};
 use crate::clock::monotonic_ns;
 use crate::telemetry::{Counters, CycleSample};
-use crate::wire::{command_mode_code, to_array};
+use crate::wire::{command_mode, to_array};
 use crate::{NodeContext, RuntimeError, schema_ok};
 
 /// The rmrc's ports.
@@ -87,8 +89,8 @@ impl Orphaned {
 /// The rmrc between joint states: its stage and what it reports in each command.
 struct Rmrc {
     stage: RmrcStage,
-    /// The command interface's wire code and the period (ns) a driver must declare.
-    mode: u32,
+    /// The command interface and the period (ns) a driver must declare.
+    mode: CommandMode,
     period_ns: u64,
     limits: TwistLimits,
     /// The twist in force: its frame's capture tick and the tick it was taken in (reported in each command).
@@ -102,7 +104,7 @@ impl Rmrc {
         Self {
             // at rest at the starting joints until the first joint state says where the arm is
             stage: context.cell.rmrc(context.cell.start_joints()),
-            mode: command_mode_code(config.command_interface()),
+            mode: command_mode(config.command_interface()),
             period_ns: (config.robot.period_s * 1e9).round() as u64,
             limits: TwistLimits::of(config),
             twist_in_force: (u64::MAX, u64::MAX),
@@ -116,7 +118,7 @@ impl Rmrc {
     /// The measured joints of a state from a driver that declares this configuration's interface and period,
     /// if they are finite.
     fn admit(&self, state: &JointStateMsg) -> Option<(JointVector, JointVector)> {
-        let declared_ok = state.command_mode == self.mode
+        let declared_ok = CommandMode::try_from(state.command_mode) == Ok(self.mode)
             && state.period_ns.abs_diff(self.period_ns) <= self.period_ns / 100;
         let q = JointVector::from(state.q_rad);
         let qd = JointVector::from(state.qd_rad_s);
@@ -139,7 +141,7 @@ impl Rmrc {
     /// if the cell is held or the daemon gone.
     fn take_twists(&mut self, ports: &mut Ports, tick: u64, context: &NodeContext, counters: &Counters) {
         while let Ok(Some(sample)) = ports.twists.receive() {
-            let moves = vservo_protocol::verdict::moves(sample.verdict);
+            let moves = Verdict::try_from(sample.verdict).is_ok_and(Verdict::moves);
             let taken = if schema_ok(sample.schema) {
                 self.stage.take_twist(&Twist::from(sample.twist), moves, &self.limits, tick)
             } else {
@@ -170,7 +172,7 @@ impl Rmrc {
         };
         JointCommandMsg {
             schema: SCHEMA_VERSION,
-            mode: self.mode,
+            mode: self.mode.into(),
             answers_tick: state.tick,
             driver_epoch: state.driver_epoch,
             state_stamp_ns: state.stamp_ns,

@@ -11,7 +11,7 @@ use iceoryx2::prelude::{Node, ipc};
 use vservo_cell::{ServoInput, ServoStage, ServoStep, ServoVerdict};
 use vservo_control::{LawFlags, Twist};
 use vservo_protocol::{
-    CameraTwistMsg, FeaturesMsg, GainsMsg, NodeRole, SCHEMA_VERSION, Topic, law_flag, verdict,
+    CameraTwistMsg, FeaturesMsg, GainsMsg, MarkStatus, NodeRole, SCHEMA_VERSION, Topic, Verdict, law_flag,
 };
 use vservo_scene::FeatureVector;
 
@@ -34,15 +34,15 @@ fn law_flags_on_wire(flags: LawFlags) -> u32 {
     .fold(0, |bits, (_, bit)| bits | bit)
 }
 
-/// The verdict's `camera_twist.verdict` code.
-fn verdict_on_wire(servo: ServoVerdict) -> u32 {
+/// The stage's verdict as the wire says it (`camera_twist.verdict`).
+fn verdict_on_wire(servo: ServoVerdict) -> Verdict {
     match servo {
-        ServoVerdict::Waiting => verdict::WAITING,
-        ServoVerdict::Servoing => verdict::SERVOING,
-        ServoVerdict::ServoingOnThree(_) => verdict::SERVOING_ON_THREE,
-        ServoVerdict::Reacquiring(_) => verdict::REACQUIRING,
-        ServoVerdict::MarksMissing(_) => verdict::MARKS_MISSING,
-        ServoVerdict::Held => verdict::SAFE_STOP,
+        ServoVerdict::Waiting => Verdict::Waiting,
+        ServoVerdict::Servoing => Verdict::Servoing,
+        ServoVerdict::ServoingOnThree(_) => Verdict::ServoingOnThree,
+        ServoVerdict::Reacquiring(_) => Verdict::Reacquiring,
+        ServoVerdict::MarksMissing(_) => Verdict::MarksMissing,
+        ServoVerdict::Held => Verdict::SafeStop,
     }
 }
 
@@ -83,7 +83,7 @@ struct Servo {
     /// The last frame answered: its number and capture tick.
     last: (u64, u64),
     /// (verdict, missing marks) of the last frame, for one log line per change of what the servo does.
-    doing: (u32, u32),
+    doing: (Verdict, u8),
 }
 
 impl Servo {
@@ -95,7 +95,7 @@ impl Servo {
             gains_version: 0,
             period_ns: (context.cell.config().timing.vision_period_s * 1e9).round() as u64,
             last: (0, 0),
-            doing: (verdict::WAITING, 0),
+            doing: (Verdict::Waiting, 0),
         }
     }
 
@@ -140,7 +140,7 @@ impl Servo {
         };
         CameraTwistMsg {
             schema: SCHEMA_VERSION,
-            verdict: verdict_on_wire(step.verdict),
+            verdict: verdict_on_wire(step.verdict).into(),
             frame: message.frame,
             capture_tick: message.capture_tick,
             gains_version: self.gains_version,
@@ -153,10 +153,11 @@ impl Servo {
     }
 
     /// Says a change of what the servo does (after the twist is sent, and only when it changes).
-    fn note_change(&mut self, sent: &CameraTwistMsg, message: &FeaturesMsg, monitor: &LoopMonitor) {
-        let now = (sent.verdict, sent.missing_mask);
+    fn note_change(&mut self, step: &ServoStep, message: &FeaturesMsg, monitor: &LoopMonitor) {
+        let now = (verdict_on_wire(step.verdict), step.verdict.missing_mask());
         if now != self.doing {
-            monitor.note(Note::ServoVerdict { before: self.doing, now, mark_status: message.mark_status });
+            let mark_status = message.mark_status.map(|code| MarkStatus::try_from(code).ok());
+            monitor.note(Note::ServoVerdict { before: self.doing, now, mark_status });
             self.doing = now;
         }
     }
@@ -166,7 +167,7 @@ impl Servo {
     fn stopping_message(&self) -> CameraTwistMsg {
         CameraTwistMsg {
             schema: SCHEMA_VERSION,
-            verdict: verdict::STOPPING,
+            verdict: Verdict::Stopping.into(),
             frame: self.last.0,
             capture_tick: self.last.1,
             gains_version: self.gains_version,
@@ -206,7 +207,7 @@ pub fn run(context: &NodeContext) -> Result<(), RuntimeError> {
             }
             let sent = servo.twist_message(&message, &step);
             ports.send(sent);
-            servo.note_change(&sent, &message, &monitor);
+            servo.note_change(&step, &message, &monitor);
             servo.last = (message.frame, message.capture_tick);
             counters.set_progress(message.frame);
             counters.set_mode(sent.verdict);

@@ -13,8 +13,8 @@ use vservo_arm::JointVector;
 use vservo_cell::{DeliveredFrame, VisionStage};
 use vservo_config::VisionSource;
 use vservo_protocol::{
-    CameraImageHeader, FeaturesMsg, JointStateMsg, MARKS, NodeRole, SCHEMA_VERSION, SimWorldMsg, Topic,
-    mark_status, pixel_format,
+    CameraImageHeader, FeaturesMsg, JointStateMsg, MARKS, MarkStatus as WireMarkStatus, NodeRole,
+    PixelFormat, SCHEMA_VERSION, SimWorldMsg, Topic,
 };
 use vservo_vision::GrayImage;
 use vservo_vision::{Extraction, MarkStatus};
@@ -30,24 +30,31 @@ use crate::{NodeContext, RuntimeError, schema_ok};
 /// periods (the joint_state queue holds 64 states), and at most this.
 const LONGEST_DRAIN_WAIT_S: f64 = 0.02;
 
-fn status_code(status: &MarkStatus) -> u8 {
+/// The extractor's status of a mark as the wire says it (`features.mark_status`).
+fn status_on_wire(status: &MarkStatus) -> WireMarkStatus {
     match status {
-        MarkStatus::Valid => mark_status::VALID,
-        MarkStatus::OutsideImage => mark_status::OUTSIDE_IMAGE,
-        MarkStatus::CutByBorder => mark_status::CUT_BY_BORDER,
-        MarkStatus::MergedWith(_) => mark_status::MERGED,
-        MarkStatus::Irregular => mark_status::IRREGULAR,
-        MarkStatus::NotFound => mark_status::NOT_FOUND,
-        MarkStatus::BadImage(_) => mark_status::BAD_IMAGE,
+        MarkStatus::Valid => WireMarkStatus::Valid,
+        MarkStatus::OutsideImage => WireMarkStatus::OutsideImage,
+        MarkStatus::CutByBorder => WireMarkStatus::CutByBorder,
+        MarkStatus::MergedWith(_) => WireMarkStatus::Merged,
+        MarkStatus::Irregular => WireMarkStatus::Irregular,
+        MarkStatus::NotFound => WireMarkStatus::NotFound,
+        MarkStatus::BadImage(_) => WireMarkStatus::BadImage,
     }
 }
 
 /// What the pipeline remembers of a frame until it leaves: capture time and mark status.
-#[derive(Debug, Clone, Copy, Default)]
+#[derive(Debug, Clone, Copy)]
 struct FrameInfo {
     frame: u64,
     capture_stamp_ns: u64,
-    status: [u8; MARKS],
+    status: [WireMarkStatus; MARKS],
+}
+
+impl Default for FrameInfo {
+    fn default() -> Self {
+        Self { frame: 0, capture_stamp_ns: 0, status: [WireMarkStatus::Valid; MARKS] }
+    }
 }
 
 /// The frames in the pipeline (at most MAX_DELAY_FRAMES + 1) and the port their features leave by.
@@ -60,14 +67,14 @@ struct FeaturesOut {
 impl FeaturesOut {
     fn remember(&mut self, frame: u64, capture_stamp_ns: u64, captured: &Extraction) {
         self.in_pipeline[(frame % 8) as usize] =
-            FrameInfo { frame, capture_stamp_ns, status: captured.status.map(|s| status_code(&s)) };
+            FrameInfo { frame, capture_stamp_ns, status: captured.status.map(|s| status_on_wire(&s)) };
     }
 
     fn publish(&self, delivered: &DeliveredFrame) {
         let info = self.in_pipeline[(delivered.frame % 8) as usize];
         let mut valid_mask = 0u32;
         for mark in 0..MARKS {
-            if info.status[mark] == mark_status::VALID && info.frame == delivered.frame {
+            if info.status[mark] == WireMarkStatus::Valid && info.frame == delivered.frame {
                 valid_mask |= 1 << mark;
             }
         }
@@ -79,7 +86,7 @@ impl FeaturesOut {
             capture_stamp_ns: info.capture_stamp_ns,
             stamp_ns: monotonic_ns(),
             features_px: to_array(&delivered.features),
-            mark_status: info.status,
+            mark_status: info.status.map(u8::from),
             reserved: [0; 4],
             base_from_camera: delivered.base_from_camera.as_ref().map_or([f64::NAN; 12], pose_to_wire),
         };
@@ -210,7 +217,7 @@ fn copy_image(header: &CameraImageHeader, payload: &[u8], image: &mut GrayImage)
     let stride = header.stride_bytes as usize;
     let needed = stride.saturating_mul(height.saturating_sub(1) as usize).saturating_add(width as usize);
     let fits = header.schema == SCHEMA_VERSION
-        && header.format == pixel_format::MONO8
+        && PixelFormat::try_from(header.format) == Ok(PixelFormat::Mono8)
         && (header.width, header.height) == (width, height)
         && stride >= width as usize
         && payload.len() >= needed;
@@ -331,7 +338,7 @@ pub fn publish_image(
     let Ok(mut sample) = publisher.loan_slice_uninit(image.as_raw().len()) else { return };
     *sample.user_header_mut() = CameraImageHeader {
         schema: SCHEMA_VERSION,
-        format: pixel_format::MONO8,
+        format: PixelFormat::Mono8.into(),
         width,
         height,
         stride_bytes: width,
