@@ -4,6 +4,17 @@ use nalgebra::{Point2, Point3};
 
 use crate::{Board, FeatureVector, IsometryMatrix3, MARKS, MarkDepths};
 
+/// Whether a pixel position lies inside a `width_px` × `height_px` image by at least `margin_px` from every
+/// border ([m, width − m] × [m, height − m]); a position that is not finite never does. The one answer to
+/// "is this point inside the image" ([`CameraIntrinsics::contains_with_margin`] for a camera; the extractor,
+/// which knows the image only, asks it directly).
+pub fn image_contains(width_px: u32, height_px: u32, pixel: &Point2<f64>, margin_px: f64) -> bool {
+    pixel.x >= margin_px
+        && pixel.y >= margin_px
+        && pixel.x <= f64::from(width_px) - margin_px
+        && pixel.y <= f64::from(height_px) - margin_px
+}
+
 /// Pinhole intrinsics: square pixels, no distortion.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct CameraIntrinsics {
@@ -102,10 +113,7 @@ impl CameraIntrinsics {
     /// Whether a pixel position lies inside the image by at least `margin_px` from every border
     /// ([m, width − m] × [m, height − m]); a position that is not finite never does.
     pub fn contains_with_margin(&self, pixel: &Point2<f64>, margin_px: f64) -> bool {
-        pixel.x >= margin_px
-            && pixel.y >= margin_px
-            && pixel.x <= f64::from(self.width_px) - margin_px
-            && pixel.y <= f64::from(self.height_px) - margin_px
+        image_contains(self.width_px, self.height_px, pixel, margin_px)
     }
 
     /// The feature vector and the mark depths for the board at `camera_from_board`.

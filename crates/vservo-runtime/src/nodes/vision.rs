@@ -97,9 +97,15 @@ impl FeaturesOut {
     }
 }
 
+/// The time since the previous capture (ns), 0 for the first; `previous` becomes `capture_ns`.
+fn frame_period_ns(previous: &mut u64, capture_ns: u64) -> u64 {
+    let period = if *previous > 0 { capture_ns.saturating_sub(*previous) } else { 0 };
+    *previous = capture_ns;
+    period
+}
+
 /// Runs the vision node until the stop flag is set.
 pub fn run(context: &NodeContext) -> Result<(), RuntimeError> {
-    let config = context.cell.config();
     let instance = &context.instance;
     let NodeBase { _telemetry, monitor, node } = start(context, NodeRole::Vision)?;
     let state_subscriber = vservo_protocol::subscriber::<JointStateMsg>(&node, instance, Topic::JointState)?;
@@ -113,78 +119,9 @@ pub fn run(context: &NodeContext) -> Result<(), RuntimeError> {
         stage.resume_tracking(features);
         tracing::info!(node = "vision", "tracking the marks from where they were last seen");
     }
-    match &config.vision.source {
+    match &context.cell.config().vision.source {
         VisionSource::External => {
-            let images = vservo_protocol::camera_image_subscriber(
-                &node,
-                instance,
-                vservo_protocol::Opening::OpenOrCreate,
-            )?;
-            let listener = vservo_protocol::camera_image_listener(&node, instance)?;
-            go_realtime(context, NodeRole::Vision);
-            let (width, height) = (config.camera.width_px(), config.camera.height_px());
-            let mut image = GrayImage::new(width, height);
-            let mut previous_capture_ns = 0;
-            let counters = monitor.counters();
-            // an image older than a vision period on arrival would steer the arm by where it was: dropped
-            let stale_after_ns = (config.timing.vision_period_s * 1e9).round() as u64;
-            // the camera's pose is the arm's at the frame's exposure: the joint states heard are kept (two
-            // vision periods of them, more than a frame may be late), and drained often enough that none is
-            // lost (the joint_state queue holds 64 states)
-            let driver_period_s = config.robot.period_s;
-            let mut joints = JointHistory::new(driver_period_s, 2.0 * config.timing.vision_period_s);
-            let drain_wait =
-                std::time::Duration::from_secs_f64((32.0 * driver_period_s).min(LONGEST_DRAIN_WAIT_S));
-            let mut said_unplaced = false;
-            while !context.stopping() && !context.orphaned() {
-                let _ = listener.timed_wait(|_| {}, drain_wait);
-                hear_joints(&state_subscriber, &mut joints, counters);
-                while let Ok(Some(sample)) = images.receive() {
-                    let woke_at = monotonic_ns();
-                    let header = *sample.user_header();
-                    let stale = woke_at.saturating_sub(header.capture_stamp_ns) > stale_after_ns;
-                    if stale || !copy_image(&header, sample.payload(), &mut image) {
-                        counters.rejected();
-                        continue;
-                    }
-                    drop(sample);
-                    hear_joints(&state_subscriber, &mut joints, counters);
-                    let at_exposure = joints.at(header.capture_stamp_ns);
-                    // said once, and not for the frames that come before the history has filled (a node
-                    // that has just started): then a camera's stamps do not match the robot's clock
-                    if let Err(why) = at_exposure {
-                        let filled = joints.span_ns() >= stale_after_ns;
-                        if !said_unplaced && (filled || why == NoJoints::AfterNewest) {
-                            monitor.note(Note::FrameWithoutPose {
-                                frame: header.frame,
-                                capture_stamp_ns: header.capture_stamp_ns,
-                                why,
-                            });
-                            said_unplaced = true;
-                        }
-                    }
-                    let tick = at_exposure.map_or_else(|_| joints.newest_tick().unwrap_or(0), |at| at.tick);
-                    let q = at_exposure.ok().map(|at| at.q);
-                    let (captured, delivered) = stage.process_image(header.frame, tick, q.as_ref(), &image);
-                    out.remember(header.frame, header.capture_stamp_ns, &captured);
-                    if let Some(delivered) = delivered {
-                        out.publish(&delivered);
-                    }
-                    let frame_period_ns = if previous_capture_ns > 0 {
-                        header.capture_stamp_ns.saturating_sub(previous_capture_ns)
-                    } else {
-                        0
-                    };
-                    previous_capture_ns = header.capture_stamp_ns;
-                    counters.set_progress(header.frame);
-                    monitor.record(CycleSample {
-                        wake_latency_ns: woke_at.saturating_sub(header.capture_stamp_ns),
-                        execution_ns: monotonic_ns().saturating_sub(woke_at),
-                        frame_period_ns,
-                        ..CycleSample::default()
-                    });
-                }
-            }
+            run_external_camera(context, &node, &monitor, &state_subscriber, &mut stage, &mut out)?;
         }
         // the daemon refuses recorded images (open-loop checks are `vservoctl vision extract`'s)
         VisionSource::Simulated | VisionSource::Directory(_) => {
@@ -192,6 +129,108 @@ pub fn run(context: &NodeContext) -> Result<(), RuntimeError> {
         }
     }
     tracing::info!(node = "vision", "stopped");
+    Ok(())
+}
+
+/// An external camera's frames as the vision node takes them: the image buffer, the joint states heard (to
+/// place the camera at each exposure), and what it has said.
+struct ExternalCamera {
+    image: GrayImage,
+    /// The camera's pose is the arm's at the frame's exposure: the joint states heard are kept (two vision
+    /// periods of them, more than a frame may be late).
+    joints: JointHistory,
+    /// An image older than a vision period on arrival would steer the arm by where it was: dropped.
+    stale_after_ns: u64,
+    said_unplaced: bool,
+    previous_capture_ns: u64,
+}
+
+impl ExternalCamera {
+    fn new(context: &NodeContext) -> Self {
+        let config = context.cell.config();
+        Self {
+            image: GrayImage::new(config.camera.width_px(), config.camera.height_px()),
+            joints: JointHistory::new(config.robot.period_s, 2.0 * config.timing.vision_period_s),
+            stale_after_ns: (config.timing.vision_period_s * 1e9).round() as u64,
+            said_unplaced: false,
+            previous_capture_ns: 0,
+        }
+    }
+
+    /// The tick and the joints at a frame's exposure (the newest tick and none if the joint states heard do
+    /// not place it; said once, and not for the frames that come before the history has filled — a node
+    /// that has just started —: then a camera's stamps do not match the robot's clock).
+    fn at_exposure(
+        &mut self,
+        header: &CameraImageHeader,
+        monitor: &LoopMonitor,
+    ) -> (u64, Option<JointVector>) {
+        match self.joints.at(header.capture_stamp_ns) {
+            Ok(at) => (at.tick, Some(at.q)),
+            Err(why) => {
+                let filled = self.joints.span_ns() >= self.stale_after_ns;
+                if !self.said_unplaced && (filled || why == NoJoints::AfterNewest) {
+                    monitor.note(Note::FrameWithoutPose {
+                        frame: header.frame,
+                        capture_stamp_ns: header.capture_stamp_ns,
+                        why,
+                    });
+                    self.said_unplaced = true;
+                }
+                (self.joints.newest_tick().unwrap_or(0), None)
+            }
+        }
+    }
+}
+
+/// An external camera paces the loop: each frame it publishes is extracted as it arrives and its features
+/// published at once, stamped with its capture time and the camera's pose then. The joint states are
+/// drained often enough that none is lost (the joint_state queue holds 64 states).
+fn run_external_camera(
+    context: &NodeContext,
+    node: &iceoryx2::prelude::Node<ipc::Service>,
+    monitor: &LoopMonitor,
+    state_subscriber: &iceoryx2::port::subscriber::Subscriber<ipc::Service, JointStateMsg, ()>,
+    stage: &mut VisionStage,
+    out: &mut FeaturesOut,
+) -> Result<(), RuntimeError> {
+    let instance = &context.instance;
+    let images =
+        vservo_protocol::camera_image_subscriber(node, instance, vservo_protocol::Opening::OpenOrCreate)?;
+    let listener = vservo_protocol::camera_image_listener(node, instance)?;
+    go_realtime(context, NodeRole::Vision);
+    let counters = monitor.counters();
+    let mut camera = ExternalCamera::new(context);
+    let driver_period_s = context.cell.config().robot.period_s;
+    let drain_wait = std::time::Duration::from_secs_f64((32.0 * driver_period_s).min(LONGEST_DRAIN_WAIT_S));
+    while !context.stopping() && !context.orphaned() {
+        let _ = listener.timed_wait(|_| {}, drain_wait);
+        hear_joints(state_subscriber, &mut camera.joints, counters);
+        while let Ok(Some(sample)) = images.receive() {
+            let woke_at = monotonic_ns();
+            let header = *sample.user_header();
+            let stale = woke_at.saturating_sub(header.capture_stamp_ns) > camera.stale_after_ns;
+            if stale || !copy_image(&header, sample.payload(), &mut camera.image) {
+                counters.rejected();
+                continue;
+            }
+            drop(sample);
+            hear_joints(state_subscriber, &mut camera.joints, counters);
+            let (tick, q) = camera.at_exposure(&header, monitor);
+            let (captured, delivered) = stage.process_image(header.frame, tick, q.as_ref(), &camera.image);
+            out.remember(header.frame, header.capture_stamp_ns, &captured);
+            if let Some(delivered) = delivered {
+                out.publish(&delivered);
+            }
+            counters.set_progress(header.frame);
+            monitor.record(CycleSample {
+                wake_latency_ns: woke_at.saturating_sub(header.capture_stamp_ns),
+                execution_ns: monotonic_ns().saturating_sub(woke_at),
+                frame_period_ns: frame_period_ns(&mut camera.previous_capture_ns, header.capture_stamp_ns),
+                ..CycleSample::default()
+            });
+        }
+    }
     Ok(())
 }
 
@@ -231,6 +270,53 @@ fn copy_image(header: &CameraImageHeader, payload: &[u8], image: &mut GrayImage)
     true
 }
 
+/// When the simulated camera takes its images: the tick of the next one (the first joint state heard,
+/// then every `ticks_per_frame` ticks).
+struct CaptureTicks {
+    ticks_per_frame: u64,
+    next_tick: Option<u64>,
+}
+
+impl CaptureTicks {
+    /// Drains the joint states waiting (others' schemas refused and counted): the state of the capture tick,
+    /// or the first after it had this node been late (the ticks skipped counted), if it has come. A
+    /// restarted plant starts again at rest where the arm was: capture from its first state.
+    fn due(
+        &mut self,
+        subscriber: &iceoryx2::port::subscriber::Subscriber<ipc::Service, JointStateMsg, ()>,
+        counters: &Counters,
+    ) -> Option<JointStateMsg> {
+        let mut due = None;
+        while let Ok(Some(sample)) = subscriber.receive() {
+            let state = *sample;
+            if !crate::schema_ok(state.schema) {
+                counters.rejected();
+                continue;
+            }
+            let wanted = *self.next_tick.get_or_insert(state.tick);
+            if state.tick + self.ticks_per_frame < wanted {
+                self.next_tick = Some(state.tick);
+            }
+            if due.is_none() && state.tick >= self.next_tick.unwrap_or(state.tick) {
+                due = Some(state);
+            }
+        }
+        due
+    }
+
+    /// The image of `state` is taken: the next one is a vision period of ticks later. A state later than the
+    /// one wanted (this node woke after the capture tick's state was gone) is counted as an overrun.
+    fn taken(&mut self, state: &JointStateMsg, counters: &Counters) {
+        if let Some(wanted) = self.next_tick
+            && state.tick > wanted
+        {
+            counters.overrun();
+            counters.skipped((state.tick - wanted) / self.ticks_per_frame);
+        }
+        self.next_tick = Some(state.tick + self.ticks_per_frame);
+    }
+}
+
 /// The simulated camera runs on the simulation's time, as the lockstep simulator does: it wakes on each
 /// joint state and takes an image every `control_ticks_per_frame` plant ticks (the vision period of
 /// simulated time), of the state of exactly that tick. A plant that falls behind the wall clock (skipped
@@ -245,7 +331,6 @@ fn run_simulated_camera(
     stage: &mut VisionStage,
     out: &mut FeaturesOut,
 ) -> Result<(), RuntimeError> {
-    let config = context.cell.config();
     let instance = &context.instance;
     let state_listener = vservo_protocol::listener(node, instance, Topic::JointState)?;
     let world_subscriber = vservo_protocol::subscriber::<SimWorldMsg>(node, instance, Topic::SimWorld)?;
@@ -253,45 +338,19 @@ fn run_simulated_camera(
     let image_notifier = vservo_protocol::camera_image_notifier(node, instance)?;
     go_realtime(context, NodeRole::Vision);
     let counters: &Counters = monitor.counters();
-    let ticks_per_frame = u64::from(config.timing.control_ticks_per_frame);
-    let mut frame: u64 = 0;
-    let mut previous_capture_ns = 0;
+    let ticks_per_frame = u64::from(context.cell.config().timing.control_ticks_per_frame);
+    let mut capture = CaptureTicks { ticks_per_frame, next_tick: None };
+    let (mut frame, mut previous_capture_ns) = (0u64, 0);
     let mut world: Option<SimWorldMsg> = None;
-    // the tick of the next image: the first joint state heard, then every ticks_per_frame ticks
-    let mut next_tick: Option<u64> = None;
     while !context.stopping() && !context.orphaned() {
         let _ = state_listener.timed_wait(|_| {}, IDLE_WAIT);
         let woke_at = monotonic_ns();
         if let Some(newest) = latest(&world_subscriber, |m: &SimWorldMsg| m.schema, counters) {
             world = Some(newest);
         }
-        // the state of the capture tick (or the first after it, had this node been late)
-        let mut due = None;
-        while let Ok(Some(sample)) = state_subscriber.receive() {
-            let state = *sample;
-            if !crate::schema_ok(state.schema) {
-                counters.rejected();
-                continue;
-            }
-            let wanted = *next_tick.get_or_insert(state.tick);
-            // a restarted plant starts again at rest where the arm was: capture from its first state
-            if state.tick + ticks_per_frame < wanted {
-                next_tick = Some(state.tick);
-            }
-            if due.is_none() && state.tick >= next_tick.unwrap_or(state.tick) {
-                due = Some(state);
-            }
-        }
         // no plant yet (or a restart under way), or not yet the capture tick: no image to take
-        let (Some(state), Some(world)) = (due, world) else { continue };
-        if let Some(wanted) = next_tick
-            && state.tick > wanted
-        {
-            // this node woke after the capture tick's state was gone: the image is of a later tick
-            counters.overrun();
-            counters.skipped((state.tick - wanted) / ticks_per_frame);
-        }
-        next_tick = Some(state.tick + ticks_per_frame);
+        let (Some(state), Some(world)) = (capture.due(state_subscriber, counters), world) else { continue };
+        capture.taken(&state, counters);
         // the frame processed during the last period leaves the pipeline now, before the new image is taken
         if let Some(delivered) = stage.take_delivered() {
             out.publish(&delivered);
@@ -314,13 +373,10 @@ fn run_simulated_camera(
         let _ = image_notifier.notify();
         frame += 1;
         counters.set_progress(frame);
-        let frame_period_ns =
-            if previous_capture_ns > 0 { state.stamp_ns.saturating_sub(previous_capture_ns) } else { 0 };
-        previous_capture_ns = state.stamp_ns;
         monitor.record(CycleSample {
             wake_latency_ns: woke_at.saturating_sub(state.stamp_ns),
             execution_ns: monotonic_ns().saturating_sub(started),
-            frame_period_ns,
+            frame_period_ns: frame_period_ns(&mut previous_capture_ns, state.stamp_ns),
             ..CycleSample::default()
         });
     }
