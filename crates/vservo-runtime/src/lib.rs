@@ -77,7 +77,3 @@ impl NodeContext {
 /// below it): a node that outlives the daemon stops there, and so does the daemon's own safe stop.
 pub const AT_REST_RAD_S: f64 = 0.01;
 
-/// A sample's schema is the one this build speaks.
-fn schema_ok(schema: u32) -> bool {
-    schema == vservo_protocol::SCHEMA_VERSION
-}

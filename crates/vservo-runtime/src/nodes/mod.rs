@@ -8,11 +8,11 @@ pub mod vision;
 use std::time::Duration;
 
 use iceoryx2::port::subscriber::Subscriber;
-use iceoryx2::prelude::{Node, ZeroCopySend, ipc};
-use vservo_protocol::{CellMode, NodeRole};
+use iceoryx2::prelude::{Node, ipc};
+use vservo_protocol::{CellMode, NodeRole, Payload, TakeMessages};
 
 use crate::telemetry::{Counters, LoopMonitor, TelemetryThread};
-use crate::{NodeContext, RuntimeError, realtime, schema_ok};
+use crate::{NodeContext, RuntimeError, realtime};
 
 /// How long an event-driven node waits before it looks at its stop flag again.
 const IDLE_WAIT: Duration = Duration::from_millis(100);
@@ -48,21 +48,15 @@ fn go_realtime(context: &NodeContext, role: NodeRole) {
     tracing::info!(node = role.name(), "running");
 }
 
-/// Drains a subscriber and returns its newest sample of this build's schema; others are counted refused.
-fn latest<T: Copy + std::fmt::Debug + ZeroCopySend>(
-    subscriber: &Subscriber<ipc::Service, T, ()>,
-    schema: fn(&T) -> u32,
-    counters: &Counters,
-) -> Option<T> {
-    let mut latest = None;
-    while let Ok(Some(sample)) = subscriber.receive() {
-        if schema_ok(schema(&sample)) {
-            latest = Some(*sample);
-        } else {
-            counters.rejected();
-        }
+/// Drains a subscriber and returns its newest message of this build's schema (the protocol's
+/// [`TakeMessages`] refuses the others); the refused are counted.
+fn latest<T: Payload>(subscriber: &Subscriber<ipc::Service, T, ()>, counters: &Counters) -> Option<T> {
+    let mut refused = 0;
+    let newest = subscriber.newest_message(&mut refused);
+    for _ in 0..refused {
+        counters.rejected();
     }
-    latest
+    newest
 }
 
 /// The cell mode the daemon set: the newest sealed [`CellModeMsg`] heard so far. A message without the run's
@@ -95,7 +89,11 @@ impl CellModeFollower {
             let sealed = key.is_some_and(|key| key.seal_cell_mode(&message) == message.seal);
             let sequence = self.in_force.1;
             match CellMode::try_from(message.mode) {
-                Ok(mode) if schema_ok(message.schema) && sealed && message.sequence > sequence => {
+                Ok(mode)
+                    if vservo_protocol::inbox::accept(message).is_ok()
+                        && sealed
+                        && message.sequence > sequence =>
+                {
                     self.in_force = (mode, message.sequence);
                 }
                 _ if message.sequence != sequence || !sealed => counters.rejected(),

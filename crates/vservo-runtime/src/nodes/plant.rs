@@ -9,6 +9,7 @@ use iceoryx2::port::subscriber::Subscriber;
 use iceoryx2::prelude::{Node, ipc};
 use vservo_arm::JointVector;
 use vservo_cell::{ActuatorCommand, PlantStage};
+use vservo_protocol::TakeMessages;
 use vservo_protocol::{
     CommandKind, CommandMode, DriverStatus, JointCommandMsg, JointStateMsg, NodeRole, ObjectMsg,
     SCHEMA_VERSION, SimWorldMsg, Topic, fault_bits,
@@ -20,7 +21,7 @@ use super::{NodeBase, go_realtime, latest, start};
 use crate::clock::{PeriodicTimer, monotonic_ns};
 use crate::telemetry::{Counters, CycleSample};
 use crate::wire::{pose_to_wire, to_array};
-use crate::{NodeContext, RuntimeError, schema_ok};
+use crate::{NodeContext, RuntimeError};
 
 /// The simulated driver's identity in each joint state: its epoch, period and command interface.
 #[derive(Debug, Clone, Copy)]
@@ -232,10 +233,13 @@ impl Plant {
         counters: &Counters,
     ) -> Answer {
         let mut answer = Answer::default();
-        while let Ok(Some(sample)) = ports.commands.receive() {
-            let reply = *sample;
+        while let Some(taken) = ports.commands.next_message() {
+            let Ok(reply) = taken else {
+                counters.rejected();
+                continue;
+            };
             let sealed = context.seal_key.is_some_and(|key| key.seal_joint_command(&reply) == reply.seal);
-            if !schema_ok(reply.schema) || reply.driver_epoch != self.declared.epoch || !sealed {
+            if reply.driver_epoch != self.declared.epoch || !sealed {
                 counters.rejected();
             } else if reply.answers_tick == tick {
                 match command_of(&reply, self.declared.command_mode, &self.torque_max_nm) {
@@ -253,7 +257,7 @@ impl Plant {
     /// An object command (from vservod; rare) changes the board's motion from this tick on: the daemon's only
     /// (sealed with the run's key; the daemon has checked its limits).
     fn take_object_motion(&mut self, ports: &Ports, context: &NodeContext, counters: &Counters) {
-        let Some(message) = latest(&ports.objects, |m: &ObjectMsg| m.schema, counters) else { return };
+        let Some(message) = latest(&ports.objects, counters) else { return };
         if message.sequence == self.object_sequence {
             return;
         }

@@ -15,6 +15,7 @@ use iceoryx2::prelude::{Node, ipc};
 use vservo_arm::JointVector;
 use vservo_cell::{ActuatorCommand, DriverTick, Following, RmrcStage, TwistLimits};
 use vservo_control::Twist;
+use vservo_protocol::TakeMessages;
 use vservo_protocol::seal::SealKey;
 use vservo_protocol::{
     CameraTwistMsg, CommandMode, JointCommandMsg, JointStateMsg, NodeRole, SCHEMA_VERSION, Topic, Verdict,
@@ -24,7 +25,7 @@ use super::{CellModeFollower, IDLE_WAIT, NodeBase, go_realtime, latest, start};
 use crate::clock::monotonic_ns;
 use crate::telemetry::{Counters, CycleSample};
 use crate::wire::{command_mode, to_array};
-use crate::{NodeContext, RuntimeError, schema_ok};
+use crate::{NodeContext, RuntimeError};
 
 /// The rmrc's ports.
 struct Ports {
@@ -140,19 +141,23 @@ impl Rmrc {
     /// Takes in the twists that came (refused ones counted; they bring the arm to rest), then a zero twist
     /// if the cell is held or the daemon gone.
     fn take_twists(&mut self, ports: &mut Ports, tick: u64, context: &NodeContext, counters: &Counters) {
-        while let Ok(Some(sample)) = ports.twists.receive() {
-            let moves = Verdict::try_from(sample.verdict).is_ok_and(Verdict::moves);
-            let taken = if schema_ok(sample.schema) {
-                self.stage.take_twist(&Twist::from(sample.twist), moves, &self.limits, tick)
-            } else {
-                // another schema is refused like a twist out of range: the arm brought to rest
-                self.stage.set_twist(Twist::zeros(), tick);
-                false
+        while let Some(taken) = ports.twists.next_message() {
+            let taken = match taken {
+                Ok(sample) => {
+                    let moves = Verdict::try_from(sample.verdict).is_ok_and(Verdict::moves);
+                    let twist = Twist::from(sample.twist);
+                    let taken = self.stage.take_twist(&twist, moves, &self.limits, tick);
+                    taken.then_some(sample.capture_tick)
+                }
+                Err(_) => {
+                    // another schema is refused like a twist out of range: the arm brought to rest
+                    self.stage.set_twist(Twist::zeros(), tick);
+                    None
+                }
             };
-            if taken {
-                self.twist_in_force = (sample.capture_tick, tick);
-            } else {
-                counters.rejected();
+            match taken {
+                Some(capture_tick) => self.twist_in_force = (capture_tick, tick),
+                None => counters.rejected(),
             }
         }
         // a safe stop, or no daemon and so no servo to trust: a zero twist, which the interpolator ramps to at
@@ -201,7 +206,7 @@ pub fn run(context: &NodeContext) -> Result<(), RuntimeError> {
         if rmrc.orphaned.gives_up(context.orphaned(), woke_at) {
             break;
         }
-        let Some(state) = latest(&ports.states, |m: &JointStateMsg| m.schema, counters) else { continue };
+        let Some(state) = latest(&ports.states, counters) else { continue };
         let Some((q, qd)) = rmrc.admit(&state) else {
             counters.rejected();
             continue;

@@ -10,6 +10,7 @@ use iceoryx2::port::subscriber::Subscriber;
 use iceoryx2::prelude::{Node, ipc};
 use vservo_cell::{ServoInput, ServoStage, ServoStep, ServoVerdict};
 use vservo_control::{LawFlags, Twist};
+use vservo_protocol::TakeMessages;
 use vservo_protocol::{
     CameraTwistMsg, FeaturesMsg, GainsMsg, MarkStatus, NodeRole, SCHEMA_VERSION, Topic, Verdict, law_flag,
 };
@@ -20,7 +21,7 @@ use crate::clock::monotonic_ns;
 use crate::telemetry::{Counters, CycleSample, LoopMonitor, Note};
 use crate::wire::to_array;
 use crate::wire::{law_gains, pose_from_wire};
-use crate::{NodeContext, RuntimeError, schema_ok};
+use crate::{NodeContext, RuntimeError};
 
 /// The law's flags as `camera_twist.law_flags` bits.
 fn law_flags_on_wire(flags: LawFlags) -> u32 {
@@ -102,7 +103,7 @@ impl Servo {
     /// Takes the daemon's newest design, if it is sealed with the run's key and newer than the one in use
     /// (another is refused and counted); it takes effect at a frame boundary, before the next feature vector.
     fn take_gains(&mut self, ports: &Ports, context: &NodeContext, counters: &Counters) {
-        let Some(message) = latest(&ports.gains, |m: &GainsMsg| m.schema, counters) else { return };
+        let Some(message) = latest(&ports.gains, counters) else { return };
         if message.version == self.gains_version {
             return;
         }
@@ -193,12 +194,11 @@ pub fn run(context: &NodeContext) -> Result<(), RuntimeError> {
         let _ = ports.features_listener.timed_wait(|_| {}, IDLE_WAIT);
         let woke_at = monotonic_ns();
         servo.take_gains(&ports, context, counters);
-        while let Ok(Some(sample)) = ports.features.receive() {
-            let message = *sample;
-            if !schema_ok(message.schema) {
+        while let Some(taken) = ports.features.next_message() {
+            let Ok(message) = taken else {
                 counters.rejected();
                 continue;
-            }
+            };
             let held = ports.cell_mode.safe_stop(context.seal_key.as_ref(), counters);
             let step = servo.answer(&message, held);
             // a mark outside the image is no measurement: taken as missing, the message counted refused

@@ -12,6 +12,7 @@ use iceoryx2::prelude::ipc;
 use vservo_arm::JointVector;
 use vservo_cell::{DeliveredFrame, VisionStage};
 use vservo_config::VisionSource;
+use vservo_protocol::TakeMessages;
 use vservo_protocol::{
     CameraImageHeader, FeaturesMsg, JointStateMsg, MARKS, MarkStatus as WireMarkStatus, NodeRole,
     PixelFormat, SCHEMA_VERSION, SimWorldMsg, Topic,
@@ -24,7 +25,7 @@ use crate::clock::monotonic_ns;
 use crate::joint_history::{JointHistory, NoJoints};
 use crate::telemetry::{Counters, CycleSample, LoopMonitor, Note};
 use crate::wire::{pose_from_wire, pose_to_wire, to_array};
-use crate::{NodeContext, RuntimeError, schema_ok};
+use crate::{NodeContext, RuntimeError};
 
 /// How often, at the least, an external camera's vision node takes in the joint states heard: 32 driver
 /// periods (the joint_state queue holds 64 states), and at most this.
@@ -240,11 +241,12 @@ fn hear_joints(
     joints: &mut JointHistory,
     counters: &Counters,
 ) {
-    while let Ok(Some(state)) = subscriber.receive() {
-        if schema_ok(state.schema) {
-            joints.push(state.stamp_ns, state.tick, state.driver_epoch, &JointVector::from(state.q_rad));
-        } else {
-            counters.rejected();
+    while let Some(taken) = subscriber.next_message() {
+        match taken {
+            Ok(state) => {
+                joints.push(state.stamp_ns, state.tick, state.driver_epoch, &JointVector::from(state.q_rad))
+            }
+            Err(_) => counters.rejected(),
         }
     }
 }
@@ -287,12 +289,11 @@ impl CaptureTicks {
         counters: &Counters,
     ) -> Option<JointStateMsg> {
         let mut due = None;
-        while let Ok(Some(sample)) = subscriber.receive() {
-            let state = *sample;
-            if !crate::schema_ok(state.schema) {
+        while let Some(taken) = subscriber.next_message() {
+            let Ok(state) = taken else {
                 counters.rejected();
                 continue;
-            }
+            };
             let wanted = *self.next_tick.get_or_insert(state.tick);
             if state.tick + self.ticks_per_frame < wanted {
                 self.next_tick = Some(state.tick);
@@ -345,7 +346,7 @@ fn run_simulated_camera(
     while !context.stopping() && !context.orphaned() {
         let _ = state_listener.timed_wait(|_| {}, IDLE_WAIT);
         let woke_at = monotonic_ns();
-        if let Some(newest) = latest(&world_subscriber, |m: &SimWorldMsg| m.schema, counters) {
+        if let Some(newest) = latest(&world_subscriber, counters) {
             world = Some(newest);
         }
         // no plant yet (or a restart under way), or not yet the capture tick: no image to take
