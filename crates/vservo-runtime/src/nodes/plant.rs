@@ -383,3 +383,58 @@ pub fn run(context: &NodeContext) -> Result<(), RuntimeError> {
     tracing::info!(node = "plant", tick = state.tick, "stopped");
     Ok(())
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const LIMITS_NM: [f64; 6] = [100.0; 6];
+
+    fn command(mode: u32) -> JointCommandMsg {
+        JointCommandMsg { schema: SCHEMA_VERSION, mode, ..JointCommandMsg::default() }
+    }
+
+    #[test]
+    fn a_command_is_taken_only_in_the_declared_interface_finite_and_within_the_torque_bound() {
+        let torque = JointCommandMsg { torque_nm: [150.0, 0.0, 0.0, 0.0, 0.0, -1.0], ..command(0) };
+        let expected = ActuatorCommand::Torque(JointVector::from(torque.torque_nm));
+        assert_eq!(command_of(&torque, CommandMode::Torque, &LIMITS_NM), Some(expected));
+        // beyond 1.5 times a joint's limit, not finite, or another interface than declared: refused
+        let beyond = JointCommandMsg { torque_nm: [150.1, 0.0, 0.0, 0.0, 0.0, 0.0], ..torque };
+        assert_eq!(command_of(&beyond, CommandMode::Torque, &LIMITS_NM), None);
+        let nan = JointCommandMsg { torque_nm: [f64::NAN, 0.0, 0.0, 0.0, 0.0, 0.0], ..torque };
+        assert_eq!(command_of(&nan, CommandMode::Torque, &LIMITS_NM), None);
+        assert_eq!(command_of(&torque, CommandMode::Position, &LIMITS_NM), None);
+        let position = JointCommandMsg { q_ref_rad: [0.1; 6], qd_ref_rad_s: [0.2; 6], ..command(2) };
+        let reference =
+            ActuatorCommand::Reference { q: JointVector::from([0.1; 6]), qd: JointVector::from([0.2; 6]) };
+        assert_eq!(command_of(&position, CommandMode::Position, &LIMITS_NM), Some(reference));
+        // the simulated driver takes torques or positions; an unknown code is no interface at all
+        assert_eq!(command_of(&command(1), CommandMode::Velocity, &LIMITS_NM), None);
+        assert_eq!(command_of(&command(9), CommandMode::Torque, &LIMITS_NM), None);
+    }
+
+    #[test]
+    fn an_object_command_is_a_motion_of_its_kind_when_finite() {
+        let object = |kind: CommandKind| ObjectMsg {
+            schema: SCHEMA_VERSION,
+            kind: kind.into(),
+            translation_m: [0.01, 0.0, 0.0],
+            radius_m: 0.05,
+            rev_per_min: 6.0,
+            ..ObjectMsg::default()
+        };
+        assert_eq!(object_motion(&object(CommandKind::ObjectHold)), Some(ObjectMotion::Hold));
+        assert!(matches!(object_motion(&object(CommandKind::ObjectStep)), Some(ObjectMotion::Step { .. })));
+        assert!(matches!(
+            object_motion(&object(CommandKind::ObjectCircle)),
+            Some(ObjectMotion::Circle { .. })
+        ));
+        assert_eq!(object_motion(&object(CommandKind::Reload)), None);
+        assert_eq!(object_motion(&ObjectMsg { kind: 99, ..object(CommandKind::ObjectHold) }), None);
+        assert_eq!(
+            object_motion(&ObjectMsg { radius_m: f64::NAN, ..object(CommandKind::ObjectCircle) }),
+            None
+        );
+    }
+}

@@ -239,3 +239,17 @@ pub fn run(context: &NodeContext) -> Result<(), RuntimeError> {
     tracing::info!(node = "rmrc", "stopped");
     Ok(())
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn with_the_daemon_gone_the_rmrc_gives_up_only_after_the_ramp_may_have_ended() {
+        let mut orphaned = Orphaned { since_ns: None, timeout_ns: 1_000 };
+        assert!(!orphaned.gives_up(false, 10) && !orphaned.is_orphaned());
+        assert!(!orphaned.gives_up(true, 100) && orphaned.is_orphaned());
+        assert!(!orphaned.gives_up(true, 1_100), "at the timeout, not beyond it");
+        assert!(orphaned.gives_up(true, 1_101));
+    }
+}

@@ -228,3 +228,37 @@ pub fn run(context: &NodeContext) -> Result<(), RuntimeError> {
     tracing::info!(node = "servo", "stopped");
     Ok(())
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_wire_verdict_moves_the_arm_exactly_when_the_stages_does() {
+        let all = [
+            ServoVerdict::Waiting,
+            ServoVerdict::Servoing,
+            ServoVerdict::ServoingOnThree(1),
+            ServoVerdict::Reacquiring(3),
+            ServoVerdict::MarksMissing(15),
+            ServoVerdict::Held,
+        ];
+        for verdict in all {
+            assert_eq!(verdict_on_wire(verdict).moves(), verdict.moves(), "{verdict:?}");
+        }
+        assert_eq!(verdict_on_wire(ServoVerdict::Held), Verdict::SafeStop);
+    }
+
+    #[test]
+    fn each_law_flag_has_its_own_bit() {
+        let none = LawFlags::default();
+        assert_eq!(law_flags_on_wire(none), 0);
+        assert_eq!(law_flags_on_wire(LawFlags { barrier: true, ..none }), law_flag::BARRIER);
+        assert_eq!(law_flags_on_wire(LawFlags { feedforward: true, ..none }), law_flag::FEEDFORWARD);
+        let all = LawFlags { barrier: true, fixed_gain_fallback: true, feedforward: true };
+        assert_eq!(
+            law_flags_on_wire(all),
+            law_flag::BARRIER | law_flag::FIXED_GAIN_FALLBACK | law_flag::FEEDFORWARD
+        );
+    }
+}
