@@ -22,6 +22,14 @@ pub enum Note {
         /// The frame's status of each mark (`None`: a code this build does not know).
         mark_status: [Option<MarkStatus>; MARKS],
     },
+    /// The extractor found more blobs of a mark's size than it considers (`vservo_vision::extract::
+    /// MAX_SIZED_BLOBS`): those beyond were not looked at, so a mark among them would be missed.
+    BlobsOverCap {
+        /// The frame.
+        frame: u64,
+        /// The blobs of a mark's size not looked at.
+        over_cap: usize,
+    },
     /// An external camera's frame with no joint state around its exposure: its camera pose is unknown.
     FrameWithoutPose {
         /// The camera's frame number.
@@ -38,6 +46,12 @@ impl Note {
     pub fn log(&self) {
         match *self {
             Note::ServoVerdict { before, now, mark_status } => log_servo_verdict(before, now, &mark_status),
+            Note::BlobsOverCap { frame, over_cap } => tracing::warn!(
+                node = "vision",
+                frame,
+                "frame {frame}: {over_cap} dark blobs of a mark's size beyond the {} the extractor considers were not looked at (clutter in view?); said when it starts",
+                vservo_vision::extract::MAX_SIZED_BLOBS
+            ),
             Note::FrameWithoutPose { frame, capture_stamp_ns, why } => {
                 let where_ = match why {
                     NoJoints::Empty => "no joint state heard yet",

@@ -61,14 +61,23 @@ impl Default for FrameInfo {
 /// The frames in the pipeline (at most MAX_DELAY_FRAMES + 1) and the port their features leave by.
 struct FeaturesOut {
     in_pipeline: [FrameInfo; 8],
+    /// Whether the last frame had blobs of a mark's size beyond the extractor's cap.
+    over_cap: bool,
     publisher: Publisher<ipc::Service, FeaturesMsg, ()>,
     notifier: iceoryx2::port::notifier::Notifier<ipc::Service>,
 }
 
 impl FeaturesOut {
-    fn remember(&mut self, frame: u64, capture_stamp_ns: u64, captured: &Extraction) {
+    /// Keeps a frame's capture time and mark status until its features leave; says when the extractor
+    /// starts finding more blobs of a mark's size than it considers.
+    fn remember(&mut self, frame: u64, capture_stamp_ns: u64, captured: &Extraction, monitor: &LoopMonitor) {
         self.in_pipeline[(frame % 8) as usize] =
             FrameInfo { frame, capture_stamp_ns, status: captured.status.map(|s| status_on_wire(&s)) };
+        let over_cap = captured.sized_blobs_over_cap;
+        if over_cap > 0 && !self.over_cap {
+            monitor.note(Note::BlobsOverCap { frame, over_cap });
+        }
+        self.over_cap = over_cap > 0;
     }
 
     fn publish(&self, delivered: &DeliveredFrame) {
@@ -112,6 +121,7 @@ pub fn run(context: &NodeContext) -> Result<(), RuntimeError> {
     let state_subscriber = vservo_protocol::subscriber::<JointStateMsg>(&node, instance, Topic::JointState)?;
     let mut out = FeaturesOut {
         in_pipeline: [FrameInfo::default(); 8],
+        over_cap: false,
         publisher: vservo_protocol::publisher::<FeaturesMsg>(&node, instance, Topic::Features)?,
         notifier: vservo_protocol::notifier(&node, instance, Topic::Features)?,
     };
@@ -219,7 +229,7 @@ fn run_external_camera(
             hear_joints(state_subscriber, &mut camera.joints, counters);
             let (tick, q) = camera.at_exposure(&header, monitor);
             let (captured, delivered) = stage.process_image(header.frame, tick, q.as_ref(), &camera.image);
-            out.remember(header.frame, header.capture_stamp_ns, &captured);
+            out.remember(header.frame, header.capture_stamp_ns, &captured, monitor);
             if let Some(delivered) = delivered {
                 out.publish(&delivered);
             }
@@ -365,7 +375,7 @@ fn run_simulated_camera(
         };
         let started = monotonic_ns();
         let taken = stage.capture(frame, state.tick, &q, &base_from_board);
-        out.remember(frame, state.stamp_ns, &taken.captured);
+        out.remember(frame, state.stamp_ns, &taken.captured, monitor);
         // with no pipeline delay the new frame leaves at once
         if let Some(delivered) = taken.delivered {
             out.publish(&delivered);
