@@ -68,8 +68,11 @@ pub struct Trace {
     pub desired_features: FeatureVector,
 }
 
-/// How many of the latest commands [`Lockstep::run_replaying`] keeps for a replayed late answer.
-pub const REPLAY_COMMANDS: usize = 16;
+/// How many of the latest commands [`Lockstep::run_replaying`] keeps for a replayed late answer: as many as
+/// the simulated driver may keep applying one for (`runtime.hold_after_missed_ticks`), and the newest.
+fn commands_kept(config: &Config) -> usize {
+    config.runtime.hold_after_missed_ticks as usize + 1
+}
 
 /// What a real-time run did, as data for [`Lockstep::run_replaying`] to do the same; ticks are the lockstep
 /// run's (the real-time run's minus the tick of its first image). Nothing here says what the rmrc decided:
@@ -84,8 +87,8 @@ pub struct Replay {
     pub twist_taken_in: HashMap<u64, u64>,
     /// Which command the arm followed over the period from each tick (the joint states'
     /// `applied_command_tick`): `Some(tick)` the one computed at that tick, `Some(older)` one computed at an
-    /// earlier tick (of the last [`REPLAY_COMMANDS`]; a driver that kept its last command because the answer
-    /// came late), `None` none (the plant holds the arm). A tick not listed: the command computed at it.
+    /// earlier tick (a driver that kept its last command, for up to `runtime.hold_after_missed_ticks`
+    /// ticks, because the answer came late), `None` none (the plant holds the arm). A tick not listed: the command computed at it.
     pub command_applied: HashMap<u64, Option<u64>>,
     /// The joint states the rmrc answered, by tick (the joint commands' `answers_tick`, `driver_epoch` and
     /// `state_stamp_ns`). The rmrc stage follows these only; between them its reference runs on.
@@ -152,7 +155,8 @@ pub struct Lockstep {
     /// The ticks the rmrc started again at rest in the last run.
     resyncs: Vec<u64>,
     waiting: Option<Waiting>,
-    computed: [Option<(u64, ActuatorCommand)>; REPLAY_COMMANDS],
+    /// The commands of the latest ticks, by tick modulo their number (for a replayed late answer).
+    computed: Vec<Option<(u64, ActuatorCommand)>>,
 }
 
 impl Lockstep {
@@ -171,7 +175,7 @@ impl Lockstep {
             desired_camera_from_base: cell.base_from_desired_camera().inverse(),
             resyncs: Vec::new(),
             waiting: None,
-            computed: [None; REPLAY_COMMANDS],
+            computed: vec![None; commands_kept(config)],
         })
     }
 
@@ -225,7 +229,8 @@ impl Lockstep {
         let mut joints = Vec::with_capacity((ticks / 10 + 1) as usize);
         let mut faults = Faults::default();
         let joints_every = (0.01 / dt).round().max(1.0) as u64;
-        (self.resyncs, self.waiting, self.computed) = (Vec::new(), None, [None; REPLAY_COMMANDS]);
+        (self.resyncs, self.waiting) = (Vec::new(), None);
+        self.computed.fill(None);
         for tick in 0..ticks {
             if tick % ticks_per_frame == 0 {
                 frames.push(self.frame(tick, tick / ticks_per_frame, pace));
@@ -287,7 +292,8 @@ impl Lockstep {
             self.waiting = None;
         }
         let command = self.rmrc.step(tick, &state.q, &state.qd);
-        self.computed[(tick % REPLAY_COMMANDS as u64) as usize] = Some((tick, command));
+        let kept = self.computed.len() as u64;
+        self.computed[(tick % kept) as usize] = Some((tick, command));
         command
     }
 
@@ -295,7 +301,7 @@ impl Lockstep {
     fn plant_tick(&mut self, tick: u64, command: ActuatorCommand, pace: &Pace<'_>) -> JointState {
         match pace.command_applied(tick) {
             Some(answered) if answered == tick => *self.plant.apply(&command),
-            Some(answered) => match self.computed[(answered % REPLAY_COMMANDS as u64) as usize] {
+            Some(answered) => match self.computed[(answered % self.computed.len() as u64) as usize] {
                 Some((at, older)) if at == answered => *self.plant.apply(&older),
                 _ => *self.plant.hold(),
             },
