@@ -298,7 +298,13 @@ fn the_daemon_runs_the_translation_step_like_the_lockstep_simulator() {
     let nominal_rms_px = rms_to(&|tick| interpolate(&nominal, tick as f64 * 0.001));
     // against the lockstep run that takes each twist in when the real-time run did
     let (replayed, replayed_resyncs) = lockstep_replaying(&config, &rmrc, &applied, first_tick);
-    let stalls = resyncs.iter().filter(|since| **since > first_tick).count();
+    // the rmrc's restarts at rest after the first state it answered in the lockstep run's span (where the
+    // replay's rmrc starts)
+    let first_answered =
+        rmrc.answered.keys().copied().filter(|tick| *tick >= first_tick).min().unwrap_or(first_tick);
+    let real_resyncs: HashSet<u64> =
+        resyncs.iter().filter(|since| **since > first_answered).map(|since| since - first_tick).collect();
+    let stalls = real_resyncs.len();
     let held = applied.values().filter(|a| a.is_none()).count();
     let kept = applied.iter().filter(|(tick, a)| a.is_some_and(|a| a != **tick)).count();
     let replayed_at = |tick| replayed.iter().find(|(t, _)| *t == tick).map_or([f64::NAN; 8], |(_, xi)| *xi);
@@ -340,11 +346,6 @@ fn the_daemon_runs_the_translation_step_like_the_lockstep_simulator() {
     );
     // the lockstep's rmrc stage, fed the joint states the real-time rmrc answered, restarted at rest where
     // the node did: the same decision, taken by the same code
-    // (after the first state the rmrc answered in the lockstep run's span, where the replay's rmrc starts)
-    let first_answered =
-        rmrc.answered.keys().copied().filter(|tick| *tick >= first_tick).min().unwrap_or(first_tick);
-    let real_resyncs: HashSet<u64> =
-        resyncs.iter().filter(|since| **since > first_answered).map(|since| since - first_tick).collect();
     assert_eq!(replayed_resyncs, real_resyncs, "the rmrc's restarts at rest, replayed\n{}", daemon.log());
     assert!(leftovers(&instance).is_empty(), "{:?}", leftovers(&instance));
 }
