@@ -116,17 +116,22 @@ fn interpolate(reference: &[(f64, [f64; 8])], t: f64) -> [f64; 8] {
     std::array::from_fn(|k| a[k] + (b[k] - a[k]) * s)
 }
 
-/// The ticks at which the real-time rmrc took each twist in, from `vservoctl echo joint_command` started
-/// before the daemon: capture tick of the twist's features → the tick it was taken in. Every command carries
-/// both, so a command the echo missed loses nothing.
-#[allow(clippy::type_complexity)]
-fn read_taken_in(echo: Child) -> (Child, std::thread::JoinHandle<(HashMap<u64, u64>, HashSet<u64>)>) {
+/// What the real-time rmrc did, from `vservoctl echo joint_command` started before the daemon: the tick it
+/// took each twist in (capture tick of the twist's features → that tick; every command carries both, so a
+/// command the echo missed loses nothing), the ticks its reference ran from (its start, and a restart at rest
+/// after a stall), and the joint states it answered (tick → driver epoch and stamp).
+#[derive(Debug, Default)]
+struct RmrcSeen {
+    taken_in: HashMap<u64, u64>,
+    resyncs: HashSet<u64>,
+    answered: HashMap<u64, (u64, u64)>,
+}
+
+fn read_rmrc(echo: Child) -> (Child, std::thread::JoinHandle<RmrcSeen>) {
     let mut echo = echo;
     let stdout = echo.stdout.take().expect("piped");
     let reader = std::thread::spawn(move || {
-        let mut taken = HashMap::new();
-        // the ticks from which the rmrc's reference ran: its start, and a resync after a stall
-        let mut resyncs = HashSet::new();
+        let mut seen = RmrcSeen::default();
         for line in BufReader::new(stdout).lines() {
             let Ok(line) = line else { break };
             let Ok(message) = serde_json::from_str::<Value>(&line) else { continue };
@@ -134,13 +139,20 @@ fn read_taken_in(echo: Child) -> (Child, std::thread::JoinHandle<(HashMap<u64, u
                 (message["twist_capture_tick"].as_u64(), message["twist_applied_tick"].as_u64())
                 && capture != u64::MAX
             {
-                taken.entry(capture).or_insert(applied);
+                seen.taken_in.entry(capture).or_insert(applied);
             }
             if let Some(since) = message["reference_since_tick"].as_u64() {
-                resyncs.insert(since);
+                seen.resyncs.insert(since);
+            }
+            if let (Some(tick), Some(epoch), Some(stamp_ns)) = (
+                message["answers_tick"].as_u64(),
+                message["driver_epoch"].as_u64(),
+                message["state_stamp_ns"].as_u64(),
+            ) {
+                seen.answered.insert(tick, (epoch, stamp_ns));
             }
         }
-        (taken, resyncs)
+        seen
     });
     (echo, reader)
 }
@@ -168,37 +180,52 @@ fn read_applied(echo: Child) -> (Child, std::thread::JoinHandle<HashMap<u64, Opt
     (echo, reader)
 }
 
-/// The lockstep run of the configuration with each twist taken in when the real-time run took it
-/// (`taken_in`, in the real-time run's ticks, which start at `first_tick`): (tick, measured ξ) per frame.
+/// The lockstep run of the configuration at the real-time run's pace (its ticks start at `first_tick`): each
+/// twist taken in, each command applied and each joint state followed by the rmrc when the real-time run
+/// did; the rmrc stage decides its restarts at rest itself. (tick, measured ξ) per frame, and the ticks after
+/// its start (the first state it follows) where the lockstep's rmrc started again at rest.
 fn lockstep_replaying(
     config: &TempConfig,
-    taken_in: &HashMap<u64, u64>,
+    rmrc: &RmrcSeen,
     applied: &HashMap<u64, Option<u64>>,
-    resyncs: &HashSet<u64>,
     first_tick: u64,
-) -> Vec<(u64, [f64; 8])> {
+) -> (Vec<(u64, [f64; 8])>, HashSet<u64>) {
     let text = std::fs::read_to_string(&config.path).expect("the configuration");
     let config = vservo_config::Config::from_toml(&text, &config.arg()).expect("valid");
     let mut simulator = vservo_lockstep::Lockstep::new(&config).expect("a simulator");
-    let trace = simulator.run_replaying(
-        |_| {},
-        |delivered, frame_tick| {
-            taken_in.get(&(delivered + first_tick)).map_or(frame_tick, |applied| applied - first_tick)
-        },
-        |tick| match applied.get(&(tick + first_tick)) {
-            Some(Some(answered)) => Some(answered.saturating_sub(first_tick)),
-            Some(None) => None,
-            None => Some(tick),
-        },
-        // the rmrc's start is the lockstep run's own; a later resync (a stall) is replayed
-        |tick| resyncs.contains(&(tick + first_tick)) && tick > 0,
-    );
+    let after_start = |tick: &u64| tick.checked_sub(first_tick);
+    let replay = vservo_lockstep::Replay {
+        twist_taken_in: rmrc
+            .taken_in
+            .iter()
+            .filter_map(|(capture, applied)| {
+                Some((after_start(capture)?, applied.saturating_sub(first_tick)))
+            })
+            .collect(),
+        command_applied: applied
+            .iter()
+            .filter_map(|(tick, answered)| {
+                Some((after_start(tick)?, answered.map(|answered| answered.saturating_sub(first_tick))))
+            })
+            .collect(),
+        states_answered: rmrc
+            .answered
+            .iter()
+            .filter_map(|(tick, (epoch, stamp_ns))| {
+                let tick = after_start(tick)?;
+                Some((tick, vservo_lockstep::DriverTick { epoch: *epoch, tick, stamp_ns: *stamp_ns }))
+            })
+            .collect(),
+    };
+    let trace = simulator.run_replaying(|_| {}, &replay);
     let dt = config.timing.control_period_s;
-    trace
+    let frames = trace
         .frames
         .iter()
         .map(|f| ((f.t_s / dt).round() as u64, std::array::from_fn(|k| f.measured[k])))
-        .collect()
+        .collect();
+    // the rmrc's start (its first state followed) is the lockstep run's own
+    (frames, simulator.resyncs().iter().skip(1).copied().collect())
 }
 
 #[test]
@@ -224,7 +251,7 @@ fn the_daemon_runs_the_translation_step_like_the_lockstep_simulator() {
             .expect("vservoctl echo starts")
     };
     let features_echo = echo("features", frames);
-    let (mut commands_echo, commands_reader) = read_taken_in(echo("joint_command", usize::MAX >> 1));
+    let (mut commands_echo, commands_reader) = read_rmrc(echo("joint_command", usize::MAX >> 1));
     let (mut states_echo, states_reader) = read_applied(echo("joint_state", usize::MAX >> 1));
     std::thread::sleep(Duration::from_millis(300));
     let mut daemon = Daemon::start(&config);
@@ -238,7 +265,8 @@ fn the_daemon_runs_the_translation_step_like_the_lockstep_simulator() {
         kill(Pid::from_raw(echo.id() as i32), Signal::SIGTERM).expect("stop the echo");
         let _ = echo.wait();
     }
-    let (taken_in, resyncs) = commands_reader.join().expect("the reader");
+    let rmrc = commands_reader.join().expect("the reader");
+    let (taken_in, resyncs) = (&rmrc.taken_in, &rmrc.resyncs);
     let applied = states_reader.join().expect("the reader");
     assert_eq!(runtime.len(), frames, "{}", daemon.log());
 
@@ -269,8 +297,14 @@ fn the_daemon_runs_the_translation_step_like_the_lockstep_simulator() {
     let nominal = lockstep_features(&config);
     let nominal_rms_px = rms_to(&|tick| interpolate(&nominal, tick as f64 * 0.001));
     // against the lockstep run that takes each twist in when the real-time run did
-    let replayed = lockstep_replaying(&config, &taken_in, &applied, &resyncs, first_tick);
-    let stalls = resyncs.iter().filter(|since| **since > first_tick).count();
+    let (replayed, replayed_resyncs) = lockstep_replaying(&config, &rmrc, &applied, first_tick);
+    // the rmrc's restarts at rest after the first state it answered in the lockstep run's span (where the
+    // replay's rmrc starts)
+    let first_answered =
+        rmrc.answered.keys().copied().filter(|tick| *tick >= first_tick).min().unwrap_or(first_tick);
+    let real_resyncs: HashSet<u64> =
+        resyncs.iter().filter(|since| **since > first_answered).map(|since| since - first_tick).collect();
+    let stalls = real_resyncs.len();
     let held = applied.values().filter(|a| a.is_none()).count();
     let kept = applied.iter().filter(|(tick, a)| a.is_some_and(|a| a != **tick)).count();
     let replayed_at = |tick| replayed.iter().find(|(t, _)| *t == tick).map_or([f64::NAN; 8], |(_, xi)| *xi);
@@ -294,10 +328,11 @@ fn the_daemon_runs_the_translation_step_like_the_lockstep_simulator() {
         "real time vs lockstep over {frames} frames: RMS {replayed_rms_px:.2e} px, max {replayed_max_px:.2e} px replaying the run's answer ticks \
          ({nominal_rms_px:.3} px against twists taken in at once); camera-to-actuation latency p50 {} ticks, max {} ticks; \
          plant ticks without a fresh answer {late_answers} ({kept} seen keeping an older command, {held} holding, of {} seen; {unseen} unseen); \
-         {stalls} rmrc resyncs after a stall (replayed); final error to ξ_d {final_to_desired:.3} px",
+         {stalls} rmrc resyncs after a stall ({} decided again in the replay); final error to ξ_d {final_to_desired:.3} px",
         latency_ticks[latency_ticks.len() / 2],
         latency_ticks.last().copied().unwrap_or_default(),
-        applied.len()
+        applied.len(),
+        replayed_resyncs.len()
     );
     assert!(moved > 10.0, "the step moved the features");
     assert!(final_to_desired < 1.5, "converged: {final_to_desired} px from ξ_d\n{}", daemon.log());
@@ -309,6 +344,9 @@ fn the_daemon_runs_the_translation_step_like_the_lockstep_simulator() {
         "RMS difference to the lockstep run replaying this run's timing {replayed_rms_px} px ({unseen} ticks unseen)\n{}",
         daemon.log()
     );
+    // the lockstep's rmrc stage, fed the joint states the real-time rmrc answered, restarted at rest where
+    // the node did: the same decision, taken by the same code
+    assert_eq!(replayed_resyncs, real_resyncs, "the rmrc's restarts at rest, replayed\n{}", daemon.log());
     assert!(leftovers(&instance).is_empty(), "{:?}", leftovers(&instance));
 }
 

@@ -5,8 +5,10 @@
 //!
 //! - [`PlantStage`]: the simulated arm and its world (the board's motion); one call per 1 ms tick;
 //! - [`VisionStage`]: simulated camera, extractor, mark tracking and the pipeline delay; one call per frame;
-//! - [`ServoStage`]: the LQ law and what it does with fewer than four marks; one call per frame;
-//! - [`RmrcStage`]: the interpolator and the joint servo; one call per tick.
+//! - [`ServoStage`]: the LQ law, its refusal of marks outside the image and what it does with fewer than four
+//!   marks; one call per frame;
+//! - [`RmrcStage`]: the interpolator and the joint servo, and how they follow the robot driver (a restart at
+//!   rest after a stall or a new driver, the ticks it woke too late for); one call per tick.
 //!
 //! The lockstep shell calls them in one process on virtual time; the real-time shell runs each in its own
 //! process. Neither adds control logic of its own, so the same configuration behaves the same in both.
@@ -20,8 +22,8 @@ pub mod target;
 mod vision_stage;
 
 pub use plant_stage::PlantStage;
-pub use rmrc_stage::{ActuatorCommand, RmrcStage};
-pub use servo_stage::{ServoInput, ServoStage, ServoVerdict};
+pub use rmrc_stage::{ActuatorCommand, DriverTick, Following, RmrcStage, TwistLimits};
+pub use servo_stage::{ServoInput, ServoStage, ServoStep, ServoVerdict, feature_error_px};
 pub use vision_stage::{DeliveredFrame, VisionFrame, VisionStage};
 pub use vservo_config::CommandInterface;
 

@@ -1,6 +1,15 @@
-//! The rmrc stage: the 1 ms interpolator and the joint servo behind it.
+//! The rmrc stage: the 1 ms interpolator and the joint servo behind it, and how it follows the robot driver.
+//!
+//! The stage answers the driver's joint states ([`RmrcStage::follow`]). After a gap of more than
+//! `robot.state_timeout_periods` between the stamps of two joint states it follows (a stalled driver), a tick
+//! that does not advance or jumps by more than that many periods, or a new `driver_epoch` (a restarted
+//! driver), the reference starts again at rest from the measured joints, so nothing accumulated while the
+//! driver was away moves the arm when it comes back. Ticks it did not answer (states it took too late to
+//! see) are stepped through before the next command (the reference is a function of time), so it never lags
+//! the arm's clock. Both shells run this: the real-time node on every state it takes, the lockstep on every
+//! tick (or, replaying a real-time run, on the states that run answered).
 
-use vservo_arm::{JointVector, SerialArm};
+use vservo_arm::{JointVector, SerialArm, Transform};
 use vservo_config::{CommandInterface, Config};
 use vservo_control::Twist;
 use vservo_sim::interpolator::{Interpolator, InterpolatorSettings, Reference};
@@ -21,12 +30,65 @@ pub enum ActuatorCommand {
     },
 }
 
-/// The interpolator and the joint servo.
+/// Which joint state of which driver: what the rmrc needs to tell a driver that carried on from one that
+/// stalled or restarted.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct DriverTick {
+    /// The driver's epoch (a new one: a restarted driver).
+    pub epoch: u64,
+    /// The state's tick.
+    pub tick: u64,
+    /// The state's stamp on the driver's clock (ns).
+    pub stamp_ns: u64,
+}
+
+/// What the rmrc made of a joint state it follows.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Following {
+    /// The first state, a new driver, or the driver back after a gap: the reference started again at rest
+    /// from the measured joints, dropping the twist it held.
+    Resynced,
+    /// The same driver, carried on; `missed_ticks` ticks since the last command were stepped through unanswered.
+    Continued {
+        /// Ticks the reference advanced through without a command (the node woke too late for them).
+        missed_ticks: u64,
+    },
+}
+
+/// The interpolator and the joint servo, and the driver state they follow.
 #[derive(Debug, Clone)]
 pub struct RmrcStage {
     interpolator: Interpolator,
     joint_servo: JointServo,
     command: CommandInterface,
+    settings: InterpolatorSettings,
+    arm: SerialArm,
+    tool_from_camera: Transform,
+    gap: Gap,
+    /// The last state followed.
+    followed: Option<DriverTick>,
+    /// The tick the reference runs from (its start at rest).
+    since_tick: u64,
+    /// The next tick whose command the reference has not yet been stepped to.
+    next_tick: u64,
+}
+
+/// How far apart two joint states may be and still be the same driver carrying on.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+struct Gap {
+    periods: u64,
+    ns: u64,
+}
+
+impl Gap {
+    /// Whether `now` is not a continuation of `before`: a new epoch, a tick that does not advance, or one
+    /// beyond the gap (on the stamps, or on the ticks, which keeps the catch-up bounded).
+    fn breaks(&self, before: &DriverTick, now: &DriverTick) -> bool {
+        before.epoch != now.epoch
+            || now.tick <= before.tick
+            || now.stamp_ns.saturating_sub(before.stamp_ns) > self.ns
+            || now.tick - before.tick > self.periods
+    }
 }
 
 impl RmrcStage {
@@ -36,21 +98,70 @@ impl RmrcStage {
         arm: SerialArm,
         q: JointVector,
     ) -> Self {
+        let period_ns = (settings.control_period_s * 1e9).round() as u64;
+        let periods = u64::from(config.robot.state_timeout_periods);
         Self {
             interpolator: Interpolator::new(settings, arm.clone(), config.tool_from_camera, q),
             joint_servo: JointServo::new(
-                arm,
+                arm.clone(),
                 config.joint_servo.law,
                 config.joint_servo.kp,
                 config.joint_servo.kv,
             ),
             command: config.command_interface(),
+            settings,
+            arm,
+            tool_from_camera: config.tool_from_camera,
+            gap: Gap { periods, ns: period_ns * periods },
+            followed: None,
+            since_tick: 0,
+            next_tick: 0,
         }
     }
 
-    /// A new twist from the servo, received at simulated time `now_s`.
-    pub fn set_twist(&mut self, twist: Twist, now_s: f64) {
-        self.interpolator.set_twist(twist, now_s);
+    /// Takes the joint state `at` (joints `q`, `qd`) as the one to answer next: starts again at rest from
+    /// `q` if it does not carry on from the last state followed, else steps the reference through the ticks
+    /// left unanswered since the last command. Allocates nothing.
+    pub fn follow(&mut self, at: DriverTick, q: &JointVector, qd: &JointVector) -> Following {
+        let carries_on = self.followed.is_some_and(|before| !self.gap.breaks(&before, &at));
+        self.followed = Some(at);
+        if !carries_on {
+            self.restart_at_rest(q, at.tick);
+            return Following::Resynced;
+        }
+        let missed_ticks = at.tick.saturating_sub(self.next_tick);
+        for tick in self.next_tick..at.tick {
+            self.step(tick, q, qd);
+        }
+        Following::Continued { missed_ticks }
+    }
+
+    /// The reference at rest at `q` from `tick` on, no twist held.
+    fn restart_at_rest(&mut self, q: &JointVector, tick: u64) {
+        self.interpolator = Interpolator::new(self.settings, self.arm.clone(), self.tool_from_camera, *q);
+        self.since_tick = tick;
+        self.next_tick = tick;
+    }
+
+    /// The tick the reference runs from: the state it last started at rest from.
+    pub fn since_tick(&self) -> u64 {
+        self.since_tick
+    }
+
+    /// A new twist from the servo, taken in at `tick`, if `moves` (the servo's verdict lets the arm move)
+    /// and it is finite and within `limits`; otherwise a zero twist, and `false` when the twist was refused
+    /// (out of range: the arm is brought to rest rather than left on the last good twist).
+    pub fn take_twist(&mut self, twist: &Twist, moves: bool, limits: &TwistLimits, tick: u64) -> bool {
+        // any verdict but servoing (on four or three marks) or reacquiring means stop, whatever the numbers say
+        let twist = if moves { *twist } else { Twist::zeros() };
+        let within = limits.admit(&twist);
+        self.set_twist(if within { twist } else { Twist::zeros() }, tick);
+        within
+    }
+
+    /// A twist set as it is, at `tick` (a zero twist: the interpolator ramps to rest and holds).
+    pub fn set_twist(&mut self, twist: Twist, tick: u64) {
+        self.interpolator.set_twist(twist, tick as f64 * self.settings.control_period_s);
     }
 
     /// The command interface of the driver.
@@ -63,14 +174,129 @@ impl RmrcStage {
         self.interpolator.reference()
     }
 
-    /// The command for the tick that ends at `next_s`, given the measured joints at its start.
-    pub fn step(&mut self, next_s: f64, q: &JointVector, qd: &JointVector) -> ActuatorCommand {
-        let reference = *self.interpolator.step(next_s);
+    /// The command for the period from `tick` to the next, given the measured joints at its start.
+    pub fn step(&mut self, tick: u64, q: &JointVector, qd: &JointVector) -> ActuatorCommand {
+        let dt = self.settings.control_period_s;
+        let reference = *self.interpolator.step(tick as f64 * dt + dt);
+        self.next_tick = tick + 1;
         match self.command {
             CommandInterface::Velocity | CommandInterface::Position => {
                 ActuatorCommand::Reference { q: reference.q, qd: reference.qd }
             }
             CommandInterface::Torque => ActuatorCommand::Torque(self.joint_servo.torque(q, qd, &reference)),
         }
+    }
+}
+
+/// The camera speeds a twist may ask for: linear (m/s) and angular (rad/s).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TwistLimits {
+    /// Linear speed (m/s).
+    pub linear_m_s: f64,
+    /// Angular speed (rad/s).
+    pub angular_rad_s: f64,
+}
+
+impl TwistLimits {
+    /// The robot's camera limits of the configuration (`robot.max_camera_speed_m_s`,
+    /// `robot.max_camera_rotation_rad_s`).
+    pub fn of(config: &Config) -> Self {
+        Self {
+            linear_m_s: config.robot.max_camera_speed_m_s,
+            angular_rad_s: config.robot.max_camera_rotation_rad_s,
+        }
+    }
+
+    /// Whether a twist is finite and inside the limits.
+    pub fn admit(&self, twist: &Twist) -> bool {
+        twist.iter().all(|v| v.is_finite())
+            && twist.fixed_rows::<3>(0).norm() <= self.linear_m_s
+            && twist.fixed_rows::<3>(3).norm() <= self.angular_rad_s
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::Cell;
+
+    fn stage() -> (RmrcStage, JointVector, u64) {
+        let config =
+            vservo_config::Config::load(concat!(env!("CARGO_MANIFEST_DIR"), "/../../config/vservo.toml"))
+                .expect("the default config loads");
+        let cell = Cell::new(&config).expect("the default cell");
+        let q = *cell.start_joints();
+        let period_ns = (config.robot.period_s * 1e9).round() as u64;
+        (cell.rmrc(&q), q, period_ns)
+    }
+
+    fn at(epoch: u64, tick: u64, period_ns: u64) -> DriverTick {
+        DriverTick { epoch, tick, stamp_ns: tick * period_ns }
+    }
+
+    #[test]
+    fn the_first_state_a_new_epoch_a_stall_and_a_tick_going_back_start_again_at_rest() {
+        let (mut rmrc, q, period_ns) = stage();
+        let qd = JointVector::zeros();
+        assert_eq!(rmrc.follow(at(7, 100, period_ns), &q, &qd), Following::Resynced);
+        assert_eq!(rmrc.since_tick(), 100);
+        rmrc.step(100, &q, &qd);
+        assert_eq!(rmrc.follow(at(7, 101, period_ns), &q, &qd), Following::Continued { missed_ticks: 0 });
+        rmrc.step(101, &q, &qd);
+        // a restarted driver
+        assert_eq!(rmrc.follow(at(8, 102, period_ns), &q, &qd), Following::Resynced);
+        assert_eq!(rmrc.since_tick(), 102);
+        rmrc.step(102, &q, &qd);
+        // the tick does not advance
+        assert_eq!(rmrc.follow(at(8, 102, period_ns), &q, &qd), Following::Resynced);
+        rmrc.step(102, &q, &qd);
+        // the next tick, but stamped after the stall deadline (50 periods)
+        let stalled = DriverTick { epoch: 8, tick: 103, stamp_ns: 102 * period_ns + 51 * period_ns };
+        assert_eq!(rmrc.follow(stalled, &q, &qd), Following::Resynced);
+        assert_eq!(rmrc.since_tick(), 103);
+        rmrc.step(103, &q, &qd);
+        // a jump of more ticks than the deadline allows
+        assert_eq!(rmrc.follow(at(8, 103 + 51, period_ns), &q, &qd), Following::Resynced);
+    }
+
+    #[test]
+    fn ticks_not_answered_are_stepped_through_as_if_each_had_been() {
+        let (mut caught_up, q, period_ns) = stage();
+        let mut each = caught_up.clone();
+        let qd = JointVector::zeros();
+        let twist = Twist::new(0.01, 0.0, 0.0, 0.0, 0.0, 0.02);
+        for rmrc in [&mut caught_up, &mut each] {
+            assert_eq!(rmrc.follow(at(1, 0, period_ns), &q, &qd), Following::Resynced);
+            rmrc.set_twist(twist, 0);
+            rmrc.step(0, &q, &qd);
+        }
+        for tick in 1..10 {
+            assert_eq!(
+                each.follow(at(1, tick, period_ns), &q, &qd),
+                Following::Continued { missed_ticks: 0 }
+            );
+            each.step(tick, &q, &qd);
+        }
+        // woke at tick 10 only: ticks 1–9 (within the deadline) are stepped through
+        assert_eq!(caught_up.follow(at(1, 10, period_ns), &q, &qd), Following::Continued { missed_ticks: 9 });
+        assert_eq!(caught_up.since_tick(), 0);
+        assert_eq!(caught_up.step(10, &q, &qd), each.step(10, &q, &qd));
+        assert!(caught_up.reference().qd.amax() > 0.0, "the twist moved the reference");
+    }
+
+    #[test]
+    fn a_twist_is_refused_beyond_the_limits_and_zeroed_on_a_verdict_that_does_not_move() {
+        let (mut rmrc, q, period_ns) = stage();
+        let qd = JointVector::zeros();
+        rmrc.follow(at(1, 0, period_ns), &q, &qd);
+        let limits = TwistLimits { linear_m_s: 0.1, angular_rad_s: 0.5 };
+        let fast = Twist::new(0.2, 0.0, 0.0, 0.0, 0.0, 0.0);
+        assert!(!rmrc.take_twist(&fast, true, &limits, 0));
+        assert!(!rmrc.take_twist(&Twist::from_element(f64::NAN), true, &limits, 0));
+        // a verdict that does not move: zero, which is within the limits
+        assert!(rmrc.take_twist(&Twist::from_element(f64::NAN), false, &limits, 0));
+        rmrc.step(0, &q, &qd);
+        assert_eq!(rmrc.reference().qd, JointVector::zeros());
+        assert!(rmrc.take_twist(&Twist::new(0.05, 0.0, 0.0, 0.0, 0.0, 0.1), true, &limits, 1));
     }
 }

@@ -1,14 +1,17 @@
 //! The servo stage: the LQ law, and what it does with a frame it cannot fully use.
 //!
+//! - A mark outside the image is no measurement: taken as missing, and said ([`ServoStep::outside`]).
 //! - All four marks: the law's twist ([`ServoVerdict::Servoing`]).
 //! - Three: the law on those three ([`ServoVerdict::ServoingOnThree`]).
 //! - Two or fewer: the camera is steered back towards where it was when all four were last seen, its own
 //!   motion since then known from the joint states at capture ([`ServoVerdict::Reacquiring`]); with no such
 //!   pose (none seen yet, or the camera's pose not known), zero twist ([`ServoVerdict::MarksMissing`]).
+//! - Held in a safe stop: zero twist, the law remembering it ([`ServoVerdict::Held`]).
 
+use nalgebra::Point2;
 use vservo_config::Reacquire;
 use vservo_control::{Gains, LawFlags, LawGains, LawGeometry, ServoLaw, Twist};
-use vservo_scene::{FeatureVector, IsometryMatrix3};
+use vservo_scene::{CameraIntrinsics, FeatureVector, IsometryMatrix3, MARKS};
 
 /// Why the servo sent the twist it sent.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -24,6 +27,24 @@ pub enum ServoVerdict {
     Reacquiring(u8),
     /// Marks missing and nowhere known to go back to: zero twist.
     MarksMissing(u8),
+    /// The cell is held in a safe stop: zero twist.
+    Held,
+}
+
+impl ServoVerdict {
+    /// Whether the twist sent with this verdict may move the arm (servoing on four or three marks, or
+    /// reacquiring); any other means stop, whatever the twist's numbers say.
+    pub fn moves(&self) -> bool {
+        matches!(self, Self::Servoing | Self::ServoingOnThree(_) | Self::Reacquiring(_))
+    }
+
+    /// The marks missing (bit m set for mark m); none when waiting, servoing on four or held.
+    pub fn missing_mask(&self) -> u8 {
+        match *self {
+            Self::ServoingOnThree(mask) | Self::Reacquiring(mask) | Self::MarksMissing(mask) => mask,
+            Self::Waiting | Self::Servoing | Self::Held => 0,
+        }
+    }
 }
 
 /// A frame leaving the pipeline, as the servo takes it.
@@ -37,10 +58,24 @@ pub struct ServoInput<'a> {
     pub base_from_camera: Option<&'a IsometryMatrix3<f64>>,
 }
 
+/// What the servo made of a frame.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ServoStep {
+    /// The twist to send.
+    pub twist: Twist,
+    /// Why.
+    pub verdict: ServoVerdict,
+    /// The marks refused as outside the image (bit m set for mark m): taken as missing.
+    pub outside: u8,
+    /// RMS of ξ − ξ_d over the marks taken (px); NaN when none is (or no frame yet).
+    pub error_px: f64,
+}
+
 /// The servo: the law, its command history, and the pose where all marks were last seen.
 #[derive(Debug, Clone)]
 pub struct ServoStage {
     law: ServoLaw,
+    camera: CameraIntrinsics,
     period_s: f64,
     reacquire: Reacquire,
     last_seen_whole: Option<IsometryMatrix3<f64>>,
@@ -50,6 +85,7 @@ impl ServoStage {
     pub(crate) fn new(geometry: LawGeometry, gains: &Gains, reacquire: Reacquire) -> Self {
         Self {
             law: ServoLaw::new(geometry, gains),
+            camera: geometry.camera,
             period_s: geometry.period_s,
             reacquire,
             last_seen_whole: None,
@@ -72,29 +108,57 @@ impl ServoStage {
         self.law.flags()
     }
 
-    /// A frame while the cell is held in a safe stop: zero twist, and the law remembers that zero was sent
-    /// (so that a delay-aware law resumes from what the arm really got).
-    pub fn hold(&mut self) -> Twist {
-        self.law.hold()
+    /// The frame leaving the pipeline now while the cell is held in a safe stop: zero twist, and the law
+    /// remembers that zero was sent (so that a delay-aware law resumes from what the arm really got).
+    pub fn held(&mut self, input: ServoInput<'_>) -> ServoStep {
+        let (features, outside) = self.taken_inside_image(input.features);
+        let error_px = feature_error_px(&features, self.desired_features());
+        ServoStep { twist: self.law.hold(), verdict: ServoVerdict::Held, outside, error_px }
     }
 
     /// The twist for the frame leaving the pipeline now (`None` before the first one has).
-    pub fn step(&mut self, delivered: Option<ServoInput<'_>>) -> (Twist, ServoVerdict) {
-        let Some(input) = delivered else { return (Twist::zeros(), ServoVerdict::Waiting) };
-        let seen = input.features;
-        let mut missing = 0u8;
-        for mark in 0..seen.len() / 2 {
-            if !(seen[2 * mark].is_finite() && seen[2 * mark + 1].is_finite()) {
-                missing |= 1 << mark;
+    pub fn step(&mut self, delivered: Option<ServoInput<'_>>) -> ServoStep {
+        let Some(input) = delivered else {
+            let verdict = ServoVerdict::Waiting;
+            return ServoStep { twist: Twist::zeros(), verdict, outside: 0, error_px: f64::NAN };
+        };
+        let (features, outside) = self.taken_inside_image(input.features);
+        let error_px = feature_error_px(&features, self.desired_features());
+        let (twist, verdict) = self.law_on(input.frame, &features, input.base_from_camera);
+        ServoStep { twist, verdict, outside, error_px }
+    }
+
+    /// The features with each mark outside the image set to NaN, and those marks (bit m for mark m).
+    fn taken_inside_image(&self, seen: &FeatureVector) -> (FeatureVector, u8) {
+        let mut features = *seen;
+        let mut outside = 0u8;
+        for mark in 0..MARKS {
+            let pixel = Point2::new(seen[2 * mark], seen[2 * mark + 1]);
+            let measured = pixel.x.is_finite() && pixel.y.is_finite();
+            if measured && !self.camera.contains(&pixel) {
+                features[2 * mark] = f64::NAN;
+                features[2 * mark + 1] = f64::NAN;
+                outside |= 1 << mark;
             }
         }
+        (features, outside)
+    }
+
+    /// The law's twist on the marks seen, or the way back to where all were last seen.
+    fn law_on(
+        &mut self,
+        frame: u64,
+        seen: &FeatureVector,
+        base_from_camera: Option<&IsometryMatrix3<f64>>,
+    ) -> (Twist, ServoVerdict) {
+        let missing = missing_marks(seen);
         if missing == 0 {
-            self.last_seen_whole = input.base_from_camera.copied();
+            self.last_seen_whole = base_from_camera.copied();
         }
-        match self.law.step(input.frame, seen, input.base_from_camera) {
+        match self.law.step(frame, seen, base_from_camera) {
             Some(twist) if missing == 0 => (twist, ServoVerdict::Servoing),
             Some(twist) => (twist, ServoVerdict::ServoingOnThree(missing)),
-            None => match (self.last_seen_whole, input.base_from_camera) {
+            None => match (self.last_seen_whole, base_from_camera) {
                 (Some(then), Some(now)) => {
                     let twist = steer_towards(now, &then, self.period_s, &self.reacquire);
                     self.law.sent(twist);
@@ -104,6 +168,29 @@ impl ServoStage {
             },
         }
     }
+}
+
+/// The marks not seen (bit m set for mark m): a coordinate that is not finite.
+fn missing_marks(seen: &FeatureVector) -> u8 {
+    let mut missing = 0u8;
+    for mark in 0..seen.len() / 2 {
+        if !(seen[2 * mark].is_finite() && seen[2 * mark + 1].is_finite()) {
+            missing |= 1 << mark;
+        }
+    }
+    missing
+}
+
+/// RMS of ξ − ξ_d over the finite features (px); NaN when none is.
+pub fn feature_error_px(features: &FeatureVector, desired: &FeatureVector) -> f64 {
+    let (mut sum, mut n) = (0.0, 0usize);
+    for (f, d) in features.iter().zip(desired.iter()) {
+        if f.is_finite() {
+            sum += (f - d) * (f - d);
+            n += 1;
+        }
+    }
+    if n == 0 { f64::NAN } else { (sum / n as f64).sqrt() }
 }
 
 /// The camera twist (in the camera frame) that moves the camera from `now` towards `then` with the
@@ -133,6 +220,43 @@ pub fn steer_towards(
 mod tests {
     use super::*;
     use nalgebra::{Rotation3, Translation3, Vector3};
+
+    fn servo() -> ServoStage {
+        let config =
+            vservo_config::Config::load(concat!(env!("CARGO_MANIFEST_DIR"), "/../../config/vservo.toml"))
+                .expect("the default config loads");
+        crate::Cell::new(&config).expect("the default cell").servo()
+    }
+
+    #[test]
+    fn a_mark_outside_the_image_is_taken_as_missing_and_said() {
+        let mut servo = servo();
+        let mut features = *servo.desired_features();
+        features[2] = 600.0; // mark 2 beyond the right border of the 512 px image
+        let step = servo.step(Some(ServoInput { frame: 1, features: &features, base_from_camera: None }));
+        assert_eq!(step.outside, 0b10);
+        assert_eq!(step.verdict, ServoVerdict::ServoingOnThree(0b10));
+        assert_eq!(step.error_px, 0.0, "the other three are at ξ_d; the refused mark is not counted");
+        // a mark already missing is not refused again; one on the border is inside
+        features[2] = f64::NAN;
+        features[0] = 512.0;
+        let step = servo.step(Some(ServoInput { frame: 2, features: &features, base_from_camera: None }));
+        assert_eq!((step.outside, step.verdict.missing_mask()), (0, 0b10));
+    }
+
+    #[test]
+    fn held_and_waiting_send_zero_and_do_not_move() {
+        let mut servo = servo();
+        let waiting = servo.step(None);
+        assert_eq!((waiting.twist, waiting.verdict), (Twist::zeros(), ServoVerdict::Waiting));
+        assert!(waiting.error_px.is_nan());
+        let mut features = *servo.desired_features();
+        features[1] = -3.0;
+        let held = servo.held(ServoInput { frame: 1, features: &features, base_from_camera: None });
+        assert_eq!((held.twist, held.verdict, held.outside), (Twist::zeros(), ServoVerdict::Held, 0b1));
+        assert!(!held.verdict.moves() && !waiting.verdict.moves() && !ServoVerdict::MarksMissing(3).moves());
+        assert!(ServoVerdict::Servoing.moves() && ServoVerdict::Reacquiring(3).moves());
+    }
 
     #[test]
     fn steering_back_points_the_camera_to_where_it_was_and_stays_within_its_limits() {

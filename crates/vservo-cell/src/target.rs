@@ -211,11 +211,10 @@ fn inside_margin(
     barrier_margin_px: f64,
 ) -> Result<(), TargetRefused> {
     let (width_px, height_px) = (camera.width_px(), camera.height_px());
-    let (w, h) = (f64::from(width_px), f64::from(height_px));
     let margin_px = TARGET_BORDER_MARGIN_PX.max(barrier_margin_px);
     for mark in 0..MARKS {
         let (x, y) = (features[2 * mark], features[2 * mark + 1]);
-        if !(margin_px..=w - margin_px).contains(&x) || !(margin_px..=h - margin_px).contains(&y) {
+        if !camera.contains_with_margin(&nalgebra::Point2::new(x, y), margin_px) {
             return Err(TargetRefused::OutsideImage {
                 mark,
                 x,

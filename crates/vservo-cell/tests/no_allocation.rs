@@ -5,7 +5,7 @@
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::cell::Cell as StdCell;
 
-use vservo_cell::{Cell, ServoInput};
+use vservo_cell::{Cell, DriverTick, Following, ServoInput, TwistLimits};
 use vservo_control::{Interaction, LawFlags, LawOptions, Twist};
 
 struct Counting;
@@ -77,57 +77,79 @@ fn runs_without_allocating(config: vservo_config::Config) -> [LawFlags; COUNTED_
     let mut vision = cell.vision();
     let mut servo = cell.servo();
     let mut rmrc = cell.rmrc(cell.start_joints());
-    let dt = config.timing.control_period_s;
+    let limits = TwistLimits::of(&config);
+    let ticks_per_frame = u64::from(config.timing.control_ticks_per_frame);
     let mut frame = |plant: &vservo_cell::PlantStage, vision: &mut vservo_cell::VisionStage, k: u64| {
         let state = *plant.state();
         let taken = vision.capture(k, state.tick, &state.q, &plant.base_from_board());
         let mut delivered = taken.delivered;
-        // frame 11 loses a mark, frame 12 three: the servo goes on with three, then reacquires
+        // frame 11 sees a mark outside the image (refused), frame 12 loses three: the servo goes on with
+        // three, then reacquires
         if let Some(d) = delivered.as_mut() {
-            for mark in 0..match k {
-                11 => 1,
-                12 => 3,
-                _ => 0,
-            } {
+            if k == 11 {
+                d.features[0] = 600.0;
+            }
+            for mark in 0..if k == 12 { 3 } else { 0 } {
                 d.features[2 * mark] = f64::NAN;
                 d.features[2 * mark + 1] = f64::NAN;
             }
         }
-        let twist = servo
-            .step(delivered.as_ref().map(|d| ServoInput {
-                frame: d.frame,
-                features: &d.features,
-                base_from_camera: d.base_from_camera.as_ref(),
-            }))
-            .0;
-        (twist, servo.law_flags())
+        let step = servo.step(delivered.as_ref().map(|d| ServoInput {
+            frame: d.frame,
+            features: &d.features,
+            base_from_camera: d.base_from_camera.as_ref(),
+        }));
+        assert_eq!(step.outside != 0, k == 11, "frame {k}: {step:?}");
+        (step.twist, servo.law_flags())
     };
     // the first frames fill the pipeline, size the extractor's buffers and let the target's motion
     // estimate settle (it is used from its fifth frame)
     const WARM_UP_FRAMES: u64 = 8;
     for k in 0..WARM_UP_FRAMES {
         let (twist, _): (Twist, _) = frame(&plant, &mut vision, k);
-        rmrc.set_twist(twist, k as f64 * 0.085);
+        rmrc.set_twist(twist, k * ticks_per_frame);
     }
     let mut flags = [LawFlags::default(); COUNTED_FRAMES];
     let per_frame = allocations_in(|| {
         for (k, flags) in (WARM_UP_FRAMES..).zip(flags.iter_mut()) {
             let twist;
             (twist, *flags) = frame(&plant, &mut vision, k);
-            rmrc.set_twist(twist, k as f64 * 0.085);
+            rmrc.take_twist(&twist, true, &limits, k * ticks_per_frame);
         }
     });
     assert_eq!(per_frame, 0, "allocations in {COUNTED_FRAMES} frames of vision and servo");
+    // the driver's states as the rmrc follows them: every tick, but none from tick 300 to 309 (the rmrc
+    // catches up), and a new driver epoch from tick 700 (the rmrc starts again at rest); the rmrc's first
+    // state is a start at rest too
+    let period_ns = (config.robot.period_s * 1e9).round() as u64;
+    let mut followed = [0u32; 3];
     let per_tick = allocations_in(|| {
+        let mut last = None;
         for _ in 0..1000 {
             let state = *plant.state();
-            let t = state.tick as f64 * dt;
-            let command = rmrc.step(t + dt, &state.q, &state.qd);
+            let (tick, epoch) = (state.tick, if state.tick >= 700 { 2 } else { 1 });
+            if (300..310).contains(&tick) {
+                // the rmrc asleep: the driver keeps the last command
+                if let Some(command) = last {
+                    plant.apply(&command);
+                }
+                continue;
+            }
+            let at = DriverTick { epoch, tick, stamp_ns: tick * period_ns };
+            match rmrc.follow(at, &state.q, &state.qd) {
+                Following::Resynced => followed[0] += 1,
+                Following::Continued { missed_ticks: 0 } => followed[1] += 1,
+                Following::Continued { missed_ticks } => followed[2] += missed_ticks as u32,
+            }
+            let command = rmrc.step(tick, &state.q, &state.qd);
             plant.apply(&command);
+            last = Some(command);
         }
         plant.hold();
     });
     assert_eq!(per_tick, 0, "allocations in 1000 ticks of rmrc and plant");
+    // the first state, and the new epoch; the ten ticks asleep stepped through at once
+    assert_eq!((followed[0], followed[2]), (2, 10), "resynced, continued, ticks caught up: {followed:?}");
     flags
 }
 

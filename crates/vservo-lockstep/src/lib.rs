@@ -4,6 +4,8 @@
 //! interpolator → joint servo → plant, every component a pure step function, all on one virtual clock.
 //! The same configuration gives the same bits; a 30 s experiment takes under a second.
 
+use std::collections::HashMap;
+
 use nalgebra::Vector3;
 use vservo_arm::JointVector;
 use vservo_config::Config;
@@ -11,9 +13,12 @@ use vservo_control::{Gains, Twist};
 use vservo_scene::{FeatureVector, IsometryMatrix3};
 
 pub use vservo_cell::CellError as SimError;
+pub use vservo_cell::DriverTick;
 pub use vservo_cell::ServoVerdict;
-use vservo_cell::{ActuatorCommand, Cell, PlantStage, RmrcStage, ServoInput, ServoStage, VisionStage};
-use vservo_sim::plant::Faults;
+use vservo_cell::{
+    ActuatorCommand, Cell, Following, PlantStage, RmrcStage, ServoInput, ServoStage, TwistLimits, VisionStage,
+};
+use vservo_sim::plant::{Faults, JointState};
 
 /// One vision frame.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -63,19 +68,95 @@ pub struct Trace {
     pub desired_features: FeatureVector,
 }
 
-/// How many of the latest commands [`Lockstep::run_replaying`] keeps for a replayed late answer.
-pub const REPLAY_COMMANDS: usize = 16;
+/// How many of the latest commands [`Lockstep::run_replaying`] keeps for a replayed late answer: as many as
+/// the simulated driver may keep applying one for (`runtime.hold_after_missed_ticks`), and the newest.
+fn commands_kept(config: &Config) -> usize {
+    config.runtime.hold_after_missed_ticks as usize + 1
+}
+
+/// What a real-time run did, as data for [`Lockstep::run_replaying`] to do the same; ticks are the lockstep
+/// run's (the real-time run's minus the tick of its first image). Nothing here says what the rmrc decided:
+/// the rmrc stage, fed the joint states the real-time rmrc answered, decides again (a restart at rest after a
+/// stall or a new driver) exactly as the node did.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Replay {
+    /// The tick each twist reached the interpolator, by the capture tick of the features it was computed
+    /// from (the joint commands' `twist_capture_tick` → `twist_applied_tick`). A twist not listed is taken
+    /// in at once; a tick earlier than the frame's counts as the frame's; a twist still waiting when the
+    /// next one is computed is dropped, as the rmrc, draining both at once, would keep the newer.
+    pub twist_taken_in: HashMap<u64, u64>,
+    /// Which command the arm followed over the period from each tick (the joint states'
+    /// `applied_command_tick`): `Some(tick)` the one computed at that tick, `Some(older)` one computed at an
+    /// earlier tick (a driver that kept its last command, for up to `runtime.hold_after_missed_ticks`
+    /// ticks, because the answer came late), `None` none (the plant holds the arm). A tick not listed: the command computed at it.
+    pub command_applied: HashMap<u64, Option<u64>>,
+    /// The joint states the rmrc answered, by tick (the joint commands' `answers_tick`, `driver_epoch` and
+    /// `state_stamp_ns`). The rmrc stage follows these only; between them its reference runs on.
+    pub states_answered: HashMap<u64, DriverTick>,
+}
+
+/// When the rmrc takes each twist in, which command the arm follows and which joint states the rmrc
+/// follows: at once and every one ([`Lockstep::run`]), or as a real-time run did.
+enum Pace<'a> {
+    /// A simulated driver answered in time every tick (its clock the virtual one).
+    Own { period_ns: u64 },
+    /// A real-time run's.
+    Replay(&'a Replay),
+}
+
+impl Pace<'_> {
+    /// The tick the twist computed at `frame_tick` (from the image captured at `delivered_capture_tick`) is
+    /// taken in.
+    fn twist_taken_at(&self, delivered_capture_tick: Option<u64>, frame_tick: u64) -> u64 {
+        match (self, delivered_capture_tick) {
+            (Pace::Replay(replay), Some(capture)) => {
+                replay.twist_taken_in.get(&capture).copied().unwrap_or(frame_tick).max(frame_tick)
+            }
+            _ => frame_tick,
+        }
+    }
+
+    /// The tick whose command the arm follows over the period from `tick` (`None`: held).
+    fn command_applied(&self, tick: u64) -> Option<u64> {
+        match self {
+            Pace::Own { .. } => Some(tick),
+            Pace::Replay(replay) => replay.command_applied.get(&tick).copied().unwrap_or(Some(tick)),
+        }
+    }
+
+    /// The joint state the rmrc answers at `tick`, if it answered one.
+    fn state_answered(&self, tick: u64) -> Option<DriverTick> {
+        match self {
+            Pace::Own { period_ns } => Some(DriverTick { epoch: 0, tick, stamp_ns: tick * period_ns }),
+            Pace::Replay(replay) => replay.states_answered.get(&tick).copied(),
+        }
+    }
+}
+
+/// A twist computed and not yet taken in by the rmrc: the tick it will be, the twist, and whether its verdict
+/// lets the arm move.
+#[derive(Debug, Clone, Copy)]
+struct Waiting {
+    at: u64,
+    twist: Twist,
+    moves: bool,
+}
 
 /// The loop.
 pub struct Lockstep {
     config: Config,
-    cell: Cell,
     gains: Gains,
     plant: PlantStage,
     vision: VisionStage,
     servo: ServoStage,
     rmrc: RmrcStage,
-    base_from_desired_camera: IsometryMatrix3<f64>,
+    limits: TwistLimits,
+    desired_camera_from_base: IsometryMatrix3<f64>,
+    /// The ticks the rmrc started again at rest in the last run.
+    resyncs: Vec<u64>,
+    waiting: Option<Waiting>,
+    /// The commands of the latest ticks, by tick modulo their number (for a replayed late answer).
+    computed: Vec<Option<(u64, ActuatorCommand)>>,
 }
 
 impl Lockstep {
@@ -85,13 +166,16 @@ impl Lockstep {
         let cell = Cell::simulated(config)?;
         Ok(Self {
             config: config.clone(),
-            cell: cell.clone(),
             gains: cell.gains().clone(),
             plant: cell.plant(),
             vision: cell.vision(),
             servo: cell.servo(),
             rmrc: cell.rmrc(cell.start_joints()),
-            base_from_desired_camera: *cell.base_from_desired_camera(),
+            limits: TwistLimits::of(config),
+            desired_camera_from_base: cell.base_from_desired_camera().inverse(),
+            resyncs: Vec::new(),
+            waiting: None,
+            computed: vec![None; commands_kept(config)],
         })
     }
 
@@ -100,130 +184,128 @@ impl Lockstep {
         &self.gains
     }
 
-    /// Runs the scenario; `progress` is called with the simulated time at every vision frame.
-    pub fn run(&mut self, progress: impl FnMut(f64)) -> Trace {
-        self.run_replaying(progress, |_, frame_tick| frame_tick, Some, |_| false)
+    /// The ticks at which the rmrc started again at rest from the measured joints in the last run: its
+    /// start (the first joint state it followed), and after a stall or a new driver epoch.
+    pub fn resyncs(&self) -> &[u64] {
+        &self.resyncs
     }
 
-    /// [`Lockstep::run`] with each twist taken in at a tick of the caller's choosing: `taken_at(delivered
-    /// capture tick, frame tick)` says when the twist computed at `frame tick` (from the features of the image
-    /// captured at `delivered capture tick`) reaches the interpolator; [`Lockstep::run`] takes it at once.
-    /// This replays a real-time run's own answer latency (its joint commands carry the tick each twist was
-    /// taken in), so that the two can be compared frame by frame. A tick earlier than the frame's counts as
-    /// the frame's; a twist still waiting when the next one is computed is dropped, as the rmrc, draining
-    /// both at once, would keep the newer.
-    ///
-    /// `applied(tick)` says which command the arm follows over the period from `tick`: `Some(tick)` the one
-    /// computed now (as [`Lockstep::run`] does), `Some(older)` one computed at an earlier tick (of the last
-    /// [`REPLAY_COMMANDS`]; a driver that kept its last command because the answer came late), `None` none
-    /// (the plant holds the arm).
-    ///
-    /// `resynced(tick)` says whether the rmrc started again at rest from the measured joints at `tick` (a
-    /// real-time rmrc does after a stall longer than `robot.state_timeout_periods`; its joint commands say
-    /// from which tick their reference runs), dropping the twist it held.
-    pub fn run_replaying(
-        &mut self,
-        progress: impl FnMut(f64),
-        taken_at: impl FnMut(u64, u64) -> u64,
-        applied: impl FnMut(u64) -> Option<u64>,
-        resynced: impl FnMut(u64) -> bool,
-    ) -> Trace {
-        self.run_inner(progress, taken_at, applied, resynced, |_| false)
+    /// Runs the scenario; `progress` is called with the simulated time at every vision frame.
+    pub fn run(&mut self, progress: impl FnMut(f64)) -> Trace {
+        let pace = self.own_pace();
+        self.run_paced(&pace, progress, |_| false)
+    }
+
+    /// [`Lockstep::run`] at a real-time run's pace: each twist taken in, each command applied and each joint
+    /// state followed when that run did ([`Replay`]), so that the two can be compared frame by frame. The
+    /// rmrc stage decides its restarts at rest itself from the joint states it is fed, as the real-time
+    /// node does ([`Lockstep::resyncs`] says where).
+    pub fn run_replaying(&mut self, progress: impl FnMut(f64), replay: &Replay) -> Trace {
+        self.run_paced(&Pace::Replay(replay), progress, |_| false)
     }
 
     /// [`Lockstep::run`], ended early at the first frame for which `stop(frames so far)` says so (a Monte
     /// Carlo of starts stops a run once it has settled long enough).
     pub fn run_until(&mut self, stop: impl FnMut(&[FrameRecord]) -> bool) -> Trace {
-        self.run_inner(|_| {}, |_, frame_tick| frame_tick, Some, |_| false, stop)
+        let pace = self.own_pace();
+        self.run_paced(&pace, |_| {}, stop)
     }
 
-    fn run_inner(
+    fn own_pace(&self) -> Pace<'static> {
+        Pace::Own { period_ns: (self.config.timing.control_period_s * 1e9).round() as u64 }
+    }
+
+    /// Every tick of the scenario: a frame every vision period, then the rmrc and the plant.
+    fn run_paced(
         &mut self,
+        pace: &Pace<'_>,
         mut progress: impl FnMut(f64),
-        mut taken_at: impl FnMut(u64, u64) -> u64,
-        mut applied: impl FnMut(u64) -> Option<u64>,
-        mut resynced: impl FnMut(u64) -> bool,
         mut stop: impl FnMut(&[FrameRecord]) -> bool,
     ) -> Trace {
         let dt = self.config.timing.control_period_s;
         let ticks_per_frame = u64::from(self.config.timing.control_ticks_per_frame);
         let ticks = (self.config.scenario.duration_s / dt).round() as u64;
-        let frames_expected = (ticks / ticks_per_frame + 1) as usize;
-        let mut frames = Vec::with_capacity(frames_expected);
+        let mut frames = Vec::with_capacity((ticks / ticks_per_frame + 1) as usize);
         let mut joints = Vec::with_capacity((ticks / 10 + 1) as usize);
         let mut faults = Faults::default();
         let joints_every = (0.01 / dt).round().max(1.0) as u64;
-        let desired_camera_from_base = self.base_from_desired_camera.inverse();
-
-        let mut waiting: Option<(u64, Twist)> = None;
-        let mut computed: [Option<(u64, ActuatorCommand)>; REPLAY_COMMANDS] = [None; REPLAY_COMMANDS];
+        (self.resyncs, self.waiting) = (Vec::new(), None);
+        self.computed.fill(None);
         for tick in 0..ticks {
-            let t = tick as f64 * dt;
-            let state = *self.plant.state();
             if tick % ticks_per_frame == 0 {
-                let frame = self.vision.capture(
-                    tick / ticks_per_frame,
-                    tick,
-                    &state.q,
-                    &self.plant.base_from_board(),
-                );
-                // the servo acts on the frame that leaves the pipeline now
-                let (twist, verdict) = self.servo.step(frame.delivered.as_ref().map(|d| ServoInput {
-                    frame: d.frame,
-                    features: &d.features,
-                    base_from_camera: d.base_from_camera.as_ref(),
-                }));
-                let at = frame.delivered.as_ref().map_or(tick, |d| taken_at(d.capture_tick, tick).max(tick));
-                waiting = Some((at, twist));
-                frames.push(FrameRecord {
-                    t_s: t,
-                    measured: frame.captured.features,
-                    truth: frame.truth,
-                    twist,
-                    verdict: Some(verdict),
-                    camera_position_m: frame.base_from_camera.translation.vector,
-                    camera_in_desired_m: (desired_camera_from_base * frame.base_from_camera)
-                        .translation
-                        .vector,
-                });
-                progress(t);
+                frames.push(self.frame(tick, tick / ticks_per_frame, pace));
+                progress(tick as f64 * dt);
                 if stop(&frames) {
                     break;
                 }
             }
-            // as the real-time rmrc: a resync first, then the twists that came in
-            if resynced(tick) {
-                self.rmrc = self.cell.rmrc(&state.q);
-            }
-            if let Some((at, twist)) = waiting
-                && at == tick
-            {
-                self.rmrc.set_twist(twist, t);
-                waiting = None;
-            }
-            let command = self.rmrc.step(t + dt, &state.q, &state.qd);
-            computed[(tick % REPLAY_COMMANDS as u64) as usize] = Some((tick, command));
-            let state = match applied(tick) {
-                Some(answered) if answered == tick => *self.plant.apply(&command),
-                Some(answered) => match computed[(answered % REPLAY_COMMANDS as u64) as usize] {
-                    Some((at, older)) if at == answered => *self.plant.apply(&older),
-                    _ => *self.plant.hold(),
-                },
-                None => *self.plant.hold(),
-            };
+            let command = self.rmrc_tick(tick, pace);
+            let state = self.plant_tick(tick, command, pace);
             faults.position_limit |= state.faults.position_limit;
             faults.velocity_limit |= state.faults.velocity_limit;
             faults.torque_saturated |= state.faults.torque_saturated;
             faults.integration_failed |= state.faults.integration_failed;
             if (tick + 1) % joints_every == 0 {
-                joints.push(JointRecord {
-                    t_s: t + dt,
-                    q: state.q,
-                    qd: state.qd,
-                    torque: state.applied_torque,
-                });
+                let t_s = tick as f64 * dt + dt;
+                joints.push(JointRecord { t_s, q: state.q, qd: state.qd, torque: state.applied_torque });
             }
         }
         Trace { frames, joints, faults, desired_features: self.gains.desired_features }
+    }
+
+    /// The camera captures the current state; the servo acts on the frame that leaves the pipeline now, its
+    /// twist waiting to be taken in by the rmrc.
+    fn frame(&mut self, tick: u64, frame: u64, pace: &Pace<'_>) -> FrameRecord {
+        let state = *self.plant.state();
+        let taken = self.vision.capture(frame, tick, &state.q, &self.plant.base_from_board());
+        let step = self.servo.step(taken.delivered.as_ref().map(|d| ServoInput {
+            frame: d.frame,
+            features: &d.features,
+            base_from_camera: d.base_from_camera.as_ref(),
+        }));
+        let at = pace.twist_taken_at(taken.delivered.as_ref().map(|d| d.capture_tick), tick);
+        self.waiting = Some(Waiting { at, twist: step.twist, moves: step.verdict.moves() });
+        FrameRecord {
+            t_s: tick as f64 * self.config.timing.control_period_s,
+            measured: taken.captured.features,
+            truth: taken.truth,
+            twist: step.twist,
+            verdict: Some(step.verdict),
+            camera_position_m: taken.base_from_camera.translation.vector,
+            camera_in_desired_m: (self.desired_camera_from_base * taken.base_from_camera).translation.vector,
+        }
+    }
+
+    /// As the real-time rmrc: the joint state followed (a restart at rest first, if it does not carry on),
+    /// then the twist that came in, then the command for this tick (kept for a replayed late answer).
+    fn rmrc_tick(&mut self, tick: u64, pace: &Pace<'_>) -> ActuatorCommand {
+        let state = *self.plant.state();
+        if let Some(answered) = pace.state_answered(tick)
+            && self.rmrc.follow(answered, &state.q, &state.qd) == Following::Resynced
+        {
+            self.resyncs.push(tick);
+        }
+        if let Some(waiting) = self.waiting
+            && waiting.at == tick
+        {
+            self.rmrc.take_twist(&waiting.twist, waiting.moves, &self.limits, tick);
+            self.waiting = None;
+        }
+        let command = self.rmrc.step(tick, &state.q, &state.qd);
+        let kept = self.computed.len() as u64;
+        self.computed[(tick % kept) as usize] = Some((tick, command));
+        command
+    }
+
+    /// The plant over the period from `tick`, on the command the pace says the arm followed.
+    fn plant_tick(&mut self, tick: u64, command: ActuatorCommand, pace: &Pace<'_>) -> JointState {
+        match pace.command_applied(tick) {
+            Some(answered) if answered == tick => *self.plant.apply(&command),
+            Some(answered) => match self.computed[(answered % self.computed.len() as u64) as usize] {
+                Some((at, older)) if at == answered => *self.plant.apply(&older),
+                _ => *self.plant.hold(),
+            },
+            None => *self.plant.hold(),
+        }
     }
 }

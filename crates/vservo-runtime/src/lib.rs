@@ -76,8 +76,3 @@ impl NodeContext {
 /// Below this joint speed (rad/s) the arm is at rest (the joint servo's last friction corrections stay
 /// below it): a node that outlives the daemon stops there, and so does the daemon's own safe stop.
 pub const AT_REST_RAD_S: f64 = 0.01;
-
-/// A sample's schema is the one this build speaks.
-fn schema_ok(schema: u32) -> bool {
-    schema == vservo_protocol::SCHEMA_VERSION
-}

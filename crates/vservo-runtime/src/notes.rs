@@ -3,7 +3,7 @@
 //! most [`NOTES_PER_PERIOD`] a telemetry period, a count of the rest and the newest, so that a mark
 //! flickering at the border neither slows the servo nor floods the journal.
 
-use vservo_protocol::{MARKS, verdict};
+use vservo_protocol::{MARKS, MarkStatus, Verdict};
 
 use crate::joint_history::NoJoints;
 
@@ -15,12 +15,20 @@ pub const NOTES_PER_PERIOD: usize = 4;
 pub enum Note {
     /// The servo's (verdict, missing marks) changed; `mark_status` is the frame's per mark.
     ServoVerdict {
-        /// Before.
-        before: (u32, u32),
+        /// Before: the verdict and the marks missing (bit m for mark m).
+        before: (Verdict, u8),
         /// Now.
-        now: (u32, u32),
-        /// The frame's [`vservo_protocol::mark_status`] codes.
-        mark_status: [u8; MARKS],
+        now: (Verdict, u8),
+        /// The frame's status of each mark (`None`: a code this build does not know).
+        mark_status: [Option<MarkStatus>; MARKS],
+    },
+    /// The extractor found more blobs of a mark's size than it considers (`vservo_vision::extract::
+    /// MAX_SIZED_BLOBS`): those beyond were not looked at, so a mark among them would be missed.
+    BlobsOverCap {
+        /// The frame.
+        frame: u64,
+        /// The blobs of a mark's size not looked at.
+        over_cap: usize,
     },
     /// An external camera's frame with no joint state around its exposure: its camera pose is unknown.
     FrameWithoutPose {
@@ -38,6 +46,12 @@ impl Note {
     pub fn log(&self) {
         match *self {
             Note::ServoVerdict { before, now, mark_status } => log_servo_verdict(before, now, &mark_status),
+            Note::BlobsOverCap { frame, over_cap } => tracing::warn!(
+                node = "vision",
+                frame,
+                "frame {frame}: {over_cap} dark blobs of a mark's size beyond the {} the extractor considers were not looked at (clutter in view?); said when it starts",
+                vservo_vision::extract::MAX_SIZED_BLOBS
+            ),
             Note::FrameWithoutPose { frame, capture_stamp_ns, why } => {
                 let where_ = match why {
                     NoJoints::Empty => "no joint state heard yet",
@@ -56,17 +70,17 @@ impl Note {
 }
 
 /// Why the marks of `missing` are missing, for people: "mark 2 (not found)".
-fn missing_marks(missing: u32, status: &[u8; MARKS]) -> String {
-    let reason = |code: u8| match code {
-        vservo_protocol::mark_status::OUTSIDE_IMAGE => "outside the image",
-        vservo_protocol::mark_status::CUT_BY_BORDER => "cut by the border",
-        vservo_protocol::mark_status::MERGED => "merged with another",
-        vservo_protocol::mark_status::IRREGULAR => "irregular",
-        vservo_protocol::mark_status::NOT_FOUND => "not found",
-        vservo_protocol::mark_status::BAD_IMAGE => "bad image",
+fn missing_marks(missing: u8, status: &[Option<MarkStatus>; MARKS]) -> String {
+    let reason = |status: Option<MarkStatus>| match status {
+        Some(MarkStatus::OutsideImage) => "outside the image",
+        Some(MarkStatus::CutByBorder) => "cut by the border",
+        Some(MarkStatus::Merged) => "merged with another",
+        Some(MarkStatus::Irregular) => "irregular",
+        Some(MarkStatus::NotFound) => "not found",
+        Some(MarkStatus::BadImage) => "bad image",
         // valid for vision, refused by the servo
-        vservo_protocol::mark_status::VALID => "outside the image",
-        _ => "unknown reason",
+        Some(MarkStatus::Valid) => "outside the image",
+        None => "unknown reason",
     };
     (0..MARKS)
         .filter(|m| missing & (1 << m) != 0)
@@ -76,29 +90,29 @@ fn missing_marks(missing: u32, status: &[u8; MARKS]) -> String {
 }
 
 /// One line when the servo starts or stops servoing on three marks, reacquiring or holding for lost marks.
-fn log_servo_verdict(before: (u32, u32), now: (u32, u32), status: &[u8; MARKS]) {
+fn log_servo_verdict(before: (Verdict, u8), now: (Verdict, u8), status: &[Option<MarkStatus>; MARKS]) {
     match now {
-        (verdict::SERVOING_ON_THREE, missing) => {
+        (Verdict::ServoingOnThree, missing) => {
             tracing::warn!(
                 node = "servo",
                 "servoing on three marks: {} missing",
                 missing_marks(missing, status)
             );
         }
-        (verdict::REACQUIRING, missing) => tracing::warn!(
+        (Verdict::Reacquiring, missing) => tracing::warn!(
             node = "servo",
             "reacquiring: {} missing; steering the camera back to where all four were last seen",
             missing_marks(missing, status)
         ),
-        (verdict::MARKS_MISSING, missing) => tracing::warn!(
+        (Verdict::MarksMissing, missing) => tracing::warn!(
             node = "servo",
             "holding: {} missing and no pose where all four were seen",
             missing_marks(missing, status)
         ),
-        (verdict::SERVOING, _)
+        (Verdict::Servoing, _)
             if matches!(
                 before.0,
-                verdict::SERVOING_ON_THREE | verdict::REACQUIRING | verdict::MARKS_MISSING
+                Verdict::ServoingOnThree | Verdict::Reacquiring | Verdict::MarksMissing
             ) =>
         {
             tracing::info!(node = "servo", "servoing on all four marks again");

@@ -373,7 +373,11 @@ mod tests {
             let (notes, receiver) = crossbeam_channel::bounded(64);
             (receiver, LoopMonitor { samples, notes, counters: Arc::new(Counters::default()) })
         };
-        let note = Note::ServoVerdict { before: (1, 0), now: (5, 2), mark_status: [0, 5, 0, 0] };
+        let note = Note::ServoVerdict {
+            before: (vservo_protocol::Verdict::Servoing, 0),
+            now: (vservo_protocol::Verdict::ServoingOnThree, 2),
+            mark_status: [0, 5, 0, 0].map(|code| vservo_protocol::MarkStatus::try_from(code).ok()),
+        };
         for _ in 0..100 {
             monitor.note(note);
         }

@@ -12,13 +12,13 @@ pub fn to_array<const N: usize>(v: &nalgebra::SVector<f64, N>) -> [f64; N] {
     out
 }
 
-/// The wire code of a command interface ([`vservo_protocol::command_mode`]).
-pub fn command_mode_code(interface: vservo_config::CommandInterface) -> u32 {
-    use vservo_protocol::command_mode;
+/// The wire enum of a command interface.
+pub fn command_mode(interface: vservo_config::CommandInterface) -> vservo_protocol::CommandMode {
+    use vservo_protocol::CommandMode;
     match interface {
-        vservo_config::CommandInterface::Torque => command_mode::TORQUE,
-        vservo_config::CommandInterface::Velocity => command_mode::VELOCITY,
-        vservo_config::CommandInterface::Position => command_mode::POSITION,
+        vservo_config::CommandInterface::Torque => CommandMode::Torque,
+        vservo_config::CommandInterface::Velocity => CommandMode::Velocity,
+        vservo_config::CommandInterface::Position => CommandMode::Position,
     }
 }
 

@@ -4,6 +4,17 @@ use nalgebra::{Point2, Point3};
 
 use crate::{Board, FeatureVector, IsometryMatrix3, MARKS, MarkDepths};
 
+/// Whether a pixel position lies inside a `width_px` × `height_px` image by at least `margin_px` from every
+/// border ([m, width − m] × [m, height − m]); a position that is not finite never does. The one answer to
+/// "is this point inside the image" ([`CameraIntrinsics::contains_with_margin`] for a camera; the extractor,
+/// which knows the image only, asks it directly).
+pub fn image_contains(width_px: u32, height_px: u32, pixel: &Point2<f64>, margin_px: f64) -> bool {
+    pixel.x >= margin_px
+        && pixel.y >= margin_px
+        && pixel.x <= f64::from(width_px) - margin_px
+        && pixel.y <= f64::from(height_px) - margin_px
+}
+
 /// Pinhole intrinsics: square pixels, no distortion.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct CameraIntrinsics {
@@ -96,10 +107,13 @@ impl CameraIntrinsics {
 
     /// Whether a pixel position lies inside the image ([0, width] × [0, height]).
     pub fn contains(&self, pixel: &Point2<f64>) -> bool {
-        pixel.x >= 0.0
-            && pixel.y >= 0.0
-            && pixel.x <= f64::from(self.width_px)
-            && pixel.y <= f64::from(self.height_px)
+        self.contains_with_margin(pixel, 0.0)
+    }
+
+    /// Whether a pixel position lies inside the image by at least `margin_px` from every border
+    /// ([m, width − m] × [m, height − m]); a position that is not finite never does.
+    pub fn contains_with_margin(&self, pixel: &Point2<f64>, margin_px: f64) -> bool {
+        image_contains(self.width_px, self.height_px, pixel, margin_px)
     }
 
     /// The feature vector and the mark depths for the board at `camera_from_board`.
@@ -244,6 +258,21 @@ mod tests {
             prop_assert!((found.translation.vector - pose.translation.vector).norm() < 1e-9);
             // (angle_to's acos cannot resolve angles below ~1e-8: compare the matrices)
             prop_assert!((found.rotation.matrix() - pose.rotation.matrix()).norm() < 1e-9);
+        }
+    }
+
+    #[test]
+    fn a_point_is_inside_by_a_margin_only_that_far_from_every_border() {
+        let camera = CameraIntrinsics::paper();
+        let at = |x, y| Point2::new(x, y);
+        assert!(camera.contains(&at(0.0, 512.0)) && camera.contains(&at(512.0, 0.0)));
+        assert!(!camera.contains(&at(-0.001, 10.0)) && !camera.contains(&at(10.0, 512.001)));
+        assert!(camera.contains_with_margin(&at(20.0, 492.0), 20.0));
+        assert!(!camera.contains_with_margin(&at(19.9, 256.0), 20.0));
+        assert!(!camera.contains_with_margin(&at(256.0, 492.1), 20.0));
+        for not_finite in [f64::NAN, f64::INFINITY, f64::NEG_INFINITY] {
+            assert!(!camera.contains_with_margin(&at(not_finite, 256.0), 0.0));
+            assert!(!camera.contains_with_margin(&at(256.0, not_finite), 0.0));
         }
     }
 

@@ -24,7 +24,7 @@ mod board;
 mod camera;
 
 pub use board::{Board, MARKS};
-pub use camera::{CameraIntrinsics, IntrinsicsError, ProjectionError};
+pub use camera::{CameraIntrinsics, IntrinsicsError, ProjectionError, image_contains};
 pub use nalgebra::IsometryMatrix3;
 
 /// Number of image features: x and y of each mark.

@@ -133,6 +133,9 @@ pub struct Extraction {
     pub extra_blobs: usize,
     /// The gray level used to separate dark from bright.
     pub threshold: u8,
+    /// Blobs of a mark's size beyond the [`MAX_SIZED_BLOBS`] the extractor considers (in the order found):
+    /// not looked at, so a mark among them would be missed. 0 on any image of the board alone.
+    pub sized_blobs_over_cap: usize,
 }
 
 impl Extraction {
@@ -152,12 +155,17 @@ impl Extraction {
             status: [MarkStatus::BadImage(problem); MARKS],
             extra_blobs: 0,
             threshold,
+            sized_blobs_over_cap: 0,
         }
     }
 }
 
 /// Most candidate blobs the association considers (the largest mark-like ones).
 const MAX_CANDIDATES: usize = 8;
+
+/// Most blobs of a mark's size the extractor sorts for its candidates, in the order found; the others are
+/// counted ([`Extraction::sized_blobs_over_cap`]).
+pub const MAX_SIZED_BLOBS: usize = 32;
 
 /// The extractor and its buffers, sized once for the image.
 #[derive(Debug, Clone)]
@@ -185,17 +193,44 @@ impl Extractor {
         &self.settings
     }
 
-    /// Extracts the four marks.
+    /// Extracts the four marks: the threshold, the candidate blobs, their association with the marks, each
+    /// mark's status, and the valid marks' centres.
     pub fn extract(&mut self, image: &GrayImage, prediction: &Prediction) -> Extraction {
+        let threshold = match self.threshold_of(image) {
+            Ok(threshold) => threshold,
+            Err(problem) => return Extraction::unusable(problem, 0),
+        };
+        let settings = self.settings;
+        let blobs = self.finder.find_blobs(image, threshold);
+        let found = Candidates::of(blobs, &settings);
+        let candidates = found.as_slice();
+        let (assignment, expected) = associate(candidates, prediction, settings.gate_px);
+        let look = Look { image, threshold, blobs, settings: &settings, expected: &expected };
+        let mut status: [MarkStatus; MARKS] = std::array::from_fn(|mark| match assignment[mark] {
+            Some(index) => look.assigned_status(mark, &candidates[index]),
+            None => look.unassigned_status(mark),
+        });
+        spread_merges(&mut status);
+        let features = refined_features(image, threshold, candidates, &assignment, &status);
+        let mut used = [false; MAX_CANDIDATES];
+        for index in assignment.iter().flatten() {
+            used[*index] = true;
+        }
+        let extra_blobs = candidates.iter().enumerate().filter(|(i, c)| c.mark_like && !used[*i]).count();
+        Extraction { features, status, extra_blobs, threshold, sized_blobs_over_cap: found.over_cap }
+    }
+
+    /// The gray level that separates dark from bright, or why the image cannot be used (not the configured
+    /// size, or no contrast).
+    fn threshold_of(&self, image: &GrayImage) -> Result<u8, ImageProblem> {
         let (w, h) = image.dimensions();
         if (w, h) != (self.width, self.height) {
-            let problem = ImageProblem::WrongSize {
+            return Err(ImageProblem::WrongSize {
                 width: self.width,
                 height: self.height,
                 got_width: w,
                 got_height: h,
-            };
-            return Extraction::unusable(problem, 0);
+            });
         }
         let mut histogram = [0_u32; 256];
         for &p in image.as_raw() {
@@ -211,138 +246,173 @@ impl Extractor {
             } else {
                 "uniform"
             };
-            return Extraction::unusable(ImageProblem::NoContrast { min, max, what }, 0);
+            return Err(ImageProblem::NoContrast { min, max, what });
         }
-        let threshold = match self.settings.threshold {
+        Ok(match self.settings.threshold {
             Threshold::Fixed(level) => level,
             Threshold::Otsu => otsu(&histogram),
-        };
+        })
+    }
+}
 
-        let settings = self.settings;
-        let blobs = self.finder.find_blobs(image, threshold);
-        // candidates: blobs of a mark's size, the largest first
-        let mut candidates = [Candidate { blob: EMPTY_BLOB, mark_like: false }; MAX_CANDIDATES];
-        let mut count = 0;
-        let mut sized_blobs = [EMPTY_BLOB; 32];
-        let mut sized = 0;
+/// The candidates of an image: the largest blobs of a mark's size (of the first [`MAX_SIZED_BLOBS`] found),
+/// largest first.
+struct Candidates {
+    list: [Candidate; MAX_CANDIDATES],
+    count: usize,
+    /// Blobs of a mark's size found beyond [`MAX_SIZED_BLOBS`]: not considered.
+    over_cap: usize,
+}
+
+impl Candidates {
+    fn of(blobs: &[Blob], settings: &ExtractorSettings) -> Self {
+        let mut sized_blobs = [EMPTY_BLOB; MAX_SIZED_BLOBS];
+        let (mut sized, mut over_cap) = (0, 0);
         for blob in blobs.iter().filter(|b| b.area >= settings.min_area_px && b.area <= settings.max_area_px)
         {
             if sized < sized_blobs.len() {
                 sized_blobs[sized] = *blob;
                 sized += 1;
+            } else {
+                over_cap += 1;
             }
         }
         let sized_blobs = &mut sized_blobs[..sized];
         sized_blobs.sort_unstable_by_key(|b| std::cmp::Reverse(b.area));
+        let mut list = [Candidate { blob: EMPTY_BLOB, mark_like: false }; MAX_CANDIDATES];
+        let mut count = 0;
         for blob in sized_blobs.iter().take(MAX_CANDIDATES) {
             let mark_like = !blob.touches_border
                 && blob.elongation() <= settings.max_elongation
                 && blob.ellipse_fill() >= settings.min_ellipse_fill;
-            candidates[count] = Candidate { blob: *blob, mark_like };
+            list[count] = Candidate { blob: *blob, mark_like };
             count += 1;
         }
-        let candidates = &candidates[..count];
-
-        // associate marks with candidates
-        let (assignment, expected) = match prediction {
-            Prediction::Tracking(previous) => {
-                let tracked = track(candidates, previous, settings.gate_px);
-                let assigned = tracked.iter().flatten().count();
-                if assigned < MARKS && candidates.iter().filter(|c| c.mark_like).count() > assigned {
-                    let by_layout = match_layout(candidates, previous);
-                    if by_layout.0.iter().flatten().count() > assigned {
-                        by_layout
-                    } else {
-                        (tracked, *previous)
-                    }
-                } else {
-                    (tracked, *previous)
-                }
-            }
-            Prediction::Layout(layout) => match_layout(candidates, layout),
-        };
-
-        // each mark's state
-        let mut status = [MarkStatus::NotFound; MARKS];
-        let mut features = FeatureVector::from_element(f64::NAN);
-        let contains = |b: &Blob, x: f64, y: f64| {
-            let (u0, v0, u1, v1) = b.bbox;
-            x >= f64::from(u0) - 1.0
-                && x <= f64::from(u1) + 2.0
-                && y >= f64::from(v0) - 1.0
-                && y <= f64::from(v1) + 2.0
-        };
-        for mark in 0..MARKS {
-            let (x, y) = (expected[2 * mark], expected[2 * mark + 1]);
-            status[mark] = match assignment[mark] {
-                Some(index) => {
-                    let c = candidates[index];
-                    if c.blob.touches_border {
-                        MarkStatus::CutByBorder
-                    } else if let Some(other) = (0..MARKS).find(|&o| {
-                        o != mark && contains(&c.blob, expected[2 * o], expected[2 * o + 1]) && !c.mark_like
-                    }) {
-                        MarkStatus::MergedWith(other)
-                    } else if c.mark_like {
-                        MarkStatus::Valid
-                    } else {
-                        MarkStatus::Irregular
-                    }
-                }
-                None => {
-                    let inside = x >= 0.0 && y >= 0.0 && x <= f64::from(w) && y <= f64::from(h);
-                    if !inside {
-                        MarkStatus::OutsideImage
-                    } else if let Some(blob) = dark_at(image, threshold, x, y)
-                        .then(|| {
-                            blobs
-                                .iter()
-                                .filter(|b| {
-                                    (settings.min_area_px..=settings.max_area_px).contains(&b.area)
-                                        && contains(b, x, y)
-                                })
-                                .min_by_key(|b| b.area)
-                        })
-                        .flatten()
-                    {
-                        let other = (0..MARKS)
-                            .find(|&o| o != mark && contains(blob, expected[2 * o], expected[2 * o + 1]));
-                        match other {
-                            Some(o) => MarkStatus::MergedWith(o),
-                            None if blob.touches_border => MarkStatus::CutByBorder,
-                            None => MarkStatus::Irregular,
-                        }
-                    } else {
-                        MarkStatus::NotFound
-                    }
-                }
-            };
-        }
-        // a mark merged into another's blob makes that one invalid too
-        for mark in 0..MARKS {
-            if let MarkStatus::MergedWith(other) = status[mark]
-                && (status[other].is_valid() || status[other] == MarkStatus::Irregular)
-            {
-                status[other] = MarkStatus::MergedWith(mark);
-            }
-        }
-        let mut used = [false; MAX_CANDIDATES];
-        for mark in 0..MARKS {
-            if let Some(index) = assignment[mark] {
-                used[index] = true;
-                if status[mark].is_valid() {
-                    let others: [Option<Blob>; MARKS] = std::array::from_fn(|o| {
-                        assignment[o].filter(|_| o != mark).map(|i| candidates[i].blob)
-                    });
-                    let (x, y) = refine(image, &candidates[index].blob, threshold, &others);
-                    features[2 * mark] = x;
-                    features[2 * mark + 1] = y;
-                }
-            }
-        }
-        let extra_blobs = candidates.iter().enumerate().filter(|(i, c)| c.mark_like && !used[*i]).count();
-        Extraction { features, status, extra_blobs, threshold }
+        Self { list, count, over_cap }
     }
+
+    fn as_slice(&self) -> &[Candidate] {
+        &self.list[..self.count]
+    }
+}
+
+/// Which candidate each mark is, and where each mark was expected: by tracking the previous frame's marks
+/// (by the layout instead when it places more of them), or by the layout.
+fn associate(
+    candidates: &[Candidate],
+    prediction: &Prediction,
+    gate_px: f64,
+) -> ([Option<usize>; MARKS], FeatureVector) {
+    match prediction {
+        Prediction::Tracking(previous) => {
+            let tracked = track(candidates, previous, gate_px);
+            let assigned = tracked.iter().flatten().count();
+            if assigned < MARKS && candidates.iter().filter(|c| c.mark_like).count() > assigned {
+                let by_layout = match_layout(candidates, previous);
+                if by_layout.0.iter().flatten().count() > assigned {
+                    return by_layout;
+                }
+            }
+            (tracked, *previous)
+        }
+        Prediction::Layout(layout) => match_layout(candidates, layout),
+    }
+}
+
+/// Whether image point (x, y) is in a blob's bounding box, widened by a pixel or two.
+fn in_box(b: &Blob, x: f64, y: f64) -> bool {
+    let (u0, v0, u1, v1) = b.bbox;
+    x >= f64::from(u0) - 1.0
+        && x <= f64::from(u1) + 2.0
+        && y >= f64::from(v0) - 1.0
+        && y <= f64::from(v1) + 2.0
+}
+
+/// What a mark's status is decided from: the image, its threshold and blobs, and where the marks were
+/// expected.
+struct Look<'a> {
+    image: &'a GrayImage,
+    threshold: u8,
+    blobs: &'a [Blob],
+    settings: &'a ExtractorSettings,
+    expected: &'a FeatureVector,
+}
+
+impl Look<'_> {
+    /// Another mark expected inside `blob`'s box, if one is.
+    fn other_mark_in(&self, mark: usize, blob: &Blob) -> Option<usize> {
+        (0..MARKS).find(|&o| o != mark && in_box(blob, self.expected[2 * o], self.expected[2 * o + 1]))
+    }
+
+    /// A mark with a candidate: valid, cut by the border, merged with another or irregular.
+    fn assigned_status(&self, mark: usize, c: &Candidate) -> MarkStatus {
+        if c.blob.touches_border {
+            MarkStatus::CutByBorder
+        } else if let Some(other) = self.other_mark_in(mark, &c.blob).filter(|_| !c.mark_like) {
+            MarkStatus::MergedWith(other)
+        } else if c.mark_like {
+            MarkStatus::Valid
+        } else {
+            MarkStatus::Irregular
+        }
+    }
+
+    /// A mark with no candidate: outside the image, or, if its expected position is dark, why the blob
+    /// there was not one (merged, cut by the border, irregular), else not found.
+    fn unassigned_status(&self, mark: usize) -> MarkStatus {
+        let (x, y) = (self.expected[2 * mark], self.expected[2 * mark + 1]);
+        let (w, h) = self.image.dimensions();
+        if !vservo_scene::image_contains(w, h, &nalgebra::Point2::new(x, y), 0.0) {
+            return MarkStatus::OutsideImage;
+        }
+        let sized = |b: &&Blob| (self.settings.min_area_px..=self.settings.max_area_px).contains(&b.area);
+        let blob = dark_at(self.image, self.threshold, x, y)
+            .then(|| self.blobs.iter().filter(sized).filter(|b| in_box(b, x, y)).min_by_key(|b| b.area))
+            .flatten();
+        match blob {
+            None => MarkStatus::NotFound,
+            Some(blob) => match self.other_mark_in(mark, blob) {
+                Some(o) => MarkStatus::MergedWith(o),
+                None if blob.touches_border => MarkStatus::CutByBorder,
+                None => MarkStatus::Irregular,
+            },
+        }
+    }
+}
+
+/// A mark merged into another's blob makes that one invalid too.
+fn spread_merges(status: &mut [MarkStatus; MARKS]) {
+    for mark in 0..MARKS {
+        if let MarkStatus::MergedWith(other) = status[mark]
+            && (status[other].is_valid() || status[other] == MarkStatus::Irregular)
+        {
+            status[other] = MarkStatus::MergedWith(mark);
+        }
+    }
+}
+
+/// The sub-pixel centres of the valid marks (NaN for the others), each refined without the other marks'
+/// blobs.
+fn refined_features(
+    image: &GrayImage,
+    threshold: u8,
+    candidates: &[Candidate],
+    assignment: &[Option<usize>; MARKS],
+    status: &[MarkStatus; MARKS],
+) -> FeatureVector {
+    let mut features = FeatureVector::from_element(f64::NAN);
+    for mark in 0..MARKS {
+        if let Some(index) = assignment[mark]
+            && status[mark].is_valid()
+        {
+            let others: [Option<Blob>; MARKS] =
+                std::array::from_fn(|o| assignment[o].filter(|_| o != mark).map(|i| candidates[i].blob));
+            let (x, y) = refine(image, &candidates[index].blob, threshold, &others);
+            features[2 * mark] = x;
+            features[2 * mark + 1] = y;
+        }
+    }
+    features
 }
 
 /// Whether the pixel under image point (x, y) is darker than the threshold.

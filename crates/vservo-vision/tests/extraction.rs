@@ -68,7 +68,9 @@ fn pose_strategy() -> impl Strategy<Value = IsometryMatrix3<f64>> {
 }
 
 fn inside_with_margin(features: &FeatureVector, margin: f64) -> bool {
-    features.iter().all(|&v| v > margin && v < 512.0 - margin)
+    let camera = CameraIntrinsics::paper();
+    (0..MARKS)
+        .all(|m| camera.contains_with_margin(&Point2::new(features[2 * m], features[2 * m + 1]), margin))
 }
 
 proptest! {
@@ -232,6 +234,27 @@ fn an_extra_dark_blob_is_counted_and_the_marks_stay_in_order() {
             assert!((found.features[i] - xi_d()[i]).abs() < 0.1, "{}", found.features);
         }
     }
+}
+
+#[test]
+fn blobs_of_a_marks_size_beyond_the_cap_are_counted_not_dropped_in_silence() {
+    let plain = render(&desired(), RenderSettings::default(), 0);
+    assert_eq!(extract(&plain, Prediction::Layout(xi_d())).sized_blobs_over_cap, 0);
+    // 45 small dark discs between the marks, found (in scan order) before the two lower marks
+    let mut cluttered = plain.clone();
+    for row in 0..5 {
+        for column in 0..9 {
+            paint_disc(&mut cluttered, (190.0 + 14.0 * column as f64, 100.0 + 12.0 * row as f64), 3.0, 20);
+        }
+    }
+    let found = extract(&cluttered, Prediction::Layout(xi_d()));
+    let sized = 45 + MARKS;
+    assert!(
+        found.sized_blobs_over_cap >= sized - vservo_vision::extract::MAX_SIZED_BLOBS,
+        "{} over the cap of {}",
+        found.sized_blobs_over_cap,
+        vservo_vision::extract::MAX_SIZED_BLOBS
+    );
 }
 
 #[test]

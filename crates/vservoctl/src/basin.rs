@@ -185,7 +185,6 @@ fn run_one(config: &Config, start: Start, settled_for_s: f64, full: bool) -> Run
     let unreachable = Run { start, outcome: Outcome::Unreachable, settling_time_s: None, left_image: false };
     let Ok(mut lockstep) = Lockstep::new(&config) else { return unreachable };
     let desired = lockstep.gains().desired_features;
-    let (width, height) = (f64::from(config.camera.width_px()), f64::from(config.camera.height_px()));
     let mut entered: Option<f64> = None;
     let trace = lockstep.run_until(|frames| {
         let Some(last) = frames.last() else { return false };
@@ -206,10 +205,8 @@ fn run_one(config: &Config, start: Start, settled_for_s: f64, full: bool) -> Run
         return Run { outcome: Outcome::NotAllSeenAtStart, ..unreachable };
     }
     let left_image = trace.frames.iter().any(|f| {
-        (0..MARKS).any(|m| {
-            let (x, y) = (f.truth[2 * m], f.truth[2 * m + 1]);
-            !(x.is_finite() && y.is_finite() && (0.0..=width).contains(&x) && (0.0..=height).contains(&y))
-        })
+        (0..MARKS)
+            .any(|m| !config.camera.contains(&nalgebra::Point2::new(f.truth[2 * m], f.truth[2 * m + 1])))
     });
     let settled = trace.frames.last().is_some_and(|last| {
         let long_enough = |since: f64| full || last.t_s - since >= settled_for_s;

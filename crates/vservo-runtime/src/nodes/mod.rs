@@ -8,11 +8,11 @@ pub mod vision;
 use std::time::Duration;
 
 use iceoryx2::port::subscriber::Subscriber;
-use iceoryx2::prelude::{Node, ZeroCopySend, ipc};
-use vservo_protocol::NodeRole;
+use iceoryx2::prelude::{Node, ipc};
+use vservo_protocol::{CellMode, NodeRole, Payload, TakeMessages};
 
 use crate::telemetry::{Counters, LoopMonitor, TelemetryThread};
-use crate::{NodeContext, RuntimeError, realtime, schema_ok};
+use crate::{NodeContext, RuntimeError, realtime};
 
 /// How long an event-driven node waits before it looks at its stop flag again.
 const IDLE_WAIT: Duration = Duration::from_millis(100);
@@ -48,28 +48,25 @@ fn go_realtime(context: &NodeContext, role: NodeRole) {
     tracing::info!(node = role.name(), "running");
 }
 
-/// Drains a subscriber and returns its newest sample of this build's schema; others are counted refused.
-fn latest<T: Copy + std::fmt::Debug + ZeroCopySend>(
-    subscriber: &Subscriber<ipc::Service, T, ()>,
-    schema: fn(&T) -> u32,
-    counters: &Counters,
-) -> Option<T> {
-    let mut latest = None;
-    while let Ok(Some(sample)) = subscriber.receive() {
-        if schema_ok(schema(&sample)) {
-            latest = Some(*sample);
-        } else {
-            counters.rejected();
-        }
+/// Drains a subscriber and returns its newest message of this build's schema (the protocol's
+/// [`TakeMessages`] refuses the others); the refused are counted.
+fn latest<T: Payload>(subscriber: &Subscriber<ipc::Service, T, ()>, counters: &Counters) -> Option<T> {
+    let mut refused = 0;
+    let newest = subscriber.newest_message(&mut refused);
+    for _ in 0..refused {
+        counters.rejected();
     }
-    latest
+    newest
 }
 
 /// The cell mode the daemon set: the newest sealed [`CellModeMsg`] heard so far. A message without the run's
-/// seal, or not newer than the one in force, is refused and counted.
+/// seal, of a mode this build does not know, or not newer than the one in force, is refused and counted.
+///
+/// [`CellModeMsg`]: vservo_protocol::CellModeMsg
 pub(crate) struct CellModeFollower {
     subscriber: Subscriber<ipc::Service, vservo_protocol::CellModeMsg, ()>,
-    in_force: vservo_protocol::CellModeMsg,
+    /// The mode in force and the sequence number it came with.
+    in_force: (CellMode, u64),
 }
 
 impl CellModeFollower {
@@ -77,15 +74,7 @@ impl CellModeFollower {
         Ok(Self {
             subscriber: vservo_protocol::subscriber(node, instance, vservo_protocol::Topic::CellMode)?,
             // until the daemon's first word: servoing (the daemon publishes its mode before it starts a node)
-            in_force: vservo_protocol::CellModeMsg {
-                schema: vservo_protocol::SCHEMA_VERSION,
-                mode: vservo_protocol::cell_mode::SERVOING,
-                sequence: 0,
-                fault: 0,
-                fault_joints: 0,
-                stamp_ns: 0,
-                seal: 0,
-            },
+            in_force: (CellMode::Servoing, 0),
         })
     }
 
@@ -98,16 +87,19 @@ impl CellModeFollower {
         while let Ok(Some(sample)) = self.subscriber.receive() {
             let message = *sample;
             let sealed = key.is_some_and(|key| key.seal_cell_mode(&message) == message.seal);
-            let known = matches!(
-                message.mode,
-                vservo_protocol::cell_mode::SERVOING | vservo_protocol::cell_mode::SAFE_STOP
-            );
-            if schema_ok(message.schema) && sealed && known && message.sequence > self.in_force.sequence {
-                self.in_force = message;
-            } else if message.sequence != self.in_force.sequence || !sealed {
-                counters.rejected();
+            let sequence = self.in_force.1;
+            match CellMode::try_from(message.mode) {
+                Ok(mode)
+                    if vservo_protocol::inbox::accept(message).is_ok()
+                        && sealed
+                        && message.sequence > sequence =>
+                {
+                    self.in_force = (mode, message.sequence);
+                }
+                _ if message.sequence != sequence || !sealed => counters.rejected(),
+                _ => {}
             }
         }
-        self.in_force.mode == vservo_protocol::cell_mode::SAFE_STOP
+        self.in_force.0 == CellMode::SafeStop
     }
 }

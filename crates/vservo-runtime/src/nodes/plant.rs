@@ -3,27 +3,43 @@
 //! advance one tick, publish the new state (and, on the simulation-only `sim_world`, where the board is)
 //! and wake the rmrc. It follows the robot driver contract of docs/DRIVERS.md like any external driver.
 
+use iceoryx2::port::notifier::Notifier;
+use iceoryx2::port::publisher::Publisher;
+use iceoryx2::port::subscriber::Subscriber;
+use iceoryx2::prelude::{Node, ipc};
 use vservo_arm::JointVector;
 use vservo_cell::{ActuatorCommand, PlantStage};
+use vservo_protocol::TakeMessages;
 use vservo_protocol::{
-    JointCommandMsg, JointStateMsg, NodeRole, ObjectMsg, SCHEMA_VERSION, SimWorldMsg, Topic, command_kind,
-    command_mode, driver_status, fault_bits,
+    CommandKind, CommandMode, DriverStatus, JointCommandMsg, JointStateMsg, NodeRole, ObjectMsg,
+    SCHEMA_VERSION, SimWorldMsg, Topic, fault_bits,
 };
 use vservo_sim::plant::JointState;
 use vservo_sim::world::ObjectMotion;
 
 use super::{NodeBase, go_realtime, latest, start};
 use crate::clock::{PeriodicTimer, monotonic_ns};
-use crate::telemetry::CycleSample;
+use crate::telemetry::{Counters, CycleSample};
 use crate::wire::{pose_to_wire, to_array};
-use crate::{NodeContext, RuntimeError, schema_ok};
+use crate::{NodeContext, RuntimeError};
 
 /// The simulated driver's identity in each joint state: its epoch, period and command interface.
 #[derive(Debug, Clone, Copy)]
 struct Declared {
     epoch: u64,
     period_ns: u64,
-    command_mode: u32,
+    command_mode: CommandMode,
+}
+
+/// The driver's status for a state of the plant.
+fn driver_status(stage: &PlantStage, state: &JointState) -> DriverStatus {
+    if state.faults.integration_failed {
+        DriverStatus::Fault
+    } else if stage.is_holding() {
+        DriverStatus::Holding
+    } else {
+        DriverStatus::Following
+    }
 }
 
 fn state_message(
@@ -39,13 +55,6 @@ fn state_message(
     if f.integration_failed {
         faults |= fault_bits::DRIVER_FAILED;
     }
-    let status = if f.integration_failed {
-        driver_status::FAULT
-    } else if stage.is_holding() {
-        driver_status::HOLDING
-    } else {
-        driver_status::FOLLOWING
-    };
     JointStateMsg {
         schema: SCHEMA_VERSION,
         faults,
@@ -53,8 +62,8 @@ fn state_message(
         stamp_ns: monotonic_ns(),
         driver_epoch: declared.epoch,
         period_ns: declared.period_ns,
-        command_mode: declared.command_mode,
-        driver_status: status,
+        command_mode: declared.command_mode.into(),
+        driver_status: driver_status(stage, state).into(),
         q_rad: to_array(&state.q),
         qd_rad_s: to_array(&state.qd),
         torque_nm: to_array(&state.applied_torque),
@@ -68,19 +77,23 @@ const TORQUE_REFUSED_ABOVE_LIMITS: f64 = 1.5;
 
 /// The command a joint command carries, if it is in the interface this driver declared, finite and, for
 /// torques, within [`TORQUE_REFUSED_ABOVE_LIMITS`] of the limits.
-fn command_of(message: &JointCommandMsg, declared: u32, torque_max_nm: &[f64; 6]) -> Option<ActuatorCommand> {
+fn command_of(
+    message: &JointCommandMsg,
+    declared: CommandMode,
+    torque_max_nm: &[f64; 6],
+) -> Option<ActuatorCommand> {
     let all_finite = |v: &[f64; 6]| v.iter().all(|x| x.is_finite());
     let torque_in_range = message
         .torque_nm
         .iter()
         .zip(torque_max_nm)
         .all(|(t, max)| t.abs() <= TORQUE_REFUSED_ABOVE_LIMITS * max);
-    match message.mode {
-        _ if message.mode != declared => None,
-        command_mode::TORQUE if all_finite(&message.torque_nm) && torque_in_range => {
+    match CommandMode::try_from(message.mode) {
+        Ok(mode) if mode != declared => None,
+        Ok(CommandMode::Torque) if all_finite(&message.torque_nm) && torque_in_range => {
             Some(ActuatorCommand::Torque(JointVector::from(message.torque_nm)))
         }
-        command_mode::POSITION if all_finite(&message.q_ref_rad) && all_finite(&message.qd_ref_rad_s) => {
+        Ok(CommandMode::Position) if all_finite(&message.q_ref_rad) && all_finite(&message.qd_ref_rad_s) => {
             Some(ActuatorCommand::Reference {
                 q: JointVector::from(message.q_ref_rad),
                 qd: JointVector::from(message.qd_ref_rad_s),
@@ -93,193 +106,335 @@ fn command_of(message: &JointCommandMsg, declared: u32, torque_max_nm: &[f64; 6]
 fn object_motion(message: &ObjectMsg) -> Option<ObjectMotion> {
     let finite =
         message.translation_m.iter().chain([&message.radius_m, &message.rev_per_min]).all(|v| v.is_finite());
-    match message.kind {
+    match CommandKind::try_from(message.kind) {
         _ if !finite => None,
-        command_kind::OBJECT_HOLD => Some(ObjectMotion::Hold),
-        command_kind::OBJECT_STEP => Some(ObjectMotion::Step {
+        Ok(CommandKind::ObjectHold) => Some(ObjectMotion::Hold),
+        Ok(CommandKind::ObjectStep) => Some(ObjectMotion::Step {
             at_s: 0.0,
             translation_m: nalgebra::Vector3::from(message.translation_m),
         }),
-        command_kind::OBJECT_CIRCLE => {
+        Ok(CommandKind::ObjectCircle) => {
             Some(ObjectMotion::Circle { radius_m: message.radius_m, rev_per_min: message.rev_per_min })
         }
         _ => None,
     }
 }
 
-/// Runs the plant until the stop flag is set.
-pub fn run(context: &NodeContext) -> Result<(), RuntimeError> {
-    let config = context.cell.config();
-    let instance = &context.instance;
-    let NodeBase { _telemetry, monitor, node } = start(context, NodeRole::Plant)?;
-    let state_publisher = vservo_protocol::publisher::<JointStateMsg>(&node, instance, Topic::JointState)?;
-    let state_notifier = vservo_protocol::notifier(&node, instance, Topic::JointState)?;
-    let world_publisher = vservo_protocol::publisher::<SimWorldMsg>(&node, instance, Topic::SimWorld)?;
-    let object_subscriber = vservo_protocol::subscriber::<ObjectMsg>(&node, instance, Topic::Object)?;
-    let command_subscriber =
-        vservo_protocol::subscriber::<JointCommandMsg>(&node, instance, Topic::JointCommand)?;
+/// The plant's ports.
+struct Ports {
+    states: Publisher<ipc::Service, JointStateMsg, ()>,
+    state_notifier: Notifier<ipc::Service>,
+    world: Publisher<ipc::Service, SimWorldMsg, ()>,
+    objects: Subscriber<ipc::Service, ObjectMsg, ()>,
+    commands: Subscriber<ipc::Service, JointCommandMsg, ()>,
+}
 
-    let mut stage = match context.resume {
-        Some((q, tick)) => context.cell.plant_resumed(&q, tick),
-        None => context.cell.plant(),
-    };
-    go_realtime(context, NodeRole::Plant);
-    let period_ns = (config.timing.control_period_s * 1e9).round() as u64;
-    let declared = Declared {
-        // an epoch no earlier plant of this host has used: consumers re-synchronise when it changes
-        epoch: monotonic_ns(),
-        period_ns,
-        command_mode: crate::wire::command_mode_code(config.command_interface()),
-    };
-    let torque_max_nm: [f64; 6] = std::array::from_fn(|j| context.cell.arm().links[j].limits.torque_max);
-    let speed_max_rad_s: [f64; 6] = std::array::from_fn(|j| context.cell.arm().links[j].limits.velocity_max);
-    let hold_after = u64::from(config.runtime.hold_after_missed_ticks);
-    let counters = monitor.counters();
-    tracing::info!(
-        node = "plant",
-        tick = stage.state().tick,
-        mode = stage.mode().name(),
-        "the arm at rest, first tick"
-    );
+impl Ports {
+    fn open(node: &Node<ipc::Service>, instance: &str) -> Result<Self, RuntimeError> {
+        Ok(Self {
+            states: vservo_protocol::publisher(node, instance, Topic::JointState)?,
+            state_notifier: vservo_protocol::notifier(node, instance, Topic::JointState)?,
+            world: vservo_protocol::publisher(node, instance, Topic::SimWorld)?,
+            objects: vservo_protocol::subscriber(node, instance, Topic::Object)?,
+            commands: vservo_protocol::subscriber(node, instance, Topic::JointCommand)?,
+        })
+    }
 
-    // the daemon gone: the plant goes last, once the rmrc has stopped answering and the arm is at rest
-    let mut orphaned_at: Option<u64> = None;
-    let orphan_timeout_ns = ((config.runtime.stop_timeout_s + 2.0) * 1e9) as u64;
-    // the command applied and the tick it answered (reported in the next joint state)
-    let mut last_command: Option<(ActuatorCommand, u64)> = None;
-    let mut applied_command_tick = u64::MAX;
-    let mut object_sequence = 0;
-    let mut missed_in_a_row: u64 = 0;
-    let mut timer = PeriodicTimer::start(period_ns);
-    while !context.stopping() {
-        // publish the state, wake the rmrc
-        let state = *stage.state();
-        let message = state_message(&stage, &state, &declared, applied_command_tick);
-        let published_at = message.stamp_ns;
-        if let Ok(sample) = world_publisher.loan_uninit() {
+    fn send_state(&self, message: JointStateMsg) {
+        if let Ok(sample) = self.states.loan_uninit() {
+            let _ = sample.write_payload(message).send();
+        }
+    }
+}
+
+/// The rmrc's answer to the state of a tick, as the plant took it.
+#[derive(Debug, Clone, Copy, Default)]
+struct Answer {
+    command: Option<ActuatorCommand>,
+    /// State published → answer in the plant's queue (the rmrc stamps it as it sends); 0 if none.
+    round_trip_ns: u64,
+}
+
+/// The simulated driver between ticks: the stage, what it declares, and the command it follows.
+struct Plant {
+    stage: PlantStage,
+    declared: Declared,
+    torque_max_nm: [f64; 6],
+    speed_max_rad_s: [f64; 6],
+    /// Ticks without an answer after which the previous command is no longer kept: the arm is held.
+    hold_after: u64,
+    /// The command applied and the tick it answered (reported in the next joint state).
+    last_command: Option<(ActuatorCommand, u64)>,
+    applied_command_tick: u64,
+    missed_in_a_row: u64,
+    object_sequence: u64,
+    /// The daemon gone: since when (the plant goes last, once the rmrc has stopped answering and the arm is
+    /// at rest), and how long it waits for that.
+    orphaned_since_ns: Option<u64>,
+    orphan_timeout_ns: u64,
+}
+
+impl Plant {
+    fn new(context: &NodeContext) -> Self {
+        let config = context.cell.config();
+        let limits = |j: usize| context.cell.arm().links[j].limits;
+        Self {
+            stage: match context.resume {
+                Some((q, tick)) => context.cell.plant_resumed(&q, tick),
+                None => context.cell.plant(),
+            },
+            declared: Declared {
+                // an epoch no earlier plant of this host has used: consumers re-synchronise when it changes
+                epoch: monotonic_ns(),
+                period_ns: (config.timing.control_period_s * 1e9).round() as u64,
+                command_mode: crate::wire::command_mode(config.command_interface()),
+            },
+            torque_max_nm: std::array::from_fn(|j| limits(j).torque_max),
+            speed_max_rad_s: std::array::from_fn(|j| limits(j).velocity_max),
+            hold_after: u64::from(config.runtime.hold_after_missed_ticks),
+            last_command: None,
+            applied_command_tick: u64::MAX,
+            missed_in_a_row: 0,
+            object_sequence: 0,
+            orphaned_since_ns: None,
+            orphan_timeout_ns: ((config.runtime.stop_timeout_s + 2.0) * 1e9) as u64,
+        }
+    }
+
+    /// Publishes where the board is and the state, and wakes the rmrc; the state's stamp.
+    fn publish(&self, ports: &Ports, counters: &Counters) -> u64 {
+        let state = *self.stage.state();
+        let message = state_message(&self.stage, &state, &self.declared, self.applied_command_tick);
+        if let Ok(sample) = ports.world.loan_uninit() {
             let world = SimWorldMsg {
                 schema: SCHEMA_VERSION,
                 reserved: 0,
                 tick: state.tick,
-                base_from_board: pose_to_wire(&stage.base_from_board()),
+                base_from_board: pose_to_wire(&self.stage.base_from_board()),
             };
             let _ = sample.write_payload(world).send();
         }
-        if let Ok(sample) = state_publisher.loan_uninit() {
-            let _ = sample.write_payload(message).send();
-        }
-        let _ = state_notifier.notify();
+        ports.send_state(message);
+        let _ = ports.state_notifier.notify();
         counters.set_progress(state.tick);
-        counters.set_mode(u32::from(stage.is_holding()));
+        counters.set_mode(u32::from(self.stage.is_holding()));
+        message.stamp_ns
+    }
 
-        // the rmrc answers within the tick; the answer is read at the deadline, not waited for: a timed wait
-        // on an iceoryx2 listener that times out overshoots by several milliseconds (measured 7.8 ms here)
-        let wake = timer.wait();
-        let started = monotonic_ns();
-        let mut answer = None;
-        let mut round_trip_ns = 0;
-        while let Ok(Some(sample)) = command_subscriber.receive() {
-            let reply = *sample;
-            // the rmrc's commands only: sealed with the run's key
-            let sealed = context.seal_key.is_some_and(|key| key.seal_joint_command(&reply) == reply.seal);
-            if !schema_ok(reply.schema) || reply.driver_epoch != declared.epoch || !sealed {
+    /// The rmrc's answer to the state of `tick`, from the commands waiting: the rmrc's only (sealed with the
+    /// run's key, of this driver's epoch); a refused one counted; an answer to an older tick came too late
+    /// (already counted).
+    fn answer(
+        &self,
+        ports: &Ports,
+        tick: u64,
+        published_at: u64,
+        context: &NodeContext,
+        counters: &Counters,
+    ) -> Answer {
+        let mut answer = Answer::default();
+        while let Some(taken) = ports.commands.next_message() {
+            let Ok(reply) = taken else {
                 counters.rejected();
-            } else if reply.answers_tick == state.tick {
-                match command_of(&reply, declared.command_mode, &torque_max_nm) {
+                continue;
+            };
+            let sealed = context.seal_key.is_some_and(|key| key.seal_joint_command(&reply) == reply.seal);
+            if reply.driver_epoch != self.declared.epoch || !sealed {
+                counters.rejected();
+            } else if reply.answers_tick == tick {
+                match command_of(&reply, self.declared.command_mode, &self.torque_max_nm) {
                     Some(command) => {
-                        answer = Some(command);
-                        // state published → answer in the plant's queue (the rmrc stamps it as it sends)
-                        round_trip_ns = reply.stamp_ns.saturating_sub(published_at).max(1);
+                        answer.command = Some(command);
+                        answer.round_trip_ns = reply.stamp_ns.saturating_sub(published_at).max(1);
                     }
                     None => counters.rejected(),
                 }
             }
-            // an answer to an older tick came too late: already counted
         }
+        answer
+    }
+
+    /// An object command (from vservod; rare) changes the board's motion from this tick on: the daemon's only
+    /// (sealed with the run's key; the daemon has checked its limits).
+    fn take_object_motion(&mut self, ports: &Ports, context: &NodeContext, counters: &Counters) {
+        let Some(message) = latest(&ports.objects, counters) else { return };
+        if message.sequence == self.object_sequence {
+            return;
+        }
+        self.object_sequence = message.sequence;
+        let sealed = context.seal_key.is_some_and(|key| key.seal_object(&message) == message.seal);
+        match object_motion(&message).filter(|_| sealed) {
+            Some(motion) => self.stage.set_object_motion(motion),
+            None => counters.rejected(),
+        }
+    }
+
+    /// A joint over its speed limit: the drives brake the arm, whatever is commanded (an overspeed trip);
+    /// the answer refused.
+    fn overspeed_trip(&mut self, answer: &mut Answer, counters: &Counters) {
+        let qd = self.stage.state().qd;
+        let overspeed = qd.iter().zip(&self.speed_max_rad_s).any(|(v, max)| v.abs() > *max);
+        if overspeed && answer.command.is_some() {
+            counters.rejected();
+            answer.command = None;
+            self.missed_in_a_row = self.hold_after;
+        }
+    }
+
+    /// Advances one tick (a late tick too) on the answer, else on the previous command for up to
+    /// `hold_after` ticks, else holding the arm.
+    fn advance(&mut self, tick: u64, answer: Option<ActuatorCommand>, counters: &Counters) {
+        if let Some(command) = answer {
+            self.missed_in_a_row = 0;
+            self.last_command = Some((command, tick));
+            self.applied_command_tick = tick;
+            self.stage.apply(&command);
+            return;
+        }
+        counters.late_answer();
+        self.missed_in_a_row += 1;
+        match self.last_command {
+            Some((command, answered)) if self.missed_in_a_row <= self.hold_after => {
+                self.applied_command_tick = answered;
+                self.stage.apply(&command);
+            }
+            _ => {
+                self.applied_command_tick = u64::MAX;
+                self.stage.hold();
+            }
+        }
+    }
+
+    /// With the daemon gone: whether to stop now (the rmrc has stopped answering and the arm is at rest, or
+    /// it did not come to rest in time).
+    fn orphan_stops(&mut self, now_ns: u64) -> bool {
+        let since = *self.orphaned_since_ns.get_or_insert_with(|| {
+            tracing::warn!(
+                node = "plant",
+                "the daemon is gone: holding the arm once the rmrc has brought it to rest"
+            );
+            now_ns
+        });
+        let rmrc_gone = self.missed_in_a_row > self.hold_after;
+        let at_rest = self.stage.state().qd.iter().all(|v| v.abs() < crate::AT_REST_RAD_S);
+        let tick = self.stage.state().tick;
+        if rmrc_gone && at_rest {
+            tracing::info!(
+                node = "plant",
+                tick,
+                "the arm is at rest and held; stopping (the daemon is gone)"
+            );
+            return true;
+        }
+        let late = now_ns.saturating_sub(since) > self.orphan_timeout_ns;
+        if late {
+            tracing::error!(
+                node = "plant",
+                "the daemon is gone and the arm did not come to rest in time; stopping"
+            );
+        }
+        late
+    }
+}
+
+/// Runs the plant until the stop flag is set.
+pub fn run(context: &NodeContext) -> Result<(), RuntimeError> {
+    let NodeBase { _telemetry, monitor, node } = start(context, NodeRole::Plant)?;
+    let ports = Ports::open(&node, &context.instance)?;
+    let mut plant = Plant::new(context);
+    go_realtime(context, NodeRole::Plant);
+    let counters = monitor.counters();
+    let first = plant.stage.state().tick;
+    tracing::info!(
+        node = "plant",
+        tick = first,
+        mode = plant.stage.mode().name(),
+        "the arm at rest, first tick"
+    );
+    let mut timer = PeriodicTimer::start(plant.declared.period_ns);
+    while !context.stopping() {
+        let tick = plant.stage.state().tick;
+        let published_at = plant.publish(&ports, counters);
+        // the rmrc answers within the tick; the answer is read at the deadline, not waited for: a timed wait
+        // on an iceoryx2 listener that times out overshoots by several milliseconds (measured 7.8 ms here)
+        let wake = timer.wait();
+        let started = monotonic_ns();
+        let mut answer = plant.answer(&ports, tick, published_at, context, counters);
         if wake.skipped_periods > 0 {
             counters.overrun();
             counters.skipped(wake.skipped_periods);
         }
-        // an object command (from vservod; rare) changes the board's motion from this tick on
-        if let Some(message) = latest(&object_subscriber, |m: &ObjectMsg| m.schema, counters)
-            && message.sequence != object_sequence
-        {
-            object_sequence = message.sequence;
-            // the daemon's command only: sealed with the run's key (the daemon has checked its limits)
-            let sealed = context.seal_key.is_some_and(|key| key.seal_object(&message) == message.seal);
-            match object_motion(&message).filter(|_| sealed) {
-                Some(motion) => stage.set_object_motion(motion),
-                None => counters.rejected(),
-            }
-        }
-        // a joint over its speed limit: the drives brake the arm, whatever is commanded (an overspeed trip)
-        let overspeed = stage.state().qd.iter().zip(&speed_max_rad_s).any(|(v, max)| v.abs() > *max);
-        if overspeed && answer.is_some() {
-            counters.rejected();
-            answer = None;
-            missed_in_a_row = hold_after;
-        }
-        // a late tick still advances one tick of simulated time
-        match answer {
-            Some(command) => {
-                missed_in_a_row = 0;
-                last_command = Some((command, state.tick));
-                applied_command_tick = state.tick;
-                stage.apply(&command);
-            }
-            None => {
-                counters.late_answer();
-                missed_in_a_row += 1;
-                match last_command {
-                    Some((command, answered)) if missed_in_a_row <= hold_after => {
-                        applied_command_tick = answered;
-                        stage.apply(&command);
-                    }
-                    _ => {
-                        applied_command_tick = u64::MAX;
-                        stage.hold();
-                    }
-                }
-            }
-        }
+        plant.take_object_motion(&ports, context, counters);
+        plant.overspeed_trip(&mut answer, counters);
+        plant.advance(tick, answer.command, counters);
         monitor.record(CycleSample {
             wake_latency_ns: wake.lateness_ns,
             execution_ns: monotonic_ns().saturating_sub(started),
-            round_trip_ns,
+            round_trip_ns: answer.round_trip_ns,
             ..CycleSample::default()
         });
-        if context.orphaned() {
-            let since = *orphaned_at.get_or_insert_with(|| {
-                tracing::warn!(
-                    node = "plant",
-                    "the daemon is gone: holding the arm once the rmrc has brought it to rest"
-                );
-                started
-            });
-            let rmrc_gone = missed_in_a_row > hold_after;
-            let at_rest = stage.state().qd.iter().all(|v| v.abs() < crate::AT_REST_RAD_S);
-            if rmrc_gone && at_rest {
-                tracing::info!(
-                    node = "plant",
-                    tick = stage.state().tick,
-                    "the arm is at rest and held; stopping (the daemon is gone)"
-                );
-                break;
-            }
-            if started.saturating_sub(since) > orphan_timeout_ns {
-                tracing::error!(
-                    node = "plant",
-                    "the daemon is gone and the arm did not come to rest in time; stopping"
-                );
-                break;
-            }
+        if context.orphaned() && plant.orphan_stops(started) {
+            break;
         }
     }
     // the last word: the state the arm stopped in
-    let state = *stage.state();
-    if let Ok(sample) = state_publisher.loan_uninit() {
-        let _ = sample.write_payload(state_message(&stage, &state, &declared, applied_command_tick)).send();
-    }
-    tracing::info!(node = "plant", tick = stage.state().tick, "stopped");
+    let state = *plant.stage.state();
+    ports.send_state(state_message(&plant.stage, &state, &plant.declared, plant.applied_command_tick));
+    tracing::info!(node = "plant", tick = state.tick, "stopped");
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const LIMITS_NM: [f64; 6] = [100.0; 6];
+
+    fn command(mode: u32) -> JointCommandMsg {
+        JointCommandMsg { schema: SCHEMA_VERSION, mode, ..JointCommandMsg::default() }
+    }
+
+    #[test]
+    fn a_command_is_taken_only_in_the_declared_interface_finite_and_within_the_torque_bound() {
+        let torque = JointCommandMsg { torque_nm: [150.0, 0.0, 0.0, 0.0, 0.0, -1.0], ..command(0) };
+        let expected = ActuatorCommand::Torque(JointVector::from(torque.torque_nm));
+        assert_eq!(command_of(&torque, CommandMode::Torque, &LIMITS_NM), Some(expected));
+        // beyond 1.5 times a joint's limit, not finite, or another interface than declared: refused
+        let beyond = JointCommandMsg { torque_nm: [150.1, 0.0, 0.0, 0.0, 0.0, 0.0], ..torque };
+        assert_eq!(command_of(&beyond, CommandMode::Torque, &LIMITS_NM), None);
+        let nan = JointCommandMsg { torque_nm: [f64::NAN, 0.0, 0.0, 0.0, 0.0, 0.0], ..torque };
+        assert_eq!(command_of(&nan, CommandMode::Torque, &LIMITS_NM), None);
+        assert_eq!(command_of(&torque, CommandMode::Position, &LIMITS_NM), None);
+        let position = JointCommandMsg { q_ref_rad: [0.1; 6], qd_ref_rad_s: [0.2; 6], ..command(2) };
+        let reference =
+            ActuatorCommand::Reference { q: JointVector::from([0.1; 6]), qd: JointVector::from([0.2; 6]) };
+        assert_eq!(command_of(&position, CommandMode::Position, &LIMITS_NM), Some(reference));
+        // the simulated driver takes torques or positions; an unknown code is no interface at all
+        assert_eq!(command_of(&command(1), CommandMode::Velocity, &LIMITS_NM), None);
+        assert_eq!(command_of(&command(9), CommandMode::Torque, &LIMITS_NM), None);
+    }
+
+    #[test]
+    fn an_object_command_is_a_motion_of_its_kind_when_finite() {
+        let object = |kind: CommandKind| ObjectMsg {
+            schema: SCHEMA_VERSION,
+            kind: kind.into(),
+            translation_m: [0.01, 0.0, 0.0],
+            radius_m: 0.05,
+            rev_per_min: 6.0,
+            ..ObjectMsg::default()
+        };
+        assert_eq!(object_motion(&object(CommandKind::ObjectHold)), Some(ObjectMotion::Hold));
+        assert!(matches!(object_motion(&object(CommandKind::ObjectStep)), Some(ObjectMotion::Step { .. })));
+        assert!(matches!(
+            object_motion(&object(CommandKind::ObjectCircle)),
+            Some(ObjectMotion::Circle { .. })
+        ));
+        assert_eq!(object_motion(&object(CommandKind::Reload)), None);
+        assert_eq!(object_motion(&ObjectMsg { kind: 99, ..object(CommandKind::ObjectHold) }), None);
+        assert_eq!(
+            object_motion(&ObjectMsg { radius_m: f64::NAN, ..object(CommandKind::ObjectCircle) }),
+            None
+        );
+    }
 }

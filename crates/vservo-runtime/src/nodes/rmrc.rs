@@ -3,159 +3,181 @@
 //!
 //! A joint state that is not of this build's schema, not finite, or from a driver that declares another
 //! command interface or period than the configuration's is refused and counted: nothing is commanded on it.
-//! After a gap of more than `robot.state_timeout_periods` between the stamps of two joint states (a stalled
-//! driver), or on a new `driver_epoch` (a restarted one), the reference
-//! starts again at rest from the measured joints, so nothing accumulated while the driver was away moves
-//! the arm when it comes back.
+//! What the rmrc does with the states it takes is the rmrc stage's (`vservo_cell::RmrcStage::follow`): after
+//! a stall or on a new `driver_epoch` its reference starts again at rest from the measured joints, and the
+//! ticks it woke too late for are stepped through; this node counts both and reports the reference's start
+//! in each command (`reference_since_tick`).
 
+use iceoryx2::port::listener::Listener;
+use iceoryx2::port::publisher::Publisher;
+use iceoryx2::port::subscriber::Subscriber;
+use iceoryx2::prelude::{Node, ipc};
 use vservo_arm::JointVector;
-use vservo_cell::{ActuatorCommand, RmrcStage};
+use vservo_cell::{ActuatorCommand, DriverTick, Following, RmrcStage, TwistLimits};
 use vservo_control::Twist;
-use vservo_protocol::{CameraTwistMsg, JointCommandMsg, JointStateMsg, NodeRole, SCHEMA_VERSION, Topic};
+use vservo_protocol::TakeMessages;
+use vservo_protocol::seal::SealKey;
+use vservo_protocol::{
+    CameraTwistMsg, CommandMode, JointCommandMsg, JointStateMsg, NodeRole, SCHEMA_VERSION, Topic, Verdict,
+};
 
 use super::{CellModeFollower, IDLE_WAIT, NodeBase, go_realtime, latest, start};
 use crate::clock::monotonic_ns;
-use crate::telemetry::CycleSample;
-use crate::wire::{command_mode_code, to_array};
-use crate::{NodeContext, RuntimeError, schema_ok};
+use crate::telemetry::{Counters, CycleSample};
+use crate::wire::{command_mode, to_array};
+use crate::{NodeContext, RuntimeError};
 
-/// Whether a twist is finite and inside the configured limits: linear speed (m/s), angular speed (rad/s).
-fn twist_within(twist: &Twist, (linear_m_s, angular_rad_s): (f64, f64)) -> bool {
-    twist.iter().all(|v| v.is_finite())
-        && twist.fixed_rows::<3>(0).norm() <= linear_m_s
-        && twist.fixed_rows::<3>(3).norm() <= angular_rad_s
+/// The rmrc's ports.
+struct Ports {
+    states: Subscriber<ipc::Service, JointStateMsg, ()>,
+    state_listener: Listener<ipc::Service>,
+    twists: Subscriber<ipc::Service, CameraTwistMsg, ()>,
+    commands: Publisher<ipc::Service, JointCommandMsg, ()>,
+    /// The daemon's safe stop: the reference ramps to rest and is held, whatever twist arrives.
+    cell_mode: CellModeFollower,
 }
 
-/// The stage and the driver state it follows.
-struct Following {
-    epoch: u64,
-    last_tick: u64,
-    last_stamp_ns: u64,
-    /// The tick of the state it last started at rest from.
-    since_tick: u64,
-    stage: RmrcStage,
-}
+impl Ports {
+    fn open(node: &Node<ipc::Service>, instance: &str) -> Result<Self, RuntimeError> {
+        Ok(Self {
+            states: vservo_protocol::subscriber(node, instance, Topic::JointState)?,
+            state_listener: vservo_protocol::listener(node, instance, Topic::JointState)?,
+            twists: vservo_protocol::subscriber(node, instance, Topic::CameraTwist)?,
+            commands: vservo_protocol::publisher(node, instance, Topic::JointCommand)?,
+            cell_mode: CellModeFollower::open(node, instance)?,
+        })
+    }
 
-/// Runs the rmrc until the stop flag is set.
-pub fn run(context: &NodeContext) -> Result<(), RuntimeError> {
-    let config = context.cell.config();
-    let instance = &context.instance;
-    let NodeBase { _telemetry, monitor, node } = start(context, NodeRole::Rmrc)?;
-    let state_subscriber = vservo_protocol::subscriber::<JointStateMsg>(&node, instance, Topic::JointState)?;
-    let state_listener = vservo_protocol::listener(&node, instance, Topic::JointState)?;
-    let twist_subscriber =
-        vservo_protocol::subscriber::<CameraTwistMsg>(&node, instance, Topic::CameraTwist)?;
-    let command_publisher =
-        vservo_protocol::publisher::<JointCommandMsg>(&node, instance, Topic::JointCommand)?;
-    // the daemon's safe stop: the reference ramps to rest and is held, whatever twist arrives
-    let mut cell_mode = CellModeFollower::open(&node, instance)?;
-    go_realtime(context, NodeRole::Rmrc);
-    let dt = config.robot.period_s;
-    let period_ns = (dt * 1e9).round() as u64;
-    let mode = command_mode_code(config.command_interface());
-    // the driver's stall deadline; the rmrc's own lateness (states it drained at once) is no gap
-    let gap_periods = u64::from(config.robot.state_timeout_periods);
-    let gap_ns = period_ns * gap_periods;
-    let counters = monitor.counters();
-    let limits = (config.robot.max_camera_speed_m_s, config.robot.max_camera_rotation_rad_s);
-    let mut following: Option<Following> = None;
-    // the twist in force: its frame's capture tick and the tick it was taken in (reported in each command)
-    let mut twist_in_force = (u64::MAX, u64::MAX);
-    // the daemon gone: when, and how long the ramp to rest may take before the rmrc gives up (the plant then
-    // brakes the arm itself)
-    let mut orphaned_at: Option<u64> = None;
-    let orphan_timeout_ns = ((config.runtime.stop_timeout_s + 1.0) * 1e9) as u64;
-
-    while !context.stopping() {
-        let _ = state_listener.timed_wait(|_| {}, IDLE_WAIT);
-        let woke_at = monotonic_ns();
-        if context.orphaned() {
-            let since = *orphaned_at.get_or_insert_with(|| {
-                tracing::warn!(node = "rmrc", "the daemon is gone: ramping the arm to rest, then stopping");
-                woke_at
-            });
-            if woke_at.saturating_sub(since) > orphan_timeout_ns {
-                tracing::error!(node = "rmrc", "the daemon is gone and the arm did not come to rest in time");
-                break;
-            }
+    /// Sends a command, sealed with the run's key (the simulated driver applies sealed commands only).
+    fn send(&self, mut message: JointCommandMsg, key: Option<&SealKey>) {
+        if let Ok(sample) = self.commands.loan_uninit() {
+            message.stamp_ns = monotonic_ns();
+            message.seal = key.map_or(0, |key| key.seal_joint_command(&message));
+            let _ = sample.write_payload(message).send();
         }
-        let latest = latest(&state_subscriber, |m: &JointStateMsg| m.schema, counters);
-        let Some(state) = latest else { continue };
+    }
+}
+
+/// The daemon gone: when it was first seen gone, and how long the ramp to rest may take before the rmrc
+/// gives up (the plant then brakes the arm itself).
+struct Orphaned {
+    since_ns: Option<u64>,
+    timeout_ns: u64,
+}
+
+impl Orphaned {
+    /// Whether the rmrc should give up now: the daemon gone for longer than the ramp may take.
+    fn gives_up(&mut self, orphaned: bool, now_ns: u64) -> bool {
+        if !orphaned {
+            return false;
+        }
+        let since = *self.since_ns.get_or_insert_with(|| {
+            tracing::warn!(node = "rmrc", "the daemon is gone: ramping the arm to rest, then stopping");
+            now_ns
+        });
+        let late = now_ns.saturating_sub(since) > self.timeout_ns;
+        if late {
+            tracing::error!(node = "rmrc", "the daemon is gone and the arm did not come to rest in time");
+        }
+        late
+    }
+
+    fn is_orphaned(&self) -> bool {
+        self.since_ns.is_some()
+    }
+}
+
+/// The rmrc between joint states: its stage and what it reports in each command.
+struct Rmrc {
+    stage: RmrcStage,
+    /// The command interface and the period (ns) a driver must declare.
+    mode: CommandMode,
+    period_ns: u64,
+    limits: TwistLimits,
+    /// The twist in force: its frame's capture tick and the tick it was taken in (reported in each command).
+    twist_in_force: (u64, u64),
+    orphaned: Orphaned,
+}
+
+impl Rmrc {
+    fn new(context: &NodeContext) -> Self {
+        let config = context.cell.config();
+        Self {
+            // at rest at the starting joints until the first joint state says where the arm is
+            stage: context.cell.rmrc(context.cell.start_joints()),
+            mode: command_mode(config.command_interface()),
+            period_ns: (config.robot.period_s * 1e9).round() as u64,
+            limits: TwistLimits::of(config),
+            twist_in_force: (u64::MAX, u64::MAX),
+            orphaned: Orphaned {
+                since_ns: None,
+                timeout_ns: ((config.runtime.stop_timeout_s + 1.0) * 1e9) as u64,
+            },
+        }
+    }
+
+    /// The measured joints of a state from a driver that declares this configuration's interface and period,
+    /// if they are finite.
+    fn admit(&self, state: &JointStateMsg) -> Option<(JointVector, JointVector)> {
+        let declared_ok = CommandMode::try_from(state.command_mode) == Ok(self.mode)
+            && state.period_ns.abs_diff(self.period_ns) <= self.period_ns / 100;
         let q = JointVector::from(state.q_rad);
         let qd = JointVector::from(state.qd_rad_s);
-        let declared_ok =
-            state.command_mode == mode && state.period_ns.abs_diff(period_ns) <= period_ns / 100;
-        if !(declared_ok && q.iter().all(|v| v.is_finite()) && qd.iter().all(|v| v.is_finite())) {
-            counters.rejected();
-            continue;
-        }
-        let now_s = state.tick as f64 * dt;
-        // a new driver, or the same one back after a gap: start again at rest from where the arm is
-        let resync = match &following {
-            Some(f) => {
-                f.epoch != state.driver_epoch
-                    || state.tick <= f.last_tick
-                    || state.stamp_ns.saturating_sub(f.last_stamp_ns) > gap_ns
-                    // a jump of more ticks than a gap allows (the catch-up below stays bounded)
-                    || state.tick - f.last_tick > gap_periods
-            }
-            None => true,
-        };
-        if resync {
+        let finite = q.iter().chain(qd.iter()).all(|v| v.is_finite());
+        (declared_ok && finite).then_some((q, qd))
+    }
+
+    /// Follows the state (the stage decides a restart at rest or a catch-up; both counted).
+    fn follow(&mut self, state: &JointStateMsg, q: &JointVector, qd: &JointVector, counters: &Counters) {
+        let at = DriverTick { epoch: state.driver_epoch, tick: state.tick, stamp_ns: state.stamp_ns };
+        match self.stage.follow(at, q, qd) {
             // logged by the telemetry thread, off this path
-            counters.resynced();
-            following = Some(Following {
-                epoch: state.driver_epoch,
-                last_tick: state.tick,
-                last_stamp_ns: state.stamp_ns,
-                since_tick: state.tick,
-                stage: context.cell.rmrc(&q),
-            });
+            Following::Resynced => counters.resynced(),
+            Following::Continued { missed_ticks } if missed_ticks > 0 => counters.skipped(missed_ticks),
+            Following::Continued { .. } => {}
         }
-        let Some(f) = following.as_mut() else { continue };
-        // states this node woke too late to answer (it takes the newest): the reference is a function of
-        // time, so it advances through those ticks too, as the lockstep simulator's does, instead of lagging
-        // one tick behind the arm's clock for every state missed
-        let missed = state.tick.saturating_sub(f.last_tick + 1);
-        if missed > 0 {
-            counters.skipped(missed);
-            for tick in f.last_tick + 1..state.tick {
-                f.stage.step((tick + 1) as f64 * dt, &q, &qd);
-            }
-        }
-        f.last_tick = state.tick;
-        f.last_stamp_ns = state.stamp_ns;
-        let rmrc = &mut f.stage;
-        while let Ok(Some(sample)) = twist_subscriber.receive() {
-            let twist = Twist::from(sample.twist);
-            // any verdict but servoing (on four or three marks) or reacquiring means stop, whatever the
-            // numbers say
-            let servoing = vservo_protocol::verdict::moves(sample.verdict);
-            let twist = if servoing { twist } else { Twist::zeros() };
-            if schema_ok(sample.schema) && twist_within(&twist, limits) {
-                rmrc.set_twist(twist, now_s);
-                twist_in_force = (sample.capture_tick, state.tick);
-            } else {
-                // out of range: refused, counted, and the arm is brought to rest rather than left on the
-                // last good twist
-                counters.rejected();
-                rmrc.set_twist(Twist::zeros(), now_s);
+    }
+
+    /// Takes in the twists that came (refused ones counted; they bring the arm to rest), then a zero twist
+    /// if the cell is held or the daemon gone.
+    fn take_twists(&mut self, ports: &mut Ports, tick: u64, context: &NodeContext, counters: &Counters) {
+        while let Some(taken) = ports.twists.next_message() {
+            let taken = match taken {
+                Ok(sample) => {
+                    let moves = Verdict::try_from(sample.verdict).is_ok_and(Verdict::moves);
+                    let twist = Twist::from(sample.twist);
+                    let taken = self.stage.take_twist(&twist, moves, &self.limits, tick);
+                    taken.then_some(sample.capture_tick)
+                }
+                Err(_) => {
+                    // another schema is refused like a twist out of range: the arm brought to rest
+                    self.stage.set_twist(Twist::zeros(), tick);
+                    None
+                }
+            };
+            match taken {
+                Some(capture_tick) => self.twist_in_force = (capture_tick, tick),
+                None => counters.rejected(),
             }
         }
         // a safe stop, or no daemon and so no servo to trust: a zero twist, which the interpolator ramps to at
         // its acceleration limits and then holds
-        if orphaned_at.is_some() || cell_mode.safe_stop(context.seal_key.as_ref(), counters) {
-            rmrc.set_twist(Twist::zeros(), now_s);
+        if self.orphaned.is_orphaned() || ports.cell_mode.safe_stop(context.seal_key.as_ref(), counters) {
+            self.stage.set_twist(Twist::zeros(), tick);
         }
-        let command = rmrc.step(now_s + dt, &q, &qd);
-        let reference = rmrc.reference();
+    }
+
+    /// The command answering `state`.
+    fn command(&mut self, state: &JointStateMsg, q: &JointVector, qd: &JointVector) -> JointCommandMsg {
+        let command = self.stage.step(state.tick, q, qd);
+        let reference = self.stage.reference();
         let torque = match command {
             ActuatorCommand::Torque(torque) => to_array(&torque),
             ActuatorCommand::Reference { .. } => [0.0; 6],
         };
-        let mut message = JointCommandMsg {
+        JointCommandMsg {
             schema: SCHEMA_VERSION,
-            mode,
+            mode: self.mode.into(),
             answers_tick: state.tick,
             driver_epoch: state.driver_epoch,
             state_stamp_ns: state.stamp_ns,
@@ -163,31 +185,49 @@ pub fn run(context: &NodeContext) -> Result<(), RuntimeError> {
             torque_nm: torque,
             q_ref_rad: to_array(&reference.q),
             qd_ref_rad_s: to_array(&reference.qd),
-            twist_capture_tick: twist_in_force.0,
-            twist_applied_tick: twist_in_force.1,
-            reference_since_tick: f.since_tick,
+            twist_capture_tick: self.twist_in_force.0,
+            twist_applied_tick: self.twist_in_force.1,
+            reference_since_tick: self.stage.since_tick(),
             seal: 0,
-        };
-        if let Ok(sample) = command_publisher.loan_uninit() {
-            message.stamp_ns = monotonic_ns();
-            // the simulated driver applies sealed commands only
-            message.seal = context.seal_key.as_ref().map_or(0, |key| key.seal_joint_command(&message));
-            let _ = sample.write_payload(message).send();
         }
+    }
+}
+
+/// Runs the rmrc until the stop flag is set.
+pub fn run(context: &NodeContext) -> Result<(), RuntimeError> {
+    let NodeBase { _telemetry, monitor, node } = start(context, NodeRole::Rmrc)?;
+    let mut ports = Ports::open(&node, &context.instance)?;
+    go_realtime(context, NodeRole::Rmrc);
+    let counters = monitor.counters();
+    let mut rmrc = Rmrc::new(context);
+    while !context.stopping() {
+        let _ = ports.state_listener.timed_wait(|_| {}, IDLE_WAIT);
+        let woke_at = monotonic_ns();
+        if rmrc.orphaned.gives_up(context.orphaned(), woke_at) {
+            break;
+        }
+        let Some(state) = latest(&ports.states, counters) else { continue };
+        let Some((q, qd)) = rmrc.admit(&state) else {
+            counters.rejected();
+            continue;
+        };
+        rmrc.follow(&state, &q, &qd, counters);
+        rmrc.take_twists(&mut ports, state.tick, context, counters);
+        let message = rmrc.command(&state, &q, &qd);
+        ports.send(message, context.seal_key.as_ref());
         let done = monotonic_ns();
-        let wake_latency_ns = woke_at.saturating_sub(state.stamp_ns);
-        if done.saturating_sub(state.stamp_ns) > period_ns {
+        if done.saturating_sub(state.stamp_ns) > rmrc.period_ns {
             counters.overrun();
         }
         counters.set_progress(state.tick);
         monitor.record(CycleSample {
-            wake_latency_ns,
+            wake_latency_ns: woke_at.saturating_sub(state.stamp_ns),
             execution_ns: done - woke_at,
             ..CycleSample::default()
         });
         let at_rest = message.qd_ref_rad_s.iter().all(|v| *v == 0.0)
             && state.qd_rad_s.iter().all(|v| v.abs() < crate::AT_REST_RAD_S);
-        if orphaned_at.is_some() && at_rest {
+        if rmrc.orphaned.is_orphaned() && at_rest {
             tracing::info!(
                 node = "rmrc",
                 tick = state.tick,
@@ -198,4 +238,18 @@ pub fn run(context: &NodeContext) -> Result<(), RuntimeError> {
     }
     tracing::info!(node = "rmrc", "stopped");
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn with_the_daemon_gone_the_rmrc_gives_up_only_after_the_ramp_may_have_ended() {
+        let mut orphaned = Orphaned { since_ns: None, timeout_ns: 1_000 };
+        assert!(!orphaned.gives_up(false, 10) && !orphaned.is_orphaned());
+        assert!(!orphaned.gives_up(true, 100) && orphaned.is_orphaned());
+        assert!(!orphaned.gives_up(true, 1_100), "at the timeout, not beyond it");
+        assert!(orphaned.gives_up(true, 1_101));
+    }
 }

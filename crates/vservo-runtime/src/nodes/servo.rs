@@ -1,30 +1,27 @@
 //! The servo node: wakes on each feature vector and answers with the camera twist.
+//!
+//! What the twist is, and the refusal of marks outside the image, are the servo stage's
+//! (`vservo_cell::ServoStage`); this node takes the daemon's gains and cell mode, converts at the message
+//! edge, counts a frame with a mark refused, and says each change of what the servo does.
 
-use vservo_cell::{ServoInput, ServoVerdict};
+use iceoryx2::port::listener::Listener;
+use iceoryx2::port::publisher::Publisher;
+use iceoryx2::port::subscriber::Subscriber;
+use iceoryx2::prelude::{Node, ipc};
+use vservo_cell::{ServoInput, ServoStage, ServoStep, ServoVerdict};
 use vservo_control::{LawFlags, Twist};
+use vservo_protocol::TakeMessages;
 use vservo_protocol::{
-    CameraTwistMsg, FeaturesMsg, GainsMsg, NodeRole, SCHEMA_VERSION, Topic, law_flag, verdict,
+    CameraTwistMsg, FeaturesMsg, GainsMsg, MarkStatus, NodeRole, SCHEMA_VERSION, Topic, Verdict, law_flag,
 };
 use vservo_scene::FeatureVector;
 
 use super::{CellModeFollower, IDLE_WAIT, NodeBase, go_realtime, latest, start};
 use crate::clock::monotonic_ns;
-use crate::telemetry::{CycleSample, Note};
+use crate::telemetry::{Counters, CycleSample, LoopMonitor, Note};
 use crate::wire::to_array;
 use crate::wire::{law_gains, pose_from_wire};
-use crate::{NodeContext, RuntimeError, schema_ok};
-
-/// RMS of ξ − ξ_d over the finite features (px); NaN when none is.
-pub fn feature_error_px(features: &FeatureVector, desired: &FeatureVector) -> f64 {
-    let (mut sum, mut n) = (0.0, 0usize);
-    for (f, d) in features.iter().zip(desired.iter()) {
-        if f.is_finite() {
-            sum += (f - d) * (f - d);
-            n += 1;
-        }
-    }
-    if n == 0 { f64::NAN } else { (sum / n as f64).sqrt() }
-}
+use crate::{NodeContext, RuntimeError};
 
 /// The law's flags as `camera_twist.law_flags` bits.
 fn law_flags_on_wire(flags: LawFlags) -> u32 {
@@ -38,129 +35,185 @@ fn law_flags_on_wire(flags: LawFlags) -> u32 {
     .fold(0, |bits, (_, bit)| bits | bit)
 }
 
-/// Runs the servo until the stop flag is set; then sends one zero twist marked STOPPING.
-pub fn run(context: &NodeContext) -> Result<(), RuntimeError> {
-    let config = context.cell.config();
-    let instance = &context.instance;
-    let NodeBase { _telemetry, monitor, node } = start(context, NodeRole::Servo)?;
-    let features_subscriber = vservo_protocol::subscriber::<FeaturesMsg>(&node, instance, Topic::Features)?;
-    let features_listener = vservo_protocol::listener(&node, instance, Topic::Features)?;
-    let twist_publisher = vservo_protocol::publisher::<CameraTwistMsg>(&node, instance, Topic::CameraTwist)?;
-    // the daemon's latest design (history 1: a restarted servo takes it at once)
-    let gains_subscriber = vservo_protocol::subscriber::<GainsMsg>(&node, instance, Topic::Gains)?;
-    // the daemon's safe stop: zero twists until it resumes the cell
-    let mut cell_mode = CellModeFollower::open(&node, instance)?;
-    go_realtime(context, NodeRole::Servo);
-    let mut stage = context.cell.servo();
-    // none taken yet: the version is the one the daemon's gains message names (its history hands the
-    // design in force to a servo that starts or restarts), never assumed
-    let mut gains_version = 0;
-    let counters = monitor.counters();
-    counters.set_gains_version(gains_version);
-    let period_ns = (config.timing.vision_period_s * 1e9).round() as u64;
-    let send = |message: CameraTwistMsg| {
-        if let Ok(sample) = twist_publisher.loan_uninit() {
+/// The stage's verdict as the wire says it (`camera_twist.verdict`).
+fn verdict_on_wire(servo: ServoVerdict) -> Verdict {
+    match servo {
+        ServoVerdict::Waiting => Verdict::Waiting,
+        ServoVerdict::Servoing => Verdict::Servoing,
+        ServoVerdict::ServoingOnThree(_) => Verdict::ServoingOnThree,
+        ServoVerdict::Reacquiring(_) => Verdict::Reacquiring,
+        ServoVerdict::MarksMissing(_) => Verdict::MarksMissing,
+        ServoVerdict::Held => Verdict::SafeStop,
+    }
+}
+
+/// The servo's ports.
+struct Ports {
+    features: Subscriber<ipc::Service, FeaturesMsg, ()>,
+    features_listener: Listener<ipc::Service>,
+    twists: Publisher<ipc::Service, CameraTwistMsg, ()>,
+    /// The daemon's latest design (history 1: a restarted servo takes it at once).
+    gains: Subscriber<ipc::Service, GainsMsg, ()>,
+    /// The daemon's safe stop: zero twists until it resumes the cell.
+    cell_mode: CellModeFollower,
+}
+
+impl Ports {
+    fn open(node: &Node<ipc::Service>, instance: &str) -> Result<Self, RuntimeError> {
+        Ok(Self {
+            features: vservo_protocol::subscriber(node, instance, Topic::Features)?,
+            features_listener: vservo_protocol::listener(node, instance, Topic::Features)?,
+            twists: vservo_protocol::publisher(node, instance, Topic::CameraTwist)?,
+            gains: vservo_protocol::subscriber(node, instance, Topic::Gains)?,
+            cell_mode: CellModeFollower::open(node, instance)?,
+        })
+    }
+
+    fn send(&self, message: CameraTwistMsg) {
+        if let Ok(sample) = self.twists.loan_uninit() {
             let _ = sample.write_payload(message).send();
         }
-    };
-    let mut last = (0u64, 0u64);
-    // (verdict, missing marks) of the last frame, for one log line per change of what the servo does
-    let mut doing = (verdict::WAITING, 0u32);
+    }
+}
 
+/// The servo between frames: its stage, the gains in use, and what it last did.
+struct Servo {
+    stage: ServoStage,
+    gains_version: u64,
+    period_ns: u64,
+    /// The last frame answered: its number and capture tick.
+    last: (u64, u64),
+    /// (verdict, missing marks) of the last frame, for one log line per change of what the servo does.
+    doing: (Verdict, u8),
+}
+
+impl Servo {
+    fn new(context: &NodeContext) -> Self {
+        Self {
+            stage: context.cell.servo(),
+            // none taken yet: the version is the one the daemon's gains message names (its history hands the
+            // design in force to a servo that starts or restarts), never assumed
+            gains_version: 0,
+            period_ns: (context.cell.config().timing.vision_period_s * 1e9).round() as u64,
+            last: (0, 0),
+            doing: (Verdict::Waiting, 0),
+        }
+    }
+
+    /// Takes the daemon's newest design, if it is sealed with the run's key and newer than the one in use
+    /// (another is refused and counted); it takes effect at a frame boundary, before the next feature vector.
+    fn take_gains(&mut self, ports: &Ports, context: &NodeContext, counters: &Counters) {
+        let Some(message) = latest(&ports.gains, counters) else { return };
+        if message.version == self.gains_version {
+            return;
+        }
+        let sealed = context.seal_key.is_some_and(|key| key.seal_gains(&message) == message.seal);
+        match law_gains(&message).filter(|_| sealed && message.version > self.gains_version) {
+            Some(gains) => {
+                self.stage.set_gains(&gains);
+                self.gains_version = message.version;
+                counters.set_gains_version(self.gains_version);
+            }
+            None => counters.rejected(),
+        }
+    }
+
+    /// The stage's answer to a feature vector: held in a safe stop, else the law's.
+    fn answer(&mut self, message: &FeaturesMsg, held: bool) -> ServoStep {
+        let features = FeatureVector::from(message.features_px);
+        let base_from_camera = pose_from_wire(&message.base_from_camera);
+        let input = ServoInput {
+            frame: message.frame,
+            features: &features,
+            base_from_camera: base_from_camera.as_ref(),
+        };
+        if held { self.stage.held(input) } else { self.stage.step(Some(input)) }
+    }
+
+    /// The twist message for a step of the stage on `message`'s frame.
+    fn twist_message(&self, message: &FeaturesMsg, step: &ServoStep) -> CameraTwistMsg {
+        // the law's flags with the law's twist only
+        let law_flags = match step.verdict {
+            ServoVerdict::Servoing | ServoVerdict::ServoingOnThree(_) => {
+                law_flags_on_wire(self.stage.law_flags())
+            }
+            _ => 0,
+        };
+        CameraTwistMsg {
+            schema: SCHEMA_VERSION,
+            verdict: verdict_on_wire(step.verdict).into(),
+            frame: message.frame,
+            capture_tick: message.capture_tick,
+            gains_version: self.gains_version,
+            stamp_ns: monotonic_ns(),
+            twist: to_array(&step.twist),
+            feature_error_px: step.error_px,
+            missing_mask: u32::from(step.verdict.missing_mask()),
+            law_flags,
+        }
+    }
+
+    /// Says a change of what the servo does (after the twist is sent, and only when it changes).
+    fn note_change(&mut self, step: &ServoStep, message: &FeaturesMsg, monitor: &LoopMonitor) {
+        let now = (verdict_on_wire(step.verdict), step.verdict.missing_mask());
+        if now != self.doing {
+            let mark_status = message.mark_status.map(|code| MarkStatus::try_from(code).ok());
+            monitor.note(Note::ServoVerdict { before: self.doing, now, mark_status });
+            self.doing = now;
+        }
+    }
+
+    /// The zero twist marked STOPPING the servo leaves with (the rmrc ramps to rest on it at its
+    /// acceleration limits).
+    fn stopping_message(&self) -> CameraTwistMsg {
+        CameraTwistMsg {
+            schema: SCHEMA_VERSION,
+            verdict: Verdict::Stopping.into(),
+            frame: self.last.0,
+            capture_tick: self.last.1,
+            gains_version: self.gains_version,
+            stamp_ns: monotonic_ns(),
+            twist: to_array(&Twist::zeros()),
+            feature_error_px: f64::NAN,
+            missing_mask: 0,
+            law_flags: 0,
+        }
+    }
+}
+
+/// Runs the servo until the stop flag is set; then sends one zero twist marked STOPPING.
+pub fn run(context: &NodeContext) -> Result<(), RuntimeError> {
+    let NodeBase { _telemetry, monitor, node } = start(context, NodeRole::Servo)?;
+    let mut ports = Ports::open(&node, &context.instance)?;
+    go_realtime(context, NodeRole::Servo);
+    let counters = monitor.counters();
+    let mut servo = Servo::new(context);
+    counters.set_gains_version(servo.gains_version);
     // the daemon gone: stop, with a zero twist, so that the rmrc ramps the arm to rest
     while !context.stopping() && !context.orphaned() {
-        let _ = features_listener.timed_wait(|_| {}, IDLE_WAIT);
+        let _ = ports.features_listener.timed_wait(|_| {}, IDLE_WAIT);
         let woke_at = monotonic_ns();
-        // new gains take effect at a frame boundary, before the next feature vector
-        if let Some(message) = latest(&gains_subscriber, |m: &GainsMsg| m.schema, counters)
-            && message.version != gains_version
-        {
-            // the daemon's design only: sealed with the run's key, and newer than the one in use
-            let sealed = context.seal_key.is_some_and(|key| key.seal_gains(&message) == message.seal);
-            match law_gains(&message).filter(|_| sealed && message.version > gains_version) {
-                Some(gains) => {
-                    stage.set_gains(&gains);
-                    gains_version = message.version;
-                    counters.set_gains_version(gains_version);
-                }
-                None => counters.rejected(),
-            }
-        }
-        while let Ok(Some(sample)) = features_subscriber.receive() {
-            let message = *sample;
-            if !schema_ok(message.schema) {
+        servo.take_gains(&ports, context, counters);
+        while let Some(taken) = ports.features.next_message() {
+            let Ok(message) = taken else {
                 counters.rejected();
                 continue;
-            }
+            };
+            let held = ports.cell_mode.safe_stop(context.seal_key.as_ref(), counters);
+            let step = servo.answer(&message, held);
             // a mark outside the image is no measurement: taken as missing, the message counted refused
-            let mut features = FeatureVector::from(message.features_px);
-            let (width, height) = (f64::from(config.camera.width_px()), f64::from(config.camera.height_px()));
-            let mut outside = false;
-            for mark in 0..vservo_scene::MARKS {
-                let (x, y) = (features[2 * mark], features[2 * mark + 1]);
-                if x.is_finite()
-                    && y.is_finite()
-                    && !((0.0..=width).contains(&x) && (0.0..=height).contains(&y))
-                {
-                    features[2 * mark] = f64::NAN;
-                    features[2 * mark + 1] = f64::NAN;
-                    outside = true;
-                }
-            }
-            if outside {
+            if step.outside != 0 {
                 counters.rejected();
             }
-            let error_px = feature_error_px(&features, stage.desired_features());
-            let (twist, verdict_code, missing_mask, flags) = if cell_mode
-                .safe_stop(context.seal_key.as_ref(), counters)
-            {
-                (stage.hold(), verdict::SAFE_STOP, 0, 0)
-            } else {
-                let base_from_camera = pose_from_wire(&message.base_from_camera);
-                let input = ServoInput {
-                    frame: message.frame,
-                    features: &features,
-                    base_from_camera: base_from_camera.as_ref(),
-                };
-                let (twist, verdict) = stage.step(Some(input));
-                let flags = law_flags_on_wire(stage.law_flags());
-                match verdict {
-                    ServoVerdict::Waiting => (twist, verdict::WAITING, 0, 0),
-                    ServoVerdict::Servoing => (twist, verdict::SERVOING, 0, flags),
-                    ServoVerdict::ServoingOnThree(mask) => {
-                        (twist, verdict::SERVOING_ON_THREE, u32::from(mask), flags)
-                    }
-                    ServoVerdict::Reacquiring(mask) => (twist, verdict::REACQUIRING, u32::from(mask), 0),
-                    ServoVerdict::MarksMissing(mask) => (twist, verdict::MARKS_MISSING, u32::from(mask), 0),
-                }
-            };
-            send(CameraTwistMsg {
-                schema: SCHEMA_VERSION,
-                verdict: verdict_code,
-                frame: message.frame,
-                capture_tick: message.capture_tick,
-                gains_version,
-                stamp_ns: monotonic_ns(),
-                twist: to_array(&twist),
-                feature_error_px: error_px,
-                missing_mask,
-                law_flags: flags,
-            });
-            // said after the twist is sent, and only when it changes
-            if (verdict_code, missing_mask) != doing {
-                monitor.note(Note::ServoVerdict {
-                    before: doing,
-                    now: (verdict_code, missing_mask),
-                    mark_status: message.mark_status,
-                });
-                doing = (verdict_code, missing_mask);
-            }
-            last = (message.frame, message.capture_tick);
+            let sent = servo.twist_message(&message, &step);
+            ports.send(sent);
+            servo.note_change(&step, &message, &monitor);
+            servo.last = (message.frame, message.capture_tick);
             counters.set_progress(message.frame);
-            counters.set_mode(verdict_code);
-            counters.set_feature_error_px(error_px);
+            counters.set_mode(sent.verdict);
+            counters.set_feature_error_px(step.error_px);
             let done = monotonic_ns();
-            if done.saturating_sub(message.stamp_ns) > period_ns {
+            if done.saturating_sub(message.stamp_ns) > servo.period_ns {
                 counters.overrun();
             }
             monitor.record(CycleSample {
@@ -171,19 +224,41 @@ pub fn run(context: &NodeContext) -> Result<(), RuntimeError> {
             });
         }
     }
-    // the rmrc ramps to rest on a zero twist at its acceleration limits
-    send(CameraTwistMsg {
-        schema: SCHEMA_VERSION,
-        verdict: verdict::STOPPING,
-        frame: last.0,
-        capture_tick: last.1,
-        gains_version,
-        stamp_ns: monotonic_ns(),
-        twist: to_array(&Twist::zeros()),
-        feature_error_px: f64::NAN,
-        missing_mask: 0,
-        law_flags: 0,
-    });
-    tracing::info!(node = "servo", "stopped: zero twist sent");
+    ports.send(servo.stopping_message());
+    tracing::info!(node = "servo", "stopped");
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_wire_verdict_moves_the_arm_exactly_when_the_stages_does() {
+        let all = [
+            ServoVerdict::Waiting,
+            ServoVerdict::Servoing,
+            ServoVerdict::ServoingOnThree(1),
+            ServoVerdict::Reacquiring(3),
+            ServoVerdict::MarksMissing(15),
+            ServoVerdict::Held,
+        ];
+        for verdict in all {
+            assert_eq!(verdict_on_wire(verdict).moves(), verdict.moves(), "{verdict:?}");
+        }
+        assert_eq!(verdict_on_wire(ServoVerdict::Held), Verdict::SafeStop);
+    }
+
+    #[test]
+    fn each_law_flag_has_its_own_bit() {
+        let none = LawFlags::default();
+        assert_eq!(law_flags_on_wire(none), 0);
+        assert_eq!(law_flags_on_wire(LawFlags { barrier: true, ..none }), law_flag::BARRIER);
+        assert_eq!(law_flags_on_wire(LawFlags { feedforward: true, ..none }), law_flag::FEEDFORWARD);
+        let all = LawFlags { barrier: true, fixed_gain_fallback: true, feedforward: true };
+        assert_eq!(
+            law_flags_on_wire(all),
+            law_flag::BARRIER | law_flag::FIXED_GAIN_FALLBACK | law_flag::FEEDFORWARD
+        );
+    }
 }

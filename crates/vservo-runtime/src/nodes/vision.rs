@@ -12,9 +12,10 @@ use iceoryx2::prelude::ipc;
 use vservo_arm::JointVector;
 use vservo_cell::{DeliveredFrame, VisionStage};
 use vservo_config::VisionSource;
+use vservo_protocol::TakeMessages;
 use vservo_protocol::{
-    CameraImageHeader, FeaturesMsg, JointStateMsg, MARKS, NodeRole, SCHEMA_VERSION, SimWorldMsg, Topic,
-    mark_status, pixel_format,
+    CameraImageHeader, FeaturesMsg, JointStateMsg, MARKS, MarkStatus as WireMarkStatus, NodeRole,
+    PixelFormat, SCHEMA_VERSION, SimWorldMsg, Topic,
 };
 use vservo_vision::GrayImage;
 use vservo_vision::{Extraction, MarkStatus};
@@ -24,50 +25,66 @@ use crate::clock::monotonic_ns;
 use crate::joint_history::{JointHistory, NoJoints};
 use crate::telemetry::{Counters, CycleSample, LoopMonitor, Note};
 use crate::wire::{pose_from_wire, pose_to_wire, to_array};
-use crate::{NodeContext, RuntimeError, schema_ok};
+use crate::{NodeContext, RuntimeError};
 
 /// How often, at the least, an external camera's vision node takes in the joint states heard: 32 driver
 /// periods (the joint_state queue holds 64 states), and at most this.
 const LONGEST_DRAIN_WAIT_S: f64 = 0.02;
 
-fn status_code(status: &MarkStatus) -> u8 {
+/// The extractor's status of a mark as the wire says it (`features.mark_status`).
+fn status_on_wire(status: &MarkStatus) -> WireMarkStatus {
     match status {
-        MarkStatus::Valid => mark_status::VALID,
-        MarkStatus::OutsideImage => mark_status::OUTSIDE_IMAGE,
-        MarkStatus::CutByBorder => mark_status::CUT_BY_BORDER,
-        MarkStatus::MergedWith(_) => mark_status::MERGED,
-        MarkStatus::Irregular => mark_status::IRREGULAR,
-        MarkStatus::NotFound => mark_status::NOT_FOUND,
-        MarkStatus::BadImage(_) => mark_status::BAD_IMAGE,
+        MarkStatus::Valid => WireMarkStatus::Valid,
+        MarkStatus::OutsideImage => WireMarkStatus::OutsideImage,
+        MarkStatus::CutByBorder => WireMarkStatus::CutByBorder,
+        MarkStatus::MergedWith(_) => WireMarkStatus::Merged,
+        MarkStatus::Irregular => WireMarkStatus::Irregular,
+        MarkStatus::NotFound => WireMarkStatus::NotFound,
+        MarkStatus::BadImage(_) => WireMarkStatus::BadImage,
     }
 }
 
 /// What the pipeline remembers of a frame until it leaves: capture time and mark status.
-#[derive(Debug, Clone, Copy, Default)]
+#[derive(Debug, Clone, Copy)]
 struct FrameInfo {
     frame: u64,
     capture_stamp_ns: u64,
-    status: [u8; MARKS],
+    status: [WireMarkStatus; MARKS],
+}
+
+impl Default for FrameInfo {
+    fn default() -> Self {
+        Self { frame: 0, capture_stamp_ns: 0, status: [WireMarkStatus::Valid; MARKS] }
+    }
 }
 
 /// The frames in the pipeline (at most MAX_DELAY_FRAMES + 1) and the port their features leave by.
 struct FeaturesOut {
     in_pipeline: [FrameInfo; 8],
+    /// Whether the last frame had blobs of a mark's size beyond the extractor's cap.
+    over_cap: bool,
     publisher: Publisher<ipc::Service, FeaturesMsg, ()>,
     notifier: iceoryx2::port::notifier::Notifier<ipc::Service>,
 }
 
 impl FeaturesOut {
-    fn remember(&mut self, frame: u64, capture_stamp_ns: u64, captured: &Extraction) {
+    /// Keeps a frame's capture time and mark status until its features leave; says when the extractor
+    /// starts finding more blobs of a mark's size than it considers.
+    fn remember(&mut self, frame: u64, capture_stamp_ns: u64, captured: &Extraction, monitor: &LoopMonitor) {
         self.in_pipeline[(frame % 8) as usize] =
-            FrameInfo { frame, capture_stamp_ns, status: captured.status.map(|s| status_code(&s)) };
+            FrameInfo { frame, capture_stamp_ns, status: captured.status.map(|s| status_on_wire(&s)) };
+        let over_cap = captured.sized_blobs_over_cap;
+        if over_cap > 0 && !self.over_cap {
+            monitor.note(Note::BlobsOverCap { frame, over_cap });
+        }
+        self.over_cap = over_cap > 0;
     }
 
     fn publish(&self, delivered: &DeliveredFrame) {
         let info = self.in_pipeline[(delivered.frame % 8) as usize];
         let mut valid_mask = 0u32;
         for mark in 0..MARKS {
-            if info.status[mark] == mark_status::VALID && info.frame == delivered.frame {
+            if info.status[mark] == WireMarkStatus::Valid && info.frame == delivered.frame {
                 valid_mask |= 1 << mark;
             }
         }
@@ -79,7 +96,7 @@ impl FeaturesOut {
             capture_stamp_ns: info.capture_stamp_ns,
             stamp_ns: monotonic_ns(),
             features_px: to_array(&delivered.features),
-            mark_status: info.status,
+            mark_status: info.status.map(u8::from),
             reserved: [0; 4],
             base_from_camera: delivered.base_from_camera.as_ref().map_or([f64::NAN; 12], pose_to_wire),
         };
@@ -90,14 +107,21 @@ impl FeaturesOut {
     }
 }
 
+/// The time since the previous capture (ns), 0 for the first; `previous` becomes `capture_ns`.
+fn frame_period_ns(previous: &mut u64, capture_ns: u64) -> u64 {
+    let period = if *previous > 0 { capture_ns.saturating_sub(*previous) } else { 0 };
+    *previous = capture_ns;
+    period
+}
+
 /// Runs the vision node until the stop flag is set.
 pub fn run(context: &NodeContext) -> Result<(), RuntimeError> {
-    let config = context.cell.config();
     let instance = &context.instance;
     let NodeBase { _telemetry, monitor, node } = start(context, NodeRole::Vision)?;
     let state_subscriber = vservo_protocol::subscriber::<JointStateMsg>(&node, instance, Topic::JointState)?;
     let mut out = FeaturesOut {
         in_pipeline: [FrameInfo::default(); 8],
+        over_cap: false,
         publisher: vservo_protocol::publisher::<FeaturesMsg>(&node, instance, Topic::Features)?,
         notifier: vservo_protocol::notifier(&node, instance, Topic::Features)?,
     };
@@ -106,78 +130,9 @@ pub fn run(context: &NodeContext) -> Result<(), RuntimeError> {
         stage.resume_tracking(features);
         tracing::info!(node = "vision", "tracking the marks from where they were last seen");
     }
-    match &config.vision.source {
+    match &context.cell.config().vision.source {
         VisionSource::External => {
-            let images = vservo_protocol::camera_image_subscriber(
-                &node,
-                instance,
-                vservo_protocol::Opening::OpenOrCreate,
-            )?;
-            let listener = vservo_protocol::camera_image_listener(&node, instance)?;
-            go_realtime(context, NodeRole::Vision);
-            let (width, height) = (config.camera.width_px(), config.camera.height_px());
-            let mut image = GrayImage::new(width, height);
-            let mut previous_capture_ns = 0;
-            let counters = monitor.counters();
-            // an image older than a vision period on arrival would steer the arm by where it was: dropped
-            let stale_after_ns = (config.timing.vision_period_s * 1e9).round() as u64;
-            // the camera's pose is the arm's at the frame's exposure: the joint states heard are kept (two
-            // vision periods of them, more than a frame may be late), and drained often enough that none is
-            // lost (the joint_state queue holds 64 states)
-            let driver_period_s = config.robot.period_s;
-            let mut joints = JointHistory::new(driver_period_s, 2.0 * config.timing.vision_period_s);
-            let drain_wait =
-                std::time::Duration::from_secs_f64((32.0 * driver_period_s).min(LONGEST_DRAIN_WAIT_S));
-            let mut said_unplaced = false;
-            while !context.stopping() && !context.orphaned() {
-                let _ = listener.timed_wait(|_| {}, drain_wait);
-                hear_joints(&state_subscriber, &mut joints, counters);
-                while let Ok(Some(sample)) = images.receive() {
-                    let woke_at = monotonic_ns();
-                    let header = *sample.user_header();
-                    let stale = woke_at.saturating_sub(header.capture_stamp_ns) > stale_after_ns;
-                    if stale || !copy_image(&header, sample.payload(), &mut image) {
-                        counters.rejected();
-                        continue;
-                    }
-                    drop(sample);
-                    hear_joints(&state_subscriber, &mut joints, counters);
-                    let at_exposure = joints.at(header.capture_stamp_ns);
-                    // said once, and not for the frames that come before the history has filled (a node
-                    // that has just started): then a camera's stamps do not match the robot's clock
-                    if let Err(why) = at_exposure {
-                        let filled = joints.span_ns() >= stale_after_ns;
-                        if !said_unplaced && (filled || why == NoJoints::AfterNewest) {
-                            monitor.note(Note::FrameWithoutPose {
-                                frame: header.frame,
-                                capture_stamp_ns: header.capture_stamp_ns,
-                                why,
-                            });
-                            said_unplaced = true;
-                        }
-                    }
-                    let tick = at_exposure.map_or_else(|_| joints.newest_tick().unwrap_or(0), |at| at.tick);
-                    let q = at_exposure.ok().map(|at| at.q);
-                    let (captured, delivered) = stage.process_image(header.frame, tick, q.as_ref(), &image);
-                    out.remember(header.frame, header.capture_stamp_ns, &captured);
-                    if let Some(delivered) = delivered {
-                        out.publish(&delivered);
-                    }
-                    let frame_period_ns = if previous_capture_ns > 0 {
-                        header.capture_stamp_ns.saturating_sub(previous_capture_ns)
-                    } else {
-                        0
-                    };
-                    previous_capture_ns = header.capture_stamp_ns;
-                    counters.set_progress(header.frame);
-                    monitor.record(CycleSample {
-                        wake_latency_ns: woke_at.saturating_sub(header.capture_stamp_ns),
-                        execution_ns: monotonic_ns().saturating_sub(woke_at),
-                        frame_period_ns,
-                        ..CycleSample::default()
-                    });
-                }
-            }
+            run_external_camera(context, &node, &monitor, &state_subscriber, &mut stage, &mut out)?;
         }
         // the daemon refuses recorded images (open-loop checks are `vservoctl vision extract`'s)
         VisionSource::Simulated | VisionSource::Directory(_) => {
@@ -188,17 +143,120 @@ pub fn run(context: &NodeContext) -> Result<(), RuntimeError> {
     Ok(())
 }
 
+/// An external camera's frames as the vision node takes them: the image buffer, the joint states heard (to
+/// place the camera at each exposure), and what it has said.
+struct ExternalCamera {
+    image: GrayImage,
+    /// The camera's pose is the arm's at the frame's exposure: the joint states heard are kept (two vision
+    /// periods of them, more than a frame may be late).
+    joints: JointHistory,
+    /// An image older than a vision period on arrival would steer the arm by where it was: dropped.
+    stale_after_ns: u64,
+    said_unplaced: bool,
+    previous_capture_ns: u64,
+}
+
+impl ExternalCamera {
+    fn new(context: &NodeContext) -> Self {
+        let config = context.cell.config();
+        Self {
+            image: GrayImage::new(config.camera.width_px(), config.camera.height_px()),
+            joints: JointHistory::new(config.robot.period_s, 2.0 * config.timing.vision_period_s),
+            stale_after_ns: (config.timing.vision_period_s * 1e9).round() as u64,
+            said_unplaced: false,
+            previous_capture_ns: 0,
+        }
+    }
+
+    /// The tick and the joints at a frame's exposure (the newest tick and none if the joint states heard do
+    /// not place it; said once, and not for the frames that come before the history has filled — a node
+    /// that has just started —: then a camera's stamps do not match the robot's clock).
+    fn at_exposure(
+        &mut self,
+        header: &CameraImageHeader,
+        monitor: &LoopMonitor,
+    ) -> (u64, Option<JointVector>) {
+        match self.joints.at(header.capture_stamp_ns) {
+            Ok(at) => (at.tick, Some(at.q)),
+            Err(why) => {
+                let filled = self.joints.span_ns() >= self.stale_after_ns;
+                if !self.said_unplaced && (filled || why == NoJoints::AfterNewest) {
+                    monitor.note(Note::FrameWithoutPose {
+                        frame: header.frame,
+                        capture_stamp_ns: header.capture_stamp_ns,
+                        why,
+                    });
+                    self.said_unplaced = true;
+                }
+                (self.joints.newest_tick().unwrap_or(0), None)
+            }
+        }
+    }
+}
+
+/// An external camera paces the loop: each frame it publishes is extracted as it arrives and its features
+/// published at once, stamped with its capture time and the camera's pose then. The joint states are
+/// drained often enough that none is lost (the joint_state queue holds 64 states).
+fn run_external_camera(
+    context: &NodeContext,
+    node: &iceoryx2::prelude::Node<ipc::Service>,
+    monitor: &LoopMonitor,
+    state_subscriber: &iceoryx2::port::subscriber::Subscriber<ipc::Service, JointStateMsg, ()>,
+    stage: &mut VisionStage,
+    out: &mut FeaturesOut,
+) -> Result<(), RuntimeError> {
+    let instance = &context.instance;
+    let images =
+        vservo_protocol::camera_image_subscriber(node, instance, vservo_protocol::Opening::OpenOrCreate)?;
+    let listener = vservo_protocol::camera_image_listener(node, instance)?;
+    go_realtime(context, NodeRole::Vision);
+    let counters = monitor.counters();
+    let mut camera = ExternalCamera::new(context);
+    let driver_period_s = context.cell.config().robot.period_s;
+    let drain_wait = std::time::Duration::from_secs_f64((32.0 * driver_period_s).min(LONGEST_DRAIN_WAIT_S));
+    while !context.stopping() && !context.orphaned() {
+        let _ = listener.timed_wait(|_| {}, drain_wait);
+        hear_joints(state_subscriber, &mut camera.joints, counters);
+        while let Ok(Some(sample)) = images.receive() {
+            let woke_at = monotonic_ns();
+            let header = *sample.user_header();
+            let stale = woke_at.saturating_sub(header.capture_stamp_ns) > camera.stale_after_ns;
+            if stale || !copy_image(&header, sample.payload(), &mut camera.image) {
+                counters.rejected();
+                continue;
+            }
+            drop(sample);
+            hear_joints(state_subscriber, &mut camera.joints, counters);
+            let (tick, q) = camera.at_exposure(&header, monitor);
+            let (captured, delivered) = stage.process_image(header.frame, tick, q.as_ref(), &camera.image);
+            out.remember(header.frame, header.capture_stamp_ns, &captured, monitor);
+            if let Some(delivered) = delivered {
+                out.publish(&delivered);
+            }
+            counters.set_progress(header.frame);
+            monitor.record(CycleSample {
+                wake_latency_ns: woke_at.saturating_sub(header.capture_stamp_ns),
+                execution_ns: monotonic_ns().saturating_sub(woke_at),
+                frame_period_ns: frame_period_ns(&mut camera.previous_capture_ns, header.capture_stamp_ns),
+                ..CycleSample::default()
+            });
+        }
+    }
+    Ok(())
+}
+
 /// Takes the joint states waiting into the history (others' schemas refused and counted).
 fn hear_joints(
     subscriber: &iceoryx2::port::subscriber::Subscriber<ipc::Service, JointStateMsg, ()>,
     joints: &mut JointHistory,
     counters: &Counters,
 ) {
-    while let Ok(Some(state)) = subscriber.receive() {
-        if schema_ok(state.schema) {
-            joints.push(state.stamp_ns, state.tick, state.driver_epoch, &JointVector::from(state.q_rad));
-        } else {
-            counters.rejected();
+    while let Some(taken) = subscriber.next_message() {
+        match taken {
+            Ok(state) => {
+                joints.push(state.stamp_ns, state.tick, state.driver_epoch, &JointVector::from(state.q_rad))
+            }
+            Err(_) => counters.rejected(),
         }
     }
 }
@@ -210,7 +268,7 @@ fn copy_image(header: &CameraImageHeader, payload: &[u8], image: &mut GrayImage)
     let stride = header.stride_bytes as usize;
     let needed = stride.saturating_mul(height.saturating_sub(1) as usize).saturating_add(width as usize);
     let fits = header.schema == SCHEMA_VERSION
-        && header.format == pixel_format::MONO8
+        && PixelFormat::try_from(header.format) == Ok(PixelFormat::Mono8)
         && (header.width, header.height) == (width, height)
         && stride >= width as usize
         && payload.len() >= needed;
@@ -222,6 +280,52 @@ fn copy_image(header: &CameraImageHeader, payload: &[u8], image: &mut GrayImage)
         pixels.copy_from_slice(&payload[row * stride..row * stride + w]);
     }
     true
+}
+
+/// When the simulated camera takes its images: the tick of the next one (the first joint state heard,
+/// then every `ticks_per_frame` ticks).
+struct CaptureTicks {
+    ticks_per_frame: u64,
+    next_tick: Option<u64>,
+}
+
+impl CaptureTicks {
+    /// Drains the joint states waiting (others' schemas refused and counted): the state of the capture tick,
+    /// or the first after it had this node been late (the ticks skipped counted), if it has come. A
+    /// restarted plant starts again at rest where the arm was: capture from its first state.
+    fn due(
+        &mut self,
+        subscriber: &iceoryx2::port::subscriber::Subscriber<ipc::Service, JointStateMsg, ()>,
+        counters: &Counters,
+    ) -> Option<JointStateMsg> {
+        let mut due = None;
+        while let Some(taken) = subscriber.next_message() {
+            let Ok(state) = taken else {
+                counters.rejected();
+                continue;
+            };
+            let wanted = *self.next_tick.get_or_insert(state.tick);
+            if state.tick + self.ticks_per_frame < wanted {
+                self.next_tick = Some(state.tick);
+            }
+            if due.is_none() && state.tick >= self.next_tick.unwrap_or(state.tick) {
+                due = Some(state);
+            }
+        }
+        due
+    }
+
+    /// The image of `state` is taken: the next one is a vision period of ticks later. A state later than the
+    /// one wanted (this node woke after the capture tick's state was gone) is counted as an overrun.
+    fn taken(&mut self, state: &JointStateMsg, counters: &Counters) {
+        if let Some(wanted) = self.next_tick
+            && state.tick > wanted
+        {
+            counters.overrun();
+            counters.skipped((state.tick - wanted) / self.ticks_per_frame);
+        }
+        self.next_tick = Some(state.tick + self.ticks_per_frame);
+    }
 }
 
 /// The simulated camera runs on the simulation's time, as the lockstep simulator does: it wakes on each
@@ -238,7 +342,6 @@ fn run_simulated_camera(
     stage: &mut VisionStage,
     out: &mut FeaturesOut,
 ) -> Result<(), RuntimeError> {
-    let config = context.cell.config();
     let instance = &context.instance;
     let state_listener = vservo_protocol::listener(node, instance, Topic::JointState)?;
     let world_subscriber = vservo_protocol::subscriber::<SimWorldMsg>(node, instance, Topic::SimWorld)?;
@@ -246,45 +349,19 @@ fn run_simulated_camera(
     let image_notifier = vservo_protocol::camera_image_notifier(node, instance)?;
     go_realtime(context, NodeRole::Vision);
     let counters: &Counters = monitor.counters();
-    let ticks_per_frame = u64::from(config.timing.control_ticks_per_frame);
-    let mut frame: u64 = 0;
-    let mut previous_capture_ns = 0;
+    let ticks_per_frame = u64::from(context.cell.config().timing.control_ticks_per_frame);
+    let mut capture = CaptureTicks { ticks_per_frame, next_tick: None };
+    let (mut frame, mut previous_capture_ns) = (0u64, 0);
     let mut world: Option<SimWorldMsg> = None;
-    // the tick of the next image: the first joint state heard, then every ticks_per_frame ticks
-    let mut next_tick: Option<u64> = None;
     while !context.stopping() && !context.orphaned() {
         let _ = state_listener.timed_wait(|_| {}, IDLE_WAIT);
         let woke_at = monotonic_ns();
-        if let Some(newest) = latest(&world_subscriber, |m: &SimWorldMsg| m.schema, counters) {
+        if let Some(newest) = latest(&world_subscriber, counters) {
             world = Some(newest);
         }
-        // the state of the capture tick (or the first after it, had this node been late)
-        let mut due = None;
-        while let Ok(Some(sample)) = state_subscriber.receive() {
-            let state = *sample;
-            if !crate::schema_ok(state.schema) {
-                counters.rejected();
-                continue;
-            }
-            let wanted = *next_tick.get_or_insert(state.tick);
-            // a restarted plant starts again at rest where the arm was: capture from its first state
-            if state.tick + ticks_per_frame < wanted {
-                next_tick = Some(state.tick);
-            }
-            if due.is_none() && state.tick >= next_tick.unwrap_or(state.tick) {
-                due = Some(state);
-            }
-        }
         // no plant yet (or a restart under way), or not yet the capture tick: no image to take
-        let (Some(state), Some(world)) = (due, world) else { continue };
-        if let Some(wanted) = next_tick
-            && state.tick > wanted
-        {
-            // this node woke after the capture tick's state was gone: the image is of a later tick
-            counters.overrun();
-            counters.skipped((state.tick - wanted) / ticks_per_frame);
-        }
-        next_tick = Some(state.tick + ticks_per_frame);
+        let (Some(state), Some(world)) = (capture.due(state_subscriber, counters), world) else { continue };
+        capture.taken(&state, counters);
         // the frame processed during the last period leaves the pipeline now, before the new image is taken
         if let Some(delivered) = stage.take_delivered() {
             out.publish(&delivered);
@@ -298,7 +375,7 @@ fn run_simulated_camera(
         };
         let started = monotonic_ns();
         let taken = stage.capture(frame, state.tick, &q, &base_from_board);
-        out.remember(frame, state.stamp_ns, &taken.captured);
+        out.remember(frame, state.stamp_ns, &taken.captured, monitor);
         // with no pipeline delay the new frame leaves at once
         if let Some(delivered) = taken.delivered {
             out.publish(&delivered);
@@ -307,13 +384,10 @@ fn run_simulated_camera(
         let _ = image_notifier.notify();
         frame += 1;
         counters.set_progress(frame);
-        let frame_period_ns =
-            if previous_capture_ns > 0 { state.stamp_ns.saturating_sub(previous_capture_ns) } else { 0 };
-        previous_capture_ns = state.stamp_ns;
         monitor.record(CycleSample {
             wake_latency_ns: woke_at.saturating_sub(state.stamp_ns),
             execution_ns: monotonic_ns().saturating_sub(started),
-            frame_period_ns,
+            frame_period_ns: frame_period_ns(&mut previous_capture_ns, state.stamp_ns),
             ..CycleSample::default()
         });
     }
@@ -331,7 +405,7 @@ pub fn publish_image(
     let Ok(mut sample) = publisher.loan_slice_uninit(image.as_raw().len()) else { return };
     *sample.user_header_mut() = CameraImageHeader {
         schema: SCHEMA_VERSION,
-        format: pixel_format::MONO8,
+        format: PixelFormat::Mono8.into(),
         width,
         height,
         stride_bytes: width,
