@@ -129,7 +129,7 @@ fn reloads_swap_the_gain_and_the_law_options_at_a_frame_and_bad_files_change_not
     let gains = lines(echo(&instance, "gains", 0.5));
     let latest = gains.last().expect("gains history");
     assert_eq!(latest["version"], 3, "{latest}");
-    assert_eq!(latest["interaction"], vservo_control::Interaction::Mean.code(), "{latest}");
+    assert_eq!(latest["interaction"], vservo_protocol::Interaction::Mean.code(), "{latest}");
     assert_eq!(latest["border_margin_px"], 20.0, "{latest}");
     assert_eq!(latest["feedforward"], 1, "{latest}");
     // a target inside the barrier's margin (mark 4 at 15 px from the top) is refused by name
