@@ -164,7 +164,7 @@ macro_rules! wire_message {
                         offset: std::mem::offset_of!($name, $field),
                         size: std::mem::size_of::<$ty>(),
                         wire_type: <$ty as $crate::declare::WireField>::wire_type(),
-                        meaning: wire_message!(@meaning [$($fdoc),*] $(, $code)?),
+                        meaning: wire_message!(@meaning $field [$($fdoc),*] $(, $code)?),
                     },
                 )*]
             }
@@ -185,8 +185,11 @@ macro_rules! wire_message {
     (@default $field:ident, $ty:ty) => { <$ty as $crate::declare::WireField>::ZERO };
     (@default $field:ident, $ty:ty, $default:expr) => { $default };
 
-    (@meaning [$($fdoc:literal),*]) => { $crate::declare::doc_text(&[$($fdoc),*]) };
-    (@meaning [$($fdoc:literal),*], $code:ty) => {
+    (@meaning schema [$($fdoc:literal),*]) => {
+        format!("{} ({})", $crate::declare::doc_text(&[$($fdoc),*]), $crate::SCHEMA_VERSION)
+    };
+    (@meaning $field:ident [$($fdoc:literal),*]) => { $crate::declare::doc_text(&[$($fdoc),*]) };
+    (@meaning $field:ident [$($fdoc:literal),*], $code:ty) => {
         format!("{}: {}", $crate::declare::doc_text(&[$($fdoc),*]), <$code>::legend())
     };
 

@@ -24,7 +24,7 @@ wire_message! {
     /// robot driver → rmrc, vision, vservod (every driver period): the arm's measured state. The robot only:
     /// nothing here is known only to a simulation.
     payload JointStateMsg = "vservo::JointState" {
-        /// schema version (5)
+        /// schema version
         schema: u32,
         /// bits 0–5 position limit (joint 1–6), 8–13 velocity limit, 16–21 torque saturated, 24 driver failed
         faults: u32,
@@ -75,7 +75,7 @@ wire_message! {
     /// rmrc → robot driver (in answer to each joint state): the command for the driver's next period, in the
     /// interface the driver declared. Every field is filled whatever the mode (torque zero where not computed).
     payload JointCommandMsg = "vservo::JointCommand" {
-        /// schema version (5)
+        /// schema version
         schema: u32,
         /// the driver's declared `command_mode`
         mode: u32 as CommandMode,
@@ -110,7 +110,7 @@ wire_message! {
 wire_message! {
     /// simulated plant → simulated camera (every tick; simulation only): what only a simulation knows.
     payload SimWorldMsg = "vservo::SimWorld" {
-        /// schema version (5)
+        /// schema version
         schema: u32,
         /// zero
         reserved: u32,
@@ -128,7 +128,7 @@ wire_message! {
     /// camera driver → vision (each frame): the user header of a `camera_image` sample, whose payload is the
     /// image as a slice of `u8`, rows top to bottom, `stride_bytes` apart.
     payload CameraImageHeader = "vservo::CameraImageHeader" {
-        /// schema version (5)
+        /// schema version
         schema: u32,
         /// the pixel format
         format: u32 as PixelFormat,
@@ -150,7 +150,7 @@ wire_message! {
 wire_message! {
     /// vision → servo (every frame): the features of the frame leaving the image pipeline.
     payload FeaturesMsg = "vservo::Features" {
-        /// schema version (5)
+        /// schema version
         schema: u32,
         /// bit m set when mark m is valid
         valid_mask: u32,
@@ -178,7 +178,7 @@ wire_message! {
 wire_message! {
     /// servo → rmrc (every frame): the camera twist.
     payload CameraTwistMsg = "vservo::CameraTwist" {
-        /// schema version (5)
+        /// schema version
         schema: u32,
         /// what the servo did (waiting: no frame yet; marks missing: nowhere to go back to; safe stop: held by
         /// the daemon; reacquiring: steering back to where all marks were last seen); servoing, servoing on
@@ -282,7 +282,7 @@ wire_message! {
 wire_message! {
     /// every node → anyone (10 Hz): loop timing over the last window and counters since the node started.
     payload TelemetryMsg = "vservo::Telemetry" {
-        /// schema version (5)
+        /// schema version
         schema: u32,
         /// the node
         node: u32 as NodeRole,
@@ -345,7 +345,7 @@ wire_message! {
 wire_message! {
     /// vservod → anyone (10 Hz): the nodes as the supervisor sees them.
     payload DaemonStatusMsg = "vservo::DaemonStatus" {
-        /// schema version (5)
+        /// schema version
         schema: u32,
         /// the daemon's state (safe-stop: a fault holds the arm at rest)
         state: u32 as DaemonState,
@@ -379,7 +379,7 @@ wire_message! {
 wire_message! {
     /// vservod → rmrc, servo (history 1, on each change): whether the cell servos or is held in a safe stop.
     payload CellModeMsg = "vservo::CellMode" {
-        /// schema version (5)
+        /// schema version
         schema: u32,
         /// whether the cell servos (in a safe stop the rmrc ramps the reference to rest and holds it, and the
         /// servo sends zero twists)
@@ -400,7 +400,7 @@ wire_message! {
 wire_message! {
     /// client → vservod (request-response service `command`): one command.
     payload CommandMsg = "vservo::Command" {
-        /// schema version (5)
+        /// schema version
         schema: u32,
         /// what the client asks
         kind: u32 as CommandKind,
@@ -433,7 +433,7 @@ pub const REASON_BYTES: usize = 256;
 wire_message! {
     /// vservod → client: the answer to a [`CommandMsg`].
     payload CommandReplyMsg = "vservo::CommandReply" {
-        /// schema version (5)
+        /// schema version
         schema: u32,
         /// 1 accepted, 0 refused
         accepted: u32,
@@ -480,7 +480,7 @@ pub const MAX_PAST_GAINS: usize = 4;
 wire_message! {
     /// vservod → servo (history 1): the gains to swap in at the next frame, designed off the hot path.
     payload GainsMsg = "vservo::Gains" {
-        /// schema version (5)
+        /// schema version
         schema: u32,
         /// how many of `past_input_gains` the law uses (0 for the paper's law)
         used_past_gains: u32,
@@ -513,7 +513,7 @@ wire_message! {
 wire_message! {
     /// vservod → plant (history 1): how the simulated board moves from now on.
     payload ObjectMsg = "vservo::Object" {
-        /// schema version (5)
+        /// schema version
         schema: u32,
         /// what the board does, 4–6 only (as in `command`)
         kind: u32 as CommandKind,
@@ -528,185 +528,6 @@ wire_message! {
         /// the daemon's seal (SipHash-2-4 of the fields under the run's key): other object commands are refused
         seal: u64,
     }
-}
-
-// The codes as plain numbers, for the code not yet moved to the enums of `crate::codes` (to be removed).
-
-/// The command interfaces a robot driver may take ([`JointStateMsg::command_mode`],
-/// [`JointCommandMsg::mode`]).
-pub mod command_mode {
-    /// Joint torques (`torque_nm`): the rmrc runs the joint servo (the simulated dynamic PUMA 560).
-    pub const TORQUE: u32 = 0;
-    /// Joint velocities (`qd_ref_rad_s`, with `q_ref_rad` for drivers that correct drift): the interpolator's
-    /// q̇ reference, velocity- and acceleration-limited.
-    pub const VELOCITY: u32 = 1;
-    /// Joint positions (`q_ref_rad`, with `qd_ref_rad_s` as feed-forward): the interpolator's q reference.
-    pub const POSITION: u32 = 2;
-}
-
-/// Driver states of [`JointStateMsg::driver_status`].
-pub mod driver_status {
-    /// Following the commands it receives.
-    pub const FOLLOWING: u32 = 0;
-    /// Holding the arm at rest: no valid command came in time (or none yet).
-    pub const HOLDING: u32 = 1;
-    /// The driver or the arm is in fault (protective stop, drive error): it does not move.
-    pub const FAULT: u32 = 2;
-}
-
-/// Pixel formats of [`CameraImageHeader::format`].
-pub mod pixel_format {
-    /// 8 bits per pixel, gray.
-    pub const MONO8: u32 = 0;
-}
-
-/// Per-mark status codes of [`FeaturesMsg::mark_status`].
-pub mod mark_status {
-    /// Found; its feature is valid.
-    pub const VALID: u8 = 0;
-    /// Its expected position is outside the image.
-    pub const OUTSIDE_IMAGE: u8 = 1;
-    /// Its blob touches the image border.
-    pub const CUT_BY_BORDER: u8 = 2;
-    /// Run together with another mark into one blob.
-    pub const MERGED: u8 = 3;
-    /// Its blob has the wrong shape.
-    pub const IRREGULAR: u8 = 4;
-    /// No blob where it should be.
-    pub const NOT_FOUND: u8 = 5;
-    /// The image itself is unusable.
-    pub const BAD_IMAGE: u8 = 6;
-}
-
-/// Verdicts of [`CameraTwistMsg::verdict`].
-pub mod verdict {
-    /// No frame yet: zero twist.
-    pub const WAITING: u32 = 0;
-    /// The law's twist.
-    pub const SERVOING: u32 = 1;
-    /// Marks missing and no camera pose known where all four were seen: zero twist (`missing_mask` says which).
-    pub const MARKS_MISSING: u32 = 2;
-    /// The servo is stopping (shutdown): zero twist.
-    pub const STOPPING: u32 = 3;
-    /// The cell is in a safe stop ([`CellModeMsg`]): zero twist until the daemon resumes it.
-    pub const SAFE_STOP: u32 = 4;
-    /// One mark missing (`missing_mask`): the law's twist on the other three.
-    pub const SERVOING_ON_THREE: u32 = 5;
-    /// Two or more marks missing (`missing_mask`), or one and no design for the three seen (their desired
-    /// images in a line): steering the camera back to where all were last seen.
-    pub const REACQUIRING: u32 = 6;
-
-    /// Whether a twist of this verdict is to be followed (the others mean: bring the arm to rest).
-    pub fn moves(verdict: u32) -> bool {
-        matches!(verdict, SERVOING | SERVOING_ON_THREE | REACQUIRING)
-    }
-}
-
-/// Node states in [`NodeStatusMsg::state`].
-pub mod node_state {
-    /// Not started yet.
-    pub const NOT_STARTED: u32 = 0;
-    /// Running.
-    pub const RUNNING: u32 = 1;
-    /// Exited; waiting to be restarted.
-    pub const BACKING_OFF: u32 = 2;
-    /// Stopped on purpose.
-    pub const STOPPED: u32 = 3;
-    /// Hung (its loop made no progress for `runtime.hang_timeout_s`): being killed, then restarted.
-    pub const HUNG: u32 = 4;
-}
-
-/// Daemon states in [`DaemonStatusMsg::state`].
-pub mod daemon_state {
-    /// Starting the nodes.
-    pub const STARTING: u32 = 0;
-    /// Every node running and healthy.
-    pub const RUNNING: u32 = 1;
-    /// A node is down or not healthy.
-    pub const DEGRADED: u32 = 2;
-    /// Stopping.
-    pub const STOPPING: u32 = 3;
-    /// A fault stopped the cell ([`DaemonStatusMsg::fault`] says which, `fault_since_ns` since when): the
-    /// arm is brought to rest and held until the cell is resumed.
-    pub const SAFE_STOP: u32 = 4;
-}
-
-/// Faults that end in a safe stop ([`DaemonStatusMsg::fault`], [`CellModeMsg::fault`]).
-pub mod fault {
-    /// None.
-    pub const NONE: u32 = 0;
-    /// A joint beyond its position range (`fault_joints` says which).
-    pub const POSITION_LIMIT: u32 = 1;
-    /// A joint faster than its velocity limit.
-    pub const VELOCITY_LIMIT: u32 = 2;
-    /// A joint's torque cut to its limit for longer than `faults.saturation_s`.
-    pub const TORQUE_SATURATED: u32 = 3;
-    /// The robot driver reports a fault (`driver_status` FAULT, or the driver-failed bit).
-    pub const DRIVER_FAULT: u32 = 4;
-    /// Marks missing (the servo could not servo) for longer than `faults.target_lost_s`.
-    pub const TARGET_LOST: u32 = 5;
-    /// An external robot driver's joint states stopped for longer than its deadline.
-    pub const ROBOT_STALLED: u32 = 6;
-    /// A safe stop asked for by a client (`vservoctl safe-stop`).
-    pub const REQUESTED: u32 = 7;
-
-    /// The fault's name, as the status and the logs write it.
-    pub fn name(code: u32) -> &'static str {
-        match code {
-            NONE => "none",
-            POSITION_LIMIT => "position_limit",
-            VELOCITY_LIMIT => "velocity_limit",
-            TORQUE_SATURATED => "torque_saturated",
-            DRIVER_FAULT => "driver_fault",
-            TARGET_LOST => "target_lost",
-            ROBOT_STALLED => "robot_stalled",
-            REQUESTED => "requested",
-            _ => "unknown",
-        }
-    }
-}
-
-/// Modes of [`CellModeMsg::mode`].
-pub mod cell_mode {
-    /// The servo's twists move the arm.
-    pub const SERVOING: u32 = 0;
-    /// Safe stop: the servo sends zero twists, the rmrc ramps the reference to rest at its acceleration
-    /// limits and holds it there, whatever twist arrives.
-    pub const SAFE_STOP: u32 = 1;
-}
-
-/// States of the robot driver as the daemon sees it ([`DaemonStatusMsg::robot`]).
-pub mod robot_state {
-    /// No joint state yet.
-    pub const WAITING: u32 = 0;
-    /// Joint states arrive within their deadline.
-    pub const RUNNING: u32 = 1;
-    /// No joint state for longer than the deadline: the driver stalled or is gone; no motion is commanded.
-    pub const STALLED: u32 = 2;
-}
-
-/// Kinds of [`CommandMsg::kind`].
-pub mod command_kind {
-    /// A new target: `features_px` becomes ξ_d.
-    pub const TARGET_FEATURES: u32 = 1;
-    /// A new target: the camera's desired pose relative to the board (`translation_m`, `rotation_rpy_rad`
-    /// give camera_from_board); ξ_d and the depths follow from it.
-    pub const TARGET_POSE: u32 = 2;
-    /// A new target: the features and pose the camera has now.
-    pub const TARGET_TEACH: u32 = 3;
-    /// The simulated board stops where it is.
-    pub const OBJECT_HOLD: u32 = 4;
-    /// The simulated board jumps by `translation_m` (desired camera frame) now.
-    pub const OBJECT_STEP: u32 = 5;
-    /// The simulated board moves on a circle of `radius_m` at `rev_per_min` in the desired camera frame's y–z
-    /// plane, starting where it is.
-    pub const OBJECT_CIRCLE: u32 = 6;
-    /// Reload the configuration file (as SIGHUP does).
-    pub const RELOAD: u32 = 7;
-    /// Resume servoing after a safe stop (refused, saying why, while the fault's cause is still there).
-    pub const RESUME: u32 = 8;
-    /// Bring the arm to rest and hold it: a safe stop asked for by the client (fault `requested`).
-    pub const SAFE_STOP: u32 = 9;
 }
 
 #[cfg(test)]
