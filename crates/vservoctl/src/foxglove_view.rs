@@ -162,7 +162,6 @@ mod tests {
 
     fn features(valid_mask: u32) -> FeaturesMsg {
         FeaturesMsg {
-            schema: vservo_protocol::SCHEMA_VERSION,
             valid_mask,
             frame: 3,
             capture_tick: 255,
@@ -175,8 +174,7 @@ mod tests {
                 MarkStatus::OutsideImage.code(),
                 MarkStatus::Valid.code(),
             ],
-            reserved: [0; 4],
-            base_from_camera: [f64::NAN; 12],
+            ..FeaturesMsg::default()
         }
     }
 
@@ -203,20 +201,8 @@ mod tests {
     #[test]
     fn the_camera_sits_on_the_last_link_and_the_links_chain_from_the_base() {
         let arm = vservo_arm::puma560::puma560();
-        let state = JointStateMsg {
-            schema: vservo_protocol::SCHEMA_VERSION,
-            faults: 0,
-            tick: 1,
-            stamp_ns: 5,
-            driver_epoch: 1,
-            period_ns: 1_000_000,
-            command_mode: 0,
-            driver_status: 0,
-            q_rad: [0.1, -0.5, 0.3, 0.0, 0.4, 0.2],
-            qd_rad_s: [0.0; 6],
-            torque_nm: [0.0; 6],
-            applied_command_tick: u64::MAX,
-        };
+        let state =
+            JointStateMsg { stamp_ns: 5, q_rad: [0.1, -0.5, 0.3, 0.0, 0.4, 0.2], ..JointStateMsg::default() };
         let tool_from_camera = IsometryMatrix3::translation(0.0, 0.0, 0.1);
         let frames = arm_transforms(&arm, &tool_from_camera, &state);
         assert_eq!(frames.transforms.len(), 7);

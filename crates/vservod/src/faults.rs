@@ -427,7 +427,6 @@ mod tests {
 
     fn state(stamp_ns: u64, faults: u32) -> JointStateMsg {
         JointStateMsg {
-            schema: SCHEMA_VERSION,
             faults,
             tick: stamp_ns / MS,
             stamp_ns,
@@ -435,25 +434,18 @@ mod tests {
             period_ns: MS,
             command_mode: CommandMode::Torque.into(),
             driver_status: DriverStatus::Following.into(),
-            q_rad: [0.0; 6],
-            qd_rad_s: [0.0; 6],
-            torque_nm: [0.0; 6],
-            applied_command_tick: u64::MAX,
+            ..JointStateMsg::default()
         }
     }
 
     fn twist(stamp_ns: u64, verdict: Verdict, missing_mask: u32) -> CameraTwistMsg {
         CameraTwistMsg {
-            schema: SCHEMA_VERSION,
             verdict: verdict.into(),
-            frame: 0,
-            capture_tick: 0,
             gains_version: 1,
             stamp_ns,
-            twist: [0.0; 6],
             feature_error_px: 0.0,
             missing_mask,
-            law_flags: 0,
+            ..CameraTwistMsg::default()
         }
     }
 
