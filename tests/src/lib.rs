@@ -306,3 +306,29 @@ impl Drop for TmuxSession {
         let _ = Command::new("tmux").args(["kill-session", "-t", &self.0]).output();
     }
 }
+
+/// A thread of the test's own (a fake driver) that runs until the guard is dropped: its body gets the stop
+/// flag to poll, and a test that fails still stops and joins it.
+pub struct LoopThread {
+    stop: std::sync::Arc<std::sync::atomic::AtomicBool>,
+    thread: Option<std::thread::JoinHandle<()>>,
+}
+
+impl LoopThread {
+    /// Starts `body` on a thread with the flag it must stop at.
+    pub fn spawn(body: impl FnOnce(&std::sync::atomic::AtomicBool) + Send + 'static) -> Self {
+        let stop = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
+        let flag = stop.clone();
+        let thread = std::thread::spawn(move || body(&flag));
+        Self { stop, thread: Some(thread) }
+    }
+}
+
+impl Drop for LoopThread {
+    fn drop(&mut self) {
+        self.stop.store(true, std::sync::atomic::Ordering::Relaxed);
+        if let Some(thread) = self.thread.take() {
+            let _ = thread.join();
+        }
+    }
+}

@@ -2,13 +2,12 @@
 //! driven by an external velocity driver of the test's own) shows that arm's links, checked with numpy
 //! against the DH table's forward kinematics.
 
-use std::sync::Arc;
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::Ordering;
 use std::time::{Duration, Instant};
 
 use vservo_protocol::{CommandMode, JointStateMsg, Topic};
 use vservo_system_tests::{
-    Daemon, binary, config_from, exclusive, repository_root, status, unique, wait_until,
+    Daemon, LoopThread, binary, config_from, exclusive, repository_root, status, unique, wait_until,
 };
 
 /// A UR5's standard-DH table: [a (m), α (rad), d (m), θ offset (rad)] per joint.
@@ -22,57 +21,38 @@ const UR5_DH: [[f64; 4]; 6] = [
 ];
 const START_RAD: [f64; 6] = [0.0, -1.2, 1.5, -0.3, 1.57, 0.0];
 
-/// A robot driver that ignores commands and sweeps the joints slowly around the start (1 kHz).
-struct SweepingDriver {
-    stop: Arc<AtomicBool>,
-    thread: Option<std::thread::JoinHandle<()>>,
-}
-
-impl SweepingDriver {
-    fn start(instance: &str) -> Self {
-        let stop = Arc::new(AtomicBool::new(false));
-        let stopped = stop.clone();
-        let instance = instance.to_string();
-        let thread = std::thread::spawn(move || {
-            let dir = vservo_protocol::InstanceDir::locate_waiting(&instance, Duration::from_secs(10))
-                .expect("the instance");
-            let node = vservo_protocol::create_node_in(&dir, "sweeping-driver").expect("a node");
-            let states = vservo_protocol::publisher::<JointStateMsg>(&node, &instance, Topic::JointState)
-                .expect("joint_state");
-            let notifier = vservo_protocol::notifier(&node, &instance, Topic::JointState).expect("event");
-            let started = Instant::now();
-            let mut tick = 0u64;
-            while !stopped.load(Ordering::Relaxed) {
-                tick += 1;
-                std::thread::sleep(
-                    (started + Duration::from_millis(tick)).saturating_duration_since(Instant::now()),
-                );
-                let t = started.elapsed().as_secs_f64();
-                let q_rad = std::array::from_fn(|j| START_RAD[j] + 0.2 * (t + j as f64).sin());
-                let _ = states.send_copy(JointStateMsg {
-                    tick,
-                    stamp_ns: vservo_runtime::clock::monotonic_ns(),
-                    driver_epoch: u64::from(std::process::id()),
-                    period_ns: 1_000_000,
-                    command_mode: CommandMode::Velocity.into(),
-                    q_rad,
-                    torque_nm: [f64::NAN; 6],
-                    ..JointStateMsg::default()
-                });
-                let _ = notifier.notify();
-            }
-        });
-        Self { stop, thread: Some(thread) }
-    }
-}
-
-impl Drop for SweepingDriver {
-    fn drop(&mut self) {
-        self.stop.store(true, Ordering::Relaxed);
-        if let Some(thread) = self.thread.take() {
-            let _ = thread.join();
+/// A robot driver that ignores commands and sweeps the joints slowly around the start (1 kHz), until dropped.
+fn sweeping_driver(instance: &str) -> LoopThread {
+    let instance = instance.to_string();
+    LoopThread::spawn(move |stop| {
+        let dir = vservo_protocol::InstanceDir::locate_waiting(&instance, Duration::from_secs(10))
+            .expect("the instance");
+        let node = vservo_protocol::create_node_in(&dir, "sweeping-driver").expect("a node");
+        let states = vservo_protocol::publisher::<JointStateMsg>(&node, &instance, Topic::JointState)
+            .expect("joint_state");
+        let notifier = vservo_protocol::notifier(&node, &instance, Topic::JointState).expect("event");
+        let started = Instant::now();
+        let mut tick = 0u64;
+        while !stop.load(Ordering::Relaxed) {
+            tick += 1;
+            std::thread::sleep(
+                (started + Duration::from_millis(tick)).saturating_duration_since(Instant::now()),
+            );
+            let t = started.elapsed().as_secs_f64();
+            let q_rad = std::array::from_fn(|j| START_RAD[j] + 0.2 * (t + j as f64).sin());
+            let _ = states.send_copy(JointStateMsg {
+                tick,
+                stamp_ns: vservo_runtime::clock::monotonic_ns(),
+                driver_epoch: u64::from(std::process::id()),
+                period_ns: 1_000_000,
+                command_mode: CommandMode::Velocity.into(),
+                q_rad,
+                torque_nm: [f64::NAN; 6],
+                ..JointStateMsg::default()
+            });
+            let _ = notifier.notify();
         }
-    }
+    })
 }
 
 #[test]
@@ -100,7 +80,7 @@ fn a_recording_of_a_custom_dh_arm_draws_that_arm() {
         ],
     );
     let daemon = Daemon::start(&config);
-    let _driver = SweepingDriver::start(&instance);
+    let _driver = sweeping_driver(&instance);
     assert!(
         wait_until(Duration::from_secs(10), || status(&instance).is_some_and(|s| s["robot"] == "running")),
         "{:?}\n{}",

@@ -9,7 +9,7 @@ use std::time::{Duration, Instant};
 
 use serde_json::Value;
 use vservo_system_tests::{
-    Daemon, config_from, exclusive, run, running, running_daemon, status, unique, wait_until,
+    Daemon, LoopThread, config_from, exclusive, run, running, running_daemon, status, unique, wait_until,
 };
 
 fn vservoctl(args: &[&str]) -> (Option<i32>, String) {
@@ -101,8 +101,7 @@ struct FakeDriver {
     faults: Arc<AtomicU32>,
     driver_status: Arc<AtomicU32>,
     silent: Arc<AtomicBool>,
-    stop: Arc<AtomicBool>,
-    thread: Option<std::thread::JoinHandle<()>>,
+    _thread: LoopThread,
 }
 
 impl FakeDriver {
@@ -111,10 +110,9 @@ impl FakeDriver {
         let faults = Arc::new(AtomicU32::new(0));
         let driver_status = Arc::new(AtomicU32::new(DriverStatus::Following.into()));
         let silent = Arc::new(AtomicBool::new(false));
-        let stop = Arc::new(AtomicBool::new(false));
-        let (f, d, q, s) = (faults.clone(), driver_status.clone(), silent.clone(), stop.clone());
+        let (f, d, q) = (faults.clone(), driver_status.clone(), silent.clone());
         let instance = instance.to_string();
-        let thread = std::thread::spawn(move || {
+        let thread = LoopThread::spawn(move |s| {
             // started with the daemon: it waits for the instance, as a driver does (docs/DRIVERS.md)
             let dir = vservo_protocol::InstanceDir::locate_waiting(&instance, Duration::from_secs(10))
                 .expect("the instance");
@@ -160,16 +158,7 @@ impl FakeDriver {
                 let _ = notifier.notify();
             }
         });
-        Self { faults, driver_status, silent, stop, thread: Some(thread) }
-    }
-}
-
-impl Drop for FakeDriver {
-    fn drop(&mut self) {
-        self.stop.store(true, Ordering::Relaxed);
-        if let Some(thread) = self.thread.take() {
-            let _ = thread.join();
-        }
+        Self { faults, driver_status, silent, _thread: thread }
     }
 }
 
