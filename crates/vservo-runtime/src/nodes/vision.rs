@@ -267,7 +267,7 @@ fn copy_image(header: &CameraImageHeader, payload: &[u8], image: &mut GrayImage)
     let (width, height) = image.dimensions();
     let stride = header.stride_bytes as usize;
     let needed = stride.saturating_mul(height.saturating_sub(1) as usize).saturating_add(width as usize);
-    let fits = header.schema == SCHEMA_VERSION
+    let fits = vservo_protocol::inbox::accept(*header).is_ok()
         && PixelFormat::try_from(header.format) == Ok(PixelFormat::Mono8)
         && (header.width, header.height) == (width, height)
         && stride >= width as usize

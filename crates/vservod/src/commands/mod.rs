@@ -190,9 +190,7 @@ impl Commander {
         systemd: &mut Systemd,
         safety: &mut Safety,
     ) -> Result<Accepted, CommandRefused> {
-        if command.schema != SCHEMA_VERSION {
-            return Err(CommandRefused::Schema(command.schema));
-        }
+        vservo_protocol::inbox::accept(*command).map_err(|_| CommandRefused::Schema(command.schema))?;
         let kind =
             CommandKind::try_from(command.kind).map_err(|_| CommandRefused::UnknownKind(command.kind))?;
         match kind {
