@@ -7,6 +7,12 @@
 //!
 //! Errors name the file, the key and the value ([`ConfigError`]). Unknown keys are errors.
 //!
+//! A file may be an overlay: `extends = "../vservo.toml"` (relative to the file) merges it over its base, its
+//! own keys winning, tables key by key ([`Config::load`]); an error names the file in which the bad key was
+//! written. [`resolve`] and [`Config::load_with_text`] give the merged text, a whole configuration that
+//! [`Config::from_toml`] takes as it is (the text vservod hands its nodes). The scenario files in
+//! `config/scenarios/` are such overlays of `config/vservo.toml`.
+//!
 //! ```
 //! let text = include_str!("../../../config/vservo.toml");
 //! let config = vservo_config::Config::from_toml(text, "vservo.toml").expect("the default config is valid");
@@ -14,12 +20,14 @@
 //! ```
 
 mod error;
+mod layers;
 mod raw;
 mod validate;
 
 use std::path::Path;
 
 pub use error::ConfigError;
+use layers::Layers;
 use nalgebra::Vector3;
 use vservo_arm::JointVector;
 use vservo_control::{ControlLaw, GainsSpec, InputWeight, StateWeight};
@@ -119,7 +127,8 @@ pub struct Faults {
 }
 
 /// How the cell resumes after a safe stop (`faults.resume`).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
 pub enum ResumePolicy {
     /// On a command only (`vservoctl resume`), the default.
     Command,
@@ -165,7 +174,8 @@ impl Robot {
 }
 
 /// Who drives the arm.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
 pub enum RobotDriver {
     /// vservod's own plant node: the simulated PUMA 560 (`[plant]`).
     Simulated,
@@ -174,7 +184,8 @@ pub enum RobotDriver {
 }
 
 /// The command a robot driver takes.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
 pub enum CommandInterface {
     /// Joint torques: the rmrc runs the joint servo.
     Torque,
@@ -364,32 +375,34 @@ pub struct Controller {
 }
 
 impl Config {
-    /// Reads and validates a configuration file.
+    /// Reads and validates a configuration file, merged over the bases it `extends`.
     pub fn load(path: impl AsRef<Path>) -> Result<Config, ConfigError> {
-        let path = path.as_ref();
-        let origin = path.display().to_string();
-        let text = std::fs::read_to_string(path)
-            .map_err(|e| ConfigError::Read { file: origin.clone(), reason: e.to_string() })?;
-        Self::from_toml(&text, &origin)
+        Self::load_with_text(path).map(|(config, _)| config)
     }
 
-    /// The `[instance] name` of a file, read on its own: the instance a client talks to even when the rest
-    /// of the file does not validate (a file edited since the daemon started, whose reload the daemon
-    /// refuses).
-    pub fn instance_of(path: impl AsRef<Path>) -> Result<String, ConfigError> {
+    /// Reads and validates a configuration file, merged over the bases it `extends`, and gives the
+    /// resolved text with it: the whole configuration as one TOML document with no base left to find, which
+    /// [`Config::from_toml`] turns into the same `Config` (what the daemon hands its nodes).
+    pub fn load_with_text(path: impl AsRef<Path>) -> Result<(Config, String), ConfigError> {
         let path = path.as_ref();
-        let origin = path.display().to_string();
-        let text = std::fs::read_to_string(path)
-            .map_err(|e| ConfigError::Read { file: origin.clone(), reason: e.to_string() })?;
-        let table: toml::Table = toml::from_str(&text)
-            .map_err(|e| ConfigError::Parse { file: origin.clone(), message: e.to_string() })?;
+        let layers = Layers::read(path)?;
+        let config = Self::from_layers(&layers, &path.display().to_string())?;
+        Ok((config, layers.resolved_text()))
+    }
+
+    /// The `[instance] name` of a file (its bases merged), read on its own: the instance a client talks to
+    /// even when the rest of the file does not validate (a file edited since the daemon started, whose
+    /// reload the daemon refuses).
+    pub fn instance_of(path: impl AsRef<Path>) -> Result<String, ConfigError> {
+        let layers = Layers::read(path.as_ref())?;
+        let table = layers.merged();
         let name =
             table.get("instance").and_then(|i| i.get("name")).and_then(|n| n.as_str()).unwrap_or_default();
         if is_instance_name(name.trim()) {
             Ok(name.trim().to_string())
         } else {
             Err(ConfigError::Invalid {
-                file: origin,
+                file: layers.file_of("instance.name").to_string(),
                 key: "instance.name".into(),
                 value: format!("{name:?}"),
                 reason: INSTANCE_NAME_RULE.into(),
@@ -397,11 +410,22 @@ impl Config {
         }
     }
 
-    /// Validates configuration text; `origin` names it in messages.
+    /// Validates configuration text; `origin` names it in messages. The text is whole: `extends` is refused
+    /// (there is no file to find the base from; [`Config::load`] merges it, [`resolve`] gives the result).
     pub fn from_toml(text: &str, origin: &str) -> Result<Config, ConfigError> {
-        let raw: raw::RawConfig = toml::from_str(text)
-            .map_err(|e| ConfigError::Parse { file: origin.to_string(), message: e.to_string() })?;
-        validate::validate(raw, origin)
+        Self::from_layers(&Layers::from_text(text, origin)?, origin)
+    }
+
+    /// Parses and validates the merged layers; an error names the file in which its key was written.
+    fn from_layers(layers: &Layers, origin: &str) -> Result<Config, ConfigError> {
+        let raw = layers.raw_config()?;
+        validate::validate(raw, origin).map_err(|error| match error.key() {
+            Some(key) => {
+                let file = layers.file_of(key).to_string();
+                error.in_file(&file)
+            }
+            None => error,
+        })
     }
 
     /// The world (= arm base) pose of the board, placed so that the camera at q_d sees it as desired.
@@ -446,6 +470,12 @@ impl Config {
             options: self.controller.options,
         }
     }
+}
+
+/// The text of a configuration file merged over the bases it `extends`, not validated: one TOML document that
+/// means what the file means, wherever it is put (a copy elsewhere, a test's edited copy, a node's stdin).
+pub fn resolve(path: impl AsRef<Path>) -> Result<String, ConfigError> {
+    Ok(Layers::read(path.as_ref())?.resolved_text())
 }
 
 /// What an instance name may be, as said in errors.
