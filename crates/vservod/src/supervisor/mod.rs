@@ -120,9 +120,8 @@ struct Daemon {
 /// are designed and the arm placed now, so that a configuration that cannot run is refused before any node
 /// starts.
 fn load_config(config_path: &Path) -> anyhow::Result<(Config, String, Gains)> {
-    let config_text = std::fs::read_to_string(config_path)
-        .with_context(|| format!("{}: reading the configuration", config_path.display()))?;
-    let config = Config::from_toml(&config_text, &config_path.display().to_string())?;
+    // the file with the bases it extends merged in: the nodes are handed that text
+    let (config, config_text) = Config::load_with_text(config_path)?;
     let cell = vservo_cell::Cell::new(&config).with_context(|| format!("{}", config_path.display()))?;
     if let vservo_config::VisionSource::Directory(directory) = &config.vision.source {
         anyhow::bail!(
