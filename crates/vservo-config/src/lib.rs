@@ -25,6 +25,7 @@ mod raw;
 mod validate;
 
 use std::path::Path;
+use std::time::Duration;
 
 pub use error::ConfigError;
 use layers::Layers;
@@ -115,15 +116,16 @@ impl Default for Reacquire {
 /// and is held until the cell resumes.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Faults {
-    /// Marks missing (the servo cannot servo) for longer than this is a lost target (s).
-    pub target_lost_s: f64,
-    /// A joint's torque cut to its limit for longer than this is a fault (s); a moment's saturation while
-    /// accelerating is not.
-    pub saturation_s: f64,
+    /// Marks missing (the servo cannot servo) for longer than this is a lost target (`faults.target_lost_s`).
+    pub target_lost: Duration,
+    /// A joint's torque cut to its limit for longer than this is a fault (`faults.saturation_s`); a moment's
+    /// saturation while accelerating is not.
+    pub saturation: Duration,
     /// How the cell resumes after a safe stop.
     pub resume: ResumePolicy,
-    /// With [`ResumePolicy::Automatic`]: how long the fault's cause must have been gone (s).
-    pub resume_after_s: f64,
+    /// With [`ResumePolicy::Automatic`]: how long the fault's cause must have been gone
+    /// (`faults.resume_after_s`).
+    pub resume_after: Duration,
 }
 
 /// How the cell resumes after a safe stop (`faults.resume`).
@@ -220,19 +222,21 @@ pub struct Runtime {
     pub lock_memory: bool,
     /// The timer slack of the periodic threads (ns): the kernel's default 50 µs adds that much lateness.
     pub timer_slack_ns: u64,
-    /// How often every node publishes telemetry (s).
-    pub telemetry_period_s: f64,
-    /// The first restart of a crashed node waits this long (s); each further one twice as long.
-    pub restart_backoff_initial_s: f64,
-    /// The longest wait before a restart (s).
-    pub restart_backoff_max_s: f64,
+    /// How often every node publishes telemetry (`runtime.telemetry_period_s`).
+    pub telemetry_period: Duration,
+    /// The first restart of a crashed node waits this long (`runtime.restart_backoff_initial_s`); each
+    /// further one twice as long.
+    pub restart_backoff_initial: Duration,
+    /// The longest wait before a restart (`runtime.restart_backoff_max_s`).
+    pub restart_backoff_max: Duration,
     /// After this many ticks without an answer from the rmrc the plant holds the arm (brakes).
     pub hold_after_missed_ticks: u32,
-    /// On SIGTERM, how long the arm may take to ramp to rest before the nodes are stopped anyway (s).
-    pub stop_timeout_s: f64,
+    /// On SIGTERM, how long the arm may take to ramp to rest before the nodes are stopped anyway
+    /// (`runtime.stop_timeout_s`).
+    pub stop_timeout: Duration,
     /// A node whose loop shows no progress (no telemetry; the plant: no new tick) for this long is hung: it is
-    /// killed and restarted like a crashed one (s).
-    pub hang_timeout_s: f64,
+    /// killed and restarted like a crashed one (`runtime.hang_timeout_s`).
+    pub hang_timeout: Duration,
     /// Per node, indexed by role name: plant, rmrc, servo, vision.
     pub plant: NodeRealtime,
     /// The rmrc's.

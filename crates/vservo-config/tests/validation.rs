@@ -423,3 +423,29 @@ fn unknown_names_are_refused_listing_the_accepted_ones() {
         }
     }
 }
+
+/// The supervision times and the fault times are durations, read from their keys in seconds.
+#[test]
+fn times_of_the_running_cell_are_durations() {
+    use std::time::Duration;
+    let config = Config::from_toml(
+        &with("hang_timeout_s = 1.0", "hang_timeout_s = 1.25").replacen(
+            "resume_after_s = 2.0",
+            "resume_after_s = 0.5",
+            1,
+        ),
+        "test.toml",
+    )
+    .expect("valid");
+    assert_eq!(config.runtime.hang_timeout, Duration::from_millis(1250));
+    assert_eq!(config.runtime.telemetry_period, Duration::from_millis(100));
+    assert_eq!(config.runtime.restart_backoff_initial, Duration::from_millis(100));
+    assert_eq!(config.runtime.restart_backoff_max, Duration::from_secs(5));
+    assert_eq!(config.runtime.stop_timeout, Duration::from_secs(1));
+    assert_eq!(config.faults.target_lost, Duration::from_secs(1));
+    assert_eq!(config.faults.saturation, Duration::from_millis(500));
+    assert_eq!(config.faults.resume_after, Duration::from_millis(500));
+    // a hang shorter than three telemetry periods is still refused, naming its key
+    let error = refused(&with("hang_timeout_s = 1.0", "hang_timeout_s = 0.2"));
+    assert_eq!(error.key(), Some("runtime.hang_timeout_s"), "{error}");
+}

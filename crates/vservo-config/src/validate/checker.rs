@@ -1,5 +1,7 @@
 //! The checks every section uses, each error naming the file, the key and the value.
 
+use std::time::Duration;
+
 use nalgebra::Vector3;
 
 use crate::raw::RawPose;
@@ -43,6 +45,17 @@ impl Checker<'_> {
         } else {
             Err(self.invalid(key, value, format!("must be from {low} to {high} {unit}")))
         }
+    }
+
+    /// A time in seconds inside [low, high] (both finite and positive), as a duration.
+    pub fn duration(
+        &self,
+        key: &str,
+        value_s: f64,
+        low_s: f64,
+        high_s: f64,
+    ) -> Result<Duration, ConfigError> {
+        self.within(key, value_s, low_s, high_s, "s").map(Duration::from_secs_f64)
     }
 
     /// Every value finite.

@@ -7,10 +7,10 @@ use crate::{ConfigError, Faults, Reacquire, Robot, Viewer};
 /// When a fault stops the cell, and how it resumes.
 pub fn faults(check: &Checker, f: &RawFaults) -> Result<Faults, ConfigError> {
     Ok(Faults {
-        target_lost_s: check.within("faults.target_lost_s", f.target_lost_s, 0.1, 600.0, "s")?,
-        saturation_s: check.within("faults.saturation_s", f.saturation_s, 0.01, 60.0, "s")?,
+        target_lost: check.duration("faults.target_lost_s", f.target_lost_s, 0.1, 600.0)?,
+        saturation: check.duration("faults.saturation_s", f.saturation_s, 0.01, 60.0)?,
         resume: f.resume,
-        resume_after_s: check.within("faults.resume_after_s", f.resume_after_s, 0.1, 3600.0, "s")?,
+        resume_after: check.duration("faults.resume_after_s", f.resume_after_s, 0.1, 3600.0)?,
     })
 }
 

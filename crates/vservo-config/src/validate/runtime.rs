@@ -2,6 +2,8 @@
 //! daemon working: telemetry well inside the 0.5 s health window, waits that std::time can hold and a user
 //! would still call a restart or a stop.
 
+use std::time::Duration;
+
 use super::checker::Checker;
 use crate::raw::{RawNodeRealtime, RawRuntime};
 use crate::{ConfigError, NodeRealtime, Runtime};
@@ -22,26 +24,28 @@ pub fn runtime(check: &Checker, r: &RawRuntime) -> Result<Runtime, ConfigError> 
         10_000,
         "must be from 1 to 10000",
     )?;
-    let telemetry_period_s =
-        check.within("runtime.telemetry_period_s", r.telemetry_period_s, 0.01, 0.2, "s")?;
-    let (restart_backoff_initial_s, restart_backoff_max_s) = restart_backoff(check, r)?;
-    let stop_timeout_s = check.within("runtime.stop_timeout_s", r.stop_timeout_s, 0.1, 60.0, "s")?;
-    let hang_timeout_s = check.within(
-        "runtime.hang_timeout_s",
-        r.hang_timeout_s,
-        (3.0 * telemetry_period_s).max(0.3),
-        60.0,
-        "s (at least three telemetry periods)",
-    )?;
+    let telemetry_period = check.duration("runtime.telemetry_period_s", r.telemetry_period_s, 0.01, 0.2)?;
+    let (restart_backoff_initial, restart_backoff_max) = restart_backoff(check, r)?;
+    let stop_timeout = check.duration("runtime.stop_timeout_s", r.stop_timeout_s, 0.1, 60.0)?;
+    let least_hang_s = (3.0 * telemetry_period.as_secs_f64()).max(0.3);
+    let hang_timeout = check
+        .within(
+            "runtime.hang_timeout_s",
+            r.hang_timeout_s,
+            least_hang_s,
+            60.0,
+            "s (at least three telemetry periods)",
+        )
+        .map(Duration::from_secs_f64)?;
     Ok(Runtime {
         lock_memory: r.lock_memory,
         timer_slack_ns,
-        telemetry_period_s,
-        restart_backoff_initial_s,
-        restart_backoff_max_s,
+        telemetry_period,
+        restart_backoff_initial,
+        restart_backoff_max,
         hold_after_missed_ticks,
-        stop_timeout_s,
-        hang_timeout_s,
+        stop_timeout,
+        hang_timeout,
         plant: node(check, "plant", &r.plant)?,
         rmrc: node(check, "rmrc", &r.rmrc)?,
         servo: node(check, "servo", &r.servo)?,
@@ -50,18 +54,18 @@ pub fn runtime(check: &Checker, r: &RawRuntime) -> Result<Runtime, ConfigError> 
 }
 
 /// The first restart's wait and the longest, in that order.
-fn restart_backoff(check: &Checker, r: &RawRuntime) -> Result<(f64, f64), ConfigError> {
-    let initial_s =
-        check.within("runtime.restart_backoff_initial_s", r.restart_backoff_initial_s, 0.01, 60.0, "s")?;
-    let max_s = check.within("runtime.restart_backoff_max_s", r.restart_backoff_max_s, 0.01, 600.0, "s")?;
-    if max_s < initial_s {
+fn restart_backoff(check: &Checker, r: &RawRuntime) -> Result<(Duration, Duration), ConfigError> {
+    let initial =
+        check.duration("runtime.restart_backoff_initial_s", r.restart_backoff_initial_s, 0.01, 60.0)?;
+    let max = check.duration("runtime.restart_backoff_max_s", r.restart_backoff_max_s, 0.01, 600.0)?;
+    if max < initial {
         return Err(check.invalid(
             "runtime.restart_backoff_max_s",
-            max_s,
+            r.restart_backoff_max_s,
             "must be at least runtime.restart_backoff_initial_s",
         ));
     }
-    Ok((initial_s, max_s))
+    Ok((initial, max))
 }
 
 /// `runtime.<role>`: a SCHED_FIFO priority (0 for normal scheduling) and CPU numbers.

@@ -81,10 +81,10 @@ impl Settings {
             instance: config.instance.clone(),
             external_robot: config.robot.driver == vservo_config::RobotDriver::External,
             robot_deadline: Duration::from_secs_f64(config.robot.state_timeout_s()),
-            hang_timeout: Duration::from_secs_f64(runtime.hang_timeout_s),
-            stop_timeout: Duration::from_secs_f64(runtime.stop_timeout_s),
-            initial_backoff: Duration::from_secs_f64(runtime.restart_backoff_initial_s),
-            max_backoff: Duration::from_secs_f64(runtime.restart_backoff_max_s),
+            hang_timeout: runtime.hang_timeout,
+            stop_timeout: runtime.stop_timeout,
+            initial_backoff: runtime.restart_backoff_initial,
+            max_backoff: runtime.restart_backoff_max,
             status_every: (status_every_s > 0.0).then(|| Duration::from_secs_f64(status_every_s)),
         }
     }
