@@ -111,7 +111,10 @@ impl Layers {
                 Ok(_) => error.to_string(),
             }
         } else {
-            error.to_string()
+            match key.as_deref().and_then(|key| line_of(&layer.text, key)) {
+                Some(line) => format!("line {line}: {error}"),
+                None => error.to_string(),
+            }
         };
         ConfigError::Parse { file: layer.file.clone(), key, message: message.trim_end().to_string() }
     }
@@ -161,6 +164,24 @@ fn key_of(error: &toml::de::Error) -> Option<String> {
     let last = shown.trim_end().lines().last()?;
     let key = last.strip_prefix("in `")?.strip_suffix('`')?;
     Some(key.to_string())
+}
+
+/// The line (from 1) of `text` on which the dotted key is written, or the deepest table of it that is.
+fn line_of(text: &str, key: &str) -> Option<usize> {
+    let document = toml::de::DeTable::parse(text).ok()?;
+    let mut table = document.get_ref();
+    let mut start = None;
+    for part in key.split('.') {
+        let Some((name, value)) = table.iter().find(|(name, _)| name.get_ref() == part) else {
+            break;
+        };
+        start = Some(name.span().start);
+        match value.get_ref() {
+            toml::de::DeValue::Table(inner) => table = inner,
+            _ => break,
+        }
+    }
+    start.map(|start| text[..start].matches('\n').count() + 1)
 }
 
 fn with_key(message: String, key: Option<&str>) -> String {
@@ -260,6 +281,16 @@ mod tests {
         // not written anywhere: the nearest table that is, then the first file
         assert_eq!(chain.file_of("a.missing"), "top.toml");
         assert_eq!(chain.file_of("nowhere.at_all"), "top.toml");
+    }
+
+    #[test]
+    fn a_key_is_found_on_its_line() {
+        let text = "# a comment\n[a]\nx = 1\n\n[a.b]\ny = 2\n";
+        assert_eq!(line_of(text, "a.x"), Some(3));
+        assert_eq!(line_of(text, "a.b.y"), Some(6));
+        // not written: the deepest table that is
+        assert_eq!(line_of(text, "a.b.z"), Some(5));
+        assert_eq!(line_of(text, "c"), None);
     }
 
     #[test]

@@ -140,6 +140,10 @@ fn errors_name_the_file_in_which_the_bad_key_was_written() {
         error.to_string().contains("`hydraulic`") && error.to_string().contains("`kinematic`"),
         "{error}"
     );
+    // on its line in the overlay
+    assert!(error.to_string().contains("line 3:"), "{error}");
+    let error = refused("unknown-key.toml");
+    assert!(error.to_string().contains("line 2:"), "the [scenario] table's line: {error}");
 }
 
 /// A file that extends itself, directly or through another, and a base that is not there are refused,
