@@ -68,8 +68,12 @@ impl Layers {
     }
 
     /// The merged keys as TOML text: what the file means, with no base left to find.
-    pub fn resolved_text(&self) -> String {
-        toml::to_string(&self.merged()).unwrap_or_else(|_| self.layers[0].text.clone())
+    pub fn resolved_text(&self) -> Result<String, ConfigError> {
+        toml::to_string(&self.merged()).map_err(|e| ConfigError::Parse {
+            file: self.layers[0].file.clone(),
+            key: None,
+            message: format!("the merged configuration cannot be written as TOML: {e}"),
+        })
     }
 
     /// The file that wrote `key` (a dotted key, `[i]` indices allowed) or, failing that, the nearest table

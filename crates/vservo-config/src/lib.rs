@@ -91,7 +91,7 @@ impl Config {
         let path = path.as_ref();
         let layers = Layers::read(path)?;
         let config = Self::from_layers(&layers, &path.display().to_string())?;
-        Ok((config, layers.resolved_text()))
+        Ok((config, layers.resolved_text()?))
     }
 
     /// The `[instance] name` of a file (its bases merged), read on its own: the instance a client talks to
@@ -179,7 +179,7 @@ impl Config {
 /// The text of a configuration file merged over the bases it `extends`, not validated: one TOML document that
 /// means what the file means, wherever it is put (a copy elsewhere, a test's edited copy, a node's stdin).
 pub fn resolve(path: impl AsRef<Path>) -> Result<String, ConfigError> {
-    Ok(Layers::read(path.as_ref())?.resolved_text())
+    Layers::read(path.as_ref())?.resolved_text()
 }
 
 /// What an instance name may be, as said in errors.
