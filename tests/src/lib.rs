@@ -256,7 +256,8 @@ impl Daemon {
 /// A copy of a configuration file of the repository (`config/…`) with pieces of text replaced, written to a
 /// temporary file that lives as long as the returned guard.
 pub fn config_from(file: &str, replacements: &[(&str, &str)]) -> TempConfig {
-    let mut text = std::fs::read_to_string(repository_root().join(file)).expect("the config is readable");
+    // the file with its bases merged in: the copy lives elsewhere, where a relative `extends` finds nothing
+    let mut text = vservo_config::resolve(repository_root().join(file)).expect("the config is readable");
     for (old, new) in replacements {
         assert!(text.contains(old), "{file} holds {old:?}");
         text = text.replacen(old, new, 1);

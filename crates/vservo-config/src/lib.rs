@@ -7,6 +7,12 @@
 //!
 //! Errors name the file, the key and the value ([`ConfigError`]). Unknown keys are errors.
 //!
+//! A file may be an overlay: `extends = "../vservo.toml"` (relative to the file) merges it over its base, its
+//! own keys winning, tables key by key ([`Config::load`]); an error names the file in which the bad key was
+//! written. [`resolve`] and [`Config::load_with_text`] give the merged text, a whole configuration that
+//! [`Config::from_toml`] takes as it is (the text vservod hands its nodes). The scenario files in
+//! `config/scenarios/` are such overlays of `config/vservo.toml`.
+//!
 //! ```
 //! let text = include_str!("../../../config/vservo.toml");
 //! let config = vservo_config::Config::from_toml(text, "vservo.toml").expect("the default config is valid");
@@ -14,16 +20,20 @@
 //! ```
 
 mod error;
+mod layers;
 mod raw;
+mod sections;
 mod validate;
 
 use std::path::Path;
 
 pub use error::ConfigError;
+use layers::Layers;
 use nalgebra::Vector3;
+pub use sections::*;
 use vservo_arm::JointVector;
-use vservo_control::{ControlLaw, GainsSpec, InputWeight, StateWeight};
-use vservo_scene::{Board, CameraIntrinsics, FeatureVector, IsometryMatrix3, MarkDepths};
+use vservo_control::GainsSpec;
+use vservo_scene::{Board, CameraIntrinsics, IsometryMatrix3};
 
 /// A validated configuration.
 #[derive(Debug, Clone, PartialEq)]
@@ -68,328 +78,35 @@ pub struct Config {
     pub viewer: Viewer,
 }
 
-/// `[viewer]`: vservod serves the running cell live to Foxglove over its WebSocket protocol (a
-/// `vservoctl view` process it starts and stops; a client of the instance like any other). Optional in the
-/// file: off, and on localhost only, by default.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub struct Viewer {
-    /// Whether vservod starts the viewer.
-    pub enabled: bool,
-    /// The address it serves on (an IP address; `127.0.0.1` by default, reached from another machine over
-    /// SSH: `ssh -L 8765:localhost:8765 host`).
-    pub address: String,
-    /// The TCP port.
-    pub port: u16,
-}
-
-/// `[reacquire]`: with fewer than three marks seen, the servo steers the camera back to its pose when it last
-/// saw all four, proportionally with speed caps. Optional in the file (the defaults below apply); read at
-/// start (a reload that changes it is refused).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Reacquire {
-    /// The proportional gain (1/s): the twist is this times the pose error, translation and rotation.
-    pub gain_per_s: f64,
-    /// The fastest the camera moves while reacquiring (m/s).
-    pub max_speed_m_s: f64,
-    /// The fastest the camera turns while reacquiring (rad/s).
-    pub max_rotation_rad_s: f64,
-}
-
-impl Default for Reacquire {
-    fn default() -> Self {
-        Self { gain_per_s: 1.5, max_speed_m_s: 0.1, max_rotation_rad_s: 0.5 }
-    }
-}
-
-/// `[faults]`: the fault reaction of the real-time shell. Optional in the file (the defaults below apply).
-/// A position or velocity limit, a driver fault, a torque saturation that lasts, lost marks that stay lost
-/// and a stalled external driver each end in a safe stop: the arm ramps to rest at the acceleration limits
-/// and is held until the cell resumes.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Faults {
-    /// Marks missing (the servo cannot servo) for longer than this is a lost target (s).
-    pub target_lost_s: f64,
-    /// A joint's torque cut to its limit for longer than this is a fault (s); a moment's saturation while
-    /// accelerating is not.
-    pub saturation_s: f64,
-    /// How the cell resumes after a safe stop.
-    pub resume: ResumePolicy,
-    /// With [`ResumePolicy::Automatic`]: how long the fault's cause must have been gone (s).
-    pub resume_after_s: f64,
-}
-
-/// How the cell resumes after a safe stop (`faults.resume`).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum ResumePolicy {
-    /// On a command only (`vservoctl resume`), the default.
-    Command,
-    /// By itself once the cause has been gone for `faults.resume_after_s` (a WARN line says so), or on a
-    /// command.
-    Automatic,
-}
-
-impl ResumePolicy {
-    /// The name in the file.
-    pub fn name(self) -> &'static str {
-        match self {
-            ResumePolicy::Command => "command",
-            ResumePolicy::Automatic => "automatic",
-        }
-    }
-}
-
-/// `[robot]`: which process drives the arm and how it is commanded. Optional in the file: the simulated
-/// PUMA 560 by default.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Robot {
-    /// Who publishes `joint_state` and applies `joint_command`.
-    pub driver: RobotDriver,
-    /// The command an external driver takes ([`Config::command_interface`] gives the one in force: the
-    /// simulated driver's follows from `plant.mode`).
-    pub command: CommandInterface,
-    /// The driver's period (s): a joint state comes this often, and the interpolator steps by it.
-    pub period_s: f64,
-    /// No joint state for this many periods is a stalled driver: no motion is commanded until it is back.
-    pub state_timeout_periods: u32,
-    /// A camera twist faster than this (m/s, the linear part's norm) is refused by the rmrc.
-    pub max_camera_speed_m_s: f64,
-    /// A camera twist turning faster than this (rad/s, the angular part's norm) is refused by the rmrc.
-    pub max_camera_rotation_rad_s: f64,
-}
-
-impl Robot {
-    /// The stall deadline (s).
-    pub fn state_timeout_s(&self) -> f64 {
-        self.period_s * f64::from(self.state_timeout_periods)
-    }
-}
-
-/// Who drives the arm.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum RobotDriver {
-    /// vservod's own plant node: the simulated PUMA 560 (`[plant]`).
-    Simulated,
-    /// A process of the user's (a real arm's driver, or another simulator), behind docs/DRIVERS.md.
-    External,
-}
-
-/// The command a robot driver takes.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum CommandInterface {
-    /// Joint torques: the rmrc runs the joint servo.
-    Torque,
-    /// Joint velocities: the interpolator's q̇ reference.
-    Velocity,
-    /// Joint positions: the interpolator's q reference.
-    Position,
-}
-
-impl CommandInterface {
-    /// The name in the file.
-    pub fn name(self) -> &'static str {
-        match self {
-            CommandInterface::Torque => "torque",
-            CommandInterface::Velocity => "velocity",
-            CommandInterface::Position => "position",
-        }
-    }
-
-    /// From the name in the file.
-    pub fn from_name(name: &str) -> Option<Self> {
-        [Self::Torque, Self::Velocity, Self::Position].into_iter().find(|c| c.name() == name)
-    }
-}
-
-/// `[runtime]`: scheduling, memory locking and supervision of the real-time shell. Optional in the file
-/// (the defaults below apply). A scheduling request the system does not permit is a warning at start, not
-/// an error.
-#[derive(Debug, Clone, PartialEq)]
-pub struct Runtime {
-    /// mlockall(MCL_CURRENT | MCL_FUTURE) in every node.
-    pub lock_memory: bool,
-    /// The timer slack of the periodic threads (ns): the kernel's default 50 µs adds that much lateness.
-    pub timer_slack_ns: u64,
-    /// How often every node publishes telemetry (s).
-    pub telemetry_period_s: f64,
-    /// The first restart of a crashed node waits this long (s); each further one twice as long.
-    pub restart_backoff_initial_s: f64,
-    /// The longest wait before a restart (s).
-    pub restart_backoff_max_s: f64,
-    /// After this many ticks without an answer from the rmrc the plant holds the arm (brakes).
-    pub hold_after_missed_ticks: u32,
-    /// On SIGTERM, how long the arm may take to ramp to rest before the nodes are stopped anyway (s).
-    pub stop_timeout_s: f64,
-    /// A node whose loop shows no progress (no telemetry; the plant: no new tick) for this long is hung: it is
-    /// killed and restarted like a crashed one (s).
-    pub hang_timeout_s: f64,
-    /// Per node, indexed by role name: plant, rmrc, servo, vision.
-    pub plant: NodeRealtime,
-    /// The rmrc's.
-    pub rmrc: NodeRealtime,
-    /// The servo's.
-    pub servo: NodeRealtime,
-    /// The vision node's.
-    pub vision: NodeRealtime,
-}
-
-/// One node's scheduling.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub struct NodeRealtime {
-    /// SCHED_FIFO priority 1–99; 0 keeps the normal scheduler.
-    pub fifo_priority: u8,
-    /// CPUs the node may run on; empty: any.
-    pub cpus: Vec<usize>,
-}
-
-/// The simulated arm.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct PlantSettings {
-    /// Dynamic or kinematic.
-    pub mode: vservo_sim::plant::PlantMode,
-    /// RK4 steps per control period.
-    pub rk4_substeps: u32,
-}
-
-/// The joint servo's law and gains.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct JointServoSettings {
-    /// Computed torque or PD plus gravity.
-    pub law: vservo_sim::joint_servo::JointServoLaw,
-    /// Position gains.
-    pub kp: JointVector,
-    /// Velocity gains.
-    pub kv: JointVector,
-}
-
-/// What the simulated cell does.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Scenario {
-    /// How long a simulation runs (s).
-    pub duration_s: f64,
-    /// The camera's starting offset from its desired pose, in the desired camera frame (m).
-    pub initial_camera_translation_m: Vector3<f64>,
-    /// …and its starting rotation about its own axes (rotation vector, rad).
-    pub initial_camera_rotation: Vector3<f64>,
-    /// How the board moves.
-    pub object: vservo_sim::world::ObjectMotion,
-    /// Marks the simulated camera does not see for a while (`scenario.occlusions`; none by default), at
-    /// most [`MAX_OCCLUSIONS`].
-    pub occlusions: [Option<Occlusion>; MAX_OCCLUSIONS],
-}
-
-/// The most occlusions a scenario may hold.
-pub const MAX_OCCLUSIONS: usize = 8;
-
-/// A mark hidden from the simulated camera for a while, as if something covered it (`scenario.occlusions`).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Occlusion {
-    /// The mark (zero-based).
-    pub mark: usize,
-    /// From this time (s)…
-    pub from_s: f64,
-    /// …until this one (s).
-    pub until_s: f64,
-}
-
-impl Scenario {
-    /// The marks hidden at time `t_s` (bit m for mark m).
-    pub fn hidden_marks(&self, t_s: f64) -> u8 {
-        self.occlusions
-            .iter()
-            .flatten()
-            .filter(|o| o.from_s <= t_s && t_s < o.until_s)
-            .fold(0, |set, o| set | (1 << o.mark))
-    }
-}
-
-/// Where images come from, and how features are found in them.
-#[derive(Debug, Clone, PartialEq)]
-pub struct Vision {
-    /// The image source.
-    pub source: VisionSource,
-    /// The extractor's tuning.
-    pub extractor: vservo_vision::ExtractorSettings,
-    /// The simulated camera's scene.
-    pub render: vservo_vision::RenderSettings,
-}
-
-/// Where images come from (`camera.source`).
-#[derive(Debug, Clone, PartialEq)]
-pub enum VisionSource {
-    /// The simulated hand camera renders the board.
-    Simulated,
-    /// Frames published on `camera_image` by another process (a camera driver).
-    External,
-    /// Recorded images in a directory.
-    Directory(std::path::PathBuf),
-}
-
-/// Periods and delays.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Timing {
-    /// The vision period T (s).
-    pub vision_period_s: f64,
-    /// Frames between an image's capture and its features reaching the servo.
-    pub pipeline_delay_frames: usize,
-    /// The interpolator's period (s).
-    pub control_period_s: f64,
-    /// Control periods per vision frame (a whole number: 85 by default).
-    pub control_ticks_per_frame: u32,
-}
-
-/// The desired pose and the image there.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Desired {
-    /// q_d (rad), inside the joint limits.
-    pub joints: JointVector,
-    /// The board in the camera frame at the desired pose.
-    pub camera_from_board: IsometryMatrix3<f64>,
-    /// ξ_d: the marks' images there (px), all inside the image.
-    pub features: FeatureVector,
-    /// Z_d: the marks' depths there (m), all positive.
-    pub depths: MarkDepths,
-}
-
-/// The controller's law and weights.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Controller {
-    /// Which law runs.
-    pub law: ControlLaw,
-    /// Q.
-    pub q: StateWeight,
-    /// R, with its unit.
-    pub r: InputWeight,
-    /// What the law does beyond the paper's (`interaction`, `border_margin_px`, `feedforward`).
-    pub options: vservo_control::LawOptions,
-}
-
 impl Config {
-    /// Reads and validates a configuration file.
+    /// Reads and validates a configuration file, merged over the bases it `extends`.
     pub fn load(path: impl AsRef<Path>) -> Result<Config, ConfigError> {
-        let path = path.as_ref();
-        let origin = path.display().to_string();
-        let text = std::fs::read_to_string(path)
-            .map_err(|e| ConfigError::Read { file: origin.clone(), reason: e.to_string() })?;
-        Self::from_toml(&text, &origin)
+        Self::load_with_text(path).map(|(config, _)| config)
     }
 
-    /// The `[instance] name` of a file, read on its own: the instance a client talks to even when the rest
-    /// of the file does not validate (a file edited since the daemon started, whose reload the daemon
-    /// refuses).
-    pub fn instance_of(path: impl AsRef<Path>) -> Result<String, ConfigError> {
+    /// Reads and validates a configuration file, merged over the bases it `extends`, and gives the
+    /// resolved text with it: the whole configuration as one TOML document with no base left to find, which
+    /// [`Config::from_toml`] turns into the same `Config` (what the daemon hands its nodes).
+    pub fn load_with_text(path: impl AsRef<Path>) -> Result<(Config, String), ConfigError> {
         let path = path.as_ref();
-        let origin = path.display().to_string();
-        let text = std::fs::read_to_string(path)
-            .map_err(|e| ConfigError::Read { file: origin.clone(), reason: e.to_string() })?;
-        let table: toml::Table = toml::from_str(&text)
-            .map_err(|e| ConfigError::Parse { file: origin.clone(), message: e.to_string() })?;
+        let layers = Layers::read(path)?;
+        let config = Self::from_layers(&layers, &path.display().to_string())?;
+        Ok((config, layers.resolved_text()?))
+    }
+
+    /// The `[instance] name` of a file (its bases merged), read on its own: the instance a client talks to
+    /// even when the rest of the file does not validate (a file edited since the daemon started, whose
+    /// reload the daemon refuses).
+    pub fn instance_of(path: impl AsRef<Path>) -> Result<String, ConfigError> {
+        let layers = Layers::read(path.as_ref())?;
+        let table = layers.merged();
         let name =
             table.get("instance").and_then(|i| i.get("name")).and_then(|n| n.as_str()).unwrap_or_default();
         if is_instance_name(name.trim()) {
             Ok(name.trim().to_string())
         } else {
             Err(ConfigError::Invalid {
-                file: origin,
+                file: layers.file_of("instance.name").to_string(),
                 key: "instance.name".into(),
                 value: format!("{name:?}"),
                 reason: INSTANCE_NAME_RULE.into(),
@@ -397,11 +114,22 @@ impl Config {
         }
     }
 
-    /// Validates configuration text; `origin` names it in messages.
+    /// Validates configuration text; `origin` names it in messages. The text is whole: `extends` is refused
+    /// (there is no file to find the base from; [`Config::load`] merges it, [`resolve`] gives the result).
     pub fn from_toml(text: &str, origin: &str) -> Result<Config, ConfigError> {
-        let raw: raw::RawConfig = toml::from_str(text)
-            .map_err(|e| ConfigError::Parse { file: origin.to_string(), message: e.to_string() })?;
-        validate::validate(raw, origin)
+        Self::from_layers(&Layers::from_text(text, origin)?, origin)
+    }
+
+    /// Parses and validates the merged layers; an error names the file in which its key was written.
+    fn from_layers(layers: &Layers, origin: &str) -> Result<Config, ConfigError> {
+        let raw = layers.raw_config()?;
+        validate::validate(raw, origin).map_err(|error| match error.key() {
+            Some(key) => {
+                let file = layers.file_of(key).to_string();
+                error.in_file(&file)
+            }
+            None => error,
+        })
     }
 
     /// The world (= arm base) pose of the board, placed so that the camera at q_d sees it as desired.
@@ -446,6 +174,12 @@ impl Config {
             options: self.controller.options,
         }
     }
+}
+
+/// The text of a configuration file merged over the bases it `extends`, not validated: one TOML document that
+/// means what the file means, wherever it is put (a copy elsewhere, a test's edited copy, a node's stdin).
+pub fn resolve(path: impl AsRef<Path>) -> Result<String, ConfigError> {
+    Layers::read(path.as_ref())?.resolved_text()
 }
 
 /// What an instance name may be, as said in errors.

@@ -1,6 +1,10 @@
-//! The file as written: serde structures that mirror the TOML, refusing unknown keys.
+//! The file as written: serde structures that mirror the TOML, refusing unknown keys. Every name a key takes
+//! is an enum here, parsed once by serde: an unknown name is a parser error that names the key and lists
+//! the accepted names.
 
 use serde::Deserialize;
+
+use crate::{CommandInterface, ResumePolicy, RobotDriver};
 
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -55,21 +59,21 @@ pub struct RawReacquire {
 pub struct RawFaults {
     pub target_lost_s: f64,
     pub saturation_s: f64,
-    pub resume: String,
+    pub resume: ResumePolicy,
     pub resume_after_s: f64,
 }
 
 impl Default for RawFaults {
     fn default() -> Self {
-        Self { target_lost_s: 1.0, saturation_s: 0.5, resume: "command".into(), resume_after_s: 2.0 }
+        Self { target_lost_s: 1.0, saturation_s: 0.5, resume: ResumePolicy::Command, resume_after_s: 2.0 }
     }
 }
 
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct RawRobot {
-    pub driver: String,
-    pub command: Option<String>,
+    pub driver: RobotDriver,
+    pub command: Option<CommandInterface>,
     pub period_s: Option<f64>,
     pub state_timeout_periods: i64,
     pub max_camera_speed_m_s: f64,
@@ -80,7 +84,7 @@ pub struct RawRobot {
 impl Default for RawRobot {
     fn default() -> Self {
         Self {
-            driver: "simulated".into(),
+            driver: RobotDriver::Simulated,
             command: None,
             period_s: None,
             state_timeout_periods: 50,
@@ -94,7 +98,7 @@ impl Default for RawRobot {
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct RawArm {
-    pub preset: String,
+    pub preset: RawArmPreset,
     pub dh: Option<Vec<[f64; 4]>>,
     pub joint_limits_rad: Option<Vec<[f64; 2]>>,
     pub velocity_limits_rad_s: Option<Vec<f64>>,
@@ -102,7 +106,7 @@ pub struct RawArm {
 
 impl Default for RawArm {
     fn default() -> Self {
-        Self { preset: "puma560".into(), dh: None, joint_limits_rad: None, velocity_limits_rad_s: None }
+        Self { preset: RawArmPreset::Puma560, dh: None, joint_limits_rad: None, velocity_limits_rad_s: None }
     }
 }
 
@@ -171,15 +175,11 @@ pub struct RawCamera {
     pub principal_point_px: [f64; 2],
     pub width_px: i64,
     pub height_px: i64,
-    #[serde(default = "simulated")]
-    pub source: String,
+    #[serde(default)]
+    pub source: RawCameraSource,
     #[serde(default)]
     pub directory: String,
     pub tool_from_camera: RawPose,
-}
-
-fn simulated() -> String {
-    "simulated".into()
 }
 
 #[derive(Debug, Deserialize)]
@@ -207,12 +207,12 @@ pub struct RawDesired {
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct RawController {
-    pub law: String,
+    pub law: RawLaw,
     pub q: toml::Value,
     pub r: toml::Value,
-    pub r_units: String,
+    pub r_units: RawInputUnits,
     #[serde(default)]
-    pub interaction: Option<String>,
+    pub interaction: Option<RawInteraction>,
     #[serde(default)]
     pub border_margin_px: Option<f64>,
     #[serde(default)]
@@ -246,14 +246,14 @@ pub struct RawRender {
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct RawPlant {
-    pub mode: String,
+    pub mode: RawPlantMode,
     pub rk4_substeps: i64,
 }
 
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct RawInterpolator {
-    pub twist_hold: String,
+    pub twist_hold: RawTwistHold,
     pub manipulability_threshold: f64,
     pub max_damping: f64,
     pub stale_twist_frames: f64,
@@ -264,7 +264,7 @@ pub struct RawInterpolator {
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct RawJointServo {
-    pub law: String,
+    pub law: RawJointServoLaw,
     pub kp: [f64; 6],
     pub kv: [f64; 6],
 }
@@ -275,7 +275,7 @@ pub struct RawScenario {
     pub duration_s: f64,
     pub initial_camera_translation_m: [f64; 3],
     pub initial_camera_rotation_deg: [f64; 3],
-    pub object_motion: String,
+    pub object_motion: RawObjectMotion,
     pub step_at_s: f64,
     pub step_translation_m: [f64; 3],
     pub circle_radius_m: f64,
@@ -290,4 +290,136 @@ pub struct RawOcclusion {
     pub mark: i64,
     pub from_s: f64,
     pub until_s: f64,
+}
+
+/// `robot.arm.preset`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum RawArmPreset {
+    Puma560,
+    Custom,
+}
+
+/// `camera.source`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum RawCameraSource {
+    #[default]
+    Simulated,
+    External,
+    Directory,
+}
+
+/// `controller.law`.
+#[derive(Debug, Clone, Copy, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum RawLaw {
+    Paper,
+    DelayAware,
+}
+
+impl From<RawLaw> for vservo_control::ControlLaw {
+    fn from(law: RawLaw) -> Self {
+        match law {
+            RawLaw::Paper => Self::Paper,
+            RawLaw::DelayAware => Self::DelayAware,
+        }
+    }
+}
+
+/// `controller.r_units`.
+#[derive(Debug, Clone, Copy, Deserialize)]
+pub enum RawInputUnits {
+    #[serde(rename = "mm-mrad")]
+    MillimetreMilliradian,
+    #[serde(rename = "si")]
+    Si,
+}
+
+impl From<RawInputUnits> for vservo_control::InputUnits {
+    fn from(units: RawInputUnits) -> Self {
+        match units {
+            RawInputUnits::MillimetreMilliradian => Self::MillimetreMilliradian,
+            RawInputUnits::Si => Self::Si,
+        }
+    }
+}
+
+/// `controller.interaction`.
+#[derive(Debug, Clone, Copy, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum RawInteraction {
+    Desired,
+    Mean,
+    Current,
+}
+
+impl From<RawInteraction> for vservo_control::Interaction {
+    fn from(interaction: RawInteraction) -> Self {
+        match interaction {
+            RawInteraction::Desired => Self::Desired,
+            RawInteraction::Mean => Self::Mean,
+            RawInteraction::Current => Self::Current,
+        }
+    }
+}
+
+/// `plant.mode`.
+#[derive(Debug, Clone, Copy, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum RawPlantMode {
+    Dynamic,
+    Kinematic,
+}
+
+impl From<RawPlantMode> for vservo_sim::plant::PlantMode {
+    fn from(mode: RawPlantMode) -> Self {
+        match mode {
+            RawPlantMode::Dynamic => Self::Dynamic,
+            RawPlantMode::Kinematic => Self::Kinematic,
+        }
+    }
+}
+
+/// `interpolator.twist_hold`.
+#[derive(Debug, Clone, Copy, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum RawTwistHold {
+    ZeroOrder,
+    Linear,
+}
+
+impl From<RawTwistHold> for vservo_sim::interpolator::TwistHold {
+    fn from(hold: RawTwistHold) -> Self {
+        match hold {
+            RawTwistHold::ZeroOrder => Self::ZeroOrder,
+            RawTwistHold::Linear => Self::Linear,
+        }
+    }
+}
+
+/// `joint_servo.law`.
+#[derive(Debug, Clone, Copy, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum RawJointServoLaw {
+    ComputedTorque,
+    PdGravity,
+}
+
+impl From<RawJointServoLaw> for vservo_sim::joint_servo::JointServoLaw {
+    fn from(law: RawJointServoLaw) -> Self {
+        match law {
+            RawJointServoLaw::ComputedTorque => Self::ComputedTorque,
+            RawJointServoLaw::PdGravity => Self::PdGravity,
+        }
+    }
+}
+
+/// `scenario.object_motion` (the motion's numbers are keys of their own).
+#[derive(Debug, Clone, Copy, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum RawObjectMotion {
+    Hold,
+    Step,
+    Circle,
 }

@@ -64,8 +64,6 @@ fn bad_values_name_their_key_and_value() {
             "0.0",
         ),
         (with("r = [1.0, 1.0, 1.0, 6.0, 6.0, 6.0]", "r = nan"), "controller.r", "nan"),
-        (with("law = \"paper\"", "law = \"fast\""), "controller.law", "fast"),
-        (with("r_units = \"mm-mrad\"", "r_units = \"inch\""), "controller.r_units", "inch"),
         (with("name = \"default\"", "name = \"a/b\""), "instance.name", "a/b"),
         (
             with("translation_m = [0.0, 0.0, 0.5]", "translation_m = [0.0, 0.0, -0.5]"),
@@ -84,9 +82,7 @@ fn bad_values_name_their_key_and_value() {
             "object.board_extent_m",
             "every mark",
         ),
-        (with("source = \"simulated\"", "source = \"webcam\""), "camera.source", "webcam"),
         (with("source = \"simulated\"", "source = \"directory\""), "camera.directory", "must name"),
-        (with("driver = \"simulated\"", "driver = \"ros\""), "robot.driver", "ros"),
         (
             with("driver = \"simulated\"", "driver = \"external\"\ncommand = \"velocity\""),
             "camera.source",
@@ -103,11 +99,6 @@ fn bad_values_name_their_key_and_value() {
             "robot.command",
             "leave robot.command out",
         ),
-        (
-            with("driver = \"simulated\"", "driver = \"external\"\ncommand = \"speed\""),
-            "robot.command",
-            "speed",
-        ),
         (with("state_timeout_periods = 50", "state_timeout_periods = 1"), "robot.state_timeout_periods", "1"),
         (
             with("source = \"simulated\"", "source = \"external\"").replace(
@@ -122,13 +113,9 @@ fn bad_values_name_their_key_and_value() {
         (with("noise_sigma_gray = 1.0", "noise_sigma_gray = -1.0"), "vision.render.noise_sigma_gray", "-1"),
         (with("mark_gray = 20", "mark_gray = 225"), "vision.render.mark_gray", "225"),
         (with("supersampling = 8", "supersampling = 0"), "vision.render.supersampling", "0"),
-        (with("mode = \"dynamic\"", "mode = \"hydraulic\""), "plant.mode", "hydraulic"),
-        (with("twist_hold = \"zero-order\"", "twist_hold = \"cubic\""), "interpolator.twist_hold", "cubic"),
         (with("stop_ramp_s = 0.2", "stop_ramp_s = 0.0"), "interpolator.stop_ramp_s", "0"),
-        (with("law = \"computed-torque\"", "law = \"pid\""), "joint_servo.law", "pid"),
         (with("kp = [3600.0, 3600.0", "kp = [-1.0, 3600.0"), "joint_servo.kp", "-1.0"),
         (with("duration_s = 30.0", "duration_s = 0.0"), "scenario.duration_s", "0"),
-        (with("object_motion = \"hold\"", "object_motion = \"spin\""), "scenario.object_motion", "spin"),
     ];
     for (text, key, fragment) in cases {
         let error = refused(&text);
@@ -354,4 +341,111 @@ fn reacquiring_has_the_defaults_and_its_keys_are_checked_against_the_period_and_
         let error = refused(&text);
         assert_eq!(error.key(), Some(key), "{error}");
     }
+}
+
+/// A name a key does not take is refused by the parser, naming the file, the dotted key, the value and the
+/// names it takes.
+#[test]
+fn unknown_names_are_refused_listing_the_accepted_ones() {
+    let cases = [
+        (with("law = \"paper\"", "law = \"fast\""), "controller.law", "fast", &["paper", "delay-aware"][..]),
+        (
+            with("r_units = \"mm-mrad\"", "r_units = \"inch\""),
+            "controller.r_units",
+            "inch",
+            &["mm-mrad", "si"],
+        ),
+        (
+            with("interaction = \"desired\"", "interaction = \"nearest\""),
+            "controller.interaction",
+            "nearest",
+            &["desired", "mean", "current"],
+        ),
+        (
+            with("source = \"simulated\"", "source = \"webcam\""),
+            "camera.source",
+            "webcam",
+            &["simulated", "external", "directory"],
+        ),
+        (
+            with("driver = \"simulated\"", "driver = \"ros\""),
+            "robot.driver",
+            "ros",
+            &["simulated", "external"],
+        ),
+        (
+            with("driver = \"simulated\"", "driver = \"external\"\ncommand = \"speed\""),
+            "robot.command",
+            "speed",
+            &["torque", "velocity", "position"],
+        ),
+        (with("preset = \"puma560\"", "preset = \"ur5\""), "robot.arm.preset", "ur5", &["puma560", "custom"]),
+        (
+            with("resume = \"command\"", "resume = \"never\""),
+            "faults.resume",
+            "never",
+            &["command", "automatic"],
+        ),
+        (
+            with("mode = \"dynamic\"", "mode = \"hydraulic\""),
+            "plant.mode",
+            "hydraulic",
+            &["dynamic", "kinematic"],
+        ),
+        (
+            with("twist_hold = \"zero-order\"", "twist_hold = \"cubic\""),
+            "interpolator.twist_hold",
+            "cubic",
+            &["zero-order", "linear"],
+        ),
+        (
+            with("law = \"computed-torque\"", "law = \"pid\""),
+            "joint_servo.law",
+            "pid",
+            &["computed-torque", "pd-gravity"],
+        ),
+        (
+            with("object_motion = \"hold\"", "object_motion = \"spin\""),
+            "scenario.object_motion",
+            "spin",
+            &["hold", "step", "circle"],
+        ),
+    ];
+    for (text, key, value, accepted) in cases {
+        let error = refused(&text);
+        assert!(matches!(error, ConfigError::Parse { .. }), "{error:?}");
+        assert_eq!(error.key(), Some(key), "{error}");
+        let message = error.to_string();
+        assert!(message.starts_with("test.toml: ") && message.contains(key), "{message}");
+        assert!(message.contains(&format!("`{value}`")), "{message:?} should show {value:?}");
+        for name in accepted {
+            assert!(message.contains(&format!("`{name}`")), "{message:?} should list {name:?}");
+        }
+    }
+}
+
+/// The supervision times and the fault times are durations, read from their keys in seconds.
+#[test]
+fn times_of_the_running_cell_are_durations() {
+    use std::time::Duration;
+    let config = Config::from_toml(
+        &with("hang_timeout_s = 1.0", "hang_timeout_s = 1.25").replacen(
+            "resume_after_s = 2.0",
+            "resume_after_s = 0.5",
+            1,
+        ),
+        "test.toml",
+    )
+    .expect("valid");
+    assert_eq!(config.runtime.hang_timeout, Duration::from_millis(1250));
+    assert_eq!(config.runtime.telemetry_period, Duration::from_millis(100));
+    assert_eq!(config.runtime.restart_backoff_initial, Duration::from_millis(100));
+    assert_eq!(config.runtime.restart_backoff_max, Duration::from_secs(5));
+    assert_eq!(config.runtime.stop_timeout, Duration::from_secs(1));
+    assert_eq!(config.faults.target_lost, Duration::from_secs(1));
+    assert_eq!(config.faults.saturation, Duration::from_millis(500));
+    assert_eq!(config.faults.resume_after, Duration::from_millis(500));
+    // a hang shorter than three telemetry periods is still refused, naming its key
+    let error = refused(&with("hang_timeout_s = 1.0", "hang_timeout_s = 0.2"));
+    assert_eq!(error.key(), Some("runtime.hang_timeout_s"), "{error}");
 }

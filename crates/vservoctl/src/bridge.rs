@@ -256,8 +256,7 @@ fn cell_drawing(instance: &InstanceArg, name: &str) -> anyhow::Result<CellDrawin
         Ok(path) if path.exists() => path,
         _ => instance.config.clone().unwrap_or_else(|| PathBuf::from("config/vservo.toml")),
     };
-    let text = std::fs::read_to_string(&path).with_context(|| format!("{}: reading it", path.display()))?;
-    let config = vservo_config::Config::from_toml(&text, &path.display().to_string())?;
+    let config = vservo_config::Config::load(&path)?;
     if config.instance != name {
         anyhow::bail!("{} configures instance \"{}\", not \"{name}\"", path.display(), config.instance);
     }

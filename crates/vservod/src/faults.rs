@@ -315,8 +315,8 @@ impl FaultMonitor {
             driver_fault: self.driver_fault_seen,
             // the simulated plant's stall is a node restart, not a fault
             robot: if c.external_robot { c.robot } else { RobotState::Running },
-            saturated_joints: Run::lasting(self.saturated, self.settings.saturation_s),
-            missing_marks: Run::lasting(self.missing, self.settings.target_lost_s),
+            saturated_joints: Run::lasting(self.saturated, self.settings.saturation.as_secs_f64()),
+            missing_marks: Run::lasting(self.missing, self.settings.target_lost.as_secs_f64()),
             motion_nodes_healthy: c.motion_nodes_healthy,
         }
     }
@@ -368,7 +368,7 @@ impl FaultMonitor {
             return Decision::Same;
         }
         let since = *self.clear_since_ns.get_or_insert(c.now_ns);
-        if c.now_ns.saturating_sub(since) as f64 / 1e9 >= self.settings.resume_after_s {
+        if c.now_ns.saturating_sub(since) as f64 / 1e9 >= self.settings.resume_after.as_secs_f64() {
             Decision::ResumeAutomatically
         } else {
             Decision::Same
@@ -422,7 +422,12 @@ mod tests {
     const MS: u64 = 1_000_000;
 
     fn settings(resume: ResumePolicy) -> Faults {
-        Faults { target_lost_s: 1.0, saturation_s: 0.5, resume, resume_after_s: 2.0 }
+        Faults {
+            target_lost: std::time::Duration::from_secs(1),
+            saturation: std::time::Duration::from_millis(500),
+            resume,
+            resume_after: std::time::Duration::from_secs(2),
+        }
     }
 
     fn state(stamp_ns: u64, faults: u32) -> JointStateMsg {

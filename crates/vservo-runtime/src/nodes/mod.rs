@@ -26,7 +26,7 @@ struct NodeBase {
 }
 
 fn start(context: &NodeContext, role: NodeRole) -> Result<NodeBase, RuntimeError> {
-    let period_s = context.cell.config().runtime.telemetry_period_s;
+    let period_s = context.cell.config().runtime.telemetry_period.as_secs_f64();
     let (telemetry, monitor) = TelemetryThread::spawn(&context.instance, role, period_s)?;
     let node = vservo_protocol::create_node(&context.instance, role.name())?;
     Ok(NodeBase { _telemetry: telemetry, monitor, node })

@@ -197,7 +197,8 @@ impl Plant {
             missed_in_a_row: 0,
             object_sequence: 0,
             orphaned_since_ns: None,
-            orphan_timeout_ns: ((config.runtime.stop_timeout_s + 2.0) * 1e9) as u64,
+            orphan_timeout_ns: (config.runtime.stop_timeout + std::time::Duration::from_secs(2)).as_nanos()
+                as u64,
         }
     }
 

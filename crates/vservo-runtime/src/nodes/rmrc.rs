@@ -111,7 +111,8 @@ impl Rmrc {
             twist_in_force: (u64::MAX, u64::MAX),
             orphaned: Orphaned {
                 since_ns: None,
-                timeout_ns: ((config.runtime.stop_timeout_s + 1.0) * 1e9) as u64,
+                timeout_ns: (config.runtime.stop_timeout + std::time::Duration::from_secs(1)).as_nanos()
+                    as u64,
             },
         }
     }

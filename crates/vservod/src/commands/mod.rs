@@ -226,9 +226,13 @@ impl Commander {
 
     fn try_reload(&mut self) -> Result<Accepted, ReloadRefused> {
         let path = self.config_path.display().to_string();
-        let text = std::fs::read_to_string(&self.config_path)
-            .map_err(|e| ReloadRefused::Unreadable { path: path.clone(), reason: e.to_string() })?;
-        let config = Config::from_toml(&text, &path)?;
+        // the file with the bases it extends merged in, as at start
+        let (config, text) = Config::load_with_text(&self.config_path).map_err(|e| match e {
+            vservo_config::ConfigError::Read { reason, .. } => {
+                ReloadRefused::Unreadable { path: path.clone(), reason }
+            }
+            other => ReloadRefused::from(other),
+        })?;
         let (target, changed) = match reload::plan(&path, &self.config, self.target.as_ref(), &config)? {
             ReloadPlan::Nothing => return Ok(Accepted::NothingChanged { path, gains_version: self.version }),
             ReloadPlan::Design { target, changed } => (target, changed),

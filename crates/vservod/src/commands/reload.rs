@@ -135,8 +135,13 @@ pub fn diff(old: &Config, new: &Config) -> ConfigDiff {
     let robot_keys = fields!("robot", robot, new.robot; driver, command, period_s, state_timeout_periods);
     section(r, "robot", robot != &new.robot, &robot_keys);
     section(r, "robot.arm", arm != &new.arm, &[]);
-    let fault_keys =
-        fields!("faults", faults, new.faults; target_lost_s, saturation_s, resume, resume_after_s);
+    // the times are durations in Config, named by their keys in the file
+    let fault_keys = [
+        ("faults.target_lost_s", faults.target_lost != new.faults.target_lost),
+        ("faults.saturation_s", faults.saturation != new.faults.saturation),
+        ("faults.resume", faults.resume != new.faults.resume),
+        ("faults.resume_after_s", faults.resume_after != new.faults.resume_after),
+    ];
     section(r, "faults", faults != &new.faults, &fault_keys);
     section(r, "reacquire", reacquire != &new.reacquire, &[]);
     section(
@@ -150,8 +155,23 @@ pub fn diff(old: &Config, new: &Config) -> ConfigDiff {
 
 /// The `[runtime]` keys, each compared.
 fn runtime_keys(old: &vservo_config::Runtime, new: &vservo_config::Runtime) -> [(&'static str, bool); 12] {
-    fields!("runtime", old, new; lock_memory, timer_slack_ns, telemetry_period_s, restart_backoff_initial_s,
-        restart_backoff_max_s, hold_after_missed_ticks, stop_timeout_s, hang_timeout_s, plant, rmrc, servo, vision)
+    let [lock_memory, timer_slack_ns, hold_after_missed_ticks, plant, rmrc, servo, vision] = fields!("runtime",
+        old, new; lock_memory, timer_slack_ns, hold_after_missed_ticks, plant, rmrc, servo, vision);
+    // the times are durations in Config, named by their keys in the file
+    [
+        lock_memory,
+        timer_slack_ns,
+        ("runtime.telemetry_period_s", old.telemetry_period != new.telemetry_period),
+        ("runtime.restart_backoff_initial_s", old.restart_backoff_initial != new.restart_backoff_initial),
+        ("runtime.restart_backoff_max_s", old.restart_backoff_max != new.restart_backoff_max),
+        hold_after_missed_ticks,
+        ("runtime.stop_timeout_s", old.stop_timeout != new.stop_timeout),
+        ("runtime.hang_timeout_s", old.hang_timeout != new.hang_timeout),
+        plant,
+        rmrc,
+        servo,
+        vision,
+    ]
 }
 
 /// What a reload does, decided before anything is applied.

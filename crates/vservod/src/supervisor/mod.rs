@@ -81,10 +81,10 @@ impl Settings {
             instance: config.instance.clone(),
             external_robot: config.robot.driver == vservo_config::RobotDriver::External,
             robot_deadline: Duration::from_secs_f64(config.robot.state_timeout_s()),
-            hang_timeout: Duration::from_secs_f64(runtime.hang_timeout_s),
-            stop_timeout: Duration::from_secs_f64(runtime.stop_timeout_s),
-            initial_backoff: Duration::from_secs_f64(runtime.restart_backoff_initial_s),
-            max_backoff: Duration::from_secs_f64(runtime.restart_backoff_max_s),
+            hang_timeout: runtime.hang_timeout,
+            stop_timeout: runtime.stop_timeout,
+            initial_backoff: runtime.restart_backoff_initial,
+            max_backoff: runtime.restart_backoff_max,
             status_every: (status_every_s > 0.0).then(|| Duration::from_secs_f64(status_every_s)),
         }
     }
@@ -120,9 +120,8 @@ struct Daemon {
 /// are designed and the arm placed now, so that a configuration that cannot run is refused before any node
 /// starts.
 fn load_config(config_path: &Path) -> anyhow::Result<(Config, String, Gains)> {
-    let config_text = std::fs::read_to_string(config_path)
-        .with_context(|| format!("{}: reading the configuration", config_path.display()))?;
-    let config = Config::from_toml(&config_text, &config_path.display().to_string())?;
+    // the file with the bases it extends merged in: the nodes are handed that text
+    let (config, config_text) = Config::load_with_text(config_path)?;
     let cell = vservo_cell::Cell::new(&config).with_context(|| format!("{}", config_path.display()))?;
     if let vservo_config::VisionSource::Directory(directory) = &config.vision.source {
         anyhow::bail!(

@@ -1,0 +1,321 @@
+//! A file and the bases it `extends`: read, merged (each file's own keys over its base's), and traced back,
+//! so that an error names the file in which the bad key was written.
+//!
+//! A file may start with `extends = "PATH"` (relative to the file itself): the base is read first, and the
+//! file's keys are merged over it: a table merges key by key, any other value (an array too) replaces the
+//! base's. A base may extend another; a cycle and a missing base are refused, naming them.
+
+use std::path::{Path, PathBuf};
+
+use crate::ConfigError;
+use crate::raw::RawConfig;
+
+/// The key that names a file's base.
+pub const EXTENDS: &str = "extends";
+
+/// One file of the chain.
+#[derive(Debug)]
+struct Layer {
+    /// Its path (or name), for messages.
+    file: String,
+    /// Its text, for the parser's line numbers.
+    text: String,
+    /// Its keys, `extends` taken out.
+    table: toml::Table,
+}
+
+/// A file and its bases, the file first.
+#[derive(Debug)]
+pub struct Layers {
+    layers: Vec<Layer>,
+}
+
+impl Layers {
+    /// Reads `path` and every base it extends.
+    pub fn read(path: &Path) -> Result<Self, ConfigError> {
+        let mut layers: Vec<Layer> = Vec::new();
+        let mut seen: Vec<PathBuf> = Vec::new();
+        let mut next = Some(path.to_path_buf());
+        while let Some(path) = next.take() {
+            let file = path.display().to_string();
+            let extended_by = layers.last().map(|layer| layer.file.clone());
+            let text = read_text(&path, &file, extended_by.as_deref())?;
+            refuse_a_cycle(&path, &file, &mut seen, &layers)?;
+            let mut table = parse_table(&text, &file)?;
+            next = take_extends(&mut table, &path, &file)?;
+            layers.push(Layer { file, text, table });
+        }
+        Ok(Self { layers })
+    }
+
+    /// Text given directly (no path to find a base by): `extends` is refused.
+    pub fn from_text(text: &str, origin: &str) -> Result<Self, ConfigError> {
+        let table = parse_table(text, origin)?;
+        if let Some(value) = table.get(EXTENDS) {
+            return Err(ConfigError::Invalid {
+                file: origin.to_string(),
+                key: EXTENDS.into(),
+                value: value.to_string(),
+                reason: "a base is merged only when the file is read by its path (Config::load)".into(),
+            });
+        }
+        Ok(Self { layers: vec![Layer { file: origin.to_string(), text: text.to_string(), table }] })
+    }
+
+    /// Every file's keys merged, the bases' first.
+    pub fn merged(&self) -> toml::Table {
+        merge_layers(&self.layers)
+    }
+
+    /// The merged keys as TOML text: what the file means, with no base left to find.
+    pub fn resolved_text(&self) -> Result<String, ConfigError> {
+        toml::to_string(&self.merged()).map_err(|e| ConfigError::Parse {
+            file: self.layers[0].file.clone(),
+            key: None,
+            message: format!("the merged configuration cannot be written as TOML: {e}"),
+        })
+    }
+
+    /// The file that wrote `key` (a dotted key, `[i]` indices allowed) or, failing that, the nearest table
+    /// holding it; the first file when none did (a key left to its default).
+    pub fn file_of(&self, key: &str) -> &str {
+        let path: Vec<&str> = key.split('.').map(|part| part.split('[').next().unwrap_or(part)).collect();
+        (1..=path.len())
+            .rev()
+            .find_map(|depth| self.layers.iter().find(|layer| holds(&layer.table, &path[..depth])))
+            .map_or(&self.layers[0].file, |layer| &layer.file)
+    }
+
+    /// The raw configuration; a parser's error (unknown key, wrong type, unknown name) names the file that
+    /// brought the bad key in and the dotted key.
+    pub fn raw_config(&self) -> Result<RawConfig, ConfigError> {
+        match deserialize(self.merged()) {
+            Ok(raw) => Ok(raw),
+            Err(error) => Err(self.blame(error)),
+        }
+    }
+
+    /// Finds the first file, base upward, whose keys make the error; words the error for it.
+    fn blame(&self, error: toml::de::Error) -> ConfigError {
+        let count = self.layers.len();
+        let shown = error.to_string();
+        // a base that is not whole on its own is not to blame for what its overlay got wrong
+        let first_bad = (1..=count)
+            .map(|n| count - n)
+            .find(|&index| {
+                deserialize(merge_layers(&self.layers[index..])).is_err_and(|e| e.to_string() == shown)
+            })
+            .unwrap_or(0);
+        let layer = &self.layers[first_bad];
+        let key = key_of(&error);
+        let message = if first_bad == count - 1 {
+            // the base of them all is a whole file: its own parser error shows the line
+            match toml::from_str::<RawConfig>(&layer.text) {
+                Err(text_error) => with_key(text_error.to_string(), key.as_deref()),
+                Ok(_) => error.to_string(),
+            }
+        } else {
+            match key.as_deref().and_then(|key| line_of(&layer.text, key)) {
+                Some(line) => format!("line {line}: {error}"),
+                None => error.to_string(),
+            }
+        };
+        ConfigError::Parse { file: layer.file.clone(), key, message: message.trim_end().to_string() }
+    }
+}
+
+/// The layers merged, the last (the base of them all) first.
+fn merge_layers(layers: &[Layer]) -> toml::Table {
+    let mut merged = toml::Table::new();
+    for layer in layers.iter().rev() {
+        merge(&mut merged, &layer.table);
+    }
+    merged
+}
+
+/// `overlay`'s keys over `base`'s: tables key by key, any other value replaced.
+fn merge(base: &mut toml::Table, overlay: &toml::Table) {
+    for (key, value) in overlay {
+        match (base.get_mut(key), value) {
+            (Some(toml::Value::Table(below)), toml::Value::Table(above)) => merge(below, above),
+            _ => {
+                base.insert(key.clone(), value.clone());
+            }
+        }
+    }
+}
+
+fn deserialize(table: toml::Table) -> Result<RawConfig, toml::de::Error> {
+    toml::Value::Table(table).try_into()
+}
+
+/// Whether `table` holds the key path.
+fn holds(table: &toml::Table, path: &[&str]) -> bool {
+    match path {
+        [] => true,
+        [first, rest @ ..] => match table.get(*first) {
+            Some(toml::Value::Table(inner)) => holds(inner, rest),
+            Some(_) => rest.is_empty(),
+            None => false,
+        },
+    }
+}
+
+/// The dotted key a parser error is about: toml writes it on the error's last line as ``in `a.b` `` when
+/// the error carries no text of its own.
+fn key_of(error: &toml::de::Error) -> Option<String> {
+    let shown = error.to_string();
+    let last = shown.trim_end().lines().last()?;
+    let key = last.strip_prefix("in `")?.strip_suffix('`')?;
+    Some(key.to_string())
+}
+
+/// The line (from 1) of `text` on which the dotted key is written, or the deepest table of it that is.
+fn line_of(text: &str, key: &str) -> Option<usize> {
+    let document = toml::de::DeTable::parse(text).ok()?;
+    let mut table = document.get_ref();
+    let mut start = None;
+    for part in key.split('.') {
+        let Some((name, value)) = table.iter().find(|(name, _)| name.get_ref() == part) else {
+            break;
+        };
+        start = Some(name.span().start);
+        match value.get_ref() {
+            toml::de::DeValue::Table(inner) => table = inner,
+            _ => break,
+        }
+    }
+    start.map(|start| text[..start].matches('\n').count() + 1)
+}
+
+fn with_key(message: String, key: Option<&str>) -> String {
+    match key {
+        Some(key) => format!("{}\nin `{key}`", message.trim_end()),
+        None => message,
+    }
+}
+
+fn read_text(path: &Path, file: &str, extended_by: Option<&str>) -> Result<String, ConfigError> {
+    std::fs::read_to_string(path).map_err(|e| match extended_by {
+        Some(child) => {
+            ConfigError::Base { file: child.to_string(), base: file.to_string(), reason: e.to_string() }
+        }
+        None => ConfigError::Read { file: file.to_string(), reason: e.to_string() },
+    })
+}
+
+/// Refuses a file met before in the chain, naming the chain.
+fn refuse_a_cycle(
+    path: &Path,
+    file: &str,
+    seen: &mut Vec<PathBuf>,
+    layers: &[Layer],
+) -> Result<(), ConfigError> {
+    let canonical = std::fs::canonicalize(path).unwrap_or_else(|_| path.to_path_buf());
+    if seen.contains(&canonical) {
+        let chain: Vec<&str> = layers.iter().map(|layer| layer.file.as_str()).chain([file]).collect();
+        return Err(ConfigError::Cycle { file: chain[0].to_string(), chain: chain.join(" → ") });
+    }
+    seen.push(canonical);
+    Ok(())
+}
+
+fn parse_table(text: &str, file: &str) -> Result<toml::Table, ConfigError> {
+    toml::from_str(text).map_err(|e| ConfigError::Parse {
+        file: file.to_string(),
+        key: None,
+        message: e.to_string().trim_end().to_string(),
+    })
+}
+
+/// Takes `extends` out of a file's keys: the base's path, relative to the file.
+fn take_extends(table: &mut toml::Table, path: &Path, file: &str) -> Result<Option<PathBuf>, ConfigError> {
+    match table.remove(EXTENDS) {
+        None => Ok(None),
+        Some(toml::Value::String(base)) if !base.trim().is_empty() => {
+            let directory = path.parent().unwrap_or(Path::new(""));
+            Ok(Some(directory.join(base)))
+        }
+        Some(other) => Err(ConfigError::Invalid {
+            file: file.to_string(),
+            key: EXTENDS.into(),
+            value: other.to_string(),
+            reason: "must be the path of the base file, relative to this one".into(),
+        }),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn table(text: &str) -> toml::Table {
+        toml::from_str(text).expect("test TOML")
+    }
+
+    fn layers(texts: &[(&str, &str)]) -> Layers {
+        Layers {
+            layers: texts
+                .iter()
+                .map(|(file, text)| Layer {
+                    file: file.to_string(),
+                    text: text.to_string(),
+                    table: table(text),
+                })
+                .collect(),
+        }
+    }
+
+    #[test]
+    fn tables_merge_key_by_key_and_other_values_replace() {
+        let chain = layers(&[
+            ("top.toml", "[a]\nx = 2\nlist = [9]\n[c]\nz = 1\n"),
+            ("base.toml", "[a]\nx = 1\ny = 1\nlist = [1, 2]\n[b]\nw = 1\n"),
+        ]);
+        let merged = chain.merged();
+        assert_eq!(merged, table("[a]\nx = 2\ny = 1\nlist = [9]\n[b]\nw = 1\n[c]\nz = 1\n"));
+    }
+
+    #[test]
+    fn a_key_is_traced_to_the_file_that_wrote_it() {
+        let chain = layers(&[("top.toml", "[a]\nx = 2\n"), ("base.toml", "[a]\nx = 1\ny = 1\n[b]\nw = 1\n")]);
+        assert_eq!(chain.file_of("a.x"), "top.toml");
+        assert_eq!(chain.file_of("a.y"), "base.toml");
+        assert_eq!(chain.file_of("b.w[0].v"), "base.toml");
+        // not written anywhere: the nearest table that is, then the first file
+        assert_eq!(chain.file_of("a.missing"), "top.toml");
+        assert_eq!(chain.file_of("nowhere.at_all"), "top.toml");
+    }
+
+    #[test]
+    fn a_key_is_found_on_its_line() {
+        let text = "# a comment\n[a]\nx = 1\n\n[a.b]\ny = 2\n";
+        assert_eq!(line_of(text, "a.x"), Some(3));
+        assert_eq!(line_of(text, "a.b.y"), Some(6));
+        // not written: the deepest table that is
+        assert_eq!(line_of(text, "a.b.z"), Some(5));
+        assert_eq!(line_of(text, "c"), None);
+    }
+
+    #[test]
+    fn the_parsers_key_is_read_from_its_error() {
+        #[derive(Debug, serde::Deserialize)]
+        #[allow(dead_code)]
+        struct Outer {
+            inner: Inner,
+        }
+        #[derive(Debug, serde::Deserialize)]
+        #[allow(dead_code)]
+        struct Inner {
+            law: Law,
+        }
+        #[derive(Debug, serde::Deserialize)]
+        #[serde(rename_all = "kebab-case")]
+        enum Law {
+            Paper,
+        }
+        let error =
+            toml::Value::Table(table("[inner]\nlaw = \"fast\"\n")).try_into::<Outer>().expect_err("refused");
+        assert_eq!(key_of(&error).as_deref(), Some("inner.law"), "{error}");
+    }
+}

@@ -1,0 +1,310 @@
+//! The validated sections of a [`crate::Config`], one type each, every value in range (the checks are in
+//! `validate/`, one module per section).
+
+use std::time::Duration;
+
+use nalgebra::Vector3;
+use vservo_arm::JointVector;
+use vservo_control::{ControlLaw, InputWeight, StateWeight};
+use vservo_scene::{FeatureVector, IsometryMatrix3, MarkDepths};
+
+/// `[viewer]`: vservod serves the running cell live to Foxglove over its WebSocket protocol (a
+/// `vservoctl view` process it starts and stops; a client of the instance like any other). Optional in the
+/// file: off, and on localhost only, by default.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Viewer {
+    /// Whether vservod starts the viewer.
+    pub enabled: bool,
+    /// The address it serves on (an IP address; `127.0.0.1` by default, reached from another machine over
+    /// SSH: `ssh -L 8765:localhost:8765 host`).
+    pub address: String,
+    /// The TCP port.
+    pub port: u16,
+}
+
+/// `[reacquire]`: with fewer than three marks seen, the servo steers the camera back to its pose when it last
+/// saw all four, proportionally with speed caps. Optional in the file (the defaults below apply); read at
+/// start (a reload that changes it is refused).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Reacquire {
+    /// The proportional gain (1/s): the twist is this times the pose error, translation and rotation.
+    pub gain_per_s: f64,
+    /// The fastest the camera moves while reacquiring (m/s).
+    pub max_speed_m_s: f64,
+    /// The fastest the camera turns while reacquiring (rad/s).
+    pub max_rotation_rad_s: f64,
+}
+
+impl Default for Reacquire {
+    fn default() -> Self {
+        Self { gain_per_s: 1.5, max_speed_m_s: 0.1, max_rotation_rad_s: 0.5 }
+    }
+}
+
+/// `[faults]`: the fault reaction of the real-time shell. Optional in the file (the defaults below apply).
+/// A position or velocity limit, a driver fault, a torque saturation that lasts, lost marks that stay lost
+/// and a stalled external driver each end in a safe stop: the arm ramps to rest at the acceleration limits
+/// and is held until the cell resumes.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Faults {
+    /// Marks missing (the servo cannot servo) for longer than this is a lost target (`faults.target_lost_s`).
+    pub target_lost: Duration,
+    /// A joint's torque cut to its limit for longer than this is a fault (`faults.saturation_s`); a moment's
+    /// saturation while accelerating is not.
+    pub saturation: Duration,
+    /// How the cell resumes after a safe stop.
+    pub resume: ResumePolicy,
+    /// With [`ResumePolicy::Automatic`]: how long the fault's cause must have been gone
+    /// (`faults.resume_after_s`).
+    pub resume_after: Duration,
+}
+
+/// How the cell resumes after a safe stop (`faults.resume`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum ResumePolicy {
+    /// On a command only (`vservoctl resume`), the default.
+    Command,
+    /// By itself once the cause has been gone for `faults.resume_after_s` (a WARN line says so), or on a
+    /// command.
+    Automatic,
+}
+
+impl ResumePolicy {
+    /// The name in the file.
+    pub fn name(self) -> &'static str {
+        match self {
+            ResumePolicy::Command => "command",
+            ResumePolicy::Automatic => "automatic",
+        }
+    }
+}
+
+/// `[robot]`: which process drives the arm and how it is commanded. Optional in the file: the simulated
+/// PUMA 560 by default.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Robot {
+    /// Who publishes `joint_state` and applies `joint_command`.
+    pub driver: RobotDriver,
+    /// The command an external driver takes ([`crate::Config::command_interface`] gives the one in force: the
+    /// simulated driver's follows from `plant.mode`).
+    pub command: CommandInterface,
+    /// The driver's period (s): a joint state comes this often, and the interpolator steps by it.
+    pub period_s: f64,
+    /// No joint state for this many periods is a stalled driver: no motion is commanded until it is back.
+    pub state_timeout_periods: u32,
+    /// A camera twist faster than this (m/s, the linear part's norm) is refused by the rmrc.
+    pub max_camera_speed_m_s: f64,
+    /// A camera twist turning faster than this (rad/s, the angular part's norm) is refused by the rmrc.
+    pub max_camera_rotation_rad_s: f64,
+}
+
+impl Robot {
+    /// The stall deadline (s).
+    pub fn state_timeout_s(&self) -> f64 {
+        self.period_s * f64::from(self.state_timeout_periods)
+    }
+}
+
+/// Who drives the arm.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum RobotDriver {
+    /// vservod's own plant node: the simulated PUMA 560 (`[plant]`).
+    Simulated,
+    /// A process of the user's (a real arm's driver, or another simulator), behind docs/DRIVERS.md.
+    External,
+}
+
+/// The command a robot driver takes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum CommandInterface {
+    /// Joint torques: the rmrc runs the joint servo.
+    Torque,
+    /// Joint velocities: the interpolator's q̇ reference.
+    Velocity,
+    /// Joint positions: the interpolator's q reference.
+    Position,
+}
+
+impl CommandInterface {
+    /// The name in the file.
+    pub fn name(self) -> &'static str {
+        match self {
+            CommandInterface::Torque => "torque",
+            CommandInterface::Velocity => "velocity",
+            CommandInterface::Position => "position",
+        }
+    }
+
+    /// From the name in the file.
+    pub fn from_name(name: &str) -> Option<Self> {
+        [Self::Torque, Self::Velocity, Self::Position].into_iter().find(|c| c.name() == name)
+    }
+}
+
+/// `[runtime]`: scheduling, memory locking and supervision of the real-time shell. Optional in the file
+/// (the defaults below apply). A scheduling request the system does not permit is a warning at start, not
+/// an error.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Runtime {
+    /// mlockall(MCL_CURRENT | MCL_FUTURE) in every node.
+    pub lock_memory: bool,
+    /// The timer slack of the periodic threads (ns): the kernel's default 50 µs adds that much lateness.
+    pub timer_slack_ns: u64,
+    /// How often every node publishes telemetry (`runtime.telemetry_period_s`).
+    pub telemetry_period: Duration,
+    /// The first restart of a crashed node waits this long (`runtime.restart_backoff_initial_s`); each
+    /// further one twice as long.
+    pub restart_backoff_initial: Duration,
+    /// The longest wait before a restart (`runtime.restart_backoff_max_s`).
+    pub restart_backoff_max: Duration,
+    /// After this many ticks without an answer from the rmrc the plant holds the arm (brakes).
+    pub hold_after_missed_ticks: u32,
+    /// On SIGTERM, how long the arm may take to ramp to rest before the nodes are stopped anyway
+    /// (`runtime.stop_timeout_s`).
+    pub stop_timeout: Duration,
+    /// A node whose loop shows no progress (no telemetry; the plant: no new tick) for this long is hung: it is
+    /// killed and restarted like a crashed one (`runtime.hang_timeout_s`).
+    pub hang_timeout: Duration,
+    /// Per node, indexed by role name: plant, rmrc, servo, vision.
+    pub plant: NodeRealtime,
+    /// The rmrc's.
+    pub rmrc: NodeRealtime,
+    /// The servo's.
+    pub servo: NodeRealtime,
+    /// The vision node's.
+    pub vision: NodeRealtime,
+}
+
+/// One node's scheduling.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct NodeRealtime {
+    /// SCHED_FIFO priority 1–99; 0 keeps the normal scheduler.
+    pub fifo_priority: u8,
+    /// CPUs the node may run on; empty: any.
+    pub cpus: Vec<usize>,
+}
+
+/// The simulated arm.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PlantSettings {
+    /// Dynamic or kinematic.
+    pub mode: vservo_sim::plant::PlantMode,
+    /// RK4 steps per control period.
+    pub rk4_substeps: u32,
+}
+
+/// The joint servo's law and gains.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct JointServoSettings {
+    /// Computed torque or PD plus gravity.
+    pub law: vservo_sim::joint_servo::JointServoLaw,
+    /// Position gains.
+    pub kp: JointVector,
+    /// Velocity gains.
+    pub kv: JointVector,
+}
+
+/// What the simulated cell does.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Scenario {
+    /// How long a simulation runs (s).
+    pub duration_s: f64,
+    /// The camera's starting offset from its desired pose, in the desired camera frame (m).
+    pub initial_camera_translation_m: Vector3<f64>,
+    /// …and its starting rotation about its own axes (rotation vector, rad).
+    pub initial_camera_rotation: Vector3<f64>,
+    /// How the board moves.
+    pub object: vservo_sim::world::ObjectMotion,
+    /// Marks the simulated camera does not see for a while (`scenario.occlusions`; none by default), at
+    /// most [`MAX_OCCLUSIONS`].
+    pub occlusions: [Option<Occlusion>; MAX_OCCLUSIONS],
+}
+
+/// The most occlusions a scenario may hold.
+pub const MAX_OCCLUSIONS: usize = 8;
+
+/// A mark hidden from the simulated camera for a while, as if something covered it (`scenario.occlusions`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Occlusion {
+    /// The mark (zero-based).
+    pub mark: usize,
+    /// From this time (s)…
+    pub from_s: f64,
+    /// …until this one (s).
+    pub until_s: f64,
+}
+
+impl Scenario {
+    /// The marks hidden at time `t_s` (bit m for mark m).
+    pub fn hidden_marks(&self, t_s: f64) -> u8 {
+        self.occlusions
+            .iter()
+            .flatten()
+            .filter(|o| o.from_s <= t_s && t_s < o.until_s)
+            .fold(0, |set, o| set | (1 << o.mark))
+    }
+}
+
+/// Where images come from, and how features are found in them.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Vision {
+    /// The image source.
+    pub source: VisionSource,
+    /// The extractor's tuning.
+    pub extractor: vservo_vision::ExtractorSettings,
+    /// The simulated camera's scene.
+    pub render: vservo_vision::RenderSettings,
+}
+
+/// Where images come from (`camera.source`).
+#[derive(Debug, Clone, PartialEq)]
+pub enum VisionSource {
+    /// The simulated hand camera renders the board.
+    Simulated,
+    /// Frames published on `camera_image` by another process (a camera driver).
+    External,
+    /// Recorded images in a directory.
+    Directory(std::path::PathBuf),
+}
+
+/// Periods and delays.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Timing {
+    /// The vision period T (s).
+    pub vision_period_s: f64,
+    /// Frames between an image's capture and its features reaching the servo.
+    pub pipeline_delay_frames: usize,
+    /// The interpolator's period (s).
+    pub control_period_s: f64,
+    /// Control periods per vision frame (a whole number: 85 by default).
+    pub control_ticks_per_frame: u32,
+}
+
+/// The desired pose and the image there.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Desired {
+    /// q_d (rad), inside the joint limits.
+    pub joints: JointVector,
+    /// The board in the camera frame at the desired pose.
+    pub camera_from_board: IsometryMatrix3<f64>,
+    /// ξ_d: the marks' images there (px), all inside the image.
+    pub features: FeatureVector,
+    /// Z_d: the marks' depths there (m), all positive.
+    pub depths: MarkDepths,
+}
+
+/// The controller's law and weights.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Controller {
+    /// Which law runs.
+    pub law: ControlLaw,
+    /// Q.
+    pub q: StateWeight,
+    /// R, with its unit.
+    pub r: InputWeight,
+    /// What the law does beyond the paper's (`interaction`, `border_margin_px`, `feedforward`).
+    pub options: vservo_control::LawOptions,
+}

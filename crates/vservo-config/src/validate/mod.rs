@@ -1,0 +1,66 @@
+//! From the file as written to a [`Config`]: one module per section, every check naming its key and value.
+//! Names (laws, modes, sources) are parsed by serde in [`crate::raw`]; what is left here are ranges and the
+//! checks that span sections, in the order the sections build on each other.
+
+mod arm;
+mod camera;
+mod checker;
+mod controller;
+mod desired;
+mod object;
+mod operation;
+mod robot;
+mod runtime;
+mod scenario;
+mod simulation;
+mod timing;
+mod vision;
+mod weight;
+
+use checker::Checker;
+
+use crate::raw::RawConfig;
+use crate::{Config, ConfigError};
+
+/// Validates every section; the first error found is returned, naming `file`.
+pub fn validate(raw: RawConfig, file: &str) -> Result<Config, ConfigError> {
+    let check = Checker { file };
+    let instance = timing::instance(&check, &raw.instance)?;
+    let timing = timing::timing(&check, &raw.timing)?;
+    let camera = camera::intrinsics(&check, &raw.camera)?;
+    let tool_from_camera = camera::tool_from_camera(&check, &raw.camera)?;
+    let board = object::board(&check, &raw.object)?;
+    let arm = arm::arm(&check, &raw.robot.arm)?;
+    let desired = desired::desired(&check, &raw.desired, &arm, &camera, &board)?;
+    let controller = controller::controller(&check, &raw.controller, &camera, &desired.features)?;
+    let source = camera::source(&check, &raw.camera)?;
+    let vision = vision::vision(&check, &raw.vision, source)?;
+    let plant = simulation::plant(&check, &raw.plant)?;
+    let interpolator = simulation::interpolator(&check, &raw.interpolator, &timing)?;
+    let joint_servo = simulation::joint_servo(&check, &raw.joint_servo)?;
+    let scenario = scenario::scenario(&check, &raw.scenario)?;
+    let robot = robot::robot(&check, &raw.robot, &plant, &timing)?;
+    let reacquire = operation::reacquire(&check, &raw.reacquire, &robot, timing.vision_period_s)?;
+    robot::driver_and_camera_agree(&check, &raw.robot, &robot, &vision.source)?;
+    Ok(Config {
+        origin: file.to_string(),
+        instance,
+        timing,
+        camera,
+        tool_from_camera,
+        board,
+        desired,
+        controller,
+        vision,
+        plant,
+        interpolator,
+        joint_servo,
+        scenario,
+        runtime: runtime::runtime(&check, &raw.runtime)?,
+        robot,
+        arm,
+        faults: operation::faults(&check, &raw.faults)?,
+        reacquire,
+        viewer: operation::viewer(&check, &raw.viewer)?,
+    })
+}

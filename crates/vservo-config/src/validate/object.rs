@@ -1,0 +1,84 @@
+//! `[object]`: the board and its marks.
+
+use nalgebra::{Point2, Point3};
+use vservo_scene::{Board, MARKS};
+
+use super::checker::Checker;
+use crate::ConfigError;
+use crate::raw::RawObject;
+
+/// The board: four marks, further apart than a mark's diameter, each whole on the board.
+pub fn board(check: &Checker, o: &RawObject) -> Result<Board, ConfigError> {
+    let mark_diameter_m = check.within("object.mark_diameter_m", o.mark_diameter_m, 0.001, 1.0, "m")?;
+    let marks_in_board = marks(check, o)?;
+    marks_apart(check, o, &marks_in_board, mark_diameter_m)?;
+    let extent_in_board = extent(check, o, &marks_in_board, mark_diameter_m)?;
+    Ok(Board { marks_in_board, mark_diameter_m, extent_in_board })
+}
+
+/// `object.marks_in_board_m`: [`MARKS`] points within ±5 m.
+fn marks(check: &Checker, o: &RawObject) -> Result<[Point3<f64>; MARKS], ConfigError> {
+    let key = "object.marks_in_board_m";
+    if o.marks_in_board_m.len() != MARKS {
+        return Err(check.invalid(
+            key,
+            format!("{:?}", o.marks_in_board_m),
+            format!("must list exactly {MARKS} marks, [x, y] each; it lists {}", o.marks_in_board_m.len()),
+        ));
+    }
+    let mut marks_in_board = [Point3::origin(); MARKS];
+    for (mark, written) in marks_in_board.iter_mut().zip(&o.marks_in_board_m) {
+        let [x, y] = check.all_within(key, *written, -5.0, 5.0, "m")?;
+        *mark = Point3::new(x, y, 0.0);
+    }
+    Ok(marks_in_board)
+}
+
+/// No two marks within a mark's diameter of each other.
+fn marks_apart(
+    check: &Checker,
+    o: &RawObject,
+    marks_in_board: &[Point3<f64>; MARKS],
+    mark_diameter_m: f64,
+) -> Result<(), ConfigError> {
+    for i in 0..MARKS {
+        for j in (i + 1)..MARKS {
+            let gap = (marks_in_board[i] - marks_in_board[j]).norm();
+            if gap <= mark_diameter_m {
+                return Err(check.invalid(
+                    "object.marks_in_board_m",
+                    format!("{:?}", o.marks_in_board_m),
+                    format!(
+                        "marks {} and {} are {gap} m apart, no more than a mark's diameter",
+                        i + 1,
+                        j + 1
+                    ),
+                ));
+            }
+        }
+    }
+    Ok(())
+}
+
+/// `object.board_extent_m`: within ±5 m, min < max, holding every mark whole.
+fn extent(
+    check: &Checker,
+    o: &RawObject,
+    marks_in_board: &[Point3<f64>; MARKS],
+    mark_diameter_m: f64,
+) -> Result<[Point2<f64>; 2], ConfigError> {
+    let [[x0, y0], [x1, y1]] = o.board_extent_m;
+    let extent_ok = [x0, y0, x1, y1].iter().all(|v| v.is_finite() && v.abs() <= 5.0) && x0 < x1 && y0 < y1;
+    let radius = 0.5 * mark_diameter_m;
+    let marks_on_board = marks_in_board
+        .iter()
+        .all(|m| m.x - radius >= x0 && m.x + radius <= x1 && m.y - radius >= y0 && m.y + radius <= y1);
+    if !extent_ok || !marks_on_board {
+        return Err(check.invalid(
+            "object.board_extent_m",
+            format!("{:?}", o.board_extent_m),
+            "must be [[x_min, y_min], [x_max, y_max]] within ±5 m with min < max, holding every mark whole",
+        ));
+    }
+    Ok([Point2::new(x0, y0), Point2::new(x1, y1)])
+}

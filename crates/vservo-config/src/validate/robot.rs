@@ -1,0 +1,122 @@
+//! `[robot]`: which driver, the command it takes, its period and deadline, the camera's speed limits; and the
+//! checks that span the robot and the camera.
+
+use vservo_sim::plant::PlantMode;
+
+use super::checker::Checker;
+use crate::raw::{RawArmPreset, RawRobot};
+use crate::{CommandInterface, ConfigError, PlantSettings, Robot, RobotDriver, Timing, VisionSource};
+
+/// The robot. The simulated driver's command follows from `plant.mode` (dynamic: torque; kinematic:
+/// position, the ideal robot), and it runs at the control period.
+pub fn robot(
+    check: &Checker,
+    r: &RawRobot,
+    plant: &PlantSettings,
+    timing: &Timing,
+) -> Result<Robot, ConfigError> {
+    let command = command(check, r, plant)?;
+    let period_s = period_s(check, r, timing)?;
+    let state_timeout_periods = check.whole(
+        "robot.state_timeout_periods",
+        r.state_timeout_periods,
+        2u32,
+        1000,
+        "must be from 2 to 1000 driver periods",
+    )?;
+    let max_camera_speed_m_s =
+        check.within("robot.max_camera_speed_m_s", r.max_camera_speed_m_s, 0.001, 10.0, "m/s")?;
+    let max_camera_rotation_rad_s =
+        check.within("robot.max_camera_rotation_rad_s", r.max_camera_rotation_rad_s, 0.001, 20.0, "rad/s")?;
+    Ok(Robot {
+        driver: r.driver,
+        command,
+        period_s,
+        state_timeout_periods,
+        max_camera_speed_m_s,
+        max_camera_rotation_rad_s,
+    })
+}
+
+/// `robot.command`: the simulated driver's follows from the plant (a declaration must agree); an external
+/// driver must declare one.
+fn command(check: &Checker, r: &RawRobot, plant: &PlantSettings) -> Result<CommandInterface, ConfigError> {
+    match r.driver {
+        RobotDriver::Simulated => {
+            let simulated = match plant.mode {
+                PlantMode::Dynamic => CommandInterface::Torque,
+                PlantMode::Kinematic => CommandInterface::Position,
+            };
+            match r.command.filter(|declared| *declared != simulated) {
+                Some(declared) => Err(check.invalid(
+                    "robot.command",
+                    format!("{:?}", declared.name()),
+                    format!(
+                        "the simulated driver with plant.mode = {:?} takes {:?}; leave robot.command out",
+                        plant.mode.name(),
+                        simulated.name()
+                    ),
+                )),
+                None => Ok(simulated),
+            }
+        }
+        RobotDriver::External => r.command.ok_or_else(|| {
+            check.invalid(
+                "robot.command",
+                "(missing)",
+                "an external driver must declare the command it takes: \"torque\", \"velocity\" or \"position\"",
+            )
+        }),
+    }
+}
+
+/// `robot.period_s`: an external driver's, 10 kHz to 10 Hz; the simulated driver's is the control period.
+fn period_s(check: &Checker, r: &RawRobot, timing: &Timing) -> Result<f64, ConfigError> {
+    match (r.driver, r.period_s) {
+        (RobotDriver::Simulated, Some(p)) if p != timing.control_period_s => Err(check.invalid(
+            "robot.period_s",
+            p,
+            format!(
+                "the simulated driver runs at timing.control_period_s ({} s); leave it out",
+                timing.control_period_s
+            ),
+        )),
+        (_, Some(p)) => {
+            let p = check.positive("robot.period_s", p)?;
+            if !(1e-4..=0.1).contains(&p) {
+                return Err(check.invalid(
+                    "robot.period_s",
+                    p,
+                    "must be from 0.0001 to 0.1 s (10 kHz to 10 Hz)",
+                ));
+            }
+            Ok(p)
+        }
+        (_, None) => Ok(timing.control_period_s),
+    }
+}
+
+/// What the simulated driver and camera can do: the PUMA 560's dynamics only, and a simulated world the
+/// simulated camera sees, which an external driver has none of.
+pub fn driver_and_camera_agree(
+    check: &Checker,
+    r: &RawRobot,
+    robot: &Robot,
+    source: &VisionSource,
+) -> Result<(), ConfigError> {
+    if robot.driver == RobotDriver::Simulated && r.arm.preset != RawArmPreset::Puma560 {
+        return Err(check.invalid(
+            "robot.arm.preset",
+            "\"custom\"",
+            "the simulated driver simulates the PUMA 560's dynamics only; a custom arm needs robot.driver = \"external\"",
+        ));
+    }
+    if *source == VisionSource::Simulated && robot.driver == RobotDriver::External {
+        return Err(check.invalid(
+            "camera.source",
+            "\"simulated\"",
+            "the simulated camera sees the simulated world, which an external robot driver has none of; set camera.source = \"external\" (a camera driver) or robot.driver = \"simulated\"",
+        ));
+    }
+    Ok(())
+}
