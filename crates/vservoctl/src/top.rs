@@ -48,6 +48,7 @@ fn timing(t: Option<TimingUs>) -> String {
     t.map_or("-".into(), |t| format!("{:.0}/{:.0}/{:.0}", t.p50, t.p99, t.max))
 }
 
+/// The whole view: the instance, its nodes, the servo's last twist and the error curve.
 fn draw(frame: &mut ratatui::Frame, gathered: &Gathered, view: &StatusView, refreshes: u64) {
     let [header, nodes, servo, curve, help] = Layout::vertical([
         Constraint::Length(4),
@@ -57,7 +58,15 @@ fn draw(frame: &mut ratatui::Frame, gathered: &Gathered, view: &StatusView, refr
         Constraint::Length(1),
     ])
     .areas(frame.area());
+    draw_instance(frame, header, view);
+    draw_nodes(frame, nodes, view);
+    draw_servo(frame, servo, gathered);
+    draw_error_curve(frame, curve, gathered);
+    frame.render_widget(Paragraph::new(format!("q quits · refresh {refreshes}")), help);
+}
 
+/// The instance's state, robot driver, error and fault.
+fn draw_instance(frame: &mut ratatui::Frame, header: ratatui::layout::Rect, view: &StatusView) {
     let state_style = match view.state {
         "running" => Style::default().fg(Color::Green),
         "safe-stop" => Style::default().fg(Color::Red).add_modifier(Modifier::BOLD),
@@ -92,7 +101,10 @@ fn draw(frame: &mut ratatui::Frame, gathered: &Gathered, view: &StatusView, refr
         ));
     }
     frame.render_widget(Paragraph::new(lines).block(Block::bordered().title(" vservo ")), header);
+}
 
+/// One row per node: state, counters and loop timing.
+fn draw_nodes(frame: &mut ratatui::Frame, nodes: ratatui::layout::Rect, view: &StatusView) {
     let rows = NodeRole::ALL.into_iter().filter_map(|role| {
         let node = view.nodes.get(role.name())?;
         Some(Row::new(vec![
@@ -130,7 +142,10 @@ fn draw(frame: &mut ratatui::Frame, gathered: &Gathered, view: &StatusView, refr
             .block(Block::bordered().title(" nodes (timing: p50/p99/max over the last 0.1 s) ")),
         nodes,
     );
+}
 
+/// The servo's latest verdict and twist.
+fn draw_servo(frame: &mut ratatui::Frame, servo: ratatui::layout::Rect, gathered: &Gathered) {
     let servo_line = match &gathered.twist {
         Some(t) => format!(
             "{}  frame {}  gains v{}  twist [{}]",
@@ -142,7 +157,10 @@ fn draw(frame: &mut ratatui::Frame, gathered: &Gathered, view: &StatusView, refr
         None => "no twist yet".into(),
     };
     frame.render_widget(Paragraph::new(servo_line).block(Block::bordered().title(" servo ")), servo);
+}
 
+/// The feature error of each frame, newest right.
+fn draw_error_curve(frame: &mut ratatui::Frame, curve: ratatui::layout::Rect, gathered: &Gathered) {
     // the curve: the feature error of each frame, in 0.01 px
     let width = usize::from(curve.width.saturating_sub(2));
     let data: Vec<u64> = gathered
@@ -159,7 +177,6 @@ fn draw(frame: &mut ratatui::Frame, gathered: &Gathered, view: &StatusView, refr
             .block(Block::bordered().title(format!(" feature error per frame (largest {largest:.2} px) "))),
         curve,
     );
-    frame.render_widget(Paragraph::new(format!("q quits · refresh {refreshes}")), help);
 }
 
 pub fn run(args: &TopArgs) -> anyhow::Result<()> {
