@@ -9,7 +9,6 @@
 //! declaration writes them: the joint command is sealed on the 1 ms path and nothing is allocated.
 
 use crate::declare::WireMessage;
-use crate::{CellModeMsg, GainsMsg, JointCommandMsg, ObjectMsg};
 
 /// The 128-bit key of an instance's run.
 #[derive(Clone, Copy, PartialEq, Eq)]
@@ -62,26 +61,6 @@ impl SealKey {
         let mut hasher = SipHasher24::new(self.k0, self.k1);
         message.write_sealed_bytes(&mut |bytes| hasher.write(bytes));
         hasher.finish()
-    }
-
-    /// The seal of a gains message.
-    pub fn seal_gains(&self, m: &GainsMsg) -> u64 {
-        self.seal(m)
-    }
-
-    /// The seal of an object message.
-    pub fn seal_object(&self, m: &ObjectMsg) -> u64 {
-        self.seal(m)
-    }
-
-    /// The seal of a joint command; allocates nothing.
-    pub fn seal_joint_command(&self, m: &JointCommandMsg) -> u64 {
-        self.seal(m)
-    }
-
-    /// The seal of a cell mode; allocates nothing.
-    pub fn seal_cell_mode(&self, m: &CellModeMsg) -> u64 {
-        self.seal(m)
     }
 }
 
@@ -163,6 +142,7 @@ pub fn siphash24(k0: u64, k1: u64, data: &[u8]) -> u64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::ObjectMsg;
 
     #[test]
     fn siphash_2_4_gives_the_reference_vector_of_its_paper() {
@@ -195,13 +175,13 @@ mod tests {
             rev_per_min: 5.0,
             ..ObjectMsg::default()
         };
-        let seal = key.seal_object(&object);
+        let seal = key.seal(&object);
         object.seal = seal;
-        assert_eq!(key.seal_object(&object), seal, "the seal field is not sealed");
+        assert_eq!(key.seal(&object), seal, "the seal field is not sealed");
         let other = SealKey::random().expect("another key");
-        assert_ne!(other.seal_object(&object), seal);
+        assert_ne!(other.seal(&object), seal);
         object.rev_per_min = 1000.0;
-        assert_ne!(key.seal_object(&object), seal);
+        assert_ne!(key.seal(&object), seal);
         assert_eq!(SealKey::from_hex("not hex at all, thirty-two chars"), None);
     }
 
@@ -221,8 +201,8 @@ mod tests {
             reference_since_tick: 1,
             ..crate::JointCommandMsg::default()
         };
-        let seal = key.seal_joint_command(&command);
-        assert_eq!(key.seal_joint_command(&crate::JointCommandMsg { seal, ..command }), seal);
+        let seal = key.seal(&command);
+        assert_eq!(key.seal(&crate::JointCommandMsg { seal, ..command }), seal);
         for changed in [
             crate::JointCommandMsg { answers_tick: 8, ..command },
             crate::JointCommandMsg { stamp_ns: 12, ..command },
@@ -231,7 +211,7 @@ mod tests {
             crate::JointCommandMsg { twist_applied_tick: 3, ..command },
             crate::JointCommandMsg { reference_since_tick: 4, ..command },
         ] {
-            assert_ne!(key.seal_joint_command(&changed), seal);
+            assert_ne!(key.seal(&changed), seal);
         }
         let mode = crate::CellModeMsg {
             mode: crate::CellMode::SafeStop.into(),
@@ -240,12 +220,9 @@ mod tests {
             stamp_ns: 5,
             ..crate::CellModeMsg::default()
         };
-        let seal = key.seal_cell_mode(&mode);
-        assert_ne!(
-            key.seal_cell_mode(&crate::CellModeMsg { mode: crate::CellMode::Servoing.into(), ..mode }),
-            seal
-        );
-        assert_ne!(key.seal_cell_mode(&crate::CellModeMsg { sequence: 3, ..mode }), seal);
-        assert_ne!(SealKey::random().expect("a key").seal_cell_mode(&mode), seal);
+        let seal = key.seal(&mode);
+        assert_ne!(key.seal(&crate::CellModeMsg { mode: crate::CellMode::Servoing.into(), ..mode }), seal);
+        assert_ne!(key.seal(&crate::CellModeMsg { sequence: 3, ..mode }), seal);
+        assert_ne!(SealKey::random().expect("a key").seal(&mode), seal);
     }
 }

@@ -57,7 +57,7 @@ pub fn gains_message(gains: &LawGains, version: u64, key: &vservo_protocol::seal
         border_margin_px: gains.options.border_margin_px,
         seal: 0,
     };
-    message.seal = key.seal_gains(&message);
+    message.seal = key.seal(&message);
     message
 }
 
@@ -142,7 +142,7 @@ mod tests {
         let law = LawGains::from(&gains);
         let key = vservo_protocol::seal::SealKey::random().expect("a key");
         let message = gains_message(&law, 3, &key);
-        assert_eq!(key.seal_gains(&message), message.seal, "sealed");
+        assert_eq!(key.seal(&message), message.seal, "sealed");
         let back = law_gains(&message).expect("valid");
         assert_eq!(back, law);
         let mut broken = gains_message(&law, 3, &key);
@@ -151,7 +151,7 @@ mod tests {
         // the design's fields are sealed and checked too
         let mut changed = gains_message(&law, 3, &key);
         changed.border_margin_px = 0.0;
-        assert_ne!(key.seal_gains(&changed), changed.seal, "the margin is under the seal");
+        assert_ne!(key.seal(&changed), changed.seal, "the margin is under the seal");
         let spoilers: [fn(&mut GainsMsg); 6] = [
             |m: &mut GainsMsg| m.interaction = 3,
             |m: &mut GainsMsg| m.feedforward = 2,

@@ -88,7 +88,7 @@ impl Safety {
             stamp_ns: monotonic_ns(),
             seal: 0,
         };
-        message.seal = self.seal_key.seal_cell_mode(&message);
+        message.seal = self.seal_key.seal(&message);
         let sample = self.publisher.loan_uninit()?;
         sample.write_payload(message).send()?;
         self.sequence += 1;

@@ -86,7 +86,7 @@ impl CellModeFollower {
     ) -> bool {
         while let Ok(Some(sample)) = self.subscriber.receive() {
             let message = *sample;
-            let sealed = key.is_some_and(|key| key.seal_cell_mode(&message) == message.seal);
+            let sealed = key.is_some_and(|key| key.seal(&message) == message.seal);
             let sequence = self.in_force.1;
             match CellMode::try_from(message.mode) {
                 Ok(mode)

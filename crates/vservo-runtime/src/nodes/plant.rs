@@ -239,7 +239,7 @@ impl Plant {
                 counters.rejected();
                 continue;
             };
-            let sealed = context.seal_key.is_some_and(|key| key.seal_joint_command(&reply) == reply.seal);
+            let sealed = context.seal_key.is_some_and(|key| key.seal(&reply) == reply.seal);
             if reply.driver_epoch != self.declared.epoch || !sealed {
                 counters.rejected();
             } else if reply.answers_tick == tick {
@@ -263,7 +263,7 @@ impl Plant {
             return;
         }
         self.object_sequence = message.sequence;
-        let sealed = context.seal_key.is_some_and(|key| key.seal_object(&message) == message.seal);
+        let sealed = context.seal_key.is_some_and(|key| key.seal(&message) == message.seal);
         match object_motion(&message).filter(|_| sealed) {
             Some(motion) => self.stage.set_object_motion(motion),
             None => counters.rejected(),

@@ -52,7 +52,7 @@ impl Ports {
     fn send(&self, mut message: JointCommandMsg, key: Option<&SealKey>) {
         if let Ok(sample) = self.commands.loan_uninit() {
             message.stamp_ns = monotonic_ns();
-            message.seal = key.map_or(0, |key| key.seal_joint_command(&message));
+            message.seal = key.map_or(0, |key| key.seal(&message));
             let _ = sample.write_payload(message).send();
         }
     }

@@ -107,7 +107,7 @@ impl Servo {
         if message.version == self.gains_version {
             return;
         }
-        let sealed = context.seal_key.is_some_and(|key| key.seal_gains(&message) == message.seal);
+        let sealed = context.seal_key.is_some_and(|key| key.seal(&message) == message.seal);
         match law_gains(&message).filter(|_| sealed && message.version > self.gains_version) {
             Some(gains) => {
                 self.stage.set_gains(&gains);

@@ -272,7 +272,7 @@ impl Commander {
             rev_per_min: command.rev_per_min,
             seal: 0,
         };
-        message.seal = self.seal_key.seal_object(&message);
+        message.seal = self.seal_key.seal(&message);
         let publish = |e: &dyn std::fmt::Display| CommandRefused::ObjectPublish(e.to_string());
         let sample = self.object_publisher.loan_uninit().map_err(|e| publish(&e))?;
         sample.write_payload(message).send().map_err(|e| publish(&e))?;
