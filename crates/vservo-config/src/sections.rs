@@ -137,11 +137,6 @@ impl CommandInterface {
             CommandInterface::Position => "position",
         }
     }
-
-    /// From the name in the file.
-    pub fn from_name(name: &str) -> Option<Self> {
-        [Self::Torque, Self::Velocity, Self::Position].into_iter().find(|c| c.name() == name)
-    }
 }
 
 /// `[runtime]`: scheduling, memory locking and supervision of the real-time shell. Optional in the file

@@ -26,11 +26,6 @@ impl ControlLaw {
             ControlLaw::DelayAware => "delay-aware",
         }
     }
-
-    /// Parses a name as written in configuration files.
-    pub fn from_name(name: &str) -> Option<ControlLaw> {
-        [ControlLaw::Paper, ControlLaw::DelayAware].into_iter().find(|law| law.name() == name)
-    }
 }
 
 /// Where the servo's model B = T·J⁺ is evaluated (`controller.interaction`).
@@ -54,11 +49,6 @@ impl Interaction {
             Interaction::Mean => "mean",
             Interaction::Current => "current",
         }
-    }
-
-    /// From the name in configuration files.
-    pub fn from_name(name: &str) -> Option<Interaction> {
-        [Interaction::Desired, Interaction::Mean, Interaction::Current].into_iter().find(|i| i.name() == name)
     }
 }
 

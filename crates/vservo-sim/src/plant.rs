@@ -20,11 +20,6 @@ impl PlantMode {
             PlantMode::Kinematic => "kinematic",
         }
     }
-
-    /// Parses a name.
-    pub fn from_name(name: &str) -> Option<PlantMode> {
-        [PlantMode::Dynamic, PlantMode::Kinematic].into_iter().find(|m| m.name() == name)
-    }
 }
 
 /// Fault flags, one bit per joint in each mask.
