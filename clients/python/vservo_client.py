@@ -28,7 +28,7 @@ SCHEMA_VERSION = 5
  SAFE_STOP) = range(1, 10)
 STATES = ["starting", "running", "degraded", "stopping", "safe-stop"]
 FAULTS = ["none", "position_limit", "velocity_limit", "torque_saturated", "driver_fault", "target_lost",
-          "robot_stalled", "requested"]
+          "robot_stalled", "requested", "stream_taken", "camera_stalled"]
 
 
 class Command(ctypes.Structure):

@@ -220,6 +220,11 @@ wire_code! {
         RobotStalled = 6, "robot_stalled";
         /// A safe stop asked for by a client (`vservoctl safe-stop`).
         Requested = 7, "requested";
+        /// A stream's one publisher slot is held by a process that is not the stream's designed writer (a node
+        /// could not publish because its slot was taken, or another process publishes in its place).
+        StreamTaken = 8, "stream_taken";
+        /// The camera sent no frame for longer than `faults.camera_timeout_periods` vision periods.
+        CameraStalled = 9, "camera_stalled";
     }
 }
 
