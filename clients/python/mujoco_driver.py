@@ -39,7 +39,7 @@ import numpy as np
 
 import vservo_client  # finds the instance as every vservo client does (clients/python/vservo_client.py)
 
-SCHEMA = 5
+SCHEMA = 6
 TORQUE, VELOCITY, POSITION = 0, 1, 2  # command modes
 FOLLOWING, HOLDING = 0, 1  # driver_status
 COMMAND_TIMEOUT_NS = 20_000_000  # no valid command for this long: hold
@@ -126,22 +126,27 @@ def make_node(instance: str):
                 print(f"mujoco_driver: {why}; waiting for it", file=sys.stderr)
                 waited = True
             time.sleep(0.2)
-    return (iox2.NodeBuilder.new().config(config)
+    node = (iox2.NodeBuilder.new().config(config)
             .signal_handling_mode(iox2.SignalHandlingMode.Disabled)  # SIGINT/SIGTERM are ours (see main)
             .create(iox2.ServiceType.Ipc))
+    # each stream has one publisher slot: a driver that died (killed, crashed) still holds it until someone
+    # cleans up its leftovers; do it before taking the slot (docs/DRIVERS.md)
+    node.try_cleanup_dead_nodes()
+    return node
 
 
 def open_topic(node, instance, name, payload, history, buffer, header=None):
     builder = node.service_builder(iox2.ServiceName.new(f"vservo/{instance}/{name}")).publish_subscribe(payload)
     if header is not None:
         builder = builder.user_header(header)
-    return (builder.max_publishers(2).max_subscribers(8).history_size(history).subscriber_max_buffer_size(buffer)
+    # one publisher per stream: vservod creates the service so; the slot is this driver's
+    return (builder.max_publishers(1).max_subscribers(8).history_size(history).subscriber_max_buffer_size(buffer)
             .enable_safe_overflow(True).open_or_create())
 
 
 def open_notifier(node, instance, name):
     service = (node.service_builder(iox2.ServiceName.new(f"vservo/{instance}/{name}")).event()
-               .max_notifiers(4).max_listeners(4).open_or_create())
+               .max_notifiers(1).max_listeners(4).open_or_create())
     return service.notifier_builder().create()
 
 

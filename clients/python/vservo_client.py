@@ -23,7 +23,7 @@ import time
 
 import iceoryx2 as iox2
 
-SCHEMA_VERSION = 5
+SCHEMA_VERSION = 6
 (TARGET_FEATURES, TARGET_POSE, TARGET_TEACH, OBJECT_HOLD, OBJECT_STEP, OBJECT_CIRCLE, RELOAD, RESUME,
  SAFE_STOP) = range(1, 10)
 STATES = ["starting", "running", "degraded", "stopping", "safe-stop"]
@@ -72,7 +72,7 @@ class CommandReply(ctypes.Structure):
 
 
 class CameraTwist(ctypes.Structure):
-    """vservo::CameraTwist, 104 bytes."""
+    """vservo::CameraTwist, 112 bytes."""
 
     _fields_ = [
         ("schema", ctypes.c_uint32),
@@ -85,6 +85,7 @@ class CameraTwist(ctypes.Structure):
         ("feature_error_px", ctypes.c_double),
         ("missing_mask", ctypes.c_uint32),
         ("law_flags", ctypes.c_uint32),
+        ("seal", ctypes.c_uint64),
     ]
 
     @staticmethod

@@ -12,6 +12,7 @@ pub mod instance_dir;
 pub mod layout;
 pub mod messages;
 pub mod seal;
+pub mod writers;
 
 pub use codes::{
     CellMode, CommandKind, CommandMode, DaemonState, DriverStatus, Fault, Interaction, MarkStatus, NodeState,
@@ -22,10 +23,10 @@ pub use inbox::{Payload, Refused, TakeMessages};
 pub use instance_dir::{InstanceClaim, InstanceDir, InstanceDirError};
 pub use messages::*;
 
-use iceoryx2::port::listener::Listener;
-use iceoryx2::port::notifier::Notifier;
-use iceoryx2::port::publisher::Publisher;
-use iceoryx2::port::subscriber::Subscriber;
+use iceoryx2::port::listener::{Listener, ListenerCreateError};
+use iceoryx2::port::notifier::{Notifier, NotifierCreateError};
+use iceoryx2::port::publisher::{Publisher, PublisherCreateError};
+use iceoryx2::port::subscriber::{Subscriber, SubscriberCreateError};
 use iceoryx2::prelude::*;
 
 /// The services of one instance.
@@ -54,6 +55,18 @@ pub enum Topic {
     /// vservod → rmrc, servo: [`CellModeMsg`], on each change (servoing, safe stop).
     CellMode,
 }
+
+/// Telemetry publishers at once: one per node.
+pub const TELEMETRY_WRITERS: usize = 4;
+
+/// Notifiers of an event service at once: the one writer of the data service it wakes for.
+pub const EVENT_NOTIFIERS: usize = 1;
+
+/// Listeners of an event service at once.
+pub const EVENT_LISTENERS: usize = 4;
+
+/// Servers of the `command` service: the daemon.
+pub const COMMAND_SERVERS: usize = 1;
 
 /// How a service is sized. Openers that ask for no more than these open it whoever created it.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -118,16 +131,17 @@ impl Topic {
     /// The service's sizing.
     pub fn settings(self) -> TopicSettings {
         let (max_publishers, max_subscribers, history_size, subscriber_max_buffer_size) = match self {
-            Topic::JointState => (2, 8, 1, 64),
-            Topic::JointCommand => (2, 8, 0, 64),
-            Topic::SimWorld => (2, 8, 1, 64),
-            Topic::Features => (2, 8, 1, 32),
-            Topic::CameraTwist => (2, 8, 1, 32),
-            Topic::Telemetry => (8, 8, 1, 64),
-            Topic::Status => (2, 8, 1, 8),
-            Topic::Gains => (2, 8, 1, 8),
-            Topic::Object => (2, 8, 1, 8),
-            Topic::CellMode => (2, 8, 1, 8),
+            // one writer per stream (docs/PROTOCOL.md, "One writer per stream"); telemetry: one per node
+            Topic::JointState => (1, 8, 1, 64),
+            Topic::JointCommand => (1, 8, 0, 64),
+            Topic::SimWorld => (1, 8, 1, 64),
+            Topic::Features => (1, 8, 1, 32),
+            Topic::CameraTwist => (1, 8, 1, 32),
+            Topic::Telemetry => (TELEMETRY_WRITERS, 8, 1, 64),
+            Topic::Status => (1, 8, 1, 8),
+            Topic::Gains => (1, 8, 1, 8),
+            Topic::Object => (1, 8, 1, 8),
+            Topic::CellMode => (1, 8, 1, 8),
         };
         TopicSettings { max_publishers, max_subscribers, history_size, subscriber_max_buffer_size }
     }
@@ -162,6 +176,34 @@ pub enum ProtocolError {
     /// The instance's runtime directory could not be found or trusted.
     #[error(transparent)]
     Instance(#[from] InstanceDirError),
+    /// Every slot of this kind of port on the service is held: for a stream's one writer, another process
+    /// holds it (docs/PROTOCOL.md, "One writer per stream").
+    #[error("every {port} slot of {service:?} is held (by another process, if this is its one writer)")]
+    SlotTaken {
+        /// The kind of port: publisher, subscriber, notifier, listener, server.
+        port: &'static str,
+        /// The service.
+        service: String,
+    },
+    /// A service exists with other sizes than vservo's: another process created it.
+    #[error("{service:?} exists with {what} {found}, not vservo's {expected}: another process created it")]
+    Sized {
+        /// The service.
+        service: String,
+        /// Which size.
+        what: &'static str,
+        /// The size it has.
+        found: usize,
+        /// vservo's.
+        expected: usize,
+    },
+}
+
+impl ProtocolError {
+    /// Whether this is a port refused because its slots are held ([`ProtocolError::SlotTaken`]).
+    pub fn is_slot_taken(&self) -> bool {
+        matches!(self, ProtocolError::SlotTaken { .. })
+    }
 }
 
 fn service_name(topic: Topic, instance: &str) -> Result<(String, ServiceName), ProtocolError> {
@@ -240,7 +282,7 @@ pub fn client_subscriber<T: std::fmt::Debug + ZeroCopySend + 'static>(
         .subscriber_builder()
         .buffer_size(topic.settings().subscriber_max_buffer_size)
         .create()
-        .map_err(|e| port_error("creating a subscriber", &topic.service_name(instance))(e.to_string()))
+        .map_err(|e| subscriber_error(e, &topic.service_name(instance)))
 }
 
 /// A publisher on `topic`.
@@ -250,10 +292,44 @@ pub fn publisher<T: std::fmt::Debug + ZeroCopySend + 'static>(
     topic: Topic,
 ) -> Result<Publisher<ipc::Service, T, ()>, ProtocolError> {
     let service = open_topic::<T>(node, instance, topic)?;
-    service
-        .publisher_builder()
-        .create()
-        .map_err(|e| port_error("creating a publisher", &topic.service_name(instance))(e.to_string()))
+    writer_slot(node, || service.publisher_builder().create()).map_err(|e| match e {
+        PublisherCreateError::ExceedsMaxSupportedPublishers => {
+            ProtocolError::SlotTaken { port: "publisher", service: topic.service_name(instance) }
+        }
+        e => port_error("creating a publisher", &topic.service_name(instance))(e.to_string()),
+    })
+}
+
+/// A stream's writer port: `create` it, and when its one slot is held, clean up dead processes' leftovers
+/// (a writer that died — a crashed node, a killed driver — holds its slot until then) and try once more.
+fn writer_slot<P, E: SlotsHeld>(
+    node: &Node<ipc::Service>,
+    create: impl Fn() -> Result<P, E>,
+) -> Result<P, E> {
+    match create() {
+        Err(e) if e.slots_held() => {
+            cleanup_dead_nodes(node);
+            create()
+        }
+        created => created,
+    }
+}
+
+/// A port refusal that says every slot is held.
+trait SlotsHeld {
+    fn slots_held(&self) -> bool;
+}
+
+impl SlotsHeld for PublisherCreateError {
+    fn slots_held(&self) -> bool {
+        *self == PublisherCreateError::ExceedsMaxSupportedPublishers
+    }
+}
+
+impl SlotsHeld for NotifierCreateError {
+    fn slots_held(&self) -> bool {
+        *self == NotifierCreateError::ExceedsMaxSupportedNotifiers
+    }
 }
 
 /// A subscriber on `topic` with the largest buffer the topic allows.
@@ -267,7 +343,34 @@ pub fn subscriber<T: std::fmt::Debug + ZeroCopySend + 'static>(
         .subscriber_builder()
         .buffer_size(topic.settings().subscriber_max_buffer_size)
         .create()
-        .map_err(|e| port_error("creating a subscriber", &topic.service_name(instance))(e.to_string()))
+        .map_err(|e| subscriber_error(e, &topic.service_name(instance)))
+}
+
+fn subscriber_error(error: SubscriberCreateError, service: &str) -> ProtocolError {
+    match error {
+        SubscriberCreateError::ExceedsMaxSupportedSubscribers => {
+            ProtocolError::SlotTaken { port: "subscriber", service: service.to_string() }
+        }
+        e => port_error("creating a subscriber", service)(e.to_string()),
+    }
+}
+
+fn notifier_error(error: NotifierCreateError, service: &str) -> ProtocolError {
+    match error {
+        NotifierCreateError::ExceedsMaxSupportedNotifiers => {
+            ProtocolError::SlotTaken { port: "notifier", service: service.to_string() }
+        }
+        e => port_error("creating a notifier", service)(e.to_string()),
+    }
+}
+
+fn listener_error(error: ListenerCreateError, service: &str) -> ProtocolError {
+    match error {
+        ListenerCreateError::ExceedsMaxSupportedListeners => {
+            ProtocolError::SlotTaken { port: "listener", service: service.to_string() }
+        }
+        e => port_error("creating a listener", service)(e.to_string()),
+    }
 }
 
 fn open_event(
@@ -286,8 +389,8 @@ fn open_event_named(
     let factory = node
         .service_builder(&service)
         .event()
-        .max_notifiers(4)
-        .max_listeners(4)
+        .max_notifiers(EVENT_NOTIFIERS)
+        .max_listeners(EVENT_LISTENERS)
         .open_or_create()
         .map_err(|e| port_error("opening the event service", &name)(e.to_string()))?;
     Ok((name, factory))
@@ -300,7 +403,7 @@ pub fn notifier(
     topic: Topic,
 ) -> Result<Notifier<ipc::Service>, ProtocolError> {
     let (name, factory) = open_event(node, instance, topic)?;
-    factory.notifier_builder().create().map_err(|e| port_error("creating a notifier", &name)(e.to_string()))
+    writer_slot(node, || factory.notifier_builder().create()).map_err(|e| notifier_error(e, &name))
 }
 
 /// The listener `topic`'s consumer waits on.
@@ -310,7 +413,7 @@ pub fn listener(
     topic: Topic,
 ) -> Result<Listener<ipc::Service>, ProtocolError> {
     let (name, factory) = open_event(node, instance, topic)?;
-    factory.listener_builder().create().map_err(|e| port_error("creating a listener", &name)(e.to_string()))
+    factory.listener_builder().create().map_err(|e| listener_error(e, &name))
 }
 
 /// Removes what dead nodes of the instance left behind (shared memory, sockets, registrations).
@@ -323,7 +426,7 @@ pub fn cleanup_dead_nodes(node: &Node<ipc::Service>) -> u64 {
 /// [`CameraImageHeader`]; with an event of the same name that wakes the vision node.
 pub const CAMERA_IMAGE_SERVICE: &str = "camera_image";
 
-/// The camera image service, opened or created with vservo's sizes (2 publishers, 8 subscribers, no
+/// The camera image service, opened or created with vservo's sizes (1 publisher, 8 subscribers, no
 /// history, 2 samples buffered per subscriber); clients pass [`Opening::OpenOnly`].
 pub fn open_camera_image_service(
     node: &Node<ipc::Service>,
@@ -338,7 +441,7 @@ pub fn open_camera_image_service(
         .service_builder(&service)
         .publish_subscribe::<[u8]>()
         .user_header::<CameraImageHeader>()
-        .max_publishers(2)
+        .max_publishers(1)
         .max_subscribers(8)
         .history_size(0)
         .subscriber_max_buffer_size(2)
@@ -358,11 +461,15 @@ pub fn camera_image_publisher(
     node: &Node<ipc::Service>,
     instance: &str,
 ) -> Result<Publisher<ipc::Service, [u8], CameraImageHeader>, ProtocolError> {
-    open_camera_image_service(node, instance, Opening::OpenOrCreate)?
-        .publisher_builder()
-        .initial_max_slice_len(MAX_IMAGE_BYTES)
-        .create()
-        .map_err(|e| port_error("creating a publisher", CAMERA_IMAGE_SERVICE)(e.to_string()))
+    let service = open_camera_image_service(node, instance, Opening::OpenOrCreate)?;
+    writer_slot(node, || service.publisher_builder().initial_max_slice_len(MAX_IMAGE_BYTES).create()).map_err(
+        |e| match e {
+            PublisherCreateError::ExceedsMaxSupportedPublishers => {
+                ProtocolError::SlotTaken { port: "publisher", service: CAMERA_IMAGE_SERVICE.to_string() }
+            }
+            e => port_error("creating a publisher", CAMERA_IMAGE_SERVICE)(e.to_string()),
+        },
+    )
 }
 
 /// A subscriber of camera images (the vision node creates the service if no camera has yet; clients
@@ -376,7 +483,7 @@ pub fn camera_image_subscriber(
         .subscriber_builder()
         .buffer_size(2)
         .create()
-        .map_err(|e| port_error("creating a subscriber", CAMERA_IMAGE_SERVICE)(e.to_string()))
+        .map_err(|e| subscriber_error(e, CAMERA_IMAGE_SERVICE))
 }
 
 /// The notifier of the camera image event.
@@ -385,7 +492,7 @@ pub fn camera_image_notifier(
     instance: &str,
 ) -> Result<Notifier<ipc::Service>, ProtocolError> {
     let (name, factory) = open_event_named(node, &format!("vservo/{instance}/{CAMERA_IMAGE_SERVICE}"))?;
-    factory.notifier_builder().create().map_err(|e| port_error("creating a notifier", &name)(e.to_string()))
+    writer_slot(node, || factory.notifier_builder().create()).map_err(|e| notifier_error(e, &name))
 }
 
 /// The listener the vision node waits on for camera images.
@@ -394,7 +501,7 @@ pub fn camera_image_listener(
     instance: &str,
 ) -> Result<Listener<ipc::Service>, ProtocolError> {
     let (name, factory) = open_event_named(node, &format!("vservo/{instance}/{CAMERA_IMAGE_SERVICE}"))?;
-    factory.listener_builder().create().map_err(|e| port_error("creating a listener", &name)(e.to_string()))
+    factory.listener_builder().create().map_err(|e| listener_error(e, &name))
 }
 
 /// The request-response service `vservo/<instance>/command` ([`CommandMsg`] → [`CommandReplyMsg`]).
@@ -420,7 +527,7 @@ pub fn open_command_service(
     let builder = node
         .service_builder(&service)
         .request_response::<CommandMsg, CommandReplyMsg>()
-        .max_servers(2)
+        .max_servers(COMMAND_SERVERS)
         .max_clients(COMMAND_SLOTS)
         .max_nodes(64)
         .max_active_requests_per_client(4)

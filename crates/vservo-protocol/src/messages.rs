@@ -11,7 +11,8 @@ use iceoryx2::prelude::ZeroCopySend;
 /// The schema version every payload carries in its first four bytes. Bumped on any layout change.
 /// 2: `joint_state` carries the robot only (the board's pose moved to `sim_world`), the driver declares its
 /// command interface and period; `joint_torque` became `joint_command`; `camera_image` added.
-pub const SCHEMA_VERSION: u32 = 5;
+/// 6: `features` and `camera_twist` carry the seal of the node that made them.
+pub const SCHEMA_VERSION: u32 = 6;
 
 /// Joints of the arm.
 pub const JOINTS: usize = 6;
@@ -172,6 +173,8 @@ wire_message! {
         /// external camera the joint states around `capture_stamp_ns`, interpolated): the top 3 rows of the
         /// 4×4 transform, row-major; NaN when not known
         base_from_camera: [f64; 12] = [f64::NAN; 12],
+        /// the vision node's seal under the run's key: the servo (and the daemon) take sealed features only
+        seal: u64,
     }
 }
 
@@ -202,6 +205,8 @@ wire_message! {
         /// design failed and the fixed gain was used, 4 the target's motion was fed forward; 0 unless the
         /// law computed the twist
         law_flags: u32,
+        /// the servo's seal under the run's key: the rmrc (and the daemon) take sealed twists only
+        seal: u64,
     }
 }
 
@@ -548,10 +553,12 @@ mod tests {
         assert_eq!(offset_of!(JointCommandMsg, seal), 208);
         assert_eq!(size_of::<SimWorldMsg>(), 16 + 96);
         assert_eq!(size_of::<CameraImageHeader>(), 40);
-        assert_eq!(size_of::<FeaturesMsg>(), 40 + 64 + 8 + 96);
+        assert_eq!(size_of::<FeaturesMsg>(), 40 + 64 + 8 + 96 + 8);
+        assert_eq!(offset_of!(FeaturesMsg, seal), 208);
         assert_eq!(offset_of!(FeaturesMsg, features_px), 40);
         assert_eq!(offset_of!(FeaturesMsg, mark_status), 104);
-        assert_eq!(size_of::<CameraTwistMsg>(), 40 + 48 + 8 + 8);
+        assert_eq!(size_of::<CameraTwistMsg>(), 40 + 48 + 8 + 8 + 8);
+        assert_eq!(offset_of!(CameraTwistMsg, seal), 104);
         assert_eq!(offset_of!(CameraTwistMsg, twist), 40);
         assert_eq!(offset_of!(CameraTwistMsg, feature_error_px), 88);
         assert_eq!(size_of::<TimingMsg>(), 40);

@@ -64,6 +64,10 @@ pub enum Cause {
     /// A client asked for the safe stop.
     #[error("asked for by a client")]
     Requested,
+    /// A process that is not a stream's writer holds its writer slot, or a node's port was refused because
+    /// its slots are held (the log names the stream and the process).
+    #[error("a stream's writer slot is held by a process that is not its writer")]
+    StreamTaken,
 }
 
 impl Cause {
@@ -78,6 +82,7 @@ impl Cause {
             Cause::TorqueSaturated(_) => Some(Fault::TorqueSaturated),
             Cause::MarksMissing(_) => Some(Fault::TargetLost),
             Cause::Requested => Some(Fault::Requested),
+            Cause::StreamTaken => Some(Fault::StreamTaken),
         }
     }
 
@@ -108,13 +113,16 @@ pub struct Evidence {
     pub missing_marks: u32,
     /// The nodes that bring the arm to rest run healthy.
     pub motion_nodes_healthy: bool,
+    /// A stream's writer slot is held by a process that is not its writer.
+    pub stream_taken: bool,
 }
 
 /// A condition: the cause it finds in the evidence, if any.
 pub type Condition = fn(&Evidence) -> Option<Cause>;
 
 /// Every condition, in the order a fault is chosen when several are found at once.
-pub const CONDITIONS: [Condition; 8] = [
+pub const CONDITIONS: [Condition; 9] = [
+    |e| e.stream_taken.then_some(Cause::StreamTaken),
     |e| (!e.motion_nodes_healthy).then_some(Cause::MotionNodesDown),
     |e| (e.robot == RobotState::Waiting).then_some(Cause::RobotWaiting),
     |e| nonzero(fault_bits::joints(e.fault_bits, fault_bits::POSITION_LIMIT_SHIFT)).map(Cause::PositionLimit),
@@ -148,6 +156,8 @@ pub struct Conditions {
     pub external_robot: bool,
     /// The nodes that bring the arm to rest and move it (rmrc; the plant when simulated) run healthy.
     pub motion_nodes_healthy: bool,
+    /// A stream's writer slot is held by a process that is not its writer (`supervisor::streams`).
+    pub stream_taken: bool,
 }
 
 /// What a cycle decided.
@@ -318,6 +328,7 @@ impl FaultMonitor {
             saturated_joints: Run::lasting(self.saturated, self.settings.saturation.as_secs_f64()),
             missing_marks: Run::lasting(self.missing, self.settings.target_lost.as_secs_f64()),
             motion_nodes_healthy: c.motion_nodes_healthy,
+            stream_taken: c.stream_taken,
         }
     }
 
@@ -339,6 +350,7 @@ impl FaultMonitor {
             saturated_joints: fault_bits::joints(bits, fault_bits::TORQUE_SATURATED_SHIFT),
             missing_marks: if lost_target { !fresh_marks & ALL_MARKS } else { 0 },
             motion_nodes_healthy: c.motion_nodes_healthy,
+            stream_taken: c.stream_taken,
         }
     }
 
@@ -455,7 +467,13 @@ mod tests {
     }
 
     fn running(now_ns: u64) -> Conditions {
-        Conditions { now_ns, robot: RobotState::Running, external_robot: false, motion_nodes_healthy: true }
+        Conditions {
+            now_ns,
+            robot: RobotState::Running,
+            external_robot: false,
+            motion_nodes_healthy: true,
+            stream_taken: false,
+        }
     }
 
     #[test]
@@ -533,8 +551,8 @@ mod tests {
             stamp_ns: 0,
             features_px: [0.0; 8],
             mark_status: [0; 4],
-            reserved: [0; 4],
             base_from_camera: [f64::NAN; 12],
+            ..FeaturesMsg::default()
         };
         monitor.on_features(&features, 1100 * MS);
         let refused = monitor.resume(&running(1100 * MS)).expect_err("refused");
@@ -603,6 +621,7 @@ mod tests {
             saturated_joints: 0,
             missing_marks: 0,
             motion_nodes_healthy: true,
+            stream_taken: false,
         };
         assert_eq!(calm.causes(), vec![]);
         let cases = [
@@ -625,6 +644,7 @@ mod tests {
                 Some(Fault::DriverFault),
             ),
             (Evidence { robot: RobotState::Stalled, ..calm }, Cause::RobotStalled, Some(Fault::RobotStalled)),
+            (Evidence { stream_taken: true, ..calm }, Cause::StreamTaken, Some(Fault::StreamTaken)),
             (
                 Evidence { saturated_joints: 0b11, ..calm },
                 Cause::TorqueSaturated(0b11),

@@ -119,7 +119,14 @@ fn main() -> ExitCode {
         Ok(()) => ExitCode::SUCCESS,
         Err(error) => {
             tracing::error!("{error:#}");
-            ExitCode::FAILURE
+            // a port refused because its slots are held: the daemon names the stream taken
+            let slot_taken = error.chain().any(|cause| {
+                cause.downcast_ref::<vservo_protocol::ProtocolError>().is_some_and(|e| e.is_slot_taken())
+                    || cause.downcast_ref::<vservo_runtime::RuntimeError>().is_some_and(
+                        |e| matches!(e, vservo_runtime::RuntimeError::Protocol(p) if p.is_slot_taken()),
+                    )
+            });
+            if slot_taken { ExitCode::from(supervisor::streams::SLOT_TAKEN_EXIT) } else { ExitCode::FAILURE }
         }
     }
 }

@@ -142,8 +142,11 @@ impl Rmrc {
     /// Takes in the twists that came (refused ones counted; they bring the arm to rest), then a zero twist
     /// if the cell is held or the daemon gone.
     fn take_twists(&mut self, ports: &mut Ports, tick: u64, context: &NodeContext, counters: &Counters) {
+        let key = context.seal_key.as_ref();
         while let Some(taken) = ports.twists.next_message() {
             let taken = match taken {
+                // a twist without the servo's seal is not the servo's: refused, and the twist in force stays
+                Ok(sample) if key.is_none_or(|key| key.seal(&sample) != sample.seal) => None,
                 Ok(sample) => {
                     let moves = Verdict::try_from(sample.verdict).is_ok_and(Verdict::moves);
                     let twist = Twist::from(sample.twist);

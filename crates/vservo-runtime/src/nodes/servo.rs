@@ -69,7 +69,9 @@ impl Ports {
         })
     }
 
-    fn send(&self, message: CameraTwistMsg) {
+    /// Sends `message` with the servo's seal.
+    fn send(&self, mut message: CameraTwistMsg, key: Option<&vservo_protocol::seal::SealKey>) {
+        message.seal = key.map_or(0, |key| key.seal(&message));
         if let Ok(sample) = self.twists.loan_uninit() {
             let _ = sample.write_payload(message).send();
         }
@@ -150,6 +152,7 @@ impl Servo {
             feature_error_px: step.error_px,
             missing_mask: u32::from(step.verdict.missing_mask()),
             law_flags,
+            seal: 0,
         }
     }
 
@@ -177,6 +180,7 @@ impl Servo {
             feature_error_px: f64::NAN,
             missing_mask: 0,
             law_flags: 0,
+            seal: 0,
         }
     }
 }
@@ -195,7 +199,9 @@ pub fn run(context: &NodeContext) -> Result<(), RuntimeError> {
         let woke_at = monotonic_ns();
         servo.take_gains(&ports, context, counters);
         while let Some(taken) = ports.features.next_message() {
-            let Ok(message) = taken else {
+            // features without the vision node's seal are not the vision node's: refused
+            let key = context.seal_key.as_ref();
+            let Some(message) = taken.ok().filter(|m| key.is_some_and(|key| key.seal(m) == m.seal)) else {
                 counters.rejected();
                 continue;
             };
@@ -206,7 +212,7 @@ pub fn run(context: &NodeContext) -> Result<(), RuntimeError> {
                 counters.rejected();
             }
             let sent = servo.twist_message(&message, &step);
-            ports.send(sent);
+            ports.send(sent, context.seal_key.as_ref());
             servo.note_change(&step, &message, &monitor);
             servo.last = (message.frame, message.capture_tick);
             counters.set_progress(message.frame);
@@ -224,7 +230,7 @@ pub fn run(context: &NodeContext) -> Result<(), RuntimeError> {
             });
         }
     }
-    ports.send(servo.stopping_message());
+    ports.send(servo.stopping_message(), context.seal_key.as_ref());
     tracing::info!(node = "servo", "stopped");
     Ok(())
 }

@@ -65,6 +65,8 @@ struct FeaturesOut {
     over_cap: bool,
     publisher: Publisher<ipc::Service, FeaturesMsg, ()>,
     notifier: iceoryx2::port::notifier::Notifier<ipc::Service>,
+    /// The run's key: the features leave sealed with it.
+    key: Option<vservo_protocol::seal::SealKey>,
 }
 
 impl FeaturesOut {
@@ -88,7 +90,7 @@ impl FeaturesOut {
                 valid_mask |= 1 << mark;
             }
         }
-        let message = FeaturesMsg {
+        let mut message = FeaturesMsg {
             schema: SCHEMA_VERSION,
             valid_mask,
             frame: delivered.frame,
@@ -99,7 +101,9 @@ impl FeaturesOut {
             mark_status: info.status.map(u8::from),
             reserved: [0; 4],
             base_from_camera: delivered.base_from_camera.as_ref().map_or([f64::NAN; 12], pose_to_wire),
+            seal: 0,
         };
+        message.seal = self.key.as_ref().map_or(0, |key| key.seal(&message));
         if let Ok(sample) = self.publisher.loan_uninit() {
             let _ = sample.write_payload(message).send();
         }
@@ -124,6 +128,7 @@ pub fn run(context: &NodeContext) -> Result<(), RuntimeError> {
         over_cap: false,
         publisher: vservo_protocol::publisher::<FeaturesMsg>(&node, instance, Topic::Features)?,
         notifier: vservo_protocol::notifier(&node, instance, Topic::Features)?,
+        key: context.seal_key,
     };
     let mut stage = context.cell.vision();
     if let Some(features) = &context.resume_features {

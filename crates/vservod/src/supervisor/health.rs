@@ -55,7 +55,13 @@ pub fn resume_conditions<'a>(
     nodes: impl IntoIterator<Item = &'a NodeRecord>,
     now: Instant,
 ) -> Conditions {
-    Conditions { now_ns, robot, external_robot, motion_nodes_healthy: motion_nodes_healthy(nodes, now) }
+    Conditions {
+        now_ns,
+        robot,
+        external_robot,
+        motion_nodes_healthy: motion_nodes_healthy(nodes, now),
+        stream_taken: false,
+    }
 }
 
 /// The daemon's state: a safe stop holds; every node healthy with the robot running is running; before

@@ -14,6 +14,7 @@ mod observe;
 mod restart;
 mod shutdown;
 mod status;
+pub mod streams;
 
 use std::path::Path;
 use std::sync::Arc;
@@ -41,6 +42,7 @@ use node::NodeRecord;
 use observe::{LoopHeard, Ports};
 use restart::RestartPolicy;
 use status::StatusFacts;
+use streams::{SLOT_TAKEN_EXIT, StreamWatch};
 
 /// The supervisor's cycle.
 const CYCLE: Duration = Duration::from_millis(50);
@@ -108,6 +110,8 @@ struct Daemon {
     systemd: Systemd,
     viewer: Viewer,
     nodes: Vec<Supervised>,
+    /// Who holds each stream's writer slot.
+    streams: StreamWatch,
     heard: LoopHeard,
     robot: RobotState,
     readiness: Readiness,
@@ -167,7 +171,12 @@ impl Daemon {
             // the run's key: the nodes take gains and object commands sealed with it only (never in a message)
             seal_key: vservo_protocol::seal::SealKey::random().context("drawing the run's seal key")?,
         };
-        let ports = Ports::open(&node, &settings.instance)?;
+        // every service, created here with one writer slot per stream before any other process can
+        let streams = vservo_protocol::writers::create_all(&node, &settings.instance)
+            .context("creating the instance's services")?;
+        let external_camera = config.vision.source == vservo_config::VisionSource::External;
+        let streams = StreamWatch::new(streams, settings.external_robot, external_camera, Instant::now());
+        let ports = Ports::open(&node, &settings.instance, launcher.seal_key)?;
         // the cell mode first: every node finds it in the service's history
         let safety = Safety::new(&node, &settings.instance, config.faults, launcher.seal_key)?;
         let path = &launcher.config_path;
@@ -197,6 +206,7 @@ impl Daemon {
             systemd: Systemd::new(),
             viewer,
             nodes,
+            streams,
             heard: LoopHeard::default(),
             robot: RobotState::Waiting,
             readiness: Readiness::new(now),
@@ -217,7 +227,8 @@ impl Daemon {
         self.clean_up(now, lost);
         self.heard.drain(&self.ports, &mut self.nodes, self.safety.monitor());
         self.end_hung(now);
-        let conditions = self.judge_robot_and_conditions(now);
+        let mut conditions = self.judge_robot_and_conditions(now);
+        conditions.stream_taken = self.stream_taken(now);
         self.safety.cycle(&conditions);
         let loop_state = LoopState {
             joint_state: self.heard.joint_state.as_ref(),
@@ -245,6 +256,15 @@ impl Daemon {
         for node in &mut self.nodes {
             let Some(exit) = node.reap() else { continue };
             let wait = node.record.ended(exit, now);
+            if exit == i32::from(SLOT_TAKEN_EXIT) {
+                tracing::error!(
+                    node = node.record.role.name(),
+                    restart_in_s = wait.as_secs_f64(),
+                    "stream taken: the node's port was refused because another process holds the slot"
+                );
+                lost = true;
+                continue;
+            }
             tracing::warn!(
                 node = node.record.role.name(),
                 exit,
@@ -274,6 +294,17 @@ impl Daemon {
             }
             Cleanup::Periodic => {}
         }
+    }
+
+    /// Whether a stream is taken: a foreign process holds a writer slot, or a node's port was refused because
+    /// its slots are held and it has not run healthy since.
+    fn stream_taken(&mut self, now: Instant) -> bool {
+        let foreign = self.streams.cycle(self.nodes.iter().map(|n| &n.record), now);
+        let refused = self
+            .nodes
+            .iter()
+            .any(|n| n.record.last_exit == i32::from(SLOT_TAKEN_EXIT) && !n.record.healthy(now));
+        foreign || refused
     }
 
     /// A hung node is ended like a crashed one: killed here, reaped and restarted by the next cycles.

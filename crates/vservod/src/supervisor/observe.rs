@@ -7,6 +7,7 @@ use std::time::Instant;
 use iceoryx2::port::publisher::Publisher;
 use iceoryx2::port::subscriber::Subscriber;
 use iceoryx2::prelude::{Node, ipc};
+use vservo_protocol::seal::SealKey;
 use vservo_protocol::{
     CameraTwistMsg, DaemonStatusMsg, FeaturesMsg, JointCommandMsg, JointStateMsg, NodeRole, RobotState,
     TakeMessages, TelemetryMsg, Topic,
@@ -27,11 +28,13 @@ pub struct Ports {
     features: Subscriber<ipc::Service, FeaturesMsg, ()>,
     /// The daemon's status, published every cycle.
     pub status: Publisher<ipc::Service, DaemonStatusMsg, ()>,
+    /// The run's key: only sealed twists and features are evidence.
+    key: SealKey,
 }
 
 impl Ports {
     /// Opens the ports of instance `instance` on `node`.
-    pub fn open(node: &Node<ipc::Service>, instance: &str) -> anyhow::Result<Self> {
+    pub fn open(node: &Node<ipc::Service>, instance: &str, key: SealKey) -> anyhow::Result<Self> {
         Ok(Self {
             telemetry: vservo_protocol::subscriber(node, instance, Topic::Telemetry)?,
             joint_state: vservo_protocol::subscriber(node, instance, Topic::JointState)?,
@@ -39,6 +42,7 @@ impl Ports {
             command: vservo_protocol::subscriber(node, instance, Topic::JointCommand)?,
             features: vservo_protocol::subscriber(node, instance, Topic::Features)?,
             status: vservo_protocol::publisher(node, instance, Topic::Status)?,
+            key,
         })
     }
 
@@ -96,11 +100,19 @@ impl LoopHeard {
             self.tick_rate.on_state();
         });
         ports.command.each_message(|command| self.command = Some(command));
+        // what does not carry the vision node's or the servo's seal is not theirs, and shows nothing
+        let key = &ports.key;
         ports.features.each_message(|features| {
+            if key.seal(&features) != features.seal {
+                return;
+            }
             monitor.on_features(&features, monotonic_ns());
             self.features = Some(features);
         });
         ports.twist.each_message(|twist| {
+            if key.seal(&twist) != twist.seal {
+                return;
+            }
             monitor.on_twist(&twist);
             self.gains_version = twist.gains_version;
             self.feature_error_px = twist.feature_error_px;
