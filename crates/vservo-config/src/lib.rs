@@ -182,6 +182,16 @@ pub fn resolve(path: impl AsRef<Path>) -> Result<String, ConfigError> {
     Layers::read(path.as_ref())?.resolved_text()
 }
 
+/// The largest image a camera may have (bytes, 8-bit gray): what one sample of the `camera_image` service
+/// carries (`vservo_protocol::MAX_IMAGE_BYTES`, docs/PROTOCOL.md). The configuration cannot depend on the
+/// protocol crate (iceoryx2; and the protocol may one day size its services from the configuration), so the
+/// number is repeated here and `vservo-runtime` asserts at compile time that the two agree.
+pub const MAX_CAMERA_IMAGE_BYTES: usize = 1280 * 1024;
+
+/// The largest configuration file read (bytes): a file (or a base it extends) longer than this, or one that
+/// is not a regular file (a FIFO, a device such as `/dev/zero`, a directory), is refused at once.
+pub const MAX_CONFIG_FILE_BYTES: u64 = 4 * 1024 * 1024;
+
 /// What an instance name may be, as said in errors.
 pub const INSTANCE_NAME_RULE: &str =
     "must be 1–64 letters, digits, '-' or '_' (it becomes part of shared-memory service names)";

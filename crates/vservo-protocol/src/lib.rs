@@ -12,6 +12,7 @@ pub mod instance_dir;
 pub mod layout;
 pub mod messages;
 pub mod seal;
+pub mod stop_path;
 
 pub use codes::{
     CellMode, CommandKind, CommandMode, DaemonState, DriverStatus, Fault, Interaction, MarkStatus, NodeState,
