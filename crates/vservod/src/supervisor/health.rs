@@ -186,8 +186,8 @@ mod tests {
         let timeout = 510 * MS;
         let mut watch = CameraWatch::default();
         let seen = |frame_ms: Option<u64>, alive_ms: Option<u64>| CameraSeen {
-            frame_at: frame_ms.map(|ms| t0 + ms * MS),
-            vision_alive_at: alive_ms.map(|ms| t0 + ms * MS),
+            frame_at: frame_ms.map(|ms| t0 + Duration::from_millis(ms)),
+            vision_alive_at: alive_ms.map(|ms| t0 + Duration::from_millis(ms)),
             robot: RobotState::Running,
         };
         // the watch begins at t0: no frame yet, the start grace (5 s) holds
