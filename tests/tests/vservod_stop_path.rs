@@ -73,8 +73,9 @@ time.sleep(120)
 "#,
         dir = repository_root().join("clients/python").display().to_string(),
     );
-    let mut holder =
-        Killed(Command::new(python()).args(["-c", &hog]).stdout(Stdio::piped()).spawn().expect("python runs"));
+    let mut holder = Killed(
+        Command::new(python()).args(["-c", &hog]).stdout(Stdio::piped()).spawn().expect("python runs"),
+    );
     use std::io::BufRead;
     let mut line = String::new();
     let stdout = holder.0.stdout.as_mut().expect("piped");

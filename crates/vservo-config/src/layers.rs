@@ -232,7 +232,8 @@ pub fn read_bounded(path: &Path) -> Result<String, String> {
         return Err(format!("not a regular file ({what}): a configuration must be a regular file"));
     }
     let limit = crate::MAX_CONFIG_FILE_BYTES;
-    let too_long = || format!("longer than {} MiB: a configuration is read up to that", limit / (1024 * 1024));
+    let too_long =
+        || format!("longer than {} MiB: a configuration is read up to that", limit / (1024 * 1024));
     if metadata.len() > limit {
         return Err(too_long());
     }

@@ -317,7 +317,11 @@ impl Daemon {
             }
         }
         if let Some(BurstEvent::Ended { requests }) = burst {
-            tracing::info!(path, requests, "safe-stop path: a burst of requests ended (each one a safe stop)");
+            tracing::info!(
+                path,
+                requests,
+                "safe-stop path: a burst of requests ended (each one a safe stop)"
+            );
         }
     }
 
@@ -331,7 +335,9 @@ impl Daemon {
         let vision = self.nodes.iter().find(|n| n.record.role == NodeRole::Vision);
         let seen = CameraSeen {
             frame_at: self.heard.features_at,
-            vision_alive_at: vision.filter(|n| n.record.healthy(now)).and_then(|n| n.record.heard.telemetry_at),
+            vision_alive_at: vision
+                .filter(|n| n.record.healthy(now))
+                .and_then(|n| n.record.heard.telemetry_at),
             robot,
         };
         let camera_stalled = self.camera.stalled(&seen, self.settings.camera_timeout, now);
