@@ -379,3 +379,50 @@ fn a_stopped_vision_process_is_a_hung_node_not_a_stalled_camera() {
     );
     daemon.stop();
 }
+
+/// The safe-stop path is the daemon's user's only (mode 0600 in the instance's 0750 directory), as the
+/// command service is: another local user (`nobody`) cannot write it, and the cell keeps running; the same
+/// write by the daemon's user stops it. Needs root (to be `nobody`).
+#[test]
+fn another_user_cannot_ask_on_the_safe_stop_path() {
+    use std::os::unix::fs::MetadataExt;
+    if std::fs::metadata("/proc/self").map(|m| m.uid()).ok() != Some(0) {
+        println!("skipped: needs root to write as nobody");
+        return;
+    }
+    let _one = exclusive();
+    let instance = unique("stopother");
+    let (_config, daemon) = running_daemon(&instance);
+    let path = vservo_protocol::InstanceDir::locate(&instance).expect("the instance").safe_stop_path();
+    let mode = std::fs::symlink_metadata(&path).expect("the safe-stop path").mode();
+    assert_eq!(mode & 0o777, 0o600, "{mode:o}");
+    let write_as = |user: Option<&str>| {
+        let script = format!("printf x > '{}'", path.display());
+        let mut command = match user {
+            Some(user) => {
+                let mut c = Command::new("runuser");
+                c.args(["-u", user, "--", "sh", "-c", &script]);
+                c
+            }
+            None => {
+                let mut c = Command::new("sh");
+                c.args(["-c", &script]);
+                c
+            }
+        };
+        command.current_dir("/").output().expect("runs")
+    };
+    let refused = write_as(Some("nobody"));
+    assert!(!refused.status.success(), "nobody wrote the safe-stop path");
+    std::thread::sleep(Duration::from_millis(300));
+    assert!(status(&instance).is_some_and(|s| running(&s)), "{:?}", status(&instance));
+    // the premise: the same write by the daemon's user stops the cell
+    assert!(write_as(None).status.success());
+    assert!(
+        wait_until(Duration::from_secs(1), || safe_stopped_by(&instance, "requested")),
+        "{:?}",
+        status(&instance)
+    );
+    println!("nobody's write refused: {}", String::from_utf8_lossy(&refused.stderr).trim());
+    daemon.stop();
+}

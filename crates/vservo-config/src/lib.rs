@@ -5,7 +5,10 @@
 //! R, a vision period that is a whole number of control periods, a desired pose inside the joint limits
 //! with all four marks in front of the camera and inside the image. The rest of vservo never re-checks.
 //!
-//! Errors name the file, the key and the value ([`ConfigError`]). Unknown keys are errors.
+//! Errors name the file, the key and the value ([`ConfigError`]). Unknown keys are errors. A file (and each
+//! base it extends) is read only if it is a regular file of at most [`MAX_CONFIG_FILE_BYTES`] (4 MiB): a FIFO,
+//! a device such as `/dev/zero` or a directory is refused at once, naming it. A camera whose image is larger
+//! than one `camera_image` sample ([`MAX_CAMERA_IMAGE_BYTES`]) is refused, naming the key.
 //!
 //! A file may be an overlay: `extends = "../vservo.toml"` (relative to the file) merges it over its base, its
 //! own keys winning, tables key by key ([`Config::load`]); an error names the file in which the bad key was
