@@ -1,23 +1,27 @@
 #!/usr/bin/env python3
 """A Python client for a running vservo instance, over iceoryx2 shared memory (PyPI `iceoryx2` 0.10).
 
-It speaks the layout of docs/PROTOCOL.md: it sends commands (targets, object motion, reload, safe stop and
-resume) to the daemon's
-`command` request-response service and reads the replies, and it reads the `status` and `camera_twist` topics.
+It speaks the layout of docs/PROTOCOL.md: it sends commands (targets, object motion, reload and resume) to the
+daemon's `command` request-response service and reads the replies, asks for a safe stop on the instance's
+safe-stop path (a FIFO no client can crowd out; the status confirms it), and it reads the `status` and
+`camera_twist` topics.
 
     python3 vservo_client.py [--instance NAME] target x1,y1,x2,y2,x3,y3,x4,y4
     python3 vservo_client.py [--instance NAME] pose x,y,z [roll,pitch,yaw in degrees]
     python3 vservo_client.py [--instance NAME] teach | reload | safe-stop | resume | status | twist
     python3 vservo_client.py [--instance NAME] object hold | object step x,y,z | object circle RADIUS_M REV_PER_MIN
 
-Exit code 0 when the daemon accepted the command, 3 when it refused it (the reason is printed), 1 when no
-daemon answered, 2 on bad arguments, 75 when every command slot was taken (nothing was sent: try again). Use it as a library too: `Client("default").set_target([...])`.
+Exit code 0 when the daemon accepted the command (for safe-stop: when the status shows the cell in the safe
+stop asked for), 3 when it refused it (the reason is printed; for safe-stop: the cell was already in a safe
+stop), 1 when no daemon answered (or a safe stop could not be confirmed), 2 on bad arguments, 75 when every command slot was taken (nothing was sent: try again). Use it as a library too: `Client("default").set_target([...])`.
 """
 
 import argparse
 import ctypes
+import errno
 import math
 import os
+import stat
 import sys
 import time
 
@@ -202,6 +206,48 @@ def instance_config(instance: str):
     return config
 
 
+SAFE_STOP_FILE = "safe_stop"
+
+
+def ask_for_safe_stop(instance: str) -> str:
+    """Asks the instance's daemon for a safe stop on its safe-stop path (docs/PROTOCOL.md): one byte written
+    without blocking to the FIFO `safe_stop` in the instance's directory. No command slot is needed. Returns
+    the FIFO's path; raises NotRunning when no daemon reads it."""
+    base, _ = locate_instance(instance)
+    path = os.path.join(base, instance, SAFE_STOP_FILE)
+    try:
+        fd = os.open(path, os.O_WRONLY | os.O_NONBLOCK | os.O_NOFOLLOW | os.O_CLOEXEC)
+    except OSError as error:
+        if error.errno == errno.ENXIO:
+            raise NotRunning(f"{path}: no vservod reads the safe-stop path: the instance is not running") from None
+        if error.errno == errno.ENOENT:
+            raise NotRunning(f"{path}: no safe-stop path: no vservod (of a version that makes it) runs "
+                             f"instance {instance!r}") from None
+        raise
+    try:
+        if not stat.S_ISFIFO(os.fstat(fd).st_mode):
+            raise ValueError(f"{path}: not a FIFO: not the safe-stop path vservod makes")
+        try:
+            os.write(fd, b"!")
+        except BlockingIOError:
+            pass  # full of requests not yet taken: this one is among them
+        except BrokenPipeError:
+            raise NotRunning(f"{path}: no vservod reads the safe-stop path: the instance is not running") from None
+    finally:
+        os.close(fd)
+    return path
+
+
+class SafeStopped:
+    """A safe stop the status confirmed: the fault the cell is held for, and whether it was held before."""
+
+    def __init__(self, path: str, fault: str, held_before: bool, confirmed_after_s: float):
+        self.path = path
+        self.fault = fault
+        self.held_before = held_before
+        self.confirmed_after_s = confirmed_after_s
+
+
 class Busy(Exception):
     """Every command slot of the instance was taken at that moment: nothing was sent; try again."""
 
@@ -281,8 +327,26 @@ class Client:
         """Servo again after a safe stop (refused, with each cause, while a fault's cause is still there)."""
         return self.request(Command(kind=RESUME))
 
-    def safe_stop(self) -> CommandReply:
-        """Bring the arm to rest and hold it until `resume`."""
+    def safe_stop(self) -> SafeStopped:
+        """Bring the arm to rest and hold it until `resume`: asked for on the safe-stop path (no command slot
+        needed), confirmed from the status; NoAnswer when the status does not show it in time."""
+        asked_at_ns = time.monotonic_ns()  # CLOCK_MONOTONIC, the daemon's clock for fault_since_ns
+        path = ask_for_safe_stop(self.instance)
+        deadline = time.monotonic() + self.timeout_s
+        status = None
+        while time.monotonic() < deadline:
+            status = self.status()
+            if status.state < len(STATES) and STATES[status.state] == "safe-stop":
+                fault = FAULTS[status.fault] if status.fault < len(FAULTS) else str(status.fault)
+                return SafeStopped(path, fault, status.fault_since_ns < asked_at_ns,
+                                   time.monotonic() - (deadline - self.timeout_s))
+            time.sleep(0.01)
+        raise NoAnswer(f"a safe stop was asked for on {path}, but the status of instance {self.instance!r} "
+                       f"did not show it within {self.timeout_s} s")
+
+    def safe_stop_command(self) -> CommandReply:
+        """A safe stop over the `command` service, acknowledged by the daemon; needs a free command slot (Busy
+        otherwise): `safe_stop` needs none."""
         return self.request(Command(kind=SAFE_STOP))
 
     def object_hold(self) -> CommandReply:
@@ -364,7 +428,14 @@ def main(argv=None) -> int:
         elif options.command == "reload":
             reply = client.reload()
         elif options.command == "safe-stop":
-            reply = client.safe_stop()
+            stopped = client.safe_stop()
+            if stopped.held_before:
+                print(f"vservo_client: refused: the cell is already in a safe stop ({stopped.fault})",
+                      file=sys.stderr)
+                return 3
+            print(f"safe stop: the cell is in a safe stop (fault {stopped.fault}), confirmed by the status "
+                  f"{stopped.confirmed_after_s * 1e3:.0f} ms after the request on {stopped.path}")
+            return 0
         elif options.command == "resume":
             reply = client.resume()
         elif options.args[:1] == ["hold"]:
@@ -378,7 +449,7 @@ def main(argv=None) -> int:
     except (ValueError, IndexError) as error:
         print(f"vservo_client: {error}", file=sys.stderr)
         return 2
-    except NoAnswer as error:
+    except (NoAnswer, NotRunning) as error:
         print(f"vservo_client: {error}", file=sys.stderr)
         return 1
     except Busy as error:

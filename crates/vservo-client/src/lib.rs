@@ -2,7 +2,8 @@
 //!
 //! This crate owns the client side of vservo's shared-memory protocol (docs/PROTOCOL.md): commands
 //! (targets, object motion, reload, safe stop and resume) over the `command` request-response service, each answered with
-//! whether it was accepted and why not, and reading the instance's status and loop messages.
+//! whether it was accepted and why not, the safe stop on the instance's safe-stop path, which no client can
+//! crowd out ([`safe_stop`]), and reading the instance's status and loop messages.
 //!
 //! ```no_run
 //! let mut client = vservo_client::Client::connect("default")?;
@@ -15,8 +16,10 @@
 //! # Ok::<(), vservo_client::ClientError>(())
 //! ```
 
+pub mod safe_stop;
 pub mod status;
 
+pub use safe_stop::{SafeStopped, safe_stop};
 pub use status::{FaultView, NodeView, StatusView, TimingUs};
 
 use std::time::{Duration, Instant};
@@ -54,6 +57,23 @@ pub enum ClientError {
         instance: String,
         /// Its command slots.
         slots: usize,
+    },
+    /// The safe-stop path refused the request (no daemon reads it, or it is not there).
+    #[error(transparent)]
+    SafeStopPath(#[from] vservo_protocol::stop_path::SafeStopPathError),
+    /// The safe stop was asked for, but the status did not confirm it.
+    #[error(
+        "a safe stop was asked for on {path}, but the status of instance {instance:?} did not confirm it within {waited:?}: {why}"
+    )]
+    SafeStopNotConfirmed {
+        /// The instance.
+        instance: String,
+        /// The safe-stop path written to.
+        path: std::path::PathBuf,
+        /// How long was waited.
+        waited: Duration,
+        /// What was (not) seen.
+        why: String,
     },
     /// No answer within the time allowed: no daemon runs this instance, or it runs as another user.
     #[error(
@@ -212,8 +232,10 @@ impl Client {
         self.request(CommandMsg::new(CommandKind::Resume, 0))
     }
 
-    /// Bring the arm to rest and hold it (a safe stop; [`Client::resume`] ends it).
-    pub fn safe_stop(&mut self) -> Result<Reply, ClientError> {
+    /// Bring the arm to rest and hold it (a safe stop; [`Client::resume`] ends it), asked for over the
+    /// `command` service and acknowledged by the daemon; it needs a free command slot ([`ClientError::Busy`]
+    /// otherwise): [`safe_stop`] (the safe-stop path) needs none.
+    pub fn safe_stop_command(&mut self) -> Result<Reply, ClientError> {
         self.request(CommandMsg::new(CommandKind::SafeStop, 0))
     }
 

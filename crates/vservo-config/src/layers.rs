@@ -196,12 +196,54 @@ fn with_key(message: String, key: Option<&str>) -> String {
 }
 
 fn read_text(path: &Path, file: &str, extended_by: Option<&str>) -> Result<String, ConfigError> {
-    std::fs::read_to_string(path).map_err(|e| match extended_by {
-        Some(child) => {
-            ConfigError::Base { file: child.to_string(), base: file.to_string(), reason: e.to_string() }
-        }
-        None => ConfigError::Read { file: file.to_string(), reason: e.to_string() },
+    read_bounded(path).map_err(|reason| match extended_by {
+        Some(child) => ConfigError::Base { file: child.to_string(), base: file.to_string(), reason },
+        None => ConfigError::Read { file: file.to_string(), reason },
     })
+}
+
+/// A regular file's text, up to [`crate::MAX_CONFIG_FILE_BYTES`]; anything else refused at once, saying why.
+/// The file is opened without blocking (a FIFO with no writer would block the open) and checked on the
+/// descriptor itself (no window between a check by name and the open).
+pub fn read_bounded(path: &Path) -> Result<String, String> {
+    use std::io::Read;
+    use std::os::unix::fs::{FileTypeExt, OpenOptionsExt};
+    let file = std::fs::OpenOptions::new()
+        .read(true)
+        .custom_flags(libc::O_NONBLOCK)
+        .open(path)
+        .map_err(|e| e.to_string())?;
+    let metadata = file.metadata().map_err(|e| e.to_string())?;
+    let kind = metadata.file_type();
+    if !kind.is_file() {
+        let what = if kind.is_dir() {
+            "a directory"
+        } else if kind.is_fifo() {
+            "a FIFO"
+        } else if kind.is_char_device() {
+            "a character device"
+        } else if kind.is_block_device() {
+            "a block device"
+        } else if kind.is_socket() {
+            "a socket"
+        } else {
+            "not a file"
+        };
+        return Err(format!("not a regular file ({what}): a configuration must be a regular file"));
+    }
+    let limit = crate::MAX_CONFIG_FILE_BYTES;
+    let too_long =
+        || format!("longer than {} MiB: a configuration is read up to that", limit / (1024 * 1024));
+    if metadata.len() > limit {
+        return Err(too_long());
+    }
+    let mut bytes = Vec::with_capacity(metadata.len() as usize);
+    // the file may grow while it is read: never past the bound
+    file.take(limit + 1).read_to_end(&mut bytes).map_err(|e| e.to_string())?;
+    if bytes.len() as u64 > limit {
+        return Err(too_long());
+    }
+    String::from_utf8(bytes).map_err(|e| format!("not UTF-8 text: {e}"))
 }
 
 /// Refuses a file met before in the chain, naming the chain.

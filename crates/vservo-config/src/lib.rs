@@ -5,7 +5,10 @@
 //! R, a vision period that is a whole number of control periods, a desired pose inside the joint limits
 //! with all four marks in front of the camera and inside the image. The rest of vservo never re-checks.
 //!
-//! Errors name the file, the key and the value ([`ConfigError`]). Unknown keys are errors.
+//! Errors name the file, the key and the value ([`ConfigError`]). Unknown keys are errors. A file (and each
+//! base it extends) is read only if it is a regular file of at most [`MAX_CONFIG_FILE_BYTES`] (4 MiB): a FIFO,
+//! a device such as `/dev/zero` or a directory is refused at once, naming it. A camera whose image is larger
+//! than one `camera_image` sample ([`MAX_CAMERA_IMAGE_BYTES`]) is refused, naming the key.
 //!
 //! A file may be an overlay: `extends = "../vservo.toml"` (relative to the file) merges it over its base, its
 //! own keys winning, tables key by key ([`Config::load`]); an error names the file in which the bad key was
@@ -181,6 +184,16 @@ impl Config {
 pub fn resolve(path: impl AsRef<Path>) -> Result<String, ConfigError> {
     Layers::read(path.as_ref())?.resolved_text()
 }
+
+/// The largest image a camera may have (bytes, 8-bit gray): what one sample of the `camera_image` service
+/// carries (`vservo_protocol::MAX_IMAGE_BYTES`, docs/PROTOCOL.md). The configuration cannot depend on the
+/// protocol crate (iceoryx2; and the protocol may one day size its services from the configuration), so the
+/// number is repeated here and `vservo-runtime` asserts at compile time that the two agree.
+pub const MAX_CAMERA_IMAGE_BYTES: usize = 1280 * 1024;
+
+/// The largest configuration file read (bytes): a file (or a base it extends) longer than this, or one that
+/// is not a regular file (a FIFO, a device such as `/dev/zero`, a directory), is refused at once.
+pub const MAX_CONFIG_FILE_BYTES: u64 = 4 * 1024 * 1024;
 
 /// What an instance name may be, as said in errors.
 pub const INSTANCE_NAME_RULE: &str =

@@ -61,11 +61,18 @@ pub struct RawFaults {
     pub saturation_s: f64,
     pub resume: ResumePolicy,
     pub resume_after_s: f64,
+    pub camera_timeout_periods: i64,
 }
 
 impl Default for RawFaults {
     fn default() -> Self {
-        Self { target_lost_s: 1.0, saturation_s: 0.5, resume: ResumePolicy::Command, resume_after_s: 2.0 }
+        Self {
+            target_lost_s: 1.0,
+            saturation_s: 0.5,
+            resume: ResumePolicy::Command,
+            resume_after_s: 2.0,
+            camera_timeout_periods: 6,
+        }
     }
 }
 

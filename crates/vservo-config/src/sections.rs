@@ -43,8 +43,8 @@ impl Default for Reacquire {
 
 /// `[faults]`: the fault reaction of the real-time shell. Optional in the file (the defaults below apply).
 /// A position or velocity limit, a driver fault, a torque saturation that lasts, lost marks that stay lost
-/// and a stalled external driver each end in a safe stop: the arm ramps to rest at the acceleration limits
-/// and is held until the cell resumes.
+/// a stalled external driver and a camera that sends no frame each end in a safe stop: the arm ramps to rest
+/// at the acceleration limits and is held until the cell resumes.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Faults {
     /// Marks missing (the servo cannot servo) for longer than this is a lost target (`faults.target_lost_s`).
@@ -57,6 +57,16 @@ pub struct Faults {
     /// With [`ResumePolicy::Automatic`]: how long the fault's cause must have been gone
     /// (`faults.resume_after_s`).
     pub resume_after: Duration,
+    /// A camera that sends no frame for this many vision periods is stalled, a fault (`camera_stalled`;
+    /// `faults.camera_timeout_periods`). See [`Faults::camera_timeout`].
+    pub camera_timeout_periods: u32,
+}
+
+impl Faults {
+    /// How long a camera may send no frame before it is stalled: `camera_timeout_periods` vision periods.
+    pub fn camera_timeout(&self, vision_period_s: f64) -> Duration {
+        Duration::from_secs_f64(vision_period_s * f64::from(self.camera_timeout_periods))
+    }
 }
 
 /// How the cell resumes after a safe stop (`faults.resume`).

@@ -449,3 +449,70 @@ fn times_of_the_running_cell_are_durations() {
     let error = refused(&with("hang_timeout_s = 1.0", "hang_timeout_s = 0.2"));
     assert_eq!(error.key(), Some("runtime.hang_timeout_s"), "{error}");
 }
+
+#[test]
+fn a_camera_whose_image_camera_image_cannot_carry_is_refused_naming_the_key() {
+    let huge = with("width_px = 512\nheight_px = 512", "width_px = 16384\nheight_px = 16384");
+    let error = refused(&huge);
+    assert_eq!(error.key(), Some("camera.width_px"), "{error}");
+    assert!(error.to_string().contains("1310720") && error.to_string().contains("16384"), "{error}");
+    // within the bytes, whatever the shape, no size is refused (other checks may still refuse the cell)
+    for fits in ["width_px = 2048\nheight_px = 640", "width_px = 1280\nheight_px = 1024"] {
+        if let Err(error) = Config::from_toml(&with("width_px = 512\nheight_px = 512", fits), "test.toml") {
+            let size_key = error.key().is_some_and(|k| k == "camera.width_px" || k == "camera.height_px");
+            assert!(!size_key, "{fits}: {error}");
+        }
+    }
+    // over the bytes with the width within 1280: the height is named
+    let tall = with("width_px = 512\nheight_px = 512", "width_px = 1024\nheight_px = 1300");
+    assert_eq!(refused(&tall).key(), Some("camera.height_px"), "{}", refused(&tall));
+}
+
+#[test]
+fn the_camera_timeout_is_in_vision_periods_with_a_range() {
+    let config = Config::from_toml(DEFAULT, "vservo.toml").expect("valid");
+    assert_eq!(config.faults.camera_timeout_periods, 6);
+    let timeout = config.faults.camera_timeout(config.timing.vision_period_s);
+    assert!((timeout.as_secs_f64() - 0.51).abs() < 1e-9, "{timeout:?}");
+    for bad in ["1", "1001", "-3"] {
+        let text = with("camera_timeout_periods = 6", &format!("camera_timeout_periods = {bad}"));
+        assert_eq!(refused(&text).key(), Some("faults.camera_timeout_periods"), "{bad}");
+    }
+}
+
+#[test]
+fn only_regular_files_up_to_4_mib_are_read() {
+    let dir = std::env::temp_dir().join(format!("vservo-config-files-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).expect("scratch");
+    let refused_read = |path: &std::path::Path, why: &str| {
+        let started = std::time::Instant::now();
+        let error = Config::load(path).expect_err("refused");
+        assert!(matches!(error, ConfigError::Read { .. }), "{error}");
+        let message = error.to_string();
+        assert!(message.contains(&path.display().to_string()) && message.contains(why), "{message}");
+        assert!(started.elapsed() < std::time::Duration::from_secs(1), "at once");
+    };
+    refused_read(std::path::Path::new("/dev/zero"), "a character device");
+    refused_read(&dir, "a directory");
+    let fifo = dir.join("fifo.toml");
+    assert!(std::process::Command::new("mkfifo").arg(&fifo).status().expect("mkfifo").success());
+    refused_read(&fifo, "a FIFO");
+    let long = dir.join("long.toml");
+    let mut text = DEFAULT.to_string();
+    while text.len() as u64 <= vservo_config::MAX_CONFIG_FILE_BYTES {
+        text.push_str("# padding padding padding padding padding padding padding padding\n");
+    }
+    std::fs::write(&long, &text).expect("written");
+    refused_read(&long, "longer than 4 MiB");
+    // a base that is not a regular file is refused, naming the overlay and the base
+    let overlay = dir.join("overlay.toml");
+    std::fs::write(&overlay, "extends = \"fifo.toml\"\n").expect("written");
+    let error = Config::load(&overlay).expect_err("refused");
+    assert!(matches!(error, ConfigError::Base { .. }) && error.to_string().contains("a FIFO"), "{error}");
+    // within the bound, read as ever
+    let fine = dir.join("fine.toml");
+    std::fs::write(&fine, DEFAULT).expect("written");
+    assert!(Config::load(&fine).is_ok());
+    let _ = std::fs::remove_dir_all(&dir);
+}

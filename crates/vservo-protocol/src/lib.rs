@@ -13,6 +13,7 @@ pub mod layout;
 pub mod messages;
 pub mod seal;
 pub mod writers;
+pub mod stop_path;
 
 pub use codes::{
     CellMode, CommandKind, CommandMode, DaemonState, DriverStatus, Fault, Interaction, MarkStatus, NodeState,

@@ -132,9 +132,23 @@ pub fn reload(args: &ReloadArgs) -> anyhow::Result<()> {
     report(client.reload()?)
 }
 
+/// How long `safe-stop` waits for the status to show the safe stop.
+const SAFE_STOP_CONFIRM: std::time::Duration = std::time::Duration::from_secs(2);
+
+/// `vservoctl safe-stop`: asks on the instance's safe-stop path (no command slot needed), then confirms
+/// from the status. A cell already held is refused as before (exit code 3), naming its fault.
 pub fn safe_stop(args: &ReloadArgs) -> anyhow::Result<()> {
-    let mut client = Client::connect(&args.instance.name()?)?;
-    report(client.safe_stop()?)
+    let stopped = vservo_client::safe_stop(&args.instance.name()?, SAFE_STOP_CONFIRM)?;
+    if stopped.held_before {
+        return Err(Refused(format!("the cell is already in a safe stop ({})", stopped.fault.name())).into());
+    }
+    print_stdout(&format!(
+        "safe stop: the cell is in a safe stop (fault {}), confirmed by the status {:.0} ms after the request on {}\n",
+        stopped.fault.name(),
+        stopped.confirmed_after.as_secs_f64() * 1e3,
+        stopped.path.display()
+    ))?;
+    Ok(())
 }
 
 pub fn resume(args: &ReloadArgs) -> anyhow::Result<()> {

@@ -3,7 +3,8 @@
 //! which fault and since when, and whether it may servo again.
 //!
 //! At once: a joint beyond its position range or its velocity limit, a driver that reports a fault, an
-//! external driver that stalled. Once they last: a torque cut to its limit (`faults.saturation_s`), marks
+//! external driver that stalled, a camera that sent no frame for `faults.camera_timeout_periods` vision
+//! periods (judged by the supervisor: `supervisor::health::CameraWatch`). Once they last: a torque cut to its limit (`faults.saturation_s`), marks
 //! missing so that the servo cannot servo (`faults.target_lost_s`). The first fault is latched; the cell
 //! resumes on a command, or by itself under `faults.resume = "automatic"`, only once no cause is left.
 //!
@@ -55,6 +56,9 @@ pub enum Cause {
     /// The driver's joint states stopped (a fault of an external driver only).
     #[error("the robot driver's joint states do not arrive")]
     RobotStalled,
+    /// The camera sends no frame (the simulated one or an external one; not a vision node that is down).
+    #[error("the camera sends no frame (none for faults.camera_timeout_periods vision periods)")]
+    CameraStalled,
     /// Joint torques cut to their limit.
     #[error("joint {} torque is at its limit", joint_list(*.0))]
     TorqueSaturated(u32),
@@ -79,6 +83,7 @@ impl Cause {
             Cause::VelocityLimit(_) => Some(Fault::VelocityLimit),
             Cause::DriverFault => Some(Fault::DriverFault),
             Cause::RobotStalled => Some(Fault::RobotStalled),
+            Cause::CameraStalled => Some(Fault::CameraStalled),
             Cause::TorqueSaturated(_) => Some(Fault::TorqueSaturated),
             Cause::MarksMissing(_) => Some(Fault::TargetLost),
             Cause::Requested => Some(Fault::Requested),
@@ -115,13 +120,15 @@ pub struct Evidence {
     pub motion_nodes_healthy: bool,
     /// A stream's writer slot is held by a process that is not its writer.
     pub stream_taken: bool,
+    /// The camera has sent no frame for its timeout while the vision node ran.
+    pub camera_stalled: bool,
 }
 
 /// A condition: the cause it finds in the evidence, if any.
 pub type Condition = fn(&Evidence) -> Option<Cause>;
 
 /// Every condition, in the order a fault is chosen when several are found at once.
-pub const CONDITIONS: [Condition; 9] = [
+pub const CONDITIONS: [Condition; 10] = [
     |e| e.stream_taken.then_some(Cause::StreamTaken),
     |e| (!e.motion_nodes_healthy).then_some(Cause::MotionNodesDown),
     |e| (e.robot == RobotState::Waiting).then_some(Cause::RobotWaiting),
@@ -129,6 +136,7 @@ pub const CONDITIONS: [Condition; 9] = [
     |e| nonzero(fault_bits::joints(e.fault_bits, fault_bits::VELOCITY_LIMIT_SHIFT)).map(Cause::VelocityLimit),
     |e| (e.driver_fault || e.fault_bits & fault_bits::DRIVER_FAILED != 0).then_some(Cause::DriverFault),
     |e| (e.robot == RobotState::Stalled).then_some(Cause::RobotStalled),
+    |e| e.camera_stalled.then_some(Cause::CameraStalled),
     |e| nonzero(e.saturated_joints).map(Cause::TorqueSaturated),
     |e| nonzero(e.missing_marks).map(Cause::MarksMissing),
 ];
@@ -158,6 +166,9 @@ pub struct Conditions {
     pub motion_nodes_healthy: bool,
     /// A stream's writer slot is held by a process that is not its writer (`supervisor::streams`).
     pub stream_taken: bool,
+    /// The camera sends no frame (`supervisor::health::CameraWatch`: the vision node runs, the robot
+    /// runs, and no frame came for `faults.camera_timeout_periods` vision periods).
+    pub camera_stalled: bool,
 }
 
 /// What a cycle decided.
@@ -329,6 +340,7 @@ impl FaultMonitor {
             missing_marks: Run::lasting(self.missing, self.settings.target_lost.as_secs_f64()),
             motion_nodes_healthy: c.motion_nodes_healthy,
             stream_taken: c.stream_taken,
+            camera_stalled: c.camera_stalled,
         }
     }
 
@@ -351,6 +363,7 @@ impl FaultMonitor {
             missing_marks: if lost_target { !fresh_marks & ALL_MARKS } else { 0 },
             motion_nodes_healthy: c.motion_nodes_healthy,
             stream_taken: c.stream_taken,
+            camera_stalled: c.camera_stalled,
         }
     }
 
@@ -439,6 +452,7 @@ mod tests {
             saturation: std::time::Duration::from_millis(500),
             resume,
             resume_after: std::time::Duration::from_secs(2),
+            camera_timeout_periods: 6,
         }
     }
 
@@ -473,6 +487,7 @@ mod tests {
             external_robot: false,
             motion_nodes_healthy: true,
             stream_taken: false,
+            camera_stalled: false,
         }
     }
 
@@ -622,6 +637,7 @@ mod tests {
             missing_marks: 0,
             motion_nodes_healthy: true,
             stream_taken: false,
+            camera_stalled: false,
         };
         assert_eq!(calm.causes(), vec![]);
         let cases = [
@@ -645,6 +661,7 @@ mod tests {
             ),
             (Evidence { robot: RobotState::Stalled, ..calm }, Cause::RobotStalled, Some(Fault::RobotStalled)),
             (Evidence { stream_taken: true, ..calm }, Cause::StreamTaken, Some(Fault::StreamTaken)),
+            (Evidence { camera_stalled: true, ..calm }, Cause::CameraStalled, Some(Fault::CameraStalled)),
             (
                 Evidence { saturated_joints: 0b11, ..calm },
                 Cause::TorqueSaturated(0b11),
@@ -667,6 +684,27 @@ mod tests {
         assert_eq!(many.first_fault(), Some(Cause::PositionLimit(1)));
         assert_eq!(many.causes(), vec![Cause::MotionNodesDown, Cause::PositionLimit(1), Cause::RobotStalled]);
         assert_eq!(Cause::PositionLimit(0b101).to_string(), "joint 1, 3 is beyond its position range");
+    }
+
+    #[test]
+    fn a_stalled_camera_stops_the_cell_and_keeps_a_resume_back_until_frames_come_again() {
+        let mut monitor = FaultMonitor::new(settings(ResumePolicy::Automatic));
+        let stalled = Conditions { camera_stalled: true, ..running(MS) };
+        match monitor.cycle(&stalled) {
+            Decision::SafeStop(fault) => {
+                assert_eq!(fault.code, Fault::CameraStalled);
+                assert!(fault.cause.to_string().contains("no frame"), "{}", fault.cause);
+            }
+            other => panic!("{other:?}"),
+        }
+        let refused = monitor.resume(&stalled).expect_err("still no frame");
+        assert_eq!(
+            refused,
+            ResumeRefused::CausesLeft { fault: Fault::CameraStalled, causes: vec![Cause::CameraStalled] }
+        );
+        // frames again: the automatic policy resumes once they have come for resume_after_s
+        assert_eq!(monitor.cycle(&running(2 * MS)), Decision::Same);
+        assert_eq!(monitor.cycle(&running(2003 * MS)), Decision::ResumeAutomatically);
     }
 
     #[test]

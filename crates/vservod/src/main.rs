@@ -11,6 +11,7 @@ mod faults;
 mod log_limit;
 mod node_process;
 mod safety;
+mod stop_path;
 mod supervisor;
 mod systemd;
 mod viewer;

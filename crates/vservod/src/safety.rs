@@ -146,6 +146,14 @@ impl Safety {
         Ok(())
     }
 
+    /// A safe stop asked for on the safe-stop path (docs/PROTOCOL.md): refused (nothing to do) when the cell
+    /// is held already.
+    pub fn request_safe_stop_by_path(&mut self) -> Result<(), AlreadyHeld> {
+        let fault = self.monitor.request_safe_stop(monotonic_ns())?;
+        self.enter(&fault, "asked for on the safe-stop path");
+        Ok(())
+    }
+
     /// The fault fields of the status.
     pub fn fill(&self, status: &mut DaemonStatusMsg) {
         if let Some(fault) = self.monitor.shown() {

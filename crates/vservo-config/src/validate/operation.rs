@@ -11,6 +11,13 @@ pub fn faults(check: &Checker, f: &RawFaults) -> Result<Faults, ConfigError> {
         saturation: check.duration("faults.saturation_s", f.saturation_s, 0.01, 60.0)?,
         resume: f.resume,
         resume_after: check.duration("faults.resume_after_s", f.resume_after_s, 0.1, 3600.0)?,
+        camera_timeout_periods: check.whole(
+            "faults.camera_timeout_periods",
+            f.camera_timeout_periods,
+            2u32,
+            1000,
+            "must be from 2 to 1000 vision periods",
+        )?,
     })
 }
 

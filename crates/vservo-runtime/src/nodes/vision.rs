@@ -31,6 +31,9 @@ use crate::{NodeContext, RuntimeError};
 /// periods (the joint_state queue holds 64 states), and at most this.
 const LONGEST_DRAIN_WAIT_S: f64 = 0.02;
 
+// the configuration refuses a camera whose image is larger than one camera_image sample: the same number
+const _: () = assert!(vservo_config::MAX_CAMERA_IMAGE_BYTES == vservo_protocol::MAX_IMAGE_BYTES);
+
 /// The extractor's status of a mark as the wire says it (`features.mark_status`).
 fn status_on_wire(status: &MarkStatus) -> WireMarkStatus {
     match status {

@@ -1,12 +1,12 @@
 //! The cell's health as the supervisor judges it each cycle: the robot driver's state from the age of its
-//! latest joint state, the daemon's state, the conditions a resume depends on, when the daemon is ready
+//! latest joint state, whether the camera sends frames ([`CameraWatch`]), the daemon's state, the conditions a resume depends on, when the daemon is ready
 //! and when systemd's watchdog is kept alive. Pure: time is passed in.
 
 use std::time::{Duration, Instant};
 
 use vservo_protocol::{DaemonState, NodeRole, RobotState};
 
-use super::node::NodeRecord;
+use super::node::{NodeRecord, START_GRACE};
 use crate::faults::Conditions;
 
 /// The robot driver's state from the age of its latest joint state: waiting for the first, running, or
@@ -41,6 +41,47 @@ pub fn robot_change(was: RobotState, now: RobotState) -> Option<RobotChange> {
     }
 }
 
+/// What the camera is judged on: when a frame last showed (the vision node's features), and when the
+/// vision node last spoke (its own telemetry, while it runs healthy).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CameraSeen {
+    /// When the latest features arrived: a frame the vision node took.
+    pub frame_at: Option<Instant>,
+    /// When the vision node's own telemetry last arrived, if the node runs healthy (None: down, hung,
+    /// starting).
+    pub vision_alive_at: Option<Instant>,
+    /// The robot driver's state (the simulated camera takes its images on the robot's joint states).
+    pub robot: RobotState,
+}
+
+/// Whether the camera sends frames. It is watched only while the vision node runs healthy and the robot
+/// runs: a vision node down or hung is the supervisor's (a restart), and the simulated camera takes its
+/// images on the robot's joint states, so a stalled robot is that fault, not the camera's. Once watched,
+/// the camera is stalled when the vision node has spoken more than `timeout` after the last frame (it ran,
+/// and no frame came), or, before the first frame since the watch began (a start, a restart, the robot
+/// back), more than `timeout` or [`START_GRACE`], whichever is longer. A stopped vision process (SIGSTOP)
+/// speaks no more, so it is a hang, never also a stalled camera.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct CameraWatch {
+    watching_since: Option<Instant>,
+}
+
+impl CameraWatch {
+    /// Whether the camera is stalled at `now`.
+    pub fn stalled(&mut self, seen: &CameraSeen, timeout: Duration, now: Instant) -> bool {
+        let Some(alive_at) = seen.vision_alive_at.filter(|_| seen.robot == RobotState::Running) else {
+            self.watching_since = None;
+            return false;
+        };
+        let since = *self.watching_since.get_or_insert(now);
+        let (from, allowed) = match seen.frame_at.filter(|at| *at >= since) {
+            Some(frame_at) => (frame_at, timeout),
+            None => (since, timeout.max(START_GRACE)),
+        };
+        alive_at.checked_duration_since(from).is_some_and(|silent| silent > allowed)
+    }
+}
+
 /// The nodes that move the arm and bring it to rest (the rmrc; the simulated plant) all run healthy: while
 /// they do, the cell can be made safe.
 pub fn motion_nodes_healthy<'a>(nodes: impl IntoIterator<Item = &'a NodeRecord>, now: Instant) -> bool {
@@ -52,6 +93,7 @@ pub fn resume_conditions<'a>(
     now_ns: u64,
     robot: RobotState,
     external_robot: bool,
+    camera_stalled: bool,
     nodes: impl IntoIterator<Item = &'a NodeRecord>,
     now: Instant,
 ) -> Conditions {
@@ -61,6 +103,7 @@ pub fn resume_conditions<'a>(
         external_robot,
         motion_nodes_healthy: motion_nodes_healthy(nodes, now),
         stream_taken: false,
+        camera_stalled,
     }
 }
 
@@ -139,6 +182,36 @@ mod tests {
     }
 
     #[test]
+    fn a_camera_is_stalled_when_its_running_node_speaks_a_timeout_after_the_last_frame() {
+        let t0 = Instant::now();
+        let timeout = 510 * MS;
+        let mut watch = CameraWatch::default();
+        let seen = |frame_ms: Option<u64>, alive_ms: Option<u64>| CameraSeen {
+            frame_at: frame_ms.map(|ms| t0 + Duration::from_millis(ms)),
+            vision_alive_at: alive_ms.map(|ms| t0 + Duration::from_millis(ms)),
+            robot: RobotState::Running,
+        };
+        // the watch begins at t0: no frame yet, the start grace (5 s) holds
+        assert!(!watch.stalled(&seen(None, Some(0)), timeout, t0));
+        assert!(!watch.stalled(&seen(None, Some(4900)), timeout, t0 + 4900 * MS));
+        assert!(watch.stalled(&seen(None, Some(5100)), timeout, t0 + 5100 * MS), "never a frame");
+        // frames every 85 ms: not stalled; then none, while the node speaks on: stalled past the timeout
+        assert!(!watch.stalled(&seen(Some(5100), Some(5150)), timeout, t0 + 5150 * MS));
+        assert!(!watch.stalled(&seen(Some(5100), Some(5600)), timeout, t0 + 5600 * MS));
+        assert!(watch.stalled(&seen(Some(5100), Some(5700)), timeout, t0 + 5700 * MS));
+        // a node stopped (SIGSTOP) speaks no more: however long, no camera stall (the hang is the supervisor's)
+        assert!(!watch.stalled(&seen(Some(6000), Some(6090)), timeout, t0 + 9000 * MS));
+        // a vision node down, or the robot stalled (the simulated camera waits for joint states): not watched,
+        // and the watch begins again, with the grace, when they run
+        assert!(!watch.stalled(&seen(Some(6000), None), timeout, t0 + 9000 * MS));
+        let robot_stalled = CameraSeen { robot: RobotState::Stalled, ..seen(Some(6000), Some(9000)) };
+        assert!(!watch.stalled(&robot_stalled, timeout, t0 + 9000 * MS));
+        assert!(!watch.stalled(&seen(Some(6000), Some(9100)), timeout, t0 + 9100 * MS), "grace again");
+        assert!(watch.stalled(&seen(Some(6000), Some(14200)), timeout, t0 + 14200 * MS));
+        assert!(!watch.stalled(&seen(Some(14250), Some(14300)), timeout, t0 + 14300 * MS), "frames again");
+    }
+
+    #[test]
     fn the_daemon_starts_runs_degrades_and_a_safe_stop_overrides_all() {
         let (running, stalled) = (RobotState::Running, RobotState::Stalled);
         assert_eq!(daemon_state(false, false, running, false), DaemonState::Starting);
@@ -181,7 +254,7 @@ mod tests {
             node.heard.telemetry_at = Some(t0);
             node.heard.telemetry = Some(crate::supervisor::node::tests_support::telemetry(1, 1));
         }
-        let conditions = resume_conditions(5, RobotState::Running, true, &nodes, t0);
+        let conditions = resume_conditions(5, RobotState::Running, true, false, &nodes, t0);
         assert!(conditions.motion_nodes_healthy);
         assert_eq!(
             (conditions.now_ns, conditions.robot, conditions.external_robot),
@@ -192,7 +265,7 @@ mod tests {
         assert!(motion_nodes_healthy(&nodes, t0), "a servo restart keeps the arm safe");
         let rmrc = nodes.iter().position(|n| n.role == NodeRole::Rmrc).expect("rmrc");
         nodes[rmrc].ended(1, t0);
-        assert!(!resume_conditions(5, RobotState::Running, true, &nodes, t0).motion_nodes_healthy);
+        assert!(!resume_conditions(5, RobotState::Running, true, false, &nodes, t0).motion_nodes_healthy);
         // an external driver: no plant among the nodes, the rmrc alone counts
         nodes.retain(|n| n.role != NodeRole::Plant && n.role != NodeRole::Rmrc);
         assert!(motion_nodes_healthy(&nodes, t0));

@@ -27,16 +27,18 @@ use nix::sys::signal::Signal;
 use vservo_client::StatusView;
 use vservo_config::Config;
 use vservo_control::Gains;
+use vservo_protocol::stop_path::SafeStopReader;
 use vservo_protocol::{InstanceClaim, NodeRole, NodeState, RobotState};
 use vservo_runtime::clock::{PeriodicTimer, monotonic_ns};
 
 use crate::commands::{Commander, LoopState};
 use crate::faults::Conditions;
 use crate::safety::Safety;
+use crate::stop_path::{BurstEvent, Bursts};
 use crate::systemd::Systemd;
 use crate::viewer::Viewer;
 use cleanup::{Cleanup, CleanupClock};
-use health::{Readiness, RobotChange};
+use health::{CameraSeen, CameraWatch, Readiness, RobotChange};
 use launch::{Launcher, Resume, Supervised};
 use node::NodeRecord;
 use observe::{LoopHeard, Ports};
@@ -69,6 +71,7 @@ struct Settings {
     instance: String,
     external_robot: bool,
     robot_deadline: Duration,
+    camera_timeout: Duration,
     hang_timeout: Duration,
     stop_timeout: Duration,
     initial_backoff: Duration,
@@ -83,6 +86,7 @@ impl Settings {
             instance: config.instance.clone(),
             external_robot: config.robot.driver == vservo_config::RobotDriver::External,
             robot_deadline: Duration::from_secs_f64(config.robot.state_timeout_s()),
+            camera_timeout: config.faults.camera_timeout(config.timing.vision_period_s),
             hang_timeout: runtime.hang_timeout,
             stop_timeout: runtime.stop_timeout,
             initial_backoff: runtime.restart_backoff_initial,
@@ -104,6 +108,9 @@ struct Daemon {
     _claim: InstanceClaim,
     node: Node<ipc::Service>,
     ports: Ports,
+    /// The safe-stop path: requests no client can crowd out.
+    stop_path: SafeStopReader,
+    stop_bursts: Bursts,
     launcher: Launcher,
     safety: Safety,
     commander: Commander,
@@ -114,6 +121,7 @@ struct Daemon {
     streams: StreamWatch,
     heard: LoopHeard,
     robot: RobotState,
+    camera: CameraWatch,
     readiness: Readiness,
     cleanup: CleanupClock,
     started_ns: u64,
@@ -177,6 +185,7 @@ impl Daemon {
         let external_camera = config.vision.source == vservo_config::VisionSource::External;
         let streams = StreamWatch::new(streams, settings.external_robot, external_camera, Instant::now());
         let ports = Ports::open(&node, &settings.instance, launcher.seal_key)?;
+        let stop_path = SafeStopReader::create(claim.dir())?;
         // the cell mode first: every node finds it in the service's history
         let safety = Safety::new(&node, &settings.instance, config.faults, launcher.seal_key)?;
         let path = &launcher.config_path;
@@ -200,6 +209,8 @@ impl Daemon {
             _claim: claim,
             node,
             ports,
+            stop_path,
+            stop_bursts: Bursts::default(),
             launcher,
             safety,
             commander,
@@ -209,6 +220,7 @@ impl Daemon {
             streams,
             heard: LoopHeard::default(),
             robot: RobotState::Waiting,
+            camera: CameraWatch::default(),
             readiness: Readiness::new(now),
             cleanup: CleanupClock::new(now),
             started_ns,
@@ -227,6 +239,7 @@ impl Daemon {
         self.clean_up(now, lost);
         self.heard.drain(&self.ports, &mut self.nodes, self.safety.monitor());
         self.end_hung(now);
+        self.hear_stop_path(now);
         let mut conditions = self.judge_robot_and_conditions(now);
         conditions.stream_taken = self.stream_taken(now);
         self.safety.cycle(&conditions);
@@ -323,14 +336,45 @@ impl Daemon {
         }
     }
 
-    /// The robot driver's state from its latest joint state (a change logged), and what a resume depends on.
+    /// The safe-stop path: any byte asks for a safe stop (fault `requested`); logged once per burst.
+    fn hear_stop_path(&mut self, now: Instant) {
+        let requests = self.stop_path.drain();
+        let burst = self.stop_bursts.on_cycle(requests, now);
+        let path = self.stop_path.path().display().to_string();
+        if requests > 0 {
+            let outcome = self.safety.request_safe_stop_by_path();
+            if let (Some(BurstEvent::Began), Err(held)) = (burst, outcome) {
+                tracing::warn!(path, "safe-stop path: a safe stop asked for, and {held}");
+            }
+        }
+        if let Some(BurstEvent::Ended { requests }) = burst {
+            tracing::info!(
+                path,
+                requests,
+                "safe-stop path: a burst of requests ended (each one a safe stop)"
+            );
+        }
+    }
+
+    /// The robot driver's state from its latest joint state (a change logged), whether the camera sends
+    /// frames, and what a resume depends on.
     fn judge_robot_and_conditions(&mut self, now: Instant) -> Conditions {
         let age = self.heard.joint_state_at.map(|at| now.duration_since(at));
         let robot = health::robot_state(age, self.settings.robot_deadline);
         log_robot_change(health::robot_change(self.robot, robot), self.settings.robot_deadline);
         self.robot = robot;
+        let vision = self.nodes.iter().find(|n| n.record.role == NodeRole::Vision);
+        let seen = CameraSeen {
+            frame_at: self.heard.features_at,
+            vision_alive_at: vision
+                .filter(|n| n.record.healthy(now))
+                .and_then(|n| n.record.heard.telemetry_at),
+            robot,
+        };
+        let camera_stalled = self.camera.stalled(&seen, self.settings.camera_timeout, now);
         let records = self.nodes.iter().map(|n| &n.record);
-        health::resume_conditions(monotonic_ns(), robot, self.settings.external_robot, records, now)
+        let external = self.settings.external_robot;
+        health::resume_conditions(monotonic_ns(), robot, external, camera_stalled, records, now)
     }
 
     /// Starts again every node whose backoff is over, resuming where the loop was.

@@ -65,6 +65,8 @@ pub struct LoopHeard {
     pub command: Option<JointCommandMsg>,
     /// The latest features.
     pub features: Option<FeaturesMsg>,
+    /// When the latest features arrived (a frame the vision node took).
+    pub features_at: Option<Instant>,
     /// The gains version the servo's latest twist names (0: none yet).
     pub gains_version: u64,
     /// The servo's latest feature error (px; NaN before the first twist).
@@ -80,6 +82,7 @@ impl Default for LoopHeard {
             joint_state_at: None,
             command: None,
             features: None,
+            features_at: None,
             gains_version: 0,
             feature_error_px: f64::NAN,
             tick_rate: TickRate::default(),
@@ -108,6 +111,7 @@ impl LoopHeard {
             }
             monitor.on_features(&features, monotonic_ns());
             self.features = Some(features);
+            self.features_at = Some(now);
         });
         ports.twist.each_message(|twist| {
             if key.seal(&twist) != twist.seal {
