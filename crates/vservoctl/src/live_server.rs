@@ -372,6 +372,8 @@ fn connection(stream: TcpStream, hub: &Arc<Hub>, handshaking: Handshaking) {
         return;
     }
     let mut admitted = None;
+    // the error's type is tungstenite's (its handshake callback's), large as it is
+    #[allow(clippy::result_large_err)]
     let gate = |request: &Request, mut response: Response| match hub.admit(request) {
         Ok((slot, subprotocol)) => {
             response.headers_mut().insert("sec-websocket-protocol", HeaderValue::from_static(subprotocol));
