@@ -32,7 +32,7 @@ pub const SUBPROTOCOLS: [&str; 2] = ["foxglove.sdk.v1", "foxglove.websocket.v1"]
 /// The opcode of a message-data frame.
 const MESSAGE_DATA: u8 = 0x01;
 /// A viewer's queue drops its oldest data beyond this many bytes …
-const QUEUE_BYTES: usize = 32 << 20;
+const QUEUE_BYTES: usize = 16 << 20;
 /// … or this many messages.
 const QUEUE_MESSAGES: usize = 4096;
 /// At most this many connections between accept and the end of their handshake (others are closed at once).
@@ -637,6 +637,65 @@ mod tests {
             big.push_data(vec![0; QUEUE_BYTES / 4]);
         }
         assert!(big.data_bytes <= QUEUE_BYTES && big.dropped == 1);
+    }
+
+    /// A viewer that subscribed and then stopped reading: the bridge's publishing goes on, that viewer's queue
+    /// stays within its bound (its oldest data dropped), and another viewer still gets the newest.
+    #[test]
+    fn a_viewer_that_stops_reading_never_holds_back_the_bridge_nor_the_others() {
+        let (hub, port, token) = server(4);
+        let query = format!("?token={token}");
+        let mut stalled = connect(port, &query).expect("a viewer");
+        let mut reading = connect(port, &query).expect("a viewer");
+        for client in [&mut stalled, &mut reading] {
+            let channels = advertised(client, 1);
+            subscribe(client, 7, &channels, TOPIC);
+        }
+        // both subscriptions are in before the flood
+        let _ = first_frame(&mut stalled, 7, || hub.publish(1, 0, b"first"));
+        let _ = first_frame(&mut reading, 7, || hub.publish(1, 0, b"first"));
+        let (frames, frame_bytes) = (200u64, 1usize << 20);
+        let started = Instant::now();
+        let receiver = std::thread::spawn(move || {
+            reading.get_ref().set_read_timeout(Some(Duration::from_secs(10))).expect("a timeout");
+            let mut last = 0u64;
+            while let Ok(message) = reading.read() {
+                if let Message::Binary(frame) = message
+                    && frame.len() == 13 + frame_bytes
+                {
+                    last = u64::from_le_bytes(frame[5..13].try_into().expect("8 bytes"));
+                    if last == frames {
+                        break;
+                    }
+                }
+            }
+            last
+        });
+        for n in 1..=frames {
+            hub.publish(1, n, &vec![n as u8; frame_bytes]);
+        }
+        let published_s = started.elapsed().as_secs_f64();
+        let last_received = receiver.join().expect("the reader");
+        let (queued_bytes, dropped) = {
+            let viewers = lock(&hub.viewers);
+            let queues: Vec<(usize, u64)> = viewers
+                .iter()
+                .map(|v| {
+                    let queue = lock(&v.queue);
+                    (queue.data_bytes, queue.dropped)
+                })
+                .collect();
+            queues.into_iter().max_by_key(|q| q.1).expect("two viewers")
+        };
+        println!(
+            "{frames} frames of {} KiB published in {published_s:.3} s; the stalled viewer's queue: {} KiB, \
+             {dropped} dropped; the reading viewer got up to frame {last_received}",
+            frame_bytes >> 10,
+            queued_bytes >> 10
+        );
+        assert_eq!(last_received, frames, "the reading viewer gets the last frame");
+        assert!(queued_bytes <= QUEUE_BYTES && dropped > 0, "{queued_bytes} bytes queued, {dropped} dropped");
+        drop(stalled);
     }
 
     /// The same channels and messages through the Foxglove SDK's server and ours: the same `advertise`
