@@ -7,7 +7,8 @@
 #   scripts/latency.sh [SECONDS=30] [CONFIG=config/vservo.toml] [viewer]
 #
 # With `viewer`, vservod also serves the cell to Foxglove ([viewer] enabled) and a Foxglove WebSocket client
-# (tests/python/foxglove_client.py) takes every image, annotation and transform during the measurement.
+# (tests/python/foxglove_client.py, given the URL with the view's token by `vservoctl view --url`) takes every
+# image, annotation, transform, joint state and status during the measurement.
 # The config's instance must not be running already. Release builds; the figures go in docs/BENCHMARKS.md.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -33,8 +34,13 @@ sleep 1
 client=""
 if [ "${viewer}" = viewer ]; then
     instance="$(sed -n 's/^name = "\(.*\)"/\1/p' "${config}" | head -1)"
-    port="$(sed -n '/^\[viewer\]/,$ s/^port = \([0-9]*\)/\1/p' "${config}" | head -1)"
-    target/python-venv/bin/python tests/python/foxglove_client.py "ws://127.0.0.1:${port}" "${instance}" "${seconds}" &
+    # the URL with the view's token, once the viewer has written it
+    url=""
+    for _ in $(seq 50); do
+        url="$(./target/release/vservoctl view --url --instance "${instance}" 2>/dev/null)" && break
+        sleep 0.2
+    done
+    target/python-venv/bin/python tests/python/foxglove_client.py "${url}" "${instance}" "${seconds}" &
     client=$!
 fi
 ./target/release/examples/bare_loop "$seconds" "$config" >"$floor"

@@ -1,8 +1,9 @@
 """Connects to `vservoctl view` as Foxglove does (the public WebSocket protocol, subprotocol
 `foxglove.sdk.v1`, with the `websockets` package from PyPI), and checks what a user would see: the channels
 advertised with Foxglove's schema names; images; annotations whose marks are exactly the features the servo
-used in that frame. Prints one JSON line of figures; exits 1 with the reason on failure.
-Usage: foxglove_client.py URL INSTANCE SECONDS"""
+used in that frame; joint states and the daemon's status. Prints one JSON line of figures; exits 1 with the
+reason on failure.
+Usage: foxglove_client.py URL INSTANCE SECONDS (URL with the view's token: `vservoctl view --url` prints it)"""
 
 import asyncio
 import base64
@@ -30,7 +31,8 @@ def message_class(schema_name: str, schema_b64: str):
 
 async def main(url: str, instance: str, seconds: float) -> dict:
     wanted = {"/camera/image": "foxglove.RawImage", "/camera/annotations": "foxglove.ImageAnnotations",
-              "/tf": "foxglove.FrameTransforms", f"vservo/{instance}/features": "vservo::Features"}
+              "/tf": "foxglove.FrameTransforms", f"vservo/{instance}/features": "vservo::Features",
+              f"vservo/{instance}/joint_state": "vservo::JointState", f"vservo/{instance}/status": "vservo::DaemonStatus"}
     channels = {}
     loop = asyncio.get_running_loop()
     connect_by = loop.time() + 10  # the server may still be starting
@@ -63,6 +65,7 @@ async def main(url: str, instance: str, seconds: float) -> dict:
         classes = {t: message_class(channels[t]["schemaName"], channels[t]["schema"])
                    for t in ["/camera/image", "/camera/annotations"]}
         features, annotations, image_stamps = {}, {}, set()
+        joint_ticks, statuses = set(), 0
         end = loop.time() + seconds
         while loop.time() < end:
             try:
@@ -77,6 +80,10 @@ async def main(url: str, instance: str, seconds: float) -> dict:
             if topic == f"vservo/{instance}/features":
                 data = json.loads(payload)
                 features[data["capture_stamp_ns"]] = (data["valid_mask"], data["features_px"])
+            elif topic == f"vservo/{instance}/joint_state":
+                joint_ticks.add(json.loads(payload)["tick"])
+            elif topic == f"vservo/{instance}/status":
+                statuses += 1 if "state" in json.loads(payload) else 0
             elif topic == "/camera/image":
                 image = classes[topic].FromString(payload)
                 image_stamps.add(image.timestamp.seconds * 10**9 + image.timestamp.nanos)
@@ -92,7 +99,8 @@ async def main(url: str, instance: str, seconds: float) -> dict:
                 fail(f"frame at {stamp} ns: marks drawn at {annotations[stamp]}, the servo used {used}")
             checked += 1
     return {"channels": len(channels), "images": len(image_stamps), "features": len(features),
-            "annotated_frames_checked": checked, "images_with_annotations": len(image_stamps & set(annotations))}
+            "annotated_frames_checked": checked, "images_with_annotations": len(image_stamps & set(annotations)),
+            "joint_states": len(joint_ticks), "statuses": statuses}
 
 
 if __name__ == "__main__":

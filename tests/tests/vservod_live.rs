@@ -241,6 +241,11 @@ fn a_recording_holds_every_service_in_order_and_plots() {
     daemon.stop();
 
     let bytes = std::fs::read(&file).expect("the recording");
+    // created for the daemon's user only
+    let mode = std::os::unix::fs::PermissionsExt::mode(
+        &std::fs::metadata(&file).expect("the recording").permissions(),
+    );
+    assert_eq!(mode & 0o777, 0o600, "the recording's mode is {:o}", mode & 0o777);
     let mut per_topic: std::collections::BTreeMap<String, Vec<(u32, Value)>> = Default::default();
     for message in mcap::MessageStream::new(&bytes).expect("an MCAP file") {
         let message = message.expect("a message");
@@ -317,15 +322,13 @@ fn a_recording_holds_every_service_in_order_and_plots() {
     let _ = std::fs::remove_file(&file);
 }
 
-/// `[viewer] enabled = true`: vservod serves the cell to Foxglove; a client of the public WebSocket protocol
-/// (Python, `websockets` from PyPI) sees the channels with Foxglove's schema names, images, and annotations
-/// whose marks are exactly the features the servo used in that frame.
-#[test]
-fn the_live_view_serves_foxglove_the_image_and_the_marks_the_servo_used() {
-    let _one = exclusive();
-    let instance = unique("view");
-    // a port of this test run's own (tests of several checkouts may run at once)
-    let port = 20_000 + std::process::id() % 20_000;
+/// A port of this test run's own for the live view (tests of several checkouts may run at once).
+fn view_port(offset: u32) -> u16 {
+    (20_000 + (std::process::id() * 3 + offset) % 20_000) as u16
+}
+
+/// A daemon of `instance` with the live view on `port`, once its viewer has started.
+fn daemon_with_viewer(instance: &str, port: u16) -> (vservo_system_tests::TempConfig, Daemon) {
     let config = vservo_system_tests::config_from(
         "config/vservo.toml",
         &[
@@ -335,15 +338,76 @@ fn the_live_view_serves_foxglove_the_image_and_the_marks_the_servo_used() {
         ],
     );
     let daemon = Daemon::start(&config);
-    assert!(wait_until(Duration::from_secs(10), || up(&instance)), "{}", daemon.log());
+    assert!(wait_until(Duration::from_secs(10), || up(instance)), "{}", daemon.log());
     assert!(
         wait_until(Duration::from_secs(10), || daemon.log().contains("the Foxglove viewer started")),
         "{}",
         daemon.log()
     );
+    (config, daemon)
+}
+
+/// `vservoctl view --url` of the instance, once its viewer has written it.
+fn view_url(instance: &str) -> String {
+    let mut url = String::new();
+    let written = wait_until(Duration::from_secs(10), || {
+        let out = run("vservoctl", &["view", "--url", "--instance", instance]);
+        url = String::from_utf8_lossy(&out.stdout).trim().to_string();
+        out.status.success()
+    });
+    assert!(written, "no URL: {url}");
+    url
+}
+
+/// What tests/python/view_probe.py (standard library only, fed on stdin) gets from the live view on `port`
+/// at `path`, run as `user` (None: this process's user); `how` is `SECONDS` or `--connections N`.
+fn view_probe(user: Option<&str>, port: u16, path: &str, how: &[&str]) -> Value {
+    let script = vservo_system_tests::repository_root().join("tests/python/view_probe.py");
+    let mut command = match user {
+        Some(user) => {
+            let mut command = Command::new("runuser");
+            command.args(["-u", user, "--", "python3"]);
+            command
+        }
+        None => Command::new("python3"),
+    };
+    let out = command
+        .args(["-", "127.0.0.1", &port.to_string(), path])
+        .args(how)
+        .stdin(std::fs::File::open(script).expect("the probe"))
+        .current_dir("/")
+        .output()
+        .expect("python3 runs");
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    serde_json::from_slice(&out.stdout).expect("JSON figures")
+}
+
+/// Nothing of the view came: no upgrade, no serverInfo, no channel, no data byte.
+fn nothing_of_the_view(figures: &Value) -> bool {
+    figures["status"] != 101
+        && figures["server_info"] == false
+        && figures["channels"] == 0
+        && figures["data_bytes"] == 0
+}
+
+/// `[viewer] enabled = true`: vservod serves the cell to Foxglove; a client of the public WebSocket protocol
+/// (Python, `websockets` from PyPI), given the URL with the view's token by `vservoctl view --url`, sees the
+/// channels with Foxglove's schema names, images, annotations whose marks are exactly the features the servo
+/// used in that frame, joint states and the daemon's status.
+#[test]
+fn the_live_view_serves_foxglove_the_image_and_the_marks_the_servo_used() {
+    let _one = exclusive();
+    let instance = unique("view");
+    let port = view_port(0);
+    let (_config, daemon) = daemon_with_viewer(&instance, port);
+    let url = view_url(&instance);
+    assert!(url.starts_with(&format!("ws://127.0.0.1:{port}/?token=")), "{url}");
+    assert!(
+        !daemon.log().contains(&url[url.find("token=").expect("a token") + 6..]),
+        "the token is not logged"
+    );
     let python = vservo_system_tests::repository_root().join("target/python-venv/bin/python");
     let client = vservo_system_tests::repository_root().join("tests/python/foxglove_client.py");
-    let url = format!("ws://127.0.0.1:{port}");
     // the client waits up to 10 s for the server to listen
     let out = Command::new(&python).arg(&client).args([&url, &instance, "4"]).output().expect("python runs");
     assert!(out.status.success(), "{}\n{}", String::from_utf8_lossy(&out.stderr), daemon.log());
@@ -352,6 +416,81 @@ fn the_live_view_serves_foxglove_the_image_and_the_marks_the_servo_used() {
     assert!(figures["images"].as_u64() >= Some(20), "{figures}");
     assert!(figures["annotated_frames_checked"].as_u64() >= Some(20), "{figures}");
     assert!(figures["images_with_annotations"].as_u64() >= Some(20), "{figures}");
+    assert!(figures["joint_states"].as_u64() >= Some(100), "{figures}");
+    assert!(figures["statuses"].as_u64() >= Some(1), "{figures}");
     assert!(up(&instance), "the cell still runs");
+    daemon.stop();
+}
+
+/// The live view serves the daemon's user with the token only: without it, or with a wrong one, an HTTP
+/// error and nothing else (counted in bytes); with it, data. One viewer more than `[viewer] max_clients`
+/// (4) is refused. The URL file is the daemon's user's only, and goes with the viewer.
+#[test]
+fn the_live_view_gives_nothing_without_its_token_and_serves_at_most_max_clients() {
+    use std::os::unix::fs::PermissionsExt;
+    let _one = exclusive();
+    let instance = unique("view-token");
+    let port = view_port(1);
+    let (_config, daemon) = daemon_with_viewer(&instance, port);
+    let url = view_url(&instance);
+    let path = &url[url.find("/?").expect("a query")..];
+    let url_file =
+        vservo_protocol::InstanceDir::locate(&instance).expect("the instance").path.join("viewer-url");
+    let mode = std::fs::metadata(&url_file).expect("the URL file").permissions().mode() & 0o777;
+    assert_eq!(mode, 0o600, "mode {mode:o}");
+
+    let no_token = view_probe(None, port, "/", &["2"]);
+    let guessed = view_probe(None, port, &format!("/?token={}", "0".repeat(32)), &["2"]);
+    let with_token = view_probe(None, port, path, &["2"]);
+    eprintln!("the daemon's user: no token {no_token}; a guessed token {guessed}; the token {with_token}");
+    assert!(nothing_of_the_view(&no_token) && no_token["status"] == 401, "{no_token}");
+    assert!(nothing_of_the_view(&guessed) && guessed["status"] == 403, "{guessed}");
+    assert_eq!(with_token["status"], 101, "{with_token}");
+    assert!(with_token["server_info"] == true && with_token["channels"].as_u64() >= Some(10), "{with_token}");
+    assert!(with_token["data_bytes"].as_u64() >= Some(100_000), "{with_token}");
+
+    let held = view_probe(None, port, path, &["--connections", "5"]);
+    eprintln!("5 viewers at once, at most 4: {held}");
+    assert_eq!(held["statuses"], serde_json::json!([101, 101, 101, 101, 503]), "{held}");
+
+    daemon.stop();
+    assert!(!url_file.exists(), "the URL file goes with the viewer");
+}
+
+/// As another local user (`nobody`), the live view gives nothing, with or without a guessed token, and
+/// `vservoctl view --url` does not give that user the token.
+#[test]
+fn another_user_gets_nothing_of_the_live_view() {
+    use std::os::unix::fs::MetadataExt;
+    if std::fs::metadata("/proc/self").map(|m| m.uid()).ok() != Some(0) {
+        println!("skipped: needs root to run a client as nobody");
+        return;
+    }
+    let _one = exclusive();
+    let instance = unique("view-other");
+    let port = view_port(2);
+    let (_config, daemon) = daemon_with_viewer(&instance, port);
+    let url = view_url(&instance);
+    let path = &url[url.find("/?").expect("a query")..];
+
+    let no_token = view_probe(Some("nobody"), port, "/", &["2"]);
+    let guessed = view_probe(Some("nobody"), port, &format!("/?token={}", "f".repeat(32)), &["2"]);
+    eprintln!("nobody: no token {no_token}; a guessed token {guessed}");
+    assert!(nothing_of_the_view(&no_token) && no_token["status"] == 401, "{no_token}");
+    assert!(nothing_of_the_view(&guessed) && guessed["status"] == 403, "{guessed}");
+    let out = Command::new("runuser")
+        .args(["-u", "nobody", "--"])
+        .arg(binary("vservoctl"))
+        .args(["view", "--url", "--instance", &instance])
+        .current_dir("/")
+        .output()
+        .expect("runuser runs");
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    eprintln!("vservoctl view --url as nobody: {}", String::from_utf8_lossy(&out.stderr).trim());
+    assert!(!out.status.success() && !stdout.contains("token="), "{stdout}");
+    // the same probe, as the daemon's user with the token, does get the view (the probe can see data)
+    let with_token = view_probe(None, port, path, &["2"]);
+    eprintln!("the daemon's user with the token: {with_token}");
+    assert!(with_token["data_bytes"].as_u64() >= Some(100_000), "{with_token}");
     daemon.stop();
 }

@@ -38,11 +38,12 @@ pub struct RawViewer {
     pub enabled: bool,
     pub address: String,
     pub port: i64,
+    pub max_clients: i64,
 }
 
 impl Default for RawViewer {
     fn default() -> Self {
-        Self { enabled: false, address: "127.0.0.1".into(), port: 8765 }
+        Self { enabled: false, address: "127.0.0.1".into(), port: 8765, max_clients: 4 }
     }
 }
 

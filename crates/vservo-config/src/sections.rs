@@ -20,6 +20,8 @@ pub struct Viewer {
     pub address: String,
     /// The TCP port.
     pub port: u16,
+    /// The most viewers connected at once (each one more is refused with HTTP 503).
+    pub max_clients: u32,
 }
 
 /// `[reacquire]`: with fewer than three marks seen, the servo steers the camera back to its pose when it last

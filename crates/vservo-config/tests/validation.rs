@@ -265,6 +265,9 @@ fn the_viewer_is_off_on_localhost_by_default_and_takes_ip_addresses_only() {
         Config::from_toml(&with("enabled = false", "enabled = false"), "vservo.toml").expect("valid");
     assert!(!config.viewer.enabled);
     assert_eq!((config.viewer.address.as_str(), config.viewer.port), ("127.0.0.1", 8765));
+    assert_eq!(config.viewer.max_clients, 4);
+    let error = refused(&with("max_clients = 4", "max_clients = 0"));
+    assert!(error.to_string().contains("viewer.max_clients"), "{error}");
     let error = refused(&with("address = \"127.0.0.1\"", "address = \"robot-pc\""));
     assert!(
         error.to_string().contains("viewer.address") && error.to_string().contains("robot-pc"),

@@ -1,5 +1,5 @@
-//! From an instance's services to a sink of channels (an MCAP file for `vservoctl record`, Foxglove's
-//! WebSocket server for `vservoctl view`): every service as JSON with a JSON schema, and the cell as
+//! From an instance's services to a sink of channels (an MCAP file for `vservoctl record`, the live
+//! view's WebSocket server for `vservoctl view`): every service as JSON with a JSON schema, and the cell as
 //! Foxglove shows it (`crate::foxglove_view`): the camera's images, the marks on them, the frames of the arm,
 //! the camera and the board. A bridge only opens services (it never creates them) and reads them with
 //! iceoryx2's safe overflow: a slow bridge loses its oldest samples, it never slows the loop.

@@ -13,6 +13,7 @@ mod foxglove_view;
 mod gains;
 mod instance;
 mod joint_args;
+mod live_server;
 mod model;
 mod output;
 mod plot_recording;
@@ -26,6 +27,7 @@ mod status;
 mod stop;
 mod top;
 mod view;
+mod view_token;
 mod vision;
 
 use std::process::ExitCode;
@@ -77,7 +79,8 @@ enum Command {
     Top(top::TopArgs),
     /// Record every service of a running instance to an MCAP file.
     Record(record::RecordArgs),
-    /// Serve a running instance live to Foxglove (WebSocket): the camera image with the marks, the arm in 3D, every service.
+    /// Serve a running instance live to Foxglove (WebSocket, token required): the camera image with the marks,
+    /// the arm in 3D, every service; `--url` prints the URL with the token.
     View(view::ViewArgs),
     /// Draw the figures of `sim` from an MCAP recording.
     Plot(plot_recording::PlotArgs),

@@ -1,9 +1,11 @@
 //! `vservoctl record`: every service of a running instance, and the cell as Foxglove shows it
-//! (`crate::bridge`), into an MCAP file with zstd-compressed chunks.
+//! (`crate::bridge`), into an MCAP file with zstd-compressed chunks. The file is created with mode 0600:
+//! a recording holds everything the cell saw and did, for the daemon's user only.
 
 use std::collections::BTreeMap;
-use std::fs::File;
+use std::fs::{File, OpenOptions};
 use std::io::BufWriter;
+use std::os::unix::fs::OpenOptionsExt;
 use std::path::PathBuf;
 use std::sync::atomic::Ordering;
 use std::time::{Duration, Instant};
@@ -66,7 +68,15 @@ pub fn run(args: &RecordArgs) -> anyhow::Result<()> {
     let over = || stop.load(Ordering::Relaxed) || until.is_some_and(|u| Instant::now() >= u);
     // started before the daemon, it waits for the instance (within its duration)
     let connection = Connection::open_when_there(&args.instance, over)?;
-    let file = File::create(&args.out).with_context(|| format!("creating {}", args.out.display()))?;
+    // the mode is given at creation (no chmod after: no moment at which others could open it); a file that
+    // exists already is overwritten and keeps its mode
+    let file = OpenOptions::new()
+        .write(true)
+        .create(true)
+        .truncate(true)
+        .mode(0o600)
+        .open(&args.out)
+        .with_context(|| format!("creating {}", args.out.display()))?;
     let writer = mcap::WriteOptions::new()
         .profile("")
         .library(concat!("vservoctl ", env!("CARGO_PKG_VERSION")))

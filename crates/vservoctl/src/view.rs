@@ -1,29 +1,40 @@
-//! `vservoctl view`: the running cell live in Foxglove. Serves the Foxglove WebSocket protocol through the
-//! official Foxglove SDK with what `vservoctl record` writes (`crate::bridge`): the camera's images with the
-//! marks on them, the arm's, camera's and board's frames, and every service as plottable JSON. It is a
-//! client of the instance like any other, reading with iceoryx2's safe overflow: a slow or absent viewer
-//! never slows the loop. vservod starts it when `[viewer] enabled = true`.
+//! `vservoctl view`: the running cell live in Foxglove. Serves Foxglove's WebSocket protocol
+//! (`crate::live_server`) with what `vservoctl record` writes (`crate::bridge`): the camera's images with the
+//! marks on them, the arm's, camera's and board's frames, and every service as plottable JSON. Only a viewer
+//! that gives the view's token (`crate::view_token`, readable by the daemon's user only) is served, and at
+//! most `--max-clients` at once. It is a client of the instance like any other, reading with iceoryx2's
+//! safe overflow: a slow or absent viewer never slows the loop. vservod starts it when
+//! `[viewer] enabled = true`.
 
 use std::collections::BTreeMap;
+use std::net::TcpListener;
 use std::sync::Arc;
 use std::sync::atomic::Ordering;
 
 use anyhow::Context as _;
 use clap::Args;
-use foxglove::{ChannelBuilder, Context, PartialMetadata, RawChannel, Schema, WebSocketServer};
 
 use crate::bridge::{Bridge, ChannelSpec, Sink};
 use crate::instance::{Connection, InstanceArg};
+use crate::live_server::{self, Hub};
+use crate::view_token::{self, UrlFile, ViewToken};
 
 /// Arguments of `vservoctl view`.
 #[derive(Args, Debug)]
 pub struct ViewArgs {
-    /// The address to serve on (`0.0.0.0` for every interface; mind who can reach it).
+    /// Print the URL of the instance's running live view, with its token, and end (readable by the
+    /// daemon's user only).
+    #[arg(long)]
+    url: bool,
+    /// The address to serve on (`0.0.0.0` for every interface; the token is required all the same).
     #[arg(long, default_value = "127.0.0.1")]
     address: String,
     /// The port to serve on (0: any free one, printed).
     #[arg(long, default_value_t = 8765)]
     port: u16,
+    /// The most viewers at once; one more is refused (HTTP 503).
+    #[arg(long, default_value_t = 4, value_parser = clap::value_parser!(u32).range(1..=64))]
+    max_clients: u32,
     /// Send every n-th camera image (1: every one; 0: none).
     #[arg(long, default_value_t = 1, value_name = "N")]
     image_every: u64,
@@ -31,52 +42,60 @@ pub struct ViewArgs {
     instance: InstanceArg,
 }
 
-/// Foxglove's channels of one context as the bridge's sink: the WebSocket server sends what is logged on
-/// them to each connected client that subscribed.
+/// The live server's channels as the bridge's sink: what is written on a channel goes to each viewer that
+/// subscribed to it.
 struct LiveSink {
-    context: Arc<Context>,
-    channels: BTreeMap<String, Arc<RawChannel>>,
+    hub: Arc<Hub>,
+    /// Channel id by topic.
+    channels: BTreeMap<String, u64>,
 }
 
 impl Sink for LiveSink {
     fn add_channel(&mut self, spec: ChannelSpec<'_>) -> anyhow::Result<()> {
-        let channel = ChannelBuilder::new(spec.topic)
-            .context(&self.context)
-            .schema(Schema::new(spec.schema_name, spec.schema_encoding, spec.schema.to_vec()))
-            .message_encoding(spec.message_encoding)
-            .metadata(spec.metadata)
-            .build_raw()
-            .with_context(|| format!("the channel {}", spec.topic))?;
-        self.channels.insert(spec.topic.to_string(), channel);
+        let id = self.hub.add_channel(&spec).with_context(|| format!("the channel {}", spec.topic))?;
+        self.channels.insert(spec.topic.to_string(), id);
         Ok(())
     }
 
     fn write(&mut self, topic: &str, bytes: &[u8], log_ns: u64, _publish_ns: u64) -> anyhow::Result<()> {
-        let channel = self.channels.get(topic).with_context(|| format!("no channel {topic}"))?;
-        channel.log_with_meta(bytes, PartialMetadata { log_time: Some(log_ns) });
+        let id = self.channels.get(topic).with_context(|| format!("no channel {topic}"))?;
+        self.hub.publish(*id, log_ns, bytes);
         Ok(())
     }
 }
 
 pub fn run(args: &ViewArgs) -> anyhow::Result<()> {
+    if args.url {
+        return print_url(&args.instance);
+    }
     // SIGINT and SIGTERM end it cleanly
     let stop = crate::stop::stop_flag()?;
     // started before the daemon (or by it), it waits for the instance
     let connection = Connection::open_when_there(&args.instance, || stop.load(Ordering::Relaxed))?;
-    let context = Context::new();
-    let server = WebSocketServer::new()
-        .name(format!("vservo {}", connection.instance))
-        .bind(args.address.clone(), args.port)
-        .context(&context)
-        .start_blocking()
-        .with_context(|| {
-            format!("serving Foxglove's WebSocket protocol on {}:{}", args.address, args.port)
-        })?;
-    // one line a script (or a test) can wait for
-    println!("vservoctl view: ws://{}:{} (instance {})", args.address, server.port(), connection.instance);
-    let sink = LiveSink { context: context.clone(), channels: BTreeMap::new() };
+    let instance_dir = vservo_protocol::InstanceDir::locate(&connection.instance)?;
+    let listener = TcpListener::bind((args.address.as_str(), args.port)).with_context(|| {
+        format!("serving Foxglove's WebSocket protocol on {}:{}", args.address, args.port)
+    })?;
+    let bound = listener.local_addr().context("the address served")?;
+    let token = ViewToken::draw()?;
+    let _url_file = UrlFile::write(view_token::url_file(&instance_dir.path), token.url(bound))?;
+    let hub = Hub::new(&format!("vservo {}", connection.instance), token, args.max_clients as usize);
+    live_server::serve(listener, hub.clone());
+    // one line a script (or a test) can wait for; without the token, since this output goes to the
+    // daemon's log (the journal), which other users may be allowed to read
+    println!(
+        "vservoctl view: ws://{bound} (instance {}; the URL with its token: vservoctl view --url --instance {})",
+        connection.instance, connection.instance
+    );
+    let sink = LiveSink { hub, channels: BTreeMap::new() };
     let mut bridge = Bridge::new(sink, &connection, &args.instance, args.image_every)?;
-    let result = bridge.run(&connection, || stop.load(Ordering::Relaxed));
-    drop(server.stop());
-    result
+    bridge.run(&connection, || stop.load(Ordering::Relaxed))
+}
+
+/// `--url`: the URL the instance's viewer wrote, with its token.
+fn print_url(instance: &InstanceArg) -> anyhow::Result<()> {
+    let name = instance.name()?;
+    let dir = vservo_protocol::InstanceDir::locate(&name)?;
+    println!("{}", view_token::read_url(&dir.path, &name)?);
+    Ok(())
 }

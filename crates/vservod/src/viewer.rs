@@ -38,6 +38,8 @@ impl Viewer {
                 .arg(&settings.address)
                 .arg("--port")
                 .arg(settings.port.to_string())
+                .arg("--max-clients")
+                .arg(settings.max_clients.to_string())
                 .env(vservo_protocol::instance_dir::RUNTIME_DIR_ENV, runtime_base)
                 .env_remove("NOTIFY_SOCKET")
                 .env_remove("WATCHDOG_USEC")

@@ -4,6 +4,9 @@ use super::checker::Checker;
 use crate::raw::{RawFaults, RawReacquire, RawViewer};
 use crate::{ConfigError, Faults, Reacquire, Robot, Viewer};
 
+/// The most viewers `[viewer] max_clients` may allow (each one costs the viewer a thread and a queue).
+const MAX_VIEWERS: u32 = 64;
+
 /// When a fault stops the cell, and how it resumes.
 pub fn faults(check: &Checker, f: &RawFaults) -> Result<Faults, ConfigError> {
     Ok(Faults {
@@ -62,7 +65,7 @@ pub fn reacquire(
     })
 }
 
-/// The live view's address (an IP address) and port.
+/// The live view's address (an IP address), port and number of viewers.
 pub fn viewer(check: &Checker, v: &RawViewer) -> Result<Viewer, ConfigError> {
     if v.address.parse::<std::net::IpAddr>().is_err() {
         return Err(check.invalid(
@@ -72,5 +75,12 @@ pub fn viewer(check: &Checker, v: &RawViewer) -> Result<Viewer, ConfigError> {
         ));
     }
     let port = check.whole("viewer.port", v.port, 1u16, u16::MAX, "must be a TCP port from 1 to 65535")?;
-    Ok(Viewer { enabled: v.enabled, address: v.address.clone(), port })
+    let max_clients = check.whole(
+        "viewer.max_clients",
+        v.max_clients,
+        1u32,
+        MAX_VIEWERS,
+        &format!("must be from 1 to {MAX_VIEWERS} viewers at once"),
+    )?;
+    Ok(Viewer { enabled: v.enabled, address: v.address.clone(), port, max_clients })
 }

@@ -148,7 +148,7 @@ pub fn diff(old: &Config, new: &Config) -> ConfigDiff {
         r,
         "viewer",
         viewer != &new.viewer,
-        &fields!("viewer", viewer, new.viewer; enabled, address, port),
+        &fields!("viewer", viewer, new.viewer; enabled, address, port, max_clients),
     );
     ConfigDiff { live, restart_only: restart }
 }
@@ -327,6 +327,7 @@ mod tests {
             ("target_lost_s = 1.0", "target_lost_s = 2.0", "faults.target_lost_s"),
             ("fifo_priority = 80", "fifo_priority = 70", "runtime.plant"),
             ("port = 8765", "port = 8766", "viewer.port"),
+            ("max_clients = 4", "max_clients = 3", "viewer.max_clients"),
         ];
         for (from, to, key) in cases {
             let new = with(from, to);
