@@ -7,6 +7,7 @@
 
 pub mod codes;
 pub mod declare;
+pub mod freshness;
 pub mod inbox;
 pub mod instance_dir;
 pub mod layout;
