@@ -282,7 +282,7 @@ fn no_key_text_left(pids: &[(String, i32)]) {
     let stdout = planted.0.stdout.take().expect("piped");
     std::io::BufReader::new(stdout).read_line(&mut ready).expect("the planted process says it is ready");
     let planted_pid = planted.0.id().to_string();
-    let premise = key_text_scan(&planted_pid, &[planted_pid.clone()]);
+    let premise = key_text_scan(&planted_pid, std::slice::from_ref(&planted_pid));
     println!("key's text in memory (root's scan): planted {}", premise[&planted_pid]);
     assert!(
         premise[&planted_pid]["key_text"].as_u64() >= Some(1),

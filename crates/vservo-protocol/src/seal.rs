@@ -34,9 +34,9 @@ pub const KEY_HEX_DIGITS: usize = 32;
 
 /// Makes this process's memory unreadable to other processes of its user, before it holds the key: not
 /// dumpable (`prctl(PR_SET_DUMPABLE, 0)`: no `/proc/<pid>/mem`, `process_vm_readv` or ptrace attach by a
-/// process without `CAP_SYS_PTRACE`, and the files in `/proc/<pid>/` root's) and no core dump (`RLIMIT_CORE` 0, hard
-/// limit too). Call it first in `main` of every process that receives the key (docs/PROTOCOL.md, "Seals"); it
-/// is inherited by threads, not across `execve` (each node calls it itself).
+/// process without `CAP_SYS_PTRACE`, and the files in `/proc/<pid>/` root's) and no core dump (`RLIMIT_CORE`
+/// 0, the hard limit too). Call it first in `main` of every process that receives the key (docs/PROTOCOL.md,
+/// "Seals"); threads inherit it, `execve` does not (each node calls it itself).
 pub fn keep_memory_private() -> Result<(), nix::Error> {
     nix::sys::prctl::set_dumpable(false)?;
     nix::sys::resource::setrlimit(nix::sys::resource::Resource::RLIMIT_CORE, 0, 0)

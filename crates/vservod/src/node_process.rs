@@ -1,11 +1,10 @@
 //! `vservod node <role>`: one node in the foreground, as the supervisor starts it.
 
+use std::io::Read;
+use std::os::fd::AsFd;
 use std::path::Path;
 use std::sync::Arc;
 use std::sync::atomic::AtomicBool;
-
-use std::io::Read;
-use std::os::fd::AsFd;
 
 use anyhow::{Context, bail};
 use vservo_arm::JointVector;
