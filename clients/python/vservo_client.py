@@ -159,42 +159,71 @@ def _user_name(uid: int) -> str:
         return f"uid {uid}"
 
 
+def _candidate_paths(instance: str):
+    """Where a client looks for `instance`, in order (as vservoctl, `InstanceDir::locate`)."""
+    if os.environ.get(RUNTIME_DIR_ENV):
+        return [os.path.join(os.environ[RUNTIME_DIR_ENV], instance)]
+    bases = [SYSTEM_RUNTIME_DIR]
+    if os.geteuid() != 0:
+        xdg = os.environ.get("XDG_RUNTIME_DIR")
+        bases.append(os.path.join(xdg, "vservo") if xdg else f"/tmp/vservo-{os.geteuid()}")
+    return [os.path.join(base, instance) for base in bases]
+
+
+def _sighting(path: str):
+    """What is at `path` (`<base>/<instance>`): ("absent", None, path), ("ours", uid, path), or ("other", owner
+    uid, the directory that told: the instance's, or a base this user may not search)."""
+    try:
+        info = os.lstat(path)
+    except PermissionError:
+        base = os.path.dirname(path)
+        try:
+            owner = os.stat(base).st_uid
+        except OSError:
+            owner = 0
+        return ("other", owner, base)
+    except OSError:
+        return ("absent", None, path)
+    if info.st_uid == os.geteuid():
+        return ("ours", info.st_uid, path)
+    return ("other", info.st_uid, path)
+
+
+def decide_location(sightings):
+    """Which sighting tells where the instance is: the first of this user's, wherever it is (the system's
+    /run/vservo, root's and closed to this user, says nothing about this user's instance); else the first of
+    another user's (the instance really is that user's); else None."""
+    for kind in ("ours", "other"):
+        for sighting in sightings:
+            if sighting[0] == kind:
+                return sighting
+    return None
+
+
 def locate_instance(instance: str):
     """The base directory and shared-memory prefix of a vservo instance, found as vservoctl finds them:
-    `$VSERVO_RUNTIME_DIR/<instance>` when that is set, else `/run/vservo/<instance>`, else the user's own
-    (`$XDG_RUNTIME_DIR/vservo/<instance>` or `/tmp/vservo-<uid>/<instance>`)."""
-    if os.environ.get(RUNTIME_DIR_ENV):
-        bases = [os.environ[RUNTIME_DIR_ENV]]
-    else:
-        bases = [SYSTEM_RUNTIME_DIR]
-        if os.geteuid() != 0:
-            xdg = os.environ.get("XDG_RUNTIME_DIR")
-            bases.append(os.path.join(xdg, "vservo") if xdg else f"/tmp/vservo-{os.geteuid()}")
-    for base in bases:
-        path = os.path.join(base, instance)
-        try:
-            info = os.lstat(path)
-        except PermissionError:
-            owner = _user_name(os.stat(base).st_uid)
-            raise OtherUser(f"instance {instance!r} is run by user {owner!r} ({base} is that user's): "
-                            f"run the client as that user (for example `sudo -u {owner} python3 …`)") from None
-        except FileNotFoundError:
-            continue
-        if info.st_uid != os.geteuid():
-            owner = _user_name(info.st_uid)
-            raise OtherUser(f"instance {instance!r} is run by user {owner!r} ({path} is that user's): "
-                            f"run the client as that user (for example `sudo -u {owner} python3 …`)")
-        try:
-            with open(os.path.join(path, "prefix")) as f:
-                prefix = f.read().strip()
-        except FileNotFoundError:
-            break
-        random = prefix[len("vservo_"):-1]
-        if not (prefix.startswith("vservo_") and prefix.endswith("_") and len(random) == 16
-                and all(c in "0123456789abcdef" for c in random)):
-            raise ValueError(f"{path}/prefix: {prefix!r} is not a prefix vservod writes")
-        return base, prefix
-    raise NotRunning(f"no vservod of instance {instance!r} is running (looked in {', '.join(bases)})")
+    `$VSERVO_RUNTIME_DIR/<instance>` when that is set, else `/run/vservo/<instance>` and the user's own
+    (`$XDG_RUNTIME_DIR/vservo/<instance>` or `/tmp/vservo-<uid>/<instance>`): an instance of this user wherever
+    it is, another user's only when none is ours."""
+    paths = _candidate_paths(instance)
+    found = decide_location([_sighting(path) for path in paths])
+    if found is None:
+        raise NotRunning(f"no vservod of instance {instance!r} is running (looked in {', '.join(paths)})")
+    kind, uid, path = found
+    if kind == "other":
+        owner = _user_name(uid)
+        raise OtherUser(f"instance {instance!r} is run by user {owner!r} ({path} is that user's): "
+                        f"run the client as that user (for example `sudo -u {owner} python3 …`)")
+    try:
+        with open(os.path.join(path, "prefix")) as f:
+            prefix = f.read().strip()
+    except FileNotFoundError:
+        raise NotRunning(f"no vservod of instance {instance!r} is running (no {path}/prefix)") from None
+    random = prefix[len("vservo_"):-1]
+    if not (prefix.startswith("vservo_") and prefix.endswith("_") and len(random) == 16
+            and all(c in "0123456789abcdef" for c in random)):
+        raise ValueError(f"{path}/prefix: {prefix!r} is not a prefix vservod writes")
+    return os.path.dirname(path), prefix
 
 
 def instance_config(instance: str):

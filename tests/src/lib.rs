@@ -118,11 +118,31 @@ impl Daemon {
 
     /// With extra environment variables and a status interval.
     pub fn start_with(config: &TempConfig, env: &[(&str, &Path)], status_every_s: &str) -> Daemon {
+        let mut command = Command::new(binary("vservod"));
+        command.envs(env.iter().map(|(k, v)| (*k, *v)));
+        Self::spawn(command, config, status_every_s)
+    }
+
+    /// Run by another user (`uid`, `gid`; the test runs as root), with no runtime directory in its
+    /// environment: its instance lands in that user's own base (`/tmp/vservo-<uid>`). The process is
+    /// vservod itself (no `runuser` in between), so killing it kills the daemon.
+    pub fn start_as(config: &TempConfig, uid: u32, gid: u32) -> Daemon {
+        use std::os::unix::process::CommandExt;
+        let mut command = Command::new(binary("vservod"));
+        command
+            .uid(uid)
+            .gid(gid)
+            .env_remove("VSERVO_RUNTIME_DIR")
+            .env_remove("XDG_RUNTIME_DIR")
+            .current_dir("/");
+        Self::spawn(command, config, "0")
+    }
+
+    fn spawn(mut command: Command, config: &TempConfig, status_every_s: &str) -> Daemon {
         let log = config.path.with_extension("log");
         let stderr = std::fs::File::create(&log).expect("log file");
-        let child = Command::new(binary("vservod"))
+        let child = command
             .args(["--config", &config.arg(), "--status-every-s", status_every_s])
-            .envs(env.iter().map(|(k, v)| (*k, *v)))
             .stdin(Stdio::null())
             .stdout(Stdio::null())
             .stderr(stderr)

@@ -20,7 +20,9 @@
 //!
 //! The base directory is `$VSERVO_RUNTIME_DIR` when set (the systemd unit sets `/run/vservo`), else
 //! `/run/vservo` for root, else `$XDG_RUNTIME_DIR/vservo`, else `/tmp/vservo-<uid>`. A client looks in
-//! `$VSERVO_RUNTIME_DIR` when set, else in `/run/vservo` and then in its own user's directory.
+//! `$VSERVO_RUNTIME_DIR` when set, else in `/run/vservo` and then in its own user's directory; it takes its
+//! own user's instance wherever it finds one, and names another user only when no place holds one of its
+//! user's (the system's `/run/vservo`, root's and closed to others, says nothing about a user's instance).
 
 use std::fs::{File, OpenOptions};
 use std::io::{ErrorKind, Read, Write};
@@ -147,6 +149,60 @@ fn user_name(uid: u32) -> String {
         .unwrap_or_else(|| format!("uid {uid}"))
 }
 
+/// Where a client or node looks for `instance`, in order: `$VSERVO_RUNTIME_DIR/<instance>` when set, else
+/// `/run/vservo/<instance>` and, for a user other than root, the user's own base.
+fn candidate_paths(instance: &str) -> Vec<PathBuf> {
+    if let Some(base) = std::env::var_os(RUNTIME_DIR_ENV).filter(|d| !d.is_empty()) {
+        return vec![PathBuf::from(base).join(instance)];
+    }
+    let mut bases = vec![PathBuf::from(SYSTEM_RUNTIME_DIR)];
+    if effective_uid() != 0 {
+        bases.push(user_base());
+    }
+    bases.into_iter().map(|base| base.join(instance)).collect()
+}
+
+/// What a client sees at one of the places an instance could be.
+#[derive(Debug, Clone, PartialEq, Eq)]
+enum Sighting {
+    /// Nothing there.
+    Absent,
+    /// The instance's directory, of this process's user.
+    Ours(PathBuf),
+    /// Another user's: the instance's directory, or a base this user may not search (`path` says which).
+    OtherUsers {
+        /// The owner of `path`.
+        owner_uid: u32,
+        /// The directory that told.
+        path: PathBuf,
+    },
+}
+
+impl Sighting {
+    /// What is at `path` (`<base>/<instance>`).
+    fn look(path: &Path) -> Self {
+        match std::fs::symlink_metadata(path) {
+            Ok(metadata) if metadata.uid() == effective_uid() => Sighting::Ours(path.to_path_buf()),
+            Ok(metadata) => Sighting::OtherUsers { owner_uid: metadata.uid(), path: path.to_path_buf() },
+            Err(e) if e.kind() == ErrorKind::PermissionDenied => {
+                // the base directory is not ours to search: whose is it?
+                let base = path.parent().unwrap_or(Path::new("/"));
+                let owner_uid = std::fs::metadata(base).map(|m| m.uid()).unwrap_or(0);
+                Sighting::OtherUsers { owner_uid, path: base.to_path_buf() }
+            }
+            Err(_) => Sighting::Absent,
+        }
+    }
+
+    /// Which place tells where the instance is: the first of this user's, wherever it is (the system's
+    /// `/run/vservo` existing, another user's and closed to this one, says nothing about this user's
+    /// instance); else the first of another user's (the instance really is that user's); else none.
+    fn decide(sightings: &[Sighting]) -> Option<&Sighting> {
+        let ours = sightings.iter().find(|s| matches!(s, Sighting::Ours(_)));
+        ours.or_else(|| sightings.iter().find(|s| matches!(s, Sighting::OtherUsers { .. })))
+    }
+}
+
 /// An instance's runtime directory and the prefix of its shared memory.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct InstanceDir {
@@ -161,58 +217,44 @@ pub struct InstanceDir {
 }
 
 impl InstanceDir {
-    /// Finds a running (or once run) instance as a client or node does.
+    /// Finds a running (or once run) instance as a client or node does: in `$VSERVO_RUNTIME_DIR` when set,
+    /// else in `/run/vservo` and (for a user other than root) in the user's own base; an instance of this
+    /// process's user wherever it is, another user's only when none is ours ([`Sighting::decide`]).
     pub fn locate(instance: &str) -> Result<Self, InstanceDirError> {
-        let candidates: Vec<PathBuf> = match std::env::var_os(RUNTIME_DIR_ENV).filter(|d| !d.is_empty()) {
-            Some(base) => vec![PathBuf::from(base).join(instance)],
-            None => {
-                let mut bases = vec![PathBuf::from(SYSTEM_RUNTIME_DIR)];
-                if effective_uid() != 0 {
-                    bases.push(user_base());
-                }
-                bases.into_iter().map(|b| b.join(instance)).collect()
-            }
-        };
-        for path in &candidates {
-            match std::fs::symlink_metadata(path) {
-                Ok(metadata) => {
-                    if metadata.uid() != effective_uid() {
-                        return Err(InstanceDirError::OtherUser {
-                            instance: instance.to_string(),
-                            owner: user_name(metadata.uid()),
-                            path: path.clone(),
-                        });
-                    }
-                    check_private_dir(path, &metadata)?;
-                    let prefix_path = path.join("prefix");
-                    return match std::fs::read_to_string(&prefix_path) {
-                        Ok(prefix) => Ok(Self {
-                            instance: instance.to_string(),
-                            path: path.clone(),
-                            base: path.parent().unwrap_or(Path::new("/")).to_path_buf(),
-                            prefix: valid_prefix(prefix.trim(), &prefix_path)?,
-                        }),
-                        Err(e) if e.kind() == ErrorKind::NotFound => Err(InstanceDirError::NotRunning {
-                            instance: instance.to_string(),
-                            looked_in: vec![prefix_path],
-                        }),
-                        Err(e) => Err(io(&prefix_path, "reading the instance's prefix")(e)),
-                    };
-                }
-                Err(e) if e.kind() == ErrorKind::PermissionDenied => {
-                    // the base directory is not ours to search: whose is it?
-                    let base = path.parent().unwrap_or(Path::new("/"));
-                    let owner = std::fs::metadata(base).map(|m| m.uid()).unwrap_or(0);
-                    return Err(InstanceDirError::OtherUser {
-                        instance: instance.to_string(),
-                        owner: user_name(owner),
-                        path: base.to_path_buf(),
-                    });
-                }
-                Err(_) => continue,
+        let candidates = candidate_paths(instance);
+        let sightings: Vec<Sighting> = candidates.iter().map(|path| Sighting::look(path)).collect();
+        match Sighting::decide(&sightings) {
+            Some(Sighting::Ours(path)) => Self::open_ours(instance, path),
+            Some(Sighting::OtherUsers { owner_uid, path }) => Err(InstanceDirError::OtherUser {
+                instance: instance.to_string(),
+                owner: user_name(*owner_uid),
+                path: path.clone(),
+            }),
+            Some(Sighting::Absent) | None => {
+                Err(InstanceDirError::NotRunning { instance: instance.to_string(), looked_in: candidates })
             }
         }
-        Err(InstanceDirError::NotRunning { instance: instance.to_string(), looked_in: candidates })
+    }
+
+    /// The instance in `path`, a directory of this process's user: checked private, with its prefix.
+    fn open_ours(instance: &str, path: &Path) -> Result<Self, InstanceDirError> {
+        let metadata =
+            std::fs::symlink_metadata(path).map_err(io(path, "reading the instance's directory"))?;
+        check_private_dir(path, &metadata)?;
+        let prefix_path = path.join("prefix");
+        match std::fs::read_to_string(&prefix_path) {
+            Ok(prefix) => Ok(Self {
+                instance: instance.to_string(),
+                path: path.to_path_buf(),
+                base: path.parent().unwrap_or(Path::new("/")).to_path_buf(),
+                prefix: valid_prefix(prefix.trim(), &prefix_path)?,
+            }),
+            Err(e) if e.kind() == ErrorKind::NotFound => Err(InstanceDirError::NotRunning {
+                instance: instance.to_string(),
+                looked_in: vec![prefix_path],
+            }),
+            Err(e) => Err(io(&prefix_path, "reading the instance's prefix")(e)),
+        }
     }
 
     /// [`InstanceDir::locate`], waiting up to `timeout` while no daemon has made the instance's directory
@@ -642,6 +684,28 @@ mod tests {
         let refused = InstanceClaim::claim_in(&base, "long").expect_err("refused");
         assert!(refused.to_string().contains("too long"), "{refused}");
         let _ = std::fs::remove_dir_all(&base);
+    }
+
+    #[test]
+    fn a_client_takes_its_own_users_instance_wherever_it_is() {
+        let system_closed = Sighting::OtherUsers { owner_uid: 0, path: PathBuf::from(SYSTEM_RUNTIME_DIR) };
+        let own = Sighting::Ours(PathBuf::from("/tmp/vservo-65534/x"));
+        // the system's /run/vservo exists (root's, closed to this user) and the user's daemon runs in /tmp
+        assert_eq!(Sighting::decide(&[system_closed.clone(), own.clone()]), Some(&own));
+        // the user's own instance under /run/vservo (the system service's user) comes first
+        let own_system = Sighting::Ours(PathBuf::from("/run/vservo/x"));
+        assert_eq!(Sighting::decide(&[own_system.clone(), own.clone()]), Some(&own_system));
+        assert_eq!(Sighting::decide(&[Sighting::Absent, own.clone()]), Some(&own));
+    }
+
+    #[test]
+    fn another_user_is_named_only_when_the_instance_is_none_of_ours() {
+        let system_closed = Sighting::OtherUsers { owner_uid: 0, path: PathBuf::from(SYSTEM_RUNTIME_DIR) };
+        assert_eq!(Sighting::decide(&[system_closed.clone(), Sighting::Absent]), Some(&system_closed));
+        let others = Sighting::OtherUsers { owner_uid: 999, path: PathBuf::from("/run/vservo/x") };
+        assert_eq!(Sighting::decide(&[others.clone(), Sighting::Absent]), Some(&others));
+        assert_eq!(Sighting::decide(&[Sighting::Absent, Sighting::Absent]), None);
+        assert_eq!(Sighting::decide(&[]), None);
     }
 
     #[test]

@@ -7,13 +7,14 @@
 
 pub mod codes;
 pub mod declare;
+pub mod freshness;
 pub mod inbox;
 pub mod instance_dir;
 pub mod layout;
 pub mod messages;
 pub mod seal;
-pub mod writers;
 pub mod stop_path;
+pub mod writers;
 
 pub use codes::{
     CellMode, CommandKind, CommandMode, DaemonState, DriverStatus, Fault, Interaction, MarkStatus, NodeState,

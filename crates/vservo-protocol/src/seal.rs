@@ -3,18 +3,43 @@
 //! the daemon's user can publish on an instance's services; what it cannot do is seal a message: the seal
 //! is SipHash-2-4 of the message's fields, keyed with a secret the daemon draws from the system's random
 //! source at start and hands each node on its stdin (never in a message, an argument or the environment).
-//! A stray or rogue `gains` or `object` is refused and counted. SipHash-2-4 is written out here (sixty
+//! A stray or rogue `gains` or `object` is refused and counted. The processes that hold the key make their
+//! memory private first ([`keep_memory_private`]), its text is wiped once used ([`SealKey::to_hex`] gives it
+//! in a buffer wiped when dropped) and the key wipes itself when dropped; which sealed message is newer is
+//! `crate::freshness`'s rule. SipHash-2-4 is written out here (sixty
 //! lines, checked against the reference vector of its paper) rather than taken from a crate for four
 //! messages. The bytes are each message's fields in order, fed to the hash field by field as its one
 //! declaration writes them: the joint command is sealed on the 1 ms path and nothing is allocated.
 
+use zeroize::{Zeroize, Zeroizing};
+
 use crate::declare::WireMessage;
 
-/// The 128-bit key of an instance's run.
-#[derive(Clone, Copy, PartialEq, Eq)]
+/// The 128-bit key of an instance's run. Wiped when dropped (each clone too); never printed.
+#[derive(Clone, PartialEq, Eq)]
 pub struct SealKey {
     k0: u64,
     k1: u64,
+}
+
+impl Drop for SealKey {
+    fn drop(&mut self) {
+        self.k0.zeroize();
+        self.k1.zeroize();
+    }
+}
+
+/// The length of the key's text: 32 hexadecimal digits.
+pub const KEY_HEX_DIGITS: usize = 32;
+
+/// Makes this process's memory unreadable to other processes of its user, before it holds the key: not
+/// dumpable (`prctl(PR_SET_DUMPABLE, 0)`: no `/proc/<pid>/mem`, `process_vm_readv` or ptrace attach by a
+/// process without `CAP_SYS_PTRACE`, and the files in `/proc/<pid>/` root's) and no core dump (`RLIMIT_CORE`
+/// 0, the hard limit too). Call it first in `main` of every process that receives the key (docs/PROTOCOL.md,
+/// "Seals"); threads inherit it, `execve` does not (each node calls it itself).
+pub fn keep_memory_private() -> Result<(), nix::Error> {
+    nix::sys::prctl::set_dumpable(false)?;
+    nix::sys::resource::setrlimit(nix::sys::resource::Resource::RLIMIT_CORE, 0, 0)
 }
 
 impl std::fmt::Debug for SealKey {
@@ -27,32 +52,43 @@ impl SealKey {
     /// A fresh key from the system's random source.
     pub fn random() -> std::io::Result<Self> {
         use std::io::Read;
-        let mut bytes = [0u8; 16];
-        std::fs::File::open("/dev/urandom")?.read_exact(&mut bytes)?;
-        Ok(Self::from_bytes(bytes))
+        let mut bytes = Zeroizing::new([0u8; 16]);
+        std::fs::File::open("/dev/urandom")?.read_exact(&mut bytes[..])?;
+        Ok(Self::from_bytes(&bytes))
     }
 
-    fn from_bytes(bytes: [u8; 16]) -> Self {
+    fn from_bytes(bytes: &[u8; 16]) -> Self {
         let (a, b) = bytes.split_at(8);
         let word = |s: &[u8]| u64::from_le_bytes(std::array::from_fn(|i| s[i]));
         Self { k0: word(a), k1: word(b) }
     }
 
-    /// The key as 32 hexadecimal digits (how the daemon hands it to a node).
-    pub fn to_hex(&self) -> String {
-        format!("{:016x}{:016x}", self.k0, self.k1)
+    /// The key as 32 hexadecimal digits (how the daemon hands it to a node), in a buffer wiped when dropped.
+    pub fn to_hex(&self) -> Zeroizing<[u8; KEY_HEX_DIGITS]> {
+        const DIGITS: &[u8; 16] = b"0123456789abcdef";
+        let mut text = Zeroizing::new([0u8; KEY_HEX_DIGITS]);
+        for (i, word) in [self.k0, self.k1].into_iter().enumerate() {
+            for nibble in 0..16 {
+                let value = (word >> (60 - 4 * nibble)) & 0xf;
+                text[16 * i + nibble] = DIGITS[value as usize];
+            }
+        }
+        text
     }
 
-    /// The key from [`SealKey::to_hex`]'s text.
-    pub fn from_hex(text: &str) -> Option<Self> {
-        let text = text.trim();
-        if text.len() != 32 || !text.is_ascii() {
+    /// The key from [`SealKey::to_hex`]'s text (surrounding white space ignored); no copy of the text is made.
+    pub fn from_hex(text: &[u8]) -> Option<Self> {
+        let text = text.trim_ascii();
+        if text.len() != KEY_HEX_DIGITS {
             return None;
         }
-        Some(Self {
-            k0: u64::from_str_radix(&text[..16], 16).ok()?,
-            k1: u64::from_str_radix(&text[16..], 16).ok()?,
-        })
+        let word = |digits: &[u8]| {
+            digits.iter().try_fold(0u64, |word, digit| {
+                let value = char::from(*digit).to_digit(16)?;
+                Some((word << 4) | u64::from(value))
+            })
+        };
+        Some(Self { k0: word(&text[..16])?, k1: word(&text[16..])? })
     }
 
     /// The seal of a message: SipHash-2-4 of every field but `seal`, in order, little-endian (the bytes its
@@ -73,6 +109,14 @@ struct SipHasher24 {
     /// How many bytes `tail` holds.
     tail_len: usize,
     length: u64,
+}
+
+impl Drop for SipHasher24 {
+    /// The state starts as the key xor constants: wiped once the seal is out (four stores, no allocation).
+    fn drop(&mut self) {
+        self.v.zeroize();
+        self.tail.zeroize();
+    }
 }
 
 impl SipHasher24 {
@@ -147,7 +191,7 @@ mod tests {
     #[test]
     fn siphash_2_4_gives_the_reference_vector_of_its_paper() {
         // key 00 01 … 0f, message 00 01 … 0e: a129ca6149be45e5 (SipHash paper, appendix A)
-        let key = SealKey::from_bytes(std::array::from_fn(|i| i as u8));
+        let key = SealKey::from_bytes(&std::array::from_fn(|i| i as u8));
         let message: Vec<u8> = (0u8..15).collect();
         assert_eq!(siphash24(key.k0, key.k1, &message), 0xa129_ca61_49be_45e5);
     }
@@ -167,7 +211,7 @@ mod tests {
     #[test]
     fn a_seal_holds_for_its_message_only_and_under_its_key_only() {
         let key = SealKey::random().expect("a key");
-        assert_eq!(SealKey::from_hex(&key.to_hex()), Some(key));
+        assert_eq!(SealKey::from_hex(&key.to_hex()[..]), Some(key.clone()));
         let mut object = ObjectMsg {
             kind: crate::CommandKind::ObjectCircle.into(),
             sequence: 3,
@@ -182,7 +226,7 @@ mod tests {
         assert_ne!(other.seal(&object), seal);
         object.rev_per_min = 1000.0;
         assert_ne!(key.seal(&object), seal);
-        assert_eq!(SealKey::from_hex("not hex at all, thirty-two chars"), None);
+        assert_eq!(SealKey::from_hex(b"not hex at all, thirty-two chars"), None);
     }
 
     #[test]

@@ -106,7 +106,11 @@ fn main() -> ExitCode {
         Command::Resume(args) => commands::resume(&args),
         Command::Top(args) => top::run(&args),
         Command::Record(args) => record::run(&args),
-        Command::View(args) => view::run(&args),
+        // the live view serves the instance to its viewers: its memory is private like the daemon's
+        // (docs/PROTOCOL.md, "Seals")
+        Command::View(args) => vservo_protocol::seal::keep_memory_private()
+            .map_err(|e| anyhow::anyhow!("making the process's memory private: {e}"))
+            .and_then(|()| view::run(&args)),
         Command::Plot(args) => plot_recording::run(&args),
         Command::Scene(args) => scene::run(&args),
     };

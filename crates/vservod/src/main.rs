@@ -110,9 +110,15 @@ fn signal_flags() -> anyhow::Result<Flags> {
 }
 
 fn main() -> ExitCode {
+    // first, before the run's seal key exists: no other process of this user reads this one's memory, and
+    // no core dump holds it (docs/PROTOCOL.md, "Seals"); the nodes, exec'd anew, do the same
+    let private = vservo_protocol::seal::keep_memory_private();
     init_logging();
     let cli = Cli::parse();
-    let result = signal_flags().and_then(|flags| match &cli.command {
+    let result = private
+        .context("making the process's memory private (prctl PR_SET_DUMPABLE, RLIMIT_CORE)")
+        .and_then(|()| signal_flags());
+    let result = result.and_then(|flags| match &cli.command {
         Some(Command::Node(args)) => node_process::run(&cli.config, args, flags.stop, flags.orphaned),
         None => supervisor::run(&cli.config, cli.status_every_s, flags.stop, flags.reload),
     });

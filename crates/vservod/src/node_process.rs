@@ -1,5 +1,7 @@
 //! `vservod node <role>`: one node in the foreground, as the supervisor starts it.
 
+use std::io::Read;
+use std::os::fd::AsFd;
 use std::path::Path;
 use std::sync::Arc;
 use std::sync::atomic::AtomicBool;
@@ -7,7 +9,9 @@ use std::sync::atomic::AtomicBool;
 use anyhow::{Context, bail};
 use vservo_arm::JointVector;
 use vservo_protocol::NodeRole;
+use vservo_protocol::seal::SealKey;
 use vservo_runtime::{NodeContext, nodes};
+use zeroize::{Zeroize, Zeroizing};
 
 /// Arguments of `vservod node`.
 #[derive(clap::Args)]
@@ -54,15 +58,8 @@ pub fn run(
         orphaned.store(true, std::sync::atomic::Ordering::Relaxed);
     }
     let (config, seal_key) = if args.config_stdin {
-        let mut text = String::new();
-        std::io::Read::read_to_string(&mut std::io::stdin(), &mut text)
-            .context("reading the configuration from stdin")?;
-        // the daemon's key first, on a line of its own
-        let (key, toml) = match text.strip_prefix(SEAL_KEY_LINE).and_then(|rest| rest.split_once('\n')) {
-            Some((hex, toml)) => (vservo_protocol::seal::SealKey::from_hex(hex), toml),
-            None => (None, text.as_str()),
-        };
-        (vservo_config::Config::from_toml(toml, &config_path.display().to_string())?, key)
+        let (seal_key, toml) = read_handover().context("reading the key and the configuration from stdin")?;
+        (vservo_config::Config::from_toml(&toml, &config_path.display().to_string())?, seal_key)
     } else {
         (vservo_config::Config::load(config_path)?, None)
     };
@@ -97,4 +94,75 @@ pub fn run(
         NodeRole::Vision => nodes::vision::run(&context)?,
     }
     Ok(())
+}
+
+/// The longest key line the daemon writes: [`SEAL_KEY_LINE`], the key's digits and the newline.
+const KEY_LINE_BYTES: usize = SEAL_KEY_LINE.len() + vservo_protocol::seal::KEY_HEX_DIGITS + 1;
+
+/// What the daemon hands a node on its stdin: the run's key on a first line of its own (if the first line
+/// is one), then the configuration's text.
+///
+/// Read from the file descriptor itself, unbuffered (std's `Stdin` keeps a copy of what it read in its own
+/// buffer): the key line byte by byte into a buffer wiped once the key is parsed, so that no copy of the
+/// key's text stays in the node's memory (docs/PROTOCOL.md, "Seals").
+fn read_handover() -> std::io::Result<(Option<SealKey>, String)> {
+    let mut stdin = std::fs::File::from(std::io::stdin().as_fd().try_clone_to_owned()?);
+    let mut line = Zeroizing::new([0u8; KEY_LINE_BYTES]);
+    let mut length = 0;
+    while length < KEY_LINE_BYTES {
+        let mut byte = [0u8; 1];
+        if stdin.read(&mut byte)? == 0 {
+            break;
+        }
+        line[length] = byte[0];
+        byte.zeroize();
+        length += 1;
+        if line[length - 1] == b'\n' {
+            break;
+        }
+    }
+    let line = &line[..length];
+    let (key, mut text) = if line.starts_with(SEAL_KEY_LINE.as_bytes()) {
+        let key = parse_key_line(line).ok_or_else(|| {
+            std::io::Error::new(std::io::ErrorKind::InvalidData, "the key line is not 32 hexadecimal digits")
+        })?;
+        (Some(key), Vec::new())
+    } else {
+        // no key line: what was read is the configuration's beginning
+        (None, line.to_vec())
+    };
+    // the daemon hands over a configuration it read within the files' bound; more is not its
+    let bound = vservo_config::MAX_CONFIG_FILE_BYTES;
+    if (&mut stdin).take(bound + 1).read_to_end(&mut text)? as u64 > bound {
+        return Err(std::io::Error::new(
+            std::io::ErrorKind::InvalidData,
+            format!("the configuration on stdin is over {bound} bytes"),
+        ));
+    }
+    let text =
+        String::from_utf8(text).map_err(|e| std::io::Error::new(std::io::ErrorKind::InvalidData, e))?;
+    Ok((key, text))
+}
+
+/// The key of a key line ([`SEAL_KEY_LINE`], 32 hexadecimal digits, a newline).
+fn parse_key_line(line: &[u8]) -> Option<SealKey> {
+    let digits = line.strip_prefix(SEAL_KEY_LINE.as_bytes())?.strip_suffix(b"\n")?;
+    SealKey::from_hex(digits)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_key_line_gives_the_key_and_nothing_else_does() {
+        let key = SealKey::random().expect("a key");
+        let mut line = SEAL_KEY_LINE.as_bytes().to_vec();
+        line.extend_from_slice(&key.to_hex()[..]);
+        line.push(b'\n');
+        assert_eq!(line.len(), KEY_LINE_BYTES);
+        assert_eq!(parse_key_line(&line), Some(key));
+        assert_eq!(parse_key_line(&line[..line.len() - 1]), None, "no newline: cut short");
+        assert_eq!(parse_key_line(b"[instance]\n"), None);
+    }
 }

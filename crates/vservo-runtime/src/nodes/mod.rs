@@ -9,6 +9,7 @@ use std::time::Duration;
 
 use iceoryx2::port::subscriber::Subscriber;
 use iceoryx2::prelude::{Node, ipc};
+use vservo_protocol::freshness::{self, Issue, Standing};
 use vservo_protocol::{CellMode, NodeRole, Payload, TakeMessages};
 
 use crate::telemetry::{Counters, LoopMonitor, TelemetryThread};
@@ -59,22 +60,26 @@ fn latest<T: Payload>(subscriber: &Subscriber<ipc::Service, T, ()>, counters: &C
     newest
 }
 
-/// The cell mode the daemon set: the newest sealed [`CellModeMsg`] heard so far. A message without the run's
-/// seal, of a mode this build does not know, or not newer than the one in force, is refused and counted.
+/// The cell mode the daemon set: the newest sealed [`CellModeMsg`] heard so far (newest by the daemon's stamp,
+/// `vservo_protocol::freshness`). A message without the run's seal, of a mode this build does not know, older
+/// than the one in force or stamped in the future, is refused and counted.
 ///
 /// [`CellModeMsg`]: vservo_protocol::CellModeMsg
 pub(crate) struct CellModeFollower {
     subscriber: Subscriber<ipc::Service, vservo_protocol::CellModeMsg, ()>,
-    /// The mode in force and the sequence number it came with.
-    in_force: (CellMode, u64),
+    /// The mode in force; until the daemon's first word: servoing (the daemon publishes its mode before it
+    /// starts a node).
+    mode: CellMode,
+    /// What the mode in force came with; none before the daemon's first word.
+    issue: Option<Issue>,
 }
 
 impl CellModeFollower {
     pub(crate) fn open(node: &Node<ipc::Service>, instance: &str) -> Result<Self, RuntimeError> {
         Ok(Self {
             subscriber: vservo_protocol::subscriber(node, instance, vservo_protocol::Topic::CellMode)?,
-            // until the daemon's first word: servoing (the daemon publishes its mode before it starts a node)
-            in_force: (CellMode::Servoing, 0),
+            mode: CellMode::Servoing,
+            issue: None,
         })
     }
 
@@ -87,19 +92,19 @@ impl CellModeFollower {
         while let Ok(Some(sample)) = self.subscriber.receive() {
             let message = *sample;
             let sealed = key.is_some_and(|key| key.seal(&message) == message.seal);
-            let sequence = self.in_force.1;
+            let issue = Issue { stamp_ns: message.stamp_ns, counter: message.sequence };
+            let standing = freshness::standing(self.issue, issue, crate::clock::monotonic_ns());
             match CellMode::try_from(message.mode) {
                 Ok(mode)
-                    if vservo_protocol::inbox::accept(message).is_ok()
-                        && sealed
-                        && message.sequence > sequence =>
+                    if vservo_protocol::inbox::accept(message).is_ok() && sealed && standing.is_newer() =>
                 {
-                    self.in_force = (mode, message.sequence);
+                    self.mode = mode;
+                    self.issue = Some(issue);
                 }
-                _ if message.sequence != sequence || !sealed => counters.rejected(),
+                _ if standing != Standing::Same || !sealed => counters.rejected(),
                 _ => {}
             }
         }
-        self.in_force.0 == CellMode::SafeStop
+        self.mode == CellMode::SafeStop
     }
 }

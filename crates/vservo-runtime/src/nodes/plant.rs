@@ -10,6 +10,7 @@ use iceoryx2::prelude::{Node, ipc};
 use vservo_arm::JointVector;
 use vservo_cell::{ActuatorCommand, PlantStage};
 use vservo_protocol::TakeMessages;
+use vservo_protocol::freshness::{self, Issue, Standing};
 use vservo_protocol::{
     CommandKind, CommandMode, DriverStatus, JointCommandMsg, JointStateMsg, NodeRole, ObjectMsg,
     SCHEMA_VERSION, SimWorldMsg, Topic, fault_bits,
@@ -167,7 +168,8 @@ struct Plant {
     last_command: Option<(ActuatorCommand, u64)>,
     applied_command_tick: u64,
     missed_in_a_row: u64,
-    object_sequence: u64,
+    /// What the object command in force came with; none taken yet.
+    object_issue: Option<Issue>,
     /// The daemon gone: since when (the plant goes last, once the rmrc has stopped answering and the arm is
     /// at rest), and how long it waits for that.
     orphaned_since_ns: Option<u64>,
@@ -195,7 +197,7 @@ impl Plant {
             last_command: None,
             applied_command_tick: u64::MAX,
             missed_in_a_row: 0,
-            object_sequence: 0,
+            object_issue: None,
             orphaned_since_ns: None,
             orphan_timeout_ns: (config.runtime.stop_timeout + std::time::Duration::from_secs(2)).as_nanos()
                 as u64,
@@ -239,7 +241,7 @@ impl Plant {
                 counters.rejected();
                 continue;
             };
-            let sealed = context.seal_key.is_some_and(|key| key.seal(&reply) == reply.seal);
+            let sealed = context.seal_key.as_ref().is_some_and(|key| key.seal(&reply) == reply.seal);
             if reply.driver_epoch != self.declared.epoch || !sealed {
                 counters.rejected();
             } else if reply.answers_tick == tick {
@@ -259,13 +261,18 @@ impl Plant {
     /// (sealed with the run's key; the daemon has checked its limits).
     fn take_object_motion(&mut self, ports: &Ports, context: &NodeContext, counters: &Counters) {
         let Some(message) = latest(&ports.objects, counters) else { return };
-        if message.sequence == self.object_sequence {
+        // object commands carry no stamp: their sequence alone orders them (`vservo_protocol::freshness`)
+        let issue = Issue { stamp_ns: 0, counter: message.sequence };
+        let standing = freshness::standing(self.object_issue, issue, monotonic_ns());
+        if standing == Standing::Same {
             return;
         }
-        self.object_sequence = message.sequence;
-        let sealed = context.seal_key.is_some_and(|key| key.seal(&message) == message.seal);
-        match object_motion(&message).filter(|_| sealed) {
-            Some(motion) => self.stage.set_object_motion(motion),
+        let sealed = context.seal_key.as_ref().is_some_and(|key| key.seal(&message) == message.seal);
+        match object_motion(&message).filter(|_| sealed && standing.is_newer()) {
+            Some(motion) => {
+                self.stage.set_object_motion(motion);
+                self.object_issue = Some(issue);
+            }
             None => counters.rejected(),
         }
     }

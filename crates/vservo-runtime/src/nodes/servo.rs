@@ -11,6 +11,7 @@ use iceoryx2::prelude::{Node, ipc};
 use vservo_cell::{ServoInput, ServoStage, ServoStep, ServoVerdict};
 use vservo_control::{LawFlags, Twist};
 use vservo_protocol::TakeMessages;
+use vservo_protocol::freshness::{self, Issue, Standing};
 use vservo_protocol::{
     CameraTwistMsg, FeaturesMsg, GainsMsg, MarkStatus, NodeRole, SCHEMA_VERSION, Topic, Verdict, law_flag,
 };
@@ -82,6 +83,8 @@ impl Ports {
 struct Servo {
     stage: ServoStage,
     gains_version: u64,
+    /// What the gains in use came with; none taken yet.
+    gains_issue: Option<Issue>,
     period_ns: u64,
     /// The last frame answered: its number and capture tick.
     last: (u64, u64),
@@ -96,6 +99,7 @@ impl Servo {
             // none taken yet: the version is the one the daemon's gains message names (its history hands the
             // design in force to a servo that starts or restarts), never assumed
             gains_version: 0,
+            gains_issue: None,
             period_ns: (context.cell.config().timing.vision_period_s * 1e9).round() as u64,
             last: (0, 0),
             doing: (Verdict::Waiting, 0),
@@ -106,14 +110,18 @@ impl Servo {
     /// (another is refused and counted); it takes effect at a frame boundary, before the next feature vector.
     fn take_gains(&mut self, ports: &Ports, context: &NodeContext, counters: &Counters) {
         let Some(message) = latest(&ports.gains, counters) else { return };
-        if message.version == self.gains_version {
+        // gains carry no stamp: their version alone orders them (`vservo_protocol::freshness`)
+        let issue = Issue { stamp_ns: 0, counter: message.version };
+        let standing = freshness::standing(self.gains_issue, issue, monotonic_ns());
+        if standing == Standing::Same {
             return;
         }
-        let sealed = context.seal_key.is_some_and(|key| key.seal(&message) == message.seal);
-        match law_gains(&message).filter(|_| sealed && message.version > self.gains_version) {
+        let sealed = context.seal_key.as_ref().is_some_and(|key| key.seal(&message) == message.seal);
+        match law_gains(&message).filter(|_| sealed && standing.is_newer()) {
             Some(gains) => {
                 self.stage.set_gains(&gains);
                 self.gains_version = message.version;
+                self.gains_issue = Some(issue);
                 counters.set_gains_version(self.gains_version);
             }
             None => counters.rejected(),

@@ -131,7 +131,7 @@ pub fn run(context: &NodeContext) -> Result<(), RuntimeError> {
         over_cap: false,
         publisher: vservo_protocol::publisher::<FeaturesMsg>(&node, instance, Topic::Features)?,
         notifier: vservo_protocol::notifier(&node, instance, Topic::Features)?,
-        key: context.seal_key,
+        key: context.seal_key.clone(),
     };
     let mut stage = context.cell.vision();
     if let Some(features) = &context.resume_features {

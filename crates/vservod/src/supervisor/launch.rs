@@ -75,11 +75,14 @@ impl Launcher {
             // a terminal's Ctrl-C reaches the daemon only; it stops the nodes in order
             .process_group(0)
             .spawn()?;
-        // a few kB: the pipe takes it whole; closing it ends the node's read
+        // a few kB: the pipe takes it whole; closing it ends the node's read. The key's text is written from
+        // a buffer wiped when dropped, never formatted into a string (docs/PROTOCOL.md, "Seals")
         if let Some(mut stdin) = child.stdin.take() {
             use std::io::Write;
-            let key_line = format!("{}{}\n", crate::node_process::SEAL_KEY_LINE, self.seal_key.to_hex());
-            stdin.write_all(format!("{key_line}{config_text}").as_bytes())?;
+            stdin.write_all(crate::node_process::SEAL_KEY_LINE.as_bytes())?;
+            stdin.write_all(&self.seal_key.to_hex()[..])?;
+            stdin.write_all(b"\n")?;
+            stdin.write_all(config_text.as_bytes())?;
         }
         Ok(child)
     }

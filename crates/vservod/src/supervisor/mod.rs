@@ -184,12 +184,13 @@ impl Daemon {
             .context("creating the instance's services")?;
         let external_camera = config.vision.source == vservo_config::VisionSource::External;
         let streams = StreamWatch::new(streams, settings.external_robot, external_camera, Instant::now());
-        let ports = Ports::open(&node, &settings.instance, launcher.seal_key)?;
+        let ports = Ports::open(&node, &settings.instance, launcher.seal_key.clone())?;
         let stop_path = SafeStopReader::create(claim.dir())?;
         // the cell mode first: every node finds it in the service's history
-        let safety = Safety::new(&node, &settings.instance, config.faults, launcher.seal_key)?;
+        let safety = Safety::new(&node, &settings.instance, config.faults, launcher.seal_key.clone())?;
         let path = &launcher.config_path;
-        let commander = Commander::new(&node, path, config.clone(), config_text, launcher.seal_key, &gains)?;
+        let commander =
+            Commander::new(&node, path, config.clone(), config_text, launcher.seal_key.clone(), &gains)?;
         // every shared-memory object of the instance made so far is ours and owner-only
         claim.check_private().context("the instance's shared memory is not private")?;
         let started_ns = monotonic_ns();
