@@ -11,7 +11,7 @@ use iceoryx2::prelude::ZeroCopySend;
 /// The schema version every payload carries in its first four bytes. Bumped on any layout change.
 /// 2: `joint_state` carries the robot only (the board's pose moved to `sim_world`), the driver declares its
 /// command interface and period; `joint_torque` became `joint_command`; `camera_image` added.
-/// 6: `features` and `camera_twist` carry the seal of the node that made them.
+/// 6: `features` and `camera_twist` carry the seal of the node that made them; `gains` and `object` a stamp.
 pub const SCHEMA_VERSION: u32 = 6;
 
 /// Joints of the arm.
@@ -510,6 +510,8 @@ wire_message! {
         feedforward: u32,
         /// the barrier keeps seen marks this far inside the image (0: none)
         border_margin_px: f64,
+        /// CLOCK_MONOTONIC when the daemon made it (ns): a later one is newer (`vservo_protocol::freshness`)
+        stamp_ns: u64,
         /// the daemon's seal (SipHash-2-4 of the fields under the run's key): other gains are refused
         seal: u64,
     }
@@ -530,6 +532,8 @@ wire_message! {
         radius_m: f64,
         /// circle: speed (rev/min)
         rev_per_min: f64,
+        /// CLOCK_MONOTONIC when the daemon made it (ns): a later one is newer (`vservo_protocol::freshness`)
+        stamp_ns: u64,
         /// the daemon's seal (SipHash-2-4 of the fields under the run's key): other object commands are refused
         seal: u64,
     }
@@ -573,7 +577,8 @@ mod tests {
         assert_eq!(size_of::<CommandMsg>(), 16 + 64 + 48 + 16);
         assert_eq!(size_of::<CommandReplyMsg>(), 24 + 64 + REASON_BYTES);
         assert_eq!(offset_of!(GainsMsg, feature_gain), 16);
-        assert_eq!(size_of::<ObjectMsg>(), 16 + 24 + 16 + 8);
+        assert_eq!(size_of::<ObjectMsg>(), 16 + 24 + 16 + 8 + 8);
+        assert_eq!(offset_of!(ObjectMsg, stamp_ns), 56);
     }
 
     #[test]

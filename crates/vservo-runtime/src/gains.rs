@@ -55,6 +55,7 @@ pub fn gains_message(gains: &LawGains, version: u64, key: &vservo_protocol::seal
         interaction: wire_interaction(gains.options.interaction).into(),
         feedforward: u32::from(gains.options.feedforward),
         border_margin_px: gains.options.border_margin_px,
+        stamp_ns: crate::clock::monotonic_ns(),
         seal: 0,
     };
     message.seal = key.seal(&message);

@@ -261,8 +261,7 @@ impl Plant {
     /// (sealed with the run's key; the daemon has checked its limits).
     fn take_object_motion(&mut self, ports: &Ports, context: &NodeContext, counters: &Counters) {
         let Some(message) = latest(&ports.objects, counters) else { return };
-        // object commands carry no stamp: their sequence alone orders them (`vservo_protocol::freshness`)
-        let issue = Issue { stamp_ns: 0, counter: message.sequence };
+        let issue = Issue { stamp_ns: message.stamp_ns, counter: message.sequence };
         let standing = freshness::standing(self.object_issue, issue, monotonic_ns());
         if standing == Standing::Same {
             return;

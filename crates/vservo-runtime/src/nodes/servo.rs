@@ -110,8 +110,7 @@ impl Servo {
     /// (another is refused and counted); it takes effect at a frame boundary, before the next feature vector.
     fn take_gains(&mut self, ports: &Ports, context: &NodeContext, counters: &Counters) {
         let Some(message) = latest(&ports.gains, counters) else { return };
-        // gains carry no stamp: their version alone orders them (`vservo_protocol::freshness`)
-        let issue = Issue { stamp_ns: 0, counter: message.version };
+        let issue = Issue { stamp_ns: message.stamp_ns, counter: message.version };
         let standing = freshness::standing(self.gains_issue, issue, monotonic_ns());
         if standing == Standing::Same {
             return;

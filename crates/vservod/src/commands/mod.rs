@@ -270,6 +270,7 @@ impl Commander {
             translation_m: command.translation_m,
             radius_m: command.radius_m,
             rev_per_min: command.rev_per_min,
+            stamp_ns: vservo_runtime::clock::monotonic_ns(),
             seal: 0,
         };
         message.seal = self.seal_key.seal(&message);
