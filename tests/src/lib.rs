@@ -353,3 +353,29 @@ impl Drop for LoopThread {
         }
     }
 }
+
+/// `vservoctl ARGS`: its exit code and what it printed (stdout, then stderr).
+pub fn vservoctl(args: &[&str]) -> (Option<i32>, String) {
+    let out = run("vservoctl", args);
+    (
+        out.status.code(),
+        format!("{}{}", String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr)),
+    )
+}
+
+/// The instance is held in a safe stop by `fault`.
+pub fn safe_stopped_by(instance: &str, fault: &str) -> bool {
+    status(instance).is_some_and(|s| s["state"] == "safe-stop" && s["fault"]["name"] == fault)
+}
+
+/// The fastest joint speed in `vservoctl echo joint_state` lines over `seconds`.
+pub fn fastest_joint_rad_s(instance: &str, seconds: &str) -> f64 {
+    let (_, out) = vservoctl(&["echo", "joint_state", "--instance", instance, "--duration-s", seconds]);
+    let states: Vec<Value> = out.lines().filter_map(|l| serde_json::from_str(l).ok()).collect();
+    assert!(states.len() > 50, "joint states heard: {}", states.len());
+    states
+        .iter()
+        .flat_map(|s| s["qd_rad_s"].as_array().cloned().unwrap_or_default())
+        .map(|v| v.as_f64().unwrap_or(f64::INFINITY).abs())
+        .fold(0.0, f64::max)
+}

@@ -7,34 +7,10 @@ use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, AtomicU32, Ordering};
 use std::time::{Duration, Instant};
 
-use serde_json::Value;
 use vservo_system_tests::{
-    Daemon, LoopThread, config_from, exclusive, run, running, running_daemon, status, unique, wait_until,
+    Daemon, LoopThread, config_from, exclusive, fastest_joint_rad_s, running, running_daemon,
+    safe_stopped_by, status, unique, vservoctl, wait_until,
 };
-
-fn vservoctl(args: &[&str]) -> (Option<i32>, String) {
-    let out = run("vservoctl", args);
-    (
-        out.status.code(),
-        format!("{}{}", String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr)),
-    )
-}
-
-fn safe_stopped_by(instance: &str, fault: &str) -> bool {
-    status(instance).is_some_and(|s| s["state"] == "safe-stop" && s["fault"]["name"] == fault)
-}
-
-/// The fastest joint speed in `vservoctl echo joint_state` lines over `seconds`.
-fn fastest_joint_rad_s(instance: &str, seconds: &str) -> f64 {
-    let (_, out) = vservoctl(&["echo", "joint_state", "--instance", instance, "--duration-s", seconds]);
-    let states: Vec<Value> = out.lines().filter_map(|l| serde_json::from_str(l).ok()).collect();
-    assert!(states.len() > 50, "joint states heard: {}", states.len());
-    states
-        .iter()
-        .flat_map(|s| s["qd_rad_s"].as_array().cloned().unwrap_or_default())
-        .map(|v| v.as_f64().unwrap_or(f64::INFINITY).abs())
-        .fold(0.0, f64::max)
-}
 
 /// The board jumps while the arm servos: two marks leave the image and the rest are no longer the board's
 /// layout. After `faults.target_lost_s` (1 s) the cell is in a safe stop named `target_lost`, the arm at
