@@ -100,6 +100,59 @@ impl SealKey {
     }
 }
 
+/// A message that carries a seal in its `seal` field.
+pub trait Sealed: WireMessage {
+    /// The seal it carries.
+    fn carried_seal(&self) -> u64;
+    /// Puts `seal` in its `seal` field.
+    fn put_seal(&mut self, seal: u64);
+}
+
+macro_rules! sealed_messages {
+    ($($message:ty),*) => {$(
+        impl Sealed for $message {
+            fn carried_seal(&self) -> u64 {
+                self.seal
+            }
+            fn put_seal(&mut self, seal: u64) {
+                self.seal = seal;
+            }
+        }
+    )*};
+}
+
+sealed_messages!(
+    crate::JointCommandMsg,
+    crate::FeaturesMsg,
+    crate::CameraTwistMsg,
+    crate::GainsMsg,
+    crate::ObjectMsg,
+    crate::CellModeMsg
+);
+
+impl SealKey {
+    /// Seals `message` under this key.
+    pub fn sign<M: Sealed>(&self, message: &mut M) {
+        message.put_seal(self.seal(message));
+    }
+
+    /// Whether `message` carries this key's seal.
+    pub fn verifies<M: Sealed>(&self, message: &M) -> bool {
+        self.seal(message) == message.carried_seal()
+    }
+}
+
+/// Seals `message` with `key`; without a key (a node started by hand) the seal is 0, which no key verifies
+/// but by chance.
+pub fn sign_with<M: Sealed>(key: Option<&SealKey>, message: &mut M) {
+    message.put_seal(key.map_or(0, |key| key.seal(message)));
+}
+
+/// Whether `message` carries the seal of `key`; without a key nothing is sealed.
+pub fn sealed_by<M: Sealed>(key: Option<&SealKey>, message: &M) -> bool {
+    key.is_some_and(|key| key.verifies(message))
+}
+
 /// SipHash-2-4 (Aumasson & Bernstein 2012), fed in pieces: the bytes of a message field by field, with
 /// no buffer but the last incomplete word.
 struct SipHasher24 {
@@ -268,5 +321,25 @@ mod tests {
         assert_ne!(key.seal(&crate::CellModeMsg { mode: crate::CellMode::Servoing.into(), ..mode }), seal);
         assert_ne!(key.seal(&crate::CellModeMsg { sequence: 3, ..mode }), seal);
         assert_ne!(SealKey::random().expect("a key").seal(&mode), seal);
+    }
+
+    #[test]
+    fn a_signed_twist_and_features_verify_under_their_key_only_and_not_once_changed() {
+        let key = SealKey::random().expect("a key");
+        let other = SealKey::random().expect("another key");
+        let mut twist =
+            crate::CameraTwistMsg { twist: [0.0, 0.0, 0.05, 0.0, 0.0, 0.0], ..Default::default() };
+        sign_with(Some(&key), &mut twist);
+        assert!(sealed_by(Some(&key), &twist));
+        assert!(!sealed_by(Some(&other), &twist), "another key");
+        assert!(!sealed_by(None, &twist), "no key: nothing is sealed");
+        let changed = crate::CameraTwistMsg { twist: [0.0, 0.0, 0.06, 0.0, 0.0, 0.0], ..twist };
+        assert!(!key.verifies(&changed), "a changed twist");
+        let mut features = crate::FeaturesMsg { frame: 7, ..Default::default() };
+        key.sign(&mut features);
+        assert!(key.verifies(&features));
+        assert!(!key.verifies(&crate::FeaturesMsg { features_px: [40.0; 8], ..features }), "moved features");
+        sign_with(None, &mut features);
+        assert_eq!(features.seal, 0, "a node without the key seals nothing");
     }
 }

@@ -58,7 +58,7 @@ pub fn gains_message(gains: &LawGains, version: u64, key: &vservo_protocol::seal
         stamp_ns: crate::clock::monotonic_ns(),
         seal: 0,
     };
-    message.seal = key.seal(&message);
+    key.sign(&mut message);
     message
 }
 

@@ -88,7 +88,7 @@ impl Safety {
             stamp_ns: monotonic_ns(),
             seal: 0,
         };
-        message.seal = self.seal_key.seal(&message);
+        self.seal_key.sign(&mut message);
         let sample = self.publisher.loan_uninit()?;
         sample.write_payload(message).send()?;
         self.sequence += 1;

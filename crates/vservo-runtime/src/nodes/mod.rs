@@ -91,7 +91,7 @@ impl CellModeFollower {
     ) -> bool {
         while let Ok(Some(sample)) = self.subscriber.receive() {
             let message = *sample;
-            let sealed = key.is_some_and(|key| key.seal(&message) == message.seal);
+            let sealed = vservo_protocol::seal::sealed_by(key, &message);
             let issue = Issue { stamp_ns: message.stamp_ns, counter: message.sequence };
             let standing = freshness::standing(self.issue, issue, crate::clock::monotonic_ns());
             match CellMode::try_from(message.mode) {

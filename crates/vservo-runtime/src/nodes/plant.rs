@@ -11,6 +11,7 @@ use vservo_arm::JointVector;
 use vservo_cell::{ActuatorCommand, PlantStage};
 use vservo_protocol::TakeMessages;
 use vservo_protocol::freshness::{self, Issue, Standing};
+use vservo_protocol::seal::sealed_by;
 use vservo_protocol::{
     CommandKind, CommandMode, DriverStatus, JointCommandMsg, JointStateMsg, NodeRole, ObjectMsg,
     SCHEMA_VERSION, SimWorldMsg, Topic, fault_bits,
@@ -241,7 +242,7 @@ impl Plant {
                 counters.rejected();
                 continue;
             };
-            let sealed = context.seal_key.as_ref().is_some_and(|key| key.seal(&reply) == reply.seal);
+            let sealed = sealed_by(context.seal_key.as_ref(), &reply);
             if reply.driver_epoch != self.declared.epoch || !sealed {
                 counters.rejected();
             } else if reply.answers_tick == tick {
@@ -266,7 +267,7 @@ impl Plant {
         if standing == Standing::Same {
             return;
         }
-        let sealed = context.seal_key.as_ref().is_some_and(|key| key.seal(&message) == message.seal);
+        let sealed = sealed_by(context.seal_key.as_ref(), &message);
         match object_motion(&message).filter(|_| sealed && standing.is_newer()) {
             Some(motion) => {
                 self.stage.set_object_motion(motion);

@@ -17,6 +17,7 @@ use vservo_cell::{ActuatorCommand, DriverTick, Following, RmrcStage, TwistLimits
 use vservo_control::Twist;
 use vservo_protocol::TakeMessages;
 use vservo_protocol::seal::SealKey;
+use vservo_protocol::seal::{sealed_by, sign_with};
 use vservo_protocol::{
     CameraTwistMsg, CommandMode, JointCommandMsg, JointStateMsg, NodeRole, SCHEMA_VERSION, Topic, Verdict,
 };
@@ -52,7 +53,7 @@ impl Ports {
     fn send(&self, mut message: JointCommandMsg, key: Option<&SealKey>) {
         if let Ok(sample) = self.commands.loan_uninit() {
             message.stamp_ns = monotonic_ns();
-            message.seal = key.map_or(0, |key| key.seal(&message));
+            sign_with(key, &mut message);
             let _ = sample.write_payload(message).send();
         }
     }
@@ -146,7 +147,7 @@ impl Rmrc {
         while let Some(taken) = ports.twists.next_message() {
             let taken = match taken {
                 // a twist without the servo's seal is not the servo's: refused, and the twist in force stays
-                Ok(sample) if key.is_none_or(|key| key.seal(&sample) != sample.seal) => None,
+                Ok(sample) if !sealed_by(key, &sample) => None,
                 Ok(sample) => {
                     let moves = Verdict::try_from(sample.verdict).is_ok_and(Verdict::moves);
                     let twist = Twist::from(sample.twist);

@@ -12,6 +12,7 @@ use vservo_cell::{ServoInput, ServoStage, ServoStep, ServoVerdict};
 use vservo_control::{LawFlags, Twist};
 use vservo_protocol::TakeMessages;
 use vservo_protocol::freshness::{self, Issue, Standing};
+use vservo_protocol::seal::{sealed_by, sign_with};
 use vservo_protocol::{
     CameraTwistMsg, FeaturesMsg, GainsMsg, MarkStatus, NodeRole, SCHEMA_VERSION, Topic, Verdict, law_flag,
 };
@@ -72,7 +73,7 @@ impl Ports {
 
     /// Sends `message` with the servo's seal.
     fn send(&self, mut message: CameraTwistMsg, key: Option<&vservo_protocol::seal::SealKey>) {
-        message.seal = key.map_or(0, |key| key.seal(&message));
+        sign_with(key, &mut message);
         if let Ok(sample) = self.twists.loan_uninit() {
             let _ = sample.write_payload(message).send();
         }
@@ -115,7 +116,7 @@ impl Servo {
         if standing == Standing::Same {
             return;
         }
-        let sealed = context.seal_key.as_ref().is_some_and(|key| key.seal(&message) == message.seal);
+        let sealed = sealed_by(context.seal_key.as_ref(), &message);
         match law_gains(&message).filter(|_| sealed && standing.is_newer()) {
             Some(gains) => {
                 self.stage.set_gains(&gains);
@@ -208,7 +209,7 @@ pub fn run(context: &NodeContext) -> Result<(), RuntimeError> {
         while let Some(taken) = ports.features.next_message() {
             // features without the vision node's seal are not the vision node's: refused
             let key = context.seal_key.as_ref();
-            let Some(message) = taken.ok().filter(|m| key.is_some_and(|key| key.seal(m) == m.seal)) else {
+            let Some(message) = taken.ok().filter(|m| sealed_by(key, m)) else {
                 counters.rejected();
                 continue;
             };

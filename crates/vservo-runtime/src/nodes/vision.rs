@@ -106,7 +106,7 @@ impl FeaturesOut {
             base_from_camera: delivered.base_from_camera.as_ref().map_or([f64::NAN; 12], pose_to_wire),
             seal: 0,
         };
-        message.seal = self.key.as_ref().map_or(0, |key| key.seal(&message));
+        vservo_protocol::seal::sign_with(self.key.as_ref(), &mut message);
         if let Ok(sample) = self.publisher.loan_uninit() {
             let _ = sample.write_payload(message).send();
         }

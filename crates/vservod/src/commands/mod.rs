@@ -273,7 +273,7 @@ impl Commander {
             stamp_ns: vservo_runtime::clock::monotonic_ns(),
             seal: 0,
         };
-        message.seal = self.seal_key.seal(&message);
+        self.seal_key.sign(&mut message);
         let publish = |e: &dyn std::fmt::Display| CommandRefused::ObjectPublish(e.to_string());
         let sample = self.object_publisher.loan_uninit().map_err(|e| publish(&e))?;
         sample.write_payload(message).send().map_err(|e| publish(&e))?;

@@ -106,7 +106,7 @@ impl LoopHeard {
         // what does not carry the vision node's or the servo's seal is not theirs, and shows nothing
         let key = &ports.key;
         ports.features.each_message(|features| {
-            if key.seal(&features) != features.seal {
+            if !key.verifies(&features) {
                 return;
             }
             monitor.on_features(&features, monotonic_ns());
@@ -114,7 +114,7 @@ impl LoopHeard {
             self.features_at = Some(now);
         });
         ports.twist.each_message(|twist| {
-            if key.seal(&twist) != twist.seal {
+            if !key.verifies(&twist) {
                 return;
             }
             monitor.on_twist(&twist);
