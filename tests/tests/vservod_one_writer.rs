@@ -205,7 +205,7 @@ fn report(what: &str, attack: &Attack, refused: i64) {
 /// When the rmrc is the node killed, its death alone hands the arm to the drives' brake (the last command
 /// held for `hold_after_missed_ticks`, then braked to rest), a transient no attacker causes or can change;
 /// by this time into the attack that brake has brought the arm to rest, so a command taken from the
-/// attacker would show as motion after it.
+/// attacker would show as motion after it (a forged torque the plant took would be applied on every tick).
 const BRAKED_AFTER: Duration = Duration::from_millis(500);
 
 /// The margin over the cell alone's fastest joint within which the arm counts as unmoved (rad/s).
@@ -221,10 +221,19 @@ fn named_in_the_log(daemon: &Daemon) -> bool {
 /// publishes the joint states itself).
 struct Expect {
     refused_by: Option<&'static str>,
-    arm_measured: bool,
-    /// Judge the arm only once the drives' brake has acted (the node killed is the rmrc: see
-    /// [`BRAKED_AFTER`]).
-    after_brake: bool,
+    arm: ArmJudged,
+}
+
+/// What the arm's joint speeds must show under an attack.
+#[derive(Clone, Copy)]
+enum ArmJudged {
+    /// Nothing (the attacker publishes the joint states itself).
+    NotMeasured,
+    /// Over the whole attack, no faster than the cell alone (the killed node's job is taken over by the
+    /// rmrc, which keeps commanding the arm).
+    NoFasterThanAlone,
+    /// At rest from [`BRAKED_AFTER`] on (the killed node is the rmrc: the drives hold the arm).
+    AtRestOnceBraked,
 }
 
 /// The attack moved nothing (as far as measured), stopped the cell with `stream_taken` naming this process,
@@ -233,9 +242,14 @@ struct Expect {
 fn judge(what: &str, attack: &Attack, daemon: Daemon, instance: &str, role: &str, expect: Expect) {
     let refused = expect.refused_by.map_or(0, |node| rejected(instance, node));
     report(what, attack, refused);
-    if expect.arm_measured {
-        let attacked_rad_s = if expect.after_brake { attack.braked_rad_s } else { attack.attacked_rad_s };
-        assert!(attacked_rad_s <= attack.alone_rad_s + UNMOVED_MARGIN_RAD_S, "the arm moved");
+    match expect.arm {
+        ArmJudged::NotMeasured => {}
+        ArmJudged::NoFasterThanAlone => {
+            assert!(attack.attacked_rad_s <= attack.alone_rad_s + UNMOVED_MARGIN_RAD_S, "the arm moved")
+        }
+        ArmJudged::AtRestOnceBraked => {
+            assert!(attack.braked_rad_s <= vservo_runtime::AT_REST_RAD_S, "the arm is not held at rest")
+        }
     }
     assert!(
         attack.named_after.is_some(),
@@ -265,7 +279,7 @@ fn rogue_twists_in_the_servos_slot_move_nothing_and_are_named() {
             seal: n.wrapping_mul(0x9e37_79b9_7f4a_7c15),
             ..CameraTwistMsg::default()
         });
-    let expect = Expect { refused_by: Some("rmrc"), arm_measured: true, after_brake: false };
+    let expect = Expect { refused_by: Some("rmrc"), arm: ArmJudged::NoFasterThanAlone };
     judge("rogue twists", &attack, daemon, &instance, "servo", expect);
 }
 
@@ -285,7 +299,7 @@ fn rogue_features_in_the_vision_nodes_slot_move_nothing_and_are_named() {
             seal: n,
             ..FeaturesMsg::default()
         });
-    let expect = Expect { refused_by: Some("servo"), arm_measured: true, after_brake: false };
+    let expect = Expect { refused_by: Some("servo"), arm: ArmJudged::NoFasterThanAlone };
     judge("rogue features", &attack, daemon, &instance, "vision", expect);
 }
 
@@ -306,7 +320,7 @@ fn a_torque_flood_in_the_rmrcs_slot_moves_nothing_and_is_named() {
             seal: n,
             ..JointCommandMsg::default()
         });
-    let expect = Expect { refused_by: Some("plant"), arm_measured: true, after_brake: true };
+    let expect = Expect { refused_by: Some("plant"), arm: ArmJudged::AtRestOnceBraked };
     judge("torque flood", &attack, daemon, &instance, "rmrc", expect);
 }
 
@@ -331,6 +345,6 @@ fn a_second_driver_in_the_plants_slot_is_named_and_stops_the_cell() {
         daemon,
         &instance,
         "plant",
-        Expect { refused_by: None, arm_measured: false, after_brake: false },
+        Expect { refused_by: None, arm: ArmJudged::NotMeasured },
     );
 }
