@@ -25,8 +25,40 @@ pub fn point_image_jacobian(x: f64, y: f64, depth_m: f64, focal_px: f64) -> SMat
     )
 }
 
+/// The image Jacobian of one point on a camera with focal lengths `fx_px` and `fy_px` (non-square pixels):
+/// the pinhole projection u = fx·X/Z, v = fy·Y/Z differentiated as eq. (3) is, with `x`, `y` the pinhole
+/// pixel relative to the principal point. With fx = fy it is [`point_image_jacobian`], the paper's formula
+/// computed as the paper's.
+pub fn point_image_jacobian_fx_fy(
+    x: f64,
+    y: f64,
+    depth_m: f64,
+    fx_px: f64,
+    fy_px: f64,
+) -> SMatrix<f64, 2, 6> {
+    if fx_px == fy_px {
+        return point_image_jacobian(x, y, depth_m, fx_px);
+    }
+    let (fx, fy, z) = (fx_px, fy_px, depth_m);
+    SMatrix::<f64, 2, 6>::new(
+        -fx / z,
+        0.0,
+        x / z,
+        x * y / fy,
+        -(x * x + fx * fx) / fx,
+        fx * y / fy,
+        0.0,
+        -fy / z,
+        y / z,
+        (y * y + fy * fy) / fy,
+        -x * y / fx,
+        -fy * x / fx,
+    )
+}
+
 /// The extended image Jacobian J⁺(ξ, Z) (eq. 5): the four point Jacobians stacked, 8 × 6.
-/// `features` are image coordinates (px, origin top-left); the principal point is subtracted here.
+/// `features` are pinhole image coordinates (px, origin top-left: undistorted when the lens distorts); the
+/// principal point is subtracted here.
 pub fn extended_image_jacobian(
     camera: &CameraIntrinsics,
     features: &FeatureVector,
@@ -37,7 +69,7 @@ pub fn extended_image_jacobian(
     for mark in 0..MARKS {
         let x = features[2 * mark] - centre.x;
         let y = features[2 * mark + 1] - centre.y;
-        let rows = point_image_jacobian(x, y, depths[mark], camera.focal_px());
+        let rows = point_image_jacobian_fx_fy(x, y, depths[mark], camera.fx_px(), camera.fy_px());
         jacobian.fixed_view_mut::<2, 6>(2 * mark, 0).copy_from(&rows);
     }
     jacobian
@@ -52,4 +84,64 @@ pub fn interaction_matrix(
     period_s: f64,
 ) -> InteractionMatrix {
     extended_image_jacobian(camera, features, depths) * period_s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use nalgebra::{Point2, Point3, Rotation3, Vector2, Vector6};
+
+    /// The pinhole pixel of `point` after the camera moves by `twist` [v; ω] for `dt`: the point's velocity
+    /// in the camera frame is −v − ω × p.
+    fn moved_pixel(
+        camera: &CameraIntrinsics,
+        point: &Point3<f64>,
+        twist: &Vector6<f64>,
+        dt: f64,
+    ) -> Point2<f64> {
+        let (v, w) = (twist.fixed_rows::<3>(0).into_owned(), twist.fixed_rows::<3>(3).into_owned());
+        // exact rigid motion of the point relative to the camera over dt (the camera's twist held)
+        let rotation = Rotation3::new(-w * dt);
+        let moved = rotation * (point.coords - v * dt);
+        camera.project(&Point3::from(moved)).expect("in front")
+    }
+
+    #[test]
+    fn the_jacobian_with_fx_and_fy_is_the_derivative_of_the_projection() {
+        let camera = CameraIntrinsics::with_lens(
+            [600.0, 640.0],
+            Point2::new(330.0, 250.0),
+            640,
+            480,
+            Default::default(),
+        )
+        .expect("valid");
+        let centre = camera.principal_point_px();
+        for point in
+            [Point3::new(0.05, -0.03, 0.5), Point3::new(-0.12, 0.08, 0.7), Point3::new(0.0, 0.0, 0.4)]
+        {
+            let pixel = camera.project(&point).expect("in front");
+            let jacobian =
+                point_image_jacobian_fx_fy(pixel.x - centre.x, pixel.y - centre.y, point.z, 600.0, 640.0);
+            for axis in 0..6 {
+                let twist = Vector6::from_fn(|i, _| if i == axis { 1.0 } else { 0.0 });
+                let h = 1e-6;
+                let ahead = moved_pixel(&camera, &point, &twist, h);
+                let behind = moved_pixel(&camera, &point, &twist, -h);
+                let derivative = (ahead - behind) / (2.0 * h);
+                let column = jacobian.column(axis);
+                assert!(
+                    (derivative - Vector2::new(column[0], column[1])).norm()
+                        < 1e-5 * (1.0 + derivative.norm()),
+                    "axis {axis}: finite differences {derivative:?}, Jacobian {column:?}"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn with_square_pixels_it_is_the_papers_formula_bit_for_bit() {
+        let (x, y, z, f) = (-93.25, 41.5, 0.61, 500.0);
+        assert_eq!(point_image_jacobian_fx_fy(x, y, z, f, f), point_image_jacobian(x, y, z, f));
+    }
 }

@@ -77,7 +77,7 @@ impl TargetMotion {
         }
         let now_from_before = pose.inverse() * before.base_from_camera;
         let centre = camera.principal_point_px();
-        let f = camera.focal_px();
+        let (fx, fy) = (camera.fx_px(), camera.fy_px());
         let mut measured_any = false;
         for mark in 0..MARKS {
             let rows = [2 * mark, 2 * mark + 1];
@@ -87,7 +87,7 @@ impl TargetMotion {
                 .then(|| {
                     let z = before.depths[mark];
                     let (u, v) = (before.features[rows[0]], before.features[rows[1]]);
-                    let point = Point3::new((u - centre.x) * z / f, (v - centre.y) * z / f, z);
+                    let point = Point3::new((u - centre.x) * z / fx, (v - centre.y) * z / fy, z);
                     camera.project(&(now_from_before * point))
                 })
                 .flatten()

@@ -2,7 +2,7 @@
 
 use nalgebra::{Point2, Point3};
 
-use crate::{Board, FeatureVector, IsometryMatrix3, MARKS, MarkDepths};
+use crate::{Board, Distortion, FeatureVector, IsometryMatrix3, MARKS, MarkDepths};
 
 /// Whether a pixel position lies inside a `width_px` × `height_px` image by at least `margin_px` from every
 /// border ([m, width − m] × [m, height − m]); a position that is not finite never does. The one answer to
@@ -15,19 +15,26 @@ pub fn image_contains(width_px: u32, height_px: u32, pixel: &Point2<f64>, margin
         && pixel.y <= f64::from(height_px) - margin_px
 }
 
-/// Pinhole intrinsics: square pixels, no distortion.
+/// The camera's intrinsics: focal lengths fx, fy (px; non-square pixels when they differ), the principal
+/// point, the image size and the lens's distortion ([`Distortion`], none by default).
+///
+/// Two images: the *pinhole* pixel of a point (K·(X/Z, Y/Z), [`Self::project`]) — what the features, the
+/// image Jacobian and the law work on — and the *observed* pixel, where the lens puts it
+/// (K·distort(X/Z, Y/Z), [`Self::project_observed`]). Without distortion they are the same.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct CameraIntrinsics {
-    focal_px: f64,
+    fx_px: f64,
+    fy_px: f64,
     principal_point_px: Point2<f64>,
     width_px: u32,
     height_px: u32,
+    distortion: Distortion,
 }
 
 /// Why a set of intrinsics was refused.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum IntrinsicsError {
-    /// The focal length must be a positive finite number of pixels.
+    /// A focal length must be a positive finite number of pixels.
     #[error("focal length {0} px must be positive and finite")]
     FocalLength(f64),
     /// The image must have at least one pixel each way.
@@ -52,15 +59,26 @@ pub enum ProjectionError {
 }
 
 impl CameraIntrinsics {
-    /// Validated intrinsics.
+    /// Validated pinhole intrinsics with square pixels and no distortion.
     pub fn new(
         focal_px: f64,
         principal_point_px: Point2<f64>,
         width_px: u32,
         height_px: u32,
     ) -> Result<Self, IntrinsicsError> {
-        if !(focal_px.is_finite() && focal_px > 0.0) {
-            return Err(IntrinsicsError::FocalLength(focal_px));
+        Self::with_lens([focal_px, focal_px], principal_point_px, width_px, height_px, Distortion::NONE)
+    }
+
+    /// Validated intrinsics with focal lengths `[fx, fy]` (px) and a lens.
+    pub fn with_lens(
+        focal_px: [f64; 2],
+        principal_point_px: Point2<f64>,
+        width_px: u32,
+        height_px: u32,
+        distortion: Distortion,
+    ) -> Result<Self, IntrinsicsError> {
+        if let Some(&bad) = focal_px.iter().find(|f| !(f.is_finite() && **f > 0.0)) {
+            return Err(IntrinsicsError::FocalLength(bad));
         }
         if width_px == 0 || height_px == 0 {
             return Err(IntrinsicsError::ImageSize(width_px, height_px));
@@ -68,17 +86,33 @@ impl CameraIntrinsics {
         if !(principal_point_px.x.is_finite() && principal_point_px.y.is_finite()) {
             return Err(IntrinsicsError::PrincipalPoint(principal_point_px.x, principal_point_px.y));
         }
-        Ok(Self { focal_px, principal_point_px, width_px, height_px })
+        let [fx_px, fy_px] = focal_px;
+        Ok(Self { fx_px, fy_px, principal_point_px, width_px, height_px, distortion })
     }
 
     /// The paper's camera (docs/REPRODUCTION.md): 512 × 512 px, f = 500 px, principal point (256, 256).
     pub fn paper() -> Self {
-        Self { focal_px: 500.0, principal_point_px: Point2::new(256.0, 256.0), width_px: 512, height_px: 512 }
+        Self {
+            fx_px: 500.0,
+            fy_px: 500.0,
+            principal_point_px: Point2::new(256.0, 256.0),
+            width_px: 512,
+            height_px: 512,
+            distortion: Distortion::NONE,
+        }
     }
 
-    /// Focal length (px).
-    pub fn focal_px(&self) -> f64 {
-        self.focal_px
+    /// Horizontal focal length fx (px).
+    pub fn fx_px(&self) -> f64 {
+        self.fx_px
+    }
+    /// Vertical focal length fy (px).
+    pub fn fy_px(&self) -> f64 {
+        self.fy_px
+    }
+    /// The lens's distortion.
+    pub fn distortion(&self) -> &Distortion {
+        &self.distortion
     }
     /// Principal point (px).
     pub fn principal_point_px(&self) -> Point2<f64> {
@@ -98,11 +132,65 @@ impl CameraIntrinsics {
         if point_in_camera.z.is_nan() || point_in_camera.z <= 0.0 {
             return None;
         }
-        let scale = self.focal_px / point_in_camera.z;
+        // (with fx = fy the same operations as the square-pixel camera's f / z)
+        let scale_x = self.fx_px / point_in_camera.z;
+        let scale_y = self.fy_px / point_in_camera.z;
         Some(Point2::new(
-            self.principal_point_px.x + scale * point_in_camera.x,
-            self.principal_point_px.y + scale * point_in_camera.y,
+            self.principal_point_px.x + scale_x * point_in_camera.x,
+            self.principal_point_px.y + scale_y * point_in_camera.y,
         ))
+    }
+
+    /// The pixel where the lens images a point given in the camera frame (`cv::projectPoints`), or `None`
+    /// at or behind the camera. Without distortion: [`Self::project`].
+    pub fn project_observed(&self, point_in_camera: &Point3<f64>) -> Option<Point2<f64>> {
+        if self.distortion.is_none() {
+            return self.project(point_in_camera);
+        }
+        if point_in_camera.z.is_nan() || point_in_camera.z <= 0.0 {
+            return None;
+        }
+        let normalized =
+            Point2::new(point_in_camera.x / point_in_camera.z, point_in_camera.y / point_in_camera.z);
+        Some(self.pixel_of_normalized(&self.distortion.distort(&normalized)))
+    }
+
+    /// Where the lens images the point whose pinhole pixel is `pinhole_px`. Without distortion:
+    /// `pinhole_px` itself.
+    pub fn observed_of_pinhole(&self, pinhole_px: &Point2<f64>) -> Point2<f64> {
+        if self.distortion.is_none() {
+            return *pinhole_px;
+        }
+        self.pixel_of_normalized(&self.distortion.distort(&self.normalized_of_pixel(pinhole_px)))
+    }
+
+    /// The pinhole pixel of the point the lens images at `observed_px` (undistortion, as
+    /// `cv::undistortPoints` with P = K); `None` where the lens's inverse does not converge or the point is
+    /// outside its valid region ([`Distortion::undistort`]). Without distortion: `observed_px` itself.
+    pub fn pinhole_of_observed(&self, observed_px: &Point2<f64>) -> Option<Point2<f64>> {
+        if self.distortion.is_none() {
+            return Some(*observed_px);
+        }
+        let normalized = self.distortion.undistort(&self.normalized_of_pixel(observed_px))?;
+        Some(self.pixel_of_normalized(&normalized))
+    }
+
+    /// Normalised coordinates (x/z, y/z) of a pixel: K⁻¹.
+    #[inline]
+    pub fn normalized_of_pixel(&self, pixel: &Point2<f64>) -> Point2<f64> {
+        Point2::new(
+            (pixel.x - self.principal_point_px.x) / self.fx_px,
+            (pixel.y - self.principal_point_px.y) / self.fy_px,
+        )
+    }
+
+    /// The pixel of normalised coordinates: K.
+    #[inline]
+    pub fn pixel_of_normalized(&self, normalized: &Point2<f64>) -> Point2<f64> {
+        Point2::new(
+            self.principal_point_px.x + self.fx_px * normalized.x,
+            self.principal_point_px.y + self.fy_px * normalized.y,
+        )
     }
 
     /// Whether a pixel position lies inside the image ([0, width] × [0, height]).
@@ -165,8 +253,8 @@ impl CameraIntrinsics {
         // 8 equations in 9 unknowns; the zero ninth row makes the SVD square
         let mut a = SMatrix::<f64, 9, 9>::zeros();
         for (i, mark) in board.marks_in_board.iter().enumerate() {
-            let u = (features[2 * i] - self.principal_point_px.x) / self.focal_px;
-            let v = (features[2 * i + 1] - self.principal_point_px.y) / self.focal_px;
+            let u = (features[2 * i] - self.principal_point_px.x) / self.fx_px;
+            let v = (features[2 * i + 1] - self.principal_point_px.y) / self.fy_px;
             let (x, y) = (mark.x, mark.y);
             a.fixed_view_mut::<1, 9>(2 * i, 0).copy_from_slice(&[
                 x,

@@ -1,8 +1,9 @@
 //! # vservo-scene — what the camera looks at
 //!
 //! This crate owns the geometry shared by the controller, the vision and the simulator:
-//! - [`CameraIntrinsics`]: the pinhole camera (focal length in pixels, principal point, image size) and the
-//!   projection of points given in the camera frame (x right, y down, z along the optical axis);
+//! - [`CameraIntrinsics`]: the camera (focal lengths fx, fy in pixels, principal point, image size, the lens's
+//!   [`Distortion`] in [`lens`]) and the projection of points given in the camera frame (x right, y down, z
+//!   along the optical axis), to the pinhole pixel and to the observed (distorted) one;
 //! - [`Board`]: the object — a board with four disc marks, their centres in the board frame;
 //! - the feature vector ξ = [x₁ y₁ x₂ y₂ x₃ y₃ x₄ y₄] (pixels, image origin top-left) in the board's mark
 //!   order, which never changes from frame to frame.
@@ -22,9 +23,11 @@
 
 mod board;
 mod camera;
+pub mod lens;
 
 pub use board::{Board, MARKS};
 pub use camera::{CameraIntrinsics, IntrinsicsError, ProjectionError, image_contains};
+pub use lens::{Distortion, DistortionError};
 pub use nalgebra::IsometryMatrix3;
 
 /// Number of image features: x and y of each mark.
