@@ -37,6 +37,11 @@ if ! "${venv}/bin/python" -c 'import mcap, mcap_protobuf, websockets' >/dev/null
     "${venv}/bin/pip" install -q mcap==1.6.0 mcap-protobuf-support==0.6.0 websockets==17.4
 fi
 
+# the lens model's OpenCV reference (scripts/lens-reference.py writes the fixtures its tests read)
+if ! "${venv}/bin/python" -c 'import cv2' >/dev/null 2>&1; then
+    "${venv}/bin/python" -m pip install -q opencv-python-headless==4.14.0.94
+fi
+
 # `vservoctl top`'s test runs it in a terminal: tmux, from Debian
 if ! command -v tmux >/dev/null 2>&1; then
     sudo_if_needed=""

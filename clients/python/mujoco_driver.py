@@ -181,6 +181,77 @@ def gray(level):
     return "%.6f %.6f %.6f 1" % ((level / 255.0,) * 3)
 
 
+class Lens:
+    """The configured camera made from MuJoCo's, which renders a pinhole with square pixels and its principal point at
+    the image centre (`fovy`).
+
+    With fx = fy, the principal point at the image centre (±0.5 px) and no distortion MuJoCo renders the camera's
+    image directly. Otherwise MuJoCo renders a square-pixel pinhole canvas of focal length fy, centred and large
+    enough to hold what every pixel of the camera sees, and each pixel of the camera's image takes the canvas at the
+    point it sees: its centre undistorted (OpenCV's k1, k2, p1, p2, k3, inverted by Newton's method, numpy, once at
+    start), read bilinearly. The image is then the camera's as its lens makes it; vservo undistorts the marks.
+    """
+
+    def __init__(self, cam):
+        self.width, self.height = cam["width_px"], cam["height_px"]
+        fx, fy = cam.get("fx_px", cam["focal_px"]), cam.get("fy_px", cam["focal_px"])
+        cx, cy = cam["principal_point_px"]
+        self.coefficients = [float(k) for k in cam.get("distortion", [0.0] * 5)]
+        self.direct = (fx == fy and not any(self.coefficients)
+                       and abs(cx - self.width / 2) <= 0.5 and abs(cy - self.height / 2) <= 0.5)
+        self.focal_px = fy
+        if self.direct:
+            self.canvas_width, self.canvas_height = self.width, self.height
+            return
+        u, v = np.meshgrid(np.arange(self.width) + 0.5, np.arange(self.height) + 0.5)
+        x, y = self.undistort((u - cx) / fx, (v - cy) / fy)
+        half_w = int(math.ceil(np.abs(x).max() * fy)) + 2
+        half_h = int(math.ceil(np.abs(y).max() * fy)) + 2
+        self.canvas_width, self.canvas_height = 2 * half_w, 2 * half_h
+        # where each pixel's centre falls on the canvas, as array indices (pixel i covers [i, i + 1))
+        self.source_x = half_w + fy * x - 0.5
+        self.source_y = half_h + fy * y - 0.5
+
+    def fovy_deg(self):
+        return math.degrees(2 * math.atan(self.canvas_height / 2 / self.focal_px))
+
+    def distort(self, x, y):
+        k1, k2, p1, p2, k3 = self.coefficients
+        r2 = x * x + y * y
+        radial = 1 + r2 * (k1 + r2 * (k2 + r2 * k3))
+        return (x * radial + 2 * p1 * x * y + p2 * (r2 + 2 * x * x),
+                y * radial + p1 * (r2 + 2 * y * y) + 2 * p2 * x * y)
+
+    def undistort(self, xd, yd):
+        """The normalised points the lens images at (xd, yd): Newton's method with a numerical Jacobian, to 1e-12."""
+        x, y = xd.copy(), yd.copy()
+        h = 1e-7
+        for _ in range(30):
+            fx_, fy_ = self.distort(x, y)
+            rx, ry = fx_ - xd, fy_ - yd
+            if max(np.abs(rx).max(), np.abs(ry).max()) < 1e-12:
+                return x, y
+            ax, ay = self.distort(x + h, y)
+            bx, by = self.distort(x, y + h)
+            j11, j21, j12, j22 = (ax - fx_) / h, (ay - fy_) / h, (bx - fx_) / h, (by - fy_) / h
+            det = j11 * j22 - j12 * j21
+            x, y = x - (j22 * rx - j12 * ry) / det, y - (-j21 * rx + j11 * ry) / det
+        raise SystemExit("mujoco_driver: the configured lens cannot be undistorted over the image")
+
+    def image(self, canvas):
+        """The camera's image (height × width, u8) from MuJoCo's render."""
+        if self.direct:
+            return canvas
+        x0, y0 = np.floor(self.source_x), np.floor(self.source_y)
+        tx, ty = self.source_x - x0, self.source_y - y0
+        x0 = np.clip(x0.astype(int), 0, self.canvas_width - 2)
+        y0 = np.clip(y0.astype(int), 0, self.canvas_height - 2)
+        c = canvas.astype(np.float32)
+        top = c[y0, x0] * (1 - tx) + c[y0, x0 + 1] * tx
+        bottom = c[y0 + 1, x0] * (1 - tx) + c[y0 + 1, x0 + 1] * tx
+        return np.clip(top * (1 - ty) + bottom * ty + 0.5, 0, 255).astype(np.uint8)
+
+
 def build_mjcf(scene) -> str:
     """The arm (body i is DH frame i-1 turned by q_i about its z), the hand camera, the board with its marks.
 
@@ -191,9 +262,8 @@ def build_mjcf(scene) -> str:
     plausible, NOT the PUMA 560's true masses and inertias (vservo's own plant has those).
     """
     arm, cam, board = scene["arm"], scene["camera"], scene["board"]
-    if abs(cam["principal_point_px"][0] - cam["width_px"] / 2) > 0.5 or abs(cam["principal_point_px"][1] - cam["height_px"] / 2) > 0.5:
-        print("mujoco_driver: warning: MuJoCo's camera has its principal point at the image centre", file=sys.stderr)
-    fovy_deg = math.degrees(2 * math.atan(cam["height_px"] / 2 / cam["focal_px"]))
+    lens = Lens(cam)
+    fovy_deg = lens.fovy_deg()
     bodies, parent_from_body = [], np.eye(4)
     for i, (row, (lo, hi)) in enumerate(zip(arm["dh"], arm["joint_limits_rad"])):
         radius = 0.05 if i < 3 else 0.035
@@ -220,7 +290,7 @@ def build_mjcf(scene) -> str:
   <compiler angle="radian" autolimits="true"/>
   <option timestep="{scene["robot"]["period_s"]}" integrator="implicitfast"/>
   <visual>
-    <global offwidth="{cam["width_px"]}" offheight="{cam["height_px"]}"/>
+    <global offwidth="{lens.canvas_width}" offheight="{lens.canvas_height}"/>
     <headlight active="0" ambient="0 0 0" diffuse="0 0 0" specular="0 0 0"/>
     <quality shadowsize="0" numslices="64" offsamples="4"/>
     <map haze="0"/>
@@ -314,11 +384,13 @@ class Camera(threading.Thread):
         mujoco.mj_kinematics(self.model, data)
         mujoco.mj_camlight(self.model, data)
         renderer.update_scene(data, camera="hand")
-        return renderer.render()[:, :, 0]  # every surface is gray: red = green = blue
+        return self.lens.image(renderer.render()[:, :, 0])  # every surface is gray: red = green = blue
 
     def run(self):
         width, height = self.scene["camera"]["width_px"], self.scene["camera"]["height_px"]
-        renderer, data = mujoco.Renderer(self.model, height, width), mujoco.MjData(self.model)
+        self.lens = Lens(self.scene["camera"])
+        renderer = mujoco.Renderer(self.model, self.lens.canvas_height, self.lens.canvas_width)
+        data = mujoco.MjData(self.model)
         node = make_node(self.instance)
         service = open_topic(node, self.instance, "camera_image", iox2.Slice[ctypes.c_uint8], 0, 2, CameraImageHeader)
         publisher = service.publisher_builder().initial_max_slice_len(1280 * 1024).create()

@@ -128,14 +128,16 @@ impl ServoStage {
         ServoStep { twist, verdict, outside, error_px }
     }
 
-    /// The features with each mark outside the image set to NaN, and those marks (bit m for mark m).
+    /// The features with each mark outside the image set to NaN, and those marks (bit m for mark m). The
+    /// features are pinhole pixels; whether a mark is in the image is judged where the lens shows it (its
+    /// observed pixel).
     fn taken_inside_image(&self, seen: &FeatureVector) -> (FeatureVector, u8) {
         let mut features = *seen;
         let mut outside = 0u8;
         for mark in 0..MARKS {
             let pixel = Point2::new(seen[2 * mark], seen[2 * mark + 1]);
             let measured = pixel.x.is_finite() && pixel.y.is_finite();
-            if measured && !self.camera.contains(&pixel) {
+            if measured && !self.camera.contains(&self.camera.observed_of_pinhole(&pixel)) {
                 features[2 * mark] = f64::NAN;
                 features[2 * mark + 1] = f64::NAN;
                 outside |= 1 << mark;

@@ -214,7 +214,9 @@ fn inside_margin(
     let margin_px = TARGET_BORDER_MARGIN_PX.max(barrier_margin_px);
     for mark in 0..MARKS {
         let (x, y) = (features[2 * mark], features[2 * mark + 1]);
-        if !camera.contains_with_margin(&nalgebra::Point2::new(x, y), margin_px) {
+        // (judged where the lens shows the mark: the features are pinhole pixels)
+        let observed = camera.observed_of_pinhole(&nalgebra::Point2::new(x, y));
+        if !camera.contains_with_margin(&observed, margin_px) {
             return Err(TargetRefused::OutsideImage {
                 mark,
                 x,

@@ -13,6 +13,18 @@ use vservo_vision::{Extraction, Extractor, Prediction};
 /// the layout again.
 pub const RELOCK_AFTER_FRAMES: u32 = 3;
 
+/// Where the lens shows the marks whose pinhole pixels are `pinhole` (the same features without distortion).
+fn observed_features(camera: &CameraIntrinsics, pinhole: &FeatureVector) -> FeatureVector {
+    let mut observed = *pinhole;
+    for mark in 0..MARKS {
+        let seen =
+            camera.observed_of_pinhole(&nalgebra::Point2::new(pinhole[2 * mark], pinhole[2 * mark + 1]));
+        observed[2 * mark] = seen.x;
+        observed[2 * mark + 1] = seen.y;
+    }
+    observed
+}
+
 /// A frame leaving the image pipeline: what the servo sees now.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct DeliveredFrame {
@@ -20,7 +32,8 @@ pub struct DeliveredFrame {
     pub frame: u64,
     /// The plant tick at which its image was taken.
     pub capture_tick: u64,
-    /// ξ (px), NaN where a mark is not valid.
+    /// ξ (px): the marks' pinhole pixels (undistorted, `vision.undistort`), NaN where a mark is not valid
+    /// or its observed position has no undistorted one.
     pub features: FeatureVector,
     /// Where the camera was when the image was taken (from the arm's joints then), if known.
     pub base_from_camera: Option<IsometryMatrix3<f64>>,
@@ -47,6 +60,8 @@ pub struct VisionStage {
     intrinsics: CameraIntrinsics,
     board: Board,
     layout: FeatureVector,
+    /// Whether the features are undistorted before they leave (`vision.undistort`).
+    undistort: bool,
     camera: SimulatedCamera,
     extractor: Extractor,
     /// The latest known position of each mark, once all four have been found.
@@ -73,7 +88,8 @@ impl VisionStage {
             tool_from_camera: config.tool_from_camera,
             intrinsics: config.camera,
             board: config.board,
-            layout: config.desired.features,
+            layout: observed_features(&config.camera, &config.desired.features),
+            undistort: config.vision.undistort,
             camera: SimulatedCamera::new(config.camera, config.board, config.vision.render),
             extractor: Extractor::new(
                 config.vision.extractor,
@@ -128,10 +144,13 @@ impl VisionStage {
     /// Starts tracking from known mark positions instead of matching the layout: a restarted vision node
     /// takes them from the last features published before it (matching the layout alone is ambiguous for
     /// a nearly point-symmetric set of marks far from the desired pose).
+    /// The features are as published (pinhole pixels): the tracker is given where the lens shows them.
     pub fn resume_tracking(&mut self, features: &FeatureVector) {
-        if features.iter().all(|v| v.is_finite()) {
-            self.tracked = Some(*features);
+        if !features.iter().all(|v| v.is_finite()) {
+            return;
         }
+        self.tracked =
+            Some(if self.undistort { observed_features(&self.intrinsics, features) } else { *features });
     }
 
     /// The frame that leaves the pipeline at the start of this frame period, before this period's image is
@@ -201,6 +220,29 @@ impl VisionStage {
         (captured, delivered)
     }
 
+    /// The features the law takes: the observed marks (the extractor's, in the distorted image) mapped to
+    /// their pinhole pixels through the lens; as observed without distortion or with `vision.undistort`
+    /// off. A mark the lens cannot undistort is NaN (missing).
+    fn pinhole_features(&self, observed: &FeatureVector) -> FeatureVector {
+        if !self.undistort || self.intrinsics.distortion().is_none() {
+            return *observed;
+        }
+        let mut features = *observed;
+        for mark in 0..MARKS {
+            let seen = nalgebra::Point2::new(observed[2 * mark], observed[2 * mark + 1]);
+            if !(seen.x.is_finite() && seen.y.is_finite()) {
+                continue;
+            }
+            let pinhole = self
+                .intrinsics
+                .pinhole_of_observed(&seen)
+                .unwrap_or(nalgebra::Point2::new(f64::NAN, f64::NAN));
+            features[2 * mark] = pinhole.x;
+            features[2 * mark + 1] = pinhole.y;
+        }
+        features
+    }
+
     /// Updates the tracker with a frame's extraction and moves the pipeline on.
     fn finish(
         &mut self,
@@ -210,12 +252,8 @@ impl VisionStage {
         base_from_camera: Option<IsometryMatrix3<f64>>,
     ) -> Option<DeliveredFrame> {
         self.update_tracking(captured);
-        self.pipeline.push_back(DeliveredFrame {
-            frame,
-            capture_tick: tick,
-            features: captured.features,
-            base_from_camera,
-        });
+        let features = self.pinhole_features(&captured.features);
+        self.pipeline.push_back(DeliveredFrame { frame, capture_tick: tick, features, base_from_camera });
         (self.pipeline.len() > self.delay_frames).then(|| self.pipeline.pop_front()).flatten()
     }
 }

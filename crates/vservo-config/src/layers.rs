@@ -4,6 +4,11 @@
 //! A file may start with `extends = "PATH"` (relative to the file itself): the base is read first, and the
 //! file's keys are merged over it: a table merges key by key, any other value (an array too) replaces the
 //! base's. A base may extend another; a cycle and a missing base are refused, naming them.
+//!
+//! The camera's lens is one value ([`LENS_KEYS`]): a file that writes any of its keys replaces its base's
+//! whole lens (a file giving `fx_px`/`fy_px` or a `calibration_file` is not mixed with its base's
+//! `focal_px`). A relative `camera.calibration_file` is made relative to the file that wrote it here, so the
+//! merged text names it wherever it is read.
 
 use std::path::{Path, PathBuf};
 
@@ -43,6 +48,7 @@ impl Layers {
             refuse_a_cycle(&path, &file, &mut seen, &layers)?;
             let mut table = parse_table(&text, &file)?;
             next = take_extends(&mut table, &path, &file)?;
+            anchor_calibration_file(&mut table, &path);
             layers.push(Layer { file, text, table });
         }
         Ok(Self { layers })
@@ -79,11 +85,24 @@ impl Layers {
     /// The file that wrote `key` (a dotted key, `[i]` indices allowed) or, failing that, the nearest table
     /// holding it; the first file when none did (a key left to its default).
     pub fn file_of(&self, key: &str) -> &str {
+        if let Some(layer) = self.lens_layer(key) {
+            return &layer.file;
+        }
         let path: Vec<&str> = key.split('.').map(|part| part.split('[').next().unwrap_or(part)).collect();
         (1..=path.len())
             .rev()
             .find_map(|depth| self.layers.iter().find(|layer| holds(&layer.table, &path[..depth])))
             .map_or(&self.layers[0].file, |layer| &layer.file)
+    }
+
+    /// For a key of the camera's lens ([`LENS_KEYS`]): the file whose lens is in force (the first, file
+    /// first, that writes any lens key), whether or not it wrote this one.
+    fn lens_layer(&self, key: &str) -> Option<&Layer> {
+        let leaf = key.strip_prefix("camera.")?.split(['.', '[']).next()?;
+        if !LENS_KEYS.contains(&leaf) {
+            return None;
+        }
+        self.layers.iter().find(|layer| writes_a_lens(&layer.table))
     }
 
     /// The raw configuration; a parser's error (unknown key, wrong type, unknown name) names the file that
@@ -133,11 +152,41 @@ fn merge_layers(layers: &[Layer]) -> toml::Table {
     merged
 }
 
-/// `overlay`'s keys over `base`'s: tables key by key, any other value replaced.
+/// The `[camera]` keys that describe the lens together: a file writing any of them replaces all its base's.
+pub const LENS_KEYS: [&str; 8] = [
+    "focal_px",
+    "fx_px",
+    "fy_px",
+    "principal_point_px",
+    "distortion",
+    "calibration_file",
+    "width_px",
+    "height_px",
+];
+
+/// `overlay`'s keys over `base`'s: tables key by key, any other value replaced; the camera's lens whole.
 fn merge(base: &mut toml::Table, overlay: &toml::Table) {
+    if writes_a_lens(overlay)
+        && let Some(toml::Value::Table(camera)) = base.get_mut("camera")
+    {
+        camera.retain(|key, _| !LENS_KEYS.contains(&key));
+    }
+    merge_tables(base, overlay);
+}
+
+/// Whether a file's keys hold any key of the camera's lens.
+fn writes_a_lens(table: &toml::Table) -> bool {
+    table
+        .get("camera")
+        .and_then(toml::Value::as_table)
+        .is_some_and(|camera| LENS_KEYS.iter().any(|key| camera.contains_key(*key)))
+}
+
+/// `overlay`'s keys over `base`'s: tables key by key, any other value replaced.
+fn merge_tables(base: &mut toml::Table, overlay: &toml::Table) {
     for (key, value) in overlay {
         match (base.get_mut(key), value) {
-            (Some(toml::Value::Table(below)), toml::Value::Table(above)) => merge(below, above),
+            (Some(toml::Value::Table(below)), toml::Value::Table(above)) => merge_tables(below, above),
             _ => {
                 base.insert(key.clone(), value.clone());
             }
@@ -268,6 +317,16 @@ fn parse_table(text: &str, file: &str) -> Result<toml::Table, ConfigError> {
         key: None,
         message: e.to_string().trim_end().to_string(),
     })
+}
+
+/// Makes a relative `camera.calibration_file` relative to the directory of the file at `path`.
+fn anchor_calibration_file(table: &mut toml::Table, path: &Path) {
+    let Some(toml::Value::Table(camera)) = table.get_mut("camera") else { return };
+    let Some(toml::Value::String(file)) = camera.get_mut("calibration_file") else { return };
+    if !file.trim().is_empty() && Path::new(file.as_str()).is_relative() {
+        let directory = path.parent().unwrap_or(Path::new(""));
+        *file = directory.join(file.as_str()).display().to_string();
+    }
 }
 
 /// Takes `extends` out of a file's keys: the base's path, relative to the file.

@@ -22,6 +22,7 @@
 //! assert_eq!(config.timing.control_ticks_per_frame, 85);
 //! ```
 
+pub mod calibration;
 mod error;
 mod layers;
 mod raw;

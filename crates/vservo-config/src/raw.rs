@@ -179,10 +179,22 @@ pub struct RawTiming {
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct RawCamera {
-    pub focal_px: f64,
-    pub principal_point_px: [f64; 2],
-    pub width_px: i64,
-    pub height_px: i64,
+    #[serde(default)]
+    pub focal_px: Option<f64>,
+    #[serde(default)]
+    pub fx_px: Option<f64>,
+    #[serde(default)]
+    pub fy_px: Option<f64>,
+    #[serde(default)]
+    pub principal_point_px: Option<[f64; 2]>,
+    #[serde(default)]
+    pub width_px: Option<i64>,
+    #[serde(default)]
+    pub height_px: Option<i64>,
+    #[serde(default)]
+    pub distortion: Option<[f64; 5]>,
+    #[serde(default)]
+    pub calibration_file: Option<String>,
     #[serde(default)]
     pub source: RawCameraSource,
     #[serde(default)]
@@ -230,6 +242,8 @@ pub struct RawController {
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct RawVision {
+    #[serde(default = "undistort_by_default")]
+    pub undistort: bool,
     pub threshold: toml::Value,
     pub min_mark_area_px: i64,
     pub max_mark_area_px: i64,
@@ -430,4 +444,9 @@ pub enum RawObjectMotion {
     Hold,
     Step,
     Circle,
+}
+
+/// `vision.undistort` when not written: the features are undistorted.
+fn undistort_by_default() -> bool {
+    true
 }

@@ -260,6 +260,9 @@ impl Scenario {
 pub struct Vision {
     /// The image source.
     pub source: VisionSource,
+    /// Whether the features are undistorted before the law (`vision.undistort`, true by default; false only
+    /// to measure what the lens costs a law that ignores it).
+    pub undistort: bool,
     /// The extractor's tuning.
     pub extractor: vservo_vision::ExtractorSettings,
     /// The simulated camera's scene.

@@ -4,8 +4,8 @@
 use std::hint::black_box;
 
 use criterion::{Criterion, criterion_group, criterion_main};
-use nalgebra::{Rotation3, Translation3, Vector3};
-use vservo_scene::{Board, CameraIntrinsics, IsometryMatrix3};
+use nalgebra::{Point2, Rotation3, Translation3, Vector3};
+use vservo_scene::{Board, CameraIntrinsics, Distortion, IsometryMatrix3};
 use vservo_vision::{Extractor, ExtractorSettings, Prediction, RenderSettings, Renderer};
 
 fn vision(c: &mut Criterion) {
@@ -32,6 +32,7 @@ fn vision(c: &mut Criterion) {
             })
         });
     }
+    render_through_a_lens(c, &board);
     let settings =
         RenderSettings { noise_sigma_gray: 2.0, lighting_gradient: [0.1, -0.05], ..Default::default() };
     let mut renderer = Renderer::new(camera, settings);
@@ -41,6 +42,32 @@ fn vision(c: &mut Criterion) {
     c.bench_function("extract_tracking", |b| b.iter(|| extractor.extract(black_box(&image), &tracking)));
     let layout = Prediction::Layout(xi_d);
     c.bench_function("extract_layout", |b| b.iter(|| extractor.extract(black_box(&image), &layout)));
+}
+
+/// config/vservo-distorted.toml's camera (640 × 480, k1 = −0.25, k2 = 0.08) near its desired view, and the
+/// same camera without distortion.
+fn render_through_a_lens(c: &mut Criterion, board: &Board) {
+    let pose = IsometryMatrix3::from_parts(
+        Translation3::new(0.02, 0.11, 0.37),
+        Rotation3::from_scaled_axis(Vector3::new(0.1, -0.15, 0.05)),
+    );
+    let settings =
+        RenderSettings { noise_sigma_gray: 1.0, lighting_gradient: [0.1, -0.05], ..Default::default() };
+    for (name, distortion) in
+        [("render_640x480_pinhole", [0.0; 5]), ("render_640x480_lens", [-0.25, 0.08, 0.0, 0.0, 0.0])]
+    {
+        let lens = Distortion::new(distortion).expect("finite");
+        let camera = CameraIntrinsics::with_lens([600.0, 606.0], Point2::new(322.0, 237.0), 640, 480, lens)
+            .expect("valid");
+        let mut renderer = Renderer::new(camera, settings);
+        let mut frame = 0;
+        c.bench_function(name, |b| {
+            b.iter(|| {
+                frame += 1;
+                renderer.render(black_box(board), black_box(&pose), frame).as_raw().len()
+            })
+        });
+    }
 }
 
 criterion_group!(benches, vision);

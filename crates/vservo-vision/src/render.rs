@@ -53,11 +53,18 @@ pub struct Renderer {
     noise: GaussianTable,
     image: GrayImage,
     albedo: Vec<f32>,
+    /// With a distorting lens: the pinhole pixel of every pixel corner ((width + 1) × (height + 1), row by
+    /// row; NaN outside the lens's valid region), computed once. Empty for a pinhole camera.
+    pinhole_corners: Vec<Point2<f64>>,
 }
 
 /// What one frame's geometry needs, computed once per frame.
 struct Scene<'a> {
     board: &'a Board,
+    /// The camera, whose lens maps an image point to its pinhole pixel.
+    camera: CameraIntrinsics,
+    /// Whether the lens distorts (else the image is the pinhole's and no point is mapped).
+    distorted: bool,
     /// image_from_board homography on the board plane, and its inverse.
     image_from_board: Matrix3<f64>,
     board_from_image: Matrix3<f64>,
@@ -84,11 +91,11 @@ impl Scene<'_> {
         let r = camera_from_board.rotation.matrix();
         let t = camera_from_board.translation.vector;
         let k = Matrix3::new(
-            camera.focal_px(),
+            camera.fx_px(),
             0.0,
             camera.principal_point_px().x,
             0.0,
-            camera.focal_px(),
+            camera.fy_px(),
             camera.principal_point_px().y,
             0.0,
             0.0,
@@ -124,6 +131,8 @@ impl Scene<'_> {
         }
         Scene {
             board,
+            camera: *camera,
+            distorted: !camera.distortion().is_none(),
             image_from_board,
             board_from_image,
             outline,
@@ -139,9 +148,27 @@ impl Scene<'_> {
         (b.z > 0.0).then(|| Point2::new(b.x / b.z, b.y / b.z))
     }
 
+    /// Board-plane coordinates of what the image point (`x`, `y`) sees: through the lens to its pinhole
+    /// pixel (when the lens distorts), then the board's homography; `None` where the ray misses the board
+    /// plane or the point is outside the lens's valid region.
+    #[inline]
+    fn board_point_of(&self, x: f64, y: f64) -> Option<Point2<f64>> {
+        if !self.distorted {
+            return self.on_board(x, y);
+        }
+        let pinhole = self.camera.pinhole_of_observed(&Point2::new(x, y))?;
+        self.on_board(pinhole.x, pinhole.y)
+    }
+
     #[inline]
     fn surface(&self, x: f64, y: f64) -> Surface {
-        let Some(p) = self.on_board(x, y) else { return Surface::Background };
+        let Some(p) = self.board_point_of(x, y) else { return Surface::Background };
+        self.surface_at(&p)
+    }
+
+    /// What lies at board-plane point `p`.
+    #[inline]
+    fn surface_at(&self, p: &Point2<f64>) -> Surface {
         let [lo, hi] = self.board.extent_in_board;
         if p.x < lo.x || p.x > hi.x || p.y < lo.y || p.y > hi.y {
             return Surface::Background;
@@ -207,6 +234,7 @@ impl Renderer {
             noise: GaussianTable::new(settings.noise_sigma_gray),
             image: GrayImage::new(w, h),
             albedo: vec![0.0; w as usize],
+            pinhole_corners: pinhole_corners(&camera),
         }
     }
 
@@ -258,57 +286,70 @@ impl Renderer {
         let noisy = s.noise_sigma_gray > 0.0;
 
         for v in 0..height {
-            let row = &mut self.albedo;
-            row.fill(s.background_gray as f32);
-            // where the board outline crosses this pixel row, at each sub-row
-            let (mut a_min, mut a_max, mut b_min, mut b_max) =
-                (f64::INFINITY, f64::NEG_INFINITY, f64::INFINITY, f64::NEG_INFINITY);
-            let mut any = false;
-            let mut all = true;
-            for j in 0..samples {
-                let y = v as f64 + (f64::from(j) + 0.5) / f64::from(samples);
-                match scene.span(y) {
-                    Some((a, b)) => {
-                        any = true;
-                        a_min = a_min.min(a);
-                        a_max = a_max.max(a);
-                        b_min = b_min.min(b);
-                        b_max = b_max.max(b);
-                    }
-                    None => all = false,
-                }
-            }
-            let clamp = |x: f64| (x.max(0.0).min(width as f64)) as i64;
-            let (mut full_start, mut full_end) = (0, 0);
-            if any {
-                let edge_start = clamp(a_min.floor());
-                let edge_end = clamp(b_max.ceil());
-                if all && a_max.ceil() < b_min.floor() {
-                    full_start = clamp(a_max.ceil());
-                    full_end = clamp(b_min.floor());
-                }
-                if full_start < full_end {
-                    row[full_start as usize..full_end as usize].fill(s.board_gray as f32);
-                    for u in (edge_start..full_start).chain(full_end..edge_end) {
-                        row[u as usize] = supersample_outline(u, v);
-                    }
-                } else {
-                    for u in edge_start..edge_end {
-                        row[u as usize] = supersample_outline(u, v);
+            if scene.distorted {
+                distorted_row(
+                    &scene,
+                    &self.pinhole_corners,
+                    v,
+                    &mut self.albedo,
+                    &gray,
+                    &supersample,
+                    &supersample_outline,
+                );
+            } else {
+                let row = &mut self.albedo;
+                row.fill(s.background_gray as f32);
+                // where the board outline crosses this pixel row, at each sub-row
+                let (mut a_min, mut a_max, mut b_min, mut b_max) =
+                    (f64::INFINITY, f64::NEG_INFINITY, f64::INFINITY, f64::NEG_INFINITY);
+                let mut any = false;
+                let mut all = true;
+                for j in 0..samples {
+                    let y = v as f64 + (f64::from(j) + 0.5) / f64::from(samples);
+                    match scene.span(y) {
+                        Some((a, b)) => {
+                            any = true;
+                            a_min = a_min.min(a);
+                            a_max = a_max.max(a);
+                            b_min = b_min.min(b);
+                            b_max = b_max.max(b);
+                        }
+                        None => all = false,
                     }
                 }
-            }
-            // marks: only inside the wholly-on-board stretch (the edge pixels above were sampled whole)
-            for bbox in mark_boxes.iter().flatten() {
-                let &(u0, u1, v0, v1) = bbox;
-                if v < v0 || v >= v1 {
-                    continue;
+                let clamp = |x: f64| (x.max(0.0).min(width as f64)) as i64;
+                let (mut full_start, mut full_end) = (0, 0);
+                if any {
+                    let edge_start = clamp(a_min.floor());
+                    let edge_end = clamp(b_max.ceil());
+                    if all && a_max.ceil() < b_min.floor() {
+                        full_start = clamp(a_max.ceil());
+                        full_end = clamp(b_min.floor());
+                    }
+                    if full_start < full_end {
+                        row[full_start as usize..full_end as usize].fill(s.board_gray as f32);
+                        for u in (edge_start..full_start).chain(full_end..edge_end) {
+                            row[u as usize] = supersample_outline(u, v);
+                        }
+                    } else {
+                        for u in edge_start..edge_end {
+                            row[u as usize] = supersample_outline(u, v);
+                        }
+                    }
                 }
-                for u in u0.max(full_start)..u1.min(full_end) {
-                    row[u as usize] = mark_pixel(&scene, u, v, s.board_gray, s.mark_gray)
-                        .unwrap_or_else(|| supersample(u, v));
+                // marks: only inside the wholly-on-board stretch (the edge pixels above were sampled whole)
+                for bbox in mark_boxes.iter().flatten() {
+                    let &(u0, u1, v0, v1) = bbox;
+                    if v < v0 || v >= v1 {
+                        continue;
+                    }
+                    for u in u0.max(full_start)..u1.min(full_end) {
+                        row[u as usize] = mark_pixel(&scene, u, v, s.board_gray, s.mark_gray)
+                            .unwrap_or_else(|| supersample(u, v));
+                    }
                 }
             }
+            let row = &self.albedo;
             // light and noise, in f32 with saturating casts: this loop touches every pixel, so it stays
             // free of calls and branches (rounding is half-up)
             let y_light = (1.0
@@ -339,6 +380,98 @@ impl Renderer {
     }
 }
 
+/// The pinhole pixel of every pixel corner of a distorting camera (NaN where the lens has none), row by row;
+/// empty for a pinhole camera.
+fn pinhole_corners(camera: &CameraIntrinsics) -> Vec<Point2<f64>> {
+    if camera.distortion().is_none() {
+        return Vec::new();
+    }
+    let (w, h) = (camera.width_px(), camera.height_px());
+    (0..=h)
+        .flat_map(|v| (0..=w).map(move |u| Point2::new(f64::from(u), f64::from(v))))
+        .map(|corner| camera.pinhole_of_observed(&corner).unwrap_or(Point2::new(f64::NAN, f64::NAN)))
+        .collect()
+}
+
+/// What a pixel's footprint on the board holds, judged from its corners.
+enum Footprint {
+    /// All of it sees one surface.
+    Whole(Surface),
+    /// A mark's edge may cross it.
+    NearMark,
+    /// The board's outline may cross it (or part of it misses the board plane or the lens).
+    NearOutline,
+}
+
+/// Row `v` of the albedo through a distorting lens: each pixel is judged by where its corners' rays meet the
+/// board (the lens's map of the corners, computed once, then this frame's homography) and supersampled
+/// through `board_point_of` where an edge may cross it.
+fn distorted_row(
+    scene: &Scene,
+    pinhole_corners: &[Point2<f64>],
+    v: i64,
+    row: &mut [f32],
+    gray: &impl Fn(Surface) -> f64,
+    supersample: &impl Fn(i64, i64) -> f32,
+    supersample_outline: &impl Fn(i64, i64) -> f32,
+) {
+    let stride = row.len() + 1;
+    let top = v as usize * stride;
+    for (u, albedo) in row.iter_mut().enumerate() {
+        let corner_at = |index: usize| {
+            let pinhole = pinhole_corners[index];
+            scene.on_board(pinhole.x, pinhole.y)
+        };
+        let corners = [top + u, top + u + 1, top + stride + u + 1, top + stride + u].map(corner_at);
+        *albedo = match footprint(scene, corners) {
+            Footprint::Whole(surface) => gray(surface) as f32,
+            Footprint::NearMark => supersample(u as i64, v),
+            Footprint::NearOutline => supersample_outline(u as i64, v),
+        };
+    }
+}
+
+/// Judges a pixel's footprint on the board from its four corners' board points. Any point of a convex
+/// quadrilateral lies within its longer diagonal of every corner; the lens bends a pixel's edges, so every
+/// test keeps a further half diagonal (the bend over one pixel is orders of magnitude smaller) and a pixel
+/// it cannot judge is supersampled.
+fn footprint(scene: &Scene, corners: [Option<Point2<f64>>; 4]) -> Footprint {
+    let mut points = [Point2::origin(); 4];
+    for (point, corner) in points.iter_mut().zip(corners) {
+        match corner {
+            Some(c) => *point = c,
+            None => return Footprint::NearOutline,
+        }
+    }
+    let diameter = (points[0] - points[2]).norm().max((points[1] - points[3]).norm());
+    let margin = 0.5 * diameter;
+    let [lo, hi] = scene.board.extent_in_board;
+    let outside = points.iter().all(|p| p.x < lo.x - margin)
+        || points.iter().all(|p| p.x > hi.x + margin)
+        || points.iter().all(|p| p.y < lo.y - margin)
+        || points.iter().all(|p| p.y > hi.y + margin);
+    if outside {
+        return Footprint::Whole(Surface::Background);
+    }
+    let inside = points.iter().all(|p| {
+        p.x >= lo.x + margin && p.x <= hi.x - margin && p.y >= lo.y + margin && p.y <= hi.y - margin
+    });
+    if !inside {
+        return Footprint::NearOutline;
+    }
+    let r = scene.mark_radius_m;
+    for m in &scene.board.marks_in_board {
+        let distances = points.map(|p| ((p.x - m.x).powi(2) + (p.y - m.y).powi(2)).sqrt());
+        if distances.iter().all(|&d| d <= r - margin) {
+            return Footprint::Whole(Surface::Mark);
+        }
+        if distances.iter().any(|&d| d <= r + diameter + margin) {
+            return Footprint::NearMark;
+        }
+    }
+    Footprint::Whole(Surface::Board)
+}
+
 /// The gray of a pixel wholly on the board near a mark when it is wholly on or off the mark; `None` when a
 /// mark edge may cross it (then it is supersampled).
 #[inline]
@@ -364,4 +497,95 @@ fn mark_pixel(scene: &Scene, u: i64, v: i64, board_gray: f64, mark_gray: f64) ->
         }
     }
     outside_all.then_some(board_gray as f32)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use nalgebra::{Rotation3, Translation3};
+    use vservo_scene::Distortion;
+
+    /// config/vservo-distorted.toml's camera.
+    fn lens_camera() -> CameraIntrinsics {
+        let lens = Distortion::new([-0.25, 0.08, 0.0, 0.0, 0.0]).expect("finite");
+        CameraIntrinsics::with_lens([600.0, 606.0], Point2::new(322.0, 237.0), 640, 480, lens).expect("valid")
+    }
+
+    /// Through the lens, a pixel the renderer takes as wholly one surface (without sampling it) must see
+    /// only that surface: checked on a 9 × 9 grid over each such pixel, its borders included, on every
+    /// other row, for the board in view, tilted, and half out of the image.
+    #[test]
+    fn through_a_lens_every_pixel_not_sampled_sees_one_surface() {
+        let camera = lens_camera();
+        let board = Board::paper();
+        let corners = pinhole_corners(&camera);
+        let poses = [
+            (Translation3::new(0.01, 0.13, 0.35), Vector3::new(0.0, 0.0, 0.0)),
+            (Translation3::new(0.03, 0.10, 0.40), Vector3::new(0.25, -0.3, 0.4)),
+            (Translation3::new(0.2, 0.05, 0.3), Vector3::new(-0.1, 0.2, -0.2)),
+        ];
+        for (translation, rotation) in poses {
+            let pose = IsometryMatrix3::from_parts(translation, Rotation3::from_scaled_axis(rotation));
+            let scene = Scene::new(&camera, &board, &pose);
+            let (mut whole, mut sampled) = (0usize, 0usize);
+            for v in (0..480usize).step_by(2) {
+                for u in 0..640usize {
+                    let top = v * 641;
+                    let corner_at = |i: usize| scene.on_board(corners[i].x, corners[i].y);
+                    let judged = footprint(
+                        &scene,
+                        [top + u, top + u + 1, top + 641 + u + 1, top + 641 + u].map(corner_at),
+                    );
+                    let Footprint::Whole(surface) = judged else {
+                        sampled += 1;
+                        continue;
+                    };
+                    whole += 1;
+                    for j in 0..=8 {
+                        for i in 0..=8 {
+                            let (x, y) = (u as f64 + f64::from(i) / 8.0, v as f64 + f64::from(j) / 8.0);
+                            assert!(
+                                scene.surface(x, y) == surface,
+                                "pixel ({u}, {v}) taken as one surface, but ({x}, {y}) sees another (pose {translation:?})"
+                            );
+                        }
+                    }
+                }
+            }
+            // the judgement spares most pixels the sampling
+            assert!(whole > 10 * sampled, "{whole} pixels judged whole, {sampled} sampled");
+        }
+    }
+
+    /// Each mark's dark area is centred where the lens images its centre (within 0.3 px: a disc's image
+    /// centroid is not exactly its centre's image), 2 px and more from where a pinhole would.
+    #[test]
+    fn through_a_lens_the_marks_are_drawn_where_the_lens_images_them() {
+        let camera = lens_camera();
+        let board = Board::paper();
+        let pose = IsometryMatrix3::from_parts(Translation3::new(0.01, 0.13, 0.35), Rotation3::identity());
+        let mut renderer = Renderer::new(camera, RenderSettings::default());
+        let image = renderer.render(&board, &pose, 0).clone();
+        for mark in &board.marks_in_board {
+            let in_camera = pose * Point3::new(mark.x, mark.y, 0.0);
+            let observed = camera.project_observed(&in_camera).expect("in front");
+            let pinhole = camera.project(&in_camera).expect("in front");
+            // the darkness-weighted centroid of a 40 × 40 px window around it (board 230, mark 20)
+            let (mut weight, mut sum_x, mut sum_y) = (0.0, 0.0, 0.0);
+            for v in (observed.y as i64 - 20)..(observed.y as i64 + 20) {
+                for u in (observed.x as i64 - 20)..(observed.x as i64 + 20) {
+                    let darkness = (230.0 - f64::from(image.get_pixel(u as u32, v as u32)[0])).max(0.0);
+                    weight += darkness;
+                    sum_x += darkness * (u as f64 + 0.5);
+                    sum_y += darkness * (v as f64 + 0.5);
+                }
+            }
+            let drawn = Point2::new(sum_x / weight, sum_y / weight);
+            assert!(
+                (drawn - observed).norm() < 0.3,
+                "mark drawn at {drawn}, the lens images it at {observed}"
+            );
+            assert!((observed - pinhole).norm() > 2.0, "the lens moves the mark ({observed} vs {pinhole})");
+        }
+    }
 }

@@ -57,7 +57,11 @@ pub fn run(args: &SceneArgs) -> Result<()> {
         "tool_from_camera": matrix4(&config.tool_from_camera),
         "base_from_board": matrix4(&config.base_from_board(arm)),
         "camera": {
-            "focal_px": config.camera.focal_px(),
+            // (focal_px: fy, for a driver that takes one focal length, as a vertical field of view)
+            "focal_px": config.camera.fy_px(),
+            "fx_px": config.camera.fx_px(),
+            "fy_px": config.camera.fy_px(),
+            "distortion": config.camera.distortion().coefficients(),
             "principal_point_px": [config.camera.principal_point_px().x, config.camera.principal_point_px().y],
             "width_px": config.camera.width_px(),
             "height_px": config.camera.height_px(),

@@ -1,33 +1,126 @@
 //! `[camera]`: the intrinsics, where the camera sits on the hand, and where images come from.
 
 use nalgebra::Point2;
-use vservo_scene::CameraIntrinsics;
+use vservo_scene::{CameraIntrinsics, Distortion};
 
 use super::checker::Checker;
+use crate::calibration::Calibration;
 use crate::raw::{RawCamera, RawCameraSource};
 use crate::{ConfigError, VisionSource};
 
-/// The intrinsics: the image size, the principal point inside it, the focal length.
+/// The intrinsics: from `calibration_file`, or the image size, the principal point inside it, the focal
+/// lengths (`focal_px`, or `fx_px` and `fy_px`) and the lens's `distortion` (none when not written).
 pub fn intrinsics(check: &Checker, c: &RawCamera) -> Result<CameraIntrinsics, ConfigError> {
+    let calibration = match &c.calibration_file {
+        Some(file) => Some(calibration(check, c, file)?),
+        None => None,
+    };
+    let given = |key: &str, value: Option<i64>, from_file: Option<u32>| match (value, from_file) {
+        (Some(v), _) => Ok(v),
+        (None, Some(v)) => Ok(i64::from(v)),
+        (None, None) => Err(missing(check, key)),
+    };
     let size = |key: &str, v: i64| {
         check.whole(key, v, 1u32, 16384, "must be a whole number of pixels between 1 and 16384")
     };
-    let width_px = size("camera.width_px", c.width_px)?;
-    let height_px = size("camera.height_px", c.height_px)?;
+    let width_px =
+        size("camera.width_px", given("camera.width_px", c.width_px, calibration.map(|k| k.width_px))?)?;
+    let height_px =
+        size("camera.height_px", given("camera.height_px", c.height_px, calibration.map(|k| k.height_px))?)?;
     fits_camera_image(check, width_px, height_px)?;
-    let principal = check.finite("camera.principal_point_px", c.principal_point_px)?;
+    let key = "camera.principal_point_px";
+    let principal = c
+        .principal_point_px
+        .or(calibration.map(|k| k.principal_point_px))
+        .ok_or_else(|| missing(check, key))?;
+    let principal = check.finite(key, principal)?;
     if !(0.0..=f64::from(width_px)).contains(&principal[0])
         || !(0.0..=f64::from(height_px)).contains(&principal[1])
     {
         return Err(check.invalid(
-            "camera.principal_point_px",
+            key,
             format!("{principal:?}"),
             format!("must lie in the {width_px}×{height_px} image"),
         ));
     }
-    let focal_px = check.within("camera.focal_px", c.focal_px, 1.0, 1e5, "px")?;
-    CameraIntrinsics::new(focal_px, Point2::from(principal), width_px, height_px)
+    let focal_px = match calibration {
+        Some(k) => k.focal_px,
+        None => focal_lengths(check, c)?,
+    };
+    let distortion = lens(check, calibration.map_or(c.distortion.unwrap_or_default(), |k| k.distortion))?;
+    CameraIntrinsics::with_lens(focal_px, Point2::from(principal), width_px, height_px, distortion)
         .map_err(|e| check.invalid("camera", format!("{c:?}"), e.to_string()))
+}
+
+fn missing(check: &Checker, key: &str) -> ConfigError {
+    check.invalid(key, "nothing", "must be given (or camera.calibration_file)")
+}
+
+/// fx and fy: `focal_px` for square pixels, or `fx_px` and `fy_px`; never both ways.
+fn focal_lengths(check: &Checker, c: &RawCamera) -> Result<[f64; 2], ConfigError> {
+    let focal = |key: &str, v: f64| check.within(key, v, 1.0, 1e5, "px");
+    match (c.focal_px, c.fx_px, c.fy_px) {
+        (Some(f), None, None) => {
+            let f = focal("camera.focal_px", f)?;
+            Ok([f, f])
+        }
+        (None, Some(fx), Some(fy)) => Ok([focal("camera.fx_px", fx)?, focal("camera.fy_px", fy)?]),
+        (Some(f), _, _) => Err(check.invalid(
+            "camera.focal_px",
+            f,
+            "is given with camera.fx_px/fy_px: give focal_px for square pixels or fx_px and fy_px, not both",
+        )),
+        (None, None, None) => Err(check.invalid(
+            "camera.focal_px",
+            "nothing",
+            "must be given (or camera.fx_px and camera.fy_px, or camera.calibration_file)",
+        )),
+        (None, fx, _) => {
+            let (key, other) =
+                if fx.is_none() { ("camera.fx_px", "fy_px") } else { ("camera.fy_px", "fx_px") };
+            Err(check.invalid(key, "nothing", format!("must be given with camera.{other}")))
+        }
+    }
+}
+
+/// `camera.distortion` = [k1, k2, p1, p2, k3]: finite, and small enough that the lens is one to one over
+/// the image (|k| ≤ 10).
+fn lens(check: &Checker, coefficients: [f64; 5]) -> Result<Distortion, ConfigError> {
+    let coefficients =
+        check.all_within("camera.distortion", coefficients, -10.0, 10.0, "(k1, k2, p1, p2, k3)")?;
+    Distortion::new(coefficients)
+        .map_err(|e| check.invalid("camera.distortion", format!("{coefficients:?}"), e.to_string()))
+}
+
+/// The calibration file's intrinsics; it takes the place of every other lens key in its `[camera]`.
+fn calibration(check: &Checker, c: &RawCamera, file: &str) -> Result<Calibration, ConfigError> {
+    let key = "camera.calibration_file";
+    let written = [
+        ("focal_px", c.focal_px.is_some()),
+        ("fx_px", c.fx_px.is_some()),
+        ("fy_px", c.fy_px.is_some()),
+        ("principal_point_px", c.principal_point_px.is_some()),
+        ("distortion", c.distortion.is_some()),
+        ("width_px", c.width_px.is_some()),
+        ("height_px", c.height_px.is_some()),
+    ];
+    if let Some((other, _)) = written.iter().find(|(_, given)| *given) {
+        return Err(check.invalid(
+            key,
+            format!("{file:?}"),
+            format!("is given with camera.{other}: the calibration file gives the whole lens, write one or the other"),
+        ));
+    }
+    if file.trim().is_empty() {
+        return Err(check.invalid(
+            key,
+            "\"\"",
+            "must name a calibration file (ROS camera_info or OpenCV YAML)",
+        ));
+    }
+    let text = crate::layers::read_bounded(std::path::Path::new(file))
+        .map_err(|reason| check.invalid(key, format!("{file:?}"), format!("cannot read: {reason}")))?;
+    crate::calibration::parse(&text).map_err(|e| check.invalid(key, format!("{file:?}"), e.to_string()))
 }
 
 /// An image of `width_px` × `height_px` 8-bit pixels must fit in one `camera_image` sample

@@ -25,7 +25,8 @@ pub fn desired(
     })?;
     for mark in 0..MARKS {
         let pixel = Point2::new(features[2 * mark], features[2 * mark + 1]);
-        if !camera.contains(&pixel) {
+        // (inside the image where the lens shows it)
+        if !camera.contains(&camera.observed_of_pinhole(&pixel)) {
             return Err(check.invalid(
                 "desired.camera_from_board",
                 format!("{:?}", d.camera_from_board),

@@ -8,7 +8,12 @@ use crate::{ConfigError, Vision, VisionSource};
 
 /// The image source with the extractor's and the renderer's settings.
 pub fn vision(check: &Checker, v: &RawVision, source: VisionSource) -> Result<Vision, ConfigError> {
-    Ok(Vision { source, extractor: extractor(check, v)?, render: render(check, &v.render)? })
+    Ok(Vision {
+        source,
+        undistort: v.undistort,
+        extractor: extractor(check, v)?,
+        render: render(check, &v.render)?,
+    })
 }
 
 fn extractor(check: &Checker, v: &RawVision) -> Result<ExtractorSettings, ConfigError> {

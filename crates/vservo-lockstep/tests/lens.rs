@@ -1,0 +1,58 @@
+//! The cell through a distorting lens (config/vservo-distorted.toml: 640 × 480, k1 = −0.25, k2 = 0.08, the
+//! robust law): the simulated camera renders through the lens, the vision stage undistorts the marks, and the
+//! servo converges below 1 px of the true (pinhole) features. The same cell with `vision.undistort = false`
+//! (the comparison's switch only) puts the lens's error into the law: it settles where the *observed* marks
+//! are at ξ_d, pixels away from the true target.
+
+use vservo_config::Config;
+use vservo_lockstep::summary::summarize;
+use vservo_lockstep::{Lockstep, Trace};
+
+fn distorted() -> Config {
+    Config::load(concat!(env!("CARGO_MANIFEST_DIR"), "/../../config/vservo-distorted.toml"))
+        .expect("config/vservo-distorted.toml is valid")
+}
+
+fn run(config: &Config) -> Trace {
+    let trace = Lockstep::new(config).expect("reachable").run(|_| {});
+    assert!(!trace.faults.any_limit(), "{:?}", trace.faults);
+    trace
+}
+
+/// The largest distance (px) between where the extractor found a mark (in the distorted image) and its true
+/// pinhole pixel, in the last frame: what the lens does to the marks at the target.
+fn lens_displacement_px(trace: &Trace) -> f64 {
+    let last = trace.frames.last().expect("frames");
+    (0..4)
+        .map(|m| {
+            let dx = last.measured[2 * m] - last.truth[2 * m];
+            let dy = last.measured[2 * m + 1] - last.truth[2 * m + 1];
+            dx.hypot(dy)
+        })
+        .fold(0.0, f64::max)
+}
+
+#[test]
+fn through_the_lens_the_servo_converges_below_one_pixel_and_without_undistortion_it_does_not() {
+    let mut config = distorted();
+    config.scenario.duration_s = 8.0;
+    let trace = run(&config);
+    let summary = summarize(&trace, &config.scenario.object);
+    let displacement = lens_displacement_px(&trace);
+    println!(
+        "undistorted features: final error {:.3} px, settling {:?} s; the lens moves the marks by up to {displacement:.2} px",
+        summary.final_error_px, summary.settling_time_s
+    );
+    assert!(summary.final_error_px < 1.0, "{summary:?}");
+    assert!(displacement > 2.0, "the test's premise: the lens moves the marks by pixels ({displacement} px)");
+
+    config.vision.undistort = false;
+    let ignored = summarize(&run(&config), &config.scenario.object);
+    println!(
+        "features left distorted: final error {:.3} px ({:.1}× the undistorted run's)",
+        ignored.final_error_px,
+        ignored.final_error_px / summary.final_error_px
+    );
+    assert!(ignored.final_error_px > 2.0, "{ignored:?}");
+    assert!(ignored.final_error_px > 5.0 * summary.final_error_px, "{ignored:?} against {summary:?}");
+}
