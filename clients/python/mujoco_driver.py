@@ -284,6 +284,13 @@ def build_mjcf(scene) -> str:
     thickness = 0.005  # the white face is the board plane z = 0; the marks lie on it, 0.1 mm towards the camera
     marks = "".join(f'<geom type="cylinder" size="{board["mark_diameter_m"] / 2:.9g} 0.00005" pos="{x:.9g} {y:.9g} -0.00005" '
                     f'material="mark"/>' for x, y in board["marks_in_board_m"])
+    tag = board.get("apriltag")
+    if tag:  # an AprilTag target: its black cells as thin black boxes on the board (the white ones are the board)
+        cell = tag["size_m"] / 8
+        (cx, cy) = tag["centre_in_board_m"]
+        marks = "".join(f'<geom type="box" size="{cell / 2:.9g} {cell / 2:.9g} 0.00005" '
+                        f'pos="{cx + (column - 3.5) * cell:.9g} {cy + (row - 3.5) * cell:.9g} -0.00005" material="mark"/>'
+                        for row, cells in enumerate(tag["black_cells"]) for column, black in enumerate(cells) if black)
     actuators = "".join(f'<position joint="q{i}" kp="1"/><velocity joint="q{i}" kv="1"/>' for i in range(1, 7))
     return f"""
 <mujoco model="vservo-cell">

@@ -7,7 +7,7 @@ use vservo_config::Config;
 use vservo_scene::{Board, CameraIntrinsics, FeatureVector, IsometryMatrix3, MARKS};
 use vservo_vision::GrayImage;
 use vservo_vision::source::SimulatedCamera;
-use vservo_vision::{Extraction, Extractor, Prediction};
+use vservo_vision::{Extraction, Extractor, Prediction, TagExtractor};
 
 /// After this many frames in a row with a mark missing, the tracker gives up its prediction and matches
 /// the layout again.
@@ -64,6 +64,8 @@ pub struct VisionStage {
     undistort: bool,
     camera: SimulatedCamera,
     extractor: Extractor,
+    /// With an AprilTag target, its extractor (the marks' is then not used).
+    tag_extractor: Option<TagExtractor>,
     /// The latest known position of each mark, once all four have been found.
     tracked: Option<FeatureVector>,
     /// Frames in a row with a mark missing.
@@ -96,6 +98,10 @@ impl VisionStage {
                 config.camera.width_px(),
                 config.camera.height_px(),
             ),
+            tag_extractor: config
+                .board
+                .apriltag()
+                .map(|tag| TagExtractor::new(tag.id(), config.camera.width_px(), config.camera.height_px())),
             tracked: None,
             frames_with_a_mark_missing: 0,
             pipeline: VecDeque::with_capacity(delay_frames + 1),
@@ -179,12 +185,14 @@ impl VisionStage {
         let base_from_camera = self.arm.base_from_tool(q) * self.tool_from_camera;
         let camera_from_board = base_from_camera.inverse() * base_from_board;
         let hidden = self.scenario.hidden_marks(tick as f64 * self.control_period_s);
-        let image = self.camera.capture_hiding(&camera_from_board, frame, hidden);
-        let prediction = match self.tracked {
-            Some(p) => Prediction::Tracking(p),
-            None => Prediction::Layout(self.layout),
-        };
-        let captured = self.extractor.extract(image, &prediction);
+        self.camera.capture_hiding(&camera_from_board, frame, hidden);
+        let captured = Self::extract_with(
+            &mut self.extractor,
+            self.tag_extractor.as_ref(),
+            self.camera.image(),
+            self.tracked,
+            self.layout,
+        );
         let truth = self
             .intrinsics
             .project_marks(&self.board, &camera_from_board)
@@ -208,11 +216,7 @@ impl VisionStage {
         q: Option<&JointVector>,
         image: &GrayImage,
     ) -> (Extraction, Option<DeliveredFrame>) {
-        let prediction = match self.tracked {
-            Some(p) => Prediction::Tracking(p),
-            None => Prediction::Layout(self.layout),
-        };
-        let captured = self.extractor.extract(image, &prediction);
+        let captured = self.extract(image);
         let base_from_camera = q
             .filter(|q| q.iter().all(|v| v.is_finite()))
             .map(|q| self.arm.base_from_tool(q) * self.tool_from_camera);
@@ -241,6 +245,29 @@ impl VisionStage {
             features[2 * mark + 1] = pinhole.y;
         }
         features
+    }
+
+    /// The features of `image`: the tag's corners with an AprilTag target (looked for near the tracked
+    /// ones first), else the marks (tracked, or matched to the layout).
+    fn extract(&mut self, image: &GrayImage) -> Extraction {
+        Self::extract_with(&mut self.extractor, self.tag_extractor.as_ref(), image, self.tracked, self.layout)
+    }
+
+    fn extract_with(
+        extractor: &mut Extractor,
+        tag_extractor: Option<&TagExtractor>,
+        image: &GrayImage,
+        tracked: Option<FeatureVector>,
+        layout: FeatureVector,
+    ) -> Extraction {
+        if let Some(tag) = tag_extractor {
+            return tag.extract(image, tracked.as_ref()).to_extraction();
+        }
+        let prediction = match tracked {
+            Some(p) => Prediction::Tracking(p),
+            None => Prediction::Layout(layout),
+        };
+        extractor.extract(image, &prediction)
     }
 
     /// Updates the tracker with a frame's extraction and moves the pipeline on.

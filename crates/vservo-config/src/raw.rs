@@ -30,6 +30,45 @@ pub struct RawConfig {
     pub reacquire: RawReacquire,
     #[serde(default)]
     pub viewer: RawViewer,
+    #[serde(default)]
+    pub target: RawTarget,
+}
+
+/// `[target]`: what the four features are (docs/VISION.md).
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct RawTarget {
+    pub kind: RawTargetKind,
+    pub family: RawTagFamily,
+    pub id: i64,
+    pub tag_size_m: f64,
+    pub centre_in_board_m: [f64; 2],
+}
+
+impl Default for RawTarget {
+    fn default() -> Self {
+        Self {
+            kind: RawTargetKind::Marks,
+            family: RawTagFamily::Tag36h11,
+            id: 0,
+            tag_size_m: 0.1,
+            centre_in_board_m: [0.0, 0.0],
+        }
+    }
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum RawTargetKind {
+    Marks,
+    AprilTag,
+}
+
+/// The tag families vservo renders and detects: tag36h11 only.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
+pub enum RawTagFamily {
+    #[serde(rename = "tag36h11")]
+    Tag36h11,
 }
 
 #[derive(Debug, Deserialize)]

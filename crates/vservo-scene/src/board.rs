@@ -1,6 +1,8 @@
-//! The object: a flat board with four dark disc marks.
+//! The object: a flat board with four dark disc marks, or with one AprilTag whose four corners are the marks.
 
 use nalgebra::{Point2, Point3};
+
+use crate::tag36h11;
 
 /// Number of marks on the board.
 pub const MARKS: usize = 4;
@@ -9,12 +11,116 @@ pub const MARKS: usize = 4;
 /// the side the camera looks at; the marks lie in its z = 0 plane.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Board {
-    /// Mark centres in the board frame (m), in the fixed feature order.
+    /// Mark centres in the board frame (m), in the fixed feature order. With an AprilTag target, the tag's
+    /// four corners in the tag's own order ([`AprilTag::corners_in_board`]).
     pub marks_in_board: [Point3<f64>; MARKS],
-    /// Diameter of each disc mark (m).
+    /// Diameter of each disc mark (m); unused with an AprilTag target.
     pub mark_diameter_m: f64,
     /// The white board's rectangle in the board frame's z = 0 plane: its lowest and highest (x, y) (m).
     pub extent_in_board: [Point2<f64>; 2],
+    /// What is printed on the board: the disc marks, or one AprilTag.
+    pub target: Target,
+}
+
+/// What is printed on the board, and so what the four features are.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Target {
+    /// Four dark discs at `marks_in_board` (the paper's).
+    Marks,
+    /// One tag36h11 AprilTag; the features are its four corners.
+    AprilTag(AprilTag),
+}
+
+/// One tag of the tag36h11 family lying on the board, its rows along the board's +y axis and its columns
+/// along +x (so, seen fronto-parallel with an upright camera, it appears as printed).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct AprilTag {
+    id: u16,
+    /// Edge of the black square (m).
+    size_m: f64,
+    /// The black square's centre in the board frame (m).
+    centre_in_board: Point2<f64>,
+    /// The 8 × 8 cells of the black square, bit `8·row + column` set where the cell is black.
+    black_cells: u64,
+}
+
+/// The id is not one of the family's.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+#[error("tag36h11 has ids 0 to {} only; {id} is not one", tag36h11::CODES.len() - 1)]
+pub struct UnknownTagId {
+    /// The id asked for.
+    pub id: u32,
+}
+
+impl AprilTag {
+    /// Tag `id` of tag36h11 with a black square `size_m` on a side centred at `centre_in_board`.
+    pub fn tag36h11(id: u32, size_m: f64, centre_in_board: Point2<f64>) -> Result<Self, UnknownTagId> {
+        match u16::try_from(id) {
+            Ok(small) if (small as usize) < tag36h11::CODES.len() => {
+                Ok(Self { id: small, size_m, centre_in_board, black_cells: black_cells(small) })
+            }
+            _ => Err(UnknownTagId { id }),
+        }
+    }
+
+    /// Its id in the family.
+    pub fn id(&self) -> u32 {
+        u32::from(self.id)
+    }
+
+    /// Its 36-bit code (`tag36h11::CODES[id]`).
+    pub fn code(&self) -> u64 {
+        tag36h11::CODES[self.id as usize]
+    }
+
+    /// Edge of the black square (m).
+    pub fn size_m(&self) -> f64 {
+        self.size_m
+    }
+
+    /// The black square's centre in the board frame (m).
+    pub fn centre_in_board(&self) -> Point2<f64> {
+        self.centre_in_board
+    }
+
+    /// The four outer corners of the black square in the board frame, in the C library's order: in tag
+    /// coordinates (x along the columns, y along the rows, ±1 at the black square's edges) (−1, +1),
+    /// (+1, +1), (+1, −1), (−1, −1): bottom left, bottom right, top right, top left of the tag as printed
+    /// (counter-clockwise in an image with y down, as `apriltag_detection_t::p` wraps).
+    pub fn corners_in_board(&self) -> [Point3<f64>; MARKS] {
+        let h = 0.5 * self.size_m;
+        let c = self.centre_in_board;
+        [(-1.0, 1.0), (1.0, 1.0), (1.0, -1.0), (-1.0, -1.0)]
+            .map(|(x, y)| Point3::new(c.x + x * h, c.y + y * h, 0.0))
+    }
+
+    /// Whether a point of the board plane is on a black cell of the tag (its border or a 0 bit); `None` off
+    /// the black square (the white margin is the board itself).
+    pub fn is_black_at(&self, x_m: f64, y_m: f64) -> Option<bool> {
+        let cells = f64::from(tag36h11::WIDTH_AT_BORDER);
+        // cell coordinates: 0..8 across the black square, the columns along +x and the rows along +y
+        let u = ((x_m - self.centre_in_board.x) / self.size_m + 0.5) * cells;
+        let v = ((y_m - self.centre_in_board.y) / self.size_m + 0.5) * cells;
+        if !(0.0..cells).contains(&u) || !(0.0..cells).contains(&v) {
+            return None;
+        }
+        let (column, row) = (u as u32, v as u32);
+        Some(self.black_cells >> (row * tag36h11::WIDTH_AT_BORDER + column) & 1 == 1)
+    }
+}
+
+/// The black cells of tag `id`: all, but those of the code's 1 bits.
+fn black_cells(id: u16) -> u64 {
+    let code = tag36h11::CODES[id as usize];
+    let mut cells = u64::MAX;
+    for i in 0..tag36h11::BITS {
+        if code >> (tag36h11::BITS - 1 - i) & 1 == 1 {
+            let cell =
+                u32::from(tag36h11::BIT_Y[i]) * tag36h11::WIDTH_AT_BORDER + u32::from(tag36h11::BIT_X[i]);
+            cells &= !(1u64 << cell);
+        }
+    }
+    cells
 }
 
 impl Board {
@@ -26,6 +132,60 @@ impl Board {
             marks_in_board: [mark(151.0, 168.0), mark(318.0, 178.0), mark(339.0, 75.0), mark(172.0, 70.0)],
             mark_diameter_m: 0.015,
             extent_in_board: [Point2::new(-0.16, -0.24), Point2::new(0.14, -0.03)],
+            target: Target::Marks,
         }
+    }
+
+    /// A board of the given extent with `tag` printed on it: its marks are the tag's corners.
+    pub fn with_apriltag(tag: AprilTag, extent_in_board: [Point2<f64>; 2]) -> Board {
+        Board {
+            marks_in_board: tag.corners_in_board(),
+            mark_diameter_m: 0.0,
+            extent_in_board,
+            target: Target::AprilTag(tag),
+        }
+    }
+
+    /// The AprilTag on the board, if that is the target.
+    pub fn apriltag(&self) -> Option<&AprilTag> {
+        match &self.target {
+            Target::AprilTag(tag) => Some(tag),
+            Target::Marks => None,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_tag_reads_back_its_code_cell_by_cell_and_has_a_black_border() {
+        let tag = AprilTag::tag36h11(7, 0.08, Point2::new(0.01, -0.02)).expect("id 7 exists");
+        let cell = 0.08 / 8.0;
+        let at = |column: u8, row: u8| {
+            tag.is_black_at(
+                0.01 - 0.04 + (f64::from(column) + 0.5) * cell,
+                -0.02 - 0.04 + (f64::from(row) + 0.5) * cell,
+            )
+        };
+        let mut code = 0u64;
+        for i in 0..tag36h11::BITS {
+            let black = at(tag36h11::BIT_X[i], tag36h11::BIT_Y[i]).expect("inside the square");
+            code = code << 1 | u64::from(!black);
+        }
+        assert_eq!(code, 0x0000_0002_23be_d79d, "tag36h11.c codedata[7]");
+        for k in 0..8 {
+            for (column, row) in [(k, 0), (0, k), (k, 7), (7, k)] {
+                assert_eq!(at(column, row), Some(true), "border cell ({column}, {row}) is black");
+            }
+        }
+        assert_eq!(tag.is_black_at(0.01 + 0.0401, -0.02), None, "just right of the square: the margin");
+    }
+
+    #[test]
+    fn ids_beyond_the_family_are_refused() {
+        assert!(AprilTag::tag36h11(586, 0.1, Point2::origin()).is_ok());
+        assert_eq!(AprilTag::tag36h11(587, 0.1, Point2::origin()), Err(UnknownTagId { id: 587 }));
     }
 }

@@ -24,8 +24,9 @@
 mod board;
 mod camera;
 pub mod lens;
+pub mod tag36h11;
 
-pub use board::{Board, MARKS};
+pub use board::{AprilTag, Board, MARKS, Target, UnknownTagId};
 pub use camera::{CameraIntrinsics, IntrinsicsError, ProjectionError, image_contains};
 pub use lens::{Distortion, DistortionError};
 pub use nalgebra::IsometryMatrix3;

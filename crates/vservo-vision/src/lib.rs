@@ -9,6 +9,9 @@
 //!   components, area and shape filters, coverage-weighted sub-pixel centroids, and association of blobs
 //!   to marks so that the order of ξ never changes, with per-mark validity and a reason when a mark is
 //!   missing, cut by the border, merged with another, or when extra dark blobs appear.
+//! - [`tag::TagExtractor`]: with an AprilTag target, the four corners of the configured tag36h11 tag in the
+//!   tag's own order (the reference C detector, then a sub-pixel edge refinement, [`tag_refine`]), or a
+//!   verdict (not found, another id, a corner outside the image) and no features.
 //! - [`source`]: image sources — the simulated camera, and a directory of PGM or PNG files (recorded real
 //!   images).
 //!
@@ -23,7 +26,10 @@ pub mod extract;
 pub mod noise;
 pub mod render;
 pub mod source;
+pub mod tag;
+pub mod tag_refine;
 
 pub use extract::{Extraction, Extractor, ExtractorSettings, MarkStatus, Prediction, Threshold};
 pub use image::GrayImage;
 pub use render::{RenderSettings, Renderer};
+pub use tag::{TagExtraction, TagExtractor, TagVerdict};

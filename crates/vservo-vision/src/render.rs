@@ -7,7 +7,7 @@
 
 use image::GrayImage;
 use nalgebra::{Matrix3, Point2, Point3, Vector3};
-use vservo_scene::{Board, CameraIntrinsics, IsometryMatrix3, MARKS};
+use vservo_scene::{AprilTag, Board, CameraIntrinsics, IsometryMatrix3, MARKS};
 
 use crate::noise::{GaussianTable, Xorshift64};
 
@@ -163,15 +163,22 @@ impl Scene<'_> {
     #[inline]
     fn surface(&self, x: f64, y: f64) -> Surface {
         let Some(p) = self.board_point_of(x, y) else { return Surface::Background };
-        self.surface_at(&p)
+        self.surface_on_board_plane(p)
     }
 
-    /// What lies at board-plane point `p`.
+    /// What a point of the board plane (board frame, m) is: off the board, the white board, a disc mark or
+    /// a black cell of the tag (the tag's white cells are the board's white).
     #[inline]
-    fn surface_at(&self, p: &Point2<f64>) -> Surface {
+    fn surface_on_board_plane(&self, p: Point2<f64>) -> Surface {
         let [lo, hi] = self.board.extent_in_board;
         if p.x < lo.x || p.x > hi.x || p.y < lo.y || p.y > hi.y {
             return Surface::Background;
+        }
+        if let Some(tag) = self.board.apriltag() {
+            return match tag.is_black_at(p.x, p.y) {
+                Some(true) => Surface::Mark,
+                _ => Surface::Board,
+            };
         }
         let r2 = self.mark_radius_m * self.mark_radius_m;
         let on_mark =
@@ -205,8 +212,25 @@ impl Scene<'_> {
     /// The pixel box (u0, u1, v0, v1), exclusive ends, that holds mark `index`'s image; `None` when part
     /// of the mark is behind the camera (it is then drawn by the edge sampler alone).
     fn mark_box(&self, index: usize) -> Option<(i64, i64, i64, i64)> {
+        if self.board.apriltag().is_some() {
+            return None;
+        }
         let c = self.board.marks_in_board[index];
         let r = self.mark_radius_m;
+        self.board_box(c.x, c.y, r)
+    }
+
+    /// The pixel box (u0, u1, v0, v1), exclusive ends, that holds the tag's black square; `None` without a
+    /// tag or when part of it is behind the camera (it is then drawn by the edge sampler alone).
+    fn tag_box(&self) -> Option<(i64, i64, i64, i64)> {
+        let tag = self.board.apriltag()?;
+        let c = tag.centre_in_board();
+        self.board_box(c.x, c.y, 0.5 * tag.size_m())
+    }
+
+    /// The pixel box holding the image of the board square of half-side `r` centred at (cx, cy).
+    fn board_box(&self, cx: f64, cy: f64, r: f64) -> Option<(i64, i64, i64, i64)> {
+        let c = Point2::new(cx, cy);
         let (mut u0, mut u1, mut v0, mut v1) =
             (f64::INFINITY, f64::NEG_INFINITY, f64::INFINITY, f64::NEG_INFINITY);
         for (dx, dy) in [(-r, -r), (r, -r), (r, r), (-r, r)] {
@@ -281,6 +305,7 @@ impl Renderer {
         let outline_samples = (samples / 2).max(2);
         let supersample_outline = |u: i64, v: i64| supersample_with(u, v, outline_samples);
         let mark_boxes: [Option<(i64, i64, i64, i64)>; MARKS] = std::array::from_fn(|i| scene.mark_box(i));
+        let tag_box = scene.tag_box();
         let mut rng = Xorshift64::new(s.noise_seed ^ frame.wrapping_mul(0x9E37_79B9_7F4A_7C15));
         let [gx, gy] = s.lighting_gradient;
         let noisy = s.noise_sigma_gray > 0.0;
@@ -346,6 +371,15 @@ impl Renderer {
                     for u in u0.max(full_start)..u1.min(full_end) {
                         row[u as usize] = mark_pixel(&scene, u, v, s.board_gray, s.mark_gray)
                             .unwrap_or_else(|| supersample(u, v));
+                    }
+                }
+                // the tag: likewise only inside the wholly-on-board stretch
+                if let (Some((u0, u1, v0, v1)), Some(tag)) = (tag_box, board.apriltag()) {
+                    if v >= v0 && v < v1 {
+                        for u in u0.max(full_start)..u1.min(full_end) {
+                            row[u as usize] = tag_pixel(&scene, tag, u, v, s.board_gray, s.mark_gray)
+                                .unwrap_or_else(|| supersample(u, v));
+                        }
                     }
                 }
             }
@@ -497,6 +531,41 @@ fn mark_pixel(scene: &Scene, u: i64, v: i64, board_gray: f64, mark_gray: f64) ->
         }
     }
     outside_all.then_some(board_gray as f32)
+}
+
+/// The gray of a pixel wholly on the board near the tag when it lies wholly in one cell of the black square
+/// or wholly beside it; `None` when a cell edge may cross it (then it is supersampled). A pixel's footprint
+/// on the board plane is a convex quadrilateral, so its four corners in one (convex) cell, or all beyond
+/// one side of the square, put all of it there.
+#[inline]
+fn tag_pixel(scene: &Scene, tag: &AprilTag, u: i64, v: i64, board_gray: f64, mark_gray: f64) -> Option<f32> {
+    let corners = [(0.0, 0.0), (1.0, 0.0), (1.0, 1.0), (0.0, 1.0)]
+        .map(|(du, dv)| scene.on_board(u as f64 + du, v as f64 + dv));
+    let mut cells = [(0i64, 0i64); 4];
+    for (cell, corner) in cells.iter_mut().zip(corners) {
+        let p = corner?;
+        let c = tag.centre_in_board();
+        let per_cell = tag.size_m() / f64::from(vservo_scene::tag36h11::WIDTH_AT_BORDER);
+        *cell =
+            (((p.x - c.x) / per_cell + 4.0).floor() as i64, ((p.y - c.y) / per_cell + 4.0).floor() as i64);
+    }
+    let beside = cells.iter().all(|c| c.0 < 0)
+        || cells.iter().all(|c| c.0 > 7)
+        || cells.iter().all(|c| c.1 < 0)
+        || cells.iter().all(|c| c.1 > 7);
+    if beside {
+        return Some(board_gray as f32);
+    }
+    if cells.iter().any(|&c| c != cells[0]) || !(0..8).contains(&cells[0].0) || !(0..8).contains(&cells[0].1)
+    {
+        return None;
+    }
+    let (column, row) = cells[0];
+    let per_cell = tag.size_m() / 8.0;
+    let c = tag.centre_in_board();
+    let x = c.x + (column as f64 - 4.0 + 0.5) * per_cell;
+    let y = c.y + (row as f64 - 4.0 + 0.5) * per_cell;
+    Some(if tag.is_black_at(x, y) == Some(true) { mark_gray } else { board_gray } as f32)
 }
 
 #[cfg(test)]

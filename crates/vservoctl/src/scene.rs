@@ -70,6 +70,14 @@ pub fn run(args: &SceneArgs) -> Result<()> {
             "mark_diameter_m": board.mark_diameter_m,
             "marks_in_board_m": board.marks_in_board.iter().map(|p| [p.x, p.y]).collect::<Vec<_>>(),
             "extent_m": board.extent_in_board.map(|p| [p.x, p.y]),
+            // with an AprilTag target: the tag, and its black cells (row-major, 8 × 8, rows along +y) to draw
+            "apriltag": board.apriltag().map(|tag| json!({
+                "family": "tag36h11",
+                "id": tag.id(),
+                "size_m": tag.size_m(),
+                "centre_in_board_m": [tag.centre_in_board().x, tag.centre_in_board().y],
+                "black_cells": black_cells(tag),
+            })),
         },
         "timing": {"vision_period_s": config.timing.vision_period_s},
         "robot": {
@@ -84,4 +92,21 @@ pub fn run(args: &SceneArgs) -> Result<()> {
     });
     print_stdout(&format!("{}\n", serde_json::to_string_pretty(&scene)?))?;
     Ok(())
+}
+
+/// The tag's 8 × 8 cells, row by row (rows along the board's +y, columns along +x): true where black.
+fn black_cells(tag: &vservo_scene::AprilTag) -> Vec<Vec<bool>> {
+    let cell = tag.size_m() / 8.0;
+    let c = tag.centre_in_board();
+    (0..8)
+        .map(|row| {
+            (0..8)
+                .map(|column| {
+                    let x = c.x + (f64::from(column) - 3.5) * cell;
+                    let y = c.y + (f64::from(row) - 3.5) * cell;
+                    tag.is_black_at(x, y) == Some(true)
+                })
+                .collect()
+        })
+        .collect()
 }

@@ -29,7 +29,7 @@ pub fn validate(raw: RawConfig, file: &str) -> Result<Config, ConfigError> {
     let timing = timing::timing(&check, &raw.timing)?;
     let camera = camera::intrinsics(&check, &raw.camera)?;
     let tool_from_camera = camera::tool_from_camera(&check, &raw.camera)?;
-    let board = object::board(&check, &raw.object)?;
+    let board = object::board(&check, &raw.object, &raw.target)?;
     let arm = arm::arm(&check, &raw.robot.arm)?;
     let desired = desired::desired(&check, &raw.desired, &arm, &camera, &board)?;
     let controller = controller::controller(&check, &raw.controller, &camera, &desired.features)?;

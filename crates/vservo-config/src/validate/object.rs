@@ -1,19 +1,58 @@
-//! `[object]`: the board and its marks.
+//! `[object]` and `[target]`: the board and what is printed on it (its marks, or an AprilTag).
 
 use nalgebra::{Point2, Point3};
-use vservo_scene::{Board, MARKS};
+use vservo_scene::{AprilTag, Board, MARKS, Target, tag36h11};
 
 use super::checker::Checker;
 use crate::ConfigError;
-use crate::raw::RawObject;
+use crate::raw::{RawObject, RawTagFamily, RawTarget, RawTargetKind};
 
-/// The board: four marks, further apart than a mark's diameter, each whole on the board.
-pub fn board(check: &Checker, o: &RawObject) -> Result<Board, ConfigError> {
+/// The board: four marks, further apart than a mark's diameter, each whole on the board; or, with
+/// `[target] kind = "apriltag"`, one tag with its white margin on the board (the marks are then its corners
+/// and `object.marks_in_board_m` is not used).
+pub fn board(check: &Checker, o: &RawObject, target: &RawTarget) -> Result<Board, ConfigError> {
     let mark_diameter_m = check.within("object.mark_diameter_m", o.mark_diameter_m, 0.001, 1.0, "m")?;
+    if target.kind == RawTargetKind::AprilTag {
+        let tag = apriltag(check, target)?;
+        let extent_in_board = tag_extent(check, o, &tag)?;
+        return Ok(Board::with_apriltag(tag, extent_in_board));
+    }
     let marks_in_board = marks(check, o)?;
     marks_apart(check, o, &marks_in_board, mark_diameter_m)?;
     let extent_in_board = extent(check, o, &marks_in_board, mark_diameter_m)?;
-    Ok(Board { marks_in_board, mark_diameter_m, extent_in_board })
+    Ok(Board { marks_in_board, mark_diameter_m, extent_in_board, target: Target::Marks })
+}
+
+/// `[target]` for an AprilTag: the family (tag36h11 only, the parser refuses any other), an id of the
+/// family, the black square's edge within 5 mm–2 m and its centre within ±5 m.
+fn apriltag(check: &Checker, target: &RawTarget) -> Result<AprilTag, ConfigError> {
+    let RawTagFamily::Tag36h11 = target.family;
+    let last_id = tag36h11::CODES.len() as u32 - 1;
+    let id =
+        check.whole("target.id", target.id, 0u32, last_id, &format!("tag36h11 has ids 0 to {last_id}"))?;
+    let size_m = check.within("target.tag_size_m", target.tag_size_m, 0.005, 2.0, "m")?;
+    let [x, y] = check.all_within("target.centre_in_board_m", target.centre_in_board_m, -5.0, 5.0, "m")?;
+    AprilTag::tag36h11(id, size_m, Point2::new(x, y))
+        .map_err(|e| check.invalid("target.id", target.id, e.to_string()))
+}
+
+/// `object.board_extent_m` with a tag: within ±5 m, min < max, holding the tag and its white margin (one
+/// cell, an eighth of the black square, on every side: the detector needs it).
+fn tag_extent(check: &Checker, o: &RawObject, tag: &AprilTag) -> Result<[Point2<f64>; 2], ConfigError> {
+    let [[x0, y0], [x1, y1]] = o.board_extent_m;
+    let extent_ok = [x0, y0, x1, y1].iter().all(|v| v.is_finite() && v.abs() <= 5.0) && x0 < x1 && y0 < y1;
+    let reach = tag.size_m() * 0.5 * f64::from(tag36h11::TOTAL_WIDTH) / f64::from(tag36h11::WIDTH_AT_BORDER);
+    let c = tag.centre_in_board();
+    let on_board = c.x - reach >= x0 && c.x + reach <= x1 && c.y - reach >= y0 && c.y + reach <= y1;
+    if !extent_ok || !on_board {
+        return Err(check.invalid(
+            "object.board_extent_m",
+            format!("{:?}", o.board_extent_m),
+            "must be [[x_min, y_min], [x_max, y_max]] within ±5 m with min < max, holding the whole tag and its \
+             white margin of one cell",
+        ));
+    }
+    Ok([Point2::new(x0, y0), Point2::new(x1, y1)])
 }
 
 /// `object.marks_in_board_m`: [`MARKS`] points within ±5 m.

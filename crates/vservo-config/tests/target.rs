@@ -1,0 +1,69 @@
+//! `[target]`: the default is the paper's marks; an AprilTag's corners become the four marks and the desired
+//! features follow; a bad family, id or size is refused naming its key.
+
+use vservo_config::{Config, ConfigError};
+use vservo_scene::Target;
+
+const APRILTAG: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../config/vservo-apriltag.toml");
+const DEFAULT: &str = include_str!("../../../config/vservo.toml");
+
+/// The default file with a `[target]` section appended.
+fn default_with_target(target: &str) -> Result<Config, ConfigError> {
+    Config::from_toml(&format!("{DEFAULT}\n[target]\n{target}\n"), "test.toml")
+}
+
+#[test]
+fn the_default_target_is_the_marks() {
+    let config = Config::from_toml(DEFAULT, "vservo.toml").expect("valid");
+    assert_eq!(config.board.target, Target::Marks);
+}
+
+#[test]
+fn the_apriltag_cell_servoes_on_the_tags_corners_in_the_tags_order() {
+    let config = Config::load(APRILTAG).expect("config/vservo-apriltag.toml is valid");
+    let tag = config.board.apriltag().expect("an AprilTag target");
+    assert_eq!(tag.id(), 3);
+    assert_eq!(config.board.marks_in_board, tag.corners_in_board());
+    // 0.5 m fronto-parallel in front of a 0.16 m tag with f = 500 px: 160 px wide, centred at (320, 240);
+    // bottom left, bottom right, top right, top left
+    let expected = [240.0, 320.0, 400.0, 320.0, 400.0, 160.0, 240.0, 160.0];
+    for (f, e) in config.desired.features.iter().zip(expected) {
+        assert!((f - e).abs() < 1e-9, "{}", config.desired.features);
+    }
+    assert_eq!((config.camera.width_px(), config.camera.height_px()), (640, 480));
+}
+
+#[test]
+fn another_family_is_refused_naming_it() {
+    let error = default_with_target("kind = \"apriltag\"\nfamily = \"tag25h9\"").expect_err("refused");
+    let message = error.to_string();
+    assert!(message.contains("family") && message.contains("tag25h9"), "{message}");
+}
+
+#[test]
+fn bad_ids_sizes_and_placements_are_refused_naming_their_key() {
+    let cases = [
+        ("kind = \"apriltag\"\nid = 587\ntag_size_m = 0.05\ncentre_in_board_m = [0.0, -0.135]", "target.id"),
+        ("kind = \"apriltag\"\nid = -1\ntag_size_m = 0.05\ncentre_in_board_m = [0.0, -0.135]", "target.id"),
+        (
+            "kind = \"apriltag\"\nid = 1\ntag_size_m = 0.0\ncentre_in_board_m = [0.0, -0.135]",
+            "target.tag_size_m",
+        ),
+        // 0.2 m with its margin is 0.25 m: more than the board's 0.21 m height
+        (
+            "kind = \"apriltag\"\nid = 1\ntag_size_m = 0.2\ncentre_in_board_m = [0.0, -0.135]",
+            "object.board_extent_m",
+        ),
+        (
+            "kind = \"apriltag\"\nid = 1\ntag_size_m = 0.05\ncentre_in_board_m = [0.5, -0.135]",
+            "object.board_extent_m",
+        ),
+        ("kind = \"tags\"", "kind"),
+    ];
+    for (target, key) in cases {
+        let error = default_with_target(target).expect_err("refused");
+        assert!(error.to_string().contains(key), "{target}: {error}");
+    }
+    default_with_target("kind = \"apriltag\"\nid = 1\ntag_size_m = 0.05\ncentre_in_board_m = [0.0, -0.135]")
+        .expect("a small tag on the board is taken");
+}

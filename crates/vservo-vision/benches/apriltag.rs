@@ -1,0 +1,54 @@
+//! Speed of the AprilTag extractor (detection + sub-pixel refinement) against the reference C detector alone
+//! on the same images: one tag36h11 tag about 200 px wide at 640 × 480 (400 px at 1280 × 1024), clean and
+//! with Gaussian noise of σ = 5 gray levels; the extractor on the whole image and with the previous frame's
+//! detection. `cargo bench -p vservo-vision --bench apriltag` (docs/BENCHMARKS.md).
+
+use std::hint::black_box;
+
+use criterion::{Criterion, criterion_group, criterion_main};
+use nalgebra::{Point2, Rotation3, Translation3, Vector3};
+use vservo_scene::{AprilTag, Board, CameraIntrinsics, IsometryMatrix3};
+use vservo_vision::tag::reference_detections;
+use vservo_vision::{RenderSettings, Renderer, TagExtractor, TagVerdict};
+
+fn apriltag(c: &mut Criterion) {
+    let tag = AprilTag::tag36h11(3, 0.16, Point2::new(-0.01, -0.135)).expect("a tag36h11 id");
+    let board = Board::with_apriltag(tag, [Point2::new(-0.16, -0.24), Point2::new(0.14, -0.03)]);
+    // 0.4 m away, a little tilted and rolled
+    let pose = IsometryMatrix3::from_parts(
+        Translation3::new(0.02, 0.15, 0.4),
+        Rotation3::from_scaled_axis(Vector3::new(0.1, -0.15, 0.3)),
+    );
+    let mut group = c.benchmark_group("apriltag");
+    group.sample_size(30).measurement_time(std::time::Duration::from_secs(3));
+    for (width, height) in [(640u32, 480u32), (1280, 1024)] {
+        let focal = 500.0 * f64::from(width) / 640.0;
+        let centre = Point2::new(f64::from(width) / 2.0, f64::from(height) / 2.0);
+        let camera = CameraIntrinsics::new(focal, centre, width, height).expect("valid camera");
+        for (noise, sigma) in [("clean", 0.0), ("sigma5", 5.0)] {
+            let settings = RenderSettings {
+                noise_sigma_gray: sigma,
+                lighting_gradient: [0.0, 0.0],
+                ..Default::default()
+            };
+            let image = Renderer::new(camera, settings).render(&board, &pose, 1).clone();
+            let extractor = TagExtractor::new(3, width, height);
+            let first = extractor.extract(&image, None);
+            assert_eq!(first.verdict, TagVerdict::Found, "{width}x{height} {noise}");
+            let name = format!("{width}x{height}_{noise}");
+            group.bench_function(format!("extract_full_{name}"), |b| {
+                b.iter(|| extractor.extract(black_box(&image), None))
+            });
+            group.bench_function(format!("extract_previous_{name}"), |b| {
+                b.iter(|| extractor.extract(black_box(&image), Some(&first.features)))
+            });
+            group.bench_function(format!("c_detector_full_{name}"), |b| {
+                b.iter(|| reference_detections(black_box(&image)).len())
+            });
+        }
+    }
+    group.finish();
+}
+
+criterion_group!(benches, apriltag);
+criterion_main!(benches);

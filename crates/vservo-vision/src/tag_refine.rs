@@ -1,0 +1,225 @@
+//! Sub-pixel corners of a tag's black square from the area coverage of the pixels along its four edges.
+//!
+//! A pixel's gray is the mean of what its footprint sees (the renderer's model, and a camera's to the
+//! extent its fill factor is high). So in a strip of whole pixels one pixel wide that crosses a straight
+//! edge, the dark length is the sum of the pixels' dark fractions (b − g)/(b − d), b and d the bright and
+//! dark levels; it equals the dark length at the strip's centre line exactly, whatever the edge's slope
+//! (the edge is linear across the strip). Blur moves gray along the strip but keeps its sum, so the strip
+//! still measures the edge as long as it reaches the flat levels on both sides. For an edge that runs
+//! more along x than y each strip is a pixel column (else a row); b and d are fitted as straight lines
+//! along the edge (a lighting gradient) to the strips' end pixels; a straight line is fitted to the
+//! edge positions, once again without the points more than 3 RMS (at least 0.5 px) off; adjacent lines
+//! intersect at the corners. An edge with too few strips, a poor fit or a corner that moved more than
+//! [`MAX_CORNER_SHIFT_PX`] from the detector's gives no corners: better none than wrong ones.
+
+use image::GrayImage;
+use nalgebra::{Point2, Vector2};
+use vservo_scene::MARKS;
+
+/// How far (px) a refined corner may lie from the detector's.
+pub const MAX_CORNER_SHIFT_PX: f64 = 2.0;
+/// The largest RMS (px) of an edge's points about its fitted line.
+pub const MAX_EDGE_RMS_PX: f64 = 0.35;
+/// The fewest strips an edge needs.
+pub const MIN_STRIPS: usize = 8;
+
+/// An edge line `normal · p = offset`, with `normal` not necessarily unit.
+#[derive(Debug, Clone, Copy)]
+struct Line {
+    normal: Vector2<f64>,
+    offset: f64,
+}
+
+/// One edge of the black square to measure: strips along axis `along` (0: columns over x, 1: rows over y).
+#[derive(Debug, Clone, Copy)]
+struct Edge {
+    /// The detector's line, as `across = a + b · along` (px).
+    a: f64,
+    b: f64,
+    /// The strips' centres run over [start, end) along the edge (px).
+    start: f64,
+    end: f64,
+    /// 0 when the edge runs along x (strips are columns), 1 when along y (strips are rows).
+    along: usize,
+    /// Whether the dark side (the tag) lies at larger `across`.
+    dark_after: bool,
+    /// Half the strip's length, in whole pixels, beside the pixel the edge crosses.
+    half_px: i64,
+}
+
+/// Refines the four corners (px, the tag's order) the detector gave. `None` when an edge cannot be
+/// measured reliably (see the module's documentation).
+pub fn refine_corners(image: &GrayImage, corners: &[Point2<f64>; MARKS]) -> Option<[Point2<f64>; MARKS]> {
+    let centre = corners.iter().fold(Vector2::zeros(), |s, c| s + c.coords) / MARKS as f64;
+    let shortest =
+        (0..MARKS).map(|k| (corners[(k + 1) % MARKS] - corners[k]).norm()).fold(f64::INFINITY, f64::min);
+    // strips reach at most half a cell (an eighth of the square) past the edge on either side
+    let half_px = ((shortest / 16.0).floor() as i64).min(6);
+    if half_px < 2 {
+        return None;
+    }
+    let mut lines = [Line { normal: Vector2::zeros(), offset: 0.0 }; MARKS];
+    for (k, line) in lines.iter_mut().enumerate() {
+        let edge = edge_between(&corners[k], &corners[(k + 1) % MARKS], &centre, half_px);
+        *line = fit_edge(image, &edge)?;
+    }
+    let mut refined = [Point2::origin(); MARKS];
+    for k in 0..MARKS {
+        let corner = intersect(&lines[(k + MARKS - 1) % MARKS], &lines[k])?;
+        if (corner - corners[k]).norm() > MAX_CORNER_SHIFT_PX {
+            return None;
+        }
+        refined[k] = corner;
+    }
+    Some(refined)
+}
+
+/// The edge from corner `p` to corner `q` of a square centred at `centre`.
+fn edge_between(p: &Point2<f64>, q: &Point2<f64>, centre: &Vector2<f64>, half_px: i64) -> Edge {
+    let d = q - p;
+    let along = if d.x.abs() >= d.y.abs() { 0 } else { 1 };
+    let across = 1 - along;
+    let b = d[across] / d[along];
+    let a = p[across] - b * p[along];
+    // keep clear of the corners, where the adjacent edge enters the strips
+    let clear = 2.0 * (half_px as f64 + 2.0);
+    let (lo, hi) = (p[along].min(q[along]), p[along].max(q[along]));
+    let dark_after = centre[across] > a + b * centre[along];
+    Edge { a, b, start: lo + clear, end: hi - clear, along, dark_after, half_px }
+}
+
+/// The strip at pixel index `index` along the edge: the first pixel index across and the grays, or `None`
+/// when it leaves the image. Its centre along the edge is `index + ½`.
+fn strip(image: &GrayImage, edge: &Edge, index: i64, grays: &mut [f64; 13]) -> Option<i64> {
+    let centre = index as f64 + 0.5;
+    let first = (edge.a + edge.b * centre).floor() as i64 - edge.half_px;
+    let count = 2 * edge.half_px + 1;
+    let (w, h) = (i64::from(image.width()), i64::from(image.height()));
+    for (i, gray) in grays.iter_mut().take(count as usize).enumerate() {
+        let across = first + i as i64;
+        let (u, v) = if edge.along == 0 { (index, across) } else { (across, index) };
+        if u < 0 || v < 0 || u >= w || v >= h {
+            return None;
+        }
+        *gray = f64::from(image.as_raw()[(v * w + u) as usize]);
+    }
+    Some(first)
+}
+
+/// The strips' pixel indices along the edge.
+fn strip_indices(edge: &Edge) -> std::ops::Range<i64> {
+    (edge.start - 0.5).ceil() as i64..(edge.end - 0.5).floor() as i64 + 1
+}
+
+/// Least squares of y = α + β t over accumulated sums.
+#[derive(Debug, Default, Clone, Copy)]
+struct LineFit {
+    n: f64,
+    t: f64,
+    y: f64,
+    tt: f64,
+    ty: f64,
+}
+
+impl LineFit {
+    fn add(&mut self, t: f64, y: f64) {
+        self.n += 1.0;
+        self.t += t;
+        self.y += y;
+        self.tt += t * t;
+        self.ty += t * y;
+    }
+
+    /// (α, β), or `None` with fewer than two distinct t.
+    fn solve(&self) -> Option<(f64, f64)> {
+        let det = self.n * self.tt - self.t * self.t;
+        if self.n < 2.0 || det.abs() < 1e-9 {
+            return None;
+        }
+        let beta = (self.n * self.ty - self.t * self.y) / det;
+        Some(((self.y - beta * self.t) / self.n, beta))
+    }
+}
+
+/// The dark and bright levels along the edge, each a straight line in the strip's centre (from the two
+/// end pixels of each strip on each side).
+fn fit_levels(image: &GrayImage, edge: &Edge) -> Option<((f64, f64), (f64, f64))> {
+    let (mut dark, mut bright) = (LineFit::default(), LineFit::default());
+    let mut grays = [0.0; 13];
+    let last = (2 * edge.half_px) as usize;
+    for index in strip_indices(edge) {
+        if strip(image, edge, index, &mut grays).is_none() {
+            continue;
+        }
+        let (low_end, high_end) = (0.5 * (grays[0] + grays[1]), 0.5 * (grays[last] + grays[last - 1]));
+        let (d, b) = if edge.dark_after { (high_end, low_end) } else { (low_end, high_end) };
+        let t = index as f64 + 0.5;
+        dark.add(t, d);
+        bright.add(t, b);
+    }
+    Some((dark.solve()?, bright.solve()?))
+}
+
+/// The edge's position across at strip `index`, from the dark length.
+fn edge_point(
+    image: &GrayImage,
+    edge: &Edge,
+    index: i64,
+    levels: &((f64, f64), (f64, f64)),
+) -> Option<(f64, f64)> {
+    let mut grays = [0.0; 13];
+    let first = strip(image, edge, index, &mut grays)?;
+    let t = index as f64 + 0.5;
+    let ((d0, d1), (b0, b1)) = *levels;
+    let (dark, bright) = (d0 + d1 * t, b0 + b1 * t);
+    // a contrast under 20 gray levels says nothing reliable about an edge
+    if bright - dark < 20.0 {
+        return None;
+    }
+    let count = (2 * edge.half_px + 1) as usize;
+    let dark_length: f64 = grays[..count].iter().map(|g| (bright - g) / (bright - dark)).sum();
+    let across = if edge.dark_after {
+        (first + count as i64) as f64 - dark_length
+    } else {
+        first as f64 + dark_length
+    };
+    Some((t, across))
+}
+
+/// The edge's line from its strips: fit, drop points off by more than 3 RMS (≥ 0.5 px), fit again.
+fn fit_edge(image: &GrayImage, edge: &Edge) -> Option<Line> {
+    let levels = fit_levels(image, edge)?;
+    let points = || strip_indices(edge).filter_map(|i| edge_point(image, edge, i, &levels));
+    let mut first = LineFit::default();
+    points().for_each(|(t, y)| first.add(t, y));
+    let (a, b) = first.solve()?;
+    let rms = (points().map(|(t, y)| (y - a - b * t).powi(2)).sum::<f64>() / first.n).sqrt();
+    let gate = (3.0 * rms).max(0.5);
+    let mut kept = LineFit::default();
+    points().filter(|(t, y)| (y - a - b * t).abs() <= gate).for_each(|(t, y)| kept.add(t, y));
+    let (a, b) = kept.solve()?;
+    let rms = (points()
+        .filter(|(t, y)| (y - a - b * t).abs() <= gate)
+        .map(|(t, y)| (y - a - b * t).powi(2))
+        .sum::<f64>()
+        / kept.n)
+        .sqrt();
+    if (kept.n as usize) < MIN_STRIPS || rms > MAX_EDGE_RMS_PX {
+        return None;
+    }
+    // across = a + b·along, i.e. −b·along + across = a
+    let normal = if edge.along == 0 { Vector2::new(-b, 1.0) } else { Vector2::new(1.0, -b) };
+    Some(Line { normal, offset: a })
+}
+
+/// Where two lines cross; `None` for (nearly) parallel ones.
+fn intersect(l: &Line, m: &Line) -> Option<Point2<f64>> {
+    let det = l.normal.x * m.normal.y - l.normal.y * m.normal.x;
+    if det.abs() < 1e-9 {
+        return None;
+    }
+    Some(Point2::new(
+        (l.offset * m.normal.y - l.normal.y * m.offset) / det,
+        (l.normal.x * m.offset - l.offset * m.normal.x) / det,
+    ))
+}
