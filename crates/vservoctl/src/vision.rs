@@ -93,7 +93,18 @@ fn extract(args: &ExtractArgs) -> Result<()> {
     let image = read_gray_image(&args.image).map_err(|e| UsageError(e.to_string()))?;
     let mut extractor =
         Extractor::new(config.vision.extractor, config.camera.width_px(), config.camera.height_px());
-    let found = extractor.extract(&image, &Prediction::Layout(config.desired.features));
+    // with an AprilTag target, its four corners (the tag's verdict is in the log)
+    let found = match config.board.apriltag() {
+        Some(tag) => {
+            let found = vservo_vision::TagExtractor::new(tag.id(), image.width(), image.height())
+                .extract(&image, None);
+            if found.verdict != vservo_vision::TagVerdict::Found {
+                eprintln!("tag {}: {}", tag.id(), found.verdict.reason());
+            }
+            found.to_extraction()
+        }
+        None => extractor.extract(&image, &Prediction::Layout(config.desired.features)),
+    };
     let features: Vec<Option<f64>> =
         found.features.iter().map(|&v| if v.is_finite() { Some(v) } else { None }).collect();
     let reasons: Vec<String> = found.status.iter().map(MarkStatus::reason).collect();
