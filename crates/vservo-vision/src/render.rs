@@ -374,12 +374,13 @@ impl Renderer {
                     }
                 }
                 // the tag: likewise only inside the wholly-on-board stretch
-                if let (Some((u0, u1, v0, v1)), Some(tag)) = (tag_box, board.apriltag()) {
-                    if v >= v0 && v < v1 {
-                        for u in u0.max(full_start)..u1.min(full_end) {
-                            row[u as usize] = tag_pixel(&scene, tag, u, v, s.board_gray, s.mark_gray)
-                                .unwrap_or_else(|| supersample(u, v));
-                        }
+                if let (Some((u0, u1, v0, v1)), Some(tag)) = (tag_box, board.apriltag())
+                    && v >= v0
+                    && v < v1
+                {
+                    for u in u0.max(full_start)..u1.min(full_end) {
+                        row[u as usize] = tag_pixel(&scene, tag, u, v, s.board_gray, s.mark_gray)
+                            .unwrap_or_else(|| supersample(u, v));
                     }
                 }
             }

@@ -219,12 +219,14 @@ fn detect(image: &GrayImage, (u0, v0, u1, v1): (u32, u32, u32, u32)) -> Vec<Dete
 }
 
 /// The C detector for tag36h11, correcting up to one bit (a covered or misread second bit is "not found"),
-/// one thread (deterministic), quads found at full resolution, its own edge refinement on.
+/// one thread (deterministic), quads found on the image decimated by 2 (decoding stays at full resolution;
+/// the corners need only be within [`crate::tag_refine::MAX_CORNER_SHIFT_PX`] for the refinement), its own
+/// edge refinement on.
 fn make_detector() -> Option<apriltag::Detector> {
     let mut detector =
         apriltag::Detector::builder().add_family_bits(apriltag::Family::tag_36h11(), 1).build().ok()?;
     detector.set_thread_number(1);
-    detector.set_decimation(1.0);
+    detector.set_decimation(2.0);
     detector.set_sigma(0.0);
     detector.set_refine_edges(true);
     Some(detector)
