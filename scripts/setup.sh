@@ -49,6 +49,21 @@ if ! command -v tmux >/dev/null 2>&1; then
     ${sudo_if_needed} apt-get install -y -qq tmux >/dev/null
 fi
 
+# The GStreamer camera driver (crates/vservo-camera-gst) builds against Debian's GStreamer (1.22 on Debian 12);
+# its tests and scripts/run-rtp-camera.sh run videotestsrc, videoconvert, rawvideoparse (-base), the RTP and UDP
+# elements (-good) and gst-launch-1.0 (-tools)
+gst_packages=(libgstreamer1.0-dev libgstreamer-plugins-base1.0-dev gstreamer1.0-plugins-base
+    gstreamer1.0-plugins-good gstreamer1.0-tools)
+missing=()
+for package in "${gst_packages[@]}"; do
+    dpkg-query -W -f='${Status}' "${package}" 2>/dev/null | grep -q "install ok installed" || missing+=("${package}")
+done
+if [ "${#missing[@]}" -gt 0 ]; then
+    sudo_if_needed=""
+    [ "$(id -u)" -ne 0 ] && sudo_if_needed="sudo"
+    ${sudo_if_needed} apt-get install -y -qq "${missing[@]}" >/dev/null
+fi
+
 # The MuJoCo reference driver (clients/python/mujoco_driver.py, scripts/run-mujoco.sh and its test): headless
 # OpenGL from Debian and PyPI's mujoco in the same venv.
 scripts/setup-mujoco.sh

@@ -16,7 +16,11 @@ The arm is the scene's standard-DH arm (vservo's PUMA 560) simulated by MuJoCo, 
 offscreen renderer (headless: MUJOCO_GL=egl, Mesa's software EGL; scripts/setup-mujoco.sh installs it).
 
     mujoco_driver.py --scene scene.json [--instance NAME] [--duration-s S] [--save-image first.pgm]
-                     [--fifo-priority N]
+                     [--fifo-priority N] [--rtp-port PORT]
+
+With --rtp-port the camera's frames are not published on `camera_image` but streamed as RTP raw video
+(RFC 4175, I420 with the gray image as its luma) to 127.0.0.1:PORT over UDP, through `gst-launch-1.0`:
+a camera on the network, for vservo's GStreamer camera driver (scripts/run-rtp-camera.sh).
 
 The scene comes from `vservoctl scene --config FILE`. SIGINT/SIGTERM stop it (exit code 0).
 """
@@ -27,6 +31,7 @@ import json
 import math
 import os
 import signal
+import subprocess
 import sys
 import threading
 import time
@@ -378,9 +383,9 @@ class Camera(threading.Thread):
     so the arm loop keeps its 1 ms period. The OpenGL context and the iceoryx2 ports belong to this thread.
     """
 
-    def __init__(self, model, scene, instance, latest_state, stop, save_image, fifo_priority):
+    def __init__(self, model, scene, instance, latest_state, stop, save_image, fifo_priority, rtp_port=None):
         super().__init__(name="camera")
-        self.fifo_priority = fifo_priority
+        self.fifo_priority, self.rtp_port = fifo_priority, rtp_port
         self.model, self.scene, self.instance = model, scene, instance
         self.latest_state, self.stop, self.save_image = latest_state, stop, save_image
         self.render_ms, self.ready = [], threading.Event()
@@ -398,11 +403,11 @@ class Camera(threading.Thread):
         self.lens = Lens(self.scene["camera"])
         renderer = mujoco.Renderer(self.model, self.lens.canvas_height, self.lens.canvas_width)
         data = mujoco.MjData(self.model)
-        node = make_node(self.instance)
-        service = open_topic(node, self.instance, "camera_image", iox2.Slice[ctypes.c_uint8], 0, 2, CameraImageHeader)
-        publisher = service.publisher_builder().initial_max_slice_len(1280 * 1024).create()
-        notifier = open_notifier(node, self.instance, "camera_image")
         period_ns = round(self.scene["timing"]["vision_period_s"] * 1e9)
+        if self.rtp_port is not None:
+            sender, publish = self.rtp_sender(width, height, period_ns)
+        else:
+            sender, publish = None, self.camera_image_publisher(width, height)
         self.grab(renderer, data, self.latest_state()[0])  # the first render sets up OpenGL (~0.2 s, holding
         self.ready.set()  # the GIL): done before the arm loop starts
         if self.fifo_priority > 0:  # after the OpenGL set-up: Mesa's render threads stay on the normal scheduler
@@ -413,13 +418,7 @@ class Camera(threading.Thread):
             started = time.perf_counter()
             image = self.grab(renderer, data, q)
             self.render_ms.append(1e3 * (time.perf_counter() - started))
-            sample = publisher.loan_slice_uninit(width * height)
-            header = sample.user_header().contents
-            header.schema, header.format, header.width, header.height = SCHEMA, 0, width, height
-            header.stride_bytes, header.reserved, header.frame, header.capture_stamp_ns = width, 0, frame, stamp_ns
-            np.frombuffer(sample.payload().as_memory_view(), dtype=np.uint8)[:] = image.ravel()
-            sample.assume_init().send()
-            notifier.notify()
+            publish(image, frame, stamp_ns)
             if frame == 0 and self.save_image:
                 with open(self.save_image, "wb") as pgm:
                     pgm.write(b"P5\n%d %d\n255\n" % (width, height) + image.tobytes())
@@ -427,6 +426,45 @@ class Camera(threading.Thread):
             deadline += period_ns
             deadline = max(deadline, time.monotonic_ns() - period_ns // 2)  # a late frame is not made up for
             sleep_until(deadline)
+        if sender is not None:
+            sender.stdin.close()
+            sender.terminate()
+            sender.wait()
+
+    def camera_image_publisher(self, width, height):
+        """Publishes a frame on `camera_image`, stamped with the joint state it shows."""
+        node = make_node(self.instance)
+        service = open_topic(node, self.instance, "camera_image", iox2.Slice[ctypes.c_uint8], 0, 2, CameraImageHeader)
+        publisher = service.publisher_builder().initial_max_slice_len(1280 * 1024).create()
+        notifier = open_notifier(node, self.instance, "camera_image")
+
+        def publish(image, frame, stamp_ns):
+            sample = publisher.loan_slice_uninit(width * height)
+            header = sample.user_header().contents
+            header.schema, header.format, header.width, header.height = SCHEMA, 0, width, height
+            header.stride_bytes, header.reserved, header.frame, header.capture_stamp_ns = width, 0, frame, stamp_ns
+            np.frombuffer(sample.payload().as_memory_view(), dtype=np.uint8)[:] = image.ravel()
+            sample.assume_init().send()
+            notifier.notify()
+
+        return publish
+
+    def rtp_sender(self, width, height, period_ns):
+        """Streams each frame as RTP raw video to 127.0.0.1:rtp_port: gray → I420 (its luma, exactly) →
+        rtpvrawpay (GStreamer 1.22's takes no GRAY8) → UDP. The stamp does not travel: the receiver stamps
+        the frame's arrival."""
+        rate = f"{10**9}/{period_ns}"
+        sender = subprocess.Popen(
+            ["gst-launch-1.0", "-q", "fdsrc", "fd=0", "!", "rawvideoparse", "format=gray8", f"width={width}",
+             f"height={height}", f"framerate={rate}", "!", "videoconvert", "!", "video/x-raw,format=I420", "!",
+             "rtpvrawpay", "mtu=60000", "!", "udpsink", "host=127.0.0.1", f"port={self.rtp_port}", "sync=false"],
+            stdin=subprocess.PIPE)
+
+        def publish(image, frame, stamp_ns):
+            sender.stdin.write(np.ascontiguousarray(image).tobytes())
+            sender.stdin.flush()
+
+        return sender, publish
 
 
 def main(argv=None) -> int:
@@ -436,6 +474,7 @@ def main(argv=None) -> int:
     parser.add_argument("--duration-s", type=float, default=math.inf)
     parser.add_argument("--save-image", help="write the first camera image here (PGM)")
     parser.add_argument("--fifo-priority", type=int, default=0, help="SCHED_FIFO priority of the arm loop (0: none)")
+    parser.add_argument("--rtp-port", type=int, help="stream the camera as RTP raw video to 127.0.0.1:PORT instead")
     options = parser.parse_args(argv)
     with open(options.scene) as file:
         scene = json.load(file)
@@ -460,7 +499,8 @@ def main(argv=None) -> int:
         with lock:
             return shared["q"], shared["stamp_ns"]
 
-    camera = Camera(model, scene, instance, latest_state, stop, options.save_image, max(0, options.fifo_priority - 1))
+    camera = Camera(model, scene, instance, latest_state, stop, options.save_image, max(0, options.fifo_priority - 1),
+                    options.rtp_port)
     period_ns = round(scene["robot"]["period_s"] * 1e9)
     camera.start()
     while not camera.ready.wait(0.1):

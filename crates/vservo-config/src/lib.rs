@@ -80,6 +80,8 @@ pub struct Config {
     pub reacquire: Reacquire,
     /// `[viewer]`: the live view in Foxglove.
     pub viewer: Viewer,
+    /// `[camera.gstreamer]`: the GStreamer camera driver's settings, if the file has them.
+    pub gstreamer: Option<GstreamerCamera>,
 }
 
 impl Config {

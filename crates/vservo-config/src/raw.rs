@@ -239,6 +239,24 @@ pub struct RawCamera {
     #[serde(default)]
     pub directory: String,
     pub tool_from_camera: RawPose,
+    /// `[camera.gstreamer]`: read by the GStreamer camera driver (vservo-gst-camera) only.
+    #[serde(default)]
+    pub gstreamer: Option<RawGstreamer>,
+}
+
+/// `[camera.gstreamer]`.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawGstreamer {
+    pub pipeline: String,
+    #[serde(default)]
+    pub appsink: Option<String>,
+    #[serde(default)]
+    pub exposure_us: Option<f64>,
+    #[serde(default)]
+    pub gain_db: Option<f64>,
+    #[serde(default)]
+    pub stall_periods: Option<i64>,
 }
 
 #[derive(Debug, Deserialize)]

@@ -269,6 +269,23 @@ pub struct Vision {
     pub render: vservo_vision::RenderSettings,
 }
 
+/// `[camera.gstreamer]`: the GStreamer camera driver's pipeline and controls (docs/DRIVERS.md, "A real
+/// camera through GStreamer"). Read by `vservo-gst-camera` only, at its start; vservod ignores it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct GstreamerCamera {
+    /// `gst-launch-1.0` syntax, ending in 8-bit gray frames of the camera's size (the driver adds the
+    /// appsink unless the pipeline has an element named [`GstreamerCamera::appsink`]).
+    pub pipeline: String,
+    /// The name of the appsink the frames are taken from (`vservo` unless given).
+    pub appsink: String,
+    /// The exposure time to set on the source (µs), if given.
+    pub exposure_us: Option<f64>,
+    /// The analogue gain to set on the source (dB), if given.
+    pub gain_db: Option<f64>,
+    /// No frame for this many vision periods: the pipeline is logged as stalled.
+    pub stall_periods: u32,
+}
+
 /// Where images come from (`camera.source`).
 #[derive(Debug, Clone, PartialEq)]
 pub enum VisionSource {

@@ -5,8 +5,8 @@ use vservo_scene::{CameraIntrinsics, Distortion};
 
 use super::checker::Checker;
 use crate::calibration::Calibration;
-use crate::raw::{RawCamera, RawCameraSource};
-use crate::{ConfigError, VisionSource};
+use crate::raw::{RawCamera, RawCameraSource, RawGstreamer};
+use crate::{ConfigError, GstreamerCamera, VisionSource};
 
 /// The intrinsics: from `calibration_file`, or the image size, the principal point inside it, the focal
 /// lengths (`focal_px`, or `fx_px` and `fy_px`) and the lens's `distortion` (none when not written).
@@ -171,4 +171,33 @@ pub fn source(check: &Checker, c: &RawCamera) -> Result<VisionSource, ConfigErro
             VisionSource::Directory(std::path::PathBuf::from(&c.directory))
         }
     })
+}
+
+/// `[camera.gstreamer]`: a pipeline text, an appsink name, the exposure and gain within what cameras take.
+pub fn gstreamer(check: &Checker, g: &RawGstreamer) -> Result<GstreamerCamera, ConfigError> {
+    if g.pipeline.trim().is_empty() {
+        return Err(check.invalid("camera.gstreamer.pipeline", "\"\"", "must be a GStreamer pipeline"));
+    }
+    let appsink = g.appsink.clone().unwrap_or_else(|| "vservo".to_string());
+    if appsink.is_empty() || !appsink.chars().all(|c| c.is_ascii_alphanumeric() || "_-".contains(c)) {
+        return Err(check.invalid(
+            "camera.gstreamer.appsink",
+            format!("{appsink:?}"),
+            "must be an element name (letters, digits, _ and -)",
+        ));
+    }
+    let exposure_us = g
+        .exposure_us
+        .map(|v| check.within("camera.gstreamer.exposure_us", v, 1.0, 10_000_000.0, "µs"))
+        .transpose()?;
+    let gain_db =
+        g.gain_db.map(|v| check.within("camera.gstreamer.gain_db", v, -20.0, 60.0, "dB")).transpose()?;
+    let stall_periods = check.whole(
+        "camera.gstreamer.stall_periods",
+        g.stall_periods.unwrap_or(5),
+        1u32,
+        10_000,
+        "must be a whole number of vision periods from 1 to 10000",
+    )?;
+    Ok(GstreamerCamera { pipeline: g.pipeline.clone(), appsink, exposure_us, gain_db, stall_periods })
 }

@@ -62,5 +62,6 @@ pub fn validate(raw: RawConfig, file: &str) -> Result<Config, ConfigError> {
         faults: operation::faults(&check, &raw.faults)?,
         reacquire,
         viewer: operation::viewer(&check, &raw.viewer)?,
+        gstreamer: raw.camera.gstreamer.as_ref().map(|g| camera::gstreamer(&check, g)).transpose()?,
     })
 }

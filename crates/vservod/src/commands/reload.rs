@@ -108,6 +108,8 @@ pub fn diff(old: &Config, new: &Config) -> ConfigDiff {
         faults,
         reacquire,
         viewer,
+        // read by the GStreamer camera driver at its start, not by the daemon
+        gstreamer: _,
     } = old;
     let mut live = Vec::new();
     let (o, n) = (&controller.options, &new.controller.options);

@@ -1,0 +1,81 @@
+//! `vservo-gst-camera`: the GStreamer camera driver. Runs `[camera.gstreamer] pipeline` and publishes its
+//! 8-bit gray frames on `camera_image` (docs/DRIVERS.md, "A real camera through GStreamer").
+//!
+//! ```text
+//! vservo-gst-camera --config FILE [--stats-every-s S]
+//! ```
+//!
+//! Exit codes: 0 after SIGINT/SIGTERM, 1 on an error (a bad pipeline, frames of another format or size, a
+//! pipeline that failed or ended), 76 when another process holds the `camera_image` slot.
+
+mod pipeline;
+mod publish;
+
+use std::process::ExitCode;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+
+use anyhow::Context;
+use clap::Parser;
+
+/// The exit code when another live process holds the camera slot (vservod's for the same refusal).
+const SLOT_TAKEN_EXIT: u8 = 76;
+
+#[derive(Parser)]
+#[command(version, about = "Publishes a GStreamer pipeline's 8-bit gray frames on vservo's camera_image")]
+struct Cli {
+    /// The configuration file (its [camera] size, [camera.gstreamer] and [instance] name).
+    #[arg(long, default_value = "config/vservo.toml")]
+    config: std::path::PathBuf,
+    /// Log the frame statistics every this many seconds (0: only at the end).
+    #[arg(long, default_value_t = 10.0)]
+    stats_every_s: f64,
+}
+
+fn main() -> ExitCode {
+    init_logging();
+    let cli = Cli::parse();
+    let result = stop_flag().and_then(|stop| publish::run(&cli.config, cli.stats_every_s, &stop));
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(error) => {
+            tracing::error!("{error:#}");
+            let slot_taken = error.chain().any(|c| {
+                c.downcast_ref::<vservo_protocol::ProtocolError>().is_some_and(|e| e.is_slot_taken())
+            });
+            if slot_taken { ExitCode::from(SLOT_TAKEN_EXIT) } else { ExitCode::FAILURE }
+        }
+    }
+}
+
+fn init_logging() {
+    use std::io::IsTerminal;
+    let filter = tracing_subscriber::EnvFilter::try_from_env("VSERVO_LOG")
+        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("info"));
+    tracing_subscriber::fmt()
+        .with_env_filter(filter)
+        .with_writer(std::io::stderr)
+        .with_ansi(std::io::stderr().is_terminal())
+        .init();
+}
+
+/// SIGTERM and SIGINT set the flag: blocked in every thread (GStreamer's and iceoryx2's included, started
+/// after this) and taken by one thread with sigwait, so no handler of anyone else's replaces ours.
+fn stop_flag() -> anyhow::Result<Arc<AtomicBool>> {
+    use nix::sys::signal::{SigSet, Signal};
+    let stop = Arc::new(AtomicBool::new(false));
+    let mut signals = SigSet::empty();
+    signals.add(Signal::SIGTERM);
+    signals.add(Signal::SIGINT);
+    signals.thread_block().context("blocking SIGTERM and SIGINT")?;
+    let flag = stop.clone();
+    std::thread::Builder::new()
+        .name("signals".into())
+        .spawn(move || {
+            if signals.wait().is_ok() {
+                flag.store(true, Ordering::Relaxed);
+            }
+        })
+        .context("starting the signal thread")?;
+    Ok(stop)
+}
