@@ -61,7 +61,10 @@ done
 if [ "${#missing[@]}" -gt 0 ]; then
     sudo_if_needed=""
     [ "$(id -u)" -ne 0 ] && sudo_if_needed="sudo"
-    ${sudo_if_needed} apt-get install -y -qq "${missing[@]}" >/dev/null
+    # a fresh machine's package lists can be older than its installed libraries (the -dev packages then
+    # depend on versions the lists do not know): refresh them first
+    ${sudo_if_needed} apt-get update -qq
+    DEBIAN_FRONTEND=noninteractive ${sudo_if_needed} apt-get install -y -qq "${missing[@]}" >/dev/null
 fi
 
 # The MuJoCo reference driver (clients/python/mujoco_driver.py, scripts/run-mujoco.sh and its test): headless

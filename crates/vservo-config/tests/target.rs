@@ -24,9 +24,10 @@ fn the_apriltag_cell_servoes_on_the_tags_corners_in_the_tags_order() {
     let tag = config.board.apriltag().expect("an AprilTag target");
     assert_eq!(tag.id(), 3);
     assert_eq!(config.board.marks_in_board, tag.corners_in_board());
-    // 0.5 m fronto-parallel in front of a 0.16 m tag with f = 500 px: 160 px wide, centred at (320, 240);
-    // bottom left, bottom right, top right, top left
-    let expected = [240.0, 320.0, 400.0, 320.0, 400.0, 160.0, 240.0, 160.0];
+    // 0.5 m fronto-parallel in front of a 0.16 m tag with fx = 600 px, fy = 606 px: 192 × 193.92 px (the
+    // pinhole's: ξ_d is undistorted), centred at the principal point (322, 237); bottom left, bottom right,
+    // top right, top left
+    let expected = [226.0, 333.96, 418.0, 333.96, 418.0, 140.04, 226.0, 140.04];
     for (f, e) in config.desired.features.iter().zip(expected) {
         assert!((f - e).abs() < 1e-9, "{}", config.desired.features);
     }

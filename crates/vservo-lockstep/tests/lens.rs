@@ -2,7 +2,7 @@
 //! robust law): the simulated camera renders through the lens, the vision stage undistorts the marks, and the
 //! servo converges below 1 px of the true (pinhole) features. The same cell with `vision.undistort = false`
 //! (the comparison's switch only) puts the lens's error into the law: it settles where the *observed* marks
-//! are at ξ_d, pixels away from the true target.
+//! are at ξ_d, pixels away from the true target. The same for an AprilTag target (config/vservo-apriltag.toml).
 
 use vservo_config::Config;
 use vservo_lockstep::summary::summarize;
@@ -55,4 +55,35 @@ fn through_the_lens_the_servo_converges_below_one_pixel_and_without_undistortion
     );
     assert!(ignored.final_error_px > 2.0, "{ignored:?}");
     assert!(ignored.final_error_px > 5.0 * summary.final_error_px, "{ignored:?} against {summary:?}");
+}
+
+/// The bench's target through the same lens (config/vservo-apriltag.toml: a tag36h11 tag's corners, found by
+/// the AprilTag detector in the distorted image, then undistorted): converges below 1 px of the true pinhole
+/// corners; with the corners left distorted the servo settles where the lens shows them at ξ_d, the lens's
+/// displacement of the corners away from the truth.
+#[test]
+fn an_apriltag_through_the_lens_converges_below_one_pixel_and_without_undistortion_does_worse() {
+    let mut config = Config::load(concat!(env!("CARGO_MANIFEST_DIR"), "/../../config/vservo-apriltag.toml"))
+        .expect("config/vservo-apriltag.toml is valid");
+    assert!(config.board.apriltag().is_some() && !config.camera.distortion().is_none(), "the premise");
+    config.scenario.duration_s = 8.0;
+    let trace = run(&config);
+    let summary = summarize(&trace, &config.scenario.object);
+    let displacement = lens_displacement_px(&trace);
+    println!(
+        "tag corners undistorted: final error {:.3} px, settling {:?} s; the lens moves the corners by up to {displacement:.2} px",
+        summary.final_error_px, summary.settling_time_s
+    );
+    assert!(summary.final_error_px < 1.0, "{summary:?}");
+    assert!(displacement > 1.0, "the test's premise: the lens moves the corners by pixels ({displacement} px)");
+
+    config.vision.undistort = false;
+    let ignored = summarize(&run(&config), &config.scenario.object);
+    println!(
+        "tag corners left distorted: final error {:.3} px ({:.1}× the undistorted run's)",
+        ignored.final_error_px,
+        ignored.final_error_px / summary.final_error_px
+    );
+    assert!(ignored.final_error_px > 0.5 * displacement, "{ignored:?}: the lens moves the corners {displacement} px");
+    assert!(ignored.final_error_px > 2.0 * summary.final_error_px, "{ignored:?} against {summary:?}");
 }

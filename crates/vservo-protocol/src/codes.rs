@@ -136,6 +136,8 @@ wire_code! {
         NotFound = 5, "not found";
         /// The image itself is unusable.
         BadImage = 6, "bad image";
+        /// A blob was found for it, but with marks missing the blobs seen could be other marks.
+        Ambiguous = 7, "ambiguous";
     }
 }
 

@@ -78,6 +78,7 @@ fn missing_marks(missing: u8, status: &[Option<MarkStatus>; MARKS]) -> String {
         Some(MarkStatus::Irregular) => "irregular",
         Some(MarkStatus::NotFound) => "not found",
         Some(MarkStatus::BadImage) => "bad image",
+        Some(MarkStatus::Ambiguous) => "could be another mark",
         // valid for vision, refused by the servo
         Some(MarkStatus::Valid) => "outside the image",
         None => "unknown reason",

@@ -98,6 +98,9 @@ pub enum MarkStatus {
     Irregular,
     /// No blob where it should be (occluded, or too faint).
     NotFound,
+    /// A blob was found for it, but the blobs seen fit the board's layout as other marks too, and the
+    /// image does not say which (some marks are missing): reported missing rather than perhaps swapped.
+    Ambiguous,
     /// The image itself is unusable.
     BadImage(ImageProblem),
 }
@@ -117,6 +120,7 @@ impl MarkStatus {
             MarkStatus::MergedWith(other) => format!("merged with mark {}", other + 1),
             MarkStatus::Irregular => "irregular shape (partly occluded?)".into(),
             MarkStatus::NotFound => "not found (occluded or too faint?)".into(),
+            MarkStatus::Ambiguous => "ambiguous (the marks seen could be other marks)".into(),
             MarkStatus::BadImage(problem) => format!("bad image: {problem}"),
         }
     }
@@ -206,7 +210,9 @@ impl Extractor {
         let candidates = found.as_slice();
         let (assignment, expected) = associate(candidates, prediction, settings.gate_px);
         let look = Look { image, threshold, blobs, settings: &settings, expected: &expected };
+        let ambiguous = look.labels_ambiguous(candidates, &assignment);
         let mut status: [MarkStatus; MARKS] = std::array::from_fn(|mark| match assignment[mark] {
+            Some(_) if ambiguous => MarkStatus::Ambiguous,
             Some(index) => look.assigned_status(mark, &candidates[index]),
             None => look.unassigned_status(mark),
         });
@@ -377,6 +383,77 @@ impl Look<'_> {
                 None => MarkStatus::Irregular,
             },
         }
+    }
+}
+
+impl Look<'_> {
+    /// The labelling check, when some marks but not all have a blob: the labels predict where the missing
+    /// marks are (`expected` carried onto the marks seen by a similarity; by a shift for one mark). If the
+    /// image contradicts that (a missing mark predicted inside the image on bright board) while another
+    /// labelling of the same blobs, as plausible in shape, explains it (each of its missing marks outside
+    /// the image or on dark pixels), the image does not say which marks were seen: a board that jumped
+    /// so that two marks left the image shows the other two where the first two were.
+    fn labels_ambiguous(&self, candidates: &[Candidate], assignment: &[Option<usize>; MARKS]) -> bool {
+        let mut seen = [(0_usize, (0.0, 0.0)); MARKS];
+        let mut n_seen = 0;
+        for (mark, index) in assignment.iter().enumerate() {
+            if let Some(index) = index {
+                seen[n_seen] = (mark, candidates[*index].blob.centroid);
+                n_seen += 1;
+            }
+        }
+        if n_seen == 0 || n_seen == MARKS {
+            return false;
+        }
+        let seen = &seen[..n_seen];
+        let mut labels = [0_usize; MARKS];
+        for (label, (mark, _)) in labels.iter_mut().zip(seen) {
+            *label = *mark;
+        }
+        let Some(chosen) = self.carry(&labels[..n_seen], seen) else { return false };
+        if self.explains(&chosen, &labels[..n_seen]) {
+            return false;
+        }
+        let mut another_explains = false;
+        permutations(&[0, 1, 2, 3], n_seen, &mut |other: &[usize]| {
+            if another_explains || other == &labels[..n_seen] {
+                return;
+            }
+            if let Some(fit) = self.carry(other, seen)
+                && fit.as_plausible_as(&chosen)
+                && self.explains(&fit, other)
+            {
+                another_explains = true;
+            }
+        });
+        another_explains
+    }
+
+    /// The similarity that carries the expected positions of marks `labels` onto the blobs `seen` (a shift
+    /// for one), or `None` when the blobs do not have the marks' shape.
+    fn carry(&self, labels: &[usize], seen: &[(usize, (f64, f64))]) -> Option<Similarity> {
+        let expected = |m: usize| (self.expected[2 * m], self.expected[2 * m + 1]);
+        if let [(_, (u, v))] = seen {
+            let (x, y) = expected(labels[0]);
+            return Some(Similarity { a: 1.0, b: 0.0, tx: u - x, ty: v - y });
+        }
+        let mut pairs = [((0.0, 0.0), (0.0, 0.0)); MARKS];
+        for (pair, (&label, (_, point))) in pairs.iter_mut().zip(labels.iter().zip(seen)) {
+            *pair = (expected(label), *point);
+        }
+        let (fit, misfit) = Similarity::fit(&pairs[..seen.len()]);
+        (misfit < 0.02).then_some(fit)
+    }
+
+    /// Whether the image agrees with `fit` for the marks not in `labels`: each is predicted outside the
+    /// image or on dark pixels (another blob, or a mark cut by the border).
+    fn explains(&self, fit: &Similarity, labels: &[usize]) -> bool {
+        let (w, h) = self.image.dimensions();
+        (0..MARKS).filter(|m| !labels.contains(m)).all(|m| {
+            let (x, y) = fit.apply((self.expected[2 * m], self.expected[2 * m + 1]));
+            !vservo_scene::image_contains(w, h, &nalgebra::Point2::new(x, y), 0.0)
+                || dark_at(self.image, self.threshold, x, y)
+        })
     }
 }
 
@@ -616,6 +693,17 @@ impl Similarity {
         let (a, b) = (dot / from_sq, cross / from_sq);
         let residual = (to_sq - (dot * dot + cross * cross) / from_sq).max(0.0);
         (Similarity { a, b, tx: tx - (a * fx - b * fy), ty: ty - (b * fx + a * fy) }, residual / to_sq)
+    }
+
+    /// Whether this fit turns the layout by less than 45° more and scales it by less than 1.5 times more
+    /// (or less) than `other`: frame to frame, the image of the board does not turn or grow faster.
+    fn as_plausible_as(&self, other: &Similarity) -> bool {
+        let (scale, other_scale) = (self.a.hypot(self.b), other.a.hypot(other.b));
+        let turn = (self.b * other.a - self.a * other.b).atan2(self.a * other.a + self.b * other.b);
+        scale > 0.0
+            && other_scale > 0.0
+            && (scale / other_scale).ln().abs() < 1.5_f64.ln()
+            && turn.abs() < std::f64::consts::FRAC_PI_4
     }
 
     fn apply(&self, (x, y): (f64, f64)) -> (f64, f64) {

@@ -43,6 +43,7 @@ fn status_on_wire(status: &MarkStatus) -> WireMarkStatus {
         MarkStatus::MergedWith(_) => WireMarkStatus::Merged,
         MarkStatus::Irregular => WireMarkStatus::Irregular,
         MarkStatus::NotFound => WireMarkStatus::NotFound,
+        MarkStatus::Ambiguous => WireMarkStatus::Ambiguous,
         MarkStatus::BadImage(_) => WireMarkStatus::BadImage,
     }
 }
@@ -87,9 +88,15 @@ impl FeaturesOut {
 
     fn publish(&self, delivered: &DeliveredFrame) {
         let info = self.in_pipeline[(delivered.frame % 8) as usize];
+        let mut status = info.status;
         let mut valid_mask = 0u32;
         for mark in 0..MARKS {
-            if info.status[mark] == WireMarkStatus::Valid && info.frame == delivered.frame {
+            let undistorted = delivered.features[2 * mark].is_finite() && delivered.features[2 * mark + 1].is_finite();
+            // found in the image, but where the lens has no undistorted position: outside its usable part
+            if status[mark] == WireMarkStatus::Valid && !undistorted {
+                status[mark] = WireMarkStatus::OutsideImage;
+            }
+            if status[mark] == WireMarkStatus::Valid && info.frame == delivered.frame {
                 valid_mask |= 1 << mark;
             }
         }
@@ -101,7 +108,7 @@ impl FeaturesOut {
             capture_stamp_ns: info.capture_stamp_ns,
             stamp_ns: monotonic_ns(),
             features_px: to_array(&delivered.features),
-            mark_status: info.status.map(u8::from),
+            mark_status: status.map(u8::from),
             reserved: [0; 4],
             base_from_camera: delivered.base_from_camera.as_ref().map_or([f64::NAN; 12], pose_to_wire),
             seal: 0,

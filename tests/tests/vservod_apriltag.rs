@@ -1,0 +1,36 @@
+//! The bench's target through a real lens in real time (config/vservo-apriltag.toml: a tag36h11 tag, a
+//! 640 × 480 camera with k1 = −0.25, k2 = 0.08, the robust law): the simulated camera renders the tag through
+//! the lens on the camera's clock, the vision node finds its corners with the AprilTag detector and
+//! undistorts them, and the servo converges below 1 px.
+
+use std::time::Duration;
+
+use vservo_protocol::Verdict;
+use vservo_system_tests::{Daemon, config_from, echo_lines, exclusive, running, status, unique, wait_until};
+
+#[test]
+fn an_apriltag_through_a_lens_converges_below_one_pixel_in_real_time() {
+    let _one = exclusive();
+    let instance = unique("apriltag");
+    let config =
+        config_from("config/vservo-apriltag.toml", &[("name = \"default\"", &format!("name = \"{instance}\""))]);
+    let daemon = Daemon::start(&config);
+    assert!(
+        wait_until(Duration::from_secs(10), || status(&instance).is_some_and(|s| running(&s))),
+        "{}",
+        daemon.log()
+    );
+    let twists = echo_lines(&instance, "camera_twist", "8");
+    let errors: Vec<f64> = twists.iter().filter_map(|t| t["feature_error_px"].as_f64()).collect();
+    // the tag was found in every frame: no corner was ever missing
+    let (servoing, waiting) = (u64::from(Verdict::Servoing.code()), u64::from(Verdict::Waiting.code()));
+    let verdicts: Vec<u64> = twists.iter().filter_map(|t| t["verdict"].as_u64()).collect();
+    assert!(verdicts.len() > 40, "{} twists in 8 s\n{}", verdicts.len(), daemon.log());
+    assert!(verdicts.iter().all(|&v| v == servoing || v == waiting), "{verdicts:?}\n{}", daemon.log());
+    assert_eq!(verdicts.last(), Some(&servoing), "{verdicts:?}");
+    let last = errors.last().copied().unwrap_or(f64::NAN);
+    println!("feature error: first {:?} px, last {last:.3} px", errors.first());
+    assert!(last < 1.0, "feature error at the end {last} px: {errors:?}\n{}", daemon.log());
+    assert!(running(&status(&instance).expect("status")), "{}", daemon.log());
+    daemon.stop();
+}
