@@ -101,7 +101,7 @@ impl VisionStage {
             tag_extractor: config
                 .board
                 .apriltag()
-                .map(|tag| TagExtractor::new(tag.id(), config.camera.width_px(), config.camera.height_px())),
+                .map(|tag| TagExtractor::for_camera(tag.id(), &config.camera)),
             tracked: None,
             frames_with_a_mark_missing: 0,
             pipeline: VecDeque::with_capacity(delay_frames + 1),

@@ -14,10 +14,10 @@ use std::cell::RefCell;
 
 use image::GrayImage;
 use nalgebra::Point2;
-use vservo_scene::{FeatureVector, MARKS};
+use vservo_scene::{CameraIntrinsics, FeatureVector, MARKS};
 
 use crate::extract::{Extraction, MarkStatus};
-use crate::tag_refine::refine_corners;
+use crate::tag_refine::{Straight, refine_corners};
 
 /// Pixels added on every side of the previous detection's bounding box to make the search region, at least.
 pub const SEARCH_MARGIN_PX: u32 = 24;
@@ -94,6 +94,8 @@ pub struct TagExtractor {
     id: u32,
     width_px: u32,
     height_px: u32,
+    /// The camera, when its lens distorts: the edges are fitted on its pinhole image.
+    lens: Option<CameraIntrinsics>,
 }
 
 thread_local! {
@@ -105,7 +107,15 @@ thread_local! {
 impl TagExtractor {
     /// An extractor of tag `id` in images of `width_px` × `height_px`.
     pub fn new(id: u32, width_px: u32, height_px: u32) -> Self {
-        Self { id, width_px, height_px }
+        Self { id, width_px, height_px, lens: None }
+    }
+
+    /// An extractor of tag `id` in `camera`'s images: through a lens that distorts, the corners are those
+    /// of the lines fitted to the edges on the pinhole image (where they are straight), taken back through
+    /// the lens; the same as [`TagExtractor::new`] for a pinhole camera.
+    pub fn for_camera(id: u32, camera: &CameraIntrinsics) -> Self {
+        let lens = (!camera.distortion().is_none()).then_some(*camera);
+        Self { id, width_px: camera.width_px(), height_px: camera.height_px(), lens }
     }
 
     /// The tag in `image`, looked for first near `previous` (the last frame's corners, if it had them).
@@ -141,7 +151,8 @@ impl TagExtractor {
                 return TagExtraction::refused(TagVerdict::CornerOutside(k));
             }
         }
-        let Some(corners) = refine_corners(image, &detected.corners) else {
+        let straight = self.lens.as_ref().map_or(Straight::InImage, Straight::OnPinhole);
+        let Some(corners) = refine_corners(image, &detected.corners, straight) else {
             return TagExtraction::refused(TagVerdict::NotFound);
         };
         let mut features = FeatureVector::zeros();

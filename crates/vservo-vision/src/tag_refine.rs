@@ -11,12 +11,55 @@
 //! edge positions, once again without the points more than 3 RMS (at least 0.5 px) off; adjacent lines
 //! intersect at the corners. An edge with too few strips, a poor fit or a corner that moved more than
 //! [`MAX_CORNER_SHIFT_PX`] from the detector's gives no corners: better none than wrong ones.
+//!
+//! Through a distorting lens the square's edges are curves in the image (a line fitted to a bowed edge
+//! puts the corners half a pixel out with OpenCV's k1 = −0.25 at 640 × 480): each edge point measured in
+//! the image is then taken to its pinhole pixel, the lines are fitted and intersected there, where the
+//! edges are straight, and the corners are taken back through the lens ([`Straight`]).
 
 use image::GrayImage;
 use nalgebra::{Point2, Vector2};
-use vservo_scene::MARKS;
+use vservo_scene::{CameraIntrinsics, MARKS};
 
-/// How far (px) a refined corner may lie from the detector's.
+/// Where the tag's edges are straight lines: in the image itself (a pinhole camera), or, through a lens
+/// that distorts, on the pinhole image of the camera.
+#[derive(Debug, Clone, Copy)]
+pub enum Straight<'a> {
+    /// The image: no distortion.
+    InImage,
+    /// The pinhole image of this camera (its lens's undistortion).
+    OnPinhole(&'a CameraIntrinsics),
+}
+
+impl Straight<'_> {
+    /// An image point where edges are straight; `None` where the lens has no undistorted point.
+    fn of_image(&self, point: Point2<f64>) -> Option<Point2<f64>> {
+        match self {
+            Straight::InImage => Some(point),
+            Straight::OnPinhole(camera) => camera.pinhole_of_observed(&point),
+        }
+    }
+
+    /// Back to the image.
+    fn to_image(&self, point: Point2<f64>) -> Point2<f64> {
+        match self {
+            Straight::InImage => point,
+            Straight::OnPinhole(camera) => camera.observed_of_pinhole(&point),
+        }
+    }
+
+    /// How far (px) the lens bows the edge from image point `p` to `q` off their chord: the distance
+    /// between the chord's midpoint and the image of the straight edge's midpoint (0 without a lens).
+    fn bend_px(&self, p: &Point2<f64>, q: &Point2<f64>) -> f64 {
+        match (self.of_image(*p), self.of_image(*q)) {
+            (Some(a), Some(b)) => (self.to_image(nalgebra::center(&a, &b)) - nalgebra::center(p, q)).norm(),
+            _ => f64::INFINITY,
+        }
+    }
+}
+
+/// How far (px) a refined corner may lie from the detector's (through a lens, more by twice the bend of its
+/// edges, [`Straight`]).
 pub const MAX_CORNER_SHIFT_PX: f64 = 2.0;
 /// The largest RMS (px) of an edge's points about its fitted line.
 pub const MAX_EDGE_RMS_PX: f64 = 0.35;
@@ -49,7 +92,11 @@ struct Edge {
 
 /// Refines the four corners (px, the tag's order) the detector gave. `None` when an edge cannot be
 /// measured reliably (see the module's documentation).
-pub fn refine_corners(image: &GrayImage, corners: &[Point2<f64>; MARKS]) -> Option<[Point2<f64>; MARKS]> {
+pub fn refine_corners(
+    image: &GrayImage,
+    corners: &[Point2<f64>; MARKS],
+    straight: Straight,
+) -> Option<[Point2<f64>; MARKS]> {
     let centre = corners.iter().fold(Vector2::zeros(), |s, c| s + c.coords) / MARKS as f64;
     let shortest =
         (0..MARKS).map(|k| (corners[(k + 1) % MARKS] - corners[k]).norm()).fold(f64::INFINITY, f64::min);
@@ -61,12 +108,16 @@ pub fn refine_corners(image: &GrayImage, corners: &[Point2<f64>; MARKS]) -> Opti
     let mut lines = [Line { normal: Vector2::zeros(), offset: 0.0 }; MARKS];
     for (k, line) in lines.iter_mut().enumerate() {
         let edge = edge_between(&corners[k], &corners[(k + 1) % MARKS], &centre, half_px);
-        *line = fit_edge(image, &edge)?;
+        *line = fit_edge(image, &edge, straight)?;
     }
     let mut refined = [Point2::origin(); MARKS];
     for k in 0..MARKS {
-        let corner = intersect(&lines[(k + MARKS - 1) % MARKS], &lines[k])?;
-        if (corner - corners[k]).norm() > MAX_CORNER_SHIFT_PX {
+        let corner = straight.to_image(intersect(&lines[(k + MARKS - 1) % MARKS], &lines[k])?);
+        // the detector fits straight lines in the image: through a lens its corners are off by up to
+        // about the edges' bend
+        let (previous, next) = (&corners[(k + MARKS - 1) % MARKS], &corners[(k + 1) % MARKS]);
+        let bend = straight.bend_px(previous, &corners[k]).max(straight.bend_px(&corners[k], next));
+        if (corner - corners[k]).norm() > MAX_CORNER_SHIFT_PX + 2.0 * bend {
             return None;
         }
         refined[k] = corner;
@@ -186,10 +237,17 @@ fn edge_point(
     Some((t, across))
 }
 
-/// The edge's line from its strips: fit, drop points off by more than 3 RMS (≥ 0.5 px), fit again.
-fn fit_edge(image: &GrayImage, edge: &Edge) -> Option<Line> {
+/// The edge's line from its strips: fit, drop points off by more than 3 RMS (≥ 0.5 px), fit again; the
+/// points and the line where the edges are straight (`straight`), as (along, across) there.
+fn fit_edge(image: &GrayImage, edge: &Edge, straight: Straight) -> Option<Line> {
     let levels = fit_levels(image, edge)?;
-    let points = || strip_indices(edge).filter_map(|i| edge_point(image, edge, i, &levels));
+    let across = 1 - edge.along;
+    let to_straight = |(t, y): (f64, f64)| {
+        let in_image = if edge.along == 0 { Point2::new(t, y) } else { Point2::new(y, t) };
+        straight.of_image(in_image).map(|p| (p[edge.along], p[across]))
+    };
+    let points =
+        || strip_indices(edge).filter_map(|i| edge_point(image, edge, i, &levels)).filter_map(to_straight);
     let mut first = LineFit::default();
     points().for_each(|(t, y)| first.add(t, y));
     let (a, b) = first.solve()?;

@@ -374,7 +374,7 @@ fn tracking_follows_a_moving_board_and_layout_catches_up_after_a_jump() {
 /// layout alike.
 #[test]
 fn a_jump_that_puts_two_marks_where_two_others_were_reports_them_missing_not_swapped() {
-    let pose = Translation3::new(-0.168, 0.0, 0.0) * desired();
+    let pose = Translation3::new(-0.19, 0.0, 0.0) * desired();
     let truth = CameraIntrinsics::paper().project_marks(&Board::paper(), &pose).expect("in front");
     let previous = xi_d();
     // the premise: 1 and 4 out of the image, 2 and 3 within the gate of where 1 and 4 were
