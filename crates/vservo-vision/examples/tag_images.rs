@@ -35,7 +35,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             // binary PGM (P5): the encoder's default for a .pgm name would be PAM (P7)
             let file = std::io::BufWriter::new(std::fs::File::create(dir.join(format!("{name}.pgm")))?);
             PnmEncoder::new(file).with_subtype(PnmSubtype::Graymap(SampleEncoding::Binary)).encode(
-                image.as_raw(),
+                image.as_raw().as_slice(),
                 width,
                 height,
                 ExtendedColorType::L8,
