@@ -71,7 +71,7 @@ mod tests {
     #[test]
     fn another_clock_is_shifted_by_its_offset() {
         let ahead = ClockMapping { base_time_ns: 7_000_000_000, clock_minus_monotonic_ns: 2_000_000_000 };
-        let stamp = capture_stamp(ahead, Some(1_000), 5_000_000_000);
+        let stamp = capture_stamp(ahead, Some(1_000), 5_000_010_000);
         assert_eq!(stamp.monotonic_ns, 5_000_001_000);
         let behind = ClockMapping { base_time_ns: 1_000, clock_minus_monotonic_ns: -3_000 };
         assert_eq!(capture_stamp(behind, Some(0), 10_000).monotonic_ns, 4_000);
