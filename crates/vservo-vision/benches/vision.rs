@@ -5,7 +5,7 @@ use std::hint::black_box;
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use nalgebra::{Point2, Rotation3, Translation3, Vector3};
-use vservo_scene::{Board, CameraIntrinsics, Distortion, IsometryMatrix3};
+use vservo_scene::{AprilTag, Board, CameraIntrinsics, Distortion, IsometryMatrix3};
 use vservo_vision::{Extractor, ExtractorSettings, Prediction, RenderSettings, Renderer};
 
 fn vision(c: &mut Criterion) {
@@ -68,6 +68,20 @@ fn render_through_a_lens(c: &mut Criterion, board: &Board) {
             })
         });
     }
+    // config/vservo-apriltag.toml's tag through the same lens
+    let tag = AprilTag::tag36h11(3, 0.16, Point2::new(-0.01, -0.135)).expect("a tag36h11 id");
+    let tag_board = Board::with_apriltag(tag, [Point2::new(-0.16, -0.24), Point2::new(0.14, -0.03)]);
+    let lens = Distortion::new([-0.25, 0.08, 0.0, 0.0, 0.0]).expect("finite");
+    let camera =
+        CameraIntrinsics::with_lens([600.0, 606.0], Point2::new(322.0, 237.0), 640, 480, lens).expect("valid");
+    let mut renderer = Renderer::new(camera, settings);
+    let mut frame = 0;
+    c.bench_function("render_640x480_lens_apriltag", |b| {
+        b.iter(|| {
+            frame += 1;
+            renderer.render(black_box(&tag_board), black_box(&pose), frame).as_raw().len()
+        })
+    });
 }
 
 criterion_group!(benches, vision);

@@ -210,7 +210,8 @@ impl Extractor {
         let candidates = found.as_slice();
         let (assignment, expected) = associate(candidates, prediction, settings.gate_px);
         let look = Look { image, threshold, blobs, settings: &settings, expected: &expected };
-        let ambiguous = look.labels_ambiguous(candidates, &assignment);
+        let tracking = matches!(prediction, Prediction::Tracking(_));
+        let ambiguous = look.labels_ambiguous(candidates, &assignment, tracking);
         let mut status: [MarkStatus; MARKS] = std::array::from_fn(|mark| match assignment[mark] {
             Some(_) if ambiguous => MarkStatus::Ambiguous,
             Some(index) => look.assigned_status(mark, &candidates[index]),
@@ -391,9 +392,16 @@ impl Look<'_> {
     /// marks are (`expected` carried onto the marks seen by a similarity; by a shift for one mark). If the
     /// image contradicts that (a missing mark predicted inside the image on bright board) while another
     /// labelling of the same blobs, as plausible in shape, explains it (each of its missing marks outside
-    /// the image or on dark pixels), the image does not say which marks were seen: a board that jumped
-    /// so that two marks left the image shows the other two where the first two were.
-    fn labels_ambiguous(&self, candidates: &[Candidate], assignment: &[Option<usize>; MARKS]) -> bool {
+    /// the image or in a dark blob of a mark's size), the image does not say which marks were seen: a board
+    /// that jumped so that two marks left the image shows the other two where the first two were. When
+    /// `tracking` (the previous frame's positions), both labellings must also keep the view's turn and
+    /// scale near the previous frame's.
+    fn labels_ambiguous(
+        &self,
+        candidates: &[Candidate],
+        assignment: &[Option<usize>; MARKS],
+        tracking: bool,
+    ) -> bool {
         let mut seen = [(0_usize, (0.0, 0.0)); MARKS];
         let mut n_seen = 0;
         for (mark, index) in assignment.iter().enumerate() {
@@ -411,7 +419,10 @@ impl Look<'_> {
             *label = *mark;
         }
         let Some(chosen) = self.carry(&labels[..n_seen], seen) else { return false };
-        if self.explains(&chosen, &labels[..n_seen]) {
+        // tracked from the previous frame, a view of the board moves little: a labelling that turns or
+        // scales it much is no alternative, and a chosen one that does is not judged
+        let near_previous = |fit: &Similarity| !tracking || fit.as_plausible_as(&Similarity::IDENTITY);
+        if !near_previous(&chosen) || self.explains(&chosen, &labels[..n_seen]) {
             return false;
         }
         let mut another_explains = false;
@@ -421,6 +432,7 @@ impl Look<'_> {
             }
             if let Some(fit) = self.carry(other, seen)
                 && fit.as_plausible_as(&chosen)
+                && near_previous(&fit)
                 && self.explains(&fit, other)
             {
                 another_explains = true;
@@ -676,6 +688,8 @@ struct Similarity {
 }
 
 impl Similarity {
+    const IDENTITY: Similarity = Similarity { a: 1.0, b: 0.0, tx: 0.0, ty: 0.0 };
+
     /// The least-squares fit of `to ≈ S(from)` and its misfit relative to the spread of `to` (0 is exact).
     fn fit(pairs: &[PointPair]) -> (Similarity, f64) {
         let n = pairs.len() as f64;
