@@ -12,8 +12,10 @@ use vservo_system_tests::{Daemon, config_from, echo_lines, exclusive, running, s
 fn an_apriltag_through_a_lens_converges_below_one_pixel_in_real_time() {
     let _one = exclusive();
     let instance = unique("apriltag");
-    let config =
-        config_from("config/vservo-apriltag.toml", &[("name = \"default\"", &format!("name = \"{instance}\""))]);
+    let config = config_from(
+        "config/vservo-apriltag.toml",
+        &[("name = \"default\"", &format!("name = \"{instance}\""))],
+    );
     let daemon = Daemon::start(&config);
     assert!(
         wait_until(Duration::from_secs(10), || status(&instance).is_some_and(|s| running(&s))),

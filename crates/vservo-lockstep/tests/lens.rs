@@ -75,7 +75,10 @@ fn an_apriltag_through_the_lens_converges_below_one_pixel_and_without_undistorti
         summary.final_error_px, summary.settling_time_s
     );
     assert!(summary.final_error_px < 1.0, "{summary:?}");
-    assert!(displacement > 1.0, "the test's premise: the lens moves the corners by pixels ({displacement} px)");
+    assert!(
+        displacement > 1.0,
+        "the test's premise: the lens moves the corners by pixels ({displacement} px)"
+    );
 
     config.vision.undistort = false;
     let ignored = summarize(&run(&config), &config.scenario.object);
@@ -84,6 +87,9 @@ fn an_apriltag_through_the_lens_converges_below_one_pixel_and_without_undistorti
         ignored.final_error_px,
         ignored.final_error_px / summary.final_error_px
     );
-    assert!(ignored.final_error_px > 0.5 * displacement, "{ignored:?}: the lens moves the corners {displacement} px");
+    assert!(
+        ignored.final_error_px > 0.5 * displacement,
+        "{ignored:?}: the lens moves the corners {displacement} px"
+    );
     assert!(ignored.final_error_px > 2.0 * summary.final_error_px, "{ignored:?} against {summary:?}");
 }

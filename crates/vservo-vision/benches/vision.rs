@@ -72,8 +72,8 @@ fn render_through_a_lens(c: &mut Criterion, board: &Board) {
     let tag = AprilTag::tag36h11(3, 0.16, Point2::new(-0.01, -0.135)).expect("a tag36h11 id");
     let tag_board = Board::with_apriltag(tag, [Point2::new(-0.16, -0.24), Point2::new(0.14, -0.03)]);
     let lens = Distortion::new([-0.25, 0.08, 0.0, 0.0, 0.0]).expect("finite");
-    let camera =
-        CameraIntrinsics::with_lens([600.0, 606.0], Point2::new(322.0, 237.0), 640, 480, lens).expect("valid");
+    let camera = CameraIntrinsics::with_lens([600.0, 606.0], Point2::new(322.0, 237.0), 640, 480, lens)
+        .expect("valid");
     let mut renderer = Renderer::new(camera, settings);
     let mut frame = 0;
     c.bench_function("render_640x480_lens_apriltag", |b| {

@@ -28,8 +28,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let camera = CameraIntrinsics::new(focal, centre, width, height)?;
         let corners = camera.project_marks(&board, &pose)?;
         for (noise, sigma) in [("clean", 0.0), ("sigma5", 5.0)] {
-            let settings =
-                RenderSettings { noise_sigma_gray: sigma, lighting_gradient: [0.0, 0.0], ..Default::default() };
+            let settings = RenderSettings {
+                noise_sigma_gray: sigma,
+                lighting_gradient: [0.0, 0.0],
+                ..Default::default()
+            };
             let image = Renderer::new(camera, settings).render(&board, &pose, 1).clone();
             let name = format!("{width}x{height}_{noise}");
             // binary PGM (P5): the encoder's default for a .pgm name would be PAM (P7)
@@ -41,7 +44,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 ExtendedColorType::L8,
             )?;
             let list: Vec<String> = corners.iter().map(|v| format!("{v:.6}")).collect();
-            let _ = write!(truth, "{}\"{name}\": [{}]", if truth.len() > 1 { ", " } else { "" }, list.join(", "));
+            let _ =
+                write!(truth, "{}\"{name}\": [{}]", if truth.len() > 1 { ", " } else { "" }, list.join(", "));
         }
     }
     truth.push_str("}\n");

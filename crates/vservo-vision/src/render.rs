@@ -448,7 +448,8 @@ fn distorted_row(
     // mark and tag edges get the full count (they carry the features); the outline half as many per axis
     let outline_samples = (samples / 2).max(2);
     for (u, albedo) in row.iter_mut().enumerate() {
-        let pinhole = [top + u, top + u + 1, top + stride + u + 1, top + stride + u].map(|i| pinhole_corners[i]);
+        let pinhole =
+            [top + u, top + u + 1, top + stride + u + 1, top + stride + u].map(|i| pinhole_corners[i]);
         let corners = pinhole.map(|p| scene.on_board(p.x, p.y));
         *albedo = match footprint(scene, corners) {
             Footprint::Whole(surface) => gray(surface) as f32,
@@ -557,7 +558,10 @@ fn tag_footprint(tag: &AprilTag, points: &[Point2<f64>; 4], margin: f64) -> Foot
     let cell_of = |x: f64| (x - m).floor();
     let (column, row) = (cell_of(local[0].0), cell_of(local[0].1));
     let in_one_cell = local.iter().all(|l| {
-        cell_of(l.0) == column && (l.0 + m).floor() == column && cell_of(l.1) == row && (l.1 + m).floor() == row
+        cell_of(l.0) == column
+            && (l.0 + m).floor() == column
+            && cell_of(l.1) == row
+            && (l.1 + m).floor() == row
     });
     if !in_one_cell || !(0.0..cells).contains(&column) || !(0.0..cells).contains(&row) {
         return Footprint::NearMark;
@@ -718,8 +722,10 @@ mod tests {
             for v in 0..480usize {
                 for u in 0..640usize {
                     let top = v * 641;
-                    let pinhole = [top + u, top + u + 1, top + 641 + u + 1, top + 641 + u].map(|i| corners[i]);
-                    if let Footprint::Whole(_) = footprint(&scene, pinhole.map(|p| scene.on_board(p.x, p.y))) {
+                    let pinhole =
+                        [top + u, top + u + 1, top + 641 + u + 1, top + 641 + u].map(|i| corners[i]);
+                    if let Footprint::Whole(_) = footprint(&scene, pinhole.map(|p| scene.on_board(p.x, p.y)))
+                    {
                         continue;
                     }
                     sampled += 1;
@@ -727,7 +733,10 @@ mod tests {
                     let mut exact = 0.0;
                     for j in 0..4 {
                         for i in 0..4 {
-                            let (x, y) = (u as f64 + (f64::from(i) + 0.5) / 4.0, v as f64 + (f64::from(j) + 0.5) / 4.0);
+                            let (x, y) = (
+                                u as f64 + (f64::from(i) + 0.5) / 4.0,
+                                v as f64 + (f64::from(j) + 0.5) / 4.0,
+                            );
                             exact += gray(scene.surface(x, y)) / 16.0;
                         }
                     }

@@ -41,7 +41,7 @@ impl Straight<'_> {
     }
 
     /// Back to the image.
-    fn to_image(&self, point: Point2<f64>) -> Point2<f64> {
+    fn image_of(&self, point: Point2<f64>) -> Point2<f64> {
         match self {
             Straight::InImage => point,
             Straight::OnPinhole(camera) => camera.observed_of_pinhole(&point),
@@ -52,7 +52,7 @@ impl Straight<'_> {
     /// between the chord's midpoint and the image of the straight edge's midpoint (0 without a lens).
     fn bend_px(&self, p: &Point2<f64>, q: &Point2<f64>) -> f64 {
         match (self.of_image(*p), self.of_image(*q)) {
-            (Some(a), Some(b)) => (self.to_image(nalgebra::center(&a, &b)) - nalgebra::center(p, q)).norm(),
+            (Some(a), Some(b)) => (self.image_of(nalgebra::center(&a, &b)) - nalgebra::center(p, q)).norm(),
             _ => f64::INFINITY,
         }
     }
@@ -112,7 +112,7 @@ pub fn refine_corners(
     }
     let mut refined = [Point2::origin(); MARKS];
     for k in 0..MARKS {
-        let corner = straight.to_image(intersect(&lines[(k + MARKS - 1) % MARKS], &lines[k])?);
+        let corner = straight.image_of(intersect(&lines[(k + MARKS - 1) % MARKS], &lines[k])?);
         // the detector fits straight lines in the image: through a lens its corners are off by up to
         // about the edges' bend
         let (previous, next) = (&corners[(k + MARKS - 1) % MARKS], &corners[(k + 1) % MARKS]);

@@ -268,7 +268,12 @@ fn through_a_lens_the_corners_are_fitted_on_the_pinhole_image() {
                 truth[2 * k + 1] = seen.y;
             }
             let found = through_lens.extract(&image, None);
-            assert_eq!(found.verdict, TagVerdict::Found, "pose {i}: truth {truth}, detector {:?}", vservo_vision::tag::reference_detections(&image));
+            assert_eq!(
+                found.verdict,
+                TagVerdict::Found,
+                "pose {i}: truth {truth}, detector {:?}",
+                vservo_vision::tag::reference_detections(&image)
+            );
             sum += rms_px(&found.features, &truth).powi(2);
             let straight_in_image = in_image.extract(&image, None);
             if straight_in_image.verdict == TagVerdict::Found {
@@ -277,8 +282,14 @@ fn through_a_lens_the_corners_are_fitted_on_the_pinhole_image() {
         }
         let n = poses().len() as f64;
         let (rms, rms_in_image) = ((sum / n).sqrt(), (sum_in_image / n).sqrt());
-        println!("σ = {}: {rms:.4} px RMS on the pinhole image, {rms_in_image:.4} px fitted in the image", settings.noise_sigma_gray);
+        println!(
+            "σ = {}: {rms:.4} px RMS on the pinhole image, {rms_in_image:.4} px fitted in the image",
+            settings.noise_sigma_gray
+        );
         assert!(rms <= bar, "{rms} px RMS");
-        assert!(rms_in_image > 2.0 * rms, "the premise: the lens bends the edges ({rms_in_image} px in the image)");
+        assert!(
+            rms_in_image > 2.0 * rms,
+            "the premise: the lens bends the edges ({rms_in_image} px in the image)"
+        );
     }
 }

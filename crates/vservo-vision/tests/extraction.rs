@@ -384,7 +384,11 @@ fn a_jump_that_puts_two_marks_where_two_others_were_reports_them_missing_not_swa
     }
     for (seen, was) in [(1, 0), (2, 3)] {
         let gate = ExtractorSettings::default().gate_px;
-        assert!((at(&truth, seen) - at(&previous, was)).norm() < gate, "mark {} not within the gate", seen + 1);
+        assert!(
+            (at(&truth, seen) - at(&previous, was)).norm() < gate,
+            "mark {} not within the gate",
+            seen + 1
+        );
     }
     let image = render(&pose, RenderSettings::default(), 0);
     for prediction in [Prediction::Tracking(previous), Prediction::Layout(previous)] {
@@ -413,7 +417,12 @@ fn two_marks_covered_inside_the_image_leave_the_other_two_labelled() {
             let found = extract(&image, prediction);
             for mark in 0..MARKS {
                 if covered.contains(&mark) {
-                    assert_eq!(found.status[mark], MarkStatus::NotFound, "{covered:?} {prediction:?}: {:?}", found.status);
+                    assert_eq!(
+                        found.status[mark],
+                        MarkStatus::NotFound,
+                        "{covered:?} {prediction:?}: {:?}",
+                        found.status
+                    );
                 } else {
                     assert!(found.status[mark].is_valid(), "{covered:?} {prediction:?}: {:?}", found.status);
                     assert!((found.features[2 * mark] - xi_d()[2 * mark]).abs() < 0.1);

@@ -96,7 +96,8 @@ fn extract(args: &ExtractArgs) -> Result<()> {
     // with an AprilTag target, its four corners (the tag's verdict is in the log)
     let found = match config.board.apriltag() {
         Some(tag) => {
-            let found = vservo_vision::TagExtractor::for_camera(tag.id(), &config.camera).extract(&image, None);
+            let found =
+                vservo_vision::TagExtractor::for_camera(tag.id(), &config.camera).extract(&image, None);
             if found.verdict != vservo_vision::TagVerdict::Found {
                 eprintln!("tag {}: {}", tag.id(), found.verdict.reason());
             }

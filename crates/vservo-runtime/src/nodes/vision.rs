@@ -90,13 +90,14 @@ impl FeaturesOut {
         let info = self.in_pipeline[(delivered.frame % 8) as usize];
         let mut status = info.status;
         let mut valid_mask = 0u32;
-        for mark in 0..MARKS {
-            let undistorted = delivered.features[2 * mark].is_finite() && delivered.features[2 * mark + 1].is_finite();
+        for (mark, mark_status) in status.iter_mut().enumerate() {
+            let undistorted =
+                delivered.features[2 * mark].is_finite() && delivered.features[2 * mark + 1].is_finite();
             // found in the image, but where the lens has no undistorted position: outside its usable part
-            if status[mark] == WireMarkStatus::Valid && !undistorted {
-                status[mark] = WireMarkStatus::OutsideImage;
+            if *mark_status == WireMarkStatus::Valid && !undistorted {
+                *mark_status = WireMarkStatus::OutsideImage;
             }
-            if status[mark] == WireMarkStatus::Valid && info.frame == delivered.frame {
+            if *mark_status == WireMarkStatus::Valid && info.frame == delivered.frame {
                 valid_mask |= 1 << mark;
             }
         }
