@@ -6,8 +6,10 @@
 # final feature error and the settling time; with --json the last line is one JSON object
 # (final_error_px, settling_time_s, …). Logs and the recorded features are left in target/mujoco-run/.
 #
-#   scripts/run-mujoco.sh [--duration-s S] [--json] [--compare]
+#   scripts/run-mujoco.sh [--config FILE] [--duration-s S] [--json] [--compare]
 #
+# --config runs another external cell (default config/mujoco.toml; config/mujoco-apriltag.toml is the AprilTag
+# through a distorting lens): the driver renders what `vservoctl scene` says of it (lens and target included).
 # --compare also runs the built-in simulation of the same cell in the lockstep simulator (vservoctl sim on
 # config/vservo.toml with the MuJoCo cell's pipeline delay: none, as MuJoCo's frames reach the servo within a
 # frame) and adds its settling time and the RMS difference of the two feature trajectories.
@@ -16,13 +18,17 @@ cd "$(dirname "$0")/.."
 duration=20
 json=0
 compare=0
+config=config/mujoco.toml
 while [ $# -gt 0 ]; do
     case "$1" in
         --duration-s) duration="$2"; shift 2 ;;
         --duration-s=*) duration="${1#*=}"; shift ;;
         --json) json=1; shift ;;
         --compare) compare=1; shift ;;
-        *) echo "run-mujoco: unknown argument $1 (expected --duration-s S, --json, --compare)" >&2; exit 2 ;;
+        --config) config="$2"; shift 2 ;;
+        --config=*) config="${1#*=}"; shift ;;
+        *) echo "run-mujoco: unknown argument $1 (expected --config FILE, --duration-s S, --json, --compare)" >&2
+           exit 2 ;;
     esac
 done
 say() { [ "$json" = 1 ] && echo "$*" >&2 || echo "$*"; }
@@ -35,8 +41,6 @@ if [ -z "$bin" ]; then
     cargo build --release --locked -q -p vservod -p vservoctl >&2
     bin=./target/release
 fi
-config=config/mujoco.toml
-instance=mujoco
 out=target/mujoco-run
 rm -rf "$out"
 mkdir -p "$out"
@@ -44,6 +48,7 @@ python=target/python-venv/bin/python
 vservoctl="$bin/vservoctl"
 
 "$vservoctl" scene --config "$config" > "$out/scene.json"
+instance="$("$python" -c 'import json,sys; print(json.load(sys.stdin)["instance"])' < "$out/scene.json")"
 desired="$("$python" -c 'import json,sys; print(",".join(str(v) for v in json.load(sys.stdin)["desired_features_px"]))' < "$out/scene.json")"
 
 pids=()
