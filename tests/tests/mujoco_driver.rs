@@ -18,13 +18,14 @@ fn python() -> PathBuf {
     interpreter
 }
 
-/// `scripts/run-mujoco.sh --json`, the README's way to try it, with this test run's binaries.
-#[test]
-fn run_mujoco_converges_below_one_pixel() {
+/// `scripts/run-mujoco.sh --json` with `extra` arguments and this test run's binaries: its summary, which must
+/// say the loop converged below 1 px.
+fn run_mujoco_to_convergence(extra: &[&str]) -> Value {
     let _one = exclusive();
     let bin_dir = binary("vservod").parent().expect("target/<profile>").to_path_buf();
     let out = Command::new(repository_root().join("scripts/run-mujoco.sh"))
         .args(["--duration-s", "15", "--json"])
+        .args(extra)
         .env("VSERVO_BIN_DIR", &bin_dir)
         .stdin(Stdio::null())
         .output()
@@ -38,6 +39,21 @@ fn run_mujoco_converges_below_one_pixel() {
     let final_error = summary["final_error_px"].as_f64().expect("final_error_px");
     assert!(final_error < 1.0, "{summary}\n{stderr}");
     assert!(summary["settling_time_s"].as_f64().is_some(), "{summary}");
+    summary
+}
+
+/// `scripts/run-mujoco.sh --json`, the README's way to try it.
+#[test]
+fn run_mujoco_converges_below_one_pixel() {
+    run_mujoco_to_convergence(&[]);
+}
+
+/// The bench's target through a lens in MuJoCo (config/mujoco-apriltag.toml): the driver renders the tag's
+/// cells through the configured distortion (a pinhole canvas remapped through the lens) and the loop closes
+/// on its corners.
+#[test]
+fn run_mujoco_with_an_apriltag_through_a_lens_converges_below_one_pixel() {
+    run_mujoco_to_convergence(&["--config", "config/mujoco-apriltag.toml"]);
 }
 
 /// The driver started on its own, as a user runs it.
