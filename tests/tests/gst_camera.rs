@@ -10,7 +10,8 @@ use std::time::{Duration, Instant};
 use nix::sys::signal::Signal;
 use serde_json::Value;
 use vservo_system_tests::{
-    Daemon, Killed, TempConfig, binary, config_from, exclusive, repository_root, status, unique, wait_until,
+    Daemon, Killed, TempConfig, binary, config_from, exclusive, run_script_to_convergence, status, unique,
+    wait_until,
 };
 
 const WIDTH: usize = 512;
@@ -252,20 +253,5 @@ fn bad_pipelines_and_wrong_caps_are_refused_naming_the_pipeline_and_why() {
 #[test]
 fn run_rtp_camera_converges_below_one_pixel() {
     let _one = exclusive();
-    let bin_dir = binary("vservod").parent().expect("target/<profile>").to_path_buf();
-    let out = Command::new(repository_root().join("scripts/run-rtp-camera.sh"))
-        .args(["--duration-s", "15", "--json"])
-        .env("VSERVO_BIN_DIR", &bin_dir)
-        .stdin(Stdio::null())
-        .output()
-        .expect("run-rtp-camera.sh runs");
-    let stdout = String::from_utf8_lossy(&out.stdout);
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    assert!(out.status.success(), "{stdout}\n{stderr}");
-    let last = stdout.lines().last().expect("a JSON line");
-    let summary: Value = serde_json::from_str(last).expect("the last line is JSON");
-    println!("{summary}");
-    let final_error = summary["final_error_px"].as_f64().expect("final_error_px");
-    assert!(final_error < 1.0, "{summary}\n{stderr}");
-    assert!(summary["settling_time_s"].as_f64().is_some(), "{summary}");
+    run_script_to_convergence("run-rtp-camera.sh", &[]);
 }

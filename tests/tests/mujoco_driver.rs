@@ -7,9 +7,9 @@ use std::process::{Command, Stdio};
 use std::time::Duration;
 
 use nix::sys::signal::Signal;
-use serde_json::Value;
 use vservo_system_tests::{
-    Daemon, Killed, binary, config_from, exclusive, repository_root, run, status, unique, wait_until,
+    Daemon, Killed, config_from, exclusive, repository_root, run, run_script_to_convergence, status, unique,
+    wait_until,
 };
 
 fn python() -> PathBuf {
@@ -18,34 +18,11 @@ fn python() -> PathBuf {
     interpreter
 }
 
-/// `scripts/run-mujoco.sh --json` with `extra` arguments and this test run's binaries: its summary, which must
-/// say the loop converged below 1 px.
-fn run_mujoco_to_convergence(extra: &[&str]) -> Value {
-    let _one = exclusive();
-    let bin_dir = binary("vservod").parent().expect("target/<profile>").to_path_buf();
-    let out = Command::new(repository_root().join("scripts/run-mujoco.sh"))
-        .args(["--duration-s", "15", "--json"])
-        .args(extra)
-        .env("VSERVO_BIN_DIR", &bin_dir)
-        .stdin(Stdio::null())
-        .output()
-        .expect("run-mujoco.sh runs");
-    let stdout = String::from_utf8_lossy(&out.stdout);
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    assert!(out.status.success(), "{stdout}\n{stderr}");
-    let last = stdout.lines().last().expect("a JSON line");
-    let summary: Value = serde_json::from_str(last).expect("the last line is JSON");
-    println!("{summary}");
-    let final_error = summary["final_error_px"].as_f64().expect("final_error_px");
-    assert!(final_error < 1.0, "{summary}\n{stderr}");
-    assert!(summary["settling_time_s"].as_f64().is_some(), "{summary}");
-    summary
-}
-
 /// `scripts/run-mujoco.sh --json`, the README's way to try it.
 #[test]
 fn run_mujoco_converges_below_one_pixel() {
-    run_mujoco_to_convergence(&[]);
+    let _one = exclusive();
+    run_script_to_convergence("run-mujoco.sh", &[]);
 }
 
 /// The bench's target through a lens in MuJoCo (config/mujoco-apriltag.toml): the driver renders the tag's
@@ -53,7 +30,8 @@ fn run_mujoco_converges_below_one_pixel() {
 /// on its corners.
 #[test]
 fn run_mujoco_with_an_apriltag_through_a_lens_converges_below_one_pixel() {
-    run_mujoco_to_convergence(&["--config", "config/mujoco-apriltag.toml"]);
+    let _one = exclusive();
+    run_script_to_convergence("run-mujoco.sh", &["--config", "config/mujoco-apriltag.toml"]);
 }
 
 /// The driver started on its own, as a user runs it.

@@ -134,26 +134,7 @@ fn perspective_bias_of_the_ellipse_centroid_is_measured() {
 fn with_noise_of_two_gray_levels_the_rms_error_is_under_three_tenths_of_a_pixel() {
     let settings =
         RenderSettings { noise_sigma_gray: 2.0, lighting_gradient: [0.15, -0.1], ..Default::default() };
-    let camera = CameraIntrinsics::paper();
-    let mut renderer = Renderer::new(camera, settings);
-    let mut extractor = Extractor::new(ExtractorSettings::default(), 512, 512);
-    let (mut sum_sq, mut n) = (0.0, 0);
-    for frame in 0..40_u64 {
-        let s = frame as f64 / 40.0;
-        let pose = IsometryMatrix3::from_parts(
-            Translation3::new(0.04 * (s * 6.0).sin(), -0.03 * s, 0.45 + 0.2 * s),
-            Rotation3::from_scaled_axis(Vector3::new(0.3 * s - 0.15, 0.2 * (s * 4.0).cos(), 0.4 * s)),
-        );
-        let truth = camera.project_marks(&Board::paper(), &pose).expect("in front");
-        let image = renderer.render(&Board::paper(), &pose, frame);
-        let found = extractor.extract(image, &Prediction::Layout(xi_d()));
-        assert!(found.all_valid(), "frame {frame}: {:?}", found.status);
-        for i in 0..8 {
-            sum_sq += (found.features[i] - truth[i]).powi(2);
-            n += 1;
-        }
-    }
-    let rms = (sum_sq / n as f64).sqrt();
+    let rms = rms_over_frames(settings, GrayImage::clone);
     assert!(rms < 0.3, "RMS error {rms} px");
     println!("RMS error with σ = 2 gray levels and a lighting gradient: {rms:.4} px");
 }
