@@ -106,3 +106,59 @@ fn wrong_size_and_blank_images_give_reasons_and_unreadable_files_exit_2() {
         let _ = std::fs::remove_file(f);
     }
 }
+
+/// The AprilTag cell (config/vservo-apriltag.toml, through its lens): its desired view renders and extracts
+/// to the tag's four corners; a configuration that looks for another id says, for each corner, that another
+/// tag was found, and gives no features.
+#[test]
+fn an_apriltag_view_extracts_to_its_corners_and_another_id_says_so() {
+    let config = vservo_system_tests::repository_root().join("config/vservo-apriltag.toml");
+    let config_arg = config.to_str().expect("utf-8").to_string();
+    let scene = run("vservoctl", &["scene", "--config", &config_arg]);
+    assert!(scene.status.success(), "{}", String::from_utf8_lossy(&scene.stderr));
+    let scene: Value = serde_json::from_slice(&scene.stdout).expect("one JSON object");
+    let q: Vec<String> = scene["desired_joints_rad"]
+        .as_array()
+        .expect("six joints")
+        .iter()
+        .map(|v| v.as_f64().expect("number").to_string())
+        .collect();
+    let image = temp("apriltag.pgm");
+    let rendered = run(
+        "vservoctl",
+        &[
+            "vision",
+            "render",
+            "--config",
+            &config_arg,
+            &format!("--q={}", q.join(",")),
+            "--out",
+            image.to_str().expect("utf-8"),
+        ],
+    );
+    assert!(rendered.status.success(), "{}", String::from_utf8_lossy(&rendered.stderr));
+    let extract = |config: &str| -> Value {
+        let output = run(
+            "vservoctl",
+            &["vision", "extract", image.to_str().expect("utf-8"), "--config", config, "--json"],
+        );
+        assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stderr));
+        serde_json::from_slice(&output.stdout).expect("one JSON object")
+    };
+    let found = extract(&config_arg);
+    assert_eq!(found["valid"], serde_json::json!([true, true, true, true]), "{found}");
+    // as observed through the lens, so near (not at) ξ_d's pinhole corners: within the lens's 2 px
+    let desired = vservo_system_tests::numbers(&scene["desired_features_px"]);
+    let features = vservo_system_tests::numbers(&found["features"]);
+    for (f, d) in features.iter().zip(&desired) {
+        assert!((f - d).abs() < 3.0, "{features:?} against {desired:?}");
+    }
+    let other = vservo_system_tests::config_from("config/vservo-apriltag.toml", &[("id = 3", "id = 5")]);
+    let refused = extract(&other.arg());
+    assert_eq!(refused["valid"], serde_json::json!([false, false, false, false]), "{refused}");
+    assert_eq!(refused["features"], serde_json::json!([null, null, null, null, null, null, null, null]));
+    for reason in refused["reasons"].as_array().expect("4") {
+        assert_eq!(reason, "tag 5: another tag found (id 3)", "{refused}");
+    }
+    let _ = std::fs::remove_file(&image);
+}

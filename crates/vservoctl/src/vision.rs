@@ -93,21 +93,23 @@ fn extract(args: &ExtractArgs) -> Result<()> {
     let image = read_gray_image(&args.image).map_err(|e| UsageError(e.to_string()))?;
     let mut extractor =
         Extractor::new(config.vision.extractor, config.camera.width_px(), config.camera.height_px());
-    // with an AprilTag target, its four corners (the tag's verdict is in the log)
-    let found = match config.board.apriltag() {
+    // with an AprilTag target, its four corners; a tag not found gives each corner the tag's verdict
+    let (found, tag_verdict) = match config.board.apriltag() {
         Some(tag) => {
             let found =
                 vservo_vision::TagExtractor::for_camera(tag.id(), &config.camera).extract(&image, None);
-            if found.verdict != vservo_vision::TagVerdict::Found {
-                eprintln!("tag {}: {}", tag.id(), found.verdict.reason());
-            }
-            found.to_extraction()
+            let verdict = (found.verdict != vservo_vision::TagVerdict::Found)
+                .then(|| format!("tag {}: {}", tag.id(), found.verdict.reason()));
+            (found.to_extraction(), verdict)
         }
-        None => extractor.extract(&image, &Prediction::Layout(config.desired.features)),
+        None => (extractor.extract(&image, &Prediction::Layout(config.desired.features)), None),
     };
     let features: Vec<Option<f64>> =
         found.features.iter().map(|&v| if v.is_finite() { Some(v) } else { None }).collect();
-    let reasons: Vec<String> = found.status.iter().map(MarkStatus::reason).collect();
+    let reasons: Vec<String> = match &tag_verdict {
+        Some(verdict) => vec![verdict.clone(); found.status.len()],
+        None => found.status.iter().map(MarkStatus::reason).collect(),
+    };
     if args.json {
         let out = json!({
             "image": args.image.display().to_string(),
@@ -135,7 +137,7 @@ fn extract(args: &ExtractArgs) -> Result<()> {
                 found.features[2 * mark + 1]
             )
         } else {
-            format!("  mark {}: {}\n", mark + 1, status.reason())
+            format!("  mark {}: {}\n", mark + 1, reasons[mark])
         };
         out += &line;
     }
