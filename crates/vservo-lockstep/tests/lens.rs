@@ -93,3 +93,31 @@ fn an_apriltag_through_the_lens_converges_below_one_pixel_and_without_undistorti
     );
     assert!(ignored.final_error_px > 2.0 * summary.final_error_px, "{ignored:?} against {summary:?}");
 }
+
+/// A scenario's occlusion on an AprilTag target covers a corner of the tag (3 × 3 of its cells turn white):
+/// the tag is no longer found, so all four corners are missing and the robust law steers back to where the
+/// tag was last seen (never frozen, never on wrong corners); uncovered, it converges below 1 px again.
+#[test]
+fn a_covered_tag_corner_loses_the_tag_and_the_servo_converges_again_once_uncovered() {
+    use vservo_cell::ServoVerdict;
+    use vservo_config::Occlusion;
+    let mut config = Config::load(concat!(env!("CARGO_MANIFEST_DIR"), "/../../config/vservo-apriltag.toml"))
+        .expect("config/vservo-apriltag.toml is valid");
+    config.scenario.duration_s = 4.0;
+    config.scenario.occlusions[0] = Some(Occlusion { mark: 1, from_s: 1.5, until_s: 2.0 });
+    let trace = run(&config);
+    let during: Vec<_> = trace
+        .frames
+        .iter()
+        .filter(|f| f.t_s > 1.6 && f.t_s < 1.95)
+        .map(|f| (f.verdict, f.measured.iter().all(|v| v.is_nan())))
+        .collect();
+    assert!(!during.is_empty());
+    for (verdict, none_measured) in &during {
+        assert!(none_measured, "a covered tag gives no corners: {during:?}");
+        assert!(matches!(verdict, Some(ServoVerdict::Reacquiring(0b1111))), "{during:?}");
+    }
+    let summary = summarize(&trace, &config.scenario.object);
+    println!("a tag corner covered 1.5–2.0 s: final error {:.3} px", summary.final_error_px);
+    assert!(summary.final_error_px < 1.0, "{summary:?}");
+}

@@ -94,6 +94,27 @@ impl AprilTag {
             .map(|(x, y)| Point3::new(c.x + x * h, c.y + y * h, 0.0))
     }
 
+    /// The tag with a white patch over each corner k set in `corners` (bit k, the corners' order): the 3 × 3
+    /// cells of the black square at that corner turn white, its border and code bits with them (a sticker
+    /// or a finger over a corner; what a scenario's occlusion of "mark" k does to a tag).
+    pub fn with_corners_covered(&self, corners: u8) -> AprilTag {
+        let mut tag = *self;
+        let cells = tag36h11::WIDTH_AT_BORDER;
+        for (k, (x, y)) in [(-1, 1), (1, 1), (1, -1), (-1, -1)].into_iter().enumerate() {
+            if corners & (1 << k) == 0 {
+                continue;
+            }
+            let (columns, rows) =
+                (if x < 0 { 0..3 } else { cells - 3..cells }, if y < 0 { 0..3 } else { cells - 3..cells });
+            for row in rows {
+                for column in columns.clone() {
+                    tag.black_cells &= !(1u64 << (row * cells + column));
+                }
+            }
+        }
+        tag
+    }
+
     /// Whether a point of the board plane is on a black cell of the tag (its border or a 0 bit); `None` off
     /// the black square (the white margin is the board itself).
     pub fn is_black_at(&self, x_m: f64, y_m: f64) -> Option<bool> {
@@ -158,6 +179,33 @@ impl Board {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Covering corner k whitens the 3 × 3 cells at that corner of the black square and nothing else.
+    #[test]
+    fn a_covered_corner_is_white_over_three_by_three_cells() {
+        let tag = AprilTag::tag36h11(3, 0.16, Point2::new(0.0, 0.0)).expect("an id");
+        let cell_centre = |column: u32, row: u32| {
+            (-0.08 + 0.02 * (f64::from(column) + 0.5), -0.08 + 0.02 * (f64::from(row) + 0.5))
+        };
+        // corner k's block of cells: the corners in the C library's order, (−1, +1) first
+        let blocks = [(0..3, 5..8), (5..8, 5..8), (5..8, 0..3), (0..3, 0..3)];
+        for (k, (columns, rows)) in blocks.iter().enumerate() {
+            let covered = tag.with_corners_covered(1 << k);
+            for row in 0..8 {
+                for column in 0..8 {
+                    let (x, y) = cell_centre(column, row);
+                    let inside = columns.contains(&column) && rows.contains(&row);
+                    let expected = if inside { Some(false) } else { tag.is_black_at(x, y) };
+                    assert_eq!(covered.is_black_at(x, y), expected, "corner {k}, cell ({column}, {row})");
+                }
+            }
+            // the corner itself lies in that block
+            let corner = tag.corners_in_board()[k];
+            let (x, y) = (corner.x * 0.99, corner.y * 0.99);
+            assert_eq!(covered.is_black_at(x, y), Some(false), "corner {k}");
+            assert_eq!(tag.is_black_at(x, y), Some(true), "the border is black at corner {k}");
+        }
+    }
 
     #[test]
     fn a_tag_reads_back_its_code_cell_by_cell_and_has_a_black_border() {

@@ -66,7 +66,8 @@ impl SimulatedCamera {
     }
 
     /// [`SimulatedCamera::capture`] with the marks of `hidden` (bit m for mark m) covered, as if by something
-    /// the board's colour: a scenario's occlusion.
+    /// the board's colour: a scenario's occlusion. With an AprilTag target, the corners of `hidden` are
+    /// covered ([`vservo_scene::AprilTag::with_corners_covered`]).
     pub fn capture_hiding(
         &mut self,
         camera_from_board: &IsometryMatrix3<f64>,
@@ -77,6 +78,11 @@ impl SimulatedCamera {
             return self.capture(camera_from_board, frame);
         }
         let mut board = self.board;
+        if let Some(tag) = board.apriltag() {
+            // a tag's corner is covered where it lies, by a patch of white over it
+            board.target = vservo_scene::Target::AprilTag(tag.with_corners_covered(hidden));
+            return self.renderer.render(&board, camera_from_board, frame);
+        }
         for (index, mark) in board.marks_in_board.iter_mut().enumerate() {
             if hidden & (1 << index) != 0 {
                 // off the board, where nothing of it is drawn
