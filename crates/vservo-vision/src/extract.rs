@@ -372,11 +372,7 @@ impl Look<'_> {
         if !vservo_scene::image_contains(w, h, &nalgebra::Point2::new(x, y), 0.0) {
             return MarkStatus::OutsideImage;
         }
-        let sized = |b: &&Blob| (self.settings.min_area_px..=self.settings.max_area_px).contains(&b.area);
-        let blob = dark_at(self.image, self.threshold, x, y)
-            .then(|| self.blobs.iter().filter(sized).filter(|b| in_box(b, x, y)).min_by_key(|b| b.area))
-            .flatten();
-        match blob {
+        match self.dark_blob_at(x, y) {
             None => MarkStatus::NotFound,
             Some(blob) => match self.other_mark_in(mark, blob) {
                 Some(o) => MarkStatus::MergedWith(o),
@@ -384,6 +380,14 @@ impl Look<'_> {
                 None => MarkStatus::Irregular,
             },
         }
+    }
+
+    /// The smallest blob of a mark's size whose box holds image point (x, y), if the pixel there is dark.
+    fn dark_blob_at(&self, x: f64, y: f64) -> Option<&Blob> {
+        let sized = |b: &&Blob| (self.settings.min_area_px..=self.settings.max_area_px).contains(&b.area);
+        dark_at(self.image, self.threshold, x, y)
+            .then(|| self.blobs.iter().filter(sized).filter(|b| in_box(b, x, y)).min_by_key(|b| b.area))
+            .flatten()
     }
 }
 
@@ -462,12 +466,10 @@ impl Look<'_> {
     /// the background beyond the board's edge, where a mark is predicted contradicts it.
     fn explains(&self, fit: &Similarity, labels: &[usize]) -> bool {
         let (w, h) = self.image.dimensions();
-        let sized = |b: &&Blob| (self.settings.min_area_px..=self.settings.max_area_px).contains(&b.area);
         (0..MARKS).filter(|m| !labels.contains(m)).all(|m| {
             let (x, y) = fit.apply((self.expected[2 * m], self.expected[2 * m + 1]));
             !vservo_scene::image_contains(w, h, &nalgebra::Point2::new(x, y), 0.0)
-                || (dark_at(self.image, self.threshold, x, y)
-                    && self.blobs.iter().filter(sized).any(|b| in_box(b, x, y)))
+                || self.dark_blob_at(x, y).is_some()
         })
     }
 }
@@ -797,38 +799,50 @@ fn refine(image: &GrayImage, blob: &Blob, threshold: u8, others: &[Option<Blob>;
         }
     }
     let mark = if core_count > 0.0 { core_sum / core_count } else { darkest };
+    // each pixel's share of the mark: (board − gray)/(board − mark), clamped; none where another mark's box
+    // is or without contrast
+    let coverage = |u: i64, v: i64| {
+        let b = board(u, v);
+        let contrast = b - mark;
+        (!excluded(u, v) && contrast > 1.0).then(|| ((b - gray(u, v)) / contrast).clamp(0.0, 1.0))
+    };
+    let window = (u0, v0, u1, v1);
+    match coverage_centroid(window, &coverage) {
+        Some(centre) => Refined { centre, skew: coverage_skew(window, &coverage, centre) },
+        None => Refined { centre: blob.centroid, skew: 0.0 },
+    }
+}
+
+/// The coverage-weighted centroid of the pixels of `window` (u0, v0, u1, v1, inclusive), at their centres;
+/// `None` without any coverage.
+fn coverage_centroid(
+    (u0, v0, u1, v1): (i64, i64, i64, i64),
+    coverage: &impl Fn(i64, i64) -> Option<f64>,
+) -> Option<(f64, f64)> {
     let (mut sw, mut su, mut sv) = (0.0, 0.0, 0.0);
     for v in v0..=v1 {
         for u in u0..=u1 {
-            if excluded(u, v) {
-                continue;
-            }
-            let b = board(u, v);
-            let contrast = b - mark;
-            if contrast <= 1.0 {
-                continue;
-            }
-            let weight = ((b - gray(u, v)) / contrast).clamp(0.0, 1.0);
+            let Some(weight) = coverage(u, v) else { continue };
             sw += weight;
             su += weight * (u as f64 + 0.5);
             sv += weight * (v as f64 + 0.5);
         }
     }
-    if sw <= 0.0 {
-        return Refined { centre: blob.centroid, skew: 0.0 };
-    }
-    let centre = (su / sw, sv / sw);
-    // the same weights' central moments of second and third order: the skew of the mark's image
-    let (mut m20, mut m02, mut m30, mut m21, mut m12, mut m03) = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
+    (sw > 0.0).then(|| (su / sw, sv / sw))
+}
+
+/// The skew ([`Refined`]) of the coverage over `window` about `centre`.
+fn coverage_skew(
+    (u0, v0, u1, v1): (i64, i64, i64, i64),
+    coverage: &impl Fn(i64, i64) -> Option<f64>,
+    centre: (f64, f64),
+) -> f64 {
+    let (mut sw, mut m20, mut m02, mut m30, mut m21, mut m12, mut m03) = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
     for v in v0..=v1 {
         for u in u0..=u1 {
-            let b = board(u, v);
-            let contrast = b - mark;
-            if excluded(u, v) || contrast <= 1.0 {
-                continue;
-            }
-            let weight = ((b - gray(u, v)) / contrast).clamp(0.0, 1.0);
+            let Some(weight) = coverage(u, v) else { continue };
             let (dx, dy) = (u as f64 + 0.5 - centre.0, v as f64 + 0.5 - centre.1);
+            sw += weight;
             m20 += weight * dx * dx;
             m02 += weight * dy * dy;
             m30 += weight * dx * dx * dx;
@@ -838,8 +852,7 @@ fn refine(image: &GrayImage, blob: &Blob, threshold: u8, others: &[Option<Blob>;
         }
     }
     let spread = (m20 + m02) / sw;
-    let skew = if spread > 0.0 { ((m30 + m12) / sw).hypot((m21 + m03) / sw) / spread.powf(1.5) } else { 0.0 };
-    Refined { centre, skew }
+    if spread > 0.0 { ((m30 + m12) / sw).hypot((m21 + m03) / sw) / spread.powf(1.5) } else { 0.0 }
 }
 
 /// The largest skew ([`Refined`]) of a mark's image taken as a whole mark. Measured on the extractor's tests

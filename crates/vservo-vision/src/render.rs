@@ -288,122 +288,152 @@ impl Renderer {
             Surface::Board => s.board_gray,
             Surface::Mark => s.mark_gray,
         };
-        let supersample_with = |u: i64, v: i64, samples: u32| -> f32 {
-            let mut sum = 0.0;
-            for j in 0..samples {
-                let y = v as f64 + (f64::from(j) + 0.5) / f64::from(samples);
-                for i in 0..samples {
-                    let x = u as f64 + (f64::from(i) + 0.5) / f64::from(samples);
-                    sum += gray(scene.surface(x, y));
-                }
-            }
-            (sum / f64::from(samples * samples)) as f32
-        };
-        // mark edges get the full count (they carry the features); the board's outline, which carries
-        // none, half as many per axis
-        let supersample = |u: i64, v: i64| supersample_with(u, v, samples);
-        let outline_samples = (samples / 2).max(2);
-        let supersample_outline = |u: i64, v: i64| supersample_with(u, v, outline_samples);
-        let mark_boxes: [Option<(i64, i64, i64, i64)>; MARKS] = std::array::from_fn(|i| scene.mark_box(i));
-        let tag_box = scene.tag_box();
+        let boxes = EdgeBoxes { marks: std::array::from_fn(|i| scene.mark_box(i)), tag: scene.tag_box() };
         let mut rng = Xorshift64::new(s.noise_seed ^ frame.wrapping_mul(0x9E37_79B9_7F4A_7C15));
-        let [gx, gy] = s.lighting_gradient;
-        let noisy = s.noise_sigma_gray > 0.0;
-
         for v in 0..height {
             if scene.distorted {
                 distorted_row(&scene, &self.pinhole_corners, v, &mut self.albedo, &gray, samples);
             } else {
-                let row = &mut self.albedo;
-                row.fill(s.background_gray as f32);
-                // where the board outline crosses this pixel row, at each sub-row
-                let (mut a_min, mut a_max, mut b_min, mut b_max) =
-                    (f64::INFINITY, f64::NEG_INFINITY, f64::INFINITY, f64::NEG_INFINITY);
-                let mut any = false;
-                let mut all = true;
-                for j in 0..samples {
-                    let y = v as f64 + (f64::from(j) + 0.5) / f64::from(samples);
-                    match scene.span(y) {
-                        Some((a, b)) => {
-                            any = true;
-                            a_min = a_min.min(a);
-                            a_max = a_max.max(a);
-                            b_min = b_min.min(b);
-                            b_max = b_max.max(b);
-                        }
-                        None => all = false,
-                    }
-                }
-                let clamp = |x: f64| (x.max(0.0).min(width as f64)) as i64;
-                let (mut full_start, mut full_end) = (0, 0);
-                if any {
-                    let edge_start = clamp(a_min.floor());
-                    let edge_end = clamp(b_max.ceil());
-                    if all && a_max.ceil() < b_min.floor() {
-                        full_start = clamp(a_max.ceil());
-                        full_end = clamp(b_min.floor());
-                    }
-                    if full_start < full_end {
-                        row[full_start as usize..full_end as usize].fill(s.board_gray as f32);
-                        for u in (edge_start..full_start).chain(full_end..edge_end) {
-                            row[u as usize] = supersample_outline(u, v);
-                        }
-                    } else {
-                        for u in edge_start..edge_end {
-                            row[u as usize] = supersample_outline(u, v);
-                        }
-                    }
-                }
-                // marks: only inside the wholly-on-board stretch (the edge pixels above were sampled whole)
-                for bbox in mark_boxes.iter().flatten() {
-                    let &(u0, u1, v0, v1) = bbox;
-                    if v < v0 || v >= v1 {
-                        continue;
-                    }
-                    for u in u0.max(full_start)..u1.min(full_end) {
-                        row[u as usize] = mark_pixel(&scene, u, v, s.board_gray, s.mark_gray)
-                            .unwrap_or_else(|| supersample(u, v));
-                    }
-                }
-                // the tag: likewise only inside the wholly-on-board stretch
-                if let (Some((u0, u1, v0, v1)), Some(tag)) = (tag_box, board.apriltag())
-                    && v >= v0
-                    && v < v1
-                {
-                    for u in u0.max(full_start)..u1.min(full_end) {
-                        row[u as usize] = tag_pixel(&scene, tag, u, v, s.board_gray, s.mark_gray)
-                            .unwrap_or_else(|| supersample(u, v));
-                    }
-                }
+                pinhole_row(&scene, &s, &boxes, v, &mut self.albedo, &gray);
             }
-            let row = &self.albedo;
-            // light and noise, in f32 with saturating casts: this loop touches every pixel, so it stays
-            // free of calls and branches (rounding is half-up)
-            let y_light = (1.0
-                + gy * ((v as f64 + 0.5) / height as f64 - 0.5)
-                + gx * (0.5 / width as f64 - 0.5)) as f32;
-            let step = (gx / width as f64) as f32;
             let out = &mut self.image.as_mut()[(v * width) as usize..((v + 1) * width) as usize];
-            if noisy {
-                for (chunk_out, chunk_in) in
-                    out.chunks_mut(5).zip(row.chunks(5)).enumerate().map(|(i, (o, a))| ((i, o), a))
-                {
-                    let ((chunk, pixels), albedo) = (chunk_out, chunk_in);
-                    let mut bits = rng.next_u64();
-                    for (k, (pixel, &a)) in pixels.iter_mut().zip(albedo).enumerate() {
-                        let u = (chunk * 5 + k) as f32;
-                        let value = a * (y_light + step * u) + self.noise.sample(bits) + 0.5;
-                        *pixel = value.clamp(0.0, 255.0) as u8;
-                        bits >>= 12;
-                    }
-                }
-            } else {
-                for (u, (pixel, &a)) in out.iter_mut().zip(row.iter()).enumerate() {
-                    *pixel = (a * (y_light + step * u as f32) + 0.5).clamp(0.0, 255.0) as u8;
-                }
-            }
+            light_and_noise(&s, &self.noise, &mut rng, (v, height), &self.albedo, out);
         }
         &self.image
+    }
+}
+
+/// The pixel boxes of the marks and of the tag's black square (u0, u1, v0, v1, exclusive ends), where the
+/// pinhole path looks at each pixel.
+struct EdgeBoxes {
+    marks: [Option<(i64, i64, i64, i64)>; MARKS],
+    tag: Option<(i64, i64, i64, i64)>,
+}
+
+/// Row `v` of the albedo through a pinhole: the board's outline where it crosses the row (supersampled at
+/// its edges), then the marks and the tag inside the wholly-on-board stretch, each pixel judged whole or
+/// supersampled.
+fn pinhole_row(
+    scene: &Scene,
+    s: &RenderSettings,
+    boxes: &EdgeBoxes,
+    v: i64,
+    row: &mut [f32],
+    gray: &impl Fn(Surface) -> f64,
+) {
+    let width = row.len() as i64;
+    let samples = s.supersampling.max(1);
+    let supersample_with = |u: i64, v: i64, samples: u32| -> f32 {
+        let mut sum = 0.0;
+        for j in 0..samples {
+            let y = v as f64 + (f64::from(j) + 0.5) / f64::from(samples);
+            for i in 0..samples {
+                let x = u as f64 + (f64::from(i) + 0.5) / f64::from(samples);
+                sum += gray(scene.surface(x, y));
+            }
+        }
+        (sum / f64::from(samples * samples)) as f32
+    };
+    // mark edges get the full count (they carry the features); the board's outline, which carries none,
+    // half as many per axis
+    let supersample = |u: i64, v: i64| supersample_with(u, v, samples);
+    let outline_samples = (samples / 2).max(2);
+    let supersample_outline = |u: i64, v: i64| supersample_with(u, v, outline_samples);
+    row.fill(s.background_gray as f32);
+    // where the board outline crosses this pixel row, at each sub-row
+    let (mut a_min, mut a_max, mut b_min, mut b_max) =
+        (f64::INFINITY, f64::NEG_INFINITY, f64::INFINITY, f64::NEG_INFINITY);
+    let mut any = false;
+    let mut all = true;
+    for j in 0..samples {
+        let y = v as f64 + (f64::from(j) + 0.5) / f64::from(samples);
+        match scene.span(y) {
+            Some((a, b)) => {
+                any = true;
+                a_min = a_min.min(a);
+                a_max = a_max.max(a);
+                b_min = b_min.min(b);
+                b_max = b_max.max(b);
+            }
+            None => all = false,
+        }
+    }
+    let clamp = |x: f64| (x.max(0.0).min(width as f64)) as i64;
+    let (mut full_start, mut full_end) = (0, 0);
+    if any {
+        let edge_start = clamp(a_min.floor());
+        let edge_end = clamp(b_max.ceil());
+        if all && a_max.ceil() < b_min.floor() {
+            full_start = clamp(a_max.ceil());
+            full_end = clamp(b_min.floor());
+        }
+        if full_start < full_end {
+            row[full_start as usize..full_end as usize].fill(s.board_gray as f32);
+            for u in (edge_start..full_start).chain(full_end..edge_end) {
+                row[u as usize] = supersample_outline(u, v);
+            }
+        } else {
+            for u in edge_start..edge_end {
+                row[u as usize] = supersample_outline(u, v);
+            }
+        }
+    }
+    // marks: only inside the wholly-on-board stretch (the edge pixels above were sampled whole)
+    for bbox in boxes.marks.iter().flatten() {
+        let &(u0, u1, v0, v1) = bbox;
+        if v < v0 || v >= v1 {
+            continue;
+        }
+        for u in u0.max(full_start)..u1.min(full_end) {
+            row[u as usize] =
+                mark_pixel(scene, u, v, s.board_gray, s.mark_gray).unwrap_or_else(|| supersample(u, v));
+        }
+    }
+    // the tag: likewise only inside the wholly-on-board stretch
+    if let (Some((u0, u1, v0, v1)), Some(tag)) = (boxes.tag, scene.board.apriltag())
+        && v >= v0
+        && v < v1
+    {
+        for u in u0.max(full_start)..u1.min(full_end) {
+            row[u as usize] =
+                tag_pixel(scene, tag, u, v, s.board_gray, s.mark_gray).unwrap_or_else(|| supersample(u, v));
+        }
+    }
+}
+
+/// Row `v` (of `height`) of the image from its albedo: the lighting gradient and the noise, in f32 with
+/// saturating casts. This loop touches every pixel, so it stays free of calls and branches (rounding is
+/// half-up).
+fn light_and_noise(
+    s: &RenderSettings,
+    noise: &GaussianTable,
+    rng: &mut Xorshift64,
+    (v, height): (i64, i64),
+    row: &[f32],
+    out: &mut [u8],
+) {
+    let width = row.len() as i64;
+    let [gx, gy] = s.lighting_gradient;
+    let y_light =
+        (1.0 + gy * ((v as f64 + 0.5) / height as f64 - 0.5) + gx * (0.5 / width as f64 - 0.5)) as f32;
+    let step = (gx / width as f64) as f32;
+    if s.noise_sigma_gray > 0.0 {
+        for (chunk_out, chunk_in) in
+            out.chunks_mut(5).zip(row.chunks(5)).enumerate().map(|(i, (o, a))| ((i, o), a))
+        {
+            let ((chunk, pixels), albedo) = (chunk_out, chunk_in);
+            let mut bits = rng.next_u64();
+            for (k, (pixel, &a)) in pixels.iter_mut().zip(albedo).enumerate() {
+                let u = (chunk * 5 + k) as f32;
+                let value = a * (y_light + step * u) + noise.sample(bits) + 0.5;
+                *pixel = value.clamp(0.0, 255.0) as u8;
+                bits >>= 12;
+            }
+        }
+    } else {
+        for (u, (pixel, &a)) in out.iter_mut().zip(row.iter()).enumerate() {
+            *pixel = (a * (y_light + step * u as f32) + 0.5).clamp(0.0, 255.0) as u8;
+        }
     }
 }
 
@@ -604,33 +634,16 @@ fn mark_pixel(scene: &Scene, u: i64, v: i64, board_gray: f64, mark_gray: f64) ->
 /// one side of the square, put all of it there.
 #[inline]
 fn tag_pixel(scene: &Scene, tag: &AprilTag, u: i64, v: i64, board_gray: f64, mark_gray: f64) -> Option<f32> {
-    let corners = [(0.0, 0.0), (1.0, 0.0), (1.0, 1.0), (0.0, 1.0)]
-        .map(|(du, dv)| scene.on_board(u as f64 + du, v as f64 + dv));
-    let mut cells = [(0i64, 0i64); 4];
-    for (cell, corner) in cells.iter_mut().zip(corners) {
-        let p = corner?;
-        let c = tag.centre_in_board();
-        let per_cell = tag.size_m() / f64::from(vservo_scene::tag36h11::WIDTH_AT_BORDER);
-        *cell =
-            (((p.x - c.x) / per_cell + 4.0).floor() as i64, ((p.y - c.y) / per_cell + 4.0).floor() as i64);
+    let mut points = [Point2::origin(); 4];
+    for (point, (du, dv)) in points.iter_mut().zip([(0.0, 0.0), (1.0, 0.0), (1.0, 1.0), (0.0, 1.0)]) {
+        *point = scene.on_board(u as f64 + du, v as f64 + dv)?;
     }
-    let beside = cells.iter().all(|c| c.0 < 0)
-        || cells.iter().all(|c| c.0 > 7)
-        || cells.iter().all(|c| c.1 < 0)
-        || cells.iter().all(|c| c.1 > 7);
-    if beside {
-        return Some(board_gray as f32);
+    // a pinhole maps the pixel's edges to straight lines: no margin
+    match tag_footprint(tag, &points, 0.0) {
+        Footprint::Whole(Surface::Mark) => Some(mark_gray as f32),
+        Footprint::Whole(_) => Some(board_gray as f32),
+        Footprint::NearMark | Footprint::NearOutline => None,
     }
-    if cells.iter().any(|&c| c != cells[0]) || !(0..8).contains(&cells[0].0) || !(0..8).contains(&cells[0].1)
-    {
-        return None;
-    }
-    let (column, row) = cells[0];
-    let per_cell = tag.size_m() / 8.0;
-    let c = tag.centre_in_board();
-    let x = c.x + (column as f64 - 4.0 + 0.5) * per_cell;
-    let y = c.y + (row as f64 - 4.0 + 0.5) * per_cell;
-    Some(if tag.is_black_at(x, y) == Some(true) { mark_gray } else { board_gray } as f32)
 }
 
 #[cfg(test)]
