@@ -42,6 +42,13 @@ if ! "${venv}/bin/python" -c 'import cv2' >/dev/null 2>&1; then
     "${venv}/bin/python" -m pip install -q opencv-python-headless==4.14.0.94
 fi
 
+# The PyBullet reference driver (clients/python/pybullet_driver.py, scripts/run-pybullet.sh) and the arms' URDFs
+# it ships in pybullet_data (xArm6, Franka Panda: config/arms/ reads them through target/pybullet_data)
+if ! "${venv}/bin/python" -c 'import pybullet' >/dev/null 2>&1; then
+    "${venv}/bin/python" -m pip install -q pybullet==3.2.7
+fi
+ln -sfn "$("${venv}/bin/python" -c 'import pybullet_data; print(pybullet_data.getDataPath())')" target/pybullet_data
+
 # `vservoctl top`'s test runs it in a terminal: tmux, from Debian
 if ! command -v tmux >/dev/null 2>&1; then
     sudo_if_needed=""

@@ -188,6 +188,9 @@ pub fn shift_into_limits(arm: &SerialArm, q: &JointVector, reference: &JointVect
 }
 
 fn is_puma_like(arm: &SerialArm) -> Result<(), IkError> {
+    if arm.geometry != crate::Geometry::Dh {
+        return Err(IkError::UnsupportedGeometry(arm.name));
+    }
     let close = |a: f64, b: f64| (a - b).abs() < 1e-12;
     let alphas = [FRAC_PI_2, 0.0, -FRAC_PI_2, FRAC_PI_2, -FRAC_PI_2, 0.0];
     let dh = arm.links.map(|l| l.dh);

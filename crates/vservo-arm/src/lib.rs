@@ -1,7 +1,8 @@
 //! # vservo-arm — the serial-arm model
 //!
 //! This crate owns the model of the manipulator that carries vservo's camera: a six-joint, all-revolute
-//! serial arm in standard Denavit–Hartenberg form, with the **PUMA 560** built in
+//! serial arm in standard Denavit–Hartenberg form or as the chain of a URDF ([`urdf`], [`chain`]), with the
+//! **PUMA 560** built in
 //! ([`puma560::puma560`]) exactly as Peter Corke's Robotics Toolbox defines it (DH and inertial parameters
 //! of Armstrong, Khatib & Burdick 1986; motor inertias, gear ratios and friction of the toolbox's
 //! `Puma560`; the pedestal included in d₁ = 0.6718 m).
@@ -31,6 +32,7 @@
 //! assert!(torque[1] > 0.0); // the shoulder holds the arm up
 //! ```
 
+pub mod chain;
 pub mod drive;
 pub mod dynamics;
 pub mod ik;
@@ -39,7 +41,9 @@ pub mod limits;
 pub mod link;
 pub mod puma560;
 pub mod reach;
+pub mod urdf;
 
+pub use chain::{Chain, ChainJoint};
 pub use drive::Drive;
 pub use dynamics::DynamicsError;
 pub use ik::{ArmConfig, IkSolution, IkSolutions};
@@ -66,6 +70,19 @@ pub struct SerialArm {
     pub links: [Link; JOINTS],
     /// The acceleration of gravity in the base frame (m/s²), `[0, 0, −9.81]` for a floor-mounted arm.
     pub gravity_in_base: Vector3<f64>,
+    /// How the joints are placed: by the links' DH parameters, or by a robot description's chain.
+    pub geometry: Geometry,
+}
+
+/// Where the arm's joints are and what they turn about.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Geometry {
+    /// The links' standard-DH parameters ([`Link::dh`]): kinematics, the closed-form IK where the geometry
+    /// has one, and dynamics.
+    Dh,
+    /// A chain from a robot description (a URDF): kinematics only (the links' DH parameters are unused and
+    /// zero; the arm is velocity- or position-commanded).
+    Chain(Chain),
 }
 
 impl SerialArm {
@@ -86,7 +103,20 @@ impl SerialArm {
                 limits: limits[j],
             }),
             gravity_in_base: Vector3::new(0.0, 0.0, -9.81),
+            geometry: Geometry::Dh,
         }
+    }
+
+    /// A six-joint arm known by a URDF chain and joint limits (kinematics only, like [`Self::kinematic`]).
+    /// `None` when the chain does not have exactly [`JOINTS`] joints.
+    pub fn from_chain(name: &'static str, chain: Chain, limits: [JointLimits; JOINTS]) -> Option<Self> {
+        if chain.joint_count() != JOINTS {
+            return None;
+        }
+        let unused = DhParameters::new(0.0, 0.0, 0.0, 0.0);
+        let mut arm = Self::kinematic(name, [unused; JOINTS], limits);
+        arm.geometry = Geometry::Chain(chain);
+        Some(arm)
     }
 
     /// The joint limits, one per joint.

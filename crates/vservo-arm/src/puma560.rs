@@ -139,6 +139,7 @@ pub fn puma560() -> SerialArm {
             ),
         ],
         gravity_in_base: Vector3::new(0.0, 0.0, -9.81),
+        geometry: crate::Geometry::Dh,
     }
 }
 

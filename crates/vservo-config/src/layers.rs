@@ -7,8 +7,8 @@
 //!
 //! The camera's lens is one value ([`LENS_KEYS`]): a file that writes any of its keys replaces its base's
 //! whole lens (a file giving `fx_px`/`fy_px` or a `calibration_file` is not mixed with its base's
-//! `focal_px`). A relative `camera.calibration_file` is made relative to the file that wrote it here, so the
-//! merged text names it wherever it is read.
+//! `focal_px`). A relative `camera.calibration_file` or `robot.arm.urdf` is made relative to the file that
+//! wrote it here, so the merged text names it wherever it is read.
 
 use std::path::{Path, PathBuf};
 
@@ -49,6 +49,7 @@ impl Layers {
             let mut table = parse_table(&text, &file)?;
             next = take_extends(&mut table, &path, &file)?;
             anchor_calibration_file(&mut table, &path);
+            anchor_urdf(&mut table, &path);
             layers.push(Layer { file, text, table });
         }
         Ok(Self { layers })
@@ -323,6 +324,19 @@ fn parse_table(text: &str, file: &str) -> Result<toml::Table, ConfigError> {
 fn anchor_calibration_file(table: &mut toml::Table, path: &Path) {
     let Some(toml::Value::Table(camera)) = table.get_mut("camera") else { return };
     let Some(toml::Value::String(file)) = camera.get_mut("calibration_file") else { return };
+    anchor(file, path);
+}
+
+/// Makes a relative `robot.arm.urdf` relative to the directory of the file at `path`.
+fn anchor_urdf(table: &mut toml::Table, path: &Path) {
+    let Some(toml::Value::Table(robot)) = table.get_mut("robot") else { return };
+    let Some(toml::Value::Table(arm)) = robot.get_mut("arm") else { return };
+    let Some(toml::Value::String(file)) = arm.get_mut("urdf") else { return };
+    anchor(file, path);
+}
+
+/// Makes `file`, if relative, relative to the directory of the file at `path`.
+fn anchor(file: &mut String, path: &Path) {
     if !file.trim().is_empty() && Path::new(file.as_str()).is_relative() {
         let directory = path.parent().unwrap_or(Path::new(""));
         *file = directory.join(file.as_str()).display().to_string();

@@ -74,6 +74,8 @@ pub struct Config {
     pub robot: Robot,
     /// `[robot.arm]`: the arm's model (the PUMA 560 by default; a custom arm's DH table and limits).
     pub arm: vservo_arm::SerialArm,
+    /// `robot.arm.urdf`: the file an arm from a URDF was read from (for drivers that load it themselves).
+    pub arm_urdf_file: Option<String>,
     /// `[faults]`: when a fault stops the cell, and how it resumes.
     pub faults: Faults,
     /// `[reacquire]`: how the servo steers back to lost marks.

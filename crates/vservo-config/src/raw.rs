@@ -146,6 +146,9 @@ impl Default for RawRobot {
 #[serde(deny_unknown_fields, default)]
 pub struct RawArm {
     pub preset: RawArmPreset,
+    pub urdf: Option<String>,
+    pub base_link: Option<String>,
+    pub tip_link: Option<String>,
     pub dh: Option<Vec<[f64; 4]>>,
     pub joint_limits_rad: Option<Vec<[f64; 2]>>,
     pub velocity_limits_rad_s: Option<Vec<f64>>,
@@ -153,7 +156,15 @@ pub struct RawArm {
 
 impl Default for RawArm {
     fn default() -> Self {
-        Self { preset: RawArmPreset::Puma560, dh: None, joint_limits_rad: None, velocity_limits_rad_s: None }
+        Self {
+            preset: RawArmPreset::Puma560,
+            urdf: None,
+            base_link: None,
+            tip_link: None,
+            dh: None,
+            joint_limits_rad: None,
+            velocity_limits_rad_s: None,
+        }
     }
 }
 
@@ -377,6 +388,7 @@ pub struct RawOcclusion {
 pub enum RawArmPreset {
     Puma560,
     Custom,
+    Urdf,
 }
 
 /// `camera.source`.

@@ -1,10 +1,12 @@
 //! `[robot.arm]`: the built-in PUMA 560 (`preset = "puma560"`, the default: kinematics, dynamics, limits of
-//! the Robotics Toolbox's model) or a standard-DH table of the user's (`preset = "custom"`: kinematics and
-//! limits only, for a velocity- or position-commanded arm).
+//! the Robotics Toolbox's model), a standard-DH table of the user's (`preset = "custom"`) or the chain of a
+//! URDF file (`preset = "urdf"`, between `base_link` and `tip_link`, limits from the file unless given here).
+//! The last two are kinematics and limits only, for a velocity- or position-commanded arm.
 
 use std::f64::consts::TAU;
 
-use vservo_arm::{DhParameters, JointLimits, SerialArm, puma560};
+use vservo_arm::urdf::UrdfArm;
+use vservo_arm::{DhParameters, JOINTS, JointLimits, SerialArm, puma560};
 
 use super::checker::Checker;
 use crate::ConfigError;
@@ -17,12 +19,17 @@ pub fn arm(check: &Checker, a: &RawArm) -> Result<SerialArm, ConfigError> {
             no_table_for_the_preset(check, a)?;
             Ok(puma560::puma560())
         }
-        RawArmPreset::Custom => custom(check, a),
+        RawArmPreset::Custom => {
+            no_urdf_keys(check, a, "custom")?;
+            custom(check, a)
+        }
+        RawArmPreset::Urdf => urdf(check, a),
     }
 }
 
 /// The PUMA 560 has its own table: one given is refused.
 fn no_table_for_the_preset(check: &Checker, a: &RawArm) -> Result<(), ConfigError> {
+    no_urdf_keys(check, a, "puma560")?;
     let given = [
         ("robot.arm.dh", a.dh.is_some()),
         ("robot.arm.joint_limits_rad", a.joint_limits_rad.is_some()),
@@ -36,6 +43,105 @@ fn no_table_for_the_preset(check: &Checker, a: &RawArm) -> Result<(), ConfigErro
         )),
         None => Ok(()),
     }
+}
+
+/// The URDF's keys belong to `preset = "urdf"`.
+fn no_urdf_keys(check: &Checker, a: &RawArm, preset: &str) -> Result<(), ConfigError> {
+    let given = [
+        ("robot.arm.urdf", a.urdf.is_some()),
+        ("robot.arm.base_link", a.base_link.is_some()),
+        ("robot.arm.tip_link", a.tip_link.is_some()),
+    ];
+    match given.iter().find(|(_, is)| *is) {
+        Some((key, _)) => Err(check.invalid(
+            key,
+            "(given)",
+            format!("belongs to an arm from a URDF: set robot.arm.preset = \"urdf\" (it is {preset:?})"),
+        )),
+        None => Ok(()),
+    }
+}
+
+/// An arm from a URDF: the chain between the base and tool links, the file's limits unless given here.
+fn urdf(check: &Checker, a: &RawArm) -> Result<SerialArm, ConfigError> {
+    if a.dh.is_some() {
+        return Err(check.invalid(
+            "robot.arm.dh",
+            "(given)",
+            "an arm from a URDF takes its geometry from the file",
+        ));
+    }
+    let key = "robot.arm.urdf";
+    let file = a.urdf.as_deref().unwrap_or("");
+    if file.trim().is_empty() {
+        return Err(check.invalid(key, format!("{file:?}"), "must name the arm's URDF file"));
+    }
+    let text = crate::layers::read_bounded(std::path::Path::new(file))
+        .map_err(|reason| check.invalid(key, format!("{file:?}"), format!("cannot read: {reason}")))?;
+    let arm = vservo_arm::urdf::parse(&text, file, a.base_link.as_deref(), a.tip_link.as_deref())
+        .map_err(|e| check.invalid(key, format!("{file:?}"), e.to_string()))?;
+    if arm.chain.joint_count() != JOINTS {
+        return Err(check.invalid(
+            key,
+            format!("{file:?}"),
+            format!(
+                "the chain from {:?} to {:?} has {} joints: vservo's joint messages carry {JOINTS} so far",
+                arm.chain.base_link,
+                arm.chain.tip_link,
+                arm.chain.joint_count()
+            ),
+        ));
+    }
+    let limits = urdf_limits(check, a, &arm)?;
+    SerialArm::from_chain("URDF arm", arm.chain, limits)
+        .ok_or_else(|| check.invalid(key, format!("{file:?}"), "not a six-joint chain"))
+}
+
+/// Each joint's limits: the configuration's where given (all joints), else the file's; a joint left with
+/// none is refused by name.
+fn urdf_limits(check: &Checker, a: &RawArm, arm: &UrdfArm) -> Result<[JointLimits; JOINTS], ConfigError> {
+    let count = arm.chain.joint_count();
+    let rows = |key: &str, n: Option<usize>| match n {
+        Some(n) if n != count => {
+            Err(check.invalid(key, format!("{n} rows"), format!("must list the {count} joints")))
+        }
+        _ => Ok(()),
+    };
+    rows("robot.arm.joint_limits_rad", a.joint_limits_rad.as_ref().map(Vec::len))?;
+    rows("robot.arm.velocity_limits_rad_s", a.velocity_limits_rad_s.as_ref().map(Vec::len))?;
+    let mut limits =
+        [JointLimits { position_min: 0.0, position_max: 0.0, velocity_max: 0.0, torque_max: f64::INFINITY };
+            JOINTS];
+    for (j, joint) in arm.chain.joints.iter().enumerate() {
+        let missing = |key: &str, what: &str| {
+            check.invalid(
+                key,
+                "(missing)",
+                format!(
+                    "joint {:?} has no {what} in the URDF: give robot.arm.{}",
+                    joint.name,
+                    key.trim_start_matches("robot.arm.")
+                ),
+            )
+        };
+        let range = match (&a.joint_limits_rad, arm.position_limits[j]) {
+            (Some(given), _) => given[j],
+            (None, Some(file)) => file,
+            (None, None) => {
+                return Err(missing(
+                    "robot.arm.joint_limits_rad",
+                    "position limits (continuous, or no <limit>)",
+                ));
+            }
+        };
+        let speed = match (&a.velocity_limits_rad_s, arm.velocity_limits[j]) {
+            (Some(given), _) => given[j],
+            (None, Some(file)) => file,
+            (None, None) => return Err(missing("robot.arm.velocity_limits_rad_s", "speed limit")),
+        };
+        limits[j] = joint_limits(check, j, range, speed)?;
+    }
+    Ok(limits)
 }
 
 /// A custom arm: six rows of DH parameters, position limits and speed limits.

@@ -59,6 +59,9 @@ pub fn validate(raw: RawConfig, file: &str) -> Result<Config, ConfigError> {
         runtime: runtime::runtime(&check, &raw.runtime)?,
         robot,
         arm,
+        arm_urdf_file: (raw.robot.arm.preset == crate::raw::RawArmPreset::Urdf)
+            .then(|| raw.robot.arm.urdf.clone())
+            .flatten(),
         faults: operation::faults(&check, &raw.faults)?,
         reacquire,
         viewer: operation::viewer(&check, &raw.viewer)?,

@@ -96,19 +96,37 @@ fn period_s(check: &Checker, r: &RawRobot, timing: &Timing) -> Result<f64, Confi
     }
 }
 
-/// What the simulated driver and camera can do: the PUMA 560's dynamics only, and a simulated world the
-/// simulated camera sees, which an external driver has none of.
+/// What the simulated driver and camera can do: the PUMA 560's dynamics, any other arm's kinematics, and a
+/// simulated world the simulated camera sees, which an external driver has none of. An arm without a
+/// dynamics model cannot take torques.
 pub fn driver_and_camera_agree(
     check: &Checker,
     r: &RawRobot,
     robot: &Robot,
     source: &VisionSource,
 ) -> Result<(), ConfigError> {
-    if robot.driver == RobotDriver::Simulated && r.arm.preset != RawArmPreset::Puma560 {
+    let preset = match r.arm.preset {
+        RawArmPreset::Puma560 => "puma560",
+        RawArmPreset::Custom => "custom",
+        RawArmPreset::Urdf => "urdf",
+    };
+    if robot.driver == RobotDriver::Simulated
+        && r.arm.preset != RawArmPreset::Puma560
+        && robot.command == CommandInterface::Torque
+    {
         return Err(check.invalid(
-            "robot.arm.preset",
-            "\"custom\"",
-            "the simulated driver simulates the PUMA 560's dynamics only; a custom arm needs robot.driver = \"external\"",
+            "plant.mode",
+            "\"dynamic\"",
+            format!(
+                "the simulated driver simulates the PUMA 560's dynamics only; robot.arm.preset = {preset:?} is simulated kinematically: set plant.mode = \"kinematic\""
+            ),
+        ));
+    }
+    if r.arm.preset == RawArmPreset::Urdf && robot.command == CommandInterface::Torque {
+        return Err(check.invalid(
+            "robot.command",
+            "\"torque\"",
+            "an arm from a URDF has no dynamics model in vservo: its driver must take \"velocity\" or \"position\"",
         ));
     }
     if *source == VisionSource::Simulated && robot.driver == RobotDriver::External {

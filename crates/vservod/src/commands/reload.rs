@@ -105,6 +105,7 @@ pub fn diff(old: &Config, new: &Config) -> ConfigDiff {
         runtime,
         robot,
         arm,
+        arm_urdf_file,
         faults,
         reacquire,
         viewer,
@@ -136,7 +137,7 @@ pub fn diff(old: &Config, new: &Config) -> ConfigDiff {
     section(r, "runtime", runtime != &new.runtime, &runtime_keys(runtime, &new.runtime));
     let robot_keys = fields!("robot", robot, new.robot; driver, command, period_s, state_timeout_periods);
     section(r, "robot", robot != &new.robot, &robot_keys);
-    section(r, "robot.arm", arm != &new.arm, &[]);
+    section(r, "robot.arm", arm != &new.arm || arm_urdf_file != &new.arm_urdf_file, &[]);
     // the times are durations in Config, named by their keys in the file
     let fault_keys = [
         ("faults.target_lost_s", faults.target_lost != new.faults.target_lost),
