@@ -83,3 +83,37 @@ fn bad_input_exits_with_2_and_says_what_is_wrong() {
         assert!(output.stdout.is_empty(), "{args:?} printed a result");
     }
 }
+
+/// An arm from a URDF (the xArm6 of PyBullet's pybullet_data, config/arms/xarm6.toml): its joints and limits
+/// from the file, and the tool where PyBullet puts it (crates/vservo-arm/tests/data/pybullet_kinematics.json).
+#[test]
+fn a_urdf_arm_is_described_from_its_configuration() {
+    let root = vservo_system_tests::repository_root();
+    let reference: Value = serde_json::from_str(
+        &std::fs::read_to_string(root.join("crates/vservo-arm/tests/data/pybullet_kinematics.json"))
+            .expect("the PyBullet reference"),
+    )
+    .expect("JSON");
+    let sample = &reference["arms"]["xarm6"]["samples"][0];
+    let q: Vec<String> = numbers(&sample["q_rad"]).iter().map(|v| format!("{v}")).collect();
+    let config = root.join("config/arms/xarm6.toml");
+    let json = model_json(&["--config", config.to_str().expect("utf-8"), "--q", &q.join(",")]);
+
+    let names: Vec<&str> =
+        json["joints"].as_array().expect("joints").iter().filter_map(|j| j["name"].as_str()).collect();
+    assert_eq!(names, ["joint1", "joint2", "joint3", "joint4", "joint5", "joint6"]);
+    assert_eq!(numbers(&json["joints"][2]["range_rad"]), [-3.927, 0.19198]);
+    assert_eq!(json["joints"][0]["velocity_max_rad_s"].as_f64(), Some(3.14));
+    let fkine = numbers(&json["fkine"]);
+    let position = numbers(&sample["base_from_tool_translation_m"]);
+    for (axis, expected) in position.iter().enumerate() {
+        assert!((fkine[4 * axis + 3] - expected).abs() < 1e-6, "tool position {axis}: {fkine:?}");
+    }
+    // the links, the last of them the tool; no dynamics and no closed-form IK for this arm
+    assert_eq!(json["links"].as_array().expect("links").len(), 6);
+    assert_eq!(numbers(&json["links"][5]), fkine);
+    assert!(json["rigid"].is_null() && json["full"].is_null() && json["ik"].is_null());
+    // the PUMA's named poses are the PUMA's
+    let output = run("vservoctl", &["model", "--config", config.to_str().expect("utf-8"), "--q", "qn"]);
+    assert_eq!(output.status.code(), Some(2));
+}

@@ -159,7 +159,7 @@ fn the_mujoco_cell_declares_an_external_velocity_driver_and_camera() {
 }
 
 /// A custom arm (a UR5's published standard-DH table) with an external velocity driver: kinematics from
-/// the file, reach by the numerical solution; the simulated driver refuses it.
+/// the file, reach by the numerical solution; the simulated driver takes it kinematically only.
 #[test]
 fn a_custom_arm_is_taken_from_its_dh_table() {
     let custom = "preset = \"custom\"\n\
@@ -193,7 +193,10 @@ fn a_custom_arm_is_taken_from_its_dh_table() {
         1,
     );
     let error = refused(&simulated);
-    assert_eq!(error.key(), Some("robot.arm.preset"), "{error}");
+    assert_eq!(error.key(), Some("plant.mode"), "{error}");
+    let kinematic = simulated.replacen("mode = \"dynamic\"", "mode = \"kinematic\"", 1);
+    Config::from_toml(&kinematic, "test.toml")
+        .expect("the simulated driver moves a custom arm kinematically");
 }
 
 /// Every number in the default file, replaced by an absurd value (1e300, −1e300, NaN; the largest and the

@@ -1,6 +1,6 @@
 //! `vservoctl scene`: the cell a configuration describes, as one JSON object, for drivers and simulators
 //! written outside this repository (the MuJoCo reference driver builds its model from it): the arm's
-//! standard-DH table and limits, the joints the scenario starts at, the camera on the hand and its
+//! standard-DH table or its URDF (file, links, joint names) and limits, the joints the scenario starts at, the camera on the hand and its
 //! intrinsics, the board with its marks and where it stands, the periods and the robot driver's settings.
 
 use anyhow::Result;
@@ -31,6 +31,10 @@ pub fn run(args: &SceneArgs) -> Result<()> {
     let config = args.config.load()?;
     let cell = Cell::new(&config).map_err(|e| UsageError(format!("{}: {e}", config.origin)))?;
     let arm = cell.arm();
+    let chain = match &arm.geometry {
+        vservo_arm::Geometry::Chain(chain) => Some(chain),
+        vservo_arm::Geometry::Dh => None,
+    };
     let dh: Vec<Value> = arm
         .links
         .iter()
@@ -46,7 +50,12 @@ pub fn run(args: &SceneArgs) -> Result<()> {
         "instance": config.instance,
         "arm": {
             "name": arm.name,
-            "dh": dh,
+            "dh": chain.is_none().then_some(dh),
+            // an arm from a URDF: the file (absolute) and the chain's links and joints, for a driver that loads it
+            "urdf": config.arm_urdf_file.as_ref().map(|file| absolute(file)),
+            "base_link": chain.map(|c| c.base_link.clone()),
+            "tip_link": chain.map(|c| c.tip_link.clone()),
+            "joint_names": chain.map(|c| c.joints.iter().map(|j| j.name.clone()).collect::<Vec<_>>()),
             "joint_limits_rad": limits(&|l| json!([l.position_min, l.position_max])),
             "velocity_limits_rad_s": limits(&|l| json!(l.velocity_max)),
             "torque_limits_nm": limits(&|l| json!(l.torque_max)),
@@ -92,6 +101,11 @@ pub fn run(args: &SceneArgs) -> Result<()> {
     });
     print_stdout(&format!("{}\n", serde_json::to_string_pretty(&scene)?))?;
     Ok(())
+}
+
+/// `file` as an absolute path (as given when it cannot be resolved: the driver then says it is missing).
+fn absolute(file: &str) -> String {
+    std::fs::canonicalize(file).map_or_else(|_| file.to_string(), |path| path.display().to_string())
 }
 
 /// The tag's 8 × 8 cells, row by row (rows along the board's +y, columns along +x): true where black.

@@ -1,0 +1,156 @@
+//! `[robot.arm] preset = "urdf"`: an arm read from its URDF, and the URDFs vservo cannot honour refused with
+//! the key, the file and the joint.
+
+use std::path::{Path, PathBuf};
+
+use vservo_config::{Config, ConfigError};
+
+const DEFAULT: &str = include_str!("../../../config/vservo.toml");
+const LIMIT: &str = r#"<limit lower="-2.5" upper="2.5" velocity="3" effort="10"/>"#;
+
+/// A directory of this test's own, removed when dropped.
+struct Scratch(PathBuf);
+
+impl Scratch {
+    fn new(name: &str) -> Self {
+        let path = std::env::temp_dir().join(format!("vservo-urdf-{name}-{}", std::process::id()));
+        std::fs::create_dir_all(&path).expect("a scratch directory");
+        Self(path)
+    }
+
+    /// Writes `urdf` and a configuration whose `[robot.arm]` reads it, with `arm_keys` added; loads it.
+    fn load(&self, urdf: &str, arm_keys: &str, plant_mode: &str) -> Result<Config, ConfigError> {
+        std::fs::write(self.0.join("arm.urdf"), urdf).expect("written");
+        let text = DEFAULT
+            .replacen(
+                "preset = \"puma560\"",
+                &format!("preset = \"urdf\"\nurdf = \"arm.urdf\"\n{arm_keys}"),
+                1,
+            )
+            .replacen("mode = \"dynamic\"", &format!("mode = \"{plant_mode}\""), 1)
+            .replacen(
+                "joints_rad = [0.0, 0.7853981633974483, -3.141592653589793, 0.0, 0.7853981633974483, 0.0]",
+                "joints_rad = [0.3, 0.5, -0.4, 0.6, 0.7, 0.2]",
+                1,
+            );
+        let path = self.0.join("cell.toml");
+        std::fs::write(&path, text).expect("written");
+        Config::load(&path)
+    }
+}
+
+impl Drop for Scratch {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.0);
+    }
+}
+
+/// An arm of `joints` revolute joints (joint `special` of kind `kind` with `limit`), a fixed flange, and two
+/// fingers branching off it.
+fn urdf(joints: usize, special: usize, kind: &str, limit: &str) -> String {
+    let mut text = String::from(
+        r#"<robot name="test"><link name="l0"/><link name="flange"/><link name="f1"/><link name="f2"/>"#,
+    );
+    for j in 1..=joints {
+        let (kind, limit) = if j == special { (kind, limit) } else { ("revolute", LIMIT) };
+        let rx = if j % 2 == 0 { "1.5707963267948966" } else { "0" };
+        text += &format!(
+            r#"<link name="l{j}"/><joint name="j{j}" type="{kind}"><parent link="l{p}"/><child link="l{j}"/>
+               <origin xyz="0.05 0 0.1" rpy="{rx} 0 0"/><axis xyz="0 0 1"/>{limit}</joint>"#,
+            p = j - 1
+        );
+    }
+    text += &format!(
+        r#"<joint name="flange_joint" type="fixed"><parent link="l{joints}"/><child link="flange"/><origin xyz="0 0 0.05"/></joint>
+           <joint name="finger1" type="prismatic"><parent link="flange"/><child link="f1"/><axis xyz="0 1 0"/><limit lower="0" upper="0.04" velocity="1" effort="1"/></joint>
+           <joint name="finger2" type="prismatic"><parent link="flange"/><child link="f2"/><axis xyz="0 -1 0"/><limit lower="0" upper="0.04" velocity="1" effort="1"/></joint>
+           </robot>"#
+    );
+    text
+}
+
+fn refusal(result: Result<Config, ConfigError>) -> (String, String) {
+    let error = result.expect_err("refused");
+    (error.key().unwrap_or("").to_string(), error.to_string())
+}
+
+#[test]
+fn a_six_joint_urdf_gives_the_arm_with_the_files_limits_unless_the_configuration_gives_them() {
+    let scratch = Scratch::new("good");
+    let config = scratch.load(&urdf(6, 0, "", ""), "tip_link = \"flange\"", "kinematic").expect("an arm");
+    let vservo_arm::Geometry::Chain(chain) = &config.arm.geometry else { panic!("a chain") };
+    assert_eq!(
+        chain.joints.iter().map(|j| j.name.as_str()).collect::<Vec<_>>(),
+        ["j1", "j2", "j3", "j4", "j5", "j6"]
+    );
+    assert_eq!((chain.base_link.as_str(), chain.tip_link.as_str()), ("l0", "flange"));
+    assert_eq!(config.arm.links[2].limits.position_max, 2.5);
+    assert_eq!(config.arm.links[2].limits.velocity_max, 3.0);
+    assert!(config.arm_urdf_file.as_deref().is_some_and(|f| Path::new(f).is_absolute()));
+    let keys = "tip_link = \"flange\"\njoint_limits_rad = [[-1, 1], [-1, 1], [-1, 1], [-1, 1], [-1, 1], [-1.5, 1]]\n\
+                velocity_limits_rad_s = [1, 1, 1, 1, 1, 0.5]";
+    let config = scratch.load(&urdf(6, 0, "", ""), keys, "kinematic").expect("an arm");
+    assert_eq!(config.arm.links[5].limits.position_min, -1.5);
+    assert_eq!(config.arm.links[5].limits.velocity_max, 0.5);
+}
+
+#[test]
+fn what_vservo_cannot_honour_is_refused_naming_the_joint_and_why() {
+    let scratch = Scratch::new("refused");
+    let tip = "tip_link = \"flange\"";
+    let cases: [(String, &str, &str, &str, &[&str]); 9] = [
+        (urdf(6, 4, "prismatic", LIMIT), tip, "kinematic", "robot.arm.urdf", &["\"j4\" is prismatic"]),
+        (
+            urdf(6, 0, "", ""),
+            "tip_link = \"f1\"",
+            "kinematic",
+            "robot.arm.urdf",
+            &["\"finger1\" is prismatic"],
+        ),
+        (urdf(6, 0, "", ""), "", "kinematic", "robot.arm.urdf", &["branches at link \"flange\"", "tip_link"]),
+        (urdf(5, 0, "", ""), tip, "kinematic", "robot.arm.urdf", &["5 moving joints", "6 or 7"]),
+        (urdf(8, 0, "", ""), tip, "kinematic", "robot.arm.urdf", &["8 moving joints"]),
+        (urdf(7, 0, "", ""), tip, "kinematic", "robot.arm.urdf", &["7 joints", "carry 6"]),
+        (
+            urdf(6, 3, "continuous", ""),
+            tip,
+            "kinematic",
+            "robot.arm.joint_limits_rad",
+            &["\"j3\"", "continuous"],
+        ),
+        (urdf(6, 2, "revolute", ""), tip, "kinematic", "robot.arm.joint_limits_rad", &["\"j2\""]),
+        (urdf(6, 0, "", ""), tip, "dynamic", "plant.mode", &["kinematic"]),
+    ];
+    for (text, keys, mode, key, words) in &cases {
+        let (found_key, message) = refusal(scratch.load(text, keys, mode));
+        assert_eq!(&found_key, key, "{message}");
+        for word in *words {
+            assert!(message.contains(word), "{message:?} should say {word:?}");
+        }
+        if *key == "robot.arm.urdf" {
+            assert!(message.contains("arm.urdf"), "{message:?} should name the file");
+        }
+    }
+    // a continuous joint bounded by the configuration is taken
+    let keys =
+        "tip_link = \"flange\"\njoint_limits_rad = [[-2, 2], [-2, 2], [-2, 2], [-2, 2], [-2, 2], [-2, 2]]";
+    scratch
+        .load(&urdf(6, 3, "continuous", r#"<limit velocity="2" effort="1"/>"#), keys, "kinematic")
+        .expect("bounded");
+}
+
+#[test]
+fn a_missing_or_broken_file_and_keys_of_another_preset_are_refused() {
+    let scratch = Scratch::new("broken");
+    let (key, message) = refusal(scratch.load("<robot name=\"x\"><link", "", "kinematic"));
+    assert_eq!(key, "robot.arm.urdf", "{message}");
+    std::fs::remove_file(scratch.0.join("arm.urdf")).ok();
+    let text = DEFAULT.replacen("preset = \"puma560\"", "preset = \"urdf\"\nurdf = \"nowhere.urdf\"", 1);
+    let (key, message) = refusal(Config::from_toml(&text, "test.toml"));
+    assert_eq!(key, "robot.arm.urdf");
+    assert!(message.contains("cannot read"), "{message}");
+    let text = DEFAULT.replacen("preset = \"puma560\"", "preset = \"puma560\"\ntip_link = \"flange\"", 1);
+    let (key, message) = refusal(Config::from_toml(&text, "test.toml"));
+    assert_eq!(key, "robot.arm.tip_link");
+    assert!(message.contains("preset = \"urdf\""), "{message}");
+}
