@@ -81,8 +81,9 @@ pub enum Geometry {
     /// has one, and dynamics.
     Dh,
     /// A chain from a robot description (a URDF): kinematics only (the links' DH parameters are unused and
-    /// zero; the arm is velocity- or position-commanded).
-    Chain(Chain),
+    /// zero; the arm is velocity- or position-commanded). Shared, so that copying the arm (the rmrc does, when
+    /// it starts again at rest) does not allocate.
+    Chain(std::sync::Arc<Chain>),
 }
 
 impl SerialArm {
@@ -115,7 +116,7 @@ impl SerialArm {
         }
         let unused = DhParameters::new(0.0, 0.0, 0.0, 0.0);
         let mut arm = Self::kinematic(name, [unused; JOINTS], limits);
-        arm.geometry = Geometry::Chain(chain);
+        arm.geometry = Geometry::Chain(std::sync::Arc::new(chain));
         Some(arm)
     }
 

@@ -70,6 +70,47 @@ fn the_robust_law_allocates_nothing_per_frame_either() {
     assert!(flags.iter().any(|f| f.barrier), "{flags:?}");
 }
 
+/// An arm from its URDF (config/arms/xarm6.toml, PyBullet's xArm6, simulated kinematically): its chain's
+/// kinematics on the 1 ms path allocate nothing either; nor does the seven-joint Panda's redundancy resolution.
+#[test]
+fn an_arm_from_a_urdf_allocates_nothing_per_tick_or_frame() {
+    let config =
+        vservo_config::Config::load(concat!(env!("CARGO_MANIFEST_DIR"), "/../../config/arms/xarm6.toml"))
+            .expect("the xArm6 config loads");
+    runs_without_allocating(config);
+
+    use vservo_sim::redundancy::{ChainVector, Damping, NullSpaceTask, resolve};
+    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../target/pybullet_data/franka_panda/panda.urdf");
+    let panda =
+        vservo_arm::urdf::read(std::path::Path::new(path), None, Some("panda_link8")).expect("the Panda");
+    let limits: Vec<vservo_arm::JointLimits> = panda
+        .position_limits
+        .iter()
+        .map(|range| {
+            let [low, high] = range.expect("ranges");
+            vservo_arm::JointLimits {
+                position_min: low,
+                position_max: high,
+                velocity_max: 2.0,
+                torque_max: 1.0,
+            }
+        })
+        .collect();
+    let damping = Damping { manipulability_threshold: 0.01, max_damping: 0.05 };
+    let mut q = ChainVector::from_column_slice(&[2.9, -0.785, 0.0, -2.356, 0.0, 1.571, 0.785]);
+    let twist = nalgebra::Vector6::new(0.01, -0.02, 0.005, 0.01, 0.0, -0.01);
+    let allocations = allocations_in(|| {
+        for _ in 0..1000 {
+            let frames = panda.chain.frames(q.as_slice());
+            q += resolve(&frames, &q, &limits, &twist, &damping, &NullSpaceTask::default()).qd * 0.001;
+        }
+    });
+    assert_eq!(
+        allocations, 0,
+        "allocations in 1000 ticks of the Panda's kinematics and redundancy resolution"
+    );
+}
+
 /// Runs frames and ticks of the cell, counting allocations; the law's flags of the frames counted.
 fn runs_without_allocating(config: vservo_config::Config) -> [LawFlags; COUNTED_FRAMES] {
     let cell = Cell::new(&config).expect("the default cell");

@@ -9,11 +9,14 @@
 //! - [`interpolator::Interpolator`]: the resolved-motion-rate interpolator — the latest camera twist held
 //!   (or interpolated), mapped to the base frame through `tool_from_camera`, q̇_d from the Jacobian with
 //!   damped least squares near singularities, joint velocity limits, and a stale-twist watchdog;
-//! - [`joint_servo::JointServo`]: computed torque, or PD plus gravity.
+//! - [`joint_servo::JointServo`]: computed torque, or PD plus gravity;
+//! - [`redundancy::resolve`]: a tool twist into joint rates for a chain of six or seven joints, the spare
+//!   joint of a seven-joint arm moved in the null space away from its limits (and towards a posture).
 //!
 //! No I/O, clocks or allocation on the per-tick path.
 
 pub mod interpolator;
 pub mod joint_servo;
 pub mod plant;
+pub mod redundancy;
 pub mod world;

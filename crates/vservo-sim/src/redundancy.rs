@@ -1,0 +1,132 @@
+//! Resolving a tool twist into joint rates for an arm of six or seven joints (a URDF chain): the twist met
+//! by damped least squares, and the joints a seven-joint arm has to spare moved in the Jacobian's null space,
+//! away from their limits and, if configured, towards a preferred posture.
+//!
+//! q̇ = J⁺v + (I − J⁺J) z, with J⁺ = Jᵀ(JJᵀ + λ²I)⁻¹ (λ = 0 away from singularities: then J q̇ = v exactly and
+//! the null-space motion moves no part of the tool), and z the secondary task:
+//! - each joint closer to a limit than `limit_zone_rad` is pushed away from it at `limit_gain` × the depth
+//!   (rad/s per rad);
+//! - with a preferred posture, every joint is pulled towards it at `posture_gain` (1/s).
+//!
+//! The speed and acceleration limits are the interpolator's, applied after this to the whole vector. Fixed-size
+//! arrays throughout: no allocation (the 1 ms path calls it every tick).
+
+use nalgebra::{SMatrix, SVector, Vector6};
+use vservo_arm::JointLimits;
+use vservo_arm::chain::{ChainFrames, MAX_CHAIN_JOINTS};
+
+/// Joint values of an arm of up to seven joints; entries past the arm's joint count are zero.
+pub type ChainVector = SVector<f64, MAX_CHAIN_JOINTS>;
+
+/// The secondary task of a redundant arm.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct NullSpaceTask {
+    /// How far from a limit (rad) the push away from it starts.
+    pub limit_zone_rad: f64,
+    /// How hard a joint inside the zone is pushed away: rad/s per rad of depth into the zone.
+    pub limit_gain: f64,
+    /// A posture to stay near (rad), if any.
+    pub posture: Option<ChainVector>,
+    /// How hard the joints are pulled towards the posture (1/s).
+    pub posture_gain: f64,
+}
+
+impl Default for NullSpaceTask {
+    fn default() -> Self {
+        Self { limit_zone_rad: 0.3, limit_gain: 2.0, posture: None, posture_gain: 0.5 }
+    }
+}
+
+/// How the Jacobian is inverted.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Damping {
+    /// Below this manipulability √det(JJᵀ) the inverse is damped (Nakamura's damped least squares).
+    pub manipulability_threshold: f64,
+    /// The damping λ at zero manipulability; it falls to 0 at the threshold.
+    pub max_damping: f64,
+}
+
+/// The joint rates for one tick.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct JointRates {
+    /// q̇ (rad/s); zero past the arm's joints, and zero when the twist could not be resolved.
+    pub qd: ChainVector,
+    /// The part of `qd` in the null space (rad/s).
+    pub null_space: ChainVector,
+    /// Whether damping was used (near a singularity).
+    pub damped: bool,
+    /// √det(JJᵀ).
+    pub manipulability: f64,
+}
+
+/// The joint rates that give the tool the twist `tool_twist` (`[v; ω]` in the base frame, at the tool origin)
+/// at the chain's `frames`, with `task` in the null space.
+pub fn resolve(
+    frames: &ChainFrames,
+    q: &ChainVector,
+    limits: &[JointLimits],
+    tool_twist: &Vector6<f64>,
+    damping: &Damping,
+    task: &NullSpaceTask,
+) -> JointRates {
+    let jacobian = frames.jacobian_base();
+    let product = jacobian * jacobian.transpose();
+    let manipulability = product.cholesky().map_or(0.0, |c| c.l().diagonal().product().abs());
+    let lambda = if manipulability >= damping.manipulability_threshold {
+        0.0
+    } else {
+        damping.max_damping * (1.0 - manipulability / damping.manipulability_threshold)
+    };
+    let Some(inverse) =
+        (product + SMatrix::<f64, 6, 6>::identity() * (lambda * lambda).max(1e-12)).cholesky()
+    else {
+        return JointRates {
+            qd: ChainVector::zeros(),
+            null_space: ChainVector::zeros(),
+            damped: true,
+            manipulability,
+        };
+    };
+    let pseudo_inverse = |v: &Vector6<f64>| -> ChainVector { jacobian.transpose() * inverse.solve(v) };
+    let task_rates = pseudo_inverse(tool_twist);
+    let z = secondary_task(q, limits, frames.joint_count, task);
+    let null_space = z - pseudo_inverse(&(jacobian * z));
+    let qd = task_rates + null_space;
+    if !qd.iter().all(|v| v.is_finite()) {
+        return JointRates {
+            qd: ChainVector::zeros(),
+            null_space: ChainVector::zeros(),
+            damped: true,
+            manipulability,
+        };
+    }
+    JointRates { qd, null_space, damped: lambda > 0.0, manipulability }
+}
+
+/// z: away from the limits near them, towards the posture if any; zero past the arm's joints, and zero for
+/// an arm of six joints (it has none to spare).
+fn secondary_task(
+    q: &ChainVector,
+    limits: &[JointLimits],
+    joint_count: usize,
+    task: &NullSpaceTask,
+) -> ChainVector {
+    let mut z = ChainVector::zeros();
+    if joint_count <= 6 {
+        return z;
+    }
+    for (j, limit) in limits.iter().enumerate().take(joint_count.min(MAX_CHAIN_JOINTS)) {
+        let above_lower = q[j] - limit.position_min;
+        let below_upper = limit.position_max - q[j];
+        if above_lower < task.limit_zone_rad {
+            z[j] += task.limit_gain * (task.limit_zone_rad - above_lower);
+        }
+        if below_upper < task.limit_zone_rad {
+            z[j] -= task.limit_gain * (task.limit_zone_rad - below_upper);
+        }
+        if let Some(posture) = &task.posture {
+            z[j] += task.posture_gain * (posture[j] - q[j]);
+        }
+    }
+    z
+}
