@@ -1,5 +1,5 @@
 """Prints, as one JSON object, the layout of every ctypes structure the Python clients declare
-(clients/python/vservo_client.py and mujoco_driver.py) and the codes they name, so that a test can check them
+(clients/python/vservo_client.py, mujoco_driver.py and pybullet_driver.py) and the codes they name, so that a test can check them
 against the Rust declarations they must match. Usage: dump_layouts.py CLIENTS_DIR"""
 
 import ctypes
@@ -11,6 +11,7 @@ sys.path.insert(0, sys.argv[1])
 os.environ.setdefault("MUJOCO_GL", "egl")
 
 import mujoco_driver  # noqa: E402
+import pybullet_driver  # noqa: E402
 import vservo_client  # noqa: E402
 
 
@@ -23,13 +24,17 @@ def layout(structure):
 
 
 structures = {}
-for module in (vservo_client, mujoco_driver):
+for module in (vservo_client, mujoco_driver, pybullet_driver):
     for value in vars(module).values():
         if isinstance(value, type) and issubclass(value, ctypes.Structure) and not value.__name__.startswith("_"):
-            structures[f"vservo::{value.__name__}"] = layout(value)
+            name = f"vservo::{value.__name__}"
+            # a structure two clients declare differently is reported under the second one's module too
+            if name in structures and structures[name] != layout(value):
+                name = f"{name} ({module.__name__})"
+            structures[name] = layout(value)
 
 codes = {
-    "schema": [vservo_client.SCHEMA_VERSION, mujoco_driver.SCHEMA],
+    "schema": [vservo_client.SCHEMA_VERSION, mujoco_driver.SCHEMA, pybullet_driver.SCHEMA],
     "daemon_state": vservo_client.STATES,
     "fault": vservo_client.FAULTS,
     "command_kind": {name: getattr(vservo_client, name) for name in

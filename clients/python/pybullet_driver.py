@@ -1,0 +1,582 @@
+#!/usr/bin/env python3
+"""A URDF arm and hand camera in PyBullet for vservo: the second reference robot + camera driver.
+
+The same contract as clients/python/mujoco_driver.py (docs/DRIVERS.md; docs/PROTOCOL.md, schema 6, over
+iceoryx2 0.10 shared memory), for any arm vservo models from a URDF (the scene's `arm`: `urdf`, `base_link`,
+`tip_link`, `joint_names`): nothing in this file is specific to an arm.
+
+- every robot period it publishes `joint_state` and notifies the `joint_state` event;
+- it reads the newest `joint_command` at each deadline and follows it if it answers one of the last few joint
+  states of this driver run: JOINT VELOCITY (`mode` 1, `qd_ref_rad_s`) with the scene's robot.command
+  "velocity", JOINT POSITION (`mode` 2, `q_ref_rad`) with "position"; with no valid command for 20 ms it brings
+  the joints to rest (their reference stops where it is) and reports `driver_status` 1 (holding);
+- every vision period it renders the hand camera and publishes it on `camera_image` as 8-bit grayscale,
+  stamped with the time of the joint state it shows, and notifies the `camera_image` event.
+
+PyBullet's interfaces used. The arm: `loadURDF(useFixedBase=True)` (inertias computed by PyBullet: the xArm6's
+file inertias fail its check) in a DIRECT client, gravity on, `setTimeStep(robot.period_s)` and one
+`stepSimulation` per period (a late wake-up steps the periods that passed). Both command modes drive Bullet's
+joint motors in POSITION_CONTROL on a reference (`Arm`): in velocity mode the commanded q̇ integrated (as a
+real arm's drives servo velocity, without drift), in position mode q_ref; forces = the URDF's effort limits.
+Measured: q, q̇ and the applied motor torque from `getJointStates`.
+The camera: PyBullet's software TinyRenderer (`getCameraImage(renderer=ER_TINY_RENDERER)`, no GUI, no OpenGL)
+with the view and projection matrices made from the scene's pinhole (fx, fy, principal point; TinyRenderer
+samples pixel centres half a pixel off OpenGL's convention, corrected in the projection) and flat colours
+(ambient light only): board 230, marks 20, background 255 (TinyRenderer's). The camera sees the board only,
+not the arm: TinyRenderer does not clip triangles at the near plane, and a camera at the flange, inside the
+tool link's mesh, takes it minutes a frame. PyBullet holds the GIL while it renders (50–70 ms at
+640 × 480 with the board filling the view), so the camera is a process of its own (multiprocessing, spawned; its own DIRECT client with the
+same URDF and board), named `pybullet-camera`: it reads the newest joint state the arm loop shares with it,
+renders and publishes on `camera_image` itself. It dies with the driver (PR_SET_PDEATHSIG).
+
+    pybullet_driver.py --scene scene.json --urdf FILE [--instance NAME] [--duration-s S] [--save-image first.pgm]
+                       [--fifo-priority N]
+
+The scene comes from `vservoctl scene --config FILE`; --urdf is the URDF to simulate (meshes found through
+pybullet_data's path and the file's directory). SIGINT/SIGTERM stop it (exit code 0).
+"""
+
+import argparse
+import ctypes
+import json
+import math
+import multiprocessing
+import os
+import signal
+import sys
+import time
+
+import iceoryx2 as iox2
+import numpy as np
+import pybullet
+import pybullet_data
+
+import vservo_client  # finds the instance as every vservo client does (clients/python/vservo_client.py)
+
+SCHEMA = 6
+PROTOCOL_JOINTS = 6  # joints the protocol's arrays carry (q_rad: c_double * 6)
+TORQUE, VELOCITY, POSITION = 0, 1, 2  # command modes
+FOLLOWING, HOLDING = 0, 1  # driver_status
+COMMAND_TIMEOUT_NS = 20_000_000  # no valid command for this long: hold
+MAX_COMMAND_AGE_TICKS = 5  # a command must answer one of the last few joint states
+NONE = (1 << 64) - 1  # no command applied
+DEFAULT_EFFORT = 1000.0  # N·m (N) for a joint whose URDF gives no effort limit
+BOARD_GRAY, MARK_GRAY = 230, 20  # as vservo's simulated camera and the MuJoCo driver draw them
+NEAR_M, FAR_M = 0.01, 10.0
+CAMERA_PROCESS_NAME = b"pybullet-camera"  # the camera process's name (comm, 15 bytes at most)
+
+
+def monotonic_ns() -> int:
+    return time.clock_gettime_ns(time.CLOCK_MONOTONIC)
+
+
+class JointState(ctypes.Structure):
+    """vservo::JointState, 200 bytes."""
+
+    _fields_ = [("schema", ctypes.c_uint32), ("faults", ctypes.c_uint32), ("tick", ctypes.c_uint64),
+                ("stamp_ns", ctypes.c_uint64), ("driver_epoch", ctypes.c_uint64), ("period_ns", ctypes.c_uint64),
+                ("command_mode", ctypes.c_uint32), ("driver_status", ctypes.c_uint32),
+                ("q_rad", ctypes.c_double * PROTOCOL_JOINTS), ("qd_rad_s", ctypes.c_double * PROTOCOL_JOINTS),
+                ("torque_nm", ctypes.c_double * PROTOCOL_JOINTS), ("applied_command_tick", ctypes.c_uint64)]
+
+    @staticmethod
+    def type_name() -> str:
+        return "vservo::JointState"
+
+
+class JointCommand(ctypes.Structure):
+    """vservo::JointCommand, 216 bytes (the seal is the rmrc's, for the simulated driver: ignored here)."""
+
+    _fields_ = [("schema", ctypes.c_uint32), ("mode", ctypes.c_uint32), ("answers_tick", ctypes.c_uint64),
+                ("driver_epoch", ctypes.c_uint64), ("state_stamp_ns", ctypes.c_uint64), ("stamp_ns", ctypes.c_uint64),
+                ("torque_nm", ctypes.c_double * PROTOCOL_JOINTS), ("q_ref_rad", ctypes.c_double * PROTOCOL_JOINTS),
+                ("qd_ref_rad_s", ctypes.c_double * PROTOCOL_JOINTS), ("twist_capture_tick", ctypes.c_uint64),
+                ("twist_applied_tick", ctypes.c_uint64), ("reference_since_tick", ctypes.c_uint64),
+                ("seal", ctypes.c_uint64)]
+
+    @staticmethod
+    def type_name() -> str:
+        return "vservo::JointCommand"
+
+
+class CameraImageHeader(ctypes.Structure):
+    """vservo::CameraImageHeader, 40 bytes: the user header of `camera_image`, whose payload is the pixels (u8)."""
+
+    _fields_ = [("schema", ctypes.c_uint32), ("format", ctypes.c_uint32), ("width", ctypes.c_uint32),
+                ("height", ctypes.c_uint32), ("stride_bytes", ctypes.c_uint32), ("reserved", ctypes.c_uint32),
+                ("frame", ctypes.c_uint64), ("capture_stamp_ns", ctypes.c_uint64)]
+
+    @staticmethod
+    def type_name() -> str:
+        return "vservo::CameraImageHeader"
+
+
+# --- clock: absolute deadlines on CLOCK_MONOTONIC ---
+_libc = ctypes.CDLL(None, use_errno=True)
+_libc.prctl(29, 1, 0, 0, 0)  # PR_SET_TIMERSLACK = 1 ns (the default 50 µs would show up as lateness)
+
+
+class _Timespec(ctypes.Structure):
+    _fields_ = [("tv_sec", ctypes.c_long), ("tv_nsec", ctypes.c_long)]
+
+
+def sleep_until(deadline_ns: int) -> None:
+    """clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME)."""
+    _libc.clock_nanosleep(1, 1, ctypes.byref(_Timespec(deadline_ns // 10**9, deadline_ns % 10**9)), None)
+
+
+_stopping = [False]  # set by SIGINT/SIGTERM (a plain flag: a handler must take no lock the loop may hold)
+
+
+def on_stop_signal(*_):
+    _stopping[0] = True
+
+
+def fail(message: str):
+    raise SystemExit(f"pybullet_driver: {message}")
+
+
+# --- iceoryx2: services exactly as vservo creates them (docs/PROTOCOL.md) ---
+def make_node(instance: str, stop):
+    """A node in the instance's iceoryx2 root and prefix (vservod makes them: wait for it); None if stopped."""
+    waited = False
+    while not stop():
+        try:
+            config = vservo_client.instance_config(instance)
+            break
+        except vservo_client.NotRunning as why:
+            if not waited:
+                print(f"pybullet_driver: {why}; waiting for it", file=sys.stderr)
+                waited = True
+            time.sleep(0.2)
+    else:
+        return None
+    node = (iox2.NodeBuilder.new().config(config)
+            .signal_handling_mode(iox2.SignalHandlingMode.Disabled)  # SIGINT/SIGTERM are ours (see main)
+            .create(iox2.ServiceType.Ipc))
+    node.try_cleanup_dead_nodes()  # a dead driver's publisher slot is freed before we take it (docs/DRIVERS.md)
+    return node
+
+
+def open_topic(node, instance, name, payload, history, buffer, header=None):
+    builder = node.service_builder(iox2.ServiceName.new(f"vservo/{instance}/{name}")).publish_subscribe(payload)
+    if header is not None:
+        builder = builder.user_header(header)
+    return (builder.max_publishers(1).max_subscribers(8).history_size(history).subscriber_max_buffer_size(buffer)
+            .enable_safe_overflow(True).open_or_create())
+
+
+def open_notifier(node, instance, name):
+    service = (node.service_builder(iox2.ServiceName.new(f"vservo/{instance}/{name}")).event()
+               .max_notifiers(1).max_listeners(4).open_or_create())
+    return service.notifier_builder().create()
+
+
+# --- poses ---
+def pose_matrix(position, quaternion):
+    """4×4 from PyBullet's position and quaternion (x, y, z, w)."""
+    t = np.eye(4)
+    t[:3, :3] = np.reshape(pybullet.getMatrixFromQuaternion(quaternion), (3, 3))
+    t[:3, 3] = position
+    return t
+
+
+def position_quaternion(t):
+    """PyBullet's position and quaternion (x, y, z, w) of a 4×4 pose (Shepperd's method: exact at 180° too)."""
+    r = t[:3, :3]
+    trace = r[0, 0] + r[1, 1] + r[2, 2]
+    if trace > 0:
+        s = 2 * math.sqrt(1 + trace)
+        q = [(r[2, 1] - r[1, 2]) / s, (r[0, 2] - r[2, 0]) / s, (r[1, 0] - r[0, 1]) / s, s / 4]
+    else:
+        i = int(np.argmax(np.diag(r)))
+        j, k = (i + 1) % 3, (i + 2) % 3
+        s = 2 * math.sqrt(max(0.0, 1 + r[i, i] - r[j, j] - r[k, k]))
+        q = [0.0] * 4
+        q[i], q[j], q[k], q[3] = s / 4, (r[j, i] + r[i, j]) / s, (r[k, i] + r[i, k]) / s, (r[k, j] - r[j, k]) / s
+    return list(t[:3, 3]), q
+
+
+# --- the cell in a PyBullet client ---
+class Cell:
+    """The arm (the URDF, fixed base) in a DIRECT client of its own.
+
+    The scene's base frame is `arm.base_link`'s frame: the URDF root, or a link fixed to it (its pose at load);
+    the board stands at world_from_base · base_from_board (board_world). `joints` are the PyBullet indices of the
+    scene's `joint_names` (the moving joints from base_link to tip_link, in order), `tip` the tip link's index.
+    """
+
+    def __init__(self, scene, urdf):
+        self.client = pybullet.connect(pybullet.DIRECT)
+        c = self.client
+        pybullet.setAdditionalSearchPath(pybullet_data.getDataPath(), physicsClientId=c)
+        self.body = pybullet.loadURDF(os.path.abspath(urdf), useFixedBase=True, physicsClientId=c)
+        arm = scene["arm"]
+        names = list(arm["joint_names"])
+        if len(names) > PROTOCOL_JOINTS:
+            fail(f"the arm has {len(names)} joints; the protocol (schema {SCHEMA}) carries {PROTOCOL_JOINTS}")
+        if len(scene["start_joints_rad"]) != len(names):
+            fail(f"scene: {len(scene['start_joints_rad'])} start_joints_rad for {len(names)} joint_names")
+        info = [pybullet.getJointInfo(self.body, j, physicsClientId=c) for j in
+                range(pybullet.getNumJoints(self.body, physicsClientId=c))]
+        root = pybullet.getBodyInfo(self.body, physicsClientId=c)[0].decode()
+        link = {i[12].decode(): i[0] for i in info}  # link name → index (the child link of joint index)
+        link[root] = -1
+
+        def index_of(key):
+            if arm[key] not in link:
+                fail(f"{urdf}: no link {arm[key]!r} (scene arm.{key}); its links: {', '.join(link)}")
+            return link[arm[key]]
+
+        self.tip, base = index_of("tip_link"), index_of("base_link")
+        chain = []  # joint indices from the root to the tip
+        j = self.tip
+        while j != -1:
+            chain.insert(0, j)
+            j = info[j][16]
+        if base != -1 and base not in chain:
+            fail(f"{urdf}: tip link {arm['tip_link']!r} is not below base link {arm['base_link']!r}")
+        to_base = chain[:chain.index(base) + 1] if base != -1 else []
+        moving_to_base = [info[j][1].decode() for j in to_base if info[j][2] != pybullet.JOINT_FIXED]
+        if moving_to_base:
+            fail(f"{urdf}: base link {arm['base_link']!r} moves with joints {moving_to_base}: it must be the "
+                 f"root {root!r} or fixed to it")
+        moving = [j for j in chain[len(to_base):] if info[j][2] != pybullet.JOINT_FIXED]
+        found = [info[j][1].decode() for j in moving]
+        if found != names:
+            missing = [n for n in names if n not in found]
+            fail(f"{urdf}: the moving joints from {arm['base_link']!r} to {arm['tip_link']!r} are {found}; the "
+                 f"scene's joint_names are {names}" + (f" ({missing} not on that chain)" if missing else ""))
+        for j in moving:
+            if info[j][2] not in (pybullet.JOINT_REVOLUTE, pybullet.JOINT_PRISMATIC):
+                fail(f"{urdf}: joint {info[j][1].decode()!r} is neither revolute nor prismatic")
+        self.joints = moving
+        self.n = len(moving)
+        urdf_limits = np.array([[info[j][8], info[j][9]] if info[j][8] < info[j][9] else [-math.inf, math.inf]
+                                for j in moving])
+        self.limits = np.array(arm.get("joint_limits_rad", urdf_limits), dtype=float).reshape(self.n, 2)
+        urdf_speeds = [info[j][11] if info[j][11] > 0 else math.inf for j in moving]
+        self.velocity_limits = np.array(arm.get("velocity_limits_rad_s", urdf_speeds), dtype=float)
+        self.effort_from_urdf = np.array([info[j][10] > 0 for j in moving])
+        self.efforts = np.array([info[j][10] if info[j][10] > 0 else DEFAULT_EFFORT for j in moving])
+        # the other moving joints (fingers, …) are held where they are
+        self.others = [i[0] for i in info if i[2] != pybullet.JOINT_FIXED and i[0] not in moving]
+        self.set_joints(scene["start_joints_rad"])
+        if base == -1:  # PyBullet's base pose is the root's inertial frame: the link frame is that · inertial⁻¹
+            dynamics = pybullet.getDynamicsInfo(self.body, -1, physicsClientId=c)
+            world_from_inertial = pose_matrix(*pybullet.getBasePositionAndOrientation(self.body, physicsClientId=c))
+            self.world_from_base = world_from_inertial @ np.linalg.inv(pose_matrix(dynamics[3], dynamics[4]))
+        else:
+            state = pybullet.getLinkState(self.body, base, computeForwardKinematics=True, physicsClientId=c)
+            self.world_from_base = pose_matrix(state[4], state[5])
+
+    def set_joints(self, q):
+        for j, value in zip(self.joints, q):
+            pybullet.resetJointState(self.body, j, value, 0.0, physicsClientId=self.client)
+
+    def world_from_tip(self):
+        """The tip link's URDF frame (not its inertial frame)."""
+        state = pybullet.getLinkState(self.body, self.tip, computeForwardKinematics=True, physicsClientId=self.client)
+        return pose_matrix(state[4], state[5])
+
+
+def board_world(scene, world_from_base):
+    """A DIRECT client with the board alone: its white face is its plane z = 0, the box behind it (+z), the marks
+    0.1 mm in front (−z), as the MuJoCo driver builds it (the camera looks at the board along the board's +z)."""
+    board, c = scene["board"], pybullet.connect(pybullet.DIRECT)
+    (xlo, ylo), (xhi, yhi) = board["extent_m"]
+    thickness, film = 0.005, 0.0001
+    world_from_board = world_from_base @ np.array(scene["base_from_board"])
+    position, orientation = position_quaternion(world_from_board)
+    face = pybullet.createVisualShape(pybullet.GEOM_BOX,
+                                      halfExtents=[(xhi - xlo) / 2, (yhi - ylo) / 2, thickness / 2],
+                                      visualFramePosition=[(xhi + xlo) / 2, (yhi + ylo) / 2, thickness / 2],
+                                      rgbaColor=gray(BOARD_GRAY), physicsClientId=c)
+    pybullet.createMultiBody(0, -1, face, position, orientation, physicsClientId=c)
+    tag = board.get("apriltag")
+    if tag:  # its black cells as thin black boxes (the white ones are the board)
+        cell = tag["size_m"] / 8
+        cx, cy = tag["centre_in_board_m"]
+        centres = [(cx + (column - 3.5) * cell, cy + (row - 3.5) * cell)
+                   for row, cells in enumerate(tag["black_cells"]) for column, black in enumerate(cells) if black]
+        shape = dict(shapeType=pybullet.GEOM_BOX, halfExtents=[cell / 2, cell / 2, film / 2])
+    else:
+        centres = [tuple(m) for m in board["marks_in_board_m"]]
+        shape = dict(shapeType=pybullet.GEOM_CYLINDER, radius=board["mark_diameter_m"] / 2, length=film)
+    for x, y in centres:
+        mark = pybullet.createVisualShape(visualFramePosition=[x, y, -film / 2], rgbaColor=gray(MARK_GRAY),
+                                          physicsClientId=c, **shape)
+        pybullet.createMultiBody(0, -1, mark, position, orientation, physicsClientId=c)
+    return c
+
+
+def gray(level):
+    return [level / 255.0] * 3 + [1.0]
+
+
+def check_camera(scene):
+    cam = scene["camera"]
+    if any(float(k) != 0.0 for k in cam.get("distortion", [])):
+        fail(f"the scene's camera has lens distortion {cam['distortion']}: this driver renders a pinhole only")
+    return cam
+
+
+class Renderer:
+    """The hand camera: world_from_camera = world_from_tip · tool_from_camera, camera x right, y down, z along
+    the optical axis (docs/ARCHITECTURE.md), pixel (u, v) covering [u, u+1) × [v, v+1)."""
+
+    def __init__(self, scene, urdf):
+        cam = check_camera(scene)
+        self.cell = Cell(scene, urdf)  # for the camera's pose
+        self.client = board_world(scene, self.cell.world_from_base)  # what it sees
+        self.tool_from_camera = np.array(scene["tool_from_camera"], dtype=float)
+        self.width, self.height = cam["width_px"], cam["height_px"]
+        fx, fy = cam.get("fx_px", cam.get("focal_px")), cam.get("fy_px", cam.get("focal_px"))
+        cx, cy = cam["principal_point_px"]
+        # TinyRenderer covers pixel i at i + ½ of OpenGL's window coordinates, rows flipped (measured:
+        # scripts/pybullet-render-check.py): shift the principal point by half a pixel to match
+        cx, cy = cx - 0.5, cy + 0.5
+        w, h, n, f = self.width, self.height, NEAR_M, FAR_M
+        # OpenGL's eye frame is the camera's turned about x by 180° (y up, looking along −z); clip = P · eye
+        projection = np.array([[2 * fx / w, 0, 1 - 2 * cx / w, 0],
+                               [0, 2 * fy / h, 2 * cy / h - 1, 0],
+                               [0, 0, -(f + n) / (f - n), -2 * f * n / (f - n)],
+                               [0, 0, -1, 0]])
+        self.projection = projection.T.flatten().tolist()  # column-major, as OpenGL and PyBullet take it
+
+    def world_from_camera(self, q):
+        self.cell.set_joints(q)
+        return self.cell.world_from_tip() @ self.tool_from_camera
+
+    def image(self, q):
+        """The image (height × width, u8) the hand camera sees with the arm at q."""
+        eye_from_world = np.diag([1.0, -1.0, -1.0, 1.0]) @ np.linalg.inv(self.world_from_camera(q))
+        _, _, rgba, _, _ = pybullet.getCameraImage(
+            self.width, self.height, eye_from_world.T.flatten().tolist(), self.projection,
+            renderer=pybullet.ER_TINY_RENDERER, shadow=0, lightAmbientCoeff=1.0, lightDiffuseCoeff=0.0,
+            lightSpecularCoeff=0.0, flags=pybullet.ER_NO_SEGMENTATION_MASK, physicsClientId=self.client)
+        rgb = np.reshape(np.asarray(rgba, dtype=np.uint8), (self.height, self.width, 4))[:, :, :3].astype(np.uint16)
+        return ((rgb[:, :, 0] * 77 + rgb[:, :, 1] * 150 + rgb[:, :, 2] * 29 + 128) >> 8).astype(np.uint8)
+
+
+def write_pgm(path, image):
+    with open(path, "wb") as pgm:
+        pgm.write(b"P5\n%d %d\n255\n" % (image.shape[1], image.shape[0]) + image.tobytes())
+
+
+def camera_process(scene, urdf, instance, shared, stop, ready, save_image):
+    """The camera, a process of its own: every vision period it renders the newest joint state the arm loop
+    shared and publishes the frame on `camera_image`, stamped with that state's time."""
+    _libc.prctl(1, int(signal.SIGTERM))  # PR_SET_PDEATHSIG: dies with the driver, even a SIGKILLed one
+    _libc.prctl(15, CAMERA_PROCESS_NAME)  # PR_SET_NAME: what ps, and vservod's "written by", show
+    if os.getppid() == 1:
+        return
+    for signum in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(signum, on_stop_signal)
+    stopped = lambda: _stopping[0] or stop.is_set()  # noqa: E731
+    q_shared, stamp_shared, lock = shared
+    renderer = Renderer(scene, urdf)
+    width, height = renderer.width, renderer.height
+    renderer.image(scene["start_joints_rad"])  # the first render sets TinyRenderer up
+    node = make_node(instance, stopped)
+    if node is None:
+        return
+    service = open_topic(node, instance, "camera_image", iox2.Slice[ctypes.c_uint8], 0, 2, CameraImageHeader)
+    publisher = service.publisher_builder().initial_max_slice_len(1280 * 1024).create()
+    notifier = open_notifier(node, instance, "camera_image")
+    ready.set()
+    period_ns = round(scene["timing"]["vision_period_s"] * 1e9)
+    deadline, frame, render_ms = monotonic_ns(), 0, []
+    while not stopped():
+        with lock:
+            q, stamp_ns = list(q_shared), stamp_shared.value
+        if stamp_ns == 0:  # no joint state published yet
+            time.sleep(0.001)
+            continue
+        started = time.perf_counter()
+        image = renderer.image(q)
+        render_ms.append(1e3 * (time.perf_counter() - started))
+        sample = publisher.loan_slice_uninit(width * height)
+        header = sample.user_header().contents
+        header.schema, header.format, header.width, header.height = SCHEMA, 0, width, height
+        header.stride_bytes, header.reserved, header.frame, header.capture_stamp_ns = width, 0, frame, stamp_ns
+        np.frombuffer(sample.payload().as_memory_view(), dtype=np.uint8)[:] = image.ravel()
+        sample.assume_init().send()
+        notifier.notify()
+        if frame == 0 and save_image:
+            write_pgm(save_image, image)
+        frame += 1
+        deadline = max(deadline + period_ns, monotonic_ns() - period_ns // 2)  # a late frame is not made up for
+        sleep_until(deadline)
+    if render_ms:
+        r = np.array(render_ms)
+        print(f"pybullet_driver: camera: {frame} frames, render mean/p99/max {r.mean():.1f}/"
+              f"{np.percentile(r, 99):.1f}/{r.max():.1f} ms", file=sys.stderr)
+
+
+class Arm:
+    """The arm in PyBullet's physics under joint velocity or position commands.
+
+    Each joint follows a position reference q_ref: in velocity mode the commanded q̇ (clipped to the velocity
+    limits) integrated, as a real arm's drives servo a velocity command without drift; in position mode the
+    commanded q_ref; holding, q_ref stays where it is. Both through `setJointMotorControl2(POSITION_CONTROL,
+    targetPosition=q_ref (clipped to the joint limits), targetVelocity=0, positionGain=1, velocityGain=1,
+    force=the URDF's effort limit, maxVelocity=the velocity limit)`: Bullet's joint motor is a constraint asking
+    for the velocity (q_ref − q) / period, so each joint lands on its reference at the end of the step if its
+    effort and velocity limits allow.
+    Measured on the xArm6 with gravity, a 0.2 s ramp to 0.1–0.2 rad/s: q on the reference to 1e-5 rad after
+    2 s (VELOCITY_CONTROL on q̇ alone drifted 1.7 mrad in that time, q̇ off by up to 1 %).
+    """
+
+    def __init__(self, scene, urdf):
+        self.cell = Cell(scene, urdf)
+        self.p = dict(physicsClientId=self.cell.client)
+        pybullet.setGravity(0, 0, -9.81, **self.p)
+        self.period_s = scene["robot"]["period_s"]
+        pybullet.setTimeStep(self.period_s, **self.p)
+        c = self.cell
+        if c.others:
+            held = [s[0] for s in pybullet.getJointStates(c.body, c.others, **self.p)]
+            pybullet.setJointMotorControlArray(c.body, c.others, pybullet.POSITION_CONTROL, targetPositions=held,
+                                               forces=[DEFAULT_EFFORT] * len(c.others), **self.p)
+        self.measure()
+        self.q_ref = self.q.copy()
+
+    def measure(self):
+        states = pybullet.getJointStates(self.cell.body, self.cell.joints, **self.p)
+        self.q = np.array([s[0] for s in states])
+        self.qd = np.array([s[1] for s in states])
+        self.torque = np.array([s[3] for s in states])
+
+    def step(self, mode, command):
+        """One period: the reference moves by the command (velocity: q̇; position: q_ref; None: holding) and the
+        physics steps."""
+        c = self.cell
+        if mode == VELOCITY and command is not None:
+            self.q_ref = self.q_ref + np.clip(command, -c.velocity_limits, c.velocity_limits) * self.period_s
+        elif mode == POSITION and command is not None:
+            self.q_ref = np.asarray(command, dtype=float)
+        self.q_ref = np.clip(self.q_ref, c.limits[:, 0], c.limits[:, 1])
+        for joint, target, force, speed in zip(c.joints, self.q_ref, c.efforts, c.velocity_limits):
+            limit = {"maxVelocity": speed} if math.isfinite(speed) else {}
+            pybullet.setJointMotorControl2(c.body, joint, pybullet.POSITION_CONTROL, targetPosition=target,
+                                           targetVelocity=0.0, positionGain=1.0, velocityGain=1.0, force=force,
+                                           **limit, **self.p)
+        pybullet.stepSimulation(**self.p)
+        self.measure()
+
+    def faults(self):
+        c, bits = self.cell, 0
+        for i in range(c.n):
+            if self.q[i] <= c.limits[i, 0] or self.q[i] >= c.limits[i, 1]:
+                bits |= 1 << i
+            if abs(self.qd[i]) > c.velocity_limits[i] * (1 + 1e-6):  # the solver's rounding is no fault
+                bits |= 1 << (8 + i)
+            if c.effort_from_urdf[i] and abs(self.torque[i]) >= c.efforts[i] * (1 - 1e-6):
+                bits |= 1 << (16 + i)
+        return bits
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--scene", required=True, help="scene JSON (vservoctl scene --config FILE)")
+    parser.add_argument("--urdf", required=True, help="the arm's URDF (the one the scene's arm.urdf models)")
+    parser.add_argument("--instance", default="default")
+    parser.add_argument("--duration-s", type=float, default=math.inf)
+    parser.add_argument("--save-image", help="write the first camera image here (PGM)")
+    parser.add_argument("--fifo-priority", type=int, default=0, help="SCHED_FIFO priority of the arm loop (0: none)")
+    options = parser.parse_args(argv)
+    with open(options.scene) as file:
+        scene = json.load(file)
+    modes = {"velocity": VELOCITY, "position": POSITION}
+    if scene["robot"]["command"] not in modes:
+        fail(f"the scene's robot.command is {scene['robot']['command']!r}: this driver takes velocity or position")
+    mode = modes[scene["robot"]["command"]]
+    check_camera(scene)
+    arm = Arm(scene, options.urdf)
+    n, instance = arm.cell.n, options.instance
+
+    context = multiprocessing.get_context("spawn")
+    stop = context.Event()  # the driver's stop, for the camera
+    for signum in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(signum, on_stop_signal)
+    q_shared, stamp_shared = context.RawArray(ctypes.c_double, n), context.RawValue(ctypes.c_uint64)
+    lock = context.Lock()
+    q_shared[:] = arm.q  # stamp 0: no joint state yet
+    ready = context.Event()
+    camera = context.Process(target=camera_process, name="camera", daemon=True,
+                             args=(scene, options.urdf, instance, (q_shared, stamp_shared, lock), stop, ready,
+                                   options.save_image))
+    camera.start()
+    node = make_node(instance, lambda: _stopping[0] or not camera.is_alive())
+    while node is not None and camera.is_alive() and not _stopping[0] and not ready.wait(0.1):
+        pass
+    if node is None or not ready.is_set() or _stopping[0]:
+        stop.set()
+        camera.join()
+        return 1 if camera.exitcode else 0  # the camera failed to start (its error is printed), or stopped
+    state_publisher = open_topic(node, instance, "joint_state", JointState, 1, 64).publisher_builder().create()
+    state_notifier = open_notifier(node, instance, "joint_state")
+    commands = open_topic(node, instance, "joint_command", JointCommand, 0, 64).subscriber_builder().create()
+    if options.fifo_priority > 0:
+        try:
+            os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(options.fifo_priority))
+        except PermissionError:
+            print("pybullet_driver: warning: SCHED_FIFO not permitted; on the normal scheduler", file=sys.stderr)
+
+    period_ns = round(scene["robot"]["period_s"] * 1e9)
+    epoch = start = monotonic_ns()
+    tick, last_valid_ns, command, gaps, late = 0, -COMMAND_TIMEOUT_NS, None, [], []
+    state = JointState(schema=SCHEMA, driver_epoch=epoch, period_ns=period_ns, command_mode=mode)
+    applied_tick = NONE  # the command the last step applied (none before the first)
+    while True:
+        # 1. publish the joint state, notify, and share it with the camera
+        state.tick, state.stamp_ns, state.faults = tick, monotonic_ns(), arm.faults()
+        state.driver_status = FOLLOWING if applied_tick != NONE else HOLDING
+        state.applied_command_tick = applied_tick
+        state.q_rad[:n], state.qd_rad_s[:n], state.torque_nm[:n] = arm.q, arm.qd, arm.torque
+        state_publisher.send_copy(state)
+        state_notifier.notify()
+        with lock:
+            q_shared[:], stamp_shared.value = arm.q, state.stamp_ns
+        if tick:
+            gaps.append(state.stamp_ns - last_publish)
+        last_publish = state.stamp_ns
+        if _stopping[0] or state.stamp_ns - start >= options.duration_s * 1e9:
+            break
+
+        # 2. at the next deadline: the newest valid command (our mode, this run of the driver, answering a recent
+        # joint state: normally the one just published), else hold
+        deadline = start + (tick + 1) * period_ns
+        sleep_until(deadline)
+        woke = monotonic_ns()
+        late.append(woke - deadline)
+        while (sample := commands.receive()) is not None:
+            c = JointCommand.from_buffer_copy(sample.payload().contents)
+            value = np.array(c.qd_ref_rad_s if mode == VELOCITY else c.q_ref_rad)[:n]
+            if (c.schema == SCHEMA and c.mode == mode and c.driver_epoch == epoch
+                    and tick - MAX_COMMAND_AGE_TICKS <= c.answers_tick <= tick and np.all(np.isfinite(value))):
+                command, last_valid_ns, applied_tick = value, woke, c.answers_tick
+        if woke - last_valid_ns > COMMAND_TIMEOUT_NS:
+            command, applied_tick = None, NONE  # bring the joints to rest
+
+        # 3. advance the physics by the periods that passed (normally one)
+        periods = max(1, (woke - start) // period_ns - tick)
+        for _ in range(min(periods, 100)):
+            arm.step(mode, command)
+        tick += periods
+
+    stop.set()
+    camera.join(5)
+    if camera.is_alive():
+        camera.terminate()
+    if gaps:
+        gaps_ms, late_ms = np.array(gaps) / 1e6, np.array(late) / 1e6
+        print(f"pybullet_driver: {tick} ticks; joint state gap p50/p99/max {np.median(gaps_ms):.2f}/"
+              f"{np.percentile(gaps_ms, 99):.2f}/{gaps_ms.max():.2f} ms; wake-up lateness p50/p99/max "
+              f"{np.median(late_ms):.3f}/{np.percentile(late_ms, 99):.3f}/{late_ms.max():.3f} ms", file=sys.stderr)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,119 @@
+#!/usr/bin/env bash
+# vservod with an external robot and camera: the PyBullet reference driver (clients/python/pybullet_driver.py)
+# simulates the arm of a URDF and the board in PyBullet, takes vservo's joint commands and publishes joint states
+# and rendered camera frames over the driver contract of docs/DRIVERS.md. Runs the cell of --config (a
+# configuration whose arm vservo models from a URDF, with robot.driver = "external" and camera.source =
+# "external") for --duration-s seconds (default 20), then stops both and prints the final feature error and the
+# settling time; with --json the last line is one JSON object (final_error_px, settling_time_s, …). Logs, the
+# scene, the first camera image (first.pgm) and the recorded features are left in target/pybullet-run/.
+#
+#   scripts/run-pybullet.sh --urdf FILE --config FILE [--duration-s S] [--json]
+#
+# --urdf is the URDF PyBullet simulates: the arm the configuration models (its meshes are found beside it and in
+# pybullet_data). --config is any configuration of a cell (the lockstep's, e.g. config/arms/xarm6.toml): the run
+# uses it through an overlay (target/pybullet-run/pybullet.toml) that only puts the driver in place of vservo's
+# simulated arm and camera: robot.driver and camera.source "external", the driver taking joint velocities every
+# --period-s seconds (the arm's own period, default 0.001), instance "pybullet", and no frame of pipeline delay
+# (PyBullet's frames reach the servo 20–25 ms after capture on average: within the frame).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+duration=20
+period=0.001
+json=0
+config=""
+urdf=""
+usage="expected --urdf FILE --config FILE [--duration-s S] [--period-s S] [--json]"
+while [ $# -gt 0 ]; do
+    case "$1" in
+        --duration-s) duration="$2"; shift 2 ;;
+        --duration-s=*) duration="${1#*=}"; shift ;;
+        --json) json=1; shift ;;
+        --config) config="$2"; shift 2 ;;
+        --config=*) config="${1#*=}"; shift ;;
+        --period-s) period="$2"; shift 2 ;;
+        --period-s=*) period="${1#*=}"; shift ;;
+        --urdf) urdf="$2"; shift 2 ;;
+        --urdf=*) urdf="${1#*=}"; shift ;;
+        *) echo "run-pybullet: unknown argument $1 ($usage)" >&2; exit 2 ;;
+    esac
+done
+if [ -z "$config" ] || [ -z "$urdf" ]; then
+    echo "run-pybullet: $usage" >&2
+    exit 2
+fi
+for file in "$config" "$urdf"; do
+    [ -f "$file" ] || { echo "run-pybullet: $file: no such file" >&2; exit 2; }
+done
+urdf="$(cd "$(dirname "$urdf")" && pwd)/$(basename "$urdf")"
+config="$(cd "$(dirname "$config")" && pwd)/$(basename "$config")"
+say() { [ "$json" = 1 ] && echo "$*" >&2 || echo "$*"; }
+
+scripts/setup.sh >&2
+python=target/python-venv/bin/python
+"$python" -c 'import pybullet' 2>/dev/null ||
+    { echo "run-pybullet: pybullet is not in $python's venv (scripts/setup.sh installs it)" >&2; exit 1; }
+# VSERVO_BIN_DIR: binaries already built (the integration test passes its own); else a release build
+bin="${VSERVO_BIN_DIR:-}"
+if [ -z "$bin" ]; then
+    cargo build --release --locked -q -p vservod -p vservoctl >&2
+    bin=./target/release
+fi
+out=target/pybullet-run
+rm -rf "$out"
+mkdir -p "$out"
+vservoctl="$bin/vservoctl"
+
+cat > "$out/pybullet.toml" <<TOML
+# written by scripts/run-pybullet.sh: the cell of the file below with the PyBullet driver as its arm and camera
+extends = "$config"
+
+[instance]
+name = "pybullet"
+
+[timing]
+pipeline_delay_frames = 0
+
+[camera]
+source = "external"
+
+[robot]
+driver = "external"
+command = "velocity"
+period_s = $period
+TOML
+config="$out/pybullet.toml"
+"$vservoctl" scene --config "$config" > "$out/scene.json"
+instance="$("$python" -c 'import json,sys; print(json.load(sys.stdin)["instance"])' < "$out/scene.json")"
+desired="$("$python" -c 'import json,sys; print(",".join(str(v) for v in json.load(sys.stdin)["desired_features_px"]))' < "$out/scene.json")"
+
+pids=()
+cleanup() {
+    # the driver ends its camera process itself (on SIGTERM, and on its own death: PR_SET_PDEATHSIG)
+    for pid in "${pids[@]}"; do kill -TERM "$pid" 2>/dev/null || true; done
+    sleep 1
+    for pid in "${pids[@]}"; do kill -KILL "$pid" 2>/dev/null || true; done
+}
+trap cleanup EXIT
+
+"$bin/vservod" --config "$config" > "$out/vservod.log" 2>&1 &
+pids+=($!)
+"$python" clients/python/pybullet_driver.py --scene "$out/scene.json" --urdf "$urdf" --instance "$instance" \
+    --fifo-priority 50 --save-image "$out/first.pgm" > "$out/driver.log" 2>&1 &
+driver=$!
+pids+=("$driver")
+# the features from the first frame on
+"$vservoctl" echo features --instance "$instance" --duration-s "$duration" > "$out/features.jsonl" &
+echo_pid=$!
+pids+=("$echo_pid")
+say "run-pybullet: vservod and the PyBullet driver run; recording $duration s of features (logs in $out/)"
+wait "$echo_pid" || true
+"$vservoctl" status --instance "$instance" > "$out/status.txt" 2>&1 || true
+cleanup
+trap - EXIT
+
+summary="$("$python" scripts/feature_summary.py "$out/features.jsonl" --desired "$desired")"
+say "$(cat "$out/status.txt" 2>/dev/null | head -3)"
+say "$(grep '^pybullet_driver: ' "$out/driver.log" 2>/dev/null | grep -v 'waiting for it' || true)"
+say "run-pybullet: $summary"
+[ "$json" = 1 ] && echo "$summary"
+exit 0
