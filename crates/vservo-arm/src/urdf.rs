@@ -84,6 +84,14 @@ pub enum UrdfError {
         /// The joint.
         joint: String,
     },
+    /// A number of a joint on the chain is not finite.
+    #[error("joint {joint:?}: its {what} is not finite")]
+    NotFinite {
+        /// The joint.
+        joint: String,
+        /// Which number ("origin", "axis", "limit").
+        what: &'static str,
+    },
     /// The chain has too few or too many moving joints.
     #[error(
         "the chain from {base:?} to {tip:?} has {count} moving joints ({joints}); vservo drives arms of {MIN_CHAIN_JOINTS} or {MAX_CHAIN_JOINTS}"
@@ -252,6 +260,7 @@ fn chain_along(
     let mut pending = Transform::identity();
     for &index in path {
         let joint = &robot.joints[index];
+        finite(joint)?;
         let origin = pending * origin_of(&joint.origin);
         let bounded = match joint.joint_type {
             JointType::Fixed => {
@@ -303,6 +312,23 @@ fn chain_along(
         position_limits,
         velocity_limits,
     })
+}
+
+/// The joint's origin and axis are finite numbers, and so are its limits (infinite speed limits aside: those
+/// are reported missing).
+fn finite(joint: &urdf_rs::Joint) -> Result<(), UrdfError> {
+    let not_finite = |what| UrdfError::NotFinite { joint: joint.name.clone(), what };
+    let all = |values: &[f64]| values.iter().all(|v| v.is_finite());
+    if !all(&joint.origin.xyz.0) || !all(&joint.origin.rpy.0) {
+        return Err(not_finite("origin"));
+    }
+    if !all(&joint.axis.xyz.0) {
+        return Err(not_finite("axis"));
+    }
+    if joint.limit.lower.is_nan() || joint.limit.upper.is_nan() || joint.limit.velocity.is_nan() {
+        return Err(not_finite("limit"));
+    }
+    Ok(())
 }
 
 fn unsupported(joint: &urdf_rs::Joint, kind: &'static str, why: &'static str) -> UrdfError {
@@ -399,6 +425,36 @@ mod tests {
         assert!(error.to_string().contains("\"nowhere\""), "{error}");
         let error = arm(&text, Some("l3"), Some("l1")).expect_err("above");
         assert!(matches!(error, UrdfError::TipNotBelowBase { .. }), "{error}");
+    }
+
+    proptest::proptest! {
+        #![proptest_config(proptest::prelude::ProptestConfig { cases: 256, ..Default::default() })]
+
+        /// Any damage to a file gives an arm or a refusal, never a panic.
+        #[test]
+        fn a_damaged_file_is_refused_or_read_never_a_panic(
+            at in 0usize..2000, length in 0usize..40, with in "[ -~]{0,12}",
+        ) {
+            let text = six_joint_urdf("revolute", LIMIT);
+            let at = at.min(text.len());
+            let end = (at + length).min(text.len());
+            let damaged = format!("{}{with}{}", &text[..at], &text[end..]);
+            let _ = parse(&damaged, "damaged.urdf", None, Some("flange"));
+        }
+    }
+
+    #[test]
+    fn numbers_that_are_not_finite_are_refused_by_joint() {
+        let cases = [
+            (r#"<origin xyz="0 0 0.1""#, r#"<origin xyz="0 nan 0.1""#, "origin"),
+            (r#"<axis xyz="0 0 1"/>"#, r#"<axis xyz="0 inf 1"/>"#, "axis"),
+            (r#"lower="-2""#, r#"lower="NaN""#, "limit"),
+        ];
+        for (from, to, what) in cases {
+            let text = six_joint_urdf("revolute", LIMIT).replacen(from, to, 1);
+            let error = arm(&text, None, Some("flange")).expect_err(what);
+            assert_eq!(error, UrdfError::NotFinite { joint: "j1".into(), what }, "{what}");
+        }
     }
 
     #[test]

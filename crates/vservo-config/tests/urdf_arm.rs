@@ -98,7 +98,9 @@ fn a_six_joint_urdf_gives_the_arm_with_the_files_limits_unless_the_configuration
 fn what_vservo_cannot_honour_is_refused_naming_the_joint_and_why() {
     let scratch = Scratch::new("refused");
     let tip = "tip_link = \"flange\"";
-    let cases: [(String, &str, &str, &str, &[&str]); 9] = [
+    let far = urdf(6, 0, "", "").replacen(r#"<origin xyz="0.05 0 0.1""#, r#"<origin xyz="0.05 0 1e300""#, 1);
+    let cases: [(String, &str, &str, &str, &[&str]); 10] = [
+        (far, tip, "kinematic", "robot.arm.urdf", &["\"j1\": an origin more than 10 m away"]),
         (urdf(6, 4, "prismatic", LIMIT), tip, "kinematic", "robot.arm.urdf", &["\"j4\" is prismatic"]),
         (
             urdf(6, 0, "", ""),

@@ -92,6 +92,16 @@ fn urdf(check: &Checker, a: &RawArm) -> Result<SerialArm, ConfigError> {
             ),
         ));
     }
+    let far = arm.chain.joints.iter().find(|j| j.parent_from_joint.translation.vector.amax() > 10.0);
+    if let Some(joint) = far.map(|j| j.name.as_str()).or_else(|| {
+        (arm.chain.last_from_tip.translation.vector.amax() > 10.0).then_some(arm.chain.tip_link.as_str())
+    }) {
+        return Err(check.invalid(
+            key,
+            format!("{file:?}"),
+            format!("{joint:?}: an origin more than 10 m away"),
+        ));
+    }
     let limits = urdf_limits(check, a, &arm)?;
     SerialArm::from_chain("URDF arm", arm.chain, limits)
         .ok_or_else(|| check.invalid(key, format!("{file:?}"), "not a six-joint chain"))
