@@ -43,7 +43,9 @@ impl PlantStage {
             config.joint_servo.kv,
         );
         Self {
-            plant: Plant::new(arm, config.plant.mode, config.plant.rk4_substeps, q).starting_at_tick(tick),
+            plant: Plant::new(arm, config.plant.mode, config.plant.rk4_substeps, q)
+                .with_kinematic_response(config.plant.kinematic)
+                .starting_at_tick(tick),
             control_period_s: config.timing.control_period_s,
             object: config.scenario.object,
             object_origin_m: Vector3::zeros(),
@@ -105,7 +107,7 @@ impl PlantStage {
             }
             (PlantMode::Kinematic, ActuatorCommand::Reference { q, qd }) => {
                 self.held_at = None;
-                self.plant.step_kinematic(q, qd)
+                self.plant.step_kinematic(q, qd, self.control_period_s)
             }
             _ => self.hold(),
         }
@@ -117,7 +119,9 @@ impl PlantStage {
         let state = *self.plant.state();
         let held_at = *self.held_at.get_or_insert(state.q);
         match self.plant.mode() {
-            PlantMode::Kinematic => self.plant.step_kinematic(&held_at, &JointVector::zeros()),
+            PlantMode::Kinematic => {
+                self.plant.step_kinematic(&held_at, &JointVector::zeros(), self.control_period_s)
+            }
             PlantMode::Dynamic => {
                 let reference = Reference {
                     q: held_at,

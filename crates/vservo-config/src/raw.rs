@@ -338,6 +338,19 @@ pub struct RawRender {
 pub struct RawPlant {
     pub mode: RawPlantMode,
     pub rk4_substeps: i64,
+    #[serde(default)]
+    pub kinematic_follows: RawKinematicFollows,
+    #[serde(default)]
+    pub kinematic_lag_s: f64,
+}
+
+/// `plant.kinematic_follows`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum RawKinematicFollows {
+    #[default]
+    Position,
+    Velocity,
 }
 
 #[derive(Debug, Deserialize)]

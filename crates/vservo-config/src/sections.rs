@@ -201,6 +201,8 @@ pub struct PlantSettings {
     pub mode: vservo_sim::plant::PlantMode,
     /// RK4 steps per control period.
     pub rk4_substeps: u32,
+    /// How the kinematic plant's joints follow the reference.
+    pub kinematic: vservo_sim::plant::KinematicResponse,
 }
 
 /// The joint servo's law and gains.

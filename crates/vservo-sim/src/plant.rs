@@ -57,12 +57,43 @@ pub struct JointState {
     pub faults: Faults,
 }
 
+/// What the joints of the kinematic plant follow, and how fast.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct KinematicResponse {
+    /// The command the joints follow.
+    pub follows: KinematicFollows,
+    /// The time constant (s) of the first-order lag through which they follow it; 0: at once.
+    pub lag_s: f64,
+}
+
+/// The command a kinematic arm's joints follow.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum KinematicFollows {
+    /// The position reference q_d (a position-commanded arm; with no lag, the paper's ideal robot, whose
+    /// joints are the reference exactly).
+    #[default]
+    Position,
+    /// The velocity reference q̇_d (a velocity-commanded arm), the position integrated from the velocity.
+    Velocity,
+}
+
+impl KinematicFollows {
+    /// The name in the configuration.
+    pub fn name(&self) -> &'static str {
+        match self {
+            KinematicFollows::Position => "position",
+            KinematicFollows::Velocity => "velocity",
+        }
+    }
+}
+
 /// The plant.
 #[derive(Debug, Clone)]
 pub struct Plant {
     arm: SerialArm,
     mode: PlantMode,
     substeps: u32,
+    kinematic: KinematicResponse,
     state: JointState,
 }
 
@@ -73,6 +104,7 @@ impl Plant {
             arm,
             mode,
             substeps: substeps.max(1),
+            kinematic: KinematicResponse::default(),
             state: JointState {
                 tick: 0,
                 q,
@@ -81,6 +113,12 @@ impl Plant {
                 faults: Faults::default(),
             },
         }
+    }
+
+    /// The same plant with the kinematic mode's joints responding as `response` says.
+    pub fn with_kinematic_response(mut self, response: KinematicResponse) -> Self {
+        self.kinematic = response;
+        self
     }
 
     /// The same plant with its tick counter starting at `tick` (a plant restarted where the arm stopped).
@@ -136,9 +174,32 @@ impl Plant {
         self.finish(q, qd, applied, saturated, failed)
     }
 
-    /// Advances by `dt_s` with the joints taking the reference exactly.
-    pub fn step_kinematic(&mut self, q_reference: &JointVector, qd_reference: &JointVector) -> &JointState {
-        self.finish(*q_reference, *qd_reference, JointVector::zeros(), 0, false)
+    /// Advances by `dt_s` with the joints following the reference as the kinematic response says: with no
+    /// lag, taking it exactly (position) or integrating its velocity; with a lag τ, through e^(−t/τ) over
+    /// the tick, solved exactly for a reference held over it.
+    pub fn step_kinematic(
+        &mut self,
+        q_reference: &JointVector,
+        qd_reference: &JointVector,
+        dt_s: f64,
+    ) -> &JointState {
+        let KinematicResponse { follows, lag_s } = self.kinematic;
+        let (q0, qd0) = (self.state.q, self.state.qd);
+        let (q, qd) = match (follows, lag_s > 0.0) {
+            (KinematicFollows::Position, false) => (*q_reference, *qd_reference),
+            (KinematicFollows::Position, true) => {
+                let decay = (-dt_s / lag_s).exp();
+                let q = q_reference + (q0 - q_reference) * decay;
+                (q, (q - q0) / dt_s)
+            }
+            (KinematicFollows::Velocity, false) => (q0 + qd_reference * dt_s, *qd_reference),
+            (KinematicFollows::Velocity, true) => {
+                let decay = (-dt_s / lag_s).exp();
+                let qd = qd_reference + (qd0 - qd_reference) * decay;
+                (q0 + qd_reference * dt_s + (qd0 - qd_reference) * (lag_s * (1.0 - decay)), qd)
+            }
+        };
+        self.finish(q, qd, JointVector::zeros(), 0, false)
     }
 
     fn finish(

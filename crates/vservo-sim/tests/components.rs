@@ -5,7 +5,7 @@ use vservo_arm::{JointVector, SerialArm, puma560};
 use vservo_config::Config;
 use vservo_control::Twist;
 use vservo_sim::interpolator::{Interpolator, InterpolatorSettings};
-use vservo_sim::plant::{Plant, PlantMode};
+use vservo_sim::plant::{KinematicFollows, KinematicResponse, Plant, PlantMode};
 
 fn frictionless() -> SerialArm {
     let mut arm = puma560::puma560();
@@ -63,9 +63,48 @@ fn torques_are_saturated_and_limits_reported() {
     // push the elbow past its upper limit (45°) in the kinematic mode
     let mut q = puma560::QN;
     q[2] = 1.0;
-    let state = *plant.step_kinematic(&q, &JointVector::zeros());
+    let state = *plant.step_kinematic(&q, &JointVector::zeros(), 0.001);
     assert_eq!(state.faults.position_limit, 0b100);
     assert!(state.faults.any_limit());
+}
+
+/// The kinematic plant through a first-order lag follows a held reference as the lag's closed form says:
+/// a position step as q_ref(1 − e^(−t/τ)), a velocity step as q̇ = q̇_ref(1 − e^(−t/τ)) with
+/// q = q̇_ref(t − τ(1 − e^(−t/τ))); without a lag a velocity reference is integrated.
+#[test]
+fn the_kinematic_plant_follows_through_its_lag() {
+    let tau = 0.02;
+    let t = 0.1;
+    let ticks = 100;
+    let dt = t / f64::from(ticks);
+    let fade = 1.0 - (-t / tau).exp();
+    let start = puma560::QN;
+    let step = JointVector::new(0.1, -0.05, 0.02, 0.0, 0.03, -0.04);
+    let plant_with = |follows, lag_s| {
+        Plant::new(puma560::puma560(), PlantMode::Kinematic, 1, start)
+            .with_kinematic_response(KinematicResponse { follows, lag_s })
+    };
+    let mut plant = plant_with(KinematicFollows::Position, tau);
+    for _ in 0..ticks {
+        plant.step_kinematic(&(start + step), &JointVector::zeros(), dt);
+    }
+    let moved = plant.state().q - start;
+    assert!((moved - step * fade).amax() < 1e-12, "{moved}");
+
+    let mut plant = plant_with(KinematicFollows::Velocity, tau);
+    for _ in 0..ticks {
+        plant.step_kinematic(&start, &step, dt);
+    }
+    assert!((plant.state().qd - step * fade).amax() < 1e-12);
+    let moved = plant.state().q - start;
+    assert!((moved - step * (t - tau * fade)).amax() < 1e-12, "{moved}");
+
+    let mut plant = plant_with(KinematicFollows::Velocity, 0.0);
+    for _ in 0..ticks {
+        plant.step_kinematic(&start, &step, dt);
+    }
+    assert!((plant.state().q - start - step * t).amax() < 1e-12);
+    assert_eq!(plant.state().qd, step);
 }
 
 fn interpolator(q: JointVector) -> Interpolator {

@@ -5,14 +5,21 @@ use vservo_arm::JointVector;
 use vservo_sim::interpolator::InterpolatorSettings;
 
 use super::checker::Checker;
-use crate::raw::{RawInterpolator, RawJointServo, RawPlant};
+use vservo_sim::plant::{KinematicFollows, KinematicResponse};
+
+use crate::raw::{RawInterpolator, RawJointServo, RawKinematicFollows, RawPlant};
 use crate::{ConfigError, JointServoSettings, PlantSettings, Timing};
 
 /// The plant's mode and its integration steps.
 pub fn plant(check: &Checker, p: &RawPlant) -> Result<PlantSettings, ConfigError> {
     let rk4_substeps =
         check.whole("plant.rk4_substeps", p.rk4_substeps, 1u32, 100, "must be from 1 to 100")?;
-    Ok(PlantSettings { mode: p.mode.into(), rk4_substeps })
+    let lag_s = check.within("plant.kinematic_lag_s", p.kinematic_lag_s, 0.0, 1.0, "s")?;
+    let follows = match p.kinematic_follows {
+        RawKinematicFollows::Position => KinematicFollows::Position,
+        RawKinematicFollows::Velocity => KinematicFollows::Velocity,
+    };
+    Ok(PlantSettings { mode: p.mode.into(), rk4_substeps, kinematic: KinematicResponse { follows, lag_s } })
 }
 
 /// The interpolator, stepping at the control period between vision periods.
