@@ -2,7 +2,7 @@
 """A MuJoCo arm and hand camera for vservo: the reference robot + camera driver.
 
 Copy this file to write a driver for a real arm and camera: replace `Arm` (`step`: send the joint velocities
-and wait for the next encoder reading) and `Camera.grab` (take an image), keep the rest. It speaks docs/PROTOCOL.md (schema 5) over
+and wait for the next encoder reading) and `Camera.grab` (take an image), keep the rest. It speaks docs/PROTOCOL.md (schema 7) over
 iceoryx2 0.10 shared memory:
 
 - every robot period (1 ms) it publishes `joint_state` and notifies the `joint_state` event;
@@ -44,7 +44,8 @@ import numpy as np
 
 import vservo_client  # finds the instance as every vservo client does (clients/python/vservo_client.py)
 
-SCHEMA = 6
+SCHEMA = 7
+JOINTS = 6  # the arm's (the PUMA 560's); the messages have room for 7 (joint_count says how many)
 TORQUE, VELOCITY, POSITION = 0, 1, 2  # command modes
 FOLLOWING, HOLDING = 0, 1  # driver_status
 COMMAND_TIMEOUT_NS = 20_000_000  # no valid command for this long: hold
@@ -54,12 +55,13 @@ POSITION_CORRECTION_PER_S = 50.0  # how fast the integrated reference pulls a dr
 
 
 class JointState(ctypes.Structure):
-    """vservo::JointState, 200 bytes."""
+    """vservo::JointState, 232 bytes."""
 
     _fields_ = [("schema", ctypes.c_uint32), ("faults", ctypes.c_uint32), ("tick", ctypes.c_uint64),
                 ("stamp_ns", ctypes.c_uint64), ("driver_epoch", ctypes.c_uint64), ("period_ns", ctypes.c_uint64),
                 ("command_mode", ctypes.c_uint32), ("driver_status", ctypes.c_uint32),
-                ("q_rad", ctypes.c_double * 6), ("qd_rad_s", ctypes.c_double * 6), ("torque_nm", ctypes.c_double * 6),
+                ("joint_count", ctypes.c_uint32), ("reserved", ctypes.c_uint32),
+                ("q_rad", ctypes.c_double * 7), ("qd_rad_s", ctypes.c_double * 7), ("torque_nm", ctypes.c_double * 7),
                 ("applied_command_tick", ctypes.c_uint64)]
 
     @staticmethod
@@ -68,12 +70,13 @@ class JointState(ctypes.Structure):
 
 
 class JointCommand(ctypes.Structure):
-    """vservo::JointCommand, 216 bytes (the seal is the rmrc's, for the simulated driver: ignored here)."""
+    """vservo::JointCommand, 248 bytes (the seal is the rmrc's, for the simulated driver: ignored here)."""
 
-    _fields_ = [("schema", ctypes.c_uint32), ("mode", ctypes.c_uint32), ("answers_tick", ctypes.c_uint64),
+    _fields_ = [("schema", ctypes.c_uint32), ("mode", ctypes.c_uint32), ("joint_count", ctypes.c_uint32),
+                ("reserved", ctypes.c_uint32), ("answers_tick", ctypes.c_uint64),
                 ("driver_epoch", ctypes.c_uint64), ("state_stamp_ns", ctypes.c_uint64), ("stamp_ns", ctypes.c_uint64),
-                ("torque_nm", ctypes.c_double * 6), ("q_ref_rad", ctypes.c_double * 6),
-                ("qd_ref_rad_s", ctypes.c_double * 6), ("twist_capture_tick", ctypes.c_uint64),
+                ("torque_nm", ctypes.c_double * 7), ("q_ref_rad", ctypes.c_double * 7),
+                ("qd_ref_rad_s", ctypes.c_double * 7), ("twist_capture_tick", ctypes.c_uint64),
                 ("twist_applied_tick", ctypes.c_uint64), ("reference_since_tick", ctypes.c_uint64),
                 ("seal", ctypes.c_uint64)]
 
@@ -512,15 +515,16 @@ def main(argv=None) -> int:
     tick, qd_command, last_valid_ns, status, gaps = 0, np.zeros(6), -COMMAND_TIMEOUT_NS, HOLDING, []
     NONE = (1 << 64) - 1  # no command applied
     command_tick, applied_tick = NONE, NONE  # the command in force answered; the one the last step applied
-    state = JointState(schema=SCHEMA, driver_epoch=epoch, period_ns=period_ns, command_mode=VELOCITY)
+    state = JointState(schema=SCHEMA, driver_epoch=epoch, period_ns=period_ns, command_mode=VELOCITY,
+                       joint_count=JOINTS)
     last_publish = None
     while not stop.is_set():
         # 1. the newest valid command: velocity mode, this run of the driver, answering a recent joint state
         now = time.monotonic_ns()
         while (sample := commands.receive()) is not None:
             c = JointCommand.from_buffer_copy(sample.payload().contents)
-            qd = np.array(c.qd_ref_rad_s)
-            if (c.schema == SCHEMA and c.mode == VELOCITY and c.driver_epoch == epoch
+            qd = np.array(c.qd_ref_rad_s)[:JOINTS]
+            if (c.schema == SCHEMA and c.mode == VELOCITY and c.joint_count == JOINTS and c.driver_epoch == epoch
                     and tick - MAX_COMMAND_AGE_TICKS <= c.answers_tick <= tick and np.all(np.isfinite(qd))):
                 qd_command, last_valid_ns, command_tick = qd, now, c.answers_tick
         status = FOLLOWING if now - last_valid_ns <= COMMAND_TIMEOUT_NS else HOLDING
@@ -530,8 +534,8 @@ def main(argv=None) -> int:
         # 2. publish the joint state, notify, and hand it to the camera
         state.tick, state.stamp_ns, state.faults, state.driver_status = tick, time.monotonic_ns(), arm.faults(), status
         state.applied_command_tick, applied_tick = applied_tick, command_tick  # this state reports the last step
-        state.q_rad[:], state.qd_rad_s[:] = arm.data.qpos[:6], arm.data.qvel[:6]
-        state.torque_nm[:] = arm.data.qfrc_actuator[:6] + arm.data.qfrc_gravcomp[:6]  # drive torque incl. gravity
+        state.q_rad[:JOINTS], state.qd_rad_s[:JOINTS] = arm.data.qpos[:6], arm.data.qvel[:6]
+        state.torque_nm[:JOINTS] = arm.data.qfrc_actuator[:6] + arm.data.qfrc_gravcomp[:6]  # drive torque incl. gravity
         state_publisher.send_copy(state)
         state_notifier.notify()
         with lock:

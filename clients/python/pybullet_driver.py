@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """A URDF arm and hand camera in PyBullet for vservo: the second reference robot + camera driver.
 
-The same contract as clients/python/mujoco_driver.py (docs/DRIVERS.md; docs/PROTOCOL.md, schema 6, over
+The same contract as clients/python/mujoco_driver.py (docs/DRIVERS.md; docs/PROTOCOL.md, schema 7, over
 iceoryx2 0.10 shared memory), for any arm vservo models from a URDF (the scene's `arm`: `urdf`, `base_link`,
 `tip_link`, `joint_names`): nothing in this file is specific to an arm.
 
@@ -53,8 +53,8 @@ import pybullet_data
 
 import vservo_client  # finds the instance as every vservo client does (clients/python/vservo_client.py)
 
-SCHEMA = 6
-PROTOCOL_JOINTS = 6  # joints the protocol's arrays carry (q_rad: c_double * 6)
+SCHEMA = 7
+PROTOCOL_JOINTS = 7  # joints the protocol's arrays have room for (q_rad: c_double * 7); joint_count says how many
 TORQUE, VELOCITY, POSITION = 0, 1, 2  # command modes
 FOLLOWING, HOLDING = 0, 1  # driver_status
 COMMAND_TIMEOUT_NS = 20_000_000  # no valid command for this long: hold
@@ -71,11 +71,12 @@ def monotonic_ns() -> int:
 
 
 class JointState(ctypes.Structure):
-    """vservo::JointState, 200 bytes."""
+    """vservo::JointState, 232 bytes."""
 
     _fields_ = [("schema", ctypes.c_uint32), ("faults", ctypes.c_uint32), ("tick", ctypes.c_uint64),
                 ("stamp_ns", ctypes.c_uint64), ("driver_epoch", ctypes.c_uint64), ("period_ns", ctypes.c_uint64),
                 ("command_mode", ctypes.c_uint32), ("driver_status", ctypes.c_uint32),
+                ("joint_count", ctypes.c_uint32), ("reserved", ctypes.c_uint32),
                 ("q_rad", ctypes.c_double * PROTOCOL_JOINTS), ("qd_rad_s", ctypes.c_double * PROTOCOL_JOINTS),
                 ("torque_nm", ctypes.c_double * PROTOCOL_JOINTS), ("applied_command_tick", ctypes.c_uint64)]
 
@@ -85,9 +86,10 @@ class JointState(ctypes.Structure):
 
 
 class JointCommand(ctypes.Structure):
-    """vservo::JointCommand, 216 bytes (the seal is the rmrc's, for the simulated driver: ignored here)."""
+    """vservo::JointCommand, 248 bytes (the seal is the rmrc's, for the simulated driver: ignored here)."""
 
-    _fields_ = [("schema", ctypes.c_uint32), ("mode", ctypes.c_uint32), ("answers_tick", ctypes.c_uint64),
+    _fields_ = [("schema", ctypes.c_uint32), ("mode", ctypes.c_uint32), ("joint_count", ctypes.c_uint32),
+                ("reserved", ctypes.c_uint32), ("answers_tick", ctypes.c_uint64),
                 ("driver_epoch", ctypes.c_uint64), ("state_stamp_ns", ctypes.c_uint64), ("stamp_ns", ctypes.c_uint64),
                 ("torque_nm", ctypes.c_double * PROTOCOL_JOINTS), ("q_ref_rad", ctypes.c_double * PROTOCOL_JOINTS),
                 ("qd_ref_rad_s", ctypes.c_double * PROTOCOL_JOINTS), ("twist_capture_tick", ctypes.c_uint64),
@@ -527,7 +529,7 @@ def main(argv=None) -> int:
     period_ns = round(scene["robot"]["period_s"] * 1e9)
     epoch = start = monotonic_ns()
     tick, last_valid_ns, command, gaps, late = 0, -COMMAND_TIMEOUT_NS, None, [], []
-    state = JointState(schema=SCHEMA, driver_epoch=epoch, period_ns=period_ns, command_mode=mode)
+    state = JointState(schema=SCHEMA, driver_epoch=epoch, period_ns=period_ns, command_mode=mode, joint_count=n)
     applied_tick = NONE  # the command the last step applied (none before the first)
     while True:
         # 1. publish the joint state, notify, and share it with the camera
@@ -554,7 +556,7 @@ def main(argv=None) -> int:
         while (sample := commands.receive()) is not None:
             c = JointCommand.from_buffer_copy(sample.payload().contents)
             value = np.array(c.qd_ref_rad_s if mode == VELOCITY else c.q_ref_rad)[:n]
-            if (c.schema == SCHEMA and c.mode == mode and c.driver_epoch == epoch
+            if (c.schema == SCHEMA and c.mode == mode and c.joint_count == n and c.driver_epoch == epoch
                     and tick - MAX_COMMAND_AGE_TICKS <= c.answers_tick <= tick and np.all(np.isfinite(value))):
                 command, last_valid_ns, applied_tick = value, woke, c.answers_tick
         if woke - last_valid_ns > COMMAND_TIMEOUT_NS:

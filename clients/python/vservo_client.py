@@ -27,7 +27,7 @@ import time
 
 import iceoryx2 as iox2
 
-SCHEMA_VERSION = 6
+SCHEMA_VERSION = 7
 (TARGET_FEATURES, TARGET_POSE, TARGET_TEACH, OBJECT_HOLD, OBJECT_STEP, OBJECT_CIRCLE, RELOAD, RESUME,
  SAFE_STOP) = range(1, 10)
 STATES = ["starting", "running", "degraded", "stopping", "safe-stop"]

@@ -39,7 +39,9 @@ fn sweeping_driver(instance: &str) -> LoopThread {
                 (started + Duration::from_millis(tick)).saturating_duration_since(Instant::now()),
             );
             let t = started.elapsed().as_secs_f64();
-            let q_rad = std::array::from_fn(|j| START_RAD[j] + 0.2 * (t + j as f64).sin());
+            // six joints; the seventh slot zero
+            let q_rad =
+                std::array::from_fn(|j| START_RAD.get(j).map_or(0.0, |q| q + 0.2 * (t + j as f64).sin()));
             let _ = states.send_copy(JointStateMsg {
                 tick,
                 stamp_ns: vservo_runtime::clock::monotonic_ns(),
@@ -47,7 +49,7 @@ fn sweeping_driver(instance: &str) -> LoopThread {
                 period_ns: 1_000_000,
                 command_mode: CommandMode::Velocity.into(),
                 q_rad,
-                torque_nm: [f64::NAN; 6],
+                torque_nm: [f64::NAN; vservo_protocol::MAX_JOINTS],
                 ..JointStateMsg::default()
             });
             let _ = notifier.notify();

@@ -88,7 +88,9 @@ fn an_external_cameras_features_carry_the_camera_pose_at_exposure() {
         .join()
         .expect("echo")
         .iter()
-        .map(|s| (s["stamp_ns"].as_u64().unwrap_or(0), JointVector::from_column_slice(&numbers(&s["q_rad"]))))
+        .map(|s| {
+            (s["stamp_ns"].as_u64().unwrap_or(0), JointVector::from_column_slice(&numbers(&s["q_rad"])[..6]))
+        })
         .collect();
     stop.store(true, Ordering::Relaxed);
     let _ = camera.join();

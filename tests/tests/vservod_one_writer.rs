@@ -307,7 +307,7 @@ fn rogue_features_in_the_vision_nodes_slot_move_nothing_and_are_named() {
 fn a_torque_flood_in_the_rmrcs_slot_moves_nothing_and_is_named() {
     let _one = exclusive();
     // inside every limit: only the seal refuses these
-    let within_limits_nm = [87.8, 167.8, 80.5, 21.8, 18.1, 19.2];
+    let within_limits_nm = [87.8, 167.8, 80.5, 21.8, 18.1, 19.2, 0.0];
     let (attack, daemon, instance, _config) =
         attack("torque-flood", "rmrc", Topic::JointCommand, |state, n| JointCommandMsg {
             mode: CommandMode::Torque.into(),

@@ -72,10 +72,11 @@ fn lost_marks_end_in_a_safe_stop_at_rest_and_the_cell_resumes_once_they_are_seen
 }
 
 /// A robot driver of the test's own (velocity commands, 1 kHz) that reports what the test sets: fault bits,
-/// its status, or silence.
+/// its status, its joint count, or silence.
 struct FakeDriver {
     faults: Arc<AtomicU32>,
     driver_status: Arc<AtomicU32>,
+    joint_count: Arc<AtomicU32>,
     silent: Arc<AtomicBool>,
     _thread: LoopThread,
 }
@@ -86,7 +87,8 @@ impl FakeDriver {
         let faults = Arc::new(AtomicU32::new(0));
         let driver_status = Arc::new(AtomicU32::new(DriverStatus::Following.into()));
         let silent = Arc::new(AtomicBool::new(false));
-        let (f, d, q) = (faults.clone(), driver_status.clone(), silent.clone());
+        let joint_count = Arc::new(AtomicU32::new(6));
+        let (f, d, q, n) = (faults.clone(), driver_status.clone(), silent.clone(), joint_count.clone());
         let instance = instance.to_string();
         let thread = LoopThread::spawn(move |s| {
             // started with the daemon: it waits for the instance, as a driver does (docs/DRIVERS.md)
@@ -101,7 +103,7 @@ impl FakeDriver {
                     .expect("joint_command");
             let epoch = std::process::id() as u64;
             use std::f64::consts::{FRAC_PI_4, PI};
-            let mut joints = [0.0, FRAC_PI_4, -PI, 0.0, FRAC_PI_4, 0.0];
+            let mut joints = [0.0, FRAC_PI_4, -PI, 0.0, FRAC_PI_4, 0.0, 0.0];
             let mut tick = 0u64;
             let started = Instant::now();
             while !s.load(Ordering::Relaxed) {
@@ -127,14 +129,15 @@ impl FakeDriver {
                     period_ns: 1_000_000,
                     command_mode: CommandMode::Velocity.into(),
                     driver_status: d.load(Ordering::Relaxed),
+                    joint_count: n.load(Ordering::Relaxed),
                     q_rad: joints,
-                    torque_nm: [f64::NAN; 6],
+                    torque_nm: [f64::NAN; vservo_protocol::MAX_JOINTS],
                     ..JointStateMsg::default()
                 });
                 let _ = notifier.notify();
             }
         });
-        Self { faults, driver_status, silent, _thread: thread }
+        Self { faults, driver_status, joint_count, silent, _thread: thread }
     }
 }
 
@@ -189,8 +192,7 @@ fn faults_of_the_robot_end_in_a_named_safe_stop_and_resume_waits_for_their_cause
     assert!(out.contains("joint 2 torque is at its limit"), "{out}");
     driver.faults.store(0, Ordering::Relaxed);
     std::thread::sleep(Duration::from_millis(200));
-    let (code, out) = resume();
-    assert_eq!(code, Some(0), "{out}");
+    assert_eq!(resume().0, Some(0));
     assert!(wait_until(Duration::from_secs(2), || status(&instance).is_some_and(|s| running(&s))));
 
     // a driver fault, for a moment: at once
@@ -216,7 +218,8 @@ fn faults_of_the_robot_end_in_a_named_safe_stop_and_resume_waits_for_their_cause
     assert!(code == Some(3) && out.contains("joint 5 is beyond its position range"), "{out}");
     driver.faults.store(0, Ordering::Relaxed);
     std::thread::sleep(Duration::from_millis(200));
-    assert_eq!(resume().0, Some(0));
+    let (code, out) = resume();
+    assert_eq!(code, Some(0), "{out}");
 
     // the driver falls silent: robot_stalled; no resume until its states come again
     driver.silent.store(true, Ordering::Relaxed);
@@ -248,6 +251,47 @@ fn faults_of_the_robot_end_in_a_named_safe_stop_and_resume_waits_for_their_cause
         );
         assert!(log.contains(&format!("resumed on command after {name}")), "{name}: {log}");
     }
+    drop(driver);
+    daemon.stop();
+}
+
+/// A driver of another arm (seven joints where the configuration has six): the rmrc does not follow it, the
+/// cell stops with a driver fault that says so, and it resumes once the driver reports the configured arm.
+#[test]
+fn a_driver_of_another_joint_count_is_refused_by_name() {
+    let _one = exclusive();
+    let instance = unique("joint-count");
+    let config = config_from(
+        "config/vservo.toml",
+        &[
+            ("name = \"default\"", &format!("name = \"{instance}\"")),
+            ("source = \"simulated\"", "source = \"external\""),
+            ("driver = \"simulated\"", "driver = \"external\"\ncommand = \"velocity\""),
+        ],
+    );
+    let daemon = Daemon::start(&config);
+    let driver = FakeDriver::start(&instance);
+    assert!(
+        wait_until(Duration::from_secs(10), || status(&instance).is_some_and(|s| running(&s))),
+        "{:?}\n{}",
+        status(&instance),
+        daemon.log()
+    );
+    driver.joint_count.store(7, Ordering::Relaxed);
+    assert!(
+        wait_until(Duration::from_secs(2), || safe_stopped_by(&instance, "driver_fault")),
+        "{:?}",
+        status(&instance)
+    );
+    let (code, out) = vservoctl(&["resume", "--instance", &instance]);
+    assert!(code == Some(3) && out.contains("reports 7 joints; the configured arm has 6"), "{out}");
+    driver.joint_count.store(6, Ordering::Relaxed);
+    assert!(
+        wait_until(Duration::from_secs(3), || vservoctl(&["resume", "--instance", &instance]).0 == Some(0)),
+        "{}",
+        daemon.log()
+    );
+    assert!(daemon.log().contains("reports 7 joints"), "{}", daemon.log());
     drop(driver);
     daemon.stop();
 }

@@ -12,10 +12,12 @@ use iceoryx2::prelude::ZeroCopySend;
 /// 2: `joint_state` carries the robot only (the board's pose moved to `sim_world`), the driver declares its
 /// command interface and period; `joint_torque` became `joint_command`; `camera_image` added.
 /// 6: `features` and `camera_twist` carry the seal of the node that made them; `gains` and `object` a stamp.
-pub const SCHEMA_VERSION: u32 = 6;
+/// 7: `joint_state` and `joint_command` carry up to seven joints and say how many (`joint_count`).
+pub const SCHEMA_VERSION: u32 = 7;
 
-/// Joints of the arm.
-pub const JOINTS: usize = 6;
+/// Joints `joint_state` and `joint_command` have room for: the arm's joints come first, the slots past
+/// `joint_count` are zero.
+pub const MAX_JOINTS: usize = 7;
 /// Image features (x, y of four marks).
 pub const FEATURES: usize = 8;
 /// Marks.
@@ -27,7 +29,7 @@ wire_message! {
     payload JointStateMsg = "vservo::JointState" {
         /// schema version
         schema: u32,
-        /// bits 0–5 position limit (joint 1–6), 8–13 velocity limit, 16–21 torque saturated, 24 driver failed
+        /// bits 0–6 position limit (joint 1–7), 8–14 velocity limit, 16–22 torque saturated, 24 driver failed
         faults: u32,
         /// driver periods since the driver started
         tick: u64,
@@ -41,12 +43,17 @@ wire_message! {
         command_mode: u32 as CommandMode,
         /// the driver's state (holding: no valid command in time)
         driver_status: u32 as DriverStatus,
+        /// the arm's joints (6 or 7): the first `joint_count` entries of the arrays below are theirs, from the base
+        /// outwards; it must be the configured arm's
+        joint_count: u32 = 6,
+        /// zero
+        reserved: u32,
         /// joint angles (rad)
-        q_rad: [f64; JOINTS],
+        q_rad: [f64; MAX_JOINTS],
         /// joint velocities (rad/s)
-        qd_rad_s: [f64; JOINTS],
+        qd_rad_s: [f64; MAX_JOINTS],
         /// joint torques, measured or applied (N·m); NaN where unknown
-        torque_nm: [f64; JOINTS],
+        torque_nm: [f64; MAX_JOINTS],
         /// the `answers_tick` of the command applied over the period that ended here (`tick − 1` in time, older
         /// if the driver kept an earlier one); 2⁶⁴−1 if none (holding)
         applied_command_tick: u64 = u64::MAX,
@@ -64,7 +71,7 @@ pub mod fault_bits {
     /// The driver failed (the simulated plant: its integration failed; the state was kept, stopped).
     pub const DRIVER_FAILED: u32 = 1 << 24;
     /// The per-joint bits of one kind, before their shift.
-    pub const JOINT_MASK: u32 = (1 << super::JOINTS) - 1;
+    pub const JOINT_MASK: u32 = (1 << super::MAX_JOINTS) - 1;
 
     /// The joints (bit j: joint j + 1) whose bit of the kind at `shift` is set in `faults`.
     pub fn joints(faults: u32, shift: u32) -> u32 {
@@ -80,6 +87,10 @@ wire_message! {
         schema: u32,
         /// the driver's declared `command_mode`
         mode: u32 as CommandMode,
+        /// the arm's joints (the configured arm's, as in the joint state answered)
+        joint_count: u32 = 6,
+        /// zero
+        reserved: u32,
         /// the `tick` of the joint state this answers
         answers_tick: u64,
         /// that joint state's `driver_epoch`
@@ -89,11 +100,11 @@ wire_message! {
         /// CLOCK_MONOTONIC as the command is sent (ns)
         stamp_ns: u64,
         /// joint torques (N·m); mode 0 only, else zero
-        torque_nm: [f64; JOINTS],
+        torque_nm: [f64; MAX_JOINTS],
         /// joint reference q_d at the end of the next period (rad)
-        q_ref_rad: [f64; JOINTS],
+        q_ref_rad: [f64; MAX_JOINTS],
         /// joint reference velocity q̇_d over the next period (rad/s)
-        qd_ref_rad_s: [f64; JOINTS],
+        qd_ref_rad_s: [f64; MAX_JOINTS],
         /// the `capture_tick` of the `camera_twist` this command follows (2⁶⁴−1 before the first);
         /// `answers_tick − twist_capture_tick` is the camera-to-actuation latency in ticks
         twist_capture_tick: u64 = u64::MAX,
@@ -547,14 +558,16 @@ mod tests {
     // the layout docs/PROTOCOL.md documents; a change here must change the document and SCHEMA_VERSION
     #[test]
     fn layouts_are_the_documented_ones() {
-        assert_eq!(size_of::<JointStateMsg>(), 48 + 3 * 48 + 8);
+        assert_eq!(size_of::<JointStateMsg>(), 56 + 3 * 56 + 8);
         assert_eq!(offset_of!(JointStateMsg, tick), 8);
-        assert_eq!(offset_of!(JointStateMsg, q_rad), 48);
-        assert_eq!(offset_of!(JointStateMsg, applied_command_tick), 192);
-        assert_eq!(size_of::<JointCommandMsg>(), 40 + 3 * 48 + 24 + 8);
-        assert_eq!(offset_of!(JointCommandMsg, torque_nm), 40);
-        assert_eq!(offset_of!(JointCommandMsg, twist_capture_tick), 184);
-        assert_eq!(offset_of!(JointCommandMsg, seal), 208);
+        assert_eq!(offset_of!(JointStateMsg, joint_count), 48);
+        assert_eq!(offset_of!(JointStateMsg, q_rad), 56);
+        assert_eq!(offset_of!(JointStateMsg, applied_command_tick), 224);
+        assert_eq!(size_of::<JointCommandMsg>(), 48 + 3 * 56 + 24 + 8);
+        assert_eq!(offset_of!(JointCommandMsg, joint_count), 8);
+        assert_eq!(offset_of!(JointCommandMsg, torque_nm), 48);
+        assert_eq!(offset_of!(JointCommandMsg, twist_capture_tick), 216);
+        assert_eq!(offset_of!(JointCommandMsg, seal), 240);
         assert_eq!(size_of::<SimWorldMsg>(), 16 + 96);
         assert_eq!(size_of::<CameraImageHeader>(), 40);
         assert_eq!(size_of::<FeaturesMsg>(), 40 + 64 + 8 + 96 + 8);

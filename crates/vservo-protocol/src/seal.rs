@@ -291,8 +291,8 @@ mod tests {
             driver_epoch: 1,
             state_stamp_ns: 10,
             stamp_ns: 11,
-            torque_nm: [1.0; 6],
-            q_ref_rad: [0.5; 6],
+            torque_nm: [1.0; 7],
+            q_ref_rad: [0.5; 7],
             twist_capture_tick: 0,
             twist_applied_tick: 2,
             reference_since_tick: 1,
@@ -302,9 +302,10 @@ mod tests {
         assert_eq!(key.seal(&crate::JointCommandMsg { seal, ..command }), seal);
         for changed in [
             crate::JointCommandMsg { answers_tick: 8, ..command },
+            crate::JointCommandMsg { joint_count: 7, ..command },
             crate::JointCommandMsg { stamp_ns: 12, ..command },
-            crate::JointCommandMsg { torque_nm: [1.0, 1.0, 1.0, 1.0, 1.0, 1e9], ..command },
-            crate::JointCommandMsg { qd_ref_rad_s: [0.0, 0.0, 0.0, 0.0, 0.0, 1e-9], ..command },
+            crate::JointCommandMsg { torque_nm: [1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 1e9], ..command },
+            crate::JointCommandMsg { qd_ref_rad_s: [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1e-9], ..command },
             crate::JointCommandMsg { twist_applied_tick: 3, ..command },
             crate::JointCommandMsg { reference_since_tick: 4, ..command },
         ] {

@@ -124,13 +124,17 @@ fn transform(stamp_ns: u64, parent: &str, child: &str, pose: &IsometryMatrix3<f6
     }
 }
 
-/// The arm's links (`base` → `link1` … `link6`) and the camera (`link6` → `camera`) at a joint state.
+/// The arm's links (`base` → `link1` … `link6`) and the camera (`link6` → `camera`) at a joint state; none
+/// from a joint state of another arm's joint count (drawn, it would be drawn wrongly).
 pub fn arm_transforms(
     arm: &vservo_arm::SerialArm,
     tool_from_camera: &IsometryMatrix3<f64>,
     state: &JointStateMsg,
 ) -> FrameTransforms {
-    let q = vservo_arm::JointVector::from(state.q_rad);
+    if state.joint_count != vservo_arm::JOINTS as u32 {
+        return FrameTransforms { transforms: Vec::new() };
+    }
+    let q = vservo_arm::JointVector::from_column_slice(&state.q_rad[..vservo_arm::JOINTS]);
     let frames = arm.link_frames(&q);
     let mut transforms: Vec<FrameTransform> = frames
         .iter()
@@ -201,12 +205,15 @@ mod tests {
     #[test]
     fn the_camera_sits_on_the_last_link_and_the_links_chain_from_the_base() {
         let arm = vservo_arm::puma560::puma560();
-        let state =
-            JointStateMsg { stamp_ns: 5, q_rad: [0.1, -0.5, 0.3, 0.0, 0.4, 0.2], ..JointStateMsg::default() };
+        let state = JointStateMsg {
+            stamp_ns: 5,
+            q_rad: [0.1, -0.5, 0.3, 0.0, 0.4, 0.2, 0.0],
+            ..JointStateMsg::default()
+        };
         let tool_from_camera = IsometryMatrix3::translation(0.0, 0.0, 0.1);
         let frames = arm_transforms(&arm, &tool_from_camera, &state);
         assert_eq!(frames.transforms.len(), 7);
-        let tool = arm.base_from_tool(&vservo_arm::JointVector::from(state.q_rad));
+        let tool = arm.base_from_tool(&vservo_arm::JointVector::from_column_slice(&state.q_rad[..6]));
         let link6 = frames.transforms[5].translation.expect("translation");
         assert!((link6.x - tool.translation.x).abs() < 1e-12 && (link6.z - tool.translation.z).abs() < 1e-12);
         assert_eq!(frames.transforms[6].parent_frame_id, "link6");

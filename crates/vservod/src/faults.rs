@@ -53,6 +53,9 @@ pub enum Cause {
     /// The driver reports a fault.
     #[error("the robot driver reports a fault")]
     DriverFault,
+    /// The driver's joint states carry another number of joints than the configured arm has.
+    #[error("the robot driver reports {0} joints; the configured arm has {ARM_JOINTS}")]
+    JointCount(u32),
     /// The driver's joint states stopped (a fault of an external driver only).
     #[error("the robot driver's joint states do not arrive")]
     RobotStalled,
@@ -81,7 +84,7 @@ impl Cause {
             Cause::MotionNodesDown | Cause::RobotWaiting => None,
             Cause::PositionLimit(_) => Some(Fault::PositionLimit),
             Cause::VelocityLimit(_) => Some(Fault::VelocityLimit),
-            Cause::DriverFault => Some(Fault::DriverFault),
+            Cause::DriverFault | Cause::JointCount(_) => Some(Fault::DriverFault),
             Cause::RobotStalled => Some(Fault::RobotStalled),
             Cause::CameraStalled => Some(Fault::CameraStalled),
             Cause::TorqueSaturated(_) => Some(Fault::TorqueSaturated),
@@ -110,6 +113,8 @@ pub struct Evidence {
     pub fault_bits: u32,
     /// A joint state's driver status said FAULT.
     pub driver_fault: bool,
+    /// A joint state's joint count, where it is not the configured arm's.
+    pub foreign_joint_count: Option<u32>,
     /// The robot driver's state, as far as it counts.
     pub robot: RobotState,
     /// Joints whose torque is at its limit, as far as it counts.
@@ -128,13 +133,14 @@ pub struct Evidence {
 pub type Condition = fn(&Evidence) -> Option<Cause>;
 
 /// Every condition, in the order a fault is chosen when several are found at once.
-pub const CONDITIONS: [Condition; 10] = [
+pub const CONDITIONS: [Condition; 11] = [
     |e| e.stream_taken.then_some(Cause::StreamTaken),
     |e| (!e.motion_nodes_healthy).then_some(Cause::MotionNodesDown),
     |e| (e.robot == RobotState::Waiting).then_some(Cause::RobotWaiting),
     |e| nonzero(fault_bits::joints(e.fault_bits, fault_bits::POSITION_LIMIT_SHIFT)).map(Cause::PositionLimit),
     |e| nonzero(fault_bits::joints(e.fault_bits, fault_bits::VELOCITY_LIMIT_SHIFT)).map(Cause::VelocityLimit),
     |e| (e.driver_fault || e.fault_bits & fault_bits::DRIVER_FAILED != 0).then_some(Cause::DriverFault),
+    |e| e.foreign_joint_count.map(Cause::JointCount),
     |e| (e.robot == RobotState::Stalled).then_some(Cause::RobotStalled),
     |e| e.camera_stalled.then_some(Cause::CameraStalled),
     |e| nonzero(e.saturated_joints).map(Cause::TorqueSaturated),
@@ -229,6 +235,8 @@ pub struct FaultMonitor {
     /// for a tick between two cycles counts).
     seen_bits: u32,
     driver_fault_seen: bool,
+    /// A joint count not the configured arm's, seen in a state since the last cycle.
+    foreign_joint_count_seen: Option<u32>,
     /// The current run of saturated states.
     saturated: Option<Run>,
     /// The current run of "marks missing" twists, and which marks.
@@ -247,8 +255,15 @@ fn nonzero(bits: u32) -> Option<u32> {
     (bits != 0).then_some(bits)
 }
 
+/// The joints of the arms vservo drives today (the messages have room for more).
+const ARM_JOINTS: u32 = vservo_arm::JOINTS as u32;
+
 fn joint_list(joints: u32) -> String {
-    (0..6).filter(|j| joints & (1 << j) != 0).map(|j| (j + 1).to_string()).collect::<Vec<_>>().join(", ")
+    (0..vservo_protocol::MAX_JOINTS)
+        .filter(|j| joints & (1 << j) != 0)
+        .map(|j| (j + 1).to_string())
+        .collect::<Vec<_>>()
+        .join(", ")
 }
 
 fn mark_list(marks: u32) -> String {
@@ -267,6 +282,7 @@ impl FaultMonitor {
             latest_state: None,
             seen_bits: 0,
             driver_fault_seen: false,
+            foreign_joint_count_seen: None,
             saturated: None,
             missing: None,
             marks_seen: None,
@@ -281,6 +297,9 @@ impl FaultMonitor {
     pub fn on_joint_state(&mut self, state: &JointStateMsg) {
         self.seen_bits |= state.faults;
         self.driver_fault_seen |= DriverStatus::try_from(state.driver_status) == Ok(DriverStatus::Fault);
+        if state.joint_count != ARM_JOINTS {
+            self.foreign_joint_count_seen = Some(state.joint_count);
+        }
         let saturated = fault_bits::joints(state.faults, fault_bits::TORQUE_SATURATED_SHIFT);
         self.saturated = match (self.saturated, saturated) {
             (_, 0) => None,
@@ -334,6 +353,7 @@ impl FaultMonitor {
         Evidence {
             fault_bits: self.seen_bits,
             driver_fault: self.driver_fault_seen,
+            foreign_joint_count: self.foreign_joint_count_seen,
             // the simulated plant's stall is a node restart, not a fault
             robot: if c.external_robot { c.robot } else { RobotState::Running },
             saturated_joints: Run::lasting(self.saturated, self.settings.saturation.as_secs_f64()),
@@ -358,6 +378,7 @@ impl FaultMonitor {
             fault_bits: bits,
             driver_fault: state
                 .is_some_and(|s| DriverStatus::try_from(s.driver_status) == Ok(DriverStatus::Fault)),
+            foreign_joint_count: state.map(|s| s.joint_count).filter(|&n| n != ARM_JOINTS),
             robot: c.robot,
             saturated_joints: fault_bits::joints(bits, fault_bits::TORQUE_SATURATED_SHIFT),
             missing_marks: if lost_target { !fresh_marks & ALL_MARKS } else { 0 },
@@ -377,6 +398,7 @@ impl FaultMonitor {
         let found = self.seen_since_last_cycle(c).first_fault();
         self.seen_bits = 0;
         self.driver_fault_seen = false;
+        self.foreign_joint_count_seen = None;
         if self.latched.is_none() {
             return match found {
                 Some(cause) => Decision::SafeStop(self.latch(cause, c.now_ns)),
@@ -600,6 +622,20 @@ mod tests {
         assert!(monitor.resume(&Conditions { robot: RobotState::Running, ..external }).is_ok());
     }
 
+    /// A driver of another arm (seven joints where the configuration has six) stops the cell, saying so, and
+    /// keeps it from resuming while its states say so.
+    #[test]
+    fn a_driver_of_another_joint_count_is_a_driver_fault_that_says_so() {
+        let mut monitor = FaultMonitor::new(settings(ResumePolicy::Command));
+        monitor.on_joint_state(&JointStateMsg { joint_count: 7, ..state(MS, 0) });
+        let Decision::SafeStop(latched) = monitor.cycle(&running(MS)) else { panic!("a safe stop") };
+        assert_eq!(latched.code, Fault::DriverFault);
+        let refused = monitor.resume(&running(2 * MS)).expect_err("refused while it reports 7");
+        assert!(refused.to_string().contains("reports 7 joints; the configured arm has 6"), "{refused}");
+        monitor.on_joint_state(&state(3 * MS, 0));
+        assert!(monitor.resume(&running(3 * MS)).is_ok());
+    }
+
     #[test]
     fn the_automatic_policy_resumes_once_the_cause_has_been_gone_long_enough() {
         let mut monitor = FaultMonitor::new(settings(ResumePolicy::Automatic));
@@ -632,6 +668,7 @@ mod tests {
         let calm = Evidence {
             fault_bits: 0,
             driver_fault: false,
+            foreign_joint_count: None,
             robot: RobotState::Running,
             saturated_joints: 0,
             missing_marks: 0,
@@ -654,6 +691,11 @@ mod tests {
                 Some(Fault::VelocityLimit),
             ),
             (Evidence { driver_fault: true, ..calm }, Cause::DriverFault, Some(Fault::DriverFault)),
+            (
+                Evidence { foreign_joint_count: Some(7), ..calm },
+                Cause::JointCount(7),
+                Some(Fault::DriverFault),
+            ),
             (
                 Evidence { fault_bits: fault_bits::DRIVER_FAILED, ..calm },
                 Cause::DriverFault,

@@ -7,13 +7,12 @@ use iceoryx2::port::notifier::Notifier;
 use iceoryx2::port::publisher::Publisher;
 use iceoryx2::port::subscriber::Subscriber;
 use iceoryx2::prelude::{Node, ipc};
-use vservo_arm::JointVector;
 use vservo_cell::{ActuatorCommand, PlantStage};
 use vservo_protocol::TakeMessages;
 use vservo_protocol::freshness::{self, Issue, Standing};
 use vservo_protocol::seal::sealed_by;
 use vservo_protocol::{
-    CommandKind, CommandMode, DriverStatus, JointCommandMsg, JointStateMsg, NodeRole, ObjectMsg,
+    CommandKind, CommandMode, DriverStatus, JointCommandMsg, JointStateMsg, MAX_JOINTS, NodeRole, ObjectMsg,
     SCHEMA_VERSION, SimWorldMsg, Topic, fault_bits,
 };
 use vservo_sim::plant::JointState;
@@ -22,7 +21,7 @@ use vservo_sim::world::ObjectMotion;
 use super::{NodeBase, go_realtime, latest, start};
 use crate::clock::{PeriodicTimer, monotonic_ns};
 use crate::telemetry::{Counters, CycleSample};
-use crate::wire::{pose_to_wire, to_array};
+use crate::wire::{ARM_JOINTS, joints_from_wire, joints_to_wire, pose_to_wire};
 use crate::{NodeContext, RuntimeError};
 
 /// The simulated driver's identity in each joint state: its epoch, period and command interface.
@@ -66,9 +65,11 @@ fn state_message(
         period_ns: declared.period_ns,
         command_mode: declared.command_mode.into(),
         driver_status: driver_status(stage, state).into(),
-        q_rad: to_array(&state.q),
-        qd_rad_s: to_array(&state.qd),
-        torque_nm: to_array(&state.applied_torque),
+        joint_count: ARM_JOINTS,
+        reserved: 0,
+        q_rad: joints_to_wire(&state.q),
+        qd_rad_s: joints_to_wire(&state.qd),
+        torque_nm: joints_to_wire(&state.applied_torque),
         applied_command_tick,
     }
 }
@@ -84,7 +85,7 @@ fn command_of(
     declared: CommandMode,
     torque_max_nm: &[f64; 6],
 ) -> Option<ActuatorCommand> {
-    let all_finite = |v: &[f64; 6]| v.iter().all(|x| x.is_finite());
+    let all_finite = |v: &[f64; MAX_JOINTS]| v.iter().all(|x| x.is_finite());
     let torque_in_range = message
         .torque_nm
         .iter()
@@ -92,13 +93,14 @@ fn command_of(
         .all(|(t, max)| t.abs() <= TORQUE_REFUSED_ABOVE_LIMITS * max);
     match CommandMode::try_from(message.mode) {
         Ok(mode) if mode != declared => None,
+        _ if message.joint_count != ARM_JOINTS => None,
         Ok(CommandMode::Torque) if all_finite(&message.torque_nm) && torque_in_range => {
-            Some(ActuatorCommand::Torque(JointVector::from(message.torque_nm)))
+            Some(ActuatorCommand::Torque(joints_from_wire(&message.torque_nm)))
         }
         Ok(CommandMode::Position) if all_finite(&message.q_ref_rad) && all_finite(&message.qd_ref_rad_s) => {
             Some(ActuatorCommand::Reference {
-                q: JointVector::from(message.q_ref_rad),
-                qd: JointVector::from(message.qd_ref_rad_s),
+                q: joints_from_wire(&message.q_ref_rad),
+                qd: joints_from_wire(&message.qd_ref_rad_s),
             })
         }
         _ => None,
@@ -395,6 +397,7 @@ pub fn run(context: &NodeContext) -> Result<(), RuntimeError> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use vservo_arm::JointVector;
 
     const LIMITS_NM: [f64; 6] = [100.0; 6];
 
@@ -404,19 +407,22 @@ mod tests {
 
     #[test]
     fn a_command_is_taken_only_in_the_declared_interface_finite_and_within_the_torque_bound() {
-        let torque = JointCommandMsg { torque_nm: [150.0, 0.0, 0.0, 0.0, 0.0, -1.0], ..command(0) };
-        let expected = ActuatorCommand::Torque(JointVector::from(torque.torque_nm));
+        let torque = JointCommandMsg { torque_nm: [150.0, 0.0, 0.0, 0.0, 0.0, -1.0, 0.0], ..command(0) };
+        let expected = ActuatorCommand::Torque(JointVector::new(150.0, 0.0, 0.0, 0.0, 0.0, -1.0));
         assert_eq!(command_of(&torque, CommandMode::Torque, &LIMITS_NM), Some(expected));
         // beyond 1.5 times a joint's limit, not finite, or another interface than declared: refused
-        let beyond = JointCommandMsg { torque_nm: [150.1, 0.0, 0.0, 0.0, 0.0, 0.0], ..torque };
+        let beyond = JointCommandMsg { torque_nm: [150.1, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0], ..torque };
         assert_eq!(command_of(&beyond, CommandMode::Torque, &LIMITS_NM), None);
-        let nan = JointCommandMsg { torque_nm: [f64::NAN, 0.0, 0.0, 0.0, 0.0, 0.0], ..torque };
+        let nan = JointCommandMsg { torque_nm: [f64::NAN, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0], ..torque };
         assert_eq!(command_of(&nan, CommandMode::Torque, &LIMITS_NM), None);
         assert_eq!(command_of(&torque, CommandMode::Position, &LIMITS_NM), None);
-        let position = JointCommandMsg { q_ref_rad: [0.1; 6], qd_ref_rad_s: [0.2; 6], ..command(2) };
+        let position = JointCommandMsg { q_ref_rad: [0.1; 7], qd_ref_rad_s: [0.2; 7], ..command(2) };
         let reference =
             ActuatorCommand::Reference { q: JointVector::from([0.1; 6]), qd: JointVector::from([0.2; 6]) };
         assert_eq!(command_of(&position, CommandMode::Position, &LIMITS_NM), Some(reference));
+        // a command for another arm's joint count is refused
+        let seven = JointCommandMsg { joint_count: 7, ..position };
+        assert_eq!(command_of(&seven, CommandMode::Position, &LIMITS_NM), None);
         // the simulated driver takes torques or positions; an unknown code is no interface at all
         assert_eq!(command_of(&command(1), CommandMode::Velocity, &LIMITS_NM), None);
         assert_eq!(command_of(&command(9), CommandMode::Torque, &LIMITS_NM), None);

@@ -19,13 +19,14 @@ use vservo_protocol::TakeMessages;
 use vservo_protocol::seal::SealKey;
 use vservo_protocol::seal::{sealed_by, sign_with};
 use vservo_protocol::{
-    CameraTwistMsg, CommandMode, JointCommandMsg, JointStateMsg, NodeRole, SCHEMA_VERSION, Topic, Verdict,
+    CameraTwistMsg, CommandMode, JointCommandMsg, JointStateMsg, MAX_JOINTS, NodeRole, SCHEMA_VERSION, Topic,
+    Verdict,
 };
 
 use super::{CellModeFollower, IDLE_WAIT, NodeBase, go_realtime, latest, start};
 use crate::clock::monotonic_ns;
 use crate::telemetry::{Counters, CycleSample};
-use crate::wire::{command_mode, to_array};
+use crate::wire::{ARM_JOINTS, command_mode, joints_from_wire, joints_to_wire};
 use crate::{NodeContext, RuntimeError};
 
 /// The rmrc's ports.
@@ -118,13 +119,14 @@ impl Rmrc {
         }
     }
 
-    /// The measured joints of a state from a driver that declares this configuration's interface and period,
-    /// if they are finite.
+    /// The measured joints of a state from a driver that declares this configuration's interface, period and
+    /// joint count, if they are finite.
     fn admit(&self, state: &JointStateMsg) -> Option<(JointVector, JointVector)> {
         let declared_ok = CommandMode::try_from(state.command_mode) == Ok(self.mode)
-            && state.period_ns.abs_diff(self.period_ns) <= self.period_ns / 100;
-        let q = JointVector::from(state.q_rad);
-        let qd = JointVector::from(state.qd_rad_s);
+            && state.period_ns.abs_diff(self.period_ns) <= self.period_ns / 100
+            && state.joint_count == ARM_JOINTS;
+        let q = joints_from_wire(&state.q_rad);
+        let qd = joints_from_wire(&state.qd_rad_s);
         let finite = q.iter().chain(qd.iter()).all(|v| v.is_finite());
         (declared_ok && finite).then_some((q, qd))
     }
@@ -177,19 +179,21 @@ impl Rmrc {
         let command = self.stage.step(state.tick, q, qd);
         let reference = self.stage.reference();
         let torque = match command {
-            ActuatorCommand::Torque(torque) => to_array(&torque),
-            ActuatorCommand::Reference { .. } => [0.0; 6],
+            ActuatorCommand::Torque(torque) => joints_to_wire(&torque),
+            ActuatorCommand::Reference { .. } => [0.0; MAX_JOINTS],
         };
         JointCommandMsg {
             schema: SCHEMA_VERSION,
             mode: self.mode.into(),
+            joint_count: ARM_JOINTS,
+            reserved: 0,
             answers_tick: state.tick,
             driver_epoch: state.driver_epoch,
             state_stamp_ns: state.stamp_ns,
             stamp_ns: monotonic_ns(),
             torque_nm: torque,
-            q_ref_rad: to_array(&reference.q),
-            qd_ref_rad_s: to_array(&reference.qd),
+            q_ref_rad: joints_to_wire(&reference.q),
+            qd_ref_rad_s: joints_to_wire(&reference.qd),
             twist_capture_tick: self.twist_in_force.0,
             twist_applied_tick: self.twist_in_force.1,
             reference_since_tick: self.stage.since_tick(),

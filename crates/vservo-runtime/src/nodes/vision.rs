@@ -24,7 +24,7 @@ use super::{IDLE_WAIT, NodeBase, go_realtime, latest, start};
 use crate::clock::monotonic_ns;
 use crate::joint_history::{JointHistory, NoJoints};
 use crate::telemetry::{Counters, CycleSample, LoopMonitor, Note};
-use crate::wire::{pose_from_wire, pose_to_wire, to_array};
+use crate::wire::{ARM_JOINTS, joints_from_wire, pose_from_wire, pose_to_wire, to_array};
 use crate::{NodeContext, RuntimeError};
 
 /// How often, at the least, an external camera's vision node takes in the joint states heard: 32 driver
@@ -261,7 +261,8 @@ fn run_external_camera(
     Ok(())
 }
 
-/// Takes the joint states waiting into the history (others' schemas refused and counted).
+/// Takes the joint states waiting into the history (others' schemas, and another arm's joint count, refused
+/// and counted).
 fn hear_joints(
     subscriber: &iceoryx2::port::subscriber::Subscriber<ipc::Service, JointStateMsg, ()>,
     joints: &mut JointHistory,
@@ -269,10 +270,10 @@ fn hear_joints(
 ) {
     while let Some(taken) = subscriber.next_message() {
         match taken {
-            Ok(state) => {
-                joints.push(state.stamp_ns, state.tick, state.driver_epoch, &JointVector::from(state.q_rad))
+            Ok(state) if state.joint_count == ARM_JOINTS => {
+                joints.push(state.stamp_ns, state.tick, state.driver_epoch, &joints_from_wire(&state.q_rad))
             }
-            Err(_) => counters.rejected(),
+            Ok(_) | Err(_) => counters.rejected(),
         }
     }
 }
@@ -382,7 +383,7 @@ fn run_simulated_camera(
         if let Some(delivered) = stage.take_delivered() {
             out.publish(&delivered);
         }
-        let q = JointVector::from(state.q_rad);
+        let q = joints_from_wire(&state.q_rad);
         let Some(base_from_board) =
             pose_from_wire(&world.base_from_board).filter(|_| q.iter().all(|v| v.is_finite()))
         else {

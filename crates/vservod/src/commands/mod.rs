@@ -57,7 +57,10 @@ impl LoopState<'_> {
     /// The cell as target placement sees it: the joints, and the features if all four marks are seen.
     fn cell_now(&self) -> CellNow {
         CellNow {
-            joints: self.joint_state.map(|state| JointVector::from(state.q_rad)),
+            joints: self
+                .joint_state
+                .filter(|state| state.joint_count == vservo_arm::JOINTS as u32)
+                .map(|state| JointVector::from_column_slice(&state.q_rad[..vservo_arm::JOINTS])),
             features_seen: self
                 .features
                 .filter(|f| f.valid_mask == 0b1111)

@@ -381,7 +381,12 @@ impl Daemon {
     /// Starts again every node whose backoff is over, resuming where the loop was.
     fn restart_due(&mut self, now: Instant) {
         let resume = Resume {
-            joints: self.heard.joint_state.map(|s| (s.q_rad, s.tick)),
+            // the arm's six joints, from a driver of this arm
+            joints: self
+                .heard
+                .joint_state
+                .filter(|s| s.joint_count == vservo_arm::JOINTS as u32)
+                .map(|s| (std::array::from_fn(|j| s.q_rad[j]), s.tick)),
             features_px: self.heard.features.map(|f| f.features_px),
         };
         for node in self.nodes.iter_mut().filter(|n| n.process.is_none() && n.record.restart.due(now)) {

@@ -28,7 +28,7 @@ const REST_POLL: Duration = Duration::from_millis(10);
 
 /// The fastest reference and measured joint speeds (rad/s) of a command and a state.
 pub fn speeds(command: &JointCommandMsg, state: &JointStateMsg) -> (f64, f64) {
-    let fastest = |v: &[f64; 6]| v.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+    let fastest = |v: &[f64; vservo_protocol::MAX_JOINTS]| v.iter().fold(0.0f64, |m, x| m.max(x.abs()));
     (fastest(&command.qd_ref_rad_s), fastest(&state.qd_rad_s))
 }
 
