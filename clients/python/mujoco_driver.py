@@ -42,73 +42,13 @@ import iceoryx2 as iox2
 import mujoco
 import numpy as np
 
-import vservo_client  # finds the instance as every vservo client does (clients/python/vservo_client.py)
+from vservo_driver import (COMMAND_TIMEOUT_NS, FOLLOWING, HOLDING, MAX_COMMAND_AGE_TICKS, SCHEMA, VELOCITY,  # noqa: F401
+                           CameraImageHeader, JointCommand, JointState, make_node, open_notifier, open_topic,
+                           sleep_until)
 
-SCHEMA = 7
 JOINTS = 6  # the arm's (the PUMA 560's); the messages have room for 7 (joint_count says how many)
-TORQUE, VELOCITY, POSITION = 0, 1, 2  # command modes
-FOLLOWING, HOLDING = 0, 1  # driver_status
-COMMAND_TIMEOUT_NS = 20_000_000  # no valid command for this long: hold
-MAX_COMMAND_AGE_TICKS = 5  # a command must answer one of the last few joint states
 VELOCITY_BANDWIDTH_RAD_S = 1000.0  # of the simulated joints' velocity loop
 POSITION_CORRECTION_PER_S = 50.0  # how fast the integrated reference pulls a drifted joint back
-
-
-class JointState(ctypes.Structure):
-    """vservo::JointState, 232 bytes."""
-
-    _fields_ = [("schema", ctypes.c_uint32), ("faults", ctypes.c_uint32), ("tick", ctypes.c_uint64),
-                ("stamp_ns", ctypes.c_uint64), ("driver_epoch", ctypes.c_uint64), ("period_ns", ctypes.c_uint64),
-                ("command_mode", ctypes.c_uint32), ("driver_status", ctypes.c_uint32),
-                ("joint_count", ctypes.c_uint32), ("reserved", ctypes.c_uint32),
-                ("q_rad", ctypes.c_double * 7), ("qd_rad_s", ctypes.c_double * 7), ("torque_nm", ctypes.c_double * 7),
-                ("applied_command_tick", ctypes.c_uint64)]
-
-    @staticmethod
-    def type_name() -> str:
-        return "vservo::JointState"
-
-
-class JointCommand(ctypes.Structure):
-    """vservo::JointCommand, 248 bytes (the seal is the rmrc's, for the simulated driver: ignored here)."""
-
-    _fields_ = [("schema", ctypes.c_uint32), ("mode", ctypes.c_uint32), ("joint_count", ctypes.c_uint32),
-                ("reserved", ctypes.c_uint32), ("answers_tick", ctypes.c_uint64),
-                ("driver_epoch", ctypes.c_uint64), ("state_stamp_ns", ctypes.c_uint64), ("stamp_ns", ctypes.c_uint64),
-                ("torque_nm", ctypes.c_double * 7), ("q_ref_rad", ctypes.c_double * 7),
-                ("qd_ref_rad_s", ctypes.c_double * 7), ("twist_capture_tick", ctypes.c_uint64),
-                ("twist_applied_tick", ctypes.c_uint64), ("reference_since_tick", ctypes.c_uint64),
-                ("seal", ctypes.c_uint64)]
-
-    @staticmethod
-    def type_name() -> str:
-        return "vservo::JointCommand"
-
-
-class CameraImageHeader(ctypes.Structure):
-    """vservo::CameraImageHeader, 40 bytes: the user header of `camera_image`, whose payload is the pixels (u8)."""
-
-    _fields_ = [("schema", ctypes.c_uint32), ("format", ctypes.c_uint32), ("width", ctypes.c_uint32),
-                ("height", ctypes.c_uint32), ("stride_bytes", ctypes.c_uint32), ("reserved", ctypes.c_uint32),
-                ("frame", ctypes.c_uint64), ("capture_stamp_ns", ctypes.c_uint64)]
-
-    @staticmethod
-    def type_name() -> str:
-        return "vservo::CameraImageHeader"
-
-
-# --- clock: absolute deadlines on CLOCK_MONOTONIC (time.sleep would drift by its own overhead every period) ---
-_libc = ctypes.CDLL(None, use_errno=True)
-_libc.prctl(29, 1, 0, 0, 0)  # PR_SET_TIMERSLACK = 1 ns (the default 50 µs would show up as lateness)
-
-
-class _Timespec(ctypes.Structure):
-    _fields_ = [("tv_sec", ctypes.c_long), ("tv_nsec", ctypes.c_long)]
-
-
-def sleep_until(deadline_ns: int) -> None:
-    """clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME): ctypes releases the GIL while it sleeps."""
-    _libc.clock_nanosleep(1, 1, ctypes.byref(_Timespec(deadline_ns // 10**9, deadline_ns % 10**9)), None)
 
 
 def set_fifo_priority(priority: int) -> None:
@@ -119,43 +59,6 @@ def set_fifo_priority(priority: int) -> None:
         os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(priority))
     except PermissionError:
         print("mujoco_driver: warning: SCHED_FIFO not permitted; on the normal scheduler", file=sys.stderr)
-
-
-# --- iceoryx2: services exactly as vservo creates them (docs/PROTOCOL.md) ---
-def make_node(instance: str):
-    # the instance's runtime directory and prefix (docs/PROTOCOL.md): vservod makes them, so wait for it
-    waited = False
-    while True:
-        try:
-            config = vservo_client.instance_config(instance)
-            break
-        except vservo_client.NotRunning as why:
-            if not waited:
-                print(f"mujoco_driver: {why}; waiting for it", file=sys.stderr)
-                waited = True
-            time.sleep(0.2)
-    node = (iox2.NodeBuilder.new().config(config)
-            .signal_handling_mode(iox2.SignalHandlingMode.Disabled)  # SIGINT/SIGTERM are ours (see main)
-            .create(iox2.ServiceType.Ipc))
-    # each stream has one publisher slot: a driver that died (killed, crashed) still holds it until someone
-    # cleans up its leftovers; do it before taking the slot (docs/DRIVERS.md)
-    node.try_cleanup_dead_nodes()
-    return node
-
-
-def open_topic(node, instance, name, payload, history, buffer, header=None):
-    builder = node.service_builder(iox2.ServiceName.new(f"vservo/{instance}/{name}")).publish_subscribe(payload)
-    if header is not None:
-        builder = builder.user_header(header)
-    # one publisher per stream: vservod creates the service so; the slot is this driver's
-    return (builder.max_publishers(1).max_subscribers(8).history_size(history).subscriber_max_buffer_size(buffer)
-            .enable_safe_overflow(True).open_or_create())
-
-
-def open_notifier(node, instance, name):
-    service = (node.service_builder(iox2.ServiceName.new(f"vservo/{instance}/{name}")).event()
-               .max_notifiers(1).max_listeners(4).open_or_create())
-    return service.notifier_builder().create()
 
 
 # --- the scene as MuJoCo XML ---
@@ -436,7 +339,7 @@ class Camera(threading.Thread):
 
     def camera_image_publisher(self, width, height):
         """Publishes a frame on `camera_image`, stamped with the joint state it shows."""
-        node = make_node(self.instance)
+        node = make_node(self.instance, "mujoco_driver")
         service = open_topic(node, self.instance, "camera_image", iox2.Slice[ctypes.c_uint8], 0, 2, CameraImageHeader)
         publisher = service.publisher_builder().initial_max_slice_len(1280 * 1024).create()
         notifier = open_notifier(node, self.instance, "camera_image")
@@ -491,7 +394,7 @@ def main(argv=None) -> int:
     for signum in (signal.SIGINT, signal.SIGTERM):
         signal.signal(signum, lambda *_: stop.set())
 
-    node, instance = make_node(options.instance), options.instance
+    node, instance = make_node(options.instance, "mujoco_driver"), options.instance
     state_publisher = open_topic(node, instance, "joint_state", JointState, 1, 64).publisher_builder().create()
     state_notifier = open_notifier(node, instance, "joint_state")
     commands = open_topic(node, instance, "joint_command", JointCommand, 0, 64).subscriber_builder().create()

@@ -51,80 +51,22 @@ import numpy as np
 import pybullet
 import pybullet_data
 
-import vservo_client  # finds the instance as every vservo client does (clients/python/vservo_client.py)
 
-SCHEMA = 7
-PROTOCOL_JOINTS = 7  # joints the protocol's arrays have room for (q_rad: c_double * 7); joint_count says how many
-TORQUE, VELOCITY, POSITION = 0, 1, 2  # command modes
-FOLLOWING, HOLDING = 0, 1  # driver_status
-COMMAND_TIMEOUT_NS = 20_000_000  # no valid command for this long: hold
-MAX_COMMAND_AGE_TICKS = 5  # a command must answer one of the last few joint states
-NONE = (1 << 64) - 1  # no command applied
+from vservo_driver import (COMMAND_TIMEOUT_NS, FOLLOWING, HOLDING, MAX_COMMAND_AGE_TICKS, NONE, POSITION,  # noqa: F401
+                           SCHEMA, VELOCITY, CameraImageHeader, JointCommand, JointState, make_node,
+                           open_notifier, open_topic, sleep_until)
+from vservo_driver import MAX_JOINTS as PROTOCOL_JOINTS
 DEFAULT_EFFORT = 1000.0  # N·m (N) for a joint whose URDF gives no effort limit
 BOARD_GRAY, MARK_GRAY = 230, 20  # as vservo's simulated camera and the MuJoCo driver draw them
 NEAR_M, FAR_M = 0.01, 10.0
 CAMERA_PROCESS_NAME = b"pybullet-camera"  # the camera process's name (comm, 15 bytes at most)
 
 
+_libc = ctypes.CDLL(None, use_errno=True)  # prctl, for the camera process
+
+
 def monotonic_ns() -> int:
     return time.clock_gettime_ns(time.CLOCK_MONOTONIC)
-
-
-class JointState(ctypes.Structure):
-    """vservo::JointState, 232 bytes."""
-
-    _fields_ = [("schema", ctypes.c_uint32), ("faults", ctypes.c_uint32), ("tick", ctypes.c_uint64),
-                ("stamp_ns", ctypes.c_uint64), ("driver_epoch", ctypes.c_uint64), ("period_ns", ctypes.c_uint64),
-                ("command_mode", ctypes.c_uint32), ("driver_status", ctypes.c_uint32),
-                ("joint_count", ctypes.c_uint32), ("reserved", ctypes.c_uint32),
-                ("q_rad", ctypes.c_double * PROTOCOL_JOINTS), ("qd_rad_s", ctypes.c_double * PROTOCOL_JOINTS),
-                ("torque_nm", ctypes.c_double * PROTOCOL_JOINTS), ("applied_command_tick", ctypes.c_uint64)]
-
-    @staticmethod
-    def type_name() -> str:
-        return "vservo::JointState"
-
-
-class JointCommand(ctypes.Structure):
-    """vservo::JointCommand, 248 bytes (the seal is the rmrc's, for the simulated driver: ignored here)."""
-
-    _fields_ = [("schema", ctypes.c_uint32), ("mode", ctypes.c_uint32), ("joint_count", ctypes.c_uint32),
-                ("reserved", ctypes.c_uint32), ("answers_tick", ctypes.c_uint64),
-                ("driver_epoch", ctypes.c_uint64), ("state_stamp_ns", ctypes.c_uint64), ("stamp_ns", ctypes.c_uint64),
-                ("torque_nm", ctypes.c_double * PROTOCOL_JOINTS), ("q_ref_rad", ctypes.c_double * PROTOCOL_JOINTS),
-                ("qd_ref_rad_s", ctypes.c_double * PROTOCOL_JOINTS), ("twist_capture_tick", ctypes.c_uint64),
-                ("twist_applied_tick", ctypes.c_uint64), ("reference_since_tick", ctypes.c_uint64),
-                ("seal", ctypes.c_uint64)]
-
-    @staticmethod
-    def type_name() -> str:
-        return "vservo::JointCommand"
-
-
-class CameraImageHeader(ctypes.Structure):
-    """vservo::CameraImageHeader, 40 bytes: the user header of `camera_image`, whose payload is the pixels (u8)."""
-
-    _fields_ = [("schema", ctypes.c_uint32), ("format", ctypes.c_uint32), ("width", ctypes.c_uint32),
-                ("height", ctypes.c_uint32), ("stride_bytes", ctypes.c_uint32), ("reserved", ctypes.c_uint32),
-                ("frame", ctypes.c_uint64), ("capture_stamp_ns", ctypes.c_uint64)]
-
-    @staticmethod
-    def type_name() -> str:
-        return "vservo::CameraImageHeader"
-
-
-# --- clock: absolute deadlines on CLOCK_MONOTONIC ---
-_libc = ctypes.CDLL(None, use_errno=True)
-_libc.prctl(29, 1, 0, 0, 0)  # PR_SET_TIMERSLACK = 1 ns (the default 50 µs would show up as lateness)
-
-
-class _Timespec(ctypes.Structure):
-    _fields_ = [("tv_sec", ctypes.c_long), ("tv_nsec", ctypes.c_long)]
-
-
-def sleep_until(deadline_ns: int) -> None:
-    """clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME)."""
-    _libc.clock_nanosleep(1, 1, ctypes.byref(_Timespec(deadline_ns // 10**9, deadline_ns % 10**9)), None)
 
 
 _stopping = [False]  # set by SIGINT/SIGTERM (a plain flag: a handler must take no lock the loop may hold)
@@ -136,42 +78,6 @@ def on_stop_signal(*_):
 
 def fail(message: str):
     raise SystemExit(f"pybullet_driver: {message}")
-
-
-# --- iceoryx2: services exactly as vservo creates them (docs/PROTOCOL.md) ---
-def make_node(instance: str, stop):
-    """A node in the instance's iceoryx2 root and prefix (vservod makes them: wait for it); None if stopped."""
-    waited = False
-    while not stop():
-        try:
-            config = vservo_client.instance_config(instance)
-            break
-        except vservo_client.NotRunning as why:
-            if not waited:
-                print(f"pybullet_driver: {why}; waiting for it", file=sys.stderr)
-                waited = True
-            time.sleep(0.2)
-    else:
-        return None
-    node = (iox2.NodeBuilder.new().config(config)
-            .signal_handling_mode(iox2.SignalHandlingMode.Disabled)  # SIGINT/SIGTERM are ours (see main)
-            .create(iox2.ServiceType.Ipc))
-    node.try_cleanup_dead_nodes()  # a dead driver's publisher slot is freed before we take it (docs/DRIVERS.md)
-    return node
-
-
-def open_topic(node, instance, name, payload, history, buffer, header=None):
-    builder = node.service_builder(iox2.ServiceName.new(f"vservo/{instance}/{name}")).publish_subscribe(payload)
-    if header is not None:
-        builder = builder.user_header(header)
-    return (builder.max_publishers(1).max_subscribers(8).history_size(history).subscriber_max_buffer_size(buffer)
-            .enable_safe_overflow(True).open_or_create())
-
-
-def open_notifier(node, instance, name):
-    service = (node.service_builder(iox2.ServiceName.new(f"vservo/{instance}/{name}")).event()
-               .max_notifiers(1).max_listeners(4).open_or_create())
-    return service.notifier_builder().create()
 
 
 # --- poses ---
@@ -380,7 +286,7 @@ def camera_process(scene, urdf, instance, shared, stop, ready, save_image):
     renderer = Renderer(scene, urdf)
     width, height = renderer.width, renderer.height
     renderer.image(scene["start_joints_rad"])  # the first render sets TinyRenderer up
-    node = make_node(instance, stopped)
+    node = make_node(instance, "pybullet_driver", stopped)
     if node is None:
         return
     service = open_topic(node, instance, "camera_image", iox2.Slice[ctypes.c_uint8], 0, 2, CameraImageHeader)
@@ -510,7 +416,7 @@ def main(argv=None) -> int:
                              args=(scene, options.urdf, instance, (q_shared, stamp_shared, lock), stop, ready,
                                    options.save_image))
     camera.start()
-    node = make_node(instance, lambda: _stopping[0] or not camera.is_alive())
+    node = make_node(instance, "pybullet_driver", lambda: _stopping[0] or not camera.is_alive())
     while node is not None and camera.is_alive() and not _stopping[0] and not ready.wait(0.1):
         pass
     if node is None or not ready.is_set() or _stopping[0]:
@@ -531,6 +437,7 @@ def main(argv=None) -> int:
     tick, last_valid_ns, command, gaps, late = 0, -COMMAND_TIMEOUT_NS, None, [], []
     state = JointState(schema=SCHEMA, driver_epoch=epoch, period_ns=period_ns, command_mode=mode, joint_count=n)
     applied_tick = NONE  # the command the last step applied (none before the first)
+    last_publish = None
     while True:
         # 1. publish the joint state, notify, and share it with the camera
         state.tick, state.stamp_ns, state.faults = tick, monotonic_ns(), arm.faults()
@@ -541,7 +448,7 @@ def main(argv=None) -> int:
         state_notifier.notify()
         with lock:
             q_shared[:], stamp_shared.value = arm.q, state.stamp_ns
-        if tick:
+        if last_publish is not None:
             gaps.append(state.stamp_ns - last_publish)
         last_publish = state.stamp_ns
         if _stopping[0] or state.stamp_ns - start >= options.duration_s * 1e9:

@@ -1,5 +1,5 @@
 """Prints, as one JSON object, the layout of every ctypes structure the Python clients declare
-(clients/python/vservo_client.py, mujoco_driver.py and pybullet_driver.py) and the codes they name, so that a test can check them
+(clients/python/vservo_client.py and vservo_driver.py, and any the reference drivers declare themselves) and the codes they name, so that a test can check them
 against the Rust declarations they must match. Usage: dump_layouts.py CLIENTS_DIR"""
 
 import ctypes
@@ -13,6 +13,7 @@ os.environ.setdefault("MUJOCO_GL", "egl")
 import mujoco_driver  # noqa: E402
 import pybullet_driver  # noqa: E402
 import vservo_client  # noqa: E402
+import vservo_driver  # noqa: E402
 
 
 def layout(structure):
@@ -24,7 +25,7 @@ def layout(structure):
 
 
 structures = {}
-for module in (vservo_client, mujoco_driver, pybullet_driver):
+for module in (vservo_client, vservo_driver, mujoco_driver, pybullet_driver):
     for value in vars(module).values():
         if isinstance(value, type) and issubclass(value, ctypes.Structure) and not value.__name__.startswith("_"):
             name = f"vservo::{value.__name__}"
@@ -34,14 +35,14 @@ for module in (vservo_client, mujoco_driver, pybullet_driver):
             structures[name] = layout(value)
 
 codes = {
-    "schema": [vservo_client.SCHEMA_VERSION, mujoco_driver.SCHEMA, pybullet_driver.SCHEMA],
+    "schema": [vservo_client.SCHEMA_VERSION, vservo_driver.SCHEMA],
     "daemon_state": vservo_client.STATES,
     "fault": vservo_client.FAULTS,
     "command_kind": {name: getattr(vservo_client, name) for name in
                      ["TARGET_FEATURES", "TARGET_POSE", "TARGET_TEACH", "OBJECT_HOLD", "OBJECT_STEP",
                       "OBJECT_CIRCLE", "RELOAD", "RESUME", "SAFE_STOP"]},
-    "command_mode": {"TORQUE": mujoco_driver.TORQUE, "VELOCITY": mujoco_driver.VELOCITY,
-                     "POSITION": mujoco_driver.POSITION},
-    "driver_status": {"FOLLOWING": mujoco_driver.FOLLOWING, "HOLDING": mujoco_driver.HOLDING},
+    "command_mode": {"TORQUE": vservo_driver.TORQUE, "VELOCITY": vservo_driver.VELOCITY,
+                     "POSITION": vservo_driver.POSITION},
+    "driver_status": {"FOLLOWING": vservo_driver.FOLLOWING, "HOLDING": vservo_driver.HOLDING},
 }
 print(json.dumps({"structures": structures, "codes": codes}))

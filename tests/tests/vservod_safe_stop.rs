@@ -141,15 +141,10 @@ impl FakeDriver {
     }
 }
 
-/// With an external driver (the test's): a torque saturation that lasts, a driver fault, a joint beyond its
-/// position range, a stall and a client's request each end in a safe stop that names it (and the joint),
-/// with an ERROR line; a short saturation does not; a resume is refused, naming the cause, while it is
-/// there, and accepted once it is gone.
-#[test]
-fn faults_of_the_robot_end_in_a_named_safe_stop_and_resume_waits_for_their_cause() {
-    use vservo_protocol::fault_bits;
-    let _one = exclusive();
-    let instance = unique("driver-faults");
+/// The default cell with an external camera (none sends frames) and the test's driver, running: its instance,
+/// daemon, driver and configuration (kept while the daemon runs).
+fn cell_with_fake_driver(name: &str) -> (String, Daemon, FakeDriver, impl Sized) {
+    let instance = unique(name);
     let config = config_from(
         "config/vservo.toml",
         &[
@@ -166,6 +161,18 @@ fn faults_of_the_robot_end_in_a_named_safe_stop_and_resume_waits_for_their_cause
         status(&instance),
         daemon.log()
     );
+    (instance, daemon, driver, config)
+}
+
+/// With an external driver (the test's): a torque saturation that lasts, a driver fault, a joint beyond its
+/// position range, a stall and a client's request each end in a safe stop that names it (and the joint),
+/// with an ERROR line; a short saturation does not; a resume is refused, naming the cause, while it is
+/// there, and accepted once it is gone.
+#[test]
+fn faults_of_the_robot_end_in_a_named_safe_stop_and_resume_waits_for_their_cause() {
+    use vservo_protocol::fault_bits;
+    let _one = exclusive();
+    let (instance, daemon, driver, _config) = cell_with_fake_driver("driver-faults");
     let resume = || vservoctl(&["resume", "--instance", &instance]);
 
     // joint 2's torque at its limit: 0.3 s is no fault, lasting past faults.saturation_s (0.5 s) is
@@ -260,23 +267,7 @@ fn faults_of_the_robot_end_in_a_named_safe_stop_and_resume_waits_for_their_cause
 #[test]
 fn a_driver_of_another_joint_count_is_refused_by_name() {
     let _one = exclusive();
-    let instance = unique("joint-count");
-    let config = config_from(
-        "config/vservo.toml",
-        &[
-            ("name = \"default\"", &format!("name = \"{instance}\"")),
-            ("source = \"simulated\"", "source = \"external\""),
-            ("driver = \"simulated\"", "driver = \"external\"\ncommand = \"velocity\""),
-        ],
-    );
-    let daemon = Daemon::start(&config);
-    let driver = FakeDriver::start(&instance);
-    assert!(
-        wait_until(Duration::from_secs(10), || status(&instance).is_some_and(|s| running(&s))),
-        "{:?}\n{}",
-        status(&instance),
-        daemon.log()
-    );
+    let (instance, daemon, driver, _config) = cell_with_fake_driver("joint-count");
     driver.joint_count.store(7, Ordering::Relaxed);
     assert!(
         wait_until(Duration::from_secs(2), || safe_stopped_by(&instance, "driver_fault")),

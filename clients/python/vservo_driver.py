@@ -1,0 +1,119 @@
+"""The driver side of vservo's contract (docs/DRIVERS.md, docs/PROTOCOL.md schema 7), shared by the reference
+drivers (mujoco_driver.py, pybullet_driver.py): the payloads a robot and camera driver exchange with vservo as
+ctypes structures, their codes, deadlines on CLOCK_MONOTONIC, and the iceoryx2 node and services opened exactly
+as vservo creates them. A driver of your own may import it too (with vservo_client.py beside it).
+"""
+
+import ctypes
+import sys
+import time
+
+import iceoryx2 as iox2
+
+import vservo_client  # finds the instance as every vservo client does (clients/python/vservo_client.py)
+
+SCHEMA = 7
+MAX_JOINTS = 7  # joints joint_state and joint_command have room for; joint_count says how many are the arm's
+TORQUE, VELOCITY, POSITION = 0, 1, 2  # command modes
+FOLLOWING, HOLDING = 0, 1  # driver_status
+COMMAND_TIMEOUT_NS = 20_000_000  # no valid command for this long: hold
+MAX_COMMAND_AGE_TICKS = 5  # a command must answer one of the last few joint states
+NONE = (1 << 64) - 1  # applied_command_tick with no command applied (holding)
+
+
+class JointState(ctypes.Structure):
+    """vservo::JointState, 232 bytes."""
+
+    _fields_ = [("schema", ctypes.c_uint32), ("faults", ctypes.c_uint32), ("tick", ctypes.c_uint64),
+                ("stamp_ns", ctypes.c_uint64), ("driver_epoch", ctypes.c_uint64), ("period_ns", ctypes.c_uint64),
+                ("command_mode", ctypes.c_uint32), ("driver_status", ctypes.c_uint32),
+                ("joint_count", ctypes.c_uint32), ("reserved", ctypes.c_uint32),
+                ("q_rad", ctypes.c_double * MAX_JOINTS), ("qd_rad_s", ctypes.c_double * MAX_JOINTS),
+                ("torque_nm", ctypes.c_double * MAX_JOINTS), ("applied_command_tick", ctypes.c_uint64)]
+
+    @staticmethod
+    def type_name() -> str:
+        return "vservo::JointState"
+
+
+class JointCommand(ctypes.Structure):
+    """vservo::JointCommand, 248 bytes (the seal is the rmrc's, for the simulated driver: an external one
+    ignores it)."""
+
+    _fields_ = [("schema", ctypes.c_uint32), ("mode", ctypes.c_uint32), ("joint_count", ctypes.c_uint32),
+                ("reserved", ctypes.c_uint32), ("answers_tick", ctypes.c_uint64),
+                ("driver_epoch", ctypes.c_uint64), ("state_stamp_ns", ctypes.c_uint64), ("stamp_ns", ctypes.c_uint64),
+                ("torque_nm", ctypes.c_double * MAX_JOINTS), ("q_ref_rad", ctypes.c_double * MAX_JOINTS),
+                ("qd_ref_rad_s", ctypes.c_double * MAX_JOINTS), ("twist_capture_tick", ctypes.c_uint64),
+                ("twist_applied_tick", ctypes.c_uint64), ("reference_since_tick", ctypes.c_uint64),
+                ("seal", ctypes.c_uint64)]
+
+    @staticmethod
+    def type_name() -> str:
+        return "vservo::JointCommand"
+
+
+class CameraImageHeader(ctypes.Structure):
+    """vservo::CameraImageHeader, 40 bytes: the user header of `camera_image`, whose payload is the pixels (u8)."""
+
+    _fields_ = [("schema", ctypes.c_uint32), ("format", ctypes.c_uint32), ("width", ctypes.c_uint32),
+                ("height", ctypes.c_uint32), ("stride_bytes", ctypes.c_uint32), ("reserved", ctypes.c_uint32),
+                ("frame", ctypes.c_uint64), ("capture_stamp_ns", ctypes.c_uint64)]
+
+    @staticmethod
+    def type_name() -> str:
+        return "vservo::CameraImageHeader"
+
+
+# --- clock: absolute deadlines on CLOCK_MONOTONIC (time.sleep would drift by its own overhead every period) ---
+_libc = ctypes.CDLL(None, use_errno=True)
+_libc.prctl(29, 1, 0, 0, 0)  # PR_SET_TIMERSLACK = 1 ns (the default 50 µs would show up as lateness)
+
+
+class _Timespec(ctypes.Structure):
+    _fields_ = [("tv_sec", ctypes.c_long), ("tv_nsec", ctypes.c_long)]
+
+
+def sleep_until(deadline_ns: int) -> None:
+    """clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME): ctypes releases the GIL while it sleeps."""
+    _libc.clock_nanosleep(1, 1, ctypes.byref(_Timespec(deadline_ns // 10**9, deadline_ns % 10**9)), None)
+
+
+# --- iceoryx2: services exactly as vservo creates them (docs/PROTOCOL.md) ---
+def make_node(instance: str, program: str, stop=lambda: False):
+    """A node in the instance's iceoryx2 root and prefix (vservod makes them: wait for it, saying so once as
+    `program`); None if `stop()` says so while waiting."""
+    waited = False
+    while not stop():
+        try:
+            config = vservo_client.instance_config(instance)
+            break
+        except vservo_client.NotRunning as why:
+            if not waited:
+                print(f"{program}: {why}; waiting for it", file=sys.stderr)
+                waited = True
+            time.sleep(0.2)
+    else:
+        return None
+    node = (iox2.NodeBuilder.new().config(config)
+            .signal_handling_mode(iox2.SignalHandlingMode.Disabled)  # SIGINT/SIGTERM are the driver's
+            .create(iox2.ServiceType.Ipc))
+    # each stream has one publisher slot: a driver that died (killed, crashed) still holds it until someone
+    # cleans up its leftovers; do it before taking the slot (docs/DRIVERS.md)
+    node.try_cleanup_dead_nodes()
+    return node
+
+
+def open_topic(node, instance, name, payload, history, buffer, header=None):
+    builder = node.service_builder(iox2.ServiceName.new(f"vservo/{instance}/{name}")).publish_subscribe(payload)
+    if header is not None:
+        builder = builder.user_header(header)
+    # one publisher per stream: vservod creates the service so; the slot is the driver's
+    return (builder.max_publishers(1).max_subscribers(8).history_size(history).subscriber_max_buffer_size(buffer)
+            .enable_safe_overflow(True).open_or_create())
+
+
+def open_notifier(node, instance, name):
+    service = (node.service_builder(iox2.ServiceName.new(f"vservo/{instance}/{name}")).event()
+               .max_notifiers(1).max_listeners(4).open_or_create())
+    return service.notifier_builder().create()
