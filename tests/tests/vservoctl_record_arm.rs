@@ -1,6 +1,7 @@
 //! The arm drawn is the arm configured: a recording of a cell with a custom DH arm (a UR5's published table,
 //! driven by an external velocity driver of the test's own) shows that arm's links, checked with numpy
-//! against the DH table's forward kinematics.
+//! against the DH table's forward kinematics; and of a cell with an arm from its URDF (PyBullet's xArm6),
+//! checked against PyBullet's.
 
 use std::sync::atomic::Ordering;
 use std::time::{Duration, Instant};
@@ -21,8 +22,8 @@ const UR5_DH: [[f64; 4]; 6] = [
 ];
 const START_RAD: [f64; 6] = [0.0, -1.2, 1.5, -0.3, 1.57, 0.0];
 
-/// A robot driver that ignores commands and sweeps the joints slowly around the start (1 kHz), until dropped.
-fn sweeping_driver(instance: &str) -> LoopThread {
+/// A robot driver that ignores commands and sweeps the joints slowly around `start` (1 kHz), until dropped.
+fn sweeping_driver(instance: &str, start: [f64; 6]) -> LoopThread {
     let instance = instance.to_string();
     LoopThread::spawn(move |stop| {
         let dir = vservo_protocol::InstanceDir::locate_waiting(&instance, Duration::from_secs(10))
@@ -40,8 +41,7 @@ fn sweeping_driver(instance: &str) -> LoopThread {
             );
             let t = started.elapsed().as_secs_f64();
             // six joints; the seventh slot zero
-            let q_rad =
-                std::array::from_fn(|j| START_RAD.get(j).map_or(0.0, |q| q + 0.2 * (t + j as f64).sin()));
+            let q_rad = std::array::from_fn(|j| start.get(j).map_or(0.0, |q| q + 0.2 * (t + j as f64).sin()));
             let _ = states.send_copy(JointStateMsg {
                 tick,
                 stamp_ns: vservo_runtime::clock::monotonic_ns(),
@@ -81,40 +81,8 @@ fn a_recording_of_a_custom_dh_arm_draws_that_arm() {
             ),
         ],
     );
-    let daemon = Daemon::start(&config);
-    let _driver = sweeping_driver(&instance);
-    assert!(
-        wait_until(Duration::from_secs(10), || status(&instance).is_some_and(|s| s["robot"] == "running")),
-        "{:?}\n{}",
-        status(&instance),
-        daemon.log()
-    );
-    // found by its name only: the recorder reads the arm from the configuration the daemon runs
-    let file = config.path.with_extension("mcap");
-    let recorded = std::process::Command::new(binary("vservoctl"))
-        .args([
-            "record",
-            "--out",
-            &file.display().to_string(),
-            "--duration-s",
-            "1.5",
-            "--instance",
-            &instance,
-        ])
-        .output()
-        .expect("vservoctl record runs");
-    assert!(recorded.status.success(), "{}", String::from_utf8_lossy(&recorded.stderr));
-    daemon.stop();
-
-    let check = |dh: &str| {
-        std::process::Command::new(repository_root().join("target/python-venv/bin/python"))
-            .arg(repository_root().join("tests/python/check_arm_drawing.py"))
-            .arg(&file)
-            .arg(&instance)
-            .arg(dh)
-            .output()
-            .expect("python runs")
-    };
+    let file = record_swept_arm(&config, &instance, START_RAD);
+    let check = |arm: &str| check_drawing(&file, &instance, arm);
     let checked = check(&dh);
     // the check tells arms apart: the same recording is not a UR5 whose shoulder sits 1 cm higher
     let mut other = UR5_DH;
@@ -127,4 +95,68 @@ fn a_recording_of_a_custom_dh_arm_draws_that_arm() {
     eprintln!("arm drawing: {figures}");
     assert!(figures["transforms_checked"].as_u64() >= Some(20), "{figures}");
     assert_eq!(figures["camera_on"], serde_json::json!(["link6"]), "{figures}");
+}
+
+/// The xArm6 from its URDF (config/arms/xarm6.toml), swept by the test's driver: the links drawn are where
+/// PyBullet puts them, and the check tells the tool link from the one before it.
+#[test]
+fn a_recording_of_an_arm_from_its_urdf_draws_that_arm() {
+    let _one = exclusive();
+    let instance = unique("record-urdf-arm");
+    let config = config_from(
+        "config/arms/xarm6.toml",
+        &[
+            ("name = \"xarm6\"", &format!("name = \"{instance}\"")),
+            ("source = \"simulated\"", "source = \"external\""),
+            ("driver = \"simulated\"", "driver = \"external\"\ncommand = \"velocity\""),
+        ],
+    );
+    let file = record_swept_arm(&config, &instance, [0.0, -0.443, -1.048, 0.0, 1.491, 0.0]);
+    let urdf = repository_root().join("target/pybullet_data/xarm/xarm6_robot.urdf");
+    let check = |tip: &str| check_drawing(&file, &instance, &format!("urdf={}#{tip}", urdf.display()));
+    let checked = check("link6");
+    let refused = check("link5");
+    let _ = std::fs::remove_file(&file);
+    assert!(checked.status.success(), "{}", String::from_utf8_lossy(&checked.stderr));
+    assert!(!refused.status.success(), "another tool link passed the check");
+    let figures: serde_json::Value = serde_json::from_slice(&checked.stdout).expect("JSON figures");
+    eprintln!("arm drawing: {figures}");
+    assert!(figures["transforms_checked"].as_u64() >= Some(20), "{figures}");
+    assert_eq!(figures["camera_on"], serde_json::json!(["link6"]), "{figures}");
+}
+
+/// Runs the daemon on `config` with the sweeping driver and records 1.5 s of it: the recording's path.
+fn record_swept_arm(
+    config: &vservo_system_tests::TempConfig,
+    instance: &str,
+    start: [f64; 6],
+) -> std::path::PathBuf {
+    let daemon = Daemon::start(config);
+    let _driver = sweeping_driver(instance, start);
+    assert!(
+        wait_until(Duration::from_secs(10), || status(instance).is_some_and(|s| s["robot"] == "running")),
+        "{:?}\n{}",
+        status(instance),
+        daemon.log()
+    );
+    // found by its name only: the recorder reads the arm from the configuration the daemon runs
+    let file = config.path.with_extension("mcap");
+    let recorded = std::process::Command::new(binary("vservoctl"))
+        .args(["record", "--out", &file.display().to_string(), "--duration-s", "1.5", "--instance", instance])
+        .output()
+        .expect("vservoctl record runs");
+    assert!(recorded.status.success(), "{}", String::from_utf8_lossy(&recorded.stderr));
+    daemon.stop();
+    file
+}
+
+/// tests/python/check_arm_drawing.py on a recording, for `arm` (a DH table as JSON, or `urdf=PATH#TIP`).
+fn check_drawing(file: &std::path::Path, instance: &str, arm: &str) -> std::process::Output {
+    std::process::Command::new(repository_root().join("target/python-venv/bin/python"))
+        .arg(repository_root().join("tests/python/check_arm_drawing.py"))
+        .arg(file)
+        .arg(instance)
+        .arg(arm)
+        .output()
+        .expect("python runs")
 }
