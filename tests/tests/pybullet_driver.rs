@@ -35,10 +35,10 @@ fn camera_processes() -> Vec<u32> {
         .collect()
 }
 
-/// `scripts/run-pybullet.sh --json` on the xArm6, the README's way to try it; nothing of the driver outlives
-/// the run (its camera process ends with it).
+/// `scripts/run-pybullet.sh --json` on the xArm6 and on a UR5e, the README's way to try it; nothing of the
+/// driver outlives the run (its camera process ends with it).
 #[test]
-fn run_pybullet_with_the_xarm6_converges_below_one_pixel() {
+fn run_pybullet_with_the_xarm6_and_a_ur5e_converges_below_one_pixel() {
     let _one = exclusive();
     let urdf = pybullet_data().join("xarm/xarm6_robot.urdf");
     assert!(urdf.exists(), "{}", urdf.display());
@@ -47,6 +47,11 @@ fn run_pybullet_with_the_xarm6_converges_below_one_pixel() {
     run_script_to_convergence(
         "run-pybullet.sh",
         &["--urdf", &urdf, "--config", "config/arms/xarm6.toml", "--period-s", "0.004"],
+    );
+    // another arm with nothing but its files: a UR5e (its URDF written from its DH parameters) at 500 Hz
+    run_script_to_convergence(
+        "run-pybullet.sh",
+        &["--urdf", "config/arms/ur5e.urdf", "--config", "config/arms/ur5e.toml", "--period-s", "0.002"],
     );
     assert!(
         wait_until(Duration::from_secs(3), || camera_processes().is_empty()),

@@ -138,32 +138,35 @@ fn basin_reports_each_class_as_json_and_draws_the_starts() {
     assert!(String::from_utf8_lossy(&output.stderr).contains("--starts 0"));
 }
 
-/// An arm from its URDF in the lockstep (config/arms/xarm6.toml: PyBullet's xArm6, a kinematic simulated
-/// arm): `vservoctl sim` converges, and `vservoctl basin` on 100 starts converges from every counted start.
+/// Arms from their URDF in the lockstep (config/arms/: PyBullet's xArm6, and a UR5e whose URDF was written
+/// from its DH parameters; kinematic simulated arms): `vservoctl sim` converges, and `vservoctl basin` on 100
+/// starts converges from every counted start. Nothing but their configuration files tells them apart.
 #[test]
-fn a_urdf_arm_converges_in_the_lockstep_from_every_counted_start() {
-    let config = repository_root().join("config/arms/xarm6.toml");
-    let config = config.to_str().expect("utf-8");
-    let out = std::env::temp_dir().join(format!("vservo-sim-xarm6-{}", std::process::id()));
-    let output = run(
-        "vservoctl",
-        &["sim", "--config", config, "--duration", "8", "--out", out.to_str().expect("utf-8")],
-    );
-    assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stderr));
-    let summary: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).expect("summary.json"))
-            .expect("JSON");
-    let _ = std::fs::remove_dir_all(&out);
-    assert_eq!(summary["plant"], "kinematic");
-    assert!(summary["final_error_px"].as_f64().expect("number") < 0.1, "{summary}");
+fn urdf_arms_converge_in_the_lockstep_from_every_counted_start() {
+    for arm in ["xarm6", "ur5e"] {
+        let config = repository_root().join(format!("config/arms/{arm}.toml"));
+        let config = config.to_str().expect("utf-8");
+        let out = std::env::temp_dir().join(format!("vservo-sim-{arm}-{}", std::process::id()));
+        let output = run(
+            "vservoctl",
+            &["sim", "--config", config, "--duration", "8", "--out", out.to_str().expect("utf-8")],
+        );
+        assert!(output.status.success(), "{arm}: {}", String::from_utf8_lossy(&output.stderr));
+        let summary: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).expect("summary.json"))
+                .expect("JSON");
+        let _ = std::fs::remove_dir_all(&out);
+        assert_eq!(summary["plant"], "kinematic");
+        assert!(summary["final_error_px"].as_f64().expect("number") < 0.1, "{arm}: {summary}");
 
-    let output = run("vservoctl", &["basin", "--config", config, "--starts", "100", "--json"]);
-    assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stderr));
-    let result: serde_json::Value = serde_json::from_slice(&output.stdout).expect("JSON");
-    let classes = result["classes"].as_array().expect("classes");
-    assert_eq!(classes.iter().filter_map(|c| c["starts"].as_u64()).sum::<u64>(), 100);
-    assert!(classes.iter().filter_map(|c| c["counted"].as_u64()).sum::<u64>() >= 50, "{result}");
-    for class in classes {
-        assert_eq!(class["converged"], class["counted"], "{class}");
+        let output = run("vservoctl", &["basin", "--config", config, "--starts", "100", "--json"]);
+        assert!(output.status.success(), "{arm}: {}", String::from_utf8_lossy(&output.stderr));
+        let result: serde_json::Value = serde_json::from_slice(&output.stdout).expect("JSON");
+        let classes = result["classes"].as_array().expect("classes");
+        assert_eq!(classes.iter().filter_map(|c| c["starts"].as_u64()).sum::<u64>(), 100);
+        assert!(classes.iter().filter_map(|c| c["counted"].as_u64()).sum::<u64>() >= 50, "{arm}: {result}");
+        for class in classes {
+            assert_eq!(class["converged"], class["counted"], "{arm}: {class}");
+        }
     }
 }
