@@ -387,6 +387,10 @@ def main(argv=None) -> int:
     if scene["robot"]["command"] != "velocity":
         print("mujoco_driver: this driver takes joint velocity commands only", file=sys.stderr)
         return 2
+    if scene["arm"].get("dh") is None:
+        print("mujoco_driver: this driver builds a standard-DH arm; the scene's arm comes from a URDF "
+              f"({scene['arm'].get('urdf')}): run clients/python/pybullet_driver.py", file=sys.stderr)
+        return 2
     model = mujoco.MjModel.from_xml_string(build_mjcf(scene))
     arm = Arm(model, scene)
 
