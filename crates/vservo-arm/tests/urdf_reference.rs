@@ -102,3 +102,34 @@ fn a_six_joint_urdf_arm_has_the_chains_kinematics() {
         assert!((arm.base_from_tool(&reached).translation.vector - tool.translation.vector).norm() < 1e-9);
     }
 }
+
+/// config/arms/ur5e.urdf was written from Universal Robots' published standard-DH parameters of the UR5e: read
+/// as a URDF chain, it is the same arm as that DH table read by the DH kinematics (checked against the Robotics
+/// Toolbox in tests/reference.rs), tool pose and Jacobian, at joint vectors over the whole range.
+#[test]
+fn the_ur5e_urdf_is_the_ur5e_dh_table() {
+    use std::f64::consts::FRAC_PI_2;
+    use vservo_arm::DhParameters;
+    let urdf = urdf::read(&root().join("config/arms/ur5e.urdf"), None, Some("flange")).expect("the UR5e");
+    let limits =
+        [JointLimits { position_min: -6.3, position_max: 6.3, velocity_max: 3.2, torque_max: 1.0 }; JOINTS];
+    let from_urdf = SerialArm::from_chain("UR5e (URDF)", urdf.chain, limits).expect("six joints");
+    let dh = [
+        DhParameters::new(0.0, FRAC_PI_2, 0.1625, 0.0),
+        DhParameters::new(-0.425, 0.0, 0.0, 0.0),
+        DhParameters::new(-0.3922, 0.0, 0.0, 0.0),
+        DhParameters::new(0.0, FRAC_PI_2, 0.1333, 0.0),
+        DhParameters::new(0.0, -FRAC_PI_2, 0.0997, 0.0),
+        DhParameters::new(0.0, 0.0, 0.0996, 0.0),
+    ];
+    let from_dh = SerialArm::kinematic("UR5e (DH)", dh, limits);
+    let mut worst = (0.0_f64, 0.0_f64);
+    for k in 0..50 {
+        let q = JointVector::from_fn(|j, _| 3.0 * ((k * 7 + j * 13) as f64 * 0.37).sin());
+        let (a, ja) = from_urdf.base_from_tool_and_jacobian(&q);
+        let (b, jb) = from_dh.base_from_tool_and_jacobian(&q);
+        worst.0 = worst.0.max((a.to_homogeneous() - b.to_homogeneous()).amax());
+        worst.1 = worst.1.max((ja - jb).amax());
+    }
+    assert!(worst.0 < 1e-12 && worst.1 < 1e-12, "pose {:.1e}, Jacobian {:.1e}", worst.0, worst.1);
+}
