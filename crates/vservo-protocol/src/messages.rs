@@ -60,6 +60,14 @@ wire_message! {
     }
 }
 
+impl JointStateMsg {
+    /// The joint angles of an arm of `N` joints: the first `N` slots of `q_rad`, if the state says it is of
+    /// such an arm (`joint_count`); `None` for another arm's.
+    pub fn arm_q_rad<const N: usize>(&self) -> Option<[f64; N]> {
+        (self.joint_count as usize == N && N <= MAX_JOINTS).then(|| std::array::from_fn(|j| self.q_rad[j]))
+    }
+}
+
 /// Fault bits of [`JointStateMsg::faults`].
 pub mod fault_bits {
     /// Shift of the per-joint position-limit bits.
@@ -554,6 +562,16 @@ wire_message! {
 mod tests {
     use super::*;
     use std::mem::{offset_of, size_of};
+
+    #[test]
+    fn an_arms_joint_angles_are_taken_only_from_a_state_of_its_joint_count() {
+        let state = JointStateMsg { q_rad: [1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 0.0], ..JointStateMsg::default() };
+        assert_eq!(state.arm_q_rad::<6>(), Some([1.0, 2.0, 3.0, 4.0, 5.0, 6.0]));
+        assert_eq!(state.arm_q_rad::<7>(), None);
+        let seven = JointStateMsg { joint_count: 7, ..state };
+        assert_eq!(seven.arm_q_rad::<6>(), None);
+        assert_eq!(seven.arm_q_rad::<7>(), Some([1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 0.0]));
+    }
 
     // the layout docs/PROTOCOL.md documents; a change here must change the document and SCHEMA_VERSION
     #[test]

@@ -131,10 +131,9 @@ pub fn arm_transforms(
     tool_from_camera: &IsometryMatrix3<f64>,
     state: &JointStateMsg,
 ) -> FrameTransforms {
-    if state.joint_count != vservo_arm::JOINTS as u32 {
+    let Some(q) = state.arm_q_rad().map(vservo_arm::JointVector::from) else {
         return FrameTransforms { transforms: Vec::new() };
-    }
-    let q = vservo_arm::JointVector::from_column_slice(&state.q_rad[..vservo_arm::JOINTS]);
+    };
     let frames = arm.link_frames(&q);
     let mut transforms: Vec<FrameTransform> = frames
         .iter()
@@ -213,7 +212,7 @@ mod tests {
         let tool_from_camera = IsometryMatrix3::translation(0.0, 0.0, 0.1);
         let frames = arm_transforms(&arm, &tool_from_camera, &state);
         assert_eq!(frames.transforms.len(), 7);
-        let tool = arm.base_from_tool(&vservo_arm::JointVector::from_column_slice(&state.q_rad[..6]));
+        let tool = arm.base_from_tool(&vservo_arm::JointVector::from(state.arm_q_rad().expect("six joints")));
         let link6 = frames.transforms[5].translation.expect("translation");
         assert!((link6.x - tool.translation.x).abs() < 1e-12 && (link6.z - tool.translation.z).abs() < 1e-12);
         assert_eq!(frames.transforms[6].parent_frame_id, "link6");

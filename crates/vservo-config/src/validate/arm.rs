@@ -85,7 +85,7 @@ fn urdf(check: &Checker, a: &RawArm) -> Result<SerialArm, ConfigError> {
             key,
             format!("{file:?}"),
             format!(
-                "the chain from {:?} to {:?} has {} joints: vservo's joint messages carry {JOINTS} so far",
+                "the chain from {:?} to {:?} has {} joints: vservo's arm model and stages carry {JOINTS} so far",
                 arm.chain.base_link,
                 arm.chain.tip_link,
                 arm.chain.joint_count()

@@ -24,7 +24,7 @@ use super::{IDLE_WAIT, NodeBase, go_realtime, latest, start};
 use crate::clock::monotonic_ns;
 use crate::joint_history::{JointHistory, NoJoints};
 use crate::telemetry::{Counters, CycleSample, LoopMonitor, Note};
-use crate::wire::{ARM_JOINTS, joints_from_wire, pose_from_wire, pose_to_wire, to_array};
+use crate::wire::{joints_from_wire, pose_from_wire, pose_to_wire, to_array};
 use crate::{NodeContext, RuntimeError};
 
 /// How often, at the least, an external camera's vision node takes in the joint states heard: 32 driver
@@ -270,10 +270,11 @@ fn hear_joints(
 ) {
     while let Some(taken) = subscriber.next_message() {
         match taken {
-            Ok(state) if state.joint_count == ARM_JOINTS => {
-                joints.push(state.stamp_ns, state.tick, state.driver_epoch, &joints_from_wire(&state.q_rad))
-            }
-            Ok(_) | Err(_) => counters.rejected(),
+            Ok(state) => match state.arm_q_rad() {
+                Some(q) => joints.push(state.stamp_ns, state.tick, state.driver_epoch, &JointVector::from(q)),
+                None => counters.rejected(),
+            },
+            Err(_) => counters.rejected(),
         }
     }
 }

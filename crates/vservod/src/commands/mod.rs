@@ -57,10 +57,7 @@ impl LoopState<'_> {
     /// The cell as target placement sees it: the joints, and the features if all four marks are seen.
     fn cell_now(&self) -> CellNow {
         CellNow {
-            joints: self
-                .joint_state
-                .filter(|state| state.joint_count == vservo_arm::JOINTS as u32)
-                .map(|state| JointVector::from_column_slice(&state.q_rad[..vservo_arm::JOINTS])),
+            joints: self.joint_state.and_then(|state| state.arm_q_rad().map(JointVector::from)),
             features_seen: self
                 .features
                 .filter(|f| f.valid_mask == 0b1111)

@@ -385,8 +385,7 @@ impl Daemon {
             joints: self
                 .heard
                 .joint_state
-                .filter(|s| s.joint_count == vservo_arm::JOINTS as u32)
-                .map(|s| (std::array::from_fn(|j| s.q_rad[j]), s.tick)),
+                .and_then(|s| Some((s.arm_q_rad::<{ vservo_arm::JOINTS }>()?, s.tick))),
             features_px: self.heard.features.map(|f| f.features_px),
         };
         for node in self.nodes.iter_mut().filter(|n| n.process.is_none() && n.record.restart.due(now)) {
