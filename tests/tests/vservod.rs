@@ -403,8 +403,10 @@ fn two_instances_run_side_by_side_and_sigterm_stops_each_within_two_seconds() {
             daemon.log()
         );
     }
-    // both loops keep the pace side by side
-    if let Err(last) = keep_pace(&[&a, &b], Duration::from_secs(10)) {
+    // both loops keep the pace side by side: one second in which both do, within 30 s (a CI machine once
+    // spent the first 10 s with eight 1 kHz nodes on two cores losing a fifth of every second to a
+    // neighbour; the pace itself stays 900 Hz)
+    if let Err(last) = keep_pace(&[&a, &b], Duration::from_secs(30)) {
         panic!("{last:?}\n{}\n{}", daemon_a.log(), daemon_b.log());
     }
     let (status_a, status_b) = (status(&a).expect("a"), status(&b).expect("b"));
