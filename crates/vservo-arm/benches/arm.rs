@@ -3,13 +3,13 @@
 use std::hint::black_box;
 
 use criterion::{Criterion, criterion_group, criterion_main};
-use vservo_arm::{JointVector, puma560};
+use vservo_arm::{puma560, six_joints};
 
 fn arm_model(c: &mut Criterion) {
     let arm = puma560::puma560();
-    let q = JointVector::new(0.3, 0.9, -2.6, 0.4, 0.7, -0.2);
-    let qd = JointVector::new(0.5, -0.4, 0.3, 1.0, -0.8, 0.6);
-    let qdd = JointVector::new(1.0, 2.0, -1.5, 3.0, 0.5, -2.0);
+    let q = six_joints([0.3, 0.9, -2.6, 0.4, 0.7, -0.2]);
+    let qd = six_joints([0.5, -0.4, 0.3, 1.0, -0.8, 0.6]);
+    let qdd = six_joints([1.0, 2.0, -1.5, 3.0, 0.5, -2.0]);
     let tau = arm.rne(&q, &qd, &qdd);
     let pose = arm.base_from_tool(&q);
 

@@ -6,14 +6,14 @@
 //! Forward kinematics and the geometric Jacobian for six or seven joints, on fixed-size arrays, without
 //! allocation (the 1 ms interpolator calls them every tick).
 
-use nalgebra::{Matrix3, Rotation3, SMatrix, Translation3, Unit, Vector3};
+use nalgebra::{Matrix3, Rotation3, Translation3, Unit, Vector3};
 
 use crate::Transform;
 
 /// The most joints a chain may have.
-pub const MAX_CHAIN_JOINTS: usize = 7;
+pub const MAX_CHAIN_JOINTS: usize = crate::MAX_JOINTS;
 /// The fewest joints a chain may have: six, to move the camera in all six directions.
-pub const MIN_CHAIN_JOINTS: usize = 6;
+pub const MIN_CHAIN_JOINTS: usize = crate::DH_JOINTS;
 
 /// One revolute joint of a chain: where it sits on its parent link and the axis it turns about.
 #[derive(Debug, Clone, PartialEq)]
@@ -58,9 +58,9 @@ pub struct ChainFrames {
 impl ChainFrames {
     /// The geometric Jacobian in the base frame, rows `[v; ω]` of the tool origin; columns past
     /// `joint_count` are zero.
-    pub fn jacobian_base(&self) -> SMatrix<f64, 6, MAX_CHAIN_JOINTS> {
+    pub fn jacobian_base(&self) -> crate::Jacobian {
         let tool_origin = self.tool.translation.vector;
-        let mut jacobian = SMatrix::<f64, 6, MAX_CHAIN_JOINTS>::zeros();
+        let mut jacobian = crate::Jacobian::zeros();
         for i in 0..self.joint_count {
             let linear = self.axes[i].cross(&(tool_origin - self.points[i]));
             jacobian.fixed_view_mut::<3, 1>(0, i).copy_from(&linear);

@@ -11,7 +11,7 @@
 
 use nalgebra::{Matrix3, Vector3};
 
-use crate::{JOINTS, JointMatrix, JointVector, SerialArm};
+use crate::{DH_JOINTS, JointMatrix, JointVector, SerialArm};
 
 /// Why forward dynamics could not produce an acceleration.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
@@ -37,13 +37,13 @@ impl SerialArm {
         let z = Vector3::z();
         // outward: velocities and accelerations of each link, in its own frame
         let sin_cos = self.joint_sin_cos(q);
-        let mut forces = [Vector3::zeros(); JOINTS];
-        let mut moments = [Vector3::zeros(); JOINTS];
+        let mut forces = [Vector3::zeros(); DH_JOINTS];
+        let mut moments = [Vector3::zeros(); DH_JOINTS];
         let mut omega = Vector3::zeros();
         let mut omega_dot = Vector3::zeros();
         // a base accelerating upwards is gravity pulling down
         let mut accel = -gravity_in_base;
-        for (i, link) in self.links.iter().enumerate() {
+        for (i, link) in self.dh_links().iter().enumerate() {
             let dh = &link.dh;
             let (s, c) = sin_cos[i];
             let origin = dh.origin_in_this();
@@ -64,10 +64,10 @@ impl SerialArm {
         let mut tau = JointVector::zeros();
         let mut force = Vector3::zeros();
         let mut moment = Vector3::zeros();
-        for i in (0..JOINTS).rev() {
+        for i in (0..DH_JOINTS).rev() {
             let link = &self.links[i];
             let origin = link.dh.origin_in_this();
-            let (child_force, child_moment) = if i + 1 < JOINTS {
+            let (child_force, child_moment) = if i + 1 < DH_JOINTS {
                 let child = &self.links[i + 1].dh;
                 let (s, c) = sin_cos[i + 1];
                 (child.express_in_prev(c, s, &force), child.express_in_prev(c, s, &moment))
@@ -109,7 +109,7 @@ impl SerialArm {
     pub fn mass_matrix_rigid(&self, q: &JointVector) -> JointMatrix {
         let frames = self.frames(q);
         // each joint's axis as a line: direction s and moment o × s
-        let axes: [(Vector3<f64>, Vector3<f64>); JOINTS] = std::array::from_fn(|j| {
+        let axes: [(Vector3<f64>, Vector3<f64>); DH_JOINTS] = std::array::from_fn(|j| {
             let (axis, point) = frames.joint_axis(j);
             (axis, point.cross(&axis))
         });
@@ -118,7 +118,7 @@ impl SerialArm {
         let mut composite_mass = 0.0;
         let mut first_moment = Vector3::zeros();
         let mut inertia_about_origin = SymmetricMatrix3::default();
-        for j in (0..JOINTS).rev() {
+        for j in (0..DH_JOINTS).rev() {
             let link = &self.links[j];
             let rotation = frames.rotations[j];
             let m = link.inertia.mass_kg;
@@ -145,10 +145,18 @@ impl SerialArm {
     /// The mass matrix with the drives' armature inertia G²J_m on the diagonal.
     pub fn mass_matrix(&self, q: &JointVector) -> JointMatrix {
         let mut mass = self.mass_matrix_rigid(q);
-        for (i, link) in self.links.iter().enumerate() {
+        for (i, link) in self.dh_links().iter().enumerate() {
             mass[(i, i)] += link.drive.reflected_inertia();
         }
         mass
+    }
+
+    /// M(q) q̈ with the full model's mass matrix (armature included), over a DH arm's six joints.
+    pub fn inertia_torque(&self, q: &JointVector, qdd: &JointVector) -> JointVector {
+        let torque = self.mass_matrix(q) * qdd.fixed_rows::<DH_JOINTS>(0);
+        let mut padded = JointVector::zeros();
+        padded.fixed_rows_mut::<DH_JOINTS>(0).copy_from(&torque);
+        padded
     }
 
     /// The Coriolis and centrifugal matrix C(q, q̇) built from the Christoffel symbols of M, so that
@@ -162,24 +170,27 @@ impl SerialArm {
         let unit = |j: usize| JointVector::from_fn(|k, _| if k == j { 1.0 } else { 0.0 });
         // torque from a single unit joint speed: the squared terms Γ_ijj
         let mut squared = JointMatrix::zeros();
-        for j in 0..JOINTS {
-            squared.set_column(j, &self.rne_rigid_with_gravity(q, &unit(j), &zero, &zero_g));
+        for j in 0..DH_JOINTS {
+            squared.set_column(
+                j,
+                &self.rne_rigid_with_gravity(q, &unit(j), &zero, &zero_g).fixed_rows::<DH_JOINTS>(0),
+            );
         }
         let mut coriolis = JointMatrix::zeros();
-        for j in 0..JOINTS {
-            for k in (j + 1)..JOINTS {
+        for j in 0..DH_JOINTS {
+            for k in (j + 1)..DH_JOINTS {
                 // from unit speeds on j and k: Γ_ijj + Γ_ikk + 2Γ_ijk
                 let pair = unit(j) + unit(k);
                 let tau = self.rne_rigid_with_gravity(q, &pair, &zero, &zero_g);
-                let cross = (tau - squared.column(j) - squared.column(k)) * 0.5;
-                for i in 0..JOINTS {
+                let cross = (tau.fixed_rows::<DH_JOINTS>(0) - squared.column(j) - squared.column(k)) * 0.5;
+                for i in 0..DH_JOINTS {
                     coriolis[(i, k)] += cross[i] * qd[j];
                     coriolis[(i, j)] += cross[i] * qd[k];
                 }
             }
         }
-        for j in 0..JOINTS {
-            for i in 0..JOINTS {
+        for j in 0..DH_JOINTS {
+            for i in 0..DH_JOINTS {
                 coriolis[(i, j)] += squared[(i, j)] * qd[j];
             }
         }
@@ -210,10 +221,16 @@ impl SerialArm {
     }
 }
 
+/// M⁻¹ rhs over a DH arm's six joints (the seventh entry of the result zero).
 fn solve_mass(mass: JointMatrix, rhs: JointVector) -> Result<JointVector, DynamicsError> {
     let cholesky = mass.cholesky().ok_or(DynamicsError::MassMatrixNotPositiveDefinite)?;
-    let qdd = cholesky.solve(&rhs);
-    if qdd.iter().all(|v| v.is_finite()) { Ok(qdd) } else { Err(DynamicsError::NonFinite) }
+    let qdd = cholesky.solve(&rhs.fixed_rows::<DH_JOINTS>(0));
+    if !qdd.iter().all(|v| v.is_finite()) {
+        return Err(DynamicsError::NonFinite);
+    }
+    let mut padded = JointVector::zeros();
+    padded.fixed_rows_mut::<DH_JOINTS>(0).copy_from(&qdd);
+    Ok(padded)
 }
 
 /// A symmetric 3×3 matrix kept as its six distinct entries: the mass matrix's inertia sums touch half

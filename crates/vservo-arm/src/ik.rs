@@ -13,7 +13,7 @@ use std::fmt;
 
 use nalgebra::Matrix3;
 
-use crate::{JOINTS, JointVector, SerialArm, Transform};
+use crate::{DH_JOINTS, JointVector, SerialArm, Transform, six_joints};
 
 /// Left or right arm (shoulder on one side or the other of the waist axis).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -171,7 +171,7 @@ impl IkSolutions {
 /// `None` when some joint has no such value.
 pub fn shift_into_limits(arm: &SerialArm, q: &JointVector, reference: &JointVector) -> Option<JointVector> {
     let mut shifted = *q;
-    for j in 0..JOINTS {
+    for j in 0..arm.joint_count() {
         let limits = &arm.links[j].limits;
         let mut best: Option<f64> = None;
         for k in -3..=3 {
@@ -193,7 +193,7 @@ fn is_puma_like(arm: &SerialArm) -> Result<(), IkError> {
     }
     let close = |a: f64, b: f64| (a - b).abs() < 1e-12;
     let alphas = [FRAC_PI_2, 0.0, -FRAC_PI_2, FRAC_PI_2, -FRAC_PI_2, 0.0];
-    let dh = arm.links.map(|l| l.dh);
+    let dh = arm.dh_links().map(|l| l.dh);
     if !dh.iter().zip(alphas).all(|(d, alpha)| close(d.alpha(), alpha)) {
         return Err(IkError::UnsupportedGeometry(arm.name));
     }
@@ -237,7 +237,7 @@ fn solve_one(
     base_from_tool: &Matrix3<f64>,
     config: ArmConfig,
 ) -> Option<JointVector> {
-    let dh = arm.links.map(|l| l.dh);
+    let dh = arm.dh_links().map(|l| l.dh);
     let (a2, a3, d1, d3, d4) = (dh[1].a(), dh[2].a(), dh[0].d(), dh[2].d(), dh[3].d());
     let (px, py) = (wrist_centre.x, wrist_centre.y);
     let pz = wrist_centre.z - d1;
@@ -272,7 +272,7 @@ fn solve_one(
     let num = c2 * reach + s2 * pz - a2;
     let den = c2 * pz - s2 * reach;
     let q3 = a3.atan2(d4) - num.atan2(den);
-    let mut q = JointVector::new(wrap(q1), wrap(q2), wrap(q3), 0.0, 0.0, 0.0);
+    let mut q = six_joints([wrap(q1), wrap(q2), wrap(q3), 0.0, 0.0, 0.0]);
 
     // the wrist: link3_from_tool = Rz(q4) Ry(−q5) Rz(q6), ZYZ Euler angles with the middle one negated
     let frames = arm.frames(&q);
@@ -294,7 +294,7 @@ fn solve_one(
     q[3] = phi;
     q[4] = -theta;
     q[5] = psi;
-    for j in 0..JOINTS {
+    for j in 0..DH_JOINTS {
         q[j] -= dh[j].offset();
     }
     q.iter().all(|v| v.is_finite()).then_some(q)

@@ -50,24 +50,49 @@ pub use ik::{ArmConfig, IkSolution, IkSolutions};
 pub use limits::{JointLimits, LimitViolation, LimitedQuantity};
 pub use link::{DhParameters, Link, LinkInertia};
 
-use nalgebra::{IsometryMatrix3, Matrix6, Vector3, Vector6};
+use nalgebra::{IsometryMatrix3, Matrix6, SMatrix, SVector, Vector3};
 
-/// Number of joints of every arm this crate models.
-pub const JOINTS: usize = 6;
-/// A value per joint: angles (rad), velocities (rad/s), accelerations (rad/s²) or torques (N·m).
-pub type JointVector = Vector6<f64>;
-/// A 6×6 matrix over the joints (mass matrix, Coriolis matrix) or a Jacobian with rows `[v; ω]`.
+/// The most joints an arm may have: six to move the camera in all six directions, a seventh to spare.
+pub const MAX_JOINTS: usize = 7;
+/// The joints of an arm written as a standard-DH table (the PUMA 560): its kinematics, closed-form inverse
+/// kinematics and dynamics are over six joints.
+pub const DH_JOINTS: usize = 6;
+/// A value per joint: angles (rad), velocities (rad/s), accelerations (rad/s²) or torques (N·m). Room for
+/// [`MAX_JOINTS`]; the entries past the arm's [`SerialArm::joint_count`] are zero.
+pub type JointVector = SVector<f64, MAX_JOINTS>;
+/// A 6×6 matrix over a DH arm's joints (mass matrix, Coriolis matrix).
 pub type JointMatrix = Matrix6<f64>;
+/// The geometric Jacobian, rows `[v; ω]`, a column per joint; the columns past the arm's joint count are
+/// zero.
+pub type Jacobian = SMatrix<f64, 6, MAX_JOINTS>;
+/// A rigid-body velocity or a pose error, `[v; ω]`.
+pub type Twist6 = nalgebra::Vector6<f64>;
+
+/// The values of up to [`MAX_JOINTS`] joints as a [`JointVector`], the entries past them zero; `None` for
+/// more.
+pub fn joint_vector(values: &[f64]) -> Option<JointVector> {
+    (values.len() <= MAX_JOINTS).then(|| JointVector::from_fn(|i, _| values.get(i).copied().unwrap_or(0.0)))
+}
+
+/// A six-joint arm's values as a [`JointVector`] (the seventh entry zero).
+pub const fn six_joints(values: [f64; 6]) -> JointVector {
+    let [a, b, c, d, e, f] = values;
+    JointVector::from_array_storage(nalgebra::ArrayStorage([[a, b, c, d, e, f, 0.0]]))
+}
 /// A rigid transform held as a rotation matrix and a translation: `a_from_b` maps points in `b` to `a`.
 pub type Transform = IsometryMatrix3<f64>;
 
-/// A six-joint revolute serial arm in standard DH form, with its inertial, drive and limit data.
+/// A revolute serial arm of six or seven joints, in standard DH form (six) or as a URDF chain, with its
+/// inertial, drive and limit data.
 #[derive(Debug, Clone, PartialEq)]
 pub struct SerialArm {
     /// A name for messages ("PUMA 560").
     pub name: &'static str,
-    /// The links from the base outwards; link `i` moves with joint `i`.
-    pub links: [Link; JOINTS],
+    /// The links from the base outwards; link `i` moves with joint `i`. The links past
+    /// [`Self::joint_count`] are [`Link::UNUSED`].
+    pub links: [Link; MAX_JOINTS],
+    /// How many joints the arm has: six, or seven for a URDF chain.
+    joint_count: usize,
     /// The acceleration of gravity in the base frame (m/s²), `[0, 0, −9.81]` for a floor-mounted arm.
     pub gravity_in_base: Vector3<f64>,
     /// How the joints are placed: by the links' DH parameters, or by a robot description's chain.
@@ -89,39 +114,62 @@ pub enum Geometry {
 impl SerialArm {
     /// An arm known by its kinematics only: a standard-DH table and joint limits, no mass and no drive
     /// model (what a velocity- or position-commanded arm needs: forward kinematics, Jacobians, reach).
-    pub fn kinematic(name: &'static str, dh: [DhParameters; JOINTS], limits: [JointLimits; JOINTS]) -> Self {
-        let massless = LinkInertia {
-            mass_kg: 0.0,
-            com_in_link: Vector3::zeros(),
-            inertia_about_com: nalgebra::Matrix3::zeros(),
-        };
+    pub fn kinematic(
+        name: &'static str,
+        dh: [DhParameters; DH_JOINTS],
+        limits: [JointLimits; DH_JOINTS],
+    ) -> Self {
+        let links = std::array::from_fn(|j| Link { dh: dh[j], limits: limits[j], ..Link::UNUSED });
+        Self::dh(name, links)
+    }
+
+    /// A six-joint arm in standard DH form from its links (mass, drive and limits).
+    pub fn dh(name: &'static str, links: [Link; DH_JOINTS]) -> Self {
         Self {
             name,
-            links: std::array::from_fn(|j| Link {
-                dh: dh[j],
-                inertia: massless,
-                drive: Drive::NONE,
-                limits: limits[j],
-            }),
+            links: std::array::from_fn(|j| links.get(j).copied().unwrap_or(Link::UNUSED)),
+            joint_count: DH_JOINTS,
             gravity_in_base: Vector3::new(0.0, 0.0, -9.81),
             geometry: Geometry::Dh,
         }
     }
 
-    /// A six-joint arm known by a URDF chain and joint limits (kinematics only, like [`Self::kinematic`]).
-    /// `None` when the chain does not have exactly [`JOINTS`] joints.
-    pub fn from_chain(name: &'static str, chain: Chain, limits: [JointLimits; JOINTS]) -> Option<Self> {
-        if chain.joint_count() != JOINTS {
+    /// An arm of six or seven joints known by a URDF chain and joint limits, one per joint of the chain
+    /// (kinematics only, like [`Self::kinematic`]). `None` when the chain has fewer than six or more than
+    /// [`MAX_JOINTS`] joints, or the limits are not one per joint.
+    pub fn from_chain(name: &'static str, chain: Chain, limits: &[JointLimits]) -> Option<Self> {
+        let joint_count = chain.joint_count();
+        if !(DH_JOINTS..=MAX_JOINTS).contains(&joint_count) || limits.len() != joint_count {
             return None;
         }
-        let unused = DhParameters::new(0.0, 0.0, 0.0, 0.0);
-        let mut arm = Self::kinematic(name, [unused; JOINTS], limits);
-        arm.geometry = Geometry::Chain(std::sync::Arc::new(chain));
-        Some(arm)
+        Some(Self {
+            name,
+            links: std::array::from_fn(|j| {
+                limits.get(j).map_or(Link::UNUSED, |&limits| Link { limits, ..Link::UNUSED })
+            }),
+            joint_count,
+            gravity_in_base: Vector3::new(0.0, 0.0, -9.81),
+            geometry: Geometry::Chain(std::sync::Arc::new(chain)),
+        })
+    }
+
+    /// How many joints the arm has (six or seven).
+    pub fn joint_count(&self) -> usize {
+        self.joint_count
+    }
+
+    /// The arm's links, one per joint.
+    pub fn joints(&self) -> &[Link] {
+        &self.links[..self.joint_count]
+    }
+
+    /// A DH arm's six links (for a chain: unused placeholders).
+    pub(crate) fn dh_links(&self) -> &[Link; DH_JOINTS] {
+        self.links.first_chunk::<DH_JOINTS>().unwrap_or(&[Link::UNUSED; DH_JOINTS])
     }
 
     /// The joint limits, one per joint.
-    pub fn limits(&self) -> [JointLimits; JOINTS] {
-        self.links.map(|link| link.limits)
+    pub fn limits(&self) -> impl ExactSizeIterator<Item = JointLimits> + '_ {
+        self.joints().iter().map(|link| link.limits)
     }
 }

@@ -97,7 +97,7 @@ impl crate::SerialArm {
         quantity: LimitedQuantity,
         range: impl Fn(&JointLimits) -> (f64, f64),
     ) -> Result<(), LimitViolation> {
-        for (joint, (link, &value)) in self.links.iter().zip(values.iter()).enumerate() {
+        for (joint, (link, &value)) in self.joints().iter().zip(values.iter()).enumerate() {
             let (min, max) = range(&link.limits);
             // written so that NaN fails the test
             if !(value >= min && value <= max) {

@@ -242,3 +242,31 @@ pub struct Link {
     /// Position, velocity and torque limits of the joint.
     pub limits: JointLimits,
 }
+
+impl Link {
+    /// A link that is not there: the slots of an arm's links past its joint count, and the DH, mass and
+    /// drive of a chain's links (zero DH parameters, no mass, no drive, zero limits).
+    pub const UNUSED: Link = Link {
+        dh: DhParameters {
+            a_m: 0.0,
+            alpha: 0.0,
+            d_m: 0.0,
+            offset: 0.0,
+            cos_alpha: 1.0,
+            sin_alpha: 0.0,
+            twist: Twist::Zero,
+        },
+        inertia: LinkInertia {
+            mass_kg: 0.0,
+            com_in_link: Vector3::new(0.0, 0.0, 0.0),
+            inertia_about_com: Matrix3::new(0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0),
+        },
+        drive: crate::Drive::NONE,
+        limits: crate::JointLimits {
+            position_min: 0.0,
+            position_max: 0.0,
+            velocity_max: 0.0,
+            torque_max: 0.0,
+        },
+    };
+}

@@ -14,21 +14,19 @@
 
 use std::f64::consts::{FRAC_PI_2, FRAC_PI_4, PI};
 
-use nalgebra::Vector3;
-
-use crate::{DhParameters, Drive, JointLimits, JointVector, Link, LinkInertia, SerialArm};
+use crate::{DhParameters, Drive, JointLimits, JointVector, Link, LinkInertia, SerialArm, six_joints};
 
 /// Pedestal height plus shoulder: d₁ = 26.45 in (m).
 pub const D1_M: f64 = 26.45 * 0.0254;
 
 /// Zero angles: the arm in an 'L' (wrist singular).
-pub const QZ: JointVector = JointVector::new(0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
+pub const QZ: JointVector = six_joints([0.0, 0.0, 0.0, 0.0, 0.0, 0.0]);
 /// Ready: the arm straight up (wrist singular).
-pub const QR: JointVector = JointVector::new(0.0, FRAC_PI_2, -FRAC_PI_2, 0.0, 0.0, 0.0);
+pub const QR: JointVector = six_joints([0.0, FRAC_PI_2, -FRAC_PI_2, 0.0, 0.0, 0.0]);
 /// Stretched out horizontally along base x (singular).
-pub const QS: JointVector = JointVector::new(0.0, 0.0, -FRAC_PI_2, 0.0, 0.0, 0.0);
+pub const QS: JointVector = six_joints([0.0, 0.0, -FRAC_PI_2, 0.0, 0.0, 0.0]);
 /// Nominal table-top pose, well away from singularities; vservo's desired pose.
-pub const QN: JointVector = JointVector::new(0.0, FRAC_PI_4, -PI, 0.0, FRAC_PI_4, 0.0);
+pub const QN: JointVector = six_joints([0.0, FRAC_PI_4, -PI, 0.0, FRAC_PI_4, 0.0]);
 
 /// The named poses, for the command line and messages.
 pub const NAMED_POSES: [(&str, JointVector); 4] = [("qz", QZ), ("qr", QR), ("qs", QS), ("qn", QN)];
@@ -74,9 +72,9 @@ fn link(
 
 /// The PUMA 560 with armature inertia and friction (the toolbox's full model).
 pub fn puma560() -> SerialArm {
-    SerialArm {
-        name: "PUMA 560",
-        links: [
+    SerialArm::dh(
+        "PUMA 560",
+        [
             link(
                 (0.0, FRAC_PI_2, D1_M),
                 0.0,
@@ -138,9 +136,7 @@ pub fn puma560() -> SerialArm {
                 21.3,
             ),
         ],
-        gravity_in_base: Vector3::new(0.0, 0.0, -9.81),
-        geometry: crate::Geometry::Dh,
-    }
+    )
 }
 
 /// The same arm with the motors' armature inertia and friction removed: the rigid-body model alone.

@@ -69,12 +69,12 @@ impl SerialArm {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::puma560;
+    use crate::{puma560, six_joints};
 
     #[test]
     fn the_numerical_solution_agrees_with_the_closed_form_near_the_seed() {
         let arm = puma560::puma560();
-        let q = puma560::QN + JointVector::new(0.2, -0.1, 0.15, 0.3, -0.2, 0.4);
+        let q = puma560::QN + six_joints([0.2, -0.1, 0.15, 0.3, -0.2, 0.4]);
         let target = arm.base_from_tool(&q);
         let closed = arm.reach(&target, &puma560::QN).expect("reachable");
         let numerical = numerical_ik(&arm, &target, &puma560::QN).expect("converges");
@@ -100,8 +100,8 @@ mod tests {
             torque_max: f64::INFINITY,
         };
         let arm = SerialArm::kinematic("UR5-like", dh, [limits; 6]);
-        let seed = JointVector::new(0.1, -1.2, 1.5, -0.4, 1.4, 0.2);
-        let q = seed + JointVector::new(0.1, 0.05, -0.1, 0.2, -0.1, 0.3);
+        let seed = six_joints([0.1, -1.2, 1.5, -0.4, 1.4, 0.2]);
+        let q = seed + six_joints([0.1, 0.05, -0.1, 0.2, -0.1, 0.3]);
         let target = arm.base_from_tool(&q);
         assert!(matches!(arm.inverse_kinematics(&target), Err(IkError::UnsupportedGeometry(_))));
         let reached = arm.reach(&target, &seed).expect("reachable");

@@ -2,20 +2,27 @@
 
 use nalgebra::{Matrix3, Vector3};
 use proptest::prelude::*;
-use vservo_arm::{JointVector, SerialArm, puma560};
+use vservo_arm::{JointMatrix, JointVector, SerialArm, puma560, six_joints};
 
 fn arm() -> SerialArm {
     puma560::puma560()
 }
 
 fn configuration() -> impl Strategy<Value = JointVector> {
-    let limits = arm().limits();
-    let ranges: Vec<_> = limits.iter().map(|l| l.position_min..l.position_max).collect();
-    ranges.prop_map(|q| JointVector::from_column_slice(&q))
+    let arm = arm();
+    let limits = arm.limits();
+    let ranges: Vec<_> = limits.map(|l| l.position_min..l.position_max).collect();
+    ranges.prop_map(|q| JointVector::from_fn(|i, _| q.get(i).copied().unwrap_or(0.0)))
 }
 
 fn joint_vector(magnitude: f64) -> impl Strategy<Value = JointVector> {
-    proptest::array::uniform6(-magnitude..magnitude).prop_map(JointVector::from)
+    proptest::array::uniform6(-magnitude..magnitude).prop_map(six_joints)
+}
+
+/// A 6×6 matrix over the PUMA's joints times a joint vector (the seventh entry zero).
+fn times(matrix: &JointMatrix, v: &JointVector) -> JointVector {
+    let product = matrix * v.fixed_rows::<6>(0);
+    JointVector::from_fn(|i, _| product.get(i).copied().unwrap_or(0.0))
 }
 
 /// The small rotation that turns `from` into `to`, as a vector: the skew part of to · fromᵀ
@@ -82,12 +89,12 @@ proptest! {
         q in configuration(), qd in joint_vector(2.0), qdd in joint_vector(5.0)
     ) {
         let arm = arm();
-        let lagrange = arm.mass_matrix_rigid(&q) * qdd + arm.coriolis_matrix(&q, &qd) * qd
+        let lagrange = times(&arm.mass_matrix_rigid(&q), &qdd) + times(&arm.coriolis_matrix(&q, &qd), &qd)
             + arm.gravity_torque(&q);
         let rne = arm.rne_rigid(&q, &qd, &qdd);
         prop_assert!((rne - lagrange).amax() < 1e-9, "rne {rne} vs M qdd + C qd + g {lagrange}");
         // the drive terms add the armature to M and friction on top
-        let full = arm.mass_matrix(&q) * qdd + arm.coriolis_matrix(&q, &qd) * qd + arm.gravity_torque(&q)
+        let full = times(&arm.mass_matrix(&q), &qdd) + times(&arm.coriolis_matrix(&q, &qd), &qd) + arm.gravity_torque(&q)
             + arm.drive_torque(&qd, &JointVector::zeros());
         prop_assert!((arm.rne(&q, &qd, &qdd) - full).amax() < 1e-9);
     }
@@ -203,7 +210,7 @@ fn gravity_torque_vanishes_without_gravity_and_matches_a_finite_difference_of_po
             })
             .sum::<f64>()
     };
-    let q = JointVector::new(0.2, 0.7, -2.5, 0.3, 0.9, 0.1);
+    let q = six_joints([0.2, 0.7, -2.5, 0.3, 0.9, 0.1]);
     let g = arm.gravity_torque(&q);
     let h = 1e-6;
     for j in 0..6 {

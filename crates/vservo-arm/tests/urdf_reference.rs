@@ -8,7 +8,7 @@ use std::path::PathBuf;
 use nalgebra::{Matrix3, Vector3};
 use serde_json::Value;
 use vservo_arm::urdf;
-use vservo_arm::{JOINTS, JointLimits, JointVector, SerialArm};
+use vservo_arm::{JointLimits, JointVector, SerialArm, joint_vector};
 
 /// PyBullet reports link poses in single precision; its Jacobian is in double.
 const POSITION_TOLERANCE_M: f64 = 5e-7;
@@ -81,25 +81,33 @@ fn tool_poses_and_jacobians_match_pybullets_for_the_xarm6_and_the_panda() {
 }
 
 #[test]
-fn a_six_joint_urdf_arm_has_the_chains_kinematics() {
+fn a_urdf_arm_of_six_or_seven_joints_has_the_chains_kinematics() {
     let reference = reference();
-    let arm_reference = &reference["arms"]["xarm6"];
-    let urdf_arm = urdf::read(&urdf_path("xarm/xarm6_robot.urdf"), None, Some("link6")).expect("an arm");
-    let limits =
-        [JointLimits { position_min: -6.3, position_max: 6.3, velocity_max: 3.0, torque_max: 1.0 }; JOINTS];
-    let arm = SerialArm::from_chain("xArm6", urdf_arm.chain.clone(), limits).expect("six joints");
-    for sample in arm_reference["samples"].as_array().expect("samples") {
-        let q = JointVector::from_iterator(numbers(&sample["q_rad"]));
-        let frames = urdf_arm.chain.frames(q.as_slice());
-        let (tool, jacobian) = arm.base_from_tool_and_jacobian(&q);
-        assert_eq!(tool, frames.tool);
-        assert_eq!(jacobian, frames.jacobian_base().fixed_columns::<6>(0).into_owned());
-        assert_eq!(arm.link_frames(&q)[5], frames.tool);
-        assert_eq!(arm.link_frames(&q)[2], frames.links[2]);
-        // the closed-form IK is the PUMA's: another geometry is solved numerically
-        assert!(arm.inverse_kinematics(&tool).is_err());
-        let reached = arm.reach(&tool, &(q + JointVector::from_element(0.05))).expect("reachable near q");
-        assert!((arm.base_from_tool(&reached).translation.vector - tool.translation.vector).norm() < 1e-9);
+    for (name, joint_count) in [("xarm6", 6), ("panda", 7)] {
+        let arm_reference = &reference["arms"][name];
+        let file = urdf_path(arm_reference["urdf"].as_str().expect("urdf"));
+        let urdf_arm = urdf::read(&file, None, arm_reference["tip_link"].as_str()).expect("an arm");
+        let limits =
+            [JointLimits { position_min: -6.3, position_max: 6.3, velocity_max: 3.0, torque_max: 1.0 }; 7];
+        let arm = SerialArm::from_chain(name, urdf_arm.chain.clone(), &limits[..joint_count])
+            .expect("six or seven");
+        assert_eq!(arm.joint_count(), joint_count);
+        for sample in arm_reference["samples"].as_array().expect("samples") {
+            let q = joint_vector(&numbers(&sample["q_rad"])).expect("at most seven");
+            let frames = urdf_arm.chain.frames(q.as_slice());
+            let (tool, jacobian) = arm.base_from_tool_and_jacobian(&q);
+            assert_eq!(tool, frames.tool);
+            assert_eq!(jacobian, frames.jacobian_base());
+            assert_eq!(arm.link_frames(&q)[joint_count - 1], frames.tool);
+            assert_eq!(arm.link_frames(&q)[2], frames.links[2]);
+            // the closed-form IK is the PUMA's: another geometry is solved numerically
+            assert!(arm.inverse_kinematics(&tool).is_err());
+            let near = q + joint_vector(&vec![0.05; joint_count]).expect("seven at most");
+            let reached = arm.reach(&tool, &near).expect("reachable near q");
+            assert!(
+                (arm.base_from_tool(&reached).translation.vector - tool.translation.vector).norm() < 1e-9
+            );
+        }
     }
 }
 
@@ -112,8 +120,8 @@ fn the_ur5e_urdf_is_the_ur5e_dh_table() {
     use vservo_arm::DhParameters;
     let urdf = urdf::read(&root().join("config/arms/ur5e.urdf"), None, Some("flange")).expect("the UR5e");
     let limits =
-        [JointLimits { position_min: -6.3, position_max: 6.3, velocity_max: 3.2, torque_max: 1.0 }; JOINTS];
-    let from_urdf = SerialArm::from_chain("UR5e (URDF)", urdf.chain, limits).expect("six joints");
+        [JointLimits { position_min: -6.3, position_max: 6.3, velocity_max: 3.2, torque_max: 1.0 }; 6];
+    let from_urdf = SerialArm::from_chain("UR5e (URDF)", urdf.chain, &limits).expect("six joints");
     let dh = [
         DhParameters::new(0.0, FRAC_PI_2, 0.1625, 0.0),
         DhParameters::new(-0.425, 0.0, 0.0, 0.0),
@@ -125,7 +133,9 @@ fn the_ur5e_urdf_is_the_ur5e_dh_table() {
     let from_dh = SerialArm::kinematic("UR5e (DH)", dh, limits);
     let mut worst = (0.0_f64, 0.0_f64);
     for k in 0..50 {
-        let q = JointVector::from_fn(|j, _| 3.0 * ((k * 7 + j * 13) as f64 * 0.37).sin());
+        let q = JointVector::from_fn(
+            |j, _| if j < 6 { 3.0 * ((k * 7 + j * 13) as f64 * 0.37).sin() } else { 0.0 },
+        );
         let (a, ja) = from_urdf.base_from_tool_and_jacobian(&q);
         let (b, jb) = from_dh.base_from_tool_and_jacobian(&q);
         worst.0 = worst.0.max((a.to_homogeneous() - b.to_homogeneous()).amax());

@@ -62,6 +62,11 @@ impl PlantStage {
         self.plant.state()
     }
 
+    /// The simulated arm.
+    pub fn arm(&self) -> &vservo_arm::SerialArm {
+        self.plant.arm()
+    }
+
     /// The plant's mode.
     pub fn mode(&self) -> PlantMode {
         self.plant.mode()

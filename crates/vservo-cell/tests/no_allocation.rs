@@ -79,7 +79,8 @@ fn an_arm_from_a_urdf_allocates_nothing_per_tick_or_frame() {
             .expect("the xArm6 config loads");
     runs_without_allocating(config);
 
-    use vservo_sim::redundancy::{ChainVector, Damping, NullSpaceTask, resolve};
+    use vservo_arm::JointVector;
+    use vservo_sim::redundancy::{Damping, NullSpaceTask, resolve};
     let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../target/pybullet_data/franka_panda/panda.urdf");
     let panda =
         vservo_arm::urdf::read(std::path::Path::new(path), None, Some("panda_link8")).expect("the Panda");
@@ -97,12 +98,14 @@ fn an_arm_from_a_urdf_allocates_nothing_per_tick_or_frame() {
         })
         .collect();
     let damping = Damping { manipulability_threshold: 0.01, max_damping: 0.05 };
-    let mut q = ChainVector::from_column_slice(&[2.9, -0.785, 0.0, -2.356, 0.0, 1.571, 0.785]);
+    let mut q = JointVector::from_column_slice(&[2.9, -0.785, 0.0, -2.356, 0.0, 1.571, 0.785]);
     let twist = nalgebra::Vector6::new(0.01, -0.02, 0.005, 0.01, 0.0, -0.01);
     let allocations = allocations_in(|| {
         for _ in 0..1000 {
             let frames = panda.chain.frames(q.as_slice());
-            q += resolve(&frames, &q, &limits, &twist, &damping, &NullSpaceTask::default()).qd * 0.001;
+            q += resolve(&frames.jacobian_base(), &q, &limits, &twist, &damping, &NullSpaceTask::default())
+                .qd
+                * 0.001;
         }
     });
     assert_eq!(

@@ -361,7 +361,17 @@ pub struct RawInterpolator {
     pub max_damping: f64,
     pub stale_twist_frames: f64,
     pub stop_ramp_s: f64,
-    pub acceleration_limit_rad_s2: [f64; 6],
+    pub acceleration_limit_rad_s2: Vec<f64>,
+    pub null_space: RawNullSpace,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawNullSpace {
+    pub limit_zone_rad: f64,
+    pub limit_gain: f64,
+    pub posture_rad: Option<Vec<f64>>,
+    pub posture_gain: f64,
 }
 
 #[derive(Debug, Deserialize)]

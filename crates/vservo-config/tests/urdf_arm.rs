@@ -112,7 +112,8 @@ fn what_vservo_cannot_honour_is_refused_naming_the_joint_and_why() {
         (urdf(6, 0, "", ""), "", "kinematic", "robot.arm.urdf", &["branches at link \"flange\"", "tip_link"]),
         (urdf(5, 0, "", ""), tip, "kinematic", "robot.arm.urdf", &["5 moving joints", "6 or 7"]),
         (urdf(8, 0, "", ""), tip, "kinematic", "robot.arm.urdf", &["8 moving joints"]),
-        (urdf(7, 0, "", ""), tip, "kinematic", "robot.arm.urdf", &["7 joints", "carry 6 so far"]),
+        // a seven-joint arm under the six angles of a six-joint arm's desired pose
+        (urdf(7, 0, "", ""), tip, "kinematic", "desired.joints_rad", &["must list the 7 joints"]),
         (
             urdf(6, 3, "continuous", ""),
             tip,
@@ -139,6 +140,55 @@ fn what_vservo_cannot_honour_is_refused_naming_the_joint_and_why() {
     scratch
         .load(&urdf(6, 3, "continuous", r#"<limit velocity="2" effort="1"/>"#), keys, "kinematic")
         .expect("bounded");
+}
+
+/// A seven-joint arm takes a value per joint where the keys are per joint: the desired pose, the acceleration
+/// limits, the null-space posture; six values are refused naming the key.
+#[test]
+fn a_seven_joint_arm_takes_seven_values_per_joint_key() {
+    let scratch = Scratch::new("seven");
+    let seven = |text: &str| {
+        text.replacen(
+            "joints_rad = [0.3, 0.5, -0.4, 0.6, 0.7, 0.2]",
+            "joints_rad = [0.3, 0.5, -0.4, 0.6, 0.7, 0.2, 0.1]",
+            1,
+        )
+    };
+    let tip = "tip_link = \"flange\"";
+    std::fs::write(scratch.0.join("arm.urdf"), urdf(7, 0, "", "")).expect("written");
+    let write_and_load = |text: String| {
+        let path = scratch.0.join("seven.toml");
+        std::fs::write(&path, text).expect("written");
+        Config::load(&path)
+    };
+    let text = seven(
+        &DEFAULT
+            .replacen("preset = \"puma560\"", &format!("preset = \"urdf\"\nurdf = \"arm.urdf\"\n{tip}"), 1)
+            .replacen("mode = \"dynamic\"", "mode = \"kinematic\"", 1)
+            .replacen(
+                "joints_rad = [0.0, 0.7853981633974483, -3.141592653589793, 0.0, 0.7853981633974483, 0.0]",
+                "joints_rad = [0.3, 0.5, -0.4, 0.6, 0.7, 0.2]",
+                1,
+            ),
+    );
+    let (key, message) = refusal(write_and_load(text.clone()));
+    assert_eq!(key, "interpolator.acceleration_limit_rad_s2", "{message}");
+    assert!(message.contains("must list the 7 joints"), "{message}");
+    let accelerations = "acceleration_limit_rad_s2 = [22.5, 22.5, 45.0, 90.0, 90.0, 90.0, 90.0]";
+    let text =
+        text.replacen("acceleration_limit_rad_s2 = [22.5, 22.5, 45.0, 90.0, 90.0, 90.0]", accelerations, 1);
+    let config = write_and_load(text.clone()).expect("seven values each");
+    assert_eq!(config.arm.joint_count(), 7);
+    assert_eq!(config.desired.joints[6], 0.1);
+    assert_eq!(config.interpolator.acceleration_limit[6], 90.0);
+    assert_eq!(config.interpolator.null_space.posture, None);
+    let posture = |values: &str| {
+        text.replacen("posture_gain = 0.5", &format!("posture_gain = 0.5\nposture_rad = {values}"), 1)
+    };
+    let (key, message) = refusal(write_and_load(posture("[0.0, 0.0, 0.0, 0.0, 0.0, 0.0]")));
+    assert_eq!(key, "interpolator.null_space.posture_rad", "{message}");
+    let config = write_and_load(posture("[0.0, 0.1, 0.0, -0.5, 0.0, 0.7, 0.0]")).expect("a posture of seven");
+    assert_eq!(config.interpolator.null_space.posture.map(|p| p[5]), Some(0.7));
 }
 
 #[test]

@@ -61,10 +61,11 @@ wire_message! {
 }
 
 impl JointStateMsg {
-    /// The joint angles of an arm of `N` joints: the first `N` slots of `q_rad`, if the state says it is of
-    /// such an arm (`joint_count`); `None` for another arm's.
-    pub fn arm_q_rad<const N: usize>(&self) -> Option<[f64; N]> {
-        (self.joint_count as usize == N && N <= MAX_JOINTS).then(|| std::array::from_fn(|j| self.q_rad[j]))
+    /// The joint angles of an arm of `joint_count` joints: the first `joint_count` slots of `q_rad`, the others
+    /// zero, if the state says it is of such an arm (`joint_count`); `None` for another arm's.
+    pub fn arm_q_rad(&self, joint_count: usize) -> Option<[f64; MAX_JOINTS]> {
+        (self.joint_count as usize == joint_count)
+            .then(|| std::array::from_fn(|j| if j < joint_count { self.q_rad[j] } else { 0.0 }))
     }
 }
 
@@ -565,12 +566,16 @@ mod tests {
 
     #[test]
     fn an_arms_joint_angles_are_taken_only_from_a_state_of_its_joint_count() {
-        let state = JointStateMsg { q_rad: [1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 0.0], ..JointStateMsg::default() };
-        assert_eq!(state.arm_q_rad::<6>(), Some([1.0, 2.0, 3.0, 4.0, 5.0, 6.0]));
-        assert_eq!(state.arm_q_rad::<7>(), None);
+        let state = JointStateMsg { q_rad: [1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 9.0], ..JointStateMsg::default() };
+        assert_eq!(
+            state.arm_q_rad(6),
+            Some([1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 0.0]),
+            "a stray seventh slot ignored"
+        );
+        assert_eq!(state.arm_q_rad(7), None);
         let seven = JointStateMsg { joint_count: 7, ..state };
-        assert_eq!(seven.arm_q_rad::<6>(), None);
-        assert_eq!(seven.arm_q_rad::<7>(), Some([1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 0.0]));
+        assert_eq!(seven.arm_q_rad(6), None);
+        assert_eq!(seven.arm_q_rad(7), Some([1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 9.0]));
     }
 
     // the layout docs/PROTOCOL.md documents; a change here must change the document and SCHEMA_VERSION

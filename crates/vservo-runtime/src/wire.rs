@@ -12,20 +12,27 @@ pub fn to_array<const N: usize>(v: &nalgebra::SVector<f64, N>) -> [f64; N] {
     out
 }
 
-/// The arm's joints as `joint_state` and `joint_command` carry them: in the first slots, the others zero.
+// the messages have a slot for every joint an arm may have
+const _: () = assert!(vservo_protocol::MAX_JOINTS == vservo_arm::MAX_JOINTS);
+
+/// The arm's joints as `joint_state` and `joint_command` carry them: in the first slots, the others zero (as a
+/// joint vector holds them).
 pub fn joints_to_wire(joints: &vservo_arm::JointVector) -> [f64; vservo_protocol::MAX_JOINTS] {
-    let mut out = [0.0; vservo_protocol::MAX_JOINTS];
-    out[..vservo_arm::JOINTS].copy_from_slice(joints.as_slice());
-    out
+    to_array(joints)
 }
 
-/// The arm's joints from the slots of `joint_state` or `joint_command` (the first [`ARM_JOINTS`]).
-pub fn joints_from_wire(slots: &[f64; vservo_protocol::MAX_JOINTS]) -> vservo_arm::JointVector {
-    vservo_arm::JointVector::from_column_slice(&slots[..vservo_arm::JOINTS])
+/// The first `joint_count` joints from the slots of `joint_state` or `joint_command`, the others zero.
+pub fn joints_from_wire(
+    slots: &[f64; vservo_protocol::MAX_JOINTS],
+    joint_count: u32,
+) -> vservo_arm::JointVector {
+    vservo_arm::JointVector::from_fn(|j, _| if j < joint_count as usize { slots[j] } else { 0.0 })
 }
 
-/// The joint count the messages of this build's arms carry (`joint_count`).
-pub const ARM_JOINTS: u32 = vservo_arm::JOINTS as u32;
+/// The joint count the messages of `arm` carry (`joint_count`).
+pub fn wire_joint_count(arm: &vservo_arm::SerialArm) -> u32 {
+    arm.joint_count() as u32
+}
 
 /// The wire enum of a command interface.
 pub fn command_mode(interface: vservo_config::CommandInterface) -> vservo_protocol::CommandMode {

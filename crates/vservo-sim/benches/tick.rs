@@ -38,7 +38,8 @@ fn tick(c: &mut Criterion) {
 /// the xArm6 through the same interpolator as the PUMA, and the Panda's seven joints through forward
 /// kinematics, the Jacobian and the redundancy resolution (the part of its tick that differs).
 fn urdf_arms(c: &mut Criterion) {
-    use vservo_sim::redundancy::{ChainVector, Damping, NullSpaceTask, resolve};
+    use vservo_arm::JointVector;
+    use vservo_sim::redundancy::{Damping, NullSpaceTask, resolve};
     let data = concat!(env!("CARGO_MANIFEST_DIR"), "/../../target/pybullet_data");
     let config =
         Config::load(concat!(env!("CARGO_MANIFEST_DIR"), "/../../config/arms/xarm6.toml")).expect("valid");
@@ -79,14 +80,14 @@ fn urdf_arms(c: &mut Criterion) {
             }
         })
         .collect();
-    let q = ChainVector::from_column_slice(&[2.9, -0.785, 0.0, -2.356, 0.0, 1.571, 0.785]);
+    let q = JointVector::from_column_slice(&[2.9, -0.785, 0.0, -2.356, 0.0, 1.571, 0.785]);
     let damping = Damping { manipulability_threshold: 0.01, max_damping: 0.05 };
     let task = NullSpaceTask::default();
     let tool_twist = nalgebra::Vector6::new(0.01, -0.02, 0.005, 0.01, 0.0, -0.01);
     c.bench_function("redundant_rates_panda_7_joints", |b| {
         b.iter(|| {
             let frames = panda.chain.frames(black_box(q.as_slice()));
-            resolve(&frames, &q, &limits, black_box(&tool_twist), &damping, &task)
+            resolve(&frames.jacobian_base(), &q, &limits, black_box(&tool_twist), &damping, &task)
         })
     });
 }

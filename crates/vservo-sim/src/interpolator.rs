@@ -1,9 +1,13 @@
 //! The 1 ms resolved-motion-rate interpolator: from the camera twist the servo sends every vision frame to
 //! a joint reference every tick.
 
-use nalgebra::{Matrix6, Vector3};
-use vservo_arm::{JOINTS, JointVector, SerialArm, Transform};
+use nalgebra::{Matrix6, Vector3, Vector6};
+use vservo_arm::{
+    DH_JOINTS, Jacobian, JointLimits, JointVector, MAX_JOINTS, SerialArm, Transform, six_joints,
+};
 use vservo_control::Twist;
+
+use crate::redundancy::{self, Damping, NullSpaceTask};
 
 /// How the twist is held between vision frames.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -36,6 +40,8 @@ pub struct InterpolatorSettings {
     /// velocity; passed on raw, its acceleration (Δq̇/1 ms) would ask the joint servo for more torque than
     /// the motors have. The change is scaled as a whole, so the direction of motion is kept.
     pub acceleration_limit: JointVector,
+    /// What a seven-joint arm does with the joint it has to spare (a six-joint arm has none).
+    pub null_space: NullSpaceTask,
 }
 
 impl InterpolatorSettings {
@@ -50,7 +56,8 @@ impl InterpolatorSettings {
             stale_after_s: 2.0 * vision_period_s,
             stop_ramp_s: 0.2,
             // about what the PUMA's torque limits allow over its inertia at the nominal pose, with margin
-            acceleration_limit: JointVector::new(22.5, 22.5, 45.0, 90.0, 90.0, 90.0),
+            acceleration_limit: six_joints([22.5, 22.5, 45.0, 90.0, 90.0, 90.0]),
+            null_space: NullSpaceTask::default(),
         }
     }
 }
@@ -77,6 +84,8 @@ pub struct Reference {
 pub struct Interpolator {
     settings: InterpolatorSettings,
     arm: SerialArm,
+    /// The arm's joint limits, the slots past its joints unused (kept here so that a tick borrows a slice).
+    limits: [JointLimits; MAX_JOINTS],
     tool_from_camera: Transform,
     latest: Twist,
     previous: Twist,
@@ -95,6 +104,7 @@ impl Interpolator {
     ) -> Self {
         Self {
             settings,
+            limits: arm.links.map(|link| link.limits),
             arm,
             tool_from_camera,
             latest: Twist::zeros(),
@@ -155,26 +165,30 @@ impl Interpolator {
         let omega: Vector3<f64> = rotation * twist.fixed_rows::<3>(3);
         let tool_from_camera_origin = base_from_tool.translation.vector - base_from_camera.translation.vector;
         let v_tool = v_camera + omega.cross(&tool_from_camera_origin);
-        let mut tool_twist = JointVector::zeros();
+        let mut tool_twist = Vector6::zeros();
         tool_twist.fixed_rows_mut::<3>(0).copy_from(&v_tool);
         tool_twist.fixed_rows_mut::<3>(3).copy_from(&omega);
 
-        // one LU gives both the manipulability |det J| and, away from singularities, the solution
-        let lu = jacobian.lu();
-        let manipulability = lu.determinant().abs();
-        let (mut qd, damped) = if manipulability >= s.manipulability_threshold {
-            match lu.solve(&tool_twist) {
-                Some(qd) => (qd, false),
-                None => (damped_solve(&jacobian, &tool_twist, s.max_damping), true),
-            }
+        let joints = self.arm.joint_count();
+        let (mut qd, damped) = if joints == DH_JOINTS {
+            six_joint_rates(&jacobian, &tool_twist, s)
         } else {
-            let ratio = 1.0 - manipulability / s.manipulability_threshold;
-            (damped_solve(&jacobian, &tool_twist, s.max_damping * ratio), true)
+            let damping =
+                Damping { manipulability_threshold: s.manipulability_threshold, max_damping: s.max_damping };
+            let rates = redundancy::resolve(
+                &jacobian,
+                &q,
+                &self.limits[..joints],
+                &tool_twist,
+                &damping,
+                &s.null_space,
+            );
+            (rates.qd, rates.damped)
         };
         // joint speed limits: scale the whole vector, keeping the direction of motion
         let mut worst: f64 = 1.0;
-        for (j, link) in self.arm.links.iter().enumerate() {
-            worst = worst.max(qd[j].abs() / link.limits.velocity_max);
+        for (j, limits) in self.limits[..joints].iter().enumerate() {
+            worst = worst.max(qd[j].abs() / limits.velocity_max);
         }
         let velocity_limited = worst > 1.0;
         if velocity_limited || !worst.is_finite() {
@@ -186,7 +200,7 @@ impl Interpolator {
         // acceleration limits, the change scaled as a whole
         let change = qd - self.reference.qd;
         let mut over: f64 = 1.0;
-        for j in 0..JOINTS {
+        for j in 0..joints {
             over = over.max(change[j].abs() / (s.acceleration_limit[j] * dt));
         }
         if over > 1.0 {
@@ -199,11 +213,36 @@ impl Interpolator {
     }
 }
 
+/// A six-joint arm's rates: the Jacobian inverted where it is well conditioned, by damped least squares near
+/// a singularity; and whether damping was used.
+fn six_joint_rates(
+    jacobian: &Jacobian,
+    tool_twist: &Vector6<f64>,
+    s: &InterpolatorSettings,
+) -> (JointVector, bool) {
+    let jacobian: Matrix6<f64> = jacobian.fixed_columns::<DH_JOINTS>(0).into_owned();
+    // one LU gives both the manipulability |det J| and, away from singularities, the solution
+    let lu = jacobian.lu();
+    let manipulability = lu.determinant().abs();
+    let (qd, damped) = if manipulability >= s.manipulability_threshold {
+        match lu.solve(tool_twist) {
+            Some(qd) => (qd, false),
+            None => (damped_solve(&jacobian, tool_twist, s.max_damping), true),
+        }
+    } else {
+        let ratio = 1.0 - manipulability / s.manipulability_threshold;
+        (damped_solve(&jacobian, tool_twist, s.max_damping * ratio), true)
+    };
+    let mut padded = JointVector::zeros();
+    padded.fixed_rows_mut::<DH_JOINTS>(0).copy_from(&qd);
+    (padded, damped)
+}
+
 /// q̇ = Jᵀ(JJᵀ + λ²I)⁻¹ V.
-fn damped_solve(jacobian: &Matrix6<f64>, twist: &JointVector, damping: f64) -> JointVector {
+fn damped_solve(jacobian: &Matrix6<f64>, twist: &Vector6<f64>, damping: f64) -> Vector6<f64> {
     let inner = jacobian * jacobian.transpose() + Matrix6::identity() * (damping * damping).max(1e-12);
     match inner.cholesky() {
         Some(c) => jacobian.transpose() * c.solve(twist),
-        None => JointVector::zeros(),
+        None => Vector6::zeros(),
     }
 }

@@ -50,7 +50,7 @@ impl JointServo {
                 // friction is compensated at the reference speed: at the measured one its Coulomb part
                 // vanishes whenever the joint sticks, which leaves a static error that the visual loop then
                 // winds up into a stick-slip cycle of a few pixels
-                self.arm.mass_matrix(q) * accel
+                self.arm.inertia_torque(q, &accel)
                     + self.arm.rne_rigid(q, qd, &JointVector::zeros())
                     + self.arm.drive_torque(&reference.qd, &JointVector::zeros())
             }

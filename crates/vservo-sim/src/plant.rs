@@ -1,6 +1,6 @@
 //! The simulated PUMA 560: full dynamics, or joints that follow the reference exactly.
 
-use vservo_arm::{DynamicsError, JOINTS, JointVector, SerialArm};
+use vservo_arm::{DH_JOINTS, DynamicsError, JointVector, SerialArm};
 
 /// How the plant moves.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -146,7 +146,7 @@ impl Plant {
     pub fn step_dynamic(&mut self, torque: &JointVector, dt_s: f64) -> &JointState {
         let applied = self.arm.saturate_torques(torque);
         let mut saturated = 0;
-        for j in 0..JOINTS {
+        for j in 0..DH_JOINTS {
             if applied[j] != torque[j] {
                 saturated |= 1 << j;
             }
@@ -212,7 +212,7 @@ impl Plant {
     ) -> &JointState {
         let mut faults =
             Faults { torque_saturated: saturated, integration_failed: failed, ..Faults::default() };
-        for (j, link) in self.arm.links.iter().enumerate() {
+        for (j, link) in self.arm.joints().iter().enumerate() {
             if !link.limits.position_ok(q[j]) {
                 faults.position_limit |= 1 << j;
             }

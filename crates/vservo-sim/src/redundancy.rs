@@ -11,12 +11,8 @@
 //! The speed and acceleration limits are the interpolator's, applied after this to the whole vector. Fixed-size
 //! arrays throughout: no allocation (the 1 ms path calls it every tick).
 
-use nalgebra::{SMatrix, SVector, Vector6};
-use vservo_arm::JointLimits;
-use vservo_arm::chain::{ChainFrames, MAX_CHAIN_JOINTS};
-
-/// Joint values of an arm of up to seven joints; entries past the arm's joint count are zero.
-pub type ChainVector = SVector<f64, MAX_CHAIN_JOINTS>;
+use nalgebra::{SMatrix, Vector6};
+use vservo_arm::{Jacobian, JointLimits, JointVector, MAX_JOINTS};
 
 /// The secondary task of a redundant arm.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -26,7 +22,7 @@ pub struct NullSpaceTask {
     /// How hard a joint inside the zone is pushed away: rad/s per rad of depth into the zone.
     pub limit_gain: f64,
     /// A posture to stay near (rad), if any.
-    pub posture: Option<ChainVector>,
+    pub posture: Option<JointVector>,
     /// How hard the joints are pulled towards the posture (1/s).
     pub posture_gain: f64,
 }
@@ -50,9 +46,9 @@ pub struct Damping {
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct JointRates {
     /// q̇ (rad/s); zero past the arm's joints, and zero when the twist could not be resolved.
-    pub qd: ChainVector,
+    pub qd: JointVector,
     /// The part of `qd` in the null space (rad/s).
-    pub null_space: ChainVector,
+    pub null_space: JointVector,
     /// Whether damping was used (near a singularity).
     pub damped: bool,
     /// √det(JJᵀ).
@@ -60,16 +56,16 @@ pub struct JointRates {
 }
 
 /// The joint rates that give the tool the twist `tool_twist` (`[v; ω]` in the base frame, at the tool origin)
-/// at the chain's `frames`, with `task` in the null space.
+/// for the base-frame `jacobian` at `q`, with `task` in the null space. `limits` has one entry per joint of
+/// the arm (six or seven); the Jacobian's columns past them are zero.
 pub fn resolve(
-    frames: &ChainFrames,
-    q: &ChainVector,
+    jacobian: &Jacobian,
+    q: &JointVector,
     limits: &[JointLimits],
     tool_twist: &Vector6<f64>,
     damping: &Damping,
     task: &NullSpaceTask,
 ) -> JointRates {
-    let jacobian = frames.jacobian_base();
     let product = jacobian * jacobian.transpose();
     let manipulability = product.cholesky().map_or(0.0, |c| c.l().diagonal().product().abs());
     let lambda = if manipulability >= damping.manipulability_threshold {
@@ -81,21 +77,21 @@ pub fn resolve(
         (product + SMatrix::<f64, 6, 6>::identity() * (lambda * lambda).max(1e-12)).cholesky()
     else {
         return JointRates {
-            qd: ChainVector::zeros(),
-            null_space: ChainVector::zeros(),
+            qd: JointVector::zeros(),
+            null_space: JointVector::zeros(),
             damped: true,
             manipulability,
         };
     };
-    let pseudo_inverse = |v: &Vector6<f64>| -> ChainVector { jacobian.transpose() * inverse.solve(v) };
+    let pseudo_inverse = |v: &Vector6<f64>| -> JointVector { jacobian.transpose() * inverse.solve(v) };
     let task_rates = pseudo_inverse(tool_twist);
-    let z = secondary_task(q, limits, frames.joint_count, task);
+    let z = secondary_task(q, limits, task);
     let null_space = z - pseudo_inverse(&(jacobian * z));
     let qd = task_rates + null_space;
     if !qd.iter().all(|v| v.is_finite()) {
         return JointRates {
-            qd: ChainVector::zeros(),
-            null_space: ChainVector::zeros(),
+            qd: JointVector::zeros(),
+            null_space: JointVector::zeros(),
             damped: true,
             manipulability,
         };
@@ -105,17 +101,12 @@ pub fn resolve(
 
 /// z: away from the limits near them, towards the posture if any; zero past the arm's joints, and zero for
 /// an arm of six joints (it has none to spare).
-fn secondary_task(
-    q: &ChainVector,
-    limits: &[JointLimits],
-    joint_count: usize,
-    task: &NullSpaceTask,
-) -> ChainVector {
-    let mut z = ChainVector::zeros();
-    if joint_count <= 6 {
+fn secondary_task(q: &JointVector, limits: &[JointLimits], task: &NullSpaceTask) -> JointVector {
+    let mut z = JointVector::zeros();
+    if limits.len() <= 6 {
         return z;
     }
-    for (j, limit) in limits.iter().enumerate().take(joint_count.min(MAX_CHAIN_JOINTS)) {
+    for (j, limit) in limits.iter().enumerate().take(MAX_JOINTS) {
         let above_lower = q[j] - limit.position_min;
         let below_upper = limit.position_max - q[j];
         if above_lower < task.limit_zone_rad {

@@ -1,7 +1,7 @@
 //! The plant, the interpolator and the joint servo on their own.
 
 use nalgebra::Point3;
-use vservo_arm::{JointVector, SerialArm, puma560};
+use vservo_arm::{JointVector, SerialArm, puma560, six_joints};
 use vservo_config::Config;
 use vservo_control::Twist;
 use vservo_sim::interpolator::{Interpolator, InterpolatorSettings};
@@ -16,7 +16,7 @@ fn frictionless() -> SerialArm {
 }
 
 fn energy(arm: &SerialArm, q: &JointVector, qd: &JointVector) -> (f64, f64) {
-    let kinetic = 0.5 * (qd.transpose() * arm.mass_matrix(q) * qd)[(0, 0)];
+    let kinetic = 0.5 * qd.dot(&arm.inertia_torque(q, qd));
     let frames = arm.link_frames(q);
     let potential: f64 = arm
         .links
@@ -34,7 +34,7 @@ fn energy(arm: &SerialArm, q: &JointVector, qd: &JointVector) -> (f64, f64) {
 fn a_free_swinging_arm_without_friction_keeps_its_energy() {
     let arm = frictionless();
     // from the stretched-out pose the arm falls and swings; no torque at all
-    let q0 = JointVector::new(0.3, 0.0, -1.2, 0.5, 0.8, 0.0);
+    let q0 = six_joints([0.3, 0.0, -1.2, 0.5, 0.8, 0.0]);
     let mut plant = Plant::new(arm.clone(), PlantMode::Dynamic, 1, q0);
     let (k0, v0) = energy(&arm, &q0, &JointVector::zeros());
     let mut largest_kinetic: f64 = 0.0;
@@ -79,7 +79,7 @@ fn the_kinematic_plant_follows_through_its_lag() {
     let dt = t / f64::from(ticks);
     let fade = 1.0 - (-t / tau).exp();
     let start = puma560::QN;
-    let step = JointVector::new(0.1, -0.05, 0.02, 0.0, 0.03, -0.04);
+    let step = six_joints([0.1, -0.05, 0.02, 0.0, 0.03, -0.04]);
     let plant_with = |follows, lag_s| {
         Plant::new(puma560::puma560(), PlantMode::Kinematic, 1, start)
             .with_kinematic_response(KinematicResponse { follows, lag_s })

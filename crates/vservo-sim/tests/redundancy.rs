@@ -7,9 +7,10 @@ use std::path::PathBuf;
 
 use nalgebra::Vector6;
 use proptest::prelude::*;
+use vservo_arm::JointVector;
 use vservo_arm::chain::Chain;
 use vservo_arm::{JointLimits, Transform, urdf};
-use vservo_sim::redundancy::{ChainVector, Damping, NullSpaceTask, resolve};
+use vservo_sim::redundancy::{Damping, NullSpaceTask, resolve};
 
 const DAMPING: Damping = Damping { manipulability_threshold: 0.01, max_damping: 0.05 };
 /// The tick (s).
@@ -42,8 +43,8 @@ fn panda() -> (Chain, Vec<JointLimits>) {
 }
 
 /// A pose well inside the Panda's ranges (its "ready" pose).
-fn ready() -> ChainVector {
-    ChainVector::from_column_slice(&[0.0, -0.785, 0.0, -2.356, 0.0, 1.571, 0.785])
+fn ready() -> JointVector {
+    JointVector::from_column_slice(&[0.0, -0.785, 0.0, -2.356, 0.0, 1.571, 0.785])
 }
 
 /// The twist that takes `from` towards `to` at `gain` (1/s), base frame.
@@ -64,11 +65,11 @@ proptest! {
         twist in prop::array::uniform6(-0.3f64..0.3),
     ) {
         let (chain, limits) = panda();
-        let q = ready() + ChainVector::from_column_slice(&offsets);
+        let q = ready() + JointVector::from_column_slice(&offsets);
         let frames = chain.frames(q.as_slice());
         let twist = Vector6::from_column_slice(&twist);
         let task = NullSpaceTask { posture: Some(ready()), ..NullSpaceTask::default() };
-        let rates = resolve(&frames, &q, &limits, &twist, &DAMPING, &task);
+        let rates = resolve(&frames.jacobian_base(), &q, &limits, &twist, &DAMPING, &task);
         prop_assume!(!rates.damped);
         let jacobian = frames.jacobian_base();
         prop_assert!((jacobian * rates.qd - twist).amax() < 1e-9, "{}", (jacobian * rates.qd - twist).amax());
@@ -84,7 +85,8 @@ fn a_joint_near_its_limit_is_turned_away_from_it_without_moving_the_tool() {
     let mut q = ready();
     q[0] = limits[0].position_max - 0.05; // panda_joint1, upper limit 2.9671
     let frames = chain.frames(q.as_slice());
-    let rates = resolve(&frames, &q, &limits, &Vector6::zeros(), &DAMPING, &NullSpaceTask::default());
+    let rates =
+        resolve(&frames.jacobian_base(), &q, &limits, &Vector6::zeros(), &DAMPING, &NullSpaceTask::default());
     assert!(!rates.damped);
     assert!(rates.qd[0] < -0.01, "joint 1 turns down, away from its upper limit: {}", rates.qd[0]);
     assert!((frames.jacobian_base() * rates.qd).amax() < 1e-9);
@@ -112,7 +114,7 @@ fn the_tool_reaches_its_goal_while_the_null_space_moves_a_joint_away_from_its_li
     for _ in 0..4000 {
         let frames = chain.frames(q.as_slice());
         let twist = twist_towards(&frames.tool, &goal, 2.0);
-        let rates = resolve(&frames, &q, &limits, &twist, &DAMPING, &task);
+        let rates = resolve(&frames.jacobian_base(), &q, &limits, &twist, &DAMPING, &task);
         q += rates.qd * DT;
         closest = closest.min(limits[0].position_max - q[0]);
     }
@@ -142,12 +144,12 @@ fn a_six_joint_chain_has_no_null_space_motion() {
             JointLimits { position_min: low, position_max: high, velocity_max: 3.0, torque_max: 1.0 }
         })
         .collect();
-    let mut q = ChainVector::zeros();
+    let mut q = JointVector::zeros();
     q.fixed_rows_mut::<6>(0).copy_from_slice(&[0.0, -0.443, -1.048, 0.0, 1.491, 0.0]);
     q[4] = limits[4].position_min + 0.05; // near a limit: the push away would act if there were a null space
     let frames = arm.chain.frames(q.as_slice());
     let twist = Vector6::new(0.01, 0.0, -0.02, 0.0, 0.1, 0.0);
-    let rates = resolve(&frames, &q, &limits, &twist, &DAMPING, &NullSpaceTask::default());
+    let rates = resolve(&frames.jacobian_base(), &q, &limits, &twist, &DAMPING, &NullSpaceTask::default());
     assert!(!rates.damped, "manipulability {}", rates.manipulability);
     assert!(rates.null_space.amax() < 1e-9, "{}", rates.null_space);
     assert_eq!(rates.qd[6], 0.0);

@@ -131,19 +131,20 @@ pub fn arm_transforms(
     tool_from_camera: &IsometryMatrix3<f64>,
     state: &JointStateMsg,
 ) -> FrameTransforms {
-    let Some(q) = state.arm_q_rad().map(vservo_arm::JointVector::from) else {
+    let Some(q) = state.arm_q_rad(arm.joint_count()).map(vservo_arm::JointVector::from) else {
         return FrameTransforms { transforms: Vec::new() };
     };
     let frames = arm.link_frames(&q);
     let mut transforms: Vec<FrameTransform> = frames
         .iter()
+        .take(arm.joint_count())
         .enumerate()
         .map(|(i, base_from_link)| {
             transform(state.stamp_ns, "base", &format!("link{}", i + 1), base_from_link)
         })
         .collect();
     // the camera rides on the last link, whatever the arm's number of joints
-    let hand = format!("link{}", frames.len());
+    let hand = format!("link{}", arm.joint_count());
     transforms.push(transform(state.stamp_ns, &hand, CAMERA_FRAME, tool_from_camera));
     FrameTransforms { transforms }
 }
@@ -212,7 +213,8 @@ mod tests {
         let tool_from_camera = IsometryMatrix3::translation(0.0, 0.0, 0.1);
         let frames = arm_transforms(&arm, &tool_from_camera, &state);
         assert_eq!(frames.transforms.len(), 7);
-        let tool = arm.base_from_tool(&vservo_arm::JointVector::from(state.arm_q_rad().expect("six joints")));
+        let tool =
+            arm.base_from_tool(&vservo_arm::JointVector::from(state.arm_q_rad(6).expect("six joints")));
         let link6 = frames.transforms[5].translation.expect("translation");
         assert!((link6.x - tool.translation.x).abs() < 1e-12 && (link6.z - tool.translation.z).abs() < 1e-12);
         assert_eq!(frames.transforms[6].parent_frame_id, "link6");

@@ -50,9 +50,10 @@ pub fn run(args: &ModelArgs) -> Result<()> {
         None => puma560::puma560(),
     };
     let is_puma = arm == puma560::puma560();
-    let q = parse_joint_vector("--q", &args.q, is_puma)?;
-    let qd = args.qd.as_deref().map(|t| parse_joint_vector("--qd", t, false)).transpose()?;
-    let qdd = args.qdd.as_deref().map(|t| parse_joint_vector("--qdd", t, false)).transpose()?;
+    let n = arm.joint_count();
+    let q = parse_joint_vector("--q", &args.q, is_puma, n)?;
+    let qd = args.qd.as_deref().map(|t| parse_joint_vector("--qd", t, false, n)).transpose()?;
+    let qdd = args.qdd.as_deref().map(|t| parse_joint_vector("--qdd", t, false, n)).transpose()?;
     let (qd, qdd) = (qd.unwrap_or_default(), qdd.unwrap_or_default());
     arm.check_positions(&q).map_err(|v| UsageError(format!("--q: {v} (the {}'s range)", arm.name)))?;
     arm.check_velocities(&qd)
@@ -76,13 +77,15 @@ impl Report {
     fn joints(&self) -> Vec<(String, vservo_arm::JointLimits)> {
         let names: Vec<String> = match &self.arm.geometry {
             Geometry::Chain(chain) => chain.joints.iter().map(|j| j.name.clone()).collect(),
-            Geometry::Dh => (1..=self.arm.links.len()).map(|k| format!("joint {k}")).collect(),
+            Geometry::Dh => (1..=self.arm.joint_count()).map(|k| format!("joint {k}")).collect(),
         };
         names.into_iter().zip(self.arm.limits()).collect()
     }
 
     fn json(&self) -> Result<Value> {
         let (arm, q, qd, qdd) = (&self.arm, &self.q, &self.qd, &self.qdd);
+        let n = arm.joint_count();
+        let head = |v: &JointVector| v.rows(0, n).into_owned();
         let joints: Vec<Value> = self
             .joints()
             .iter()
@@ -91,7 +94,7 @@ impl Report {
             })
             .collect();
         let links: Vec<Value> =
-            arm.link_frames(q).iter().map(|frame| matrix_json(&frame.to_homogeneous())).collect();
+            arm.link_frames(q).iter().take(n).map(|frame| matrix_json(&frame.to_homogeneous())).collect();
         let ik: Option<Vec<Value>> = self.ik().map(|solutions| {
             solutions
                 .iter()
@@ -99,7 +102,7 @@ impl Report {
                     json!({
                         "config": s.config.to_string(),
                         "code": s.config.code(),
-                        "q": s.q.as_ref().map(vector_json),
+                        "q": s.q.as_ref().map(|q| vector_json(&head(q))),
                         "within_limits": s.within_limits,
                     })
                 })
@@ -109,13 +112,13 @@ impl Report {
             Some(rigid) => (
                 json!({
                     "inertia": matrix_json(&rigid.mass_matrix_rigid(q)),
-                    "gravload": vector_json(&rigid.gravity_torque(q)),
+                    "gravload": vector_json(&head(&rigid.gravity_torque(q))),
                     "coriolis": matrix_json(&rigid.coriolis_matrix(q, qd)),
-                    "rne": vector_json(&rigid.rne_rigid(q, qd, qdd)),
+                    "rne": vector_json(&head(&rigid.rne_rigid(q, qd, qdd))),
                 }),
                 json!({
                     "inertia": matrix_json(&arm.mass_matrix(q)),
-                    "rne": vector_json(&arm.rne(q, qd, qdd)),
+                    "rne": vector_json(&head(&arm.rne(q, qd, qdd))),
                 }),
             ),
             None => (Value::Null, Value::Null),
@@ -124,12 +127,12 @@ impl Report {
             "robot": arm.name,
             "joints": joints,
             "links": links,
-            "q": vector_json(q),
-            "qd": vector_json(qd),
-            "qdd": vector_json(qdd),
+            "q": vector_json(&head(q)),
+            "qd": vector_json(&head(qd)),
+            "qdd": vector_json(&head(qdd)),
             "fkine": matrix_json(&arm.base_from_tool(q).to_homogeneous()),
-            "jacob0": matrix_json(&arm.jacobian_base(q)),
-            "jacobe": matrix_json(&arm.jacobian_tool(q)),
+            "jacob0": matrix_json(&arm.jacobian_base(q).columns(0, n)),
+            "jacobe": matrix_json(&arm.jacobian_tool(q).columns(0, n)),
             "manipulability": arm.manipulability(q),
             "rigid": rigid,
             "full": full,
@@ -139,6 +142,8 @@ impl Report {
 
     fn text(&self) -> Result<String> {
         let (arm, q, qd, qdd) = (&self.arm, &self.q, &self.qd, &self.qdd);
+        let n = arm.joint_count();
+        let head = |v: &JointVector| v.rows(0, n).into_owned();
         let mut out = format!("{} — SI units (m, rad, s, kg, N·m)\n", arm.name);
         out += "joints (range, speed limit):\n";
         for (name, l) in self.joints() {
@@ -147,28 +152,28 @@ impl Report {
                 l.position_min, l.position_max, l.velocity_max
             );
         }
-        out += &vector_text("q", q);
-        out += &vector_text("qd", qd);
-        out += &vector_text("qdd", qdd);
+        out += &vector_text("q", &head(q));
+        out += &vector_text("qd", &head(qd));
+        out += &vector_text("qdd", &head(qdd));
         out += &matrix_text("fkine (base_from_tool)", &arm.base_from_tool(q).to_homogeneous());
         out += "link origins (base frame, m; the last is the tool):\n";
-        for (k, frame) in arm.link_frames(q).iter().enumerate() {
+        for (k, frame) in arm.link_frames(q).iter().take(n).enumerate() {
             let p = frame.translation.vector;
             out += &format!("  link {}: [{:>9.4}, {:>9.4}, {:>9.4}]\n", k + 1, p.x, p.y, p.z);
         }
-        out += &matrix_text("jacob0 (base frame, rows [v; w])", &arm.jacobian_base(q));
-        out += &matrix_text("jacobe (tool frame, rows [v; w])", &arm.jacobian_tool(q));
+        out += &matrix_text("jacob0 (base frame, rows [v; w])", &arm.jacobian_base(q).columns(0, n));
+        out += &matrix_text("jacobe (tool frame, rows [v; w])", &arm.jacobian_tool(q).columns(0, n));
         out += &format!("manipulability: {:.6}\n", arm.manipulability(q));
         match &self.rigid {
             Some(rigid) => {
                 out += "rigid body (no armature, no friction):\n";
                 out += &matrix_text("  inertia", &rigid.mass_matrix_rigid(q));
-                out += &vector_text("  gravload", &rigid.gravity_torque(q));
+                out += &vector_text("  gravload", &head(&rigid.gravity_torque(q)));
                 out += &matrix_text("  coriolis", &rigid.coriolis_matrix(q, qd));
-                out += &vector_text("  rne", &rigid.rne_rigid(q, qd, qdd));
+                out += &vector_text("  rne", &head(&rigid.rne_rigid(q, qd, qdd)));
                 out += "full model (with motor armature G²Jm and friction):\n";
                 out += &matrix_text("  inertia", &arm.mass_matrix(q));
-                out += &vector_text("  rne", &arm.rne(q, qd, qdd));
+                out += &vector_text("  rne", &head(&arm.rne(q, qd, qdd)));
             }
             None => out += "dynamics: none (a kinematic model, for a velocity- or position-commanded arm)\n",
         }
@@ -179,7 +184,7 @@ impl Report {
                     let limits = if s.within_limits { "" } else { "  (outside the joint limits)" };
                     match &s.q {
                         Some(q) => {
-                            out += &vector_text(&format!("  {} {:<15}", s.config.code(), s.config), q);
+                            out += &vector_text(&format!("  {} {:<15}", s.config.code(), s.config), &head(q));
                             out.pop();
                             out += limits;
                             out.push('\n');

@@ -2,25 +2,32 @@
 
 use std::fmt::Write;
 
-use nalgebra::SMatrix;
+use nalgebra::{Dim, Matrix, RawStorage};
 use serde_json::Value;
 
 /// A matrix as a JSON array of rows.
-pub fn matrix_json<const R: usize, const C: usize>(m: &SMatrix<f64, R, C>) -> Value {
-    Value::from((0..R).map(|r| (0..C).map(|c| m[(r, c)]).collect::<Vec<f64>>()).collect::<Vec<_>>())
+pub fn matrix_json<R: Dim, C: Dim, S: RawStorage<f64, R, C>>(m: &Matrix<f64, R, C, S>) -> Value {
+    Value::from(
+        (0..m.nrows()).map(|r| (0..m.ncols()).map(|c| m[(r, c)]).collect::<Vec<f64>>()).collect::<Vec<_>>(),
+    )
 }
 
 /// A vector as a JSON array.
-pub fn vector_json<const R: usize>(v: &SMatrix<f64, R, 1>) -> Value {
+pub fn vector_json<R: Dim, S: RawStorage<f64, R, nalgebra::U1>>(
+    v: &Matrix<f64, R, nalgebra::U1, S>,
+) -> Value {
     Value::from(v.iter().copied().collect::<Vec<f64>>())
 }
 
 /// A titled matrix, one row a line, fixed-width columns.
-pub fn matrix_text<const R: usize, const C: usize>(title: &str, m: &SMatrix<f64, R, C>) -> String {
+pub fn matrix_text<R: Dim, C: Dim, S: RawStorage<f64, R, C>>(
+    title: &str,
+    m: &Matrix<f64, R, C, S>,
+) -> String {
     let mut out = format!("{title}:\n");
-    for r in 0..R {
+    for r in 0..m.nrows() {
         out.push(' ');
-        for c in 0..C {
+        for c in 0..m.ncols() {
             // writing to a String cannot fail
             let _ = write!(out, " {:>12.6}", clean(m[(r, c)]));
         }
@@ -30,7 +37,10 @@ pub fn matrix_text<const R: usize, const C: usize>(title: &str, m: &SMatrix<f64,
 }
 
 /// A titled row vector on one line.
-pub fn vector_text<const R: usize>(title: &str, v: &SMatrix<f64, R, 1>) -> String {
+pub fn vector_text<R: Dim, S: RawStorage<f64, R, nalgebra::U1>>(
+    title: &str,
+    v: &Matrix<f64, R, nalgebra::U1, S>,
+) -> String {
     let mut out = format!("{:<26}", format!("{title}:"));
     for value in v.iter() {
         let _ = write!(out, " {:>12.6}", clean(*value));

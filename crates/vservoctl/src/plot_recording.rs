@@ -69,12 +69,12 @@ pub fn trace_of(bytes: &[u8], config: &vservo_config::Config) -> anyhow::Result<
             }
             "joint_state" => {
                 let (Some(tick), Some(q), Some(qd)) =
-                    (data["tick"].as_u64(), numbers::<6>(&data["q_rad"]), numbers::<6>(&data["qd_rad_s"]))
+                    (data["tick"].as_u64(), numbers::<7>(&data["q_rad"]), numbers::<7>(&data["qd_rad_s"]))
                 else {
                     continue;
                 };
                 // a driver that does not know its torques sends NaN (null)
-                let torque = numbers::<6>(&data["torque_nm"]).unwrap_or([f64::NAN; 6]);
+                let torque = numbers::<7>(&data["torque_nm"]).unwrap_or([f64::NAN; 7]);
                 let faults = data["faults"].as_u64().unwrap_or(0) as u32;
                 states.insert(
                     tick,

@@ -36,14 +36,14 @@ pub fn run(args: &SceneArgs) -> Result<()> {
         vservo_arm::Geometry::Dh => None,
     };
     let dh: Vec<Value> = arm
-        .links
+        .joints()
         .iter()
         .map(|l| {
             json!({"a_m": l.dh.a(), "alpha_rad": l.dh.alpha(), "d_m": l.dh.d(), "theta_offset_rad": l.dh.offset()})
         })
         .collect();
     let limits = |f: &dyn Fn(&vservo_arm::JointLimits) -> Value| -> Vec<Value> {
-        arm.links.iter().map(|l| f(&l.limits)).collect()
+        arm.joints().iter().map(|l| f(&l.limits)).collect()
     };
     let board = &config.board;
     let scene = json!({

@@ -115,7 +115,7 @@ pub fn run(args: &SimArgs) -> Result<()> {
     });
     write(&args.out.join("summary.json"), &format!("{summary_json:#}\n"))?;
     write(&args.out.join("features.csv"), &features_csv(&trace))?;
-    write(&args.out.join("joints.csv"), &joints_csv(&trace))?;
+    write(&args.out.join("joints.csv"), &joints_csv(&trace, config.arm.joint_count()))?;
     crate::plots::draw(&trace, &config, &args.out)?;
     println!("{summary_json}");
     Ok(())
@@ -147,17 +147,20 @@ fn features_csv(trace: &Trace) -> String {
     out
 }
 
-fn joints_csv(trace: &Trace) -> String {
+/// The joints over time: a column per joint of the arm for q, q̇ and the torque.
+fn joints_csv(trace: &Trace, joint_count: usize) -> String {
     let mut out = String::from("t");
     for name in ["q", "qd", "tau"] {
-        for j in 1..=6 {
+        for j in 1..=joint_count {
             let _ = write!(out, ",{name}{j}");
         }
     }
     out.push('\n');
     for r in &trace.joints {
         let _ = write!(out, "{:.3}", r.t_s);
-        for v in r.q.iter().chain(r.qd.iter()).chain(r.torque.iter()) {
+        let (q, qd, torque) =
+            (r.q.rows(0, joint_count), r.qd.rows(0, joint_count), r.torque.rows(0, joint_count));
+        for v in q.iter().chain(qd.iter()).chain(torque.iter()) {
             let _ = write!(out, ",{v:.6}");
         }
         out.push('\n');

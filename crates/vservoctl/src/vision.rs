@@ -67,7 +67,7 @@ pub fn run(args: &VisionArgs) -> Result<()> {
 fn render(args: &RenderArgs) -> Result<()> {
     let config = args.config.load()?;
     let arm = &config.arm;
-    let q = parse_joint_vector("--q", &args.q, true)?;
+    let q = parse_joint_vector("--q", &args.q, true, arm.joint_count())?;
     arm.check_positions(&q).map_err(|v| UsageError(format!("--q: {v} (the {}'s range)", arm.name)))?;
     let extension = args.out.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
     if !matches!(extension.as_deref(), Some("png" | "pgm")) {

@@ -54,8 +54,13 @@ pub enum Cause {
     #[error("the robot driver reports a fault")]
     DriverFault,
     /// The driver's joint states carry another number of joints than the configured arm has.
-    #[error("the robot driver reports {0} joints; the configured arm has {ARM_JOINTS}")]
-    JointCount(u32),
+    #[error("the robot driver reports {reported} joints; the configured arm has {configured}")]
+    JointCount {
+        /// The joint count in the driver's states.
+        reported: u32,
+        /// The configured arm's.
+        configured: u32,
+    },
     /// The driver's joint states stopped (a fault of an external driver only).
     #[error("the robot driver's joint states do not arrive")]
     RobotStalled,
@@ -84,7 +89,7 @@ impl Cause {
             Cause::MotionNodesDown | Cause::RobotWaiting => None,
             Cause::PositionLimit(_) => Some(Fault::PositionLimit),
             Cause::VelocityLimit(_) => Some(Fault::VelocityLimit),
-            Cause::DriverFault | Cause::JointCount(_) => Some(Fault::DriverFault),
+            Cause::DriverFault | Cause::JointCount { .. } => Some(Fault::DriverFault),
             Cause::RobotStalled => Some(Fault::RobotStalled),
             Cause::CameraStalled => Some(Fault::CameraStalled),
             Cause::TorqueSaturated(_) => Some(Fault::TorqueSaturated),
@@ -113,8 +118,8 @@ pub struct Evidence {
     pub fault_bits: u32,
     /// A joint state's driver status said FAULT.
     pub driver_fault: bool,
-    /// A joint state's joint count, where it is not the configured arm's.
-    pub foreign_joint_count: Option<u32>,
+    /// A joint state's joint count and the configured arm's, where they differ.
+    pub foreign_joint_count: Option<(u32, u32)>,
     /// The robot driver's state, as far as it counts.
     pub robot: RobotState,
     /// Joints whose torque is at its limit, as far as it counts.
@@ -140,7 +145,7 @@ pub const CONDITIONS: [Condition; 11] = [
     |e| nonzero(fault_bits::joints(e.fault_bits, fault_bits::POSITION_LIMIT_SHIFT)).map(Cause::PositionLimit),
     |e| nonzero(fault_bits::joints(e.fault_bits, fault_bits::VELOCITY_LIMIT_SHIFT)).map(Cause::VelocityLimit),
     |e| (e.driver_fault || e.fault_bits & fault_bits::DRIVER_FAILED != 0).then_some(Cause::DriverFault),
-    |e| e.foreign_joint_count.map(Cause::JointCount),
+    |e| e.foreign_joint_count.map(|(reported, configured)| Cause::JointCount { reported, configured }),
     |e| (e.robot == RobotState::Stalled).then_some(Cause::RobotStalled),
     |e| e.camera_stalled.then_some(Cause::CameraStalled),
     |e| nonzero(e.saturated_joints).map(Cause::TorqueSaturated),
@@ -229,6 +234,8 @@ impl Run {
 #[derive(Debug)]
 pub struct FaultMonitor {
     settings: Faults,
+    /// The configured arm's joints: a driver's states of another count are a fault.
+    arm_joints: u32,
     /// The latest joint state: position, velocity, saturation and driver bits as they are now.
     latest_state: Option<JointStateMsg>,
     /// Position and velocity bits and driver faults seen in any state since the last cycle (a limit crossed
@@ -255,9 +262,6 @@ fn nonzero(bits: u32) -> Option<u32> {
     (bits != 0).then_some(bits)
 }
 
-/// The joints of the arms vservo drives today (the messages have room for more).
-const ARM_JOINTS: u32 = vservo_arm::JOINTS as u32;
-
 fn joint_list(joints: u32) -> String {
     (0..vservo_protocol::MAX_JOINTS)
         .filter(|j| joints & (1 << j) != 0)
@@ -275,10 +279,11 @@ fn cause_list(causes: &[Cause]) -> String {
 }
 
 impl FaultMonitor {
-    /// A monitor under `settings`.
-    pub fn new(settings: Faults) -> Self {
+    /// A monitor under `settings`, for an arm of `arm_joints` joints.
+    pub fn new(settings: Faults, arm_joints: u32) -> Self {
         Self {
             settings,
+            arm_joints,
             latest_state: None,
             seen_bits: 0,
             driver_fault_seen: false,
@@ -297,7 +302,7 @@ impl FaultMonitor {
     pub fn on_joint_state(&mut self, state: &JointStateMsg) {
         self.seen_bits |= state.faults;
         self.driver_fault_seen |= DriverStatus::try_from(state.driver_status) == Ok(DriverStatus::Fault);
-        if state.joint_count != ARM_JOINTS {
+        if state.joint_count != self.arm_joints {
             self.foreign_joint_count_seen = Some(state.joint_count);
         }
         let saturated = fault_bits::joints(state.faults, fault_bits::TORQUE_SATURATED_SHIFT);
@@ -353,7 +358,7 @@ impl FaultMonitor {
         Evidence {
             fault_bits: self.seen_bits,
             driver_fault: self.driver_fault_seen,
-            foreign_joint_count: self.foreign_joint_count_seen,
+            foreign_joint_count: self.foreign_joint_count_seen.map(|reported| (reported, self.arm_joints)),
             // the simulated plant's stall is a node restart, not a fault
             robot: if c.external_robot { c.robot } else { RobotState::Running },
             saturated_joints: Run::lasting(self.saturated, self.settings.saturation.as_secs_f64()),
@@ -378,7 +383,9 @@ impl FaultMonitor {
             fault_bits: bits,
             driver_fault: state
                 .is_some_and(|s| DriverStatus::try_from(s.driver_status) == Ok(DriverStatus::Fault)),
-            foreign_joint_count: state.map(|s| s.joint_count).filter(|&n| n != ARM_JOINTS),
+            foreign_joint_count: state
+                .map(|s| (s.joint_count, self.arm_joints))
+                .filter(|&(reported, configured)| reported != configured),
             robot: c.robot,
             saturated_joints: fault_bits::joints(bits, fault_bits::TORQUE_SATURATED_SHIFT),
             missing_marks: if lost_target { !fresh_marks & ALL_MARKS } else { 0 },
@@ -515,7 +522,7 @@ mod tests {
 
     #[test]
     fn a_limit_crossed_for_one_tick_between_two_cycles_stops_the_cell_and_names_the_joint() {
-        let mut monitor = FaultMonitor::new(settings(ResumePolicy::Command));
+        let mut monitor = FaultMonitor::new(settings(ResumePolicy::Command), 6);
         monitor.on_joint_state(&state(MS, 0));
         monitor.on_joint_state(&state(2 * MS, 1 << (fault_bits::VELOCITY_LIMIT_SHIFT + 2)));
         monitor.on_joint_state(&state(3 * MS, 0));
@@ -535,7 +542,7 @@ mod tests {
 
     #[test]
     fn saturation_is_a_fault_only_once_it_lasts() {
-        let mut monitor = FaultMonitor::new(settings(ResumePolicy::Command));
+        let mut monitor = FaultMonitor::new(settings(ResumePolicy::Command), 6);
         let saturated = 1 << fault_bits::TORQUE_SATURATED_SHIFT;
         // 0.4 s of saturation, a tick free, 0.4 s again: no fault
         for t in 0..400 {
@@ -567,7 +574,7 @@ mod tests {
 
     #[test]
     fn lost_marks_stop_the_cell_after_the_set_time_and_it_resumes_when_they_are_seen() {
-        let mut monitor = FaultMonitor::new(settings(ResumePolicy::Command));
+        let mut monitor = FaultMonitor::new(settings(ResumePolicy::Command), 6);
         monitor.on_twist(&twist(0, Verdict::MarksMissing, 0b0100));
         monitor.on_twist(&twist(900 * MS, Verdict::MarksMissing, 0b0100));
         assert_eq!(monitor.cycle(&running(900 * MS)), Decision::Same);
@@ -609,7 +616,7 @@ mod tests {
 
     #[test]
     fn a_stalled_driver_is_a_fault_of_an_external_one_only() {
-        let mut monitor = FaultMonitor::new(settings(ResumePolicy::Command));
+        let mut monitor = FaultMonitor::new(settings(ResumePolicy::Command), 6);
         let stalled = Conditions { robot: RobotState::Stalled, ..running(MS) };
         assert_eq!(monitor.cycle(&stalled), Decision::Same, "the simulated plant's restart is no fault");
         let external = Conditions { external_robot: true, ..stalled };
@@ -626,7 +633,7 @@ mod tests {
     /// keeps it from resuming while its states say so.
     #[test]
     fn a_driver_of_another_joint_count_is_a_driver_fault_that_says_so() {
-        let mut monitor = FaultMonitor::new(settings(ResumePolicy::Command));
+        let mut monitor = FaultMonitor::new(settings(ResumePolicy::Command), 6);
         monitor.on_joint_state(&JointStateMsg { joint_count: 7, ..state(MS, 0) });
         let Decision::SafeStop(latched) = monitor.cycle(&running(MS)) else { panic!("a safe stop") };
         assert_eq!(latched.code, Fault::DriverFault);
@@ -638,7 +645,7 @@ mod tests {
 
     #[test]
     fn the_automatic_policy_resumes_once_the_cause_has_been_gone_long_enough() {
-        let mut monitor = FaultMonitor::new(settings(ResumePolicy::Automatic));
+        let mut monitor = FaultMonitor::new(settings(ResumePolicy::Automatic), 6);
         let mut faulted = state(MS, 0);
         faulted.driver_status = DriverStatus::Fault.into();
         monitor.on_joint_state(&faulted);
@@ -654,7 +661,7 @@ mod tests {
         assert_eq!(monitor.cycle(&running(6000 * MS)), Decision::Same);
         assert_eq!(monitor.cycle(&running(7001 * MS)), Decision::ResumeAutomatically);
         // a command policy never resumes by itself
-        let mut manual = FaultMonitor::new(settings(ResumePolicy::Command));
+        let mut manual = FaultMonitor::new(settings(ResumePolicy::Command), 6);
         assert!(manual.request_safe_stop(0).is_ok());
         assert_eq!(manual.request_safe_stop(1), Err(AlreadyHeld(Fault::Requested)), "already held");
         assert_eq!(manual.cycle(&running(100_000 * MS)), Decision::Same);
@@ -692,8 +699,8 @@ mod tests {
             ),
             (Evidence { driver_fault: true, ..calm }, Cause::DriverFault, Some(Fault::DriverFault)),
             (
-                Evidence { foreign_joint_count: Some(7), ..calm },
-                Cause::JointCount(7),
+                Evidence { foreign_joint_count: Some((7, 6)), ..calm },
+                Cause::JointCount { reported: 7, configured: 6 },
                 Some(Fault::DriverFault),
             ),
             (
@@ -730,7 +737,7 @@ mod tests {
 
     #[test]
     fn a_stalled_camera_stops_the_cell_and_keeps_a_resume_back_until_frames_come_again() {
-        let mut monitor = FaultMonitor::new(settings(ResumePolicy::Automatic));
+        let mut monitor = FaultMonitor::new(settings(ResumePolicy::Automatic), 6);
         let stalled = Conditions { camera_stalled: true, ..running(MS) };
         match monitor.cycle(&stalled) {
             Decision::SafeStop(fault) => {
@@ -751,7 +758,7 @@ mod tests {
 
     #[test]
     fn the_nodes_that_move_the_arm_keep_a_resume_back_until_they_run() {
-        let mut monitor = FaultMonitor::new(settings(ResumePolicy::Command));
+        let mut monitor = FaultMonitor::new(settings(ResumePolicy::Command), 6);
         assert!(monitor.request_safe_stop(0).is_ok());
         let down = Conditions { motion_nodes_healthy: false, ..running(MS) };
         assert_eq!(monitor.cycle(&down), Decision::Same, "a node down is no fault of its own");

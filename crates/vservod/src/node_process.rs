@@ -7,7 +7,6 @@ use std::sync::Arc;
 use std::sync::atomic::AtomicBool;
 
 use anyhow::{Context, bail};
-use vservo_arm::JointVector;
 use vservo_protocol::NodeRole;
 use vservo_protocol::seal::SealKey;
 use vservo_runtime::{NodeContext, nodes};
@@ -64,11 +63,14 @@ pub fn run(
         (vservo_config::Config::load(config_path)?, None)
     };
     let cell = vservo_cell::Cell::new(&config).with_context(|| format!("{}", config_path.display()))?;
+    let joint_count = config.arm.joint_count();
     let resume = match &args.resume_q {
-        Some(q) if q.len() == 6 && q.iter().all(|v| v.is_finite()) => {
-            Some((JointVector::from_column_slice(q), args.resume_tick))
+        Some(q) if q.len() == joint_count && q.iter().all(|v| v.is_finite()) => {
+            Some((vservo_arm::joint_vector(q).context("--resume-q")?, args.resume_tick))
         }
-        Some(q) => bail!("--resume-q {q:?}: expected six finite joint angles"),
+        Some(q) => {
+            bail!("--resume-q {q:?}: expected {joint_count} finite joint angles (the configured arm's)")
+        }
         None => None,
     };
     let resume_features = match &args.resume_features {

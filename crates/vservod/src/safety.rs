@@ -56,10 +56,11 @@ impl Safety {
         node: &Node<ipc::Service>,
         instance: &str,
         settings: vservo_config::Faults,
+        arm_joints: u32,
         seal_key: vservo_protocol::seal::SealKey,
     ) -> anyhow::Result<Self> {
         let mut safety = Self {
-            monitor: FaultMonitor::new(settings),
+            monitor: FaultMonitor::new(settings, arm_joints),
             publisher: vservo_protocol::publisher(node, instance, Topic::CellMode)?,
             seal_key,
             sequence: 0,

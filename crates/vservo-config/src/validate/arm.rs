@@ -6,7 +6,7 @@
 use std::f64::consts::TAU;
 
 use vservo_arm::urdf::UrdfArm;
-use vservo_arm::{DhParameters, JOINTS, JointLimits, SerialArm, puma560};
+use vservo_arm::{DhParameters, JointLimits, SerialArm, puma560};
 
 use super::checker::Checker;
 use crate::ConfigError;
@@ -80,18 +80,6 @@ fn urdf(check: &Checker, a: &RawArm) -> Result<SerialArm, ConfigError> {
         .map_err(|reason| check.invalid(key, format!("{file:?}"), format!("cannot read: {reason}")))?;
     let arm = vservo_arm::urdf::parse(&text, file, a.base_link.as_deref(), a.tip_link.as_deref())
         .map_err(|e| check.invalid(key, format!("{file:?}"), e.to_string()))?;
-    if arm.chain.joint_count() != JOINTS {
-        return Err(check.invalid(
-            key,
-            format!("{file:?}"),
-            format!(
-                "the chain from {:?} to {:?} has {} joints: vservo's arm model and stages carry {JOINTS} so far",
-                arm.chain.base_link,
-                arm.chain.tip_link,
-                arm.chain.joint_count()
-            ),
-        ));
-    }
     let far = arm.chain.joints.iter().find(|j| j.parent_from_joint.translation.vector.amax() > 10.0);
     if let Some(joint) = far.map(|j| j.name.as_str()).or_else(|| {
         (arm.chain.last_from_tip.translation.vector.amax() > 10.0).then_some(arm.chain.tip_link.as_str())
@@ -103,13 +91,13 @@ fn urdf(check: &Checker, a: &RawArm) -> Result<SerialArm, ConfigError> {
         ));
     }
     let limits = urdf_limits(check, a, &arm)?;
-    SerialArm::from_chain("URDF arm", arm.chain, limits)
-        .ok_or_else(|| check.invalid(key, format!("{file:?}"), "not a six-joint chain"))
+    SerialArm::from_chain("URDF arm", arm.chain, &limits)
+        .ok_or_else(|| check.invalid(key, format!("{file:?}"), "not a chain of six or seven joints"))
 }
 
 /// Each joint's limits: the configuration's where given (all joints), else the file's; a joint left with
 /// none is refused by name.
-fn urdf_limits(check: &Checker, a: &RawArm, arm: &UrdfArm) -> Result<[JointLimits; JOINTS], ConfigError> {
+fn urdf_limits(check: &Checker, a: &RawArm, arm: &UrdfArm) -> Result<Vec<JointLimits>, ConfigError> {
     let count = arm.chain.joint_count();
     let rows = |key: &str, n: Option<usize>| match n {
         Some(n) if n != count => {
@@ -119,9 +107,15 @@ fn urdf_limits(check: &Checker, a: &RawArm, arm: &UrdfArm) -> Result<[JointLimit
     };
     rows("robot.arm.joint_limits_rad", a.joint_limits_rad.as_ref().map(Vec::len))?;
     rows("robot.arm.velocity_limits_rad_s", a.velocity_limits_rad_s.as_ref().map(Vec::len))?;
-    let mut limits =
-        [JointLimits { position_min: 0.0, position_max: 0.0, velocity_max: 0.0, torque_max: f64::INFINITY };
-            JOINTS];
+    let mut limits = vec![
+        JointLimits {
+            position_min: 0.0,
+            position_max: 0.0,
+            velocity_max: 0.0,
+            torque_max: f64::INFINITY
+        };
+        count
+    ];
     for (j, joint) in arm.chain.joints.iter().enumerate() {
         let missing = |key: &str, what: &str| {
             check.invalid(

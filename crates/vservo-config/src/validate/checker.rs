@@ -83,6 +83,34 @@ impl Checker<'_> {
         }
     }
 
+    /// One value per joint of `arm`, each finite and within `low..=high`, as a joint vector.
+    pub fn per_joint(
+        &self,
+        key: &str,
+        values: &[f64],
+        arm: &vservo_arm::SerialArm,
+        (low, high): (f64, f64),
+        unit: &str,
+    ) -> Result<vservo_arm::JointVector, ConfigError> {
+        let count = arm.joint_count();
+        if values.len() != count {
+            return Err(self.invalid(
+                key,
+                format!("{values:?}"),
+                format!("must list the {count} joints of the {}", arm.name),
+            ));
+        }
+        if !values.iter().all(|v| v.is_finite() && (low..=high).contains(v)) {
+            return Err(self.invalid(
+                key,
+                format!("{values:?}"),
+                format!("each must be from {low} to {high} {unit}"),
+            ));
+        }
+        vservo_arm::joint_vector(values)
+            .ok_or_else(|| self.invalid(key, format!("{values:?}"), "too many joints"))
+    }
+
     /// A pose whose translation stays within ±`reach_m` per axis, its angles within ±360°.
     pub fn pose(
         &self,

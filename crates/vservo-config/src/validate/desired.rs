@@ -44,13 +44,10 @@ pub fn desired(
     Ok(Desired { joints, camera_from_board, features, depths })
 }
 
-/// `desired.joints_rad`: six finite angles inside the arm's range.
+/// `desired.joints_rad`: a finite angle per joint, inside the arm's range.
 fn joints(check: &Checker, d: &RawDesired, arm: &SerialArm) -> Result<JointVector, ConfigError> {
     let key = "desired.joints_rad";
-    if d.joints_rad.len() != 6 || !d.joints_rad.iter().all(|v| v.is_finite()) {
-        return Err(check.invalid(key, format!("{:?}", d.joints_rad), "must be 6 finite joint angles (rad)"));
-    }
-    let joints = JointVector::from_column_slice(&d.joints_rad);
+    let joints = check.per_joint(key, &d.joints_rad, arm, (-100.0, 100.0), "rad")?;
     arm.check_positions(&joints).map_err(|v| {
         check.invalid(key, format!("{:?}", d.joints_rad), format!("{v} (the {}'s range)", arm.name))
     })?;

@@ -36,7 +36,7 @@ pub fn validate(raw: RawConfig, file: &str) -> Result<Config, ConfigError> {
     let source = camera::source(&check, &raw.camera)?;
     let vision = vision::vision(&check, &raw.vision, source)?;
     let plant = simulation::plant(&check, &raw.plant)?;
-    let interpolator = simulation::interpolator(&check, &raw.interpolator, &timing)?;
+    let interpolator = simulation::interpolator(&check, &raw.interpolator, &timing, &arm)?;
     let joint_servo = simulation::joint_servo(&check, &raw.joint_servo)?;
     let scenario = scenario::scenario(&check, &raw.scenario)?;
     let robot = robot::robot(&check, &raw.robot, &plant, &timing)?;

@@ -1,13 +1,14 @@
 //! `[plant]`, `[interpolator]` and `[joint_servo]`: the simulated arm, the resolved-motion-rate interpolator
 //! and the joint servo.
 
-use vservo_arm::JointVector;
+use vservo_arm::{SerialArm, six_joints};
 use vservo_sim::interpolator::InterpolatorSettings;
+use vservo_sim::redundancy::NullSpaceTask;
 
 use super::checker::Checker;
 use vservo_sim::plant::{KinematicFollows, KinematicResponse};
 
-use crate::raw::{RawInterpolator, RawJointServo, RawKinematicFollows, RawPlant};
+use crate::raw::{RawInterpolator, RawJointServo, RawKinematicFollows, RawNullSpace, RawPlant};
 use crate::{ConfigError, JointServoSettings, PlantSettings, Timing};
 
 /// The plant's mode and its integration steps.
@@ -22,11 +23,12 @@ pub fn plant(check: &Checker, p: &RawPlant) -> Result<PlantSettings, ConfigError
     Ok(PlantSettings { mode: p.mode.into(), rk4_substeps, kinematic: KinematicResponse { follows, lag_s } })
 }
 
-/// The interpolator, stepping at the control period between vision periods.
+/// The interpolator, stepping at the control period between vision periods, for `arm`.
 pub fn interpolator(
     check: &Checker,
     i: &RawInterpolator,
     timing: &Timing,
+    arm: &SerialArm,
 ) -> Result<InterpolatorSettings, ConfigError> {
     let manipulability_threshold =
         check.within("interpolator.manipulability_threshold", i.manipulability_threshold, 0.0, 10.0, "")?;
@@ -39,11 +41,11 @@ pub fn interpolator(
         "vision periods",
     )?;
     let stop_ramp_s = check.within("interpolator.stop_ramp_s", i.stop_ramp_s, 0.001, 10.0, "s")?;
-    let limits = check.all_within(
+    let acceleration_limit = check.per_joint(
         "interpolator.acceleration_limit_rad_s2",
-        i.acceleration_limit_rad_s2,
-        0.01,
-        1000.0,
+        &i.acceleration_limit_rad_s2,
+        arm,
+        (0.01, 1000.0),
         "rad/s²",
     )?;
     Ok(InterpolatorSettings {
@@ -54,7 +56,8 @@ pub fn interpolator(
         max_damping,
         stale_after_s: stale_frames * timing.vision_period_s,
         stop_ramp_s,
-        acceleration_limit: JointVector::from(limits),
+        acceleration_limit,
+        null_space: null_space(check, &i.null_space, arm)?,
     })
 }
 
@@ -63,5 +66,26 @@ pub fn interpolator(
 pub fn joint_servo(check: &Checker, j: &RawJointServo) -> Result<JointServoSettings, ConfigError> {
     let kp = check.all_within("joint_servo.kp", j.kp, 1e-3, 1e6, "")?;
     let kv = check.all_within("joint_servo.kv", j.kv, 0.0, 1e4, "")?;
-    Ok(JointServoSettings { law: j.law.into(), kp: JointVector::from(kp), kv: JointVector::from(kv) })
+    Ok(JointServoSettings { law: j.law.into(), kp: six_joints(kp), kv: six_joints(kv) })
+}
+
+/// `[interpolator.null_space]`: the push away from the limits, and the posture if one is given (one angle
+/// per joint, inside the arm's range).
+fn null_space(check: &Checker, n: &RawNullSpace, arm: &SerialArm) -> Result<NullSpaceTask, ConfigError> {
+    let key = "interpolator.null_space";
+    let limit_zone_rad = check.within(&format!("{key}.limit_zone_rad"), n.limit_zone_rad, 0.0, 1.0, "rad")?;
+    let limit_gain = check.within(&format!("{key}.limit_gain"), n.limit_gain, 0.0, 100.0, "1/s")?;
+    let posture_gain = check.within(&format!("{key}.posture_gain"), n.posture_gain, 0.0, 100.0, "1/s")?;
+    let posture = match &n.posture_rad {
+        None => None,
+        Some(values) => {
+            let posture_key = format!("{key}.posture_rad");
+            let posture = check.per_joint(&posture_key, values, arm, (-10.0, 10.0), "rad")?;
+            arm.check_positions(&posture).map_err(|v| {
+                check.invalid(&posture_key, format!("{values:?}"), format!("{v} (the {}'s range)", arm.name))
+            })?;
+            Some(posture)
+        }
+    };
+    Ok(NullSpaceTask { limit_zone_rad, limit_gain, posture, posture_gain })
 }

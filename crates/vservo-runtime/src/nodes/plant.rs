@@ -21,7 +21,7 @@ use vservo_sim::world::ObjectMotion;
 use super::{NodeBase, go_realtime, latest, start};
 use crate::clock::{PeriodicTimer, monotonic_ns};
 use crate::telemetry::{Counters, CycleSample};
-use crate::wire::{ARM_JOINTS, joints_from_wire, joints_to_wire, pose_to_wire};
+use crate::wire::{joints_from_wire, joints_to_wire, pose_to_wire, wire_joint_count};
 use crate::{NodeContext, RuntimeError};
 
 /// The simulated driver's identity in each joint state: its epoch, period and command interface.
@@ -65,7 +65,7 @@ fn state_message(
         period_ns: declared.period_ns,
         command_mode: declared.command_mode.into(),
         driver_status: driver_status(stage, state).into(),
-        joint_count: ARM_JOINTS,
+        joint_count: wire_joint_count(stage.arm()),
         reserved: 0,
         q_rad: joints_to_wire(&state.q),
         qd_rad_s: joints_to_wire(&state.qd),
@@ -78,12 +78,13 @@ fn state_message(
 /// arm); up to it, the drives saturate at the limit, as real ones do.
 const TORQUE_REFUSED_ABOVE_LIMITS: f64 = 1.5;
 
-/// The command a joint command carries, if it is in the interface this driver declared, finite and, for
-/// torques, within [`TORQUE_REFUSED_ABOVE_LIMITS`] of the limits.
+/// The command a joint command carries, if it is for an arm of as many joints as `torque_max_nm` has limits,
+/// in the interface this driver declared, finite and, for torques, within [`TORQUE_REFUSED_ABOVE_LIMITS`] of
+/// the limits.
 fn command_of(
     message: &JointCommandMsg,
     declared: CommandMode,
-    torque_max_nm: &[f64; 6],
+    torque_max_nm: &[f64],
 ) -> Option<ActuatorCommand> {
     let all_finite = |v: &[f64; MAX_JOINTS]| v.iter().all(|x| x.is_finite());
     let torque_in_range = message
@@ -91,16 +92,17 @@ fn command_of(
         .iter()
         .zip(torque_max_nm)
         .all(|(t, max)| t.abs() <= TORQUE_REFUSED_ABOVE_LIMITS * max);
+    let joint_count = message.joint_count;
     match CommandMode::try_from(message.mode) {
         Ok(mode) if mode != declared => None,
-        _ if message.joint_count != ARM_JOINTS => None,
+        _ if joint_count as usize != torque_max_nm.len() => None,
         Ok(CommandMode::Torque) if all_finite(&message.torque_nm) && torque_in_range => {
-            Some(ActuatorCommand::Torque(joints_from_wire(&message.torque_nm)))
+            Some(ActuatorCommand::Torque(joints_from_wire(&message.torque_nm, joint_count)))
         }
         Ok(CommandMode::Position) if all_finite(&message.q_ref_rad) && all_finite(&message.qd_ref_rad_s) => {
             Some(ActuatorCommand::Reference {
-                q: joints_from_wire(&message.q_ref_rad),
-                qd: joints_from_wire(&message.qd_ref_rad_s),
+                q: joints_from_wire(&message.q_ref_rad, joint_count),
+                qd: joints_from_wire(&message.qd_ref_rad_s, joint_count),
             })
         }
         _ => None,
@@ -163,8 +165,11 @@ struct Answer {
 struct Plant {
     stage: PlantStage,
     declared: Declared,
-    torque_max_nm: [f64; 6],
-    speed_max_rad_s: [f64; 6],
+    /// The arm's torque limits, one per joint.
+    torque_max_nm: [f64; MAX_JOINTS],
+    /// The arm's speed limits, one per joint (zero past its joints, where the speed is zero).
+    speed_max_rad_s: [f64; MAX_JOINTS],
+    joint_count: usize,
     /// Ticks without an answer after which the previous command is no longer kept: the arm is held.
     hold_after: u64,
     /// The command applied and the tick it answered (reported in the next joint state).
@@ -196,6 +201,7 @@ impl Plant {
             },
             torque_max_nm: std::array::from_fn(|j| limits(j).torque_max),
             speed_max_rad_s: std::array::from_fn(|j| limits(j).velocity_max),
+            joint_count: context.cell.arm().joint_count(),
             hold_after: u64::from(config.runtime.hold_after_missed_ticks),
             last_command: None,
             applied_command_tick: u64::MAX,
@@ -248,7 +254,8 @@ impl Plant {
             if reply.driver_epoch != self.declared.epoch || !sealed {
                 counters.rejected();
             } else if reply.answers_tick == tick {
-                match command_of(&reply, self.declared.command_mode, &self.torque_max_nm) {
+                match command_of(&reply, self.declared.command_mode, &self.torque_max_nm[..self.joint_count])
+                {
                     Some(command) => {
                         answer.command = Some(command);
                         answer.round_trip_ns = reply.stamp_ns.saturating_sub(published_at).max(1);
@@ -397,7 +404,7 @@ pub fn run(context: &NodeContext) -> Result<(), RuntimeError> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use vservo_arm::JointVector;
+    use vservo_arm::{JointVector, six_joints};
 
     const LIMITS_NM: [f64; 6] = [100.0; 6];
 
@@ -408,7 +415,7 @@ mod tests {
     #[test]
     fn a_command_is_taken_only_in_the_declared_interface_finite_and_within_the_torque_bound() {
         let torque = JointCommandMsg { torque_nm: [150.0, 0.0, 0.0, 0.0, 0.0, -1.0, 0.0], ..command(0) };
-        let expected = ActuatorCommand::Torque(JointVector::new(150.0, 0.0, 0.0, 0.0, 0.0, -1.0));
+        let expected = ActuatorCommand::Torque(six_joints([150.0, 0.0, 0.0, 0.0, 0.0, -1.0]));
         assert_eq!(command_of(&torque, CommandMode::Torque, &LIMITS_NM), Some(expected));
         // beyond 1.5 times a joint's limit, not finite, or another interface than declared: refused
         let beyond = JointCommandMsg { torque_nm: [150.1, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0], ..torque };
@@ -417,12 +424,16 @@ mod tests {
         assert_eq!(command_of(&nan, CommandMode::Torque, &LIMITS_NM), None);
         assert_eq!(command_of(&torque, CommandMode::Position, &LIMITS_NM), None);
         let position = JointCommandMsg { q_ref_rad: [0.1; 7], qd_ref_rad_s: [0.2; 7], ..command(2) };
-        let reference =
-            ActuatorCommand::Reference { q: JointVector::from([0.1; 6]), qd: JointVector::from([0.2; 6]) };
+        // the slots past the arm's joints are not taken
+        let reference = ActuatorCommand::Reference { q: six_joints([0.1; 6]), qd: six_joints([0.2; 6]) };
         assert_eq!(command_of(&position, CommandMode::Position, &LIMITS_NM), Some(reference));
         // a command for another arm's joint count is refused
         let seven = JointCommandMsg { joint_count: 7, ..position };
         assert_eq!(command_of(&seven, CommandMode::Position, &LIMITS_NM), None);
+        // and taken by a seven-joint arm's driver
+        let reference =
+            ActuatorCommand::Reference { q: JointVector::from([0.1; 7]), qd: JointVector::from([0.2; 7]) };
+        assert_eq!(command_of(&seven, CommandMode::Position, &[100.0; 7]), Some(reference));
         // the simulated driver takes torques or positions; an unknown code is no interface at all
         assert_eq!(command_of(&command(1), CommandMode::Velocity, &LIMITS_NM), None);
         assert_eq!(command_of(&command(9), CommandMode::Torque, &LIMITS_NM), None);

@@ -26,7 +26,7 @@ use vservo_protocol::{
 use super::{CellModeFollower, IDLE_WAIT, NodeBase, go_realtime, latest, start};
 use crate::clock::monotonic_ns;
 use crate::telemetry::{Counters, CycleSample};
-use crate::wire::{ARM_JOINTS, command_mode, joints_from_wire, joints_to_wire};
+use crate::wire::{command_mode, joints_from_wire, joints_to_wire, wire_joint_count};
 use crate::{NodeContext, RuntimeError};
 
 /// The rmrc's ports.
@@ -92,9 +92,10 @@ impl Orphaned {
 /// The rmrc between joint states: its stage and what it reports in each command.
 struct Rmrc {
     stage: RmrcStage,
-    /// The command interface and the period (ns) a driver must declare.
+    /// The command interface, the period (ns) and the joint count a driver must declare.
     mode: CommandMode,
     period_ns: u64,
+    joint_count: u32,
     limits: TwistLimits,
     /// The twist in force: its frame's capture tick and the tick it was taken in (reported in each command).
     twist_in_force: (u64, u64),
@@ -109,6 +110,7 @@ impl Rmrc {
             stage: context.cell.rmrc(context.cell.start_joints()),
             mode: command_mode(config.command_interface()),
             period_ns: (config.robot.period_s * 1e9).round() as u64,
+            joint_count: wire_joint_count(context.cell.arm()),
             limits: TwistLimits::of(config),
             twist_in_force: (u64::MAX, u64::MAX),
             orphaned: Orphaned {
@@ -124,9 +126,9 @@ impl Rmrc {
     fn admit(&self, state: &JointStateMsg) -> Option<(JointVector, JointVector)> {
         let declared_ok = CommandMode::try_from(state.command_mode) == Ok(self.mode)
             && state.period_ns.abs_diff(self.period_ns) <= self.period_ns / 100
-            && state.joint_count == ARM_JOINTS;
-        let q = joints_from_wire(&state.q_rad);
-        let qd = joints_from_wire(&state.qd_rad_s);
+            && state.joint_count == self.joint_count;
+        let q = joints_from_wire(&state.q_rad, self.joint_count);
+        let qd = joints_from_wire(&state.qd_rad_s, self.joint_count);
         let finite = q.iter().chain(qd.iter()).all(|v| v.is_finite());
         (declared_ok && finite).then_some((q, qd))
     }
@@ -185,7 +187,7 @@ impl Rmrc {
         JointCommandMsg {
             schema: SCHEMA_VERSION,
             mode: self.mode.into(),
-            joint_count: ARM_JOINTS,
+            joint_count: self.joint_count,
             reserved: 0,
             answers_tick: state.tick,
             driver_epoch: state.driver_epoch,

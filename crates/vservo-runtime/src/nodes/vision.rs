@@ -228,11 +228,12 @@ fn run_external_camera(
     go_realtime(context, NodeRole::Vision);
     let counters = monitor.counters();
     let mut camera = ExternalCamera::new(context);
+    let joint_count = context.cell.arm().joint_count();
     let driver_period_s = context.cell.config().robot.period_s;
     let drain_wait = std::time::Duration::from_secs_f64((32.0 * driver_period_s).min(LONGEST_DRAIN_WAIT_S));
     while !context.stopping() && !context.orphaned() {
         let _ = listener.timed_wait(|_| {}, drain_wait);
-        hear_joints(state_subscriber, &mut camera.joints, counters);
+        hear_joints(state_subscriber, &mut camera.joints, joint_count, counters);
         while let Ok(Some(sample)) = images.receive() {
             let woke_at = monotonic_ns();
             let header = *sample.user_header();
@@ -242,7 +243,7 @@ fn run_external_camera(
                 continue;
             }
             drop(sample);
-            hear_joints(state_subscriber, &mut camera.joints, counters);
+            hear_joints(state_subscriber, &mut camera.joints, joint_count, counters);
             let (tick, q) = camera.at_exposure(&header, monitor);
             let (captured, delivered) = stage.process_image(header.frame, tick, q.as_ref(), &camera.image);
             out.remember(header.frame, header.capture_stamp_ns, &captured, monitor);
@@ -266,11 +267,12 @@ fn run_external_camera(
 fn hear_joints(
     subscriber: &iceoryx2::port::subscriber::Subscriber<ipc::Service, JointStateMsg, ()>,
     joints: &mut JointHistory,
+    joint_count: usize,
     counters: &Counters,
 ) {
     while let Some(taken) = subscriber.next_message() {
         match taken {
-            Ok(state) => match state.arm_q_rad() {
+            Ok(state) => match state.arm_q_rad(joint_count) {
                 Some(q) => joints.push(state.stamp_ns, state.tick, state.driver_epoch, &JointVector::from(q)),
                 None => counters.rejected(),
             },
@@ -384,7 +386,7 @@ fn run_simulated_camera(
         if let Some(delivered) = stage.take_delivered() {
             out.publish(&delivered);
         }
-        let q = joints_from_wire(&state.q_rad);
+        let q = joints_from_wire(&state.q_rad, crate::wire::wire_joint_count(context.cell.arm()));
         let Some(base_from_board) =
             pose_from_wire(&world.base_from_board).filter(|_| q.iter().all(|v| v.is_finite()))
         else {

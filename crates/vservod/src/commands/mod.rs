@@ -45,6 +45,8 @@ const COMMAND_LOG_LINES: u32 = 10;
 
 /// The latest of what the loop published, as the supervisor heard it.
 pub struct LoopState<'a> {
+    /// The configured arm's joints.
+    pub arm_joints: usize,
     /// The latest joint state.
     pub joint_state: Option<&'a JointStateMsg>,
     /// The latest features.
@@ -57,7 +59,9 @@ impl LoopState<'_> {
     /// The cell as target placement sees it: the joints, and the features if all four marks are seen.
     fn cell_now(&self) -> CellNow {
         CellNow {
-            joints: self.joint_state.and_then(|state| state.arm_q_rad().map(JointVector::from)),
+            joints: self
+                .joint_state
+                .and_then(|state| state.arm_q_rad(self.arm_joints).map(JointVector::from)),
             features_seen: self
                 .features
                 .filter(|f| f.valid_mask == 0b1111)

@@ -14,10 +14,10 @@ use vservo_protocol::seal::SealKey;
 use super::node::NodeRecord;
 
 /// Where a restarted node resumes: the last joint state and features heard.
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
+#[derive(Debug, Clone, Default, PartialEq)]
 pub struct Resume {
-    /// The joints (rad) and tick of the latest joint state.
-    pub joints: Option<([f64; 6], u64)>,
+    /// The joints (rad), one per joint of the arm, and tick of the latest joint state.
+    pub joints: Option<(Vec<f64>, u64)>,
     /// The latest features (px).
     pub features_px: Option<[f64; 8]>,
 }
@@ -118,7 +118,7 @@ mod tests {
 
     #[test]
     fn a_restarted_plant_resumes_at_the_next_tick_where_the_arm_was() {
-        let resume = Resume { joints: Some(([0.5, -1.0, 0.0, 0.0, 0.0, 2.0], 41)), features_px: None };
+        let resume = Resume { joints: Some((vec![0.5, -1.0, 0.0, 0.0, 0.0, 2.0], 41)), features_px: None };
         assert_eq!(
             resume_arguments(NodeRole::Plant, &resume),
             ["--resume-q=5e-1,-1e0,0e0,0e0,0e0,2e0", "--resume-tick=42"]

@@ -77,6 +77,8 @@ struct Settings {
     initial_backoff: Duration,
     max_backoff: Duration,
     status_every: Option<Duration>,
+    /// The configured arm's joints.
+    arm_joints: usize,
 }
 
 impl Settings {
@@ -92,6 +94,7 @@ impl Settings {
             initial_backoff: runtime.restart_backoff_initial,
             max_backoff: runtime.restart_backoff_max,
             status_every: (status_every_s > 0.0).then(|| Duration::from_secs_f64(status_every_s)),
+            arm_joints: config.arm.joint_count(),
         }
     }
 
@@ -187,7 +190,9 @@ impl Daemon {
         let ports = Ports::open(&node, &settings.instance, launcher.seal_key.clone())?;
         let stop_path = SafeStopReader::create(claim.dir())?;
         // the cell mode first: every node finds it in the service's history
-        let safety = Safety::new(&node, &settings.instance, config.faults, launcher.seal_key.clone())?;
+        let arm_joints = settings.arm_joints as u32;
+        let safety =
+            Safety::new(&node, &settings.instance, config.faults, arm_joints, launcher.seal_key.clone())?;
         let path = &launcher.config_path;
         let commander =
             Commander::new(&node, path, config.clone(), config_text, launcher.seal_key.clone(), &gains)?;
@@ -245,6 +250,7 @@ impl Daemon {
         conditions.stream_taken = self.stream_taken(now);
         self.safety.cycle(&conditions);
         let loop_state = LoopState {
+            arm_joints: self.settings.arm_joints,
             joint_state: self.heard.joint_state.as_ref(),
             features: self.heard.features.as_ref(),
             conditions,
@@ -381,11 +387,11 @@ impl Daemon {
     /// Starts again every node whose backoff is over, resuming where the loop was.
     fn restart_due(&mut self, now: Instant) {
         let resume = Resume {
-            // the arm's six joints, from a driver of this arm
-            joints: self
-                .heard
-                .joint_state
-                .and_then(|s| Some((s.arm_q_rad::<{ vservo_arm::JOINTS }>()?, s.tick))),
+            // the arm's joints, from a driver of this arm
+            joints: self.heard.joint_state.and_then(|s| {
+                let q = s.arm_q_rad(self.settings.arm_joints)?;
+                Some((q[..self.settings.arm_joints].to_vec(), s.tick))
+            }),
             features_px: self.heard.features.map(|f| f.features_px),
         };
         for node in self.nodes.iter_mut().filter(|n| n.process.is_none() && n.record.restart.due(now)) {
