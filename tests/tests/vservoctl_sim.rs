@@ -143,7 +143,7 @@ fn basin_reports_each_class_as_json_and_draws_the_starts() {
 /// starts converges from every counted start. Nothing but their configuration files tells them apart.
 #[test]
 fn urdf_arms_converge_in_the_lockstep_from_every_counted_start() {
-    for arm in ["xarm6", "ur5e"] {
+    for arm in ["xarm6", "ur5e", "panda"] {
         let config = repository_root().join(format!("config/arms/{arm}.toml"));
         let config = config.to_str().expect("utf-8");
         let out = std::env::temp_dir().join(format!("vservo-sim-{arm}-{}", std::process::id()));
@@ -155,9 +155,13 @@ fn urdf_arms_converge_in_the_lockstep_from_every_counted_start() {
         let summary: serde_json::Value =
             serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).expect("summary.json"))
                 .expect("JSON");
+        let joints = std::fs::read_to_string(out.join("joints.csv")).expect("joints.csv");
         let _ = std::fs::remove_dir_all(&out);
         assert_eq!(summary["plant"], "kinematic");
         assert!(summary["final_error_px"].as_f64().expect("number") < 0.1, "{arm}: {summary}");
+        // a column per joint of the arm
+        let seven = arm == "panda";
+        assert_eq!(joints.lines().next().is_some_and(|header| header.contains(",q7,")), seven, "{arm}");
 
         let output = run("vservoctl", &["basin", "--config", config, "--starts", "100", "--json"]);
         assert!(output.status.success(), "{arm}: {}", String::from_utf8_lossy(&output.stderr));
@@ -169,4 +173,95 @@ fn urdf_arms_converge_in_the_lockstep_from_every_counted_start() {
             assert_eq!(class["converged"], class["counted"], "{arm}: {class}");
         }
     }
+}
+
+/// The issue's case in the whole lockstep: the Panda (seven joints) with its desired pose 0.047 rad inside
+/// panda_joint1's upper limit, so that it starts within 0.1 rad of it. The camera converges, and the null-space
+/// task turns the joint away from the limit (farther by more than 0.1 rad at the end, never closer than at
+/// the start); with the task off (limit_gain = 0) the joint stays near the limit, which shows the task did it.
+#[test]
+fn a_seven_joint_arm_started_near_a_joint_limit_converges_while_the_null_space_moves_the_joint_away() {
+    let scratch = std::env::temp_dir().join(format!("vservo-panda-limit-{}", std::process::id()));
+    std::fs::create_dir_all(&scratch).expect("a scratch directory");
+    let panda = repository_root().join("config/arms/panda.toml");
+    let run_with = |name: &str, limit_gain: f64| -> (serde_json::Value, Vec<f64>) {
+        let config = scratch.join(format!("{name}.toml"));
+        std::fs::write(
+            &config,
+            format!(
+                "extends = {:?}\n[desired]\njoints_rad = [2.92, -0.785, 0.0, -2.356, 0.0, 1.571, 0.785]\n\
+                 [interpolator.null_space]\nlimit_gain = {limit_gain:?}\n",
+                panda.display()
+            ),
+        )
+        .expect("written");
+        let out = scratch.join(name);
+        let output = run(
+            "vservoctl",
+            &[
+                "sim",
+                "--config",
+                config.to_str().expect("utf-8"),
+                "--duration",
+                "8",
+                "--out",
+                out.to_str().expect("utf-8"),
+            ],
+        );
+        assert!(output.status.success(), "{name}: {}", String::from_utf8_lossy(&output.stderr));
+        let summary =
+            serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).expect("summary"))
+                .expect("JSON");
+        let joints = std::fs::read_to_string(out.join("joints.csv")).expect("joints.csv");
+        let q1: Vec<f64> = joints
+            .lines()
+            .skip(1)
+            .map(|line| line.split(',').nth(1).and_then(|v| v.parse().ok()).expect("q1"))
+            .collect();
+        (summary, q1)
+    };
+    // the limit as vservo reads it from the Panda's URDF
+    let model = run(
+        "vservoctl",
+        &[
+            "model",
+            "--config",
+            panda.to_str().expect("utf-8"),
+            "--q",
+            "0,-0.785,0,-2.356,0,1.571,0.785",
+            "--json",
+        ],
+    );
+    assert!(model.status.success(), "{}", String::from_utf8_lossy(&model.stderr));
+    let model: serde_json::Value = serde_json::from_slice(&model.stdout).expect("JSON");
+    assert_eq!(model["joints"][0]["name"], "panda_joint1");
+    let upper = model["joints"][0]["range_rad"][1].as_f64().expect("the upper limit");
+
+    let (summary, q1) = run_with("with-task", 2.0);
+    let (summary_off, q1_off) = run_with("without-task", 0.0);
+    let _ = std::fs::remove_dir_all(&scratch);
+    let margin = |q: f64| upper - q;
+    let start = margin(q1[0]);
+    assert!(
+        start > 0.0 && start < 0.1,
+        "the premise: joint 1 starts within 0.1 rad of its limit ({start} rad)"
+    );
+    assert!(summary["final_error_px"].as_f64().expect("number") < 0.1, "the camera converges: {summary}");
+    assert_eq!(summary["faults"]["position_limit"], 0, "{summary}");
+    let end = margin(*q1.last().expect("samples"));
+    let closest = q1.iter().map(|&q| margin(q)).fold(f64::INFINITY, f64::min);
+    assert!(end > start + 0.1, "joint 1 turned away from its limit: {start} → {end} rad");
+    assert!(closest >= start - 1e-3, "joint 1 never came closer than it started: {closest} rad");
+    // the contrast: without the task the camera converges too, and the joint stays by its limit
+    assert!(summary_off["final_error_px"].as_f64().expect("number") < 0.1, "{summary_off}");
+    let end_off = margin(*q1_off.last().expect("samples"));
+    eprintln!(
+        "joint 1's margin to its limit: start {start:.4} rad, closest {closest:.4}, end {end:.4} (without the task \
+         {end_off:.4}); final error {} px",
+        summary["final_error_px"]
+    );
+    assert!(
+        end_off < start + 0.05,
+        "without the null-space task joint 1 stays near its limit: {end_off} rad"
+    );
 }
