@@ -1,6 +1,7 @@
 //! The driver contract (docs/DRIVERS.md) proved a second time, with another simulator and an arm vservo models
 //! from a URDF: PyBullet's physics and TinyRenderer behind clients/python/pybullet_driver.py, pybullet_data's
-//! xArm6, vservod on config/arms/xarm6.toml (robot.driver = "external", camera.source = "external").
+//! xArm6 (six joints) and Panda (seven), vservod on config/arms/xarm6.toml and panda.toml (robot.driver =
+//! "external", camera.source = "external").
 
 use std::path::PathBuf;
 use std::process::Command;
@@ -35,10 +36,10 @@ fn camera_processes() -> Vec<u32> {
         .collect()
 }
 
-/// `scripts/run-pybullet.sh --json` on the xArm6 and on a UR5e, the README's way to try it; nothing of the
-/// driver outlives the run (its camera process ends with it).
+/// `scripts/run-pybullet.sh --json` on the xArm6, the Panda and a UR5e, the README's way to try it; nothing of
+/// the driver outlives the run (its camera process ends with it).
 #[test]
-fn run_pybullet_with_the_xarm6_and_a_ur5e_converges_below_one_pixel() {
+fn run_pybullet_with_the_xarm6_the_panda_and_a_ur5e_converges_below_one_pixel() {
     let _one = exclusive();
     let urdf = pybullet_data().join("xarm/xarm6_robot.urdf");
     assert!(urdf.exists(), "{}", urdf.display());
@@ -47,6 +48,12 @@ fn run_pybullet_with_the_xarm6_and_a_ur5e_converges_below_one_pixel() {
     run_script_to_convergence(
         "run-pybullet.sh",
         &["--urdf", &urdf, "--config", "config/arms/xarm6.toml", "--period-s", "0.004"],
+    );
+    // seven joints: the Panda at its own rate, 1 kHz
+    let panda = pybullet_data().join("franka_panda/panda.urdf").display().to_string();
+    run_script_to_convergence(
+        "run-pybullet.sh",
+        &["--urdf", &panda, "--config", "config/arms/panda.toml", "--period-s", "0.001"],
     );
     // another arm with nothing but its files: a UR5e (its URDF written from its DH parameters) at 500 Hz
     run_script_to_convergence(
