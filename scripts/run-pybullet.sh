@@ -13,12 +13,13 @@
 # pybullet_data). --config is any configuration of a cell (the lockstep's, e.g. config/arms/xarm6.toml): the run
 # uses it through an overlay (target/pybullet-run/pybullet.toml) that only puts the driver in place of vservo's
 # simulated arm and camera: robot.driver and camera.source "external", the driver taking joint velocities every
-# --period-s seconds (the arm's own period, default 0.001), instance "pybullet", and no frame of pipeline delay
+# --period-s seconds (the arm's own period; by default the configuration's robot.period_s, which for the lockstep's
+# simulated arm is its timing.control_period_s), instance "pybullet", and no frame of pipeline delay
 # (PyBullet's frames reach the servo 20–25 ms after capture on average: within the frame).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 duration=20
-period=0.001
+period=""
 json=0
 config=""
 urdf=""
@@ -62,6 +63,11 @@ out=target/pybullet-run
 rm -rf "$out"
 mkdir -p "$out"
 vservoctl="$bin/vservoctl"
+
+if [ -z "$period" ]; then
+    # the arm's own period as the configuration gives it
+    period="$("$vservoctl" scene --config "$config" | "$python" -c 'import json,sys; print(json.load(sys.stdin)["robot"]["period_s"])')"
+fi
 
 cat > "$out/pybullet.toml" <<TOML
 # written by scripts/run-pybullet.sh: the cell of the file below with the PyBullet driver as its arm and camera

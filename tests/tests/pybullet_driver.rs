@@ -44,21 +44,18 @@ fn run_pybullet_with_the_xarm6_the_panda_and_a_ur5e_converges_below_one_pixel() 
     let urdf = pybullet_data().join("xarm/xarm6_robot.urdf");
     assert!(urdf.exists(), "{}", urdf.display());
     let urdf = urdf.display().to_string();
-    // the xArm's own rate: 250 Hz
-    run_script_to_convergence(
-        "run-pybullet.sh",
-        &["--urdf", &urdf, "--config", "config/arms/xarm6.toml", "--period-s", "0.004"],
-    );
+    // each arm at its own rate, as its configuration gives it (timing.control_period_s): the xArm at 250 Hz
+    run_script_to_convergence("run-pybullet.sh", &["--urdf", &urdf, "--config", "config/arms/xarm6.toml"]);
+    let overlay = std::fs::read_to_string(repository_root().join("target/pybullet-run/pybullet.toml"))
+        .expect("the run's overlay");
+    assert!(overlay.contains("period_s = 0.004"), "{overlay}");
     // seven joints: the Panda at its own rate, 1 kHz
     let panda = pybullet_data().join("franka_panda/panda.urdf").display().to_string();
-    run_script_to_convergence(
-        "run-pybullet.sh",
-        &["--urdf", &panda, "--config", "config/arms/panda.toml", "--period-s", "0.001"],
-    );
+    run_script_to_convergence("run-pybullet.sh", &["--urdf", &panda, "--config", "config/arms/panda.toml"]);
     // another arm with nothing but its files: a UR5e (its URDF written from its DH parameters) at 500 Hz
     run_script_to_convergence(
         "run-pybullet.sh",
-        &["--urdf", "config/arms/ur5e.urdf", "--config", "config/arms/ur5e.toml", "--period-s", "0.002"],
+        &["--urdf", "config/arms/ur5e.urdf", "--config", "config/arms/ur5e.toml"],
     );
     assert!(
         wait_until(Duration::from_secs(3), || camera_processes().is_empty()),
