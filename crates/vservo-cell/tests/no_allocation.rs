@@ -70,48 +70,16 @@ fn the_robust_law_allocates_nothing_per_frame_either() {
     assert!(flags.iter().any(|f| f.barrier), "{flags:?}");
 }
 
-/// An arm from its URDF (config/arms/xarm6.toml, PyBullet's xArm6, simulated kinematically): its chain's
-/// kinematics on the 1 ms path allocate nothing either; nor does the seven-joint Panda's redundancy resolution.
+/// Arms from their URDFs (config/arms/xarm6.toml and panda.toml, PyBullet's xArm6 and Panda, simulated
+/// kinematically): their chains' kinematics on the 1 ms path, and the seven-joint Panda's redundancy
+/// resolution with its null-space task, allocate nothing per tick or frame.
 #[test]
 fn an_arm_from_a_urdf_allocates_nothing_per_tick_or_frame() {
-    let config =
-        vservo_config::Config::load(concat!(env!("CARGO_MANIFEST_DIR"), "/../../config/arms/xarm6.toml"))
-            .expect("the xArm6 config loads");
-    runs_without_allocating(config);
-
-    use vservo_arm::JointVector;
-    use vservo_sim::redundancy::{Damping, NullSpaceTask, resolve};
-    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../target/pybullet_data/franka_panda/panda.urdf");
-    let panda =
-        vservo_arm::urdf::read(std::path::Path::new(path), None, Some("panda_link8")).expect("the Panda");
-    let limits: Vec<vservo_arm::JointLimits> = panda
-        .position_limits
-        .iter()
-        .map(|range| {
-            let [low, high] = range.expect("ranges");
-            vservo_arm::JointLimits {
-                position_min: low,
-                position_max: high,
-                velocity_max: 2.0,
-                torque_max: 1.0,
-            }
-        })
-        .collect();
-    let damping = Damping { manipulability_threshold: 0.01, max_damping: 0.05 };
-    let mut q = JointVector::from_column_slice(&[2.9, -0.785, 0.0, -2.356, 0.0, 1.571, 0.785]);
-    let twist = nalgebra::Vector6::new(0.01, -0.02, 0.005, 0.01, 0.0, -0.01);
-    let allocations = allocations_in(|| {
-        for _ in 0..1000 {
-            let frames = panda.chain.frames(q.as_slice());
-            q += resolve(&frames.jacobian_base(), &q, &limits, &twist, &damping, &NullSpaceTask::default())
-                .qd
-                * 0.001;
-        }
-    });
-    assert_eq!(
-        allocations, 0,
-        "allocations in 1000 ticks of the Panda's kinematics and redundancy resolution"
-    );
+    for arm in ["xarm6", "panda"] {
+        let file = format!("{}/../../config/arms/{arm}.toml", env!("CARGO_MANIFEST_DIR"));
+        let config = vservo_config::Config::load(&file).expect("the arm's config loads");
+        runs_without_allocating(config);
+    }
 }
 
 /// Runs frames and ticks of the cell, counting allocations; the law's flags of the frames counted.

@@ -34,63 +34,40 @@ fn tick(c: &mut Criterion) {
     });
 }
 
-/// The 1 ms path's kinematics for arms from a URDF (PyBullet's pybullet_data, linked by scripts/setup.sh):
-/// the xArm6 through the same interpolator as the PUMA, and the Panda's seven joints through forward
-/// kinematics, the Jacobian and the redundancy resolution (the part of its tick that differs).
-fn urdf_arms(c: &mut Criterion) {
-    use vservo_arm::JointVector;
-    use vservo_sim::redundancy::{Damping, NullSpaceTask, resolve};
-    let data = concat!(env!("CARGO_MANIFEST_DIR"), "/../../target/pybullet_data");
-    let config =
-        Config::load(concat!(env!("CARGO_MANIFEST_DIR"), "/../../config/arms/xarm6.toml")).expect("valid");
-    let settings = InterpolatorSettings::new(0.085, 0.001);
-    let mut interpolator =
-        Interpolator::new(settings, config.arm.clone(), config.tool_from_camera, config.desired.joints);
-    let twist = Twist::new(0.01, -0.02, 0.005, 0.01, 0.0, -0.01);
-    interpolator.set_twist(twist, 0.0);
-    let mut t = 0.0;
-    c.bench_function("interpolator_tick_xarm6_urdf", |b| {
-        b.iter(|| {
-            t += 0.001;
-            if t > 0.15 {
-                t = 0.0;
-                interpolator.set_twist(twist, 0.0);
-            }
-            *interpolator.step(t)
-        })
-    });
-
-    let panda = vservo_arm::urdf::read(
-        std::path::Path::new(&format!("{data}/franka_panda/panda.urdf")),
-        None,
-        Some("panda_link8"),
-    )
-    .expect("the Panda");
-    let limits: Vec<vservo_arm::JointLimits> = panda
-        .position_limits
-        .iter()
-        .zip(&panda.velocity_limits)
-        .map(|(range, speed)| {
-            let [low, high] = range.expect("ranges");
-            vservo_arm::JointLimits {
-                position_min: low,
-                position_max: high,
-                velocity_max: speed.expect("speed"),
-                torque_max: 1.0,
-            }
-        })
-        .collect();
-    let q = JointVector::from_column_slice(&[2.9, -0.785, 0.0, -2.356, 0.0, 1.571, 0.785]);
-    let damping = Damping { manipulability_threshold: 0.01, max_damping: 0.05 };
-    let task = NullSpaceTask::default();
-    let tool_twist = nalgebra::Vector6::new(0.01, -0.02, 0.005, 0.01, 0.0, -0.01);
-    c.bench_function("redundant_rates_panda_7_joints", |b| {
-        b.iter(|| {
-            let frames = panda.chain.frames(black_box(q.as_slice()));
-            resolve(&frames.jacobian_base(), &q, &limits, black_box(&tool_twist), &damping, &task)
-        })
-    });
+/// The interpolator's tick alone (the rmrc's part that depends on the arm) for the PUMA 560 and for arms from
+/// a URDF (PyBullet's pybullet_data, linked by scripts/setup.sh): the xArm6 (six joints, the same 6×6 path
+/// as the PUMA) and the Panda (seven joints: the redundancy resolution with its null-space task), each on its
+/// configuration's interpolator settings.
+fn interpolator_ticks(c: &mut Criterion) {
+    for (name, file) in [
+        ("interpolator_tick_puma560", "config/vservo.toml"),
+        ("interpolator_tick_xarm6_urdf", "config/arms/xarm6.toml"),
+        ("interpolator_tick_panda_urdf_7_joints", "config/arms/panda.toml"),
+    ] {
+        let config = Config::load(format!("{}/../../{file}", env!("CARGO_MANIFEST_DIR")))
+            .expect("a valid configuration");
+        let mut interpolator = Interpolator::new(
+            config.interpolator,
+            config.arm.clone(),
+            config.tool_from_camera,
+            config.desired.joints,
+        );
+        let twist = Twist::new(0.01, -0.02, 0.005, 0.01, 0.0, -0.01);
+        interpolator.set_twist(twist, 0.0);
+        let dt = config.timing.control_period_s;
+        let mut t = 0.0;
+        c.bench_function(name, |b| {
+            b.iter(|| {
+                t += dt;
+                if t > 0.15 {
+                    t = 0.0;
+                    interpolator.set_twist(twist, 0.0);
+                }
+                *interpolator.step(t)
+            })
+        });
+    }
 }
 
-criterion_group!(benches, tick, urdf_arms);
+criterion_group!(benches, tick, interpolator_ticks);
 criterion_main!(benches);
