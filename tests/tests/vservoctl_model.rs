@@ -1,7 +1,7 @@
 //! `vservoctl model` as a user runs it: its JSON agrees with the arm library, bad input exits with 2.
 
 use serde_json::Value;
-use vservo_arm::{JointVector, puma560};
+use vservo_arm::puma560;
 use vservo_system_tests::run;
 
 fn model_json(args: &[&str]) -> Value {
@@ -27,8 +27,10 @@ fn json_holds_every_documented_key_and_agrees_with_the_library() {
     let qdd = "1,2,-1.5,3,0.5,-2";
     let json = model_json(&["--q", q, "--qd", qd, "--qdd", qdd]);
     let arm = puma560::puma560();
-    let vector =
-        |t: &str| JointVector::from_iterator(t.split(',').map(|v| v.parse::<f64>().expect("number")));
+    let vector = |t: &str| {
+        let values: Vec<f64> = t.split(',').map(|v| v.parse::<f64>().expect("number")).collect();
+        vservo_arm::joint_vector(&values).expect("six joints")
+    };
     let (q, qd, qdd) = (vector(q), vector(qd), vector(qdd));
 
     let fkine = numbers(&json["fkine"]);
@@ -116,5 +118,43 @@ fn a_urdf_arm_is_described_from_its_configuration() {
     assert!(json["rigid"].is_null() && json["full"].is_null() && json["ik"].is_null());
     // the PUMA's named poses are the PUMA's
     let output = run("vservoctl", &["model", "--config", config.to_str().expect("utf-8"), "--q", "qn"]);
+    assert_eq!(output.status.code(), Some(2));
+}
+
+/// The seven-joint Panda (config/arms/panda.toml): seven joints named from its URDF, seven links (the last the
+/// tool), a Jacobian of seven columns, and the tool where PyBullet puts it.
+#[test]
+fn a_seven_joint_urdf_arm_is_described_with_its_seven_joints() {
+    let root = vservo_system_tests::repository_root();
+    let reference: Value = serde_json::from_str(
+        &std::fs::read_to_string(root.join("crates/vservo-arm/tests/data/pybullet_kinematics.json"))
+            .expect("the PyBullet reference"),
+    )
+    .expect("JSON");
+    let panda = &reference["arms"]["panda"];
+    let sample = &panda["samples"][0];
+    let q: Vec<String> = numbers(&sample["q_rad"]).iter().map(|v| format!("{v}")).collect();
+    assert_eq!(q.len(), 7);
+    // the reference's tool is the configuration's: the flange
+    assert_eq!(panda["tip_link"], "panda_link8");
+    let config = root.join("config/arms/panda.toml");
+    let json = model_json(&["--config", config.to_str().expect("utf-8"), "--q", &q.join(",")]);
+    let names: Vec<&str> =
+        json["joints"].as_array().expect("joints").iter().filter_map(|j| j["name"].as_str()).collect();
+    assert_eq!(names, (1..=7).map(|j| format!("panda_joint{j}")).collect::<Vec<_>>());
+    assert_eq!(numbers(&json["q"]).len(), 7);
+    assert_eq!(json["links"].as_array().expect("links").len(), 7);
+    assert_eq!(numbers(&json["links"][6]), numbers(&json["fkine"]));
+    let jacobian = json["jacob0"].as_array().expect("rows");
+    assert_eq!(jacobian.len(), 6);
+    assert!(jacobian.iter().all(|row| numbers(row).len() == 7), "{jacobian:?}");
+    let fkine = numbers(&json["fkine"]);
+    let position = numbers(&sample["base_from_tool_translation_m"]);
+    for (axis, expected) in position.iter().enumerate() {
+        assert!((fkine[4 * axis + 3] - expected).abs() < 1e-6, "tool position {axis}: {fkine:?}");
+    }
+    // six angles are not a seven-joint arm's
+    let output =
+        run("vservoctl", &["model", "--config", config.to_str().expect("utf-8"), "--q", "0,0,0,0,0,0"]);
     assert_eq!(output.status.code(), Some(2));
 }

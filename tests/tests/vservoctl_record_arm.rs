@@ -22,9 +22,11 @@ const UR5_DH: [[f64; 4]; 6] = [
 ];
 const START_RAD: [f64; 6] = [0.0, -1.2, 1.5, -0.3, 1.57, 0.0];
 
-/// A robot driver that ignores commands and sweeps the joints slowly around `start` (1 kHz), until dropped.
-fn sweeping_driver(instance: &str, start: [f64; 6]) -> LoopThread {
+/// A robot driver of `start.len()` joints that ignores commands and sweeps the joints slowly around `start`
+/// (1 kHz), until dropped.
+fn sweeping_driver(instance: &str, start: &[f64]) -> LoopThread {
     let instance = instance.to_string();
+    let start = start.to_vec();
     LoopThread::spawn(move |stop| {
         let dir = vservo_protocol::InstanceDir::locate_waiting(&instance, Duration::from_secs(10))
             .expect("the instance");
@@ -40,7 +42,7 @@ fn sweeping_driver(instance: &str, start: [f64; 6]) -> LoopThread {
                 (started + Duration::from_millis(tick)).saturating_duration_since(Instant::now()),
             );
             let t = started.elapsed().as_secs_f64();
-            // six joints; the seventh slot zero
+            // the arm's joints; the slots past them zero
             let q_rad = std::array::from_fn(|j| start.get(j).map_or(0.0, |q| q + 0.2 * (t + j as f64).sin()));
             let _ = states.send_copy(JointStateMsg {
                 tick,
@@ -48,6 +50,7 @@ fn sweeping_driver(instance: &str, start: [f64; 6]) -> LoopThread {
                 driver_epoch: u64::from(std::process::id()),
                 period_ns: 1_000_000,
                 command_mode: CommandMode::Velocity.into(),
+                joint_count: start.len() as u32,
                 q_rad,
                 torque_nm: [f64::NAN; vservo_protocol::MAX_JOINTS],
                 ..JointStateMsg::default()
@@ -81,7 +84,7 @@ fn a_recording_of_a_custom_dh_arm_draws_that_arm() {
             ),
         ],
     );
-    let file = record_swept_arm(&config, &instance, START_RAD);
+    let file = record_swept_arm(&config, &instance, &START_RAD);
     let check = |arm: &str| check_drawing(&file, &instance, arm);
     let checked = check(&dh);
     // the check tells arms apart: the same recording is not a UR5 whose shoulder sits 1 cm higher
@@ -111,7 +114,7 @@ fn a_recording_of_an_arm_from_its_urdf_draws_that_arm() {
             ("driver = \"simulated\"", "driver = \"external\"\ncommand = \"velocity\""),
         ],
     );
-    let file = record_swept_arm(&config, &instance, [0.0, -0.443, -1.048, 0.0, 1.491, 0.0]);
+    let file = record_swept_arm(&config, &instance, &[0.0, -0.443, -1.048, 0.0, 1.491, 0.0]);
     let urdf = repository_root().join("target/pybullet_data/xarm/xarm6_robot.urdf");
     let check = |tip: &str| check_drawing(&file, &instance, &format!("urdf={}#{tip}", urdf.display()));
     let checked = check("link6");
@@ -125,11 +128,39 @@ fn a_recording_of_an_arm_from_its_urdf_draws_that_arm() {
     assert_eq!(figures["camera_on"], serde_json::json!(["link6"]), "{figures}");
 }
 
+/// The seven-joint Panda from its URDF (config/arms/panda.toml), swept by the test's driver: seven links drawn
+/// where PyBullet puts them, the camera on the seventh.
+#[test]
+fn a_recording_of_a_seven_joint_arm_draws_its_seven_links() {
+    let _one = exclusive();
+    let instance = unique("record-panda");
+    let config = config_from(
+        "config/arms/panda.toml",
+        &[
+            ("name = \"panda\"", &format!("name = \"{instance}\"")),
+            ("source = \"simulated\"", "source = \"external\""),
+            ("driver = \"simulated\"", "driver = \"external\"\ncommand = \"velocity\""),
+        ],
+    );
+    let file = record_swept_arm(&config, &instance, &[0.0, -0.785, 0.0, -2.356, 0.0, 1.571, 0.785]);
+    let urdf = repository_root().join("target/pybullet_data/franka_panda/panda.urdf");
+    let check = |tip: &str| check_drawing(&file, &instance, &format!("urdf={}#{tip}", urdf.display()));
+    let checked = check("panda_link8");
+    let refused = check("panda_link7");
+    let _ = std::fs::remove_file(&file);
+    assert!(checked.status.success(), "{}", String::from_utf8_lossy(&checked.stderr));
+    assert!(!refused.status.success(), "another tool link passed the check");
+    let figures: serde_json::Value = serde_json::from_slice(&checked.stdout).expect("JSON figures");
+    eprintln!("arm drawing: {figures}");
+    assert!(figures["transforms_checked"].as_u64() >= Some(20), "{figures}");
+    assert_eq!(figures["camera_on"], serde_json::json!(["link7"]), "{figures}");
+}
+
 /// Runs the daemon on `config` with the sweeping driver and records 1.5 s of it: the recording's path.
 fn record_swept_arm(
     config: &vservo_system_tests::TempConfig,
     instance: &str,
-    start: [f64; 6],
+    start: &[f64],
 ) -> std::path::PathBuf {
     let daemon = Daemon::start(config);
     let _driver = sweeping_driver(instance, start);
