@@ -1,7 +1,8 @@
 //! # vservo-arm — the serial-arm model
 //!
-//! This crate owns the model of the manipulator that carries vservo's camera: a six-joint, all-revolute
-//! serial arm in standard Denavit–Hartenberg form or as the chain of a URDF ([`urdf`], [`chain`]), with the
+//! This crate owns the model of the manipulator that carries vservo's camera: an all-revolute serial arm of
+//! six joints in standard Denavit–Hartenberg form, or of six or seven as the chain of a URDF ([`urdf`],
+//! [`chain`]; joint vectors have room for [`MAX_JOINTS`], the Jacobian is 6×7), with the
 //! **PUMA 560** built in
 //! ([`puma560::puma560`]) exactly as Peter Corke's Robotics Toolbox defines it (DH and inertial parameters
 //! of Armstrong, Khatib & Burdick 1986; motor inertias, gear ratios and friction of the toolbox's

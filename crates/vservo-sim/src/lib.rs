@@ -4,11 +4,13 @@
 //! `vservo-lockstep` composes them with the vision and the servo on one virtual clock):
 //! - [`plant::Plant`]: the simulated PUMA 560 — full dynamics (armature and friction) advanced 1 ms per tick
 //!   by RK4 substeps, torques held between ticks and saturated at the PUMA's limits, joint limits reported
-//!   as faults; or a kinematic mode in which the joints follow the reference exactly;
+//!   as faults; or, for any arm, a kinematic mode in which the joints follow the reference (at once, or
+//!   through a first-order lag);
 //! - [`world::ObjectMotion`]: where the board is at each instant (hold, step, circle);
 //! - [`interpolator::Interpolator`]: the resolved-motion-rate interpolator — the latest camera twist held
 //!   (or interpolated), mapped to the base frame through `tool_from_camera`, q̇_d from the Jacobian with
-//!   damped least squares near singularities, joint velocity limits, and a stale-twist watchdog;
+//!   damped least squares near singularities (a seven-joint arm through [`redundancy`], its spare joint in
+//!   the null space), joint velocity and acceleration limits, and a stale-twist watchdog;
 //! - [`joint_servo::JointServo`]: computed torque, or PD plus gravity;
 //! - [`redundancy::resolve`]: a tool twist into joint rates for a chain of six or seven joints, the spare
 //!   joint of a seven-joint arm moved in the null space away from its limits (and towards a posture).
