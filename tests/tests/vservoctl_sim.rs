@@ -172,6 +172,11 @@ fn urdf_arms_converge_in_the_lockstep_from_every_counted_start() {
         for class in classes {
             assert_eq!(class["converged"], class["counted"], "{arm}: {class}");
         }
+        // only the PUMA 560 has a dynamics model: asking for it is refused, naming the configuration
+        let output = run("vservoctl", &["sim", "--config", config, "--plant", "dynamic", "--duration", "1"]);
+        assert_eq!(output.status.code(), Some(2), "{arm}");
+        let stderr = String::from_utf8_lossy(&output.stderr);
+        assert!(stderr.contains("--plant dynamic") && stderr.contains(config), "{arm}: {stderr}");
     }
 }
 

@@ -89,7 +89,10 @@ fn an_external_cameras_features_carry_the_camera_pose_at_exposure() {
         .expect("echo")
         .iter()
         .map(|s| {
-            (s["stamp_ns"].as_u64().unwrap_or(0), JointVector::from_column_slice(&numbers(&s["q_rad"])[..6]))
+            (
+                s["stamp_ns"].as_u64().unwrap_or(0),
+                vservo_arm::joint_vector(&numbers(&s["q_rad"])[..6]).expect("six joints"),
+            )
         })
         .collect();
     stop.store(true, Ordering::Relaxed);

@@ -73,7 +73,7 @@ pub struct FaultView {
     /// "position_limit", "velocity_limit", "torque_saturated", "driver_fault", "target_lost",
     /// "robot_stalled" or "requested".
     pub name: &'static str,
-    /// The joints it concerns (1–6), if any.
+    /// The joints it concerns (1–7), if any.
     pub joints: Vec<u32>,
     /// Whether it holds the cell now (false: it was resumed).
     pub active: bool,
@@ -155,7 +155,10 @@ impl StatusView {
         }
         let fault = (daemon.fault != u32::from(Fault::None)).then(|| FaultView {
             name: name_of(daemon.fault, Fault::name),
-            joints: (0..6).filter(|j| daemon.fault_joints & (1 << j) != 0).map(|j| j + 1).collect(),
+            joints: (0..vservo_protocol::MAX_JOINTS as u32)
+                .filter(|j| daemon.fault_joints & (1 << j) != 0)
+                .map(|j| j + 1)
+                .collect(),
             active: daemon.state == u32::from(DaemonState::SafeStop),
             since_s: daemon.stamp_ns.saturating_sub(daemon.fault_since_ns) as f64 / 1e9,
             at_uptime_s: daemon
@@ -241,5 +244,17 @@ mod tests {
         assert_eq!((fault.name, fault.joints, fault.active), ("robot_stalled", vec![3], true));
         daemon.state = 99;
         assert_eq!(StatusView::new("cell", &daemon, &[None; 4]).state, "unknown");
+    }
+
+    #[test]
+    fn a_seven_joint_arms_fault_names_its_seventh_joint() {
+        let daemon = DaemonStatusMsg {
+            state: DaemonState::SafeStop.into(),
+            fault: Fault::VelocityLimit.into(),
+            fault_joints: 0b100_0001,
+            ..DaemonStatusMsg::default()
+        };
+        let fault = StatusView::new("cell", &daemon, &[None; 4]).fault.expect("a fault");
+        assert_eq!(fault.joints, vec![1, 7]);
     }
 }

@@ -362,16 +362,26 @@ pub struct RawInterpolator {
     pub stale_twist_frames: f64,
     pub stop_ramp_s: f64,
     pub acceleration_limit_rad_s2: Vec<f64>,
+    /// Optional, so that a configuration written before seven-joint arms (an installed /etc/vservo/vservo.toml
+    /// kept over an upgrade) still loads.
+    #[serde(default)]
     pub null_space: RawNullSpace,
 }
 
 #[derive(Debug, Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(deny_unknown_fields, default)]
 pub struct RawNullSpace {
     pub limit_zone_rad: f64,
     pub limit_gain: f64,
     pub posture_rad: Option<Vec<f64>>,
     pub posture_gain: f64,
+}
+
+/// config/vservo.toml's values (vservo_sim::redundancy::NullSpaceTask's defaults).
+impl Default for RawNullSpace {
+    fn default() -> Self {
+        Self { limit_zone_rad: 0.3, limit_gain: 2.0, posture_rad: None, posture_gain: 0.5 }
+    }
 }
 
 #[derive(Debug, Deserialize)]

@@ -191,6 +191,20 @@ fn a_seven_joint_arm_takes_seven_values_per_joint_key() {
     assert_eq!(config.interpolator.null_space.posture.map(|p| p[5]), Some(0.7));
 }
 
+/// A configuration written before the null-space keys (an installed one kept over an upgrade) loads, with
+/// the defaults config/vservo.toml documents.
+#[test]
+fn a_configuration_without_the_null_space_section_loads_with_its_defaults() {
+    let start = DEFAULT.find("[interpolator.null_space]").expect("the section");
+    let end = start + DEFAULT[start..].find("\n[").expect("a section after it") + 1;
+    let text = format!("{}{}", &DEFAULT[..start], &DEFAULT[end..]);
+    assert!(!text.contains("limit_zone_rad"));
+    let config = Config::from_toml(&text, "old.toml").expect("loads");
+    assert_eq!(config.interpolator.null_space, vservo_sim::redundancy::NullSpaceTask::default());
+    let full = Config::from_toml(DEFAULT, "vservo.toml").expect("loads");
+    assert_eq!(full.interpolator.null_space, config.interpolator.null_space);
+}
+
 #[test]
 fn a_missing_or_broken_file_and_keys_of_another_preset_are_refused() {
     let scratch = Scratch::new("broken");

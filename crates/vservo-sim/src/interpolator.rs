@@ -2,9 +2,7 @@
 //! a joint reference every tick.
 
 use nalgebra::{Matrix6, Vector3, Vector6};
-use vservo_arm::{
-    DH_JOINTS, Jacobian, JointLimits, JointVector, MAX_JOINTS, SerialArm, Transform, six_joints,
-};
+use vservo_arm::{DH_JOINTS, Jacobian, JointLimits, JointVector, MAX_JOINTS, SerialArm, Transform};
 use vservo_control::Twist;
 
 use crate::redundancy::{self, Damping, NullSpaceTask};
@@ -55,8 +53,9 @@ impl InterpolatorSettings {
             max_damping: 0.05,
             stale_after_s: 2.0 * vision_period_s,
             stop_ramp_s: 0.2,
-            // about what the PUMA's torque limits allow over its inertia at the nominal pose, with margin
-            acceleration_limit: six_joints([22.5, 22.5, 45.0, 90.0, 90.0, 90.0]),
+            // about what the PUMA's torque limits allow over its inertia at the nominal pose, with margin (a
+            // seventh joint, a wrist's, as the PUMA's wrist)
+            acceleration_limit: JointVector::from([22.5, 22.5, 45.0, 90.0, 90.0, 90.0, 90.0]),
             null_space: NullSpaceTask::default(),
         }
     }

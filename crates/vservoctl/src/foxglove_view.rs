@@ -124,7 +124,7 @@ fn transform(stamp_ns: u64, parent: &str, child: &str, pose: &IsometryMatrix3<f6
     }
 }
 
-/// The arm's links (`base` → `link1` … `link6`) and the camera (`link6` → `camera`) at a joint state; none
+/// The arm's links (`base` → `link1` … `linkN`, N its joints) and the camera (`linkN` → `camera`) at a joint state; none
 /// from a joint state of another arm's joint count (drawn, it would be drawn wrongly).
 pub fn arm_transforms(
     arm: &vservo_arm::SerialArm,

@@ -19,13 +19,13 @@ pub struct ModelArgs {
     /// The configuration whose arm to describe (default: the built-in PUMA 560).
     #[arg(long, value_name = "FILE")]
     config: Option<std::path::PathBuf>,
-    /// Joint angles q1,…,q6 in radians, or (the PUMA 560) a named pose: qz, qr, qs, qn.
+    /// Joint angles q1,…,qn in radians, one per joint of the arm, or (the PUMA 560) a named pose: qz, qr, qs, qn.
     #[arg(long, allow_hyphen_values = true)]
     q: String,
-    /// Joint velocities q̇1,…,q̇6 in rad/s (default zero).
+    /// Joint velocities q̇1,…,q̇n in rad/s (default zero).
     #[arg(long, allow_hyphen_values = true)]
     qd: Option<String>,
-    /// Joint accelerations q̈1,…,q̈6 in rad/s² (default zero).
+    /// Joint accelerations q̈1,…,q̈n in rad/s² (default zero).
     #[arg(long, allow_hyphen_values = true)]
     qdd: Option<String>,
     /// Print one JSON object instead of text.

@@ -43,6 +43,8 @@ pub fn trace_of(bytes: &[u8], config: &vservo_config::Config) -> anyhow::Result<
     let mut twists: BTreeMap<u64, Twist> = BTreeMap::new();
     let mut states: BTreeMap<u64, (JointVector, JointVector, JointVector, u32)> = BTreeMap::new();
     let mut desired = config.desired.features;
+    let joint_count = config.arm.joint_count();
+    let mut foreign_states = 0u64;
     for message in mcap::MessageStream::new(bytes)? {
         let message = message?;
         // vservo's services as JSON; Foxglove's views (images, annotations, transforms) are for Foxglove
@@ -73,13 +75,17 @@ pub fn trace_of(bytes: &[u8], config: &vservo_config::Config) -> anyhow::Result<
                 else {
                     continue;
                 };
+                // the configured arm's joints only: a state of another arm would be drawn wrongly
+                if data["joint_count"].as_u64() != Some(joint_count as u64) {
+                    foreign_states += 1;
+                    continue;
+                }
                 // a driver that does not know its torques sends NaN (null)
                 let torque = numbers::<7>(&data["torque_nm"]).unwrap_or([f64::NAN; 7]);
                 let faults = data["faults"].as_u64().unwrap_or(0) as u32;
-                states.insert(
-                    tick,
-                    (JointVector::from(q), JointVector::from(qd), JointVector::from(torque), faults),
-                );
+                let arm_joints =
+                    |v: [f64; 7]| JointVector::from_fn(|j, _| if j < joint_count { v[j] } else { 0.0 });
+                states.insert(tick, (arm_joints(q), arm_joints(qd), arm_joints(torque), faults));
             }
             "gains" => {
                 if let Some(xi) = numbers::<8>(&data["desired_features_px"]) {
@@ -88,6 +94,12 @@ pub fn trace_of(bytes: &[u8], config: &vservo_config::Config) -> anyhow::Result<
             }
             _ => {}
         }
+    }
+    if foreign_states > 0 {
+        bail!(
+            "{foreign_states} joint states of the recording are not of the configured arm ({joint_count} joints, {}): plot it with the configuration it was recorded with",
+            config.origin
+        );
     }
     let Some(&(_, first_tick, _)) = features.first() else {
         bail!("the recording holds no features: was the instance running while it recorded?");

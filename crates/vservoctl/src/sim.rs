@@ -39,7 +39,7 @@ enum ControllerArg {
     DelayAware,
 }
 
-#[derive(Clone, Copy, ValueEnum)]
+#[derive(Clone, Copy, PartialEq, Eq, ValueEnum)]
 enum PlantArg {
     Dynamic,
     Kinematic,
@@ -63,6 +63,14 @@ pub fn run(args: &SimArgs) -> Result<()> {
         };
     }
     if let Some(plant) = args.plant {
+        // the configuration's own rule: only the PUMA 560 has a dynamics model
+        if plant == PlantArg::Dynamic && config.arm != vservo_arm::puma560::puma560() {
+            return Err(UsageError(format!(
+                "--plant dynamic: {} has no dynamics model in vservo (only the PUMA 560 has one); it is simulated kinematically",
+                config.origin
+            ))
+            .into());
+        }
         config.plant.mode = match plant {
             PlantArg::Dynamic => PlantMode::Dynamic,
             PlantArg::Kinematic => PlantMode::Kinematic,

@@ -34,7 +34,8 @@ enum VisionCommand {
 struct RenderArgs {
     #[command(flatten)]
     config: ConfigArg,
-    /// Joint angles q1,…,q6 in radians, or a named pose (qz, qr, qs, qn).
+    /// Joint angles q1,…,qn in radians, one per joint of the configured arm, or (the PUMA 560) a named pose
+    /// (qz, qr, qs, qn).
     #[arg(long, allow_hyphen_values = true)]
     q: String,
     /// The image file to write (.png or .pgm).
@@ -67,7 +68,8 @@ pub fn run(args: &VisionArgs) -> Result<()> {
 fn render(args: &RenderArgs) -> Result<()> {
     let config = args.config.load()?;
     let arm = &config.arm;
-    let q = parse_joint_vector("--q", &args.q, true, arm.joint_count())?;
+    let is_puma = *arm == vservo_arm::puma560::puma560();
+    let q = parse_joint_vector("--q", &args.q, is_puma, arm.joint_count())?;
     arm.check_positions(&q).map_err(|v| UsageError(format!("--q: {v} (the {}'s range)", arm.name)))?;
     let extension = args.out.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
     if !matches!(extension.as_deref(), Some("png" | "pgm")) {

@@ -17,7 +17,7 @@ use zeroize::{Zeroize, Zeroizing};
 pub struct NodeArgs {
     /// plant, rmrc, servo or vision.
     role: String,
-    /// plant: start at rest at these six joint angles (rad) instead of the scenario's start.
+    /// plant: start at rest at these joint angles (rad, one per joint of the arm) instead of the scenario's start.
     #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
     resume_q: Option<Vec<f64>>,
     /// vision: track the marks from these eight features (px) instead of matching the layout.

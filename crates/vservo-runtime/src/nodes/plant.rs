@@ -86,7 +86,8 @@ fn command_of(
     declared: CommandMode,
     torque_max_nm: &[f64],
 ) -> Option<ActuatorCommand> {
-    let all_finite = |v: &[f64; MAX_JOINTS]| v.iter().all(|x| x.is_finite());
+    // the arm's joints only: the slots past them are not read
+    let all_finite = |v: &[f64; MAX_JOINTS]| v.iter().take(torque_max_nm.len()).all(|x| x.is_finite());
     let torque_in_range = message
         .torque_nm
         .iter()
@@ -290,7 +291,8 @@ impl Plant {
     /// the answer refused.
     fn overspeed_trip(&mut self, answer: &mut Answer, counters: &Counters) {
         let qd = self.stage.state().qd;
-        let overspeed = qd.iter().zip(&self.speed_max_rad_s).any(|(v, max)| v.abs() > *max);
+        let overspeed =
+            qd.iter().zip(&self.speed_max_rad_s).take(self.joint_count).any(|(v, max)| v.abs() > *max);
         if overspeed && answer.command.is_some() {
             counters.rejected();
             answer.command = None;

@@ -236,8 +236,10 @@ pub fn run(context: &NodeContext) -> Result<(), RuntimeError> {
             execution_ns: done - woke_at,
             ..CycleSample::default()
         });
-        let at_rest = message.qd_ref_rad_s.iter().all(|v| *v == 0.0)
-            && state.qd_rad_s.iter().all(|v| v.abs() < crate::AT_REST_RAD_S);
+        // the arm's joints only: the slots past them are not the arm's
+        let joints = rmrc.joint_count as usize;
+        let at_rest = message.qd_ref_rad_s[..joints].iter().all(|v| *v == 0.0)
+            && state.qd_rad_s[..joints].iter().all(|v| v.abs() < crate::AT_REST_RAD_S);
         if rmrc.orphaned.is_orphaned() && at_rest {
             tracing::info!(
                 node = "rmrc",

@@ -26,10 +26,14 @@ const KILLED_EXIT: Duration = Duration::from_millis(100);
 /// How often the arm's speed is looked at while it comes to rest.
 const REST_POLL: Duration = Duration::from_millis(10);
 
-/// The fastest reference and measured joint speeds (rad/s) of a command and a state.
+/// The fastest reference and measured joint speeds (rad/s) of a command and a state, over the joints each
+/// says it carries (`joint_count`; the slots past them are not the arm's).
 pub fn speeds(command: &JointCommandMsg, state: &JointStateMsg) -> (f64, f64) {
-    let fastest = |v: &[f64; vservo_protocol::MAX_JOINTS]| v.iter().fold(0.0f64, |m, x| m.max(x.abs()));
-    (fastest(&command.qd_ref_rad_s), fastest(&state.qd_rad_s))
+    let fastest = |v: &[f64; vservo_protocol::MAX_JOINTS], count: u32| {
+        let count = (count as usize).min(vservo_protocol::MAX_JOINTS);
+        v[..count].iter().fold(0.0f64, |m, x| m.max(x.abs()))
+    };
+    (fastest(&command.qd_ref_rad_s, command.joint_count), fastest(&state.qd_rad_s, state.joint_count))
 }
 
 /// The arm is at rest: the rmrc's reference has stopped and no joint moves faster than
@@ -146,5 +150,19 @@ mod tests {
         assert!(!at_rest((0.0, AT_REST_RAD_S)), "still moving");
         assert!(!at_rest((1e-9, 0.0)), "the reference still moves");
         assert!(!at_rest((f64::NAN, f64::NAN)), "nothing heard");
+    }
+
+    #[test]
+    fn speeds_are_the_arms_joints_only() {
+        let command =
+            JointCommandMsg { qd_ref_rad_s: [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 5.0], ..Default::default() };
+        let state = JointStateMsg { qd_rad_s: [0.0, 0.1, 0.0, 0.0, 0.0, 0.0, 3.0], ..Default::default() };
+        // six joints: a stray seventh slot is not the arm's
+        assert_eq!(speeds(&command, &state), (0.0, 0.1));
+        let seven = |c: JointCommandMsg, s: JointStateMsg| {
+            (JointCommandMsg { joint_count: 7, ..c }, JointStateMsg { joint_count: 7, ..s })
+        };
+        let (command, state) = seven(command, state);
+        assert_eq!(speeds(&command, &state), (5.0, 3.0));
     }
 }
