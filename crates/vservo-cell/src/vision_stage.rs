@@ -44,9 +44,11 @@ pub struct DeliveredFrame {
 pub struct VisionFrame {
     /// The extraction from this frame's image.
     pub captured: Extraction,
-    /// The true projections of the disc centres at capture time (NaN if a mark is behind the camera).
+    /// The true projections of the disc centres at capture time, by the real camera (`[camera.truth]`) to
+    /// its pinhole pixels (NaN if a mark is behind the camera).
     pub truth: FeatureVector,
-    /// Where the camera was.
+    /// Where the camera really was (`[camera.truth]`'s mount; the frame delivered to the servo carries the
+    /// believed one).
     pub base_from_camera: IsometryMatrix3<f64>,
     /// The frame leaving the pipeline now (`pipeline_delay_frames` older than this one), if any has yet.
     pub delivered: Option<DeliveredFrame>,
@@ -56,7 +58,12 @@ pub struct VisionFrame {
 #[derive(Debug, Clone)]
 pub struct VisionStage {
     arm: SerialArm,
+    /// Where the cell believes the camera sits on the hand (the pose delivered with the features).
     tool_from_camera: IsometryMatrix3<f64>,
+    /// Where the simulated camera really sits (`[camera.truth]`; the believed mount unless told otherwise).
+    true_tool_from_camera: IsometryMatrix3<f64>,
+    /// The simulated camera's real intrinsics (the believed ones unless told otherwise).
+    true_intrinsics: CameraIntrinsics,
     intrinsics: CameraIntrinsics,
     board: Board,
     layout: FeatureVector,
@@ -88,11 +95,14 @@ impl VisionStage {
         Self {
             arm,
             tool_from_camera: config.tool_from_camera,
+            true_tool_from_camera: config.camera_truth.tool_from_camera,
+            true_intrinsics: config.camera_truth.intrinsics,
             intrinsics: config.camera,
             board: config.board,
             layout: observed_features(&config.camera, &config.desired.features),
             undistort: config.vision.undistort,
-            camera: SimulatedCamera::new(config.camera, config.board, config.vision.render),
+            // the camera renders as it really is
+            camera: SimulatedCamera::new(config.camera_truth.intrinsics, config.board, config.vision.render),
             extractor: Extractor::new(
                 config.vision.extractor,
                 config.camera.width_px(),
@@ -182,8 +192,11 @@ impl VisionStage {
         q: &JointVector,
         base_from_board: &IsometryMatrix3<f64>,
     ) -> VisionFrame {
-        let base_from_camera = self.arm.base_from_tool(q) * self.tool_from_camera;
-        let camera_from_board = base_from_camera.inverse() * base_from_board;
+        let base_from_tool = self.arm.base_from_tool(q);
+        // where the cell believes the camera is (what the servo is told), and where it is (what it sees from)
+        let base_from_camera = base_from_tool * self.tool_from_camera;
+        let base_from_true_camera = base_from_tool * self.true_tool_from_camera;
+        let camera_from_board = base_from_true_camera.inverse() * base_from_board;
         let hidden = self.scenario.hidden_marks(tick as f64 * self.control_period_s);
         self.camera.capture_hiding(&camera_from_board, frame, hidden);
         let captured = Self::extract_with(
@@ -194,11 +207,11 @@ impl VisionStage {
             self.layout,
         );
         let truth = self
-            .intrinsics
+            .true_intrinsics
             .project_marks(&self.board, &camera_from_board)
             .unwrap_or_else(|_| FeatureVector::from_element(f64::NAN));
         let delivered = self.finish(frame, tick, &captured, Some(base_from_camera));
-        VisionFrame { captured, truth, base_from_camera, delivered }
+        VisionFrame { captured, truth, base_from_camera: base_from_true_camera, delivered }
     }
 
     /// The simulated camera's last image.

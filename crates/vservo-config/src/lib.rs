@@ -52,6 +52,10 @@ pub struct Config {
     pub camera: CameraIntrinsics,
     /// Where the camera sits on the hand: camera = tool · `tool_from_camera`.
     pub tool_from_camera: IsometryMatrix3<f64>,
+    /// The simulated camera as it really is (`[camera.truth]`): the believed `camera` and `tool_from_camera`
+    /// unless the configuration says otherwise. Only the simulated camera's rendering uses it; everything
+    /// else works with what the cell believes.
+    pub camera_truth: CameraTruth,
     /// The object.
     pub board: Board,
     /// The desired pose and what the camera sees there.

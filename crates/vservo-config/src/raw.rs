@@ -253,6 +253,20 @@ pub struct RawCamera {
     /// `[camera.gstreamer]`: read by the GStreamer camera driver (vservo-gst-camera) only.
     #[serde(default)]
     pub gstreamer: Option<RawGstreamer>,
+    /// `[camera.truth]`: the simulated camera as it really is, where that differs from the above.
+    #[serde(default)]
+    pub truth: Option<RawCameraTruth>,
+}
+
+/// `[camera.truth]`: each key optional, the believed value where left out.
+#[derive(Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct RawCameraTruth {
+    pub fx_px: Option<f64>,
+    pub fy_px: Option<f64>,
+    pub principal_point_px: Option<[f64; 2]>,
+    pub distortion: Option<[f64; 5]>,
+    pub tool_from_camera: Option<RawPose>,
 }
 
 /// `[camera.gstreamer]`.

@@ -271,6 +271,16 @@ pub struct Vision {
     pub render: vservo_vision::RenderSettings,
 }
 
+/// The simulated camera as it really is (`[camera.truth]`): what a calibration of the simulated cell should
+/// find, apart from what the configuration believes the camera to be.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CameraTruth {
+    /// Its intrinsics and lens.
+    pub intrinsics: vservo_scene::CameraIntrinsics,
+    /// Where it sits on the hand.
+    pub tool_from_camera: nalgebra::IsometryMatrix3<f64>,
+}
+
 /// `[camera.gstreamer]`: the GStreamer camera driver's pipeline and controls (docs/DRIVERS.md, "A real
 /// camera through GStreamer"). Read by `vservo-gst-camera` only, at its start; vservod ignores it.
 #[derive(Debug, Clone, PartialEq)]

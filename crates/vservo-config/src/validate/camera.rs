@@ -6,7 +6,7 @@ use vservo_scene::{CameraIntrinsics, Distortion};
 use super::checker::Checker;
 use crate::calibration::Calibration;
 use crate::raw::{RawCamera, RawCameraSource, RawGstreamer};
-use crate::{ConfigError, GstreamerCamera, VisionSource};
+use crate::{CameraTruth, ConfigError, GstreamerCamera, VisionSource};
 
 /// The intrinsics: from `calibration_file`, or the image size, the principal point inside it, the focal
 /// lengths (`focal_px`, or `fx_px` and `fy_px`) and the lens's `distortion` (none when not written).
@@ -153,6 +153,63 @@ pub fn tool_from_camera(
     c: &RawCamera,
 ) -> Result<nalgebra::IsometryMatrix3<f64>, ConfigError> {
     check.pose("camera.tool_from_camera", &c.tool_from_camera, 2.0)
+}
+
+/// `[camera.truth]`: the simulated camera as it really is (a calibration's known answer): its intrinsics and
+/// its mount, each key the believed value where left out. Refused with a camera that is not simulated (a real
+/// camera is where it is; what it is, is for a calibration to find).
+pub fn truth(
+    check: &Checker,
+    c: &RawCamera,
+    believed: &CameraIntrinsics,
+    believed_tool_from_camera: &nalgebra::IsometryMatrix3<f64>,
+) -> Result<CameraTruth, ConfigError> {
+    let Some(t) = &c.truth else {
+        return Ok(CameraTruth { intrinsics: *believed, tool_from_camera: *believed_tool_from_camera });
+    };
+    if c.source != RawCameraSource::Simulated {
+        return Err(check.invalid(
+            "camera.truth",
+            "(given)",
+            "is the simulated camera's: a real camera is where it is (camera.source = \"simulated\" only)",
+        ));
+    }
+    let focal = |key: &str, v: Option<f64>, believed: f64| {
+        v.map_or(Ok(believed), |v| check.within(key, v, 1.0, 1e5, "px"))
+    };
+    let fx = focal("camera.truth.fx_px", t.fx_px, believed.fx_px())?;
+    let fy = focal("camera.truth.fy_px", t.fy_px, believed.fy_px())?;
+    let (width_px, height_px) = (believed.width_px(), believed.height_px());
+    let key = "camera.truth.principal_point_px";
+    let principal = match t.principal_point_px {
+        None => believed.principal_point_px(),
+        Some(p) => {
+            let p = check.finite(key, p)?;
+            if !(0.0..=f64::from(width_px)).contains(&p[0]) || !(0.0..=f64::from(height_px)).contains(&p[1]) {
+                return Err(check.invalid(
+                    key,
+                    format!("{p:?}"),
+                    format!("must lie in the {width_px}×{height_px} image"),
+                ));
+            }
+            Point2::from(p)
+        }
+    };
+    let distortion = match t.distortion {
+        None => *believed.distortion(),
+        Some(k) => {
+            let k = check.all_within("camera.truth.distortion", k, -10.0, 10.0, "(k1, k2, p1, p2, k3)")?;
+            Distortion::new(k)
+                .map_err(|e| check.invalid("camera.truth.distortion", format!("{k:?}"), e.to_string()))?
+        }
+    };
+    let intrinsics = CameraIntrinsics::with_lens([fx, fy], principal, width_px, height_px, distortion)
+        .map_err(|e| check.invalid("camera.truth", format!("{t:?}"), e.to_string()))?;
+    let tool_from_camera = match &t.tool_from_camera {
+        None => *believed_tool_from_camera,
+        Some(pose) => check.pose("camera.truth.tool_from_camera", pose, 2.0)?,
+    };
+    Ok(CameraTruth { intrinsics, tool_from_camera })
 }
 
 /// `camera.source`, and the directory it names.

@@ -29,6 +29,7 @@ pub fn validate(raw: RawConfig, file: &str) -> Result<Config, ConfigError> {
     let timing = timing::timing(&check, &raw.timing)?;
     let camera = camera::intrinsics(&check, &raw.camera)?;
     let tool_from_camera = camera::tool_from_camera(&check, &raw.camera)?;
+    let camera_truth = camera::truth(&check, &raw.camera, &camera, &tool_from_camera)?;
     let board = object::board(&check, &raw.object, &raw.target)?;
     let arm = arm::arm(&check, &raw.robot.arm)?;
     let desired = desired::desired(&check, &raw.desired, &arm, &camera, &board)?;
@@ -48,6 +49,7 @@ pub fn validate(raw: RawConfig, file: &str) -> Result<Config, ConfigError> {
         timing,
         camera,
         tool_from_camera,
+        camera_truth,
         board,
         desired,
         controller,

@@ -94,6 +94,7 @@ pub fn diff(old: &Config, new: &Config) -> ConfigDiff {
         timing,
         camera,
         tool_from_camera,
+        camera_truth,
         board,
         desired,
         controller,
@@ -127,6 +128,12 @@ pub fn diff(old: &Config, new: &Config) -> ConfigDiff {
     section(r, "timing", timing != &new.timing, &timing_keys);
     section(r, "camera", camera != &new.camera, &[]);
     section(r, "camera.tool_from_camera", tool_from_camera != &new.tool_from_camera, &[]);
+    // the truth follows the belief unless written: a changed belief is the key the file changed
+    let as_believed = |c: &Config| {
+        c.camera_truth.intrinsics == c.camera && c.camera_truth.tool_from_camera == c.tool_from_camera
+    };
+    let truth_changed = camera_truth != &new.camera_truth && !(as_believed(old) && as_believed(new));
+    section(r, "camera.truth", truth_changed, &[]);
     section(r, "object", board != &new.board, &[]);
     section(r, "vision", vision != &new.vision, &[("camera.source", vision.source != new.vision.source)]);
     section(r, "plant", plant != &new.plant, &fields!("plant", plant, new.plant; mode, rk4_substeps));
@@ -316,6 +323,11 @@ mod tests {
                 "camera.tool_from_camera",
             ),
             ("mark_diameter_m = 0.015", "mark_diameter_m = 0.016", "object"),
+            (
+                "[camera.tool_from_camera]",
+                "[camera.truth]\nfx_px = 505.0\n[camera.tool_from_camera]",
+                "camera.truth",
+            ),
             ("gate_px = 40.0", "gate_px = 30.0", "vision"),
             ("rk4_substeps = 1", "rk4_substeps = 2", "plant.rk4_substeps"),
             ("max_damping = 0.05", "max_damping = 0.04", "interpolator"),
