@@ -36,10 +36,10 @@ fn camera_processes() -> Vec<u32> {
         .collect()
 }
 
-/// `scripts/run-pybullet.sh --json` on the xArm6, the Panda and a UR5e, the README's way to try it; nothing of
+/// `scripts/run-pybullet.sh --json` on the xArm6, the Panda, the iiwa and a UR5e, the README's way to try it; nothing of
 /// the driver outlives the run (its camera process ends with it).
 #[test]
-fn run_pybullet_with_the_xarm6_the_panda_and_a_ur5e_converges_below_one_pixel() {
+fn run_pybullet_with_the_xarm6_the_panda_the_iiwa_and_a_ur5e_converges_below_one_pixel() {
     let _one = exclusive();
     let urdf = pybullet_data().join("xarm/xarm6_robot.urdf");
     assert!(urdf.exists(), "{}", urdf.display());
@@ -52,6 +52,9 @@ fn run_pybullet_with_the_xarm6_the_panda_and_a_ur5e_converges_below_one_pixel() 
     // seven joints: the Panda at its own rate, 1 kHz
     let panda = pybullet_data().join("franka_panda/panda.urdf").display().to_string();
     run_script_to_convergence("run-pybullet.sh", &["--urdf", &panda, "--config", "config/arms/panda.toml"]);
+    // a second seven-joint arm with a configuration file only: the KUKA LBR iiwa of pybullet_data
+    let iiwa = pybullet_data().join("kuka_iiwa/model.urdf").display().to_string();
+    run_script_to_convergence("run-pybullet.sh", &["--urdf", &iiwa, "--config", "config/arms/iiwa.toml"]);
     // another arm with nothing but its files: a UR5e (its URDF written from its DH parameters) at 500 Hz
     run_script_to_convergence(
         "run-pybullet.sh",

@@ -138,12 +138,13 @@ fn basin_reports_each_class_as_json_and_draws_the_starts() {
     assert!(String::from_utf8_lossy(&output.stderr).contains("--starts 0"));
 }
 
-/// Arms from their URDF in the lockstep (config/arms/: PyBullet's xArm6, and a UR5e whose URDF was written
-/// from its DH parameters; kinematic simulated arms): `vservoctl sim` converges, and `vservoctl basin` on 100
+/// Arms from their URDF in the lockstep (config/arms/: PyBullet's xArm6, Panda and KUKA iiwa, the last two of
+/// seven joints, and a UR5e whose URDF was written from its DH parameters; kinematic simulated arms, each at its
+/// own period): `vservoctl sim` converges, and `vservoctl basin` on 100
 /// starts converges from every counted start. Nothing but their configuration files tells them apart.
 #[test]
 fn urdf_arms_converge_in_the_lockstep_from_every_counted_start() {
-    for arm in ["xarm6", "ur5e", "panda"] {
+    for arm in ["xarm6", "ur5e", "panda", "iiwa"] {
         let config = repository_root().join(format!("config/arms/{arm}.toml"));
         let config = config.to_str().expect("utf-8");
         let out = std::env::temp_dir().join(format!("vservo-sim-{arm}-{}", std::process::id()));
@@ -160,7 +161,7 @@ fn urdf_arms_converge_in_the_lockstep_from_every_counted_start() {
         assert_eq!(summary["plant"], "kinematic");
         assert!(summary["final_error_px"].as_f64().expect("number") < 0.1, "{arm}: {summary}");
         // a column per joint of the arm
-        let seven = arm == "panda";
+        let seven = arm == "panda" || arm == "iiwa";
         assert_eq!(joints.lines().next().is_some_and(|header| header.contains(",q7,")), seven, "{arm}");
 
         let output = run("vservoctl", &["basin", "--config", config, "--starts", "100", "--json"]);
