@@ -25,11 +25,13 @@ mod board;
 mod camera;
 pub mod lens;
 pub mod tag36h11;
+mod tag_grid;
 
 pub use board::{AprilTag, Board, MARKS, Target, UnknownTagId};
 pub use camera::{CameraIntrinsics, IntrinsicsError, ProjectionError, image_contains};
 pub use lens::{Distortion, DistortionError};
 pub use nalgebra::IsometryMatrix3;
+pub use tag_grid::{TagGrid, TagGridError};
 
 /// Number of image features: x and y of each mark.
 pub const FEATURES: usize = 2 * MARKS;

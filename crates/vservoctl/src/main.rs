@@ -5,6 +5,7 @@
 //! [`UsageError`] and end with exit code 2, other failures with exit code 1.
 
 mod basin;
+mod board;
 mod bridge;
 mod commands;
 mod config_arg;
@@ -86,6 +87,8 @@ enum Command {
     Plot(plot_recording::PlotArgs),
     /// The cell a configuration describes (arm, camera, board, start joints, periods) as JSON, for drivers.
     Scene(scene::SceneArgs),
+    /// A calibration board (a grid of AprilTags) as an SVG to print at scale, and its layout as JSON.
+    Board(board::BoardArgs),
 }
 
 fn main() -> ExitCode {
@@ -113,6 +116,7 @@ fn main() -> ExitCode {
             .and_then(|()| view::run(&args)),
         Command::Plot(args) => plot_recording::run(&args),
         Command::Scene(args) => scene::run(&args),
+        Command::Board(args) => board::run(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -1,0 +1,142 @@
+//! `vservoctl board`: the calibration board (a grid of tag36h11 AprilTags, `vservo_scene::TagGrid`) as an SVG to
+//! print at scale (its size in millimetres: print at 100 %, then measure the scale bar), and its layout as JSON:
+//! every tag's id and its four corners in the board frame, in the AprilTag C library's corner order.
+
+use std::fmt::Write as _;
+use std::path::PathBuf;
+
+use anyhow::{Context, Result};
+use clap::Args;
+use serde_json::json;
+use vservo_scene::TagGrid;
+
+use crate::UsageError;
+use crate::output::print_stdout;
+
+/// Arguments of `vservoctl board`.
+#[derive(Args)]
+pub struct BoardArgs {
+    /// Rows of tags.
+    #[arg(long, default_value_t = 5)]
+    rows: u32,
+    /// Columns of tags.
+    #[arg(long, default_value_t = 7)]
+    columns: u32,
+    /// Edge of each tag's black square (mm). The defaults fit A4 landscape.
+    #[arg(long, default_value_t = 28.0)]
+    tag_size_mm: f64,
+    /// White between two tags (mm); at least a quarter of the tag.
+    #[arg(long, default_value_t = 8.0)]
+    gap_mm: f64,
+    /// The first tag's id (tag36h11); the others follow row by row.
+    #[arg(long, default_value_t = 0)]
+    first_id: u32,
+    /// Where to write the SVG.
+    #[arg(long, value_name = "FILE.svg")]
+    out: PathBuf,
+    /// Print the layout as one JSON object.
+    #[arg(long)]
+    json: bool,
+}
+
+/// Runs the command.
+pub fn run(args: &BoardArgs) -> Result<()> {
+    let grid =
+        TagGrid::new(args.rows, args.columns, args.tag_size_mm / 1e3, args.gap_mm / 1e3, args.first_id)
+            .map_err(|e| UsageError(format!("the board: {e}")))?;
+    if args.out.extension().and_then(|e| e.to_str()) != Some("svg") {
+        return Err(UsageError(format!("--out {}: the file must end in .svg", args.out.display())).into());
+    }
+    std::fs::write(&args.out, svg(&grid)).with_context(|| format!("writing {}", args.out.display()))?;
+    if args.json {
+        print_stdout(&format!("{}\n", layout(&grid)))?;
+    }
+    Ok(())
+}
+
+/// The layout: the grid's parameters and each tag's corners in the board frame (m).
+fn layout(grid: &TagGrid) -> serde_json::Value {
+    let tags: Vec<_> = grid
+        .tags()
+        .map(|tag| {
+            let corners: Vec<[f64; 3]> = tag.corners_in_board().iter().map(|p| [p.x, p.y, p.z]).collect();
+            json!({"id": tag.id(), "corners_in_board_m": corners})
+        })
+        .collect();
+    let [low, high] = grid.extent_in_board();
+    json!({
+        "family": "tag36h11",
+        "rows": grid.rows(),
+        "columns": grid.columns(),
+        "tag_size_m": grid.tag_size_m(),
+        "gap_m": grid.gap_m(),
+        "extent_in_board_m": [[low.x, low.y], [high.x, high.y]],
+        "tags": tags,
+    })
+}
+
+/// The board as an SVG in millimetres: the board's x to the right and its y down, as an upright camera facing it
+/// sees it; each row of black cells one rectangle per run; a 50 mm scale bar and a caption below.
+fn svg(grid: &TagGrid) -> String {
+    let [low, high] = grid.extent_in_board();
+    let mm = |m: f64| m * 1e3;
+    let (width, height) = (mm(high.x - low.x), mm(high.y - low.y));
+    let footer = 12.0;
+    let mut out = String::new();
+    let _ = writeln!(
+        out,
+        r#"<svg xmlns="http://www.w3.org/2000/svg" width="{width:.3}mm" height="{:.3}mm" viewBox="0 0 {width:.3} {:.3}">"#,
+        height + footer,
+        height + footer
+    );
+    let _ = writeln!(
+        out,
+        r#"<rect x="0" y="0" width="{width:.3}" height="{:.3}" fill="white"/>"#,
+        height + footer
+    );
+    let cell = grid.tag_size_m() / f64::from(vservo_scene::tag36h11::WIDTH_AT_BORDER);
+    for tag in grid.tags() {
+        let c = tag.centre_in_board();
+        let side = vservo_scene::tag36h11::WIDTH_AT_BORDER as usize;
+        for row in 0..side {
+            let y = c.y - 0.5 * grid.tag_size_m() + (row as f64 + 0.5) * cell;
+            let mut column = 0;
+            while column < side {
+                let x = |k: usize| c.x - 0.5 * grid.tag_size_m() + (k as f64 + 0.5) * cell;
+                if tag.is_black_at(x(column), y) != Some(true) {
+                    column += 1;
+                    continue;
+                }
+                let start = column;
+                while column < side && tag.is_black_at(x(column), y) == Some(true) {
+                    column += 1;
+                }
+                let left = c.x - 0.5 * grid.tag_size_m() + start as f64 * cell;
+                let top = y - 0.5 * cell;
+                let _ = writeln!(
+                    out,
+                    r#"<rect x="{:.4}" y="{:.4}" width="{:.4}" height="{:.4}" fill="black"/>"#,
+                    mm(left - low.x),
+                    mm(top - low.y),
+                    mm((column - start) as f64 * cell),
+                    mm(cell)
+                );
+            }
+        }
+    }
+    let bar_y = height + 4.0;
+    let _ = writeln!(out, r#"<rect x="5" y="{bar_y:.3}" width="50" height="2" fill="black"/>"#);
+    let _ = writeln!(
+        out,
+        r#"<text x="60" y="{:.3}" font-family="sans-serif" font-size="4">50 mm — tag36h11, {} × {} tags of {} mm, {} mm apart, ids {}–{}; print at 100 %</text>"#,
+        bar_y + 2.0,
+        grid.rows(),
+        grid.columns(),
+        mm(grid.tag_size_m()),
+        mm(grid.gap_m()),
+        grid.tag(0).map_or(0, |t| t.id()),
+        grid.tag(grid.len() - 1).map_or(0, |t| t.id()),
+    );
+    out.push_str("</svg>\n");
+    out
+}
