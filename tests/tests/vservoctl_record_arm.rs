@@ -104,56 +104,50 @@ fn a_recording_of_a_custom_dh_arm_draws_that_arm() {
 /// PyBullet puts them, and the check tells the tool link from the one before it.
 #[test]
 fn a_recording_of_an_arm_from_its_urdf_draws_that_arm() {
-    let _one = exclusive();
-    let instance = unique("record-urdf-arm");
-    let config = config_from(
-        "config/arms/xarm6.toml",
-        &[
-            ("name = \"xarm6\"", &format!("name = \"{instance}\"")),
-            ("source = \"simulated\"", "source = \"external\""),
-            ("driver = \"simulated\"", "driver = \"external\"\ncommand = \"velocity\""),
-        ],
-    );
-    let file = record_swept_arm(&config, &instance, &[0.0, -0.443, -1.048, 0.0, 1.491, 0.0]);
-    let urdf = repository_root().join("target/pybullet_data/xarm/xarm6_robot.urdf");
-    let check = |tip: &str| check_drawing(&file, &instance, &format!("urdf={}#{tip}", urdf.display()));
-    let checked = check("link6");
-    let refused = check("link5");
-    let _ = std::fs::remove_file(&file);
-    assert!(checked.status.success(), "{}", String::from_utf8_lossy(&checked.stderr));
-    assert!(!refused.status.success(), "another tool link passed the check");
-    let figures: serde_json::Value = serde_json::from_slice(&checked.stdout).expect("JSON figures");
-    eprintln!("arm drawing: {figures}");
-    assert!(figures["transforms_checked"].as_u64() >= Some(20), "{figures}");
-    assert_eq!(figures["camera_on"], serde_json::json!(["link6"]), "{figures}");
+    let start = [0.0, -0.443, -1.048, 0.0, 1.491, 0.0];
+    draws_the_urdf_arm("xarm6", &start, "xarm/xarm6_robot.urdf", ("link6", "link5"), "link6");
 }
 
 /// The seven-joint Panda from its URDF (config/arms/panda.toml), swept by the test's driver: seven links drawn
 /// where PyBullet puts them, the camera on the seventh.
 #[test]
 fn a_recording_of_a_seven_joint_arm_draws_its_seven_links() {
+    let start = [0.0, -0.785, 0.0, -2.356, 0.0, 1.571, 0.785];
+    draws_the_urdf_arm("panda", &start, "franka_panda/panda.urdf", ("panda_link8", "panda_link7"), "link7");
+}
+
+/// Records config/arms/`arm`.toml's arm swept around `start` by the test's driver, and checks the drawing
+/// against PyBullet's forward kinematics of `urdf` (in pybullet_data): right with the configured tip link, wrong
+/// with the one before it; the camera drawn on `camera_link`.
+fn draws_the_urdf_arm(
+    arm: &str,
+    start: &[f64],
+    urdf: &str,
+    (tip, before_tip): (&str, &str),
+    camera_link: &str,
+) {
     let _one = exclusive();
-    let instance = unique("record-panda");
+    let instance = unique(&format!("record-{arm}"));
     let config = config_from(
-        "config/arms/panda.toml",
+        &format!("config/arms/{arm}.toml"),
         &[
-            ("name = \"panda\"", &format!("name = \"{instance}\"")),
+            (&format!("name = \"{arm}\""), &format!("name = \"{instance}\"")),
             ("source = \"simulated\"", "source = \"external\""),
             ("driver = \"simulated\"", "driver = \"external\"\ncommand = \"velocity\""),
         ],
     );
-    let file = record_swept_arm(&config, &instance, &[0.0, -0.785, 0.0, -2.356, 0.0, 1.571, 0.785]);
-    let urdf = repository_root().join("target/pybullet_data/franka_panda/panda.urdf");
+    let file = record_swept_arm(&config, &instance, start);
+    let urdf = repository_root().join("target/pybullet_data").join(urdf);
     let check = |tip: &str| check_drawing(&file, &instance, &format!("urdf={}#{tip}", urdf.display()));
-    let checked = check("panda_link8");
-    let refused = check("panda_link7");
+    let checked = check(tip);
+    let refused = check(before_tip);
     let _ = std::fs::remove_file(&file);
-    assert!(checked.status.success(), "{}", String::from_utf8_lossy(&checked.stderr));
-    assert!(!refused.status.success(), "another tool link passed the check");
+    assert!(checked.status.success(), "{arm}: {}", String::from_utf8_lossy(&checked.stderr));
+    assert!(!refused.status.success(), "{arm}: another tool link passed the check");
     let figures: serde_json::Value = serde_json::from_slice(&checked.stdout).expect("JSON figures");
-    eprintln!("arm drawing: {figures}");
+    eprintln!("{arm} drawing: {figures}");
     assert!(figures["transforms_checked"].as_u64() >= Some(20), "{figures}");
-    assert_eq!(figures["camera_on"], serde_json::json!(["link7"]), "{figures}");
+    assert_eq!(figures["camera_on"], serde_json::json!([camera_link]), "{figures}");
 }
 
 /// Runs the daemon on `config` with the sweeping driver and records 1.5 s of it: the recording's path.
