@@ -91,11 +91,7 @@ fn bad_input_exits_with_2_and_says_what_is_wrong() {
 #[test]
 fn a_urdf_arm_is_described_from_its_configuration() {
     let root = vservo_system_tests::repository_root();
-    let reference: Value = serde_json::from_str(
-        &std::fs::read_to_string(root.join("crates/vservo-arm/tests/data/pybullet_kinematics.json"))
-            .expect("the PyBullet reference"),
-    )
-    .expect("JSON");
+    let reference = pybullet_reference();
     let sample = &reference["arms"]["xarm6"]["samples"][0];
     let q: Vec<String> = numbers(&sample["q_rad"]).iter().map(|v| format!("{v}")).collect();
     let config = root.join("config/arms/xarm6.toml");
@@ -126,11 +122,7 @@ fn a_urdf_arm_is_described_from_its_configuration() {
 #[test]
 fn a_seven_joint_urdf_arm_is_described_with_its_seven_joints() {
     let root = vservo_system_tests::repository_root();
-    let reference: Value = serde_json::from_str(
-        &std::fs::read_to_string(root.join("crates/vservo-arm/tests/data/pybullet_kinematics.json"))
-            .expect("the PyBullet reference"),
-    )
-    .expect("JSON");
+    let reference = pybullet_reference();
     let panda = &reference["arms"]["panda"];
     let sample = &panda["samples"][0];
     let q: Vec<String> = numbers(&sample["q_rad"]).iter().map(|v| format!("{v}")).collect();
@@ -157,4 +149,11 @@ fn a_seven_joint_urdf_arm_is_described_with_its_seven_joints() {
     let output =
         run("vservoctl", &["model", "--config", config.to_str().expect("utf-8"), "--q", "0,0,0,0,0,0"]);
     assert_eq!(output.status.code(), Some(2));
+}
+
+/// crates/vservo-arm/tests/data/pybullet_kinematics.json: PyBullet's kinematics of pybullet_data's arms.
+fn pybullet_reference() -> Value {
+    let path =
+        vservo_system_tests::repository_root().join("crates/vservo-arm/tests/data/pybullet_kinematics.json");
+    serde_json::from_str(&std::fs::read_to_string(path).expect("the PyBullet reference")).expect("JSON")
 }

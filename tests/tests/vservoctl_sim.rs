@@ -147,17 +147,7 @@ fn urdf_arms_converge_in_the_lockstep_from_every_counted_start() {
     for arm in ["xarm6", "ur5e", "panda", "iiwa"] {
         let config = repository_root().join(format!("config/arms/{arm}.toml"));
         let config = config.to_str().expect("utf-8");
-        let out = std::env::temp_dir().join(format!("vservo-sim-{arm}-{}", std::process::id()));
-        let output = run(
-            "vservoctl",
-            &["sim", "--config", config, "--duration", "8", "--out", out.to_str().expect("utf-8")],
-        );
-        assert!(output.status.success(), "{arm}: {}", String::from_utf8_lossy(&output.stderr));
-        let summary: serde_json::Value =
-            serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).expect("summary.json"))
-                .expect("JSON");
-        let joints = std::fs::read_to_string(out.join("joints.csv")).expect("joints.csv");
-        let _ = std::fs::remove_dir_all(&out);
+        let (summary, joints) = sim_for_8_s(config);
         assert_eq!(summary["plant"], "kinematic");
         assert!(summary["final_error_px"].as_f64().expect("number") < 0.1, "{arm}: {summary}");
         // a column per joint of the arm
@@ -201,24 +191,7 @@ fn a_seven_joint_arm_started_near_a_joint_limit_converges_while_the_null_space_m
             ),
         )
         .expect("written");
-        let out = scratch.join(name);
-        let output = run(
-            "vservoctl",
-            &[
-                "sim",
-                "--config",
-                config.to_str().expect("utf-8"),
-                "--duration",
-                "8",
-                "--out",
-                out.to_str().expect("utf-8"),
-            ],
-        );
-        assert!(output.status.success(), "{name}: {}", String::from_utf8_lossy(&output.stderr));
-        let summary =
-            serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).expect("summary"))
-                .expect("JSON");
-        let joints = std::fs::read_to_string(out.join("joints.csv")).expect("joints.csv");
+        let (summary, joints) = sim_for_8_s(config.to_str().expect("utf-8"));
         let q1: Vec<f64> = joints
             .lines()
             .skip(1)
@@ -270,4 +243,22 @@ fn a_seven_joint_arm_started_near_a_joint_limit_converges_while_the_null_space_m
         end_off < start + 0.05,
         "without the null-space task joint 1 stays near its limit: {end_off} rad"
     );
+}
+
+/// `vservoctl sim --config CONFIG --duration 8`: its summary.json and joints.csv (the output directory removed).
+fn sim_for_8_s(config: &str) -> (serde_json::Value, String) {
+    let out = std::env::temp_dir().join(format!(
+        "vservo-sim-{}-{}",
+        std::process::id(),
+        std::path::Path::new(config).file_stem().and_then(|s| s.to_str()).unwrap_or("config")
+    ));
+    let output = run(
+        "vservoctl",
+        &["sim", "--config", config, "--duration", "8", "--out", out.to_str().expect("utf-8")],
+    );
+    assert!(output.status.success(), "{config}: {}", String::from_utf8_lossy(&output.stderr));
+    let summary = std::fs::read_to_string(out.join("summary.json")).expect("summary.json");
+    let joints = std::fs::read_to_string(out.join("joints.csv")).expect("joints.csv");
+    let _ = std::fs::remove_dir_all(&out);
+    (serde_json::from_str(&summary).expect("JSON"), joints)
 }

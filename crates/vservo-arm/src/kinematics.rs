@@ -155,7 +155,7 @@ impl SerialArm {
 }
 
 /// √det(J Jᵀ) of a Jacobian with `joint_count` columns (|det J| for six).
-pub fn manipulability(jacobian: &Jacobian, joint_count: usize) -> f64 {
+fn manipulability(jacobian: &Jacobian, joint_count: usize) -> f64 {
     if joint_count == DH_JOINTS {
         jacobian.fixed_view::<6, 6>(0, 0).determinant().abs()
     } else {

@@ -66,8 +66,6 @@ pub type JointMatrix = Matrix6<f64>;
 /// The geometric Jacobian, rows `[v; ω]`, a column per joint; the columns past the arm's joint count are
 /// zero.
 pub type Jacobian = SMatrix<f64, 6, MAX_JOINTS>;
-/// A rigid-body velocity or a pose error, `[v; ω]`.
-pub type Twist6 = nalgebra::Vector6<f64>;
 
 /// The values of up to [`MAX_JOINTS`] joints as a [`JointVector`], the entries past them zero; `None` for
 /// more.

@@ -86,6 +86,7 @@ pub struct VisionStage {
 
 impl VisionStage {
     pub(crate) fn new(config: &Config, arm: SerialArm) -> Self {
+        let truth = config.true_camera();
         // the simulated camera's pipeline delay is modelled here; a camera driver's is physical: its frames
         // are worked on as they arrive and published at once
         let delay_frames = match config.vision.source {
@@ -95,14 +96,14 @@ impl VisionStage {
         Self {
             arm,
             tool_from_camera: config.tool_from_camera,
-            true_tool_from_camera: config.camera_truth.tool_from_camera,
-            true_intrinsics: config.camera_truth.intrinsics,
+            true_tool_from_camera: truth.tool_from_camera,
+            true_intrinsics: truth.intrinsics,
             intrinsics: config.camera,
             board: config.board,
             layout: observed_features(&config.camera, &config.desired.features),
             undistort: config.vision.undistort,
             // the camera renders as it really is
-            camera: SimulatedCamera::new(config.camera_truth.intrinsics, config.board, config.vision.render),
+            camera: SimulatedCamera::new(truth.intrinsics, config.board, config.vision.render),
             extractor: Extractor::new(
                 config.vision.extractor,
                 config.camera.width_px(),

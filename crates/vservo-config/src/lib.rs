@@ -52,10 +52,10 @@ pub struct Config {
     pub camera: CameraIntrinsics,
     /// Where the camera sits on the hand: camera = tool · `tool_from_camera`.
     pub tool_from_camera: IsometryMatrix3<f64>,
-    /// The simulated camera as it really is (`[camera.truth]`): the believed `camera` and `tool_from_camera`
-    /// unless the configuration says otherwise. Only the simulated camera's rendering uses it; everything
-    /// else works with what the cell believes.
-    pub camera_truth: CameraTruth,
+    /// The simulated camera as it really is, where `[camera.truth]` says it differs from `camera` and
+    /// `tool_from_camera` (see [`Config::true_camera`]). Only the simulated camera's rendering uses it;
+    /// everything else works with what the cell believes.
+    pub camera_truth: Option<CameraTruth>,
     /// The object.
     pub board: Board,
     /// The desired pose and what the camera sees there.
@@ -91,6 +91,12 @@ pub struct Config {
 }
 
 impl Config {
+    /// The simulated camera as it really is: `[camera.truth]` where written, else what the cell believes.
+    pub fn true_camera(&self) -> CameraTruth {
+        self.camera_truth
+            .unwrap_or(CameraTruth { intrinsics: self.camera, tool_from_camera: self.tool_from_camera })
+    }
+
     /// Reads and validates a configuration file, merged over the bases it `extends`.
     pub fn load(path: impl AsRef<Path>) -> Result<Config, ConfigError> {
         Self::load_with_text(path).map(|(config, _)| config)

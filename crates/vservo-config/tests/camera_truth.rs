@@ -17,14 +17,16 @@ fn refused_key(result: Result<Config, ConfigError>) -> String {
 #[test]
 fn left_out_keys_are_the_believed_values_and_given_ones_are_taken() {
     let believed = Config::from_toml(DEFAULT, "vservo.toml").expect("the default");
-    assert_eq!(believed.camera_truth.intrinsics, believed.camera);
-    assert_eq!(believed.camera_truth.tool_from_camera, believed.tool_from_camera);
+    assert_eq!(believed.camera_truth, None);
+    assert_eq!(believed.true_camera().intrinsics, believed.camera);
+    assert_eq!(believed.true_camera().tool_from_camera, believed.tool_from_camera);
     let config = with("fx_px = 1000.0\ntool_from_camera = { translation_m = [0.005, 0.0, 0.0], rotation_rpy_deg = [0.0, 0.0, 2.0] }")
         .expect("a truth");
-    assert_eq!(config.camera_truth.intrinsics.fx_px(), 1000.0);
-    assert_eq!(config.camera_truth.intrinsics.fy_px(), believed.camera.fy_px());
+    let truth = config.true_camera();
+    assert_eq!(truth.intrinsics.fx_px(), 1000.0);
+    assert_eq!(truth.intrinsics.fy_px(), believed.camera.fy_px());
     assert_eq!(config.camera, believed.camera, "what the cell believes is unchanged");
-    assert_eq!(config.camera_truth.tool_from_camera.translation.vector.x, 0.005);
+    assert_eq!(truth.tool_from_camera.translation.vector.x, 0.005);
     assert_eq!(config.tool_from_camera, believed.tool_from_camera);
 }
 

@@ -56,8 +56,9 @@ fn a_truth_equal_to_the_belief_changes_nothing() {
     let loaded = Config::from_toml(&written, "robust-with-truth");
     let mut with_truth = loaded.expect("the truth section loads");
     with_truth.scenario.duration_s = config.scenario.duration_s;
-    assert_eq!(with_truth.camera_truth.intrinsics, config.camera);
-    assert_eq!(with_truth.camera_truth.tool_from_camera, config.tool_from_camera);
+    assert!(with_truth.camera_truth.is_some(), "written");
+    assert_eq!(with_truth.true_camera().intrinsics, config.camera);
+    assert_eq!(with_truth.true_camera().tool_from_camera, config.tool_from_camera);
     let (a, b) = (run(&config), run(&with_truth));
     assert_eq!(a.frames.len(), b.frames.len());
     for (x, y) in a.frames.iter().zip(&b.frames) {
@@ -69,7 +70,7 @@ fn a_truth_equal_to_the_belief_changes_nothing() {
 fn the_camera_renders_as_it_really_is_and_the_robust_law_still_converges() {
     let believed = robust();
     let mut config = robust();
-    config.camera_truth = off(&config);
+    config.camera_truth = Some(off(&config));
     let (as_believed, as_it_is) = (run(&believed), run(&config));
     let (first_believed, first) = (&as_believed.frames[0], &as_it_is.frames[0]);
     // the same joints, another camera: the marks are elsewhere in the image…

@@ -49,7 +49,8 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Command {
-    /// Kinematics, dynamics and inverse kinematics of the PUMA 560 at one joint state.
+    /// Kinematics of the configured arm (default: the PUMA 560, with its dynamics and closed-form inverse
+    /// kinematics) at one joint state.
     Model(model::ModelArgs),
     /// The LQ gain the configuration gives, and its closed-loop eigenvalues with and without the delay.
     Gains(gains::GainsArgs),

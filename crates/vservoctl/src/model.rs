@@ -82,10 +82,14 @@ impl Report {
         names.into_iter().zip(self.arm.limits()).collect()
     }
 
+    /// The arm's joints of a joint vector (its slots past them left out of what is shown).
+    fn arms_joints(&self, v: &JointVector) -> nalgebra::DVector<f64> {
+        v.rows(0, self.arm.joint_count()).into_owned()
+    }
+
     fn json(&self) -> Result<Value> {
         let (arm, q, qd, qdd) = (&self.arm, &self.q, &self.qd, &self.qdd);
-        let n = arm.joint_count();
-        let head = |v: &JointVector| v.rows(0, n).into_owned();
+        let (n, head) = (arm.joint_count(), |v: &JointVector| self.arms_joints(v));
         let joints: Vec<Value> = self
             .joints()
             .iter()
@@ -142,8 +146,7 @@ impl Report {
 
     fn text(&self) -> Result<String> {
         let (arm, q, qd, qdd) = (&self.arm, &self.q, &self.qd, &self.qdd);
-        let n = arm.joint_count();
-        let head = |v: &JointVector| v.rows(0, n).into_owned();
+        let (n, head) = (arm.joint_count(), |v: &JointVector| self.arms_joints(v));
         let mut out = format!("{} — SI units (m, rad, s, kg, N·m)\n", arm.name);
         out += "joints (range, speed limit):\n";
         for (name, l) in self.joints() {

@@ -34,20 +34,50 @@ fn numbers<const N: usize>(value: &Value) -> Option<[f64; N]> {
     (array.len() == N).then(|| std::array::from_fn(|i| array[i].as_f64().unwrap_or(f64::NAN)))
 }
 
+/// A joint state as recorded: q, q̇, τ (the arm's joints, the other slots zero) and the fault bits.
+type RecordedState = (JointVector, JointVector, JointVector, u32);
+
+/// What a recording holds that the figures need.
+struct Recorded {
+    /// (frame, capture tick, features) in the order recorded.
+    features: Vec<(u64, u64, FeatureVector)>,
+    /// The twist computed from each frame.
+    twists: BTreeMap<u64, Twist>,
+    /// The joint states by tick.
+    states: BTreeMap<u64, RecordedState>,
+    /// ξ_d, the last the gains said.
+    desired: FeatureVector,
+}
+
 /// A recording turned into the lockstep's trace: one frame per recorded feature vector (time from the
 /// first frame's capture tick), the twist computed from it, the camera where the joint state of its
 /// capture tick put it; joints every 10 ms.
 pub fn trace_of(bytes: &[u8], config: &vservo_config::Config) -> anyhow::Result<Trace> {
-    let dt = config.timing.control_period_s;
-    let mut features: Vec<(u64, u64, FeatureVector)> = Vec::new();
-    let mut twists: BTreeMap<u64, Twist> = BTreeMap::new();
-    let mut states: BTreeMap<u64, (JointVector, JointVector, JointVector, u32)> = BTreeMap::new();
-    let mut desired = config.desired.features;
+    let recorded = read_recording(bytes, config)?;
+    let Some(&(_, first_tick, _)) = recorded.features.first() else {
+        bail!("the recording holds no features: was the instance running while it recorded?");
+    };
+    Ok(Trace {
+        frames: camera_frames(&recorded, config, first_tick),
+        joints: joints_every_10_ms(&recorded.states, config.timing.control_period_s, first_tick),
+        faults: faults_seen(&recorded.states),
+        desired_features: recorded.desired,
+    })
+}
+
+/// vservo's services in the recording (JSON; Foxglove's views are for Foxglove); joint states of another arm
+/// than the configured one refused.
+fn read_recording(bytes: &[u8], config: &vservo_config::Config) -> anyhow::Result<Recorded> {
     let joint_count = config.arm.joint_count();
+    let mut recorded = Recorded {
+        features: Vec::new(),
+        twists: BTreeMap::new(),
+        states: BTreeMap::new(),
+        desired: config.desired.features,
+    };
     let mut foreign_states = 0u64;
     for message in mcap::MessageStream::new(bytes)? {
         let message = message?;
-        // vservo's services as JSON; Foxglove's views (images, annotations, transforms) are for Foxglove
         if message.channel.message_encoding != "json" {
             continue;
         }
@@ -62,34 +92,23 @@ pub fn trace_of(bytes: &[u8], config: &vservo_config::Config) -> anyhow::Result<
                 ) else {
                     continue;
                 };
-                features.push((frame, tick, FeatureVector::from(xi)));
+                recorded.features.push((frame, tick, FeatureVector::from(xi)));
             }
             "camera_twist" => {
                 if let (Some(frame), Some(twist)) = (data["frame"].as_u64(), numbers::<6>(&data["twist"])) {
-                    twists.insert(frame, Twist::from(twist));
+                    recorded.twists.insert(frame, Twist::from(twist));
                 }
             }
-            "joint_state" => {
-                let (Some(tick), Some(q), Some(qd)) =
-                    (data["tick"].as_u64(), numbers::<7>(&data["q_rad"]), numbers::<7>(&data["qd_rad_s"]))
-                else {
-                    continue;
-                };
-                // the configured arm's joints only: a state of another arm would be drawn wrongly
-                if data["joint_count"].as_u64() != Some(joint_count as u64) {
-                    foreign_states += 1;
-                    continue;
+            "joint_state" => match joint_state(&data, joint_count) {
+                Some(Ok((tick, state))) => {
+                    recorded.states.insert(tick, state);
                 }
-                // a driver that does not know its torques sends NaN (null)
-                let torque = numbers::<7>(&data["torque_nm"]).unwrap_or([f64::NAN; 7]);
-                let faults = data["faults"].as_u64().unwrap_or(0) as u32;
-                let arm_joints =
-                    |v: [f64; 7]| JointVector::from_fn(|j, _| if j < joint_count { v[j] } else { 0.0 });
-                states.insert(tick, (arm_joints(q), arm_joints(qd), arm_joints(torque), faults));
-            }
+                Some(Err(())) => foreign_states += 1,
+                None => {}
+            },
             "gains" => {
                 if let Some(xi) = numbers::<8>(&data["desired_features_px"]) {
-                    desired = FeatureVector::from(xi);
+                    recorded.desired = FeatureVector::from(xi);
                 }
             }
             _ => {}
@@ -101,33 +120,57 @@ pub fn trace_of(bytes: &[u8], config: &vservo_config::Config) -> anyhow::Result<
             config.origin
         );
     }
-    let Some(&(_, first_tick, _)) = features.first() else {
-        bail!("the recording holds no features: was the instance running while it recorded?");
+    Ok(recorded)
+}
+
+/// A recorded joint state's tick and values; `Some(Err)` for a state of an arm of another joint count (it would
+/// be drawn wrongly), `None` for one that is not a joint state.
+fn joint_state(data: &Value, joint_count: usize) -> Option<Result<(u64, RecordedState), ()>> {
+    let (Some(tick), Some(q), Some(qd)) =
+        (data["tick"].as_u64(), numbers::<7>(&data["q_rad"]), numbers::<7>(&data["qd_rad_s"]))
+    else {
+        return None;
     };
+    if data["joint_count"].as_u64() != Some(joint_count as u64) {
+        return Some(Err(()));
+    }
+    // a driver that does not know its torques sends NaN (null)
+    let torque = numbers::<7>(&data["torque_nm"]).unwrap_or([f64::NAN; 7]);
+    let faults = data["faults"].as_u64().unwrap_or(0) as u32;
+    let arm_joints = |v: [f64; 7]| vservo_arm::joint_vector(&v[..joint_count.min(7)]).unwrap_or_default();
+    Some(Ok((tick, (arm_joints(q), arm_joints(qd), arm_joints(torque), faults))))
+}
+
+/// One record per frame: the camera where the joint state nearest its capture tick put it.
+fn camera_frames(recorded: &Recorded, config: &vservo_config::Config, first_tick: u64) -> Vec<FrameRecord> {
     let arm = &config.arm;
     let base_from_desired_camera = arm.base_from_tool(&config.desired.joints) * config.tool_from_camera;
     let desired_from_base = base_from_desired_camera.inverse();
-    let mut frames = Vec::with_capacity(features.len());
-    for (frame, tick, measured) in &features {
-        // the camera where the joint state nearest the capture tick puts it
+    let states = &recorded.states;
+    let mut frames = Vec::with_capacity(recorded.features.len());
+    for (frame, tick, measured) in &recorded.features {
         let Some((_, (q, ..))) = states.range(..=*tick).next_back().or_else(|| states.range(*tick..).next())
         else {
             continue;
         };
         let base_from_camera = arm.base_from_tool(q) * config.tool_from_camera;
         frames.push(FrameRecord {
-            t_s: tick.saturating_sub(first_tick) as f64 * dt,
+            t_s: tick.saturating_sub(first_tick) as f64 * config.timing.control_period_s,
             measured: *measured,
             truth: FeatureVector::from_element(f64::NAN),
-            twist: twists.get(frame).copied().unwrap_or_else(Twist::zeros),
+            twist: recorded.twists.get(frame).copied().unwrap_or_else(Twist::zeros),
             verdict: None,
             camera_position_m: base_from_camera.translation.vector,
             camera_in_desired_m: (desired_from_base * base_from_camera).translation.vector,
         });
     }
+    frames
+}
+
+/// The joint states from the first frame on, one every 10 ms.
+fn joints_every_10_ms(states: &BTreeMap<u64, RecordedState>, dt: f64, first_tick: u64) -> Vec<JointRecord> {
     let every = (0.01 / dt).round().max(1.0) as u64;
-    let mut faults = Faults::default();
-    let joints = states
+    states
         .iter()
         .filter(|(tick, _)| *tick % every == 0 && **tick >= first_tick)
         .map(|(tick, (q, qd, torque, _))| JointRecord {
@@ -136,7 +179,12 @@ pub fn trace_of(bytes: &[u8], config: &vservo_config::Config) -> anyhow::Result<
             qd: *qd,
             torque: *torque,
         })
-        .collect();
+        .collect()
+}
+
+/// Every fault bit any joint state carried.
+fn faults_seen(states: &BTreeMap<u64, RecordedState>) -> Faults {
+    let mut faults = Faults::default();
     for (.., bits) in states.values() {
         let joints = |shift| fault_bits::joints(*bits, shift) as u8;
         faults.position_limit |= joints(fault_bits::POSITION_LIMIT_SHIFT);
@@ -144,7 +192,7 @@ pub fn trace_of(bytes: &[u8], config: &vservo_config::Config) -> anyhow::Result<
         faults.torque_saturated |= joints(fault_bits::TORQUE_SATURATED_SHIFT);
         faults.integration_failed |= bits & fault_bits::DRIVER_FAILED != 0;
     }
-    Ok(Trace { frames, joints, faults, desired_features: desired })
+    faults
 }
 
 pub fn run(args: &PlotArgs) -> anyhow::Result<()> {

@@ -155,18 +155,16 @@ pub fn tool_from_camera(
     check.pose("camera.tool_from_camera", &c.tool_from_camera, 2.0)
 }
 
-/// `[camera.truth]`: the simulated camera as it really is (a calibration's known answer): its intrinsics and
-/// its mount, each key the believed value where left out. Refused with a camera that is not simulated (a real
-/// camera is where it is; what it is, is for a calibration to find).
+/// `[camera.truth]`, if written: the simulated camera as it really is (a calibration's known answer), its
+/// intrinsics and its mount, each key the believed value where left out. Refused with a camera that is not
+/// simulated (a real camera is where it is; what it is, is for a calibration to find).
 pub fn truth(
     check: &Checker,
     c: &RawCamera,
     believed: &CameraIntrinsics,
     believed_tool_from_camera: &nalgebra::IsometryMatrix3<f64>,
-) -> Result<CameraTruth, ConfigError> {
-    let Some(t) = &c.truth else {
-        return Ok(CameraTruth { intrinsics: *believed, tool_from_camera: *believed_tool_from_camera });
-    };
+) -> Result<Option<CameraTruth>, ConfigError> {
+    let Some(t) = &c.truth else { return Ok(None) };
     if c.source != RawCameraSource::Simulated {
         return Err(check.invalid(
             "camera.truth",
@@ -209,7 +207,7 @@ pub fn truth(
         None => *believed_tool_from_camera,
         Some(pose) => check.pose("camera.truth.tool_from_camera", pose, 2.0)?,
     };
-    Ok(CameraTruth { intrinsics, tool_from_camera })
+    Ok(Some(CameraTruth { intrinsics, tool_from_camera }))
 }
 
 /// `camera.source`, and the directory it names.

@@ -128,12 +128,7 @@ pub fn diff(old: &Config, new: &Config) -> ConfigDiff {
     section(r, "timing", timing != &new.timing, &timing_keys);
     section(r, "camera", camera != &new.camera, &[]);
     section(r, "camera.tool_from_camera", tool_from_camera != &new.tool_from_camera, &[]);
-    // the truth follows the belief unless written: a changed belief is the key the file changed
-    let as_believed = |c: &Config| {
-        c.camera_truth.intrinsics == c.camera && c.camera_truth.tool_from_camera == c.tool_from_camera
-    };
-    let truth_changed = camera_truth != &new.camera_truth && !(as_believed(old) && as_believed(new));
-    section(r, "camera.truth", truth_changed, &[]);
+    section(r, "camera.truth", camera_truth != &new.camera_truth, &[]);
     section(r, "object", board != &new.board, &[]);
     section(r, "vision", vision != &new.vision, &[("camera.source", vision.source != new.vision.source)]);
     section(r, "plant", plant != &new.plant, &fields!("plant", plant, new.plant; mode, rk4_substeps));
