@@ -42,6 +42,12 @@ if ! "${venv}/bin/python" -c 'import cv2' >/dev/null 2>&1; then
     "${venv}/bin/python" -m pip install -q opencv-python-headless==4.14.0.94
 fi
 
+# `vservoctl calibrate`'s solver (clients/python/vservo_calibrate.py): OpenCV's calibration and hand-eye
+# functions, SciPy's least squares for the joint refinement
+if ! "${venv}/bin/python" -c 'import scipy' >/dev/null 2>&1; then
+    "${venv}/bin/python" -m pip install -q scipy==1.17.1
+fi
+
 # The PyBullet reference driver (clients/python/pybullet_driver.py, scripts/run-pybullet.sh) and the arms' URDFs
 # it ships in pybullet_data (xArm6, Franka Panda: config/arms/ reads them through target/pybullet_data)
 if ! "${venv}/bin/python" -c 'import pybullet' >/dev/null 2>&1; then

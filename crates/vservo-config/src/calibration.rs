@@ -4,12 +4,19 @@
 //! `!!opencv-matrix` maps with `rows`, `cols`, `dt`, `data`; keys `camera_matrix`, `distortion_coefficients`,
 //! `image_width`, `image_height`).
 //!
+//! Pixels: OpenCV and ROS put a pixel's centre at integer coordinates, vservo at + ½ (its pixel (u, v) covers
+//! [u, u+1) × [v, v+1), docs/ARCHITECTURE.md): the file's principal point is taken + ½ px on each axis
+//! ([`OPENCV_TO_VSERVO_PX`]), and `vservoctl calibrate` writes its files the other way round.
+//!
 //! Parsed with `yaml-rust2` (pure Rust, maintained; `serde_yaml` is unmaintained and `serde_yml` unsound):
 //! its document tree lets every error name the key. OpenCV's `%YAML:1.0` header is not a YAML directive
 //! (YAML writes `%YAML 1.0`): it is taken out before parsing; the `!!opencv-matrix` tag is a YAML tag the
 //! parser reads and this module ignores.
 
 use yaml_rust2::{Yaml, YamlLoader};
+
+/// What is added to an OpenCV or ROS pixel coordinate to make it vservo's (the same point).
+pub const OPENCV_TO_VSERVO_PX: f64 = 0.5;
 
 /// What a calibration file gives.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -20,10 +27,13 @@ pub struct Calibration {
     pub height_px: u32,
     /// fx, fy (px).
     pub focal_px: [f64; 2],
-    /// cx, cy (px).
+    /// cx, cy (px, vservo's pixels: the file's + [`OPENCV_TO_VSERVO_PX`]).
     pub principal_point_px: [f64; 2],
     /// OpenCV's k1, k2, p1, p2, k3 (k3 = 0 when the file gives four).
     pub distortion: [f64; 5],
+    /// The hand-eye transform, where the file has one (`tool_from_camera`, a 4 × 4 rigid transform, rows; a
+    /// file of `vservoctl calibrate`): it then takes the place of `camera.tool_from_camera`.
+    pub tool_from_camera: Option<nalgebra::IsometryMatrix3<f64>>,
 }
 
 /// Why a calibration file's text was refused: the key (dotted, inside the file) and why.
@@ -67,7 +77,37 @@ pub fn parse(text: &str) -> Result<Calibration, CalibrationError> {
         focal_px,
         principal_point_px,
         distortion: plumb_bob(&coefficients)?,
+        tool_from_camera: hand_eye(root)?,
     })
+}
+
+/// `tool_from_camera`, if the file has it: a rigid transform (a rotation to 1e-6, the last row 0 0 0 1)
+/// whose translation is within 2 m.
+fn hand_eye(root: &Yaml) -> Result<Option<nalgebra::IsometryMatrix3<f64>>, CalibrationError> {
+    const KEY: &str = "tool_from_camera";
+    if matches!(root[KEY], Yaml::BadValue) {
+        return Ok(None);
+    }
+    let m = nalgebra::Matrix4::from_row_slice(&matrix(root, KEY, &[16])?);
+    let rotation = m.fixed_view::<3, 3>(0, 0).into_owned();
+    let orthonormal = (rotation.transpose() * rotation - nalgebra::Matrix3::identity()).amax() < 1e-6
+        && (rotation.determinant() - 1.0).abs() < 1e-6;
+    let last_row = [m[(3, 0)], m[(3, 1)], m[(3, 2)], m[(3, 3)]] == [0.0, 0.0, 0.0, 1.0];
+    if !orthonormal || !last_row {
+        return Err(refuse(
+            &format!("{KEY}.data"),
+            "is not a rigid transform (a rotation, a translation, the last row 0 0 0 1)",
+        ));
+    }
+    let translation = nalgebra::Vector3::new(m[(0, 3)], m[(1, 3)], m[(2, 3)]);
+    if translation.amax() > 2.0 {
+        return Err(refuse(
+            &format!("{KEY}.data"),
+            format!("its translation {:?} m is not within 2 m of the tool", translation.as_slice()),
+        ));
+    }
+    let rotation = nalgebra::Rotation3::from_matrix(&rotation);
+    Ok(Some(nalgebra::IsometryMatrix3::from_parts(translation.into(), rotation)))
 }
 
 /// The text with OpenCV's `%YAML:1.0` line taken out (YAML's own `%YAML 1.x` directive is kept).
@@ -146,7 +186,7 @@ fn pinhole(k: &[f64]) -> Result<([f64; 2], [f64; 2]), CalibrationError> {
     if !(k[0] > 0.0 && k[4] > 0.0) {
         return Err(refuse(key, format!("focal lengths fx = {}, fy = {} must be positive", k[0], k[4])));
     }
-    Ok(([k[0], k[4]], [k[2], k[5]]))
+    Ok(([k[0], k[4]], [k[2] + OPENCV_TO_VSERVO_PX, k[5] + OPENCV_TO_VSERVO_PX]))
 }
 
 /// ROS names the model; OpenCV's files do not (and mean OpenCV's, whose first five are plumb_bob's).

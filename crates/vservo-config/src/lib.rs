@@ -88,6 +88,8 @@ pub struct Config {
     pub viewer: Viewer,
     /// `[camera.gstreamer]`: the GStreamer camera driver's settings, if the file has them.
     pub gstreamer: Option<GstreamerCamera>,
+    /// `[calibration]`: the calibration board and poses, if the file has them.
+    pub calibration: Option<CalibrationSettings>,
 }
 
 impl Config {

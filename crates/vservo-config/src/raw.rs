@@ -32,6 +32,38 @@ pub struct RawConfig {
     pub viewer: RawViewer,
     #[serde(default)]
     pub target: RawTarget,
+    #[serde(default)]
+    pub calibration: Option<RawCalibration>,
+}
+
+/// `[calibration]`: the board `vservoctl calibrate` looks at and the poses it takes.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawCalibration {
+    pub board_rows: i64,
+    pub board_columns: i64,
+    pub tag_size_m: f64,
+    pub gap_m: f64,
+    #[serde(default)]
+    pub first_id: i64,
+    #[serde(default)]
+    pub printed_on_object: bool,
+    #[serde(default = "default_calibration_poses")]
+    pub poses: i64,
+    #[serde(default = "default_calibration_tilt_deg")]
+    pub tilt_deg: f64,
+    #[serde(default)]
+    pub distance_m: Option<f64>,
+    #[serde(default)]
+    pub output_file: Option<String>,
+}
+
+fn default_calibration_poses() -> i64 {
+    12
+}
+
+fn default_calibration_tilt_deg() -> f64 {
+    25.0
 }
 
 /// `[target]`: what the four features are (docs/VISION.md).

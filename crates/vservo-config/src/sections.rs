@@ -271,6 +271,23 @@ pub struct Vision {
     pub render: vservo_vision::RenderSettings,
 }
 
+/// `[calibration]`: the calibration board (`vservoctl board` prints it) and the poses `vservoctl calibrate`
+/// takes around it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CalibrationSettings {
+    /// The board's grid of tags.
+    pub board: vservo_scene::TagGrid,
+    /// How many poses.
+    pub poses: usize,
+    /// The camera's tilt from the board's normal at the poses (rad); the poses go round the normal.
+    pub tilt_rad: f64,
+    /// The camera's distance from the board's centre at the poses (m); `None`: the distance at the desired
+    /// pose.
+    pub distance_m: Option<f64>,
+    /// Where the calibration is written (`None`: `calibration.yaml` beside the configuration file).
+    pub output_file: Option<String>,
+}
+
 /// The simulated camera as it really is (`[camera.truth]`): what a calibration of the simulated cell should
 /// find, apart from what the configuration believes the camera to be.
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -65,7 +65,8 @@ fn a_ros_camera_info_file_gives_the_lens() {
             .expect("a ROS camera_info file is taken");
     let camera = config.camera;
     assert_eq!((camera.fx_px(), camera.fy_px()), (438.783367, 437.302876));
-    assert_eq!(camera.principal_point_px(), nalgebra::Point2::new(305.593336, 243.738352));
+    // ROS's pixel centres are at integers, vservo's at + ½
+    assert_eq!(camera.principal_point_px(), nalgebra::Point2::new(305.593336 + 0.5, 243.738352 + 0.5));
     assert_eq!((camera.width_px(), camera.height_px()), (640, 480));
     assert_eq!(camera.distortion().coefficients(), [-0.361976, 0.110510, 0.001014, 0.000505, 0.0]);
 }
@@ -85,7 +86,8 @@ fn an_opencv_file_written_by_opencv_gives_the_lens() {
     .expect("an OpenCV FileStorage file is taken");
     let camera = config.camera;
     assert_eq!((camera.fx_px(), camera.fy_px()), (600.0, 606.0));
-    assert_eq!(camera.principal_point_px(), nalgebra::Point2::new(322.0, 237.0));
+    // OpenCV's pixel centres are at integers, vservo's at + ½
+    assert_eq!(camera.principal_point_px(), nalgebra::Point2::new(322.5, 237.5));
     assert_eq!(camera.distortion().coefficients(), [-0.25, 0.08, 0.0, 0.0, 0.0]);
 }
 

@@ -2,6 +2,7 @@
 
 use nalgebra::{Point2, Point3};
 
+use crate::tag_grid::TagGrid;
 use crate::tag36h11;
 
 /// Number of marks on the board.
@@ -20,6 +21,10 @@ pub struct Board {
     pub extent_in_board: [Point2<f64>; 2],
     /// What is printed on the board: the disc marks, or one AprilTag.
     pub target: Target,
+    /// A calibration board printed on it as well, centred on the board frame's origin (`vservoctl calibrate`
+    /// detects its tags). Where the target's tag lies inside the grid it is one of the grid's tags, and inside
+    /// its black square the target is drawn (a scenario's cover on a corner shows white there).
+    pub calibration_grid: Option<TagGrid>,
 }
 
 /// What is printed on the board, and so what the four features are.
@@ -154,6 +159,7 @@ impl Board {
             mark_diameter_m: 0.015,
             extent_in_board: [Point2::new(-0.16, -0.24), Point2::new(0.14, -0.03)],
             target: Target::Marks,
+            calibration_grid: None,
         }
     }
 
@@ -164,6 +170,7 @@ impl Board {
             mark_diameter_m: 0.0,
             extent_in_board,
             target: Target::AprilTag(tag),
+            calibration_grid: None,
         }
     }
 

@@ -131,6 +131,32 @@ impl TagGrid {
         id.checked_sub(self.first_id).and_then(|i| self.tag(i as usize))
     }
 
+    /// The tags whose pitch cell (the tag and half the gap around it) meets the box from `low` to `high`
+    /// (board frame, m): every tag that can have a black cell in it.
+    pub fn tags_meeting(&self, low: Point2<f64>, high: Point2<f64>) -> impl Iterator<Item = AprilTag> + '_ {
+        let range = |low: f64, high: f64, n: u32| {
+            // a NaN bound meets nothing
+            if low.is_nan() || high.is_nan() || low > high {
+                return 0..0;
+            }
+            let index = |v: f64| (v / self.pitch_m() + 0.5 * f64::from(n)).floor();
+            let (first, last) = (index(low).max(0.0), index(high).min(f64::from(n) - 1.0));
+            // NaN or an empty range gives no indices
+            if first <= last { first as u32..last as u32 + 1 } else { 0..0 }
+        };
+        let rows = range(low.y, high.y, self.rows);
+        let columns = range(low.x, high.x, self.columns);
+        rows.flat_map(move |row| columns.clone().map(move |column| (row, column)))
+            .filter_map(|(row, column)| self.tag((row * self.columns + column) as usize))
+    }
+
+    /// The square (lowest and highest x, y; board frame, m) that holds every tag's black square.
+    pub fn tags_extent_in_board(&self) -> [Point2<f64>; 2] {
+        let half = |n: u32| 0.5 * (f64::from(n) * self.tag_size_m + f64::from(n - 1) * self.gap_m);
+        let (hx, hy) = (half(self.columns), half(self.rows));
+        [Point2::new(-hx, -hy), Point2::new(hx, hy)]
+    }
+
     /// The white board around the tags, one white border (a tag cell) wider than the outer tags' white
     /// rings: lowest and highest (x, y) in the board frame (m).
     pub fn extent_in_board(&self) -> [Point2<f64>; 2] {
@@ -196,6 +222,24 @@ mod tests {
         let [low, high] = grid.extent_in_board();
         assert!(!grid.is_black_at(low.x + 1e-4, 0.05) && !grid.is_black_at(high.x - 1e-4, 0.05));
         assert!((high.x - (0.09 + 0.02)).abs() < 1e-12, "{high}");
+    }
+
+    #[test]
+    fn the_tags_meeting_a_box_are_those_whose_pitch_cell_it_touches() {
+        let grid = TagGrid::new(3, 4, 0.04, 0.01, 0).expect("a grid");
+        let ids = |low: (f64, f64), high: (f64, f64)| -> Vec<u32> {
+            grid.tags_meeting(Point2::new(low.0, low.1), Point2::new(high.0, high.1))
+                .map(|t| t.id())
+                .collect()
+        };
+        // pitch 0.05: columns span [-0.1, -0.05, 0, 0.05, 0.1], rows [-0.075, -0.025, 0.025, 0.075]
+        assert_eq!(ids((0.001, -0.02), (0.002, -0.01)), vec![6]);
+        assert_eq!(ids((-0.001, -0.03), (0.001, -0.02)), vec![1, 2, 5, 6]);
+        assert_eq!(ids((-1.0, -1.0), (1.0, 1.0)).len(), 12);
+        assert!(ids((0.2, 0.0), (0.3, 0.1)).is_empty(), "right of the grid");
+        assert!(ids((f64::NAN, 0.0), (0.0, 0.0)).is_empty());
+        let [low, high] = grid.tags_extent_in_board();
+        assert!((high.x - 0.095).abs() < 1e-12 && (low.y + 0.07).abs() < 1e-12, "{low} {high}");
     }
 
     #[test]

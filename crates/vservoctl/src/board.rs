@@ -55,7 +55,7 @@ pub fn run(args: &BoardArgs) -> Result<()> {
 }
 
 /// The layout: the grid's parameters and each tag's corners in the board frame (m).
-fn layout(grid: &TagGrid) -> serde_json::Value {
+pub fn layout(grid: &TagGrid) -> serde_json::Value {
     let tags: Vec<_> = grid
         .tags()
         .map(|tag| {

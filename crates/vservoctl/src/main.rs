@@ -7,6 +7,7 @@
 mod basin;
 mod board;
 mod bridge;
+mod calibrate;
 mod commands;
 mod config_arg;
 mod echo;
@@ -90,6 +91,9 @@ enum Command {
     Scene(scene::SceneArgs),
     /// A calibration board (a grid of AprilTags) as an SVG to print at scale, and its layout as JSON.
     Board(board::BoardArgs),
+    /// Calibrate the camera (intrinsics, lens) and where it sits on the hand (`tool_from_camera`) from
+    /// views of the calibration board at poses around it.
+    Calibrate(calibrate::CalibrateArgs),
 }
 
 fn main() -> ExitCode {
@@ -118,6 +122,7 @@ fn main() -> ExitCode {
         Command::Plot(args) => plot_recording::run(&args),
         Command::Scene(args) => scene::run(&args),
         Command::Board(args) => board::run(&args),
+        Command::Calibrate(args) => calibrate::run(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -147,12 +147,18 @@ fn fits_camera_image(check: &Checker, width_px: u32, height_px: u32) -> Result<(
     ))
 }
 
-/// `camera.tool_from_camera`: within 2 m of the tool.
+/// `camera.tool_from_camera`: within 2 m of the tool; the calibration file's where it has one (a file of
+/// `vservoctl calibrate`).
 pub fn tool_from_camera(
     check: &Checker,
     c: &RawCamera,
 ) -> Result<nalgebra::IsometryMatrix3<f64>, ConfigError> {
-    check.pose("camera.tool_from_camera", &c.tool_from_camera, 2.0)
+    let written = check.pose("camera.tool_from_camera", &c.tool_from_camera, 2.0)?;
+    let from_file = match &c.calibration_file {
+        Some(file) => calibration(check, c, file)?.tool_from_camera,
+        None => None,
+    };
+    Ok(from_file.unwrap_or(written))
 }
 
 /// `[camera.truth]`, if written: the simulated camera as it really is (a calibration's known answer), its

@@ -3,6 +3,7 @@
 //! checks that span sections, in the order the sections build on each other.
 
 mod arm;
+mod calibration_board;
 mod camera;
 mod checker;
 mod controller;
@@ -30,7 +31,13 @@ pub fn validate(raw: RawConfig, file: &str) -> Result<Config, ConfigError> {
     let camera = camera::intrinsics(&check, &raw.camera)?;
     let tool_from_camera = camera::tool_from_camera(&check, &raw.camera)?;
     let camera_truth = camera::truth(&check, &raw.camera, &camera, &tool_from_camera)?;
-    let board = object::board(&check, &raw.object, &raw.target)?;
+    let mut board = object::board(&check, &raw.object, &raw.target)?;
+    let calibration = raw.calibration.as_ref().map(|c| calibration_board::settings(&check, c)).transpose()?;
+    if let Some(c) = raw.calibration.as_ref().filter(|c| c.printed_on_object) {
+        let grid = calibration.as_ref().map(|settings| settings.board);
+        board.calibration_grid =
+            grid.map(|grid| calibration_board::printed(&check, c, &raw.object, &board, grid)).transpose()?;
+    }
     let arm = arm::arm(&check, &raw.robot.arm)?;
     let desired = desired::desired(&check, &raw.desired, &arm, &camera, &board)?;
     let controller = controller::controller(&check, &raw.controller, &camera, &desired.features)?;
@@ -68,5 +75,6 @@ pub fn validate(raw: RawConfig, file: &str) -> Result<Config, ConfigError> {
         reacquire,
         viewer: operation::viewer(&check, &raw.viewer)?,
         gstreamer: raw.camera.gstreamer.as_ref().map(|g| camera::gstreamer(&check, g)).transpose()?,
+        calibration,
     })
 }

@@ -20,7 +20,13 @@ pub fn board(check: &Checker, o: &RawObject, target: &RawTarget) -> Result<Board
     let marks_in_board = marks(check, o)?;
     marks_apart(check, o, &marks_in_board, mark_diameter_m)?;
     let extent_in_board = extent(check, o, &marks_in_board, mark_diameter_m)?;
-    Ok(Board { marks_in_board, mark_diameter_m, extent_in_board, target: Target::Marks })
+    Ok(Board {
+        marks_in_board,
+        mark_diameter_m,
+        extent_in_board,
+        target: Target::Marks,
+        calibration_grid: None,
+    })
 }
 
 /// `[target]` for an AprilTag: the family (tag36h11 only, the parser refuses any other), an id of the

@@ -112,6 +112,8 @@ pub fn diff(old: &Config, new: &Config) -> ConfigDiff {
         viewer,
         // read by the GStreamer camera driver at its start, not by the daemon
         gstreamer: _,
+        // read by `vservoctl calibrate`; a board printed on the simulated object is in `board`
+        calibration: _,
     } = old;
     let mut live = Vec::new();
     let (o, n) = (&controller.options, &new.controller.options);

@@ -1,0 +1,55 @@
+//! Taking the views on the simulated cell in lockstep: the arm put at each planned pose, the board where the
+//! configuration's world puts it, and the cell's own vision stage rendering what the camera sees, the camera as
+//! `[camera.truth]` says it really is (with the configured noise).
+
+use anyhow::Result;
+use vservo_cell::{Cell, VisionStage};
+use vservo_config::Config;
+use vservo_scene::IsometryMatrix3;
+
+use super::dataset::View;
+use super::plan::PlannedPose;
+use crate::UsageError;
+
+/// The simulated cell's camera and world.
+pub struct Simulated {
+    cell: Cell,
+    base_from_board: IsometryMatrix3<f64>,
+}
+
+impl Simulated {
+    /// The cell the configuration describes; refused unless its camera is the simulated one.
+    pub fn new(config: &Config) -> Result<Self, UsageError> {
+        if config.vision.source != vservo_config::VisionSource::Simulated {
+            return Err(UsageError(format!(
+                "{}: --lockstep calibrates the simulated camera; camera.source is not \"simulated\"",
+                config.origin
+            )));
+        }
+        let cell = Cell::simulated(config).map_err(|e| UsageError(format!("{}: {e}", config.origin)))?;
+        let base_from_board = config.base_from_board(cell.arm());
+        Ok(Self { cell, base_from_board })
+    }
+
+    /// Where the board is in the arm's base.
+    pub fn base_from_board(&self) -> IsometryMatrix3<f64> {
+        self.base_from_board
+    }
+
+    /// One view at each pose, the arm exactly at the planned joints.
+    pub fn take_views(&self, planned: &[PlannedPose]) -> Vec<View> {
+        let mut vision: VisionStage = self.cell.vision();
+        planned
+            .iter()
+            .enumerate()
+            .map(|(k, pose)| {
+                vision.capture(k as u64, 0, &pose.q, &self.base_from_board);
+                View {
+                    image: vision.image().clone(),
+                    q: pose.q,
+                    base_from_tool: self.cell.arm().base_from_tool(&pose.q),
+                }
+            })
+            .collect()
+    }
+}

@@ -1,0 +1,85 @@
+//! The views handed to the solver: each image as a PGM file and `dataset.json` with the arm's pose at each,
+//! the camera as the configuration believes it and the board's layout (clients/python/vservo_calibrate.py reads
+//! it). Kept after the run, so that a calibration can be solved again or looked at.
+
+use std::path::{Path, PathBuf};
+
+use anyhow::{Context, Result};
+use image::ExtendedColorType;
+use image::GrayImage;
+use image::codecs::pnm::{PnmEncoder, PnmSubtype, SampleEncoding};
+use serde_json::{Value, json};
+use vservo_arm::JointVector;
+use vservo_scene::{CameraIntrinsics, IsometryMatrix3, TagGrid};
+
+/// One view: its image and the arm's joints and tool pose when it was taken.
+pub struct View {
+    /// The image.
+    pub image: GrayImage,
+    /// The joints.
+    pub q: JointVector,
+    /// The tool's pose they give.
+    pub base_from_tool: IsometryMatrix3<f64>,
+}
+
+/// A 4 × 4 matrix as rows.
+pub fn rows(m: &IsometryMatrix3<f64>) -> Vec<Vec<f64>> {
+    let h = m.to_homogeneous();
+    (0..4).map(|r| (0..4).map(|c| h[(r, c)]).collect()).collect()
+}
+
+/// Writes the views and `dataset.json` into `dir` (made if missing); returns `dataset.json`'s path.
+pub fn write(
+    dir: &Path,
+    views: &[View],
+    camera: &CameraIntrinsics,
+    tool_from_camera: &IsometryMatrix3<f64>,
+    grid: &TagGrid,
+    joints: usize,
+) -> Result<PathBuf> {
+    std::fs::create_dir_all(dir).with_context(|| format!("making {}", dir.display()))?;
+    let mut listed = Vec::with_capacity(views.len());
+    for (k, view) in views.iter().enumerate() {
+        let name = format!("view_{:02}.pgm", k + 1);
+        write_pgm(&dir.join(&name), &view.image)?;
+        listed.push(json!({
+            "image": name,
+            "q_rad": view.q.iter().take(joints).collect::<Vec<_>>(),
+            "base_from_tool": rows(&view.base_from_tool),
+        }));
+    }
+    let mut board = crate::board::layout(grid);
+    board["tag_size_m"] = json!(grid.tag_size_m());
+    let dataset = json!({
+        "image_size": [camera.width_px(), camera.height_px()],
+        "camera": camera_json(camera),
+        "tool_from_camera": rows(tool_from_camera),
+        "board": board,
+        "views": listed,
+    });
+    let path = dir.join("dataset.json");
+    std::fs::write(&path, format!("{dataset}\n")).with_context(|| format!("writing {}", path.display()))?;
+    Ok(path)
+}
+
+/// The camera's intrinsics (vservo's pixels) and lens as the solver takes them.
+pub fn camera_json(camera: &CameraIntrinsics) -> Value {
+    json!({
+        "fx": camera.fx_px(),
+        "fy": camera.fy_px(),
+        "cx": camera.principal_point_px().x,
+        "cy": camera.principal_point_px().y,
+        "distortion": camera.distortion().coefficients(),
+    })
+}
+
+/// A binary PGM (P5).
+fn write_pgm(path: &Path, image: &GrayImage) -> Result<()> {
+    let file = std::io::BufWriter::new(
+        std::fs::File::create(path).with_context(|| format!("creating {}", path.display()))?,
+    );
+    PnmEncoder::new(file)
+        .with_subtype(PnmSubtype::Graymap(SampleEncoding::Binary))
+        .encode(image.as_raw().as_slice(), image.width(), image.height(), ExtendedColorType::L8)
+        .with_context(|| format!("writing {}", path.display()))
+}

@@ -1,0 +1,41 @@
+//! The calibration file: an OpenCV FileStorage YAML (what `cv2.FileStorage` reads, and what
+//! `camera.calibration_file` takes) with the image size, the camera matrix, the lens and, as a 4 × 4
+//! `tool_from_camera`, the hand-eye transform. The principal point is written in OpenCV's pixels (a pixel's
+//! centre at integers), so that OpenCV's users read it right; vservo adds the half pixel back when it reads it.
+
+use std::path::Path;
+
+use anyhow::{Context, Result};
+use vservo_config::Config;
+use vservo_config::calibration::OPENCV_TO_VSERVO_PX;
+
+use super::solver::Solved;
+
+/// Writes the file, replacing one that is there.
+pub fn write(path: &Path, config: &Config, solved: &Solved, views: usize) -> Result<()> {
+    let number = |v: f64| format!("{v:.10e}");
+    let matrix = |name: &str, rows: usize, cols: usize, data: &[f64]| {
+        let values: Vec<String> = data.iter().map(|&v| number(v)).collect();
+        format!(
+            "{name}: !!opencv-matrix\n   rows: {rows}\n   cols: {cols}\n   dt: d\n   data: [ {} ]\n",
+            values.join(", ")
+        )
+    };
+    let (cx, cy) = (solved.cx - OPENCV_TO_VSERVO_PX, solved.cy - OPENCV_TO_VSERVO_PX);
+    let camera_matrix = [solved.fx, 0.0, cx, 0.0, solved.fy, cy, 0.0, 0.0, 1.0];
+    let tool: Vec<f64> = solved.tool_from_camera.matrix.iter().flatten().copied().collect();
+    let text = format!(
+        "%YAML:1.0\n---\n# vservoctl calibrate, {views} views of the board of {}: reprojection {:.3} px RMS, AX = XB {:.4}° / {:.3} mm RMS\n# ({})\nimage_width: {}\nimage_height: {}\n{}{}{}",
+        config.origin,
+        solved.rms_px,
+        solved.ax_xb_rotation_deg,
+        solved.ax_xb_translation_mm,
+        solved.solver,
+        config.camera.width_px(),
+        config.camera.height_px(),
+        matrix("camera_matrix", 3, 3, &camera_matrix),
+        matrix("distortion_coefficients", 1, 5, &solved.distortion),
+        matrix("tool_from_camera", 4, 4, &tool),
+    );
+    std::fs::write(path, text).with_context(|| format!("writing {}", path.display()))
+}

@@ -1,0 +1,164 @@
+//! `vservoctl calibrate`: the camera's intrinsics and lens and the hand-eye transform (`tool_from_camera`),
+//! from views of the calibration board (`[calibration]`) at poses spread over a half sphere around it
+//! (docs/CALIBRATION.md).
+//!
+//! The steps: plan the poses (`plan`: each reachable and with the board in view, checked before anything
+//! moves) and check their spread (`spread`); take the views (`capture`: here the simulated cell in lockstep, its
+//! camera as `[camera.truth]` says it is); hand them to the solver (`dataset`, `solver`: OpenCV and SciPy); report
+//! the residuals and, when the truth is known, the errors against it (`report`); write the calibration file
+//! (`file`).
+
+mod capture;
+mod dataset;
+mod file;
+mod plan;
+mod report;
+mod solver;
+mod spread;
+
+use std::path::PathBuf;
+
+use anyhow::Result;
+use clap::Args;
+use vservo_config::{CalibrationSettings, Config};
+
+use crate::UsageError;
+use crate::config_arg::ConfigArg;
+use crate::output::print_stdout;
+
+/// `vservoctl calibrate`.
+#[derive(Args, Debug)]
+pub struct CalibrateArgs {
+    #[command(flatten)]
+    config: ConfigArg,
+    /// Calibrate the configured simulated cell in the lockstep simulator (no daemon): the arm is put at each
+    /// pose and the simulated camera, as `[camera.truth]` says it is, takes the view; the result is compared
+    /// with that truth.
+    #[arg(long)]
+    lockstep: bool,
+    /// Take these poses instead of planning them: a JSON list of joint vectors (rad), in the order taken;
+    /// each is checked inside the limits and with the board in view, and the set for its spread.
+    #[arg(long, value_name = "FILE")]
+    poses: Option<PathBuf>,
+    /// Plan the poses and check them (reach, board in view, spread) without moving or solving.
+    #[arg(long)]
+    dry_run: bool,
+    /// Where the calibration file is written (default: `calibration.output_file`, else calibration.yaml
+    /// beside the configuration file).
+    #[arg(long, value_name = "FILE")]
+    out: Option<PathBuf>,
+    /// Where the views are kept for the solver (default: a directory `calibration-views` beside the
+    /// calibration file).
+    #[arg(long, value_name = "DIR")]
+    views: Option<PathBuf>,
+    /// The Python interpreter that runs the solver (with OpenCV, SciPy and NumPy).
+    #[arg(long, value_name = "FILE", default_value = "python3")]
+    python: PathBuf,
+    /// The solver script (default: clients/python/vservo_calibrate.py of the source tree or the package).
+    #[arg(long, value_name = "FILE")]
+    solver: Option<PathBuf>,
+    /// JSON: the report as one object, the last line.
+    #[arg(long)]
+    json: bool,
+}
+
+/// Runs `vservoctl calibrate`.
+pub fn run(args: &CalibrateArgs) -> Result<()> {
+    let config = args.config.load()?;
+    let settings = settings_of(&config)?;
+    if !args.lockstep && !args.dry_run {
+        return Err(UsageError(
+            "calibrating through a running vservod is not available yet: --lockstep calibrates the simulated \
+             cell the configuration describes, --dry-run plans and checks the poses"
+                .into(),
+        )
+        .into());
+    }
+    let cell = capture::Simulated::new(&config)?;
+    let given = args.poses.as_deref().map(read_poses).transpose()?;
+    let planned = plan_poses(&config, &settings, &cell, given.as_deref())?;
+    if args.dry_run {
+        return report::print_plan(&config, &planned, args.json);
+    }
+    let views = cell.take_views(&planned);
+    let out = output_file(args, &settings);
+    let views_dir = args.views.clone().unwrap_or_else(|| out.with_file_name("calibration-views"));
+    let measured: Vec<_> = views.iter().map(|v| v.base_from_tool).collect();
+    spread::check(&measured).map_err(|e| UsageError(format!("the views taken: {e}")))?;
+    dataset::write(
+        &views_dir,
+        &views,
+        &config.camera,
+        &config.tool_from_camera,
+        &settings.board,
+        config.arm.joint_count(),
+    )?;
+    let solver_path = solver::locate(args.solver.as_deref())?;
+    let solved = solver::solve(&args.python, &solver_path, &views_dir)?;
+    file::write(&out, &config, &solved, views.len())?;
+    let truth = args.lockstep.then(|| config.true_camera());
+    let text = report::solved(&config, &solved, truth.as_ref(), &out, &views_dir, args.json);
+    print_stdout(&text)?;
+    Ok(())
+}
+
+/// `[calibration]`, which the command needs.
+fn settings_of(config: &Config) -> Result<CalibrationSettings, UsageError> {
+    config.calibration.clone().ok_or_else(|| {
+        UsageError(format!(
+            "{}: no [calibration] section: it says which board is printed (vservoctl board) and how far the poses go",
+            config.origin
+        ))
+    })
+}
+
+/// The plan, refused before anything moves when a pose is out of reach or out of view, or the poses too
+/// poorly spread.
+fn plan_poses(
+    config: &Config,
+    settings: &CalibrationSettings,
+    cell: &capture::Simulated,
+    given: Option<&[Vec<f64>]>,
+) -> Result<Vec<plan::PlannedPose>, UsageError> {
+    let distance_m =
+        settings.distance_m.unwrap_or_else(|| config.desired.camera_from_board.translation.vector.norm());
+    let planner_cell = plan::Cell {
+        arm: &config.arm,
+        start: config.desired.joints,
+        camera: &config.camera,
+        tool_from_camera: config.tool_from_camera,
+        base_from_board: cell.base_from_board(),
+    };
+    let planned = match given {
+        Some(joints) => plan::given(&planner_cell, &settings.board, joints),
+        None => plan::plan(&planner_cell, settings, distance_m),
+    }
+    .map_err(|e| UsageError(format!("{}: the plan is refused before anything moves: {e}", config.origin)))?;
+    let tools: Vec<_> = planned.iter().map(|p| p.base_from_tool).collect();
+    spread::check(&tools).map_err(|e| {
+        UsageError(format!("{}: the plan is refused before anything moves: {e}", config.origin))
+    })?;
+    Ok(planned)
+}
+
+/// `--poses FILE`: a JSON list of joint vectors (rad).
+fn read_poses(path: &std::path::Path) -> Result<Vec<Vec<f64>>, UsageError> {
+    let text = std::fs::read_to_string(path)
+        .map_err(|e| UsageError(format!("--poses {}: cannot read: {e}", path.display())))?;
+    serde_json::from_str(&text).map_err(|e| {
+        UsageError(format!(
+            "--poses {}: must be a JSON list of joint vectors in radians: {e}",
+            path.display()
+        ))
+    })
+}
+
+/// `--out`, else `calibration.output_file` (relative to the configuration file), else calibration.yaml
+/// beside the configuration file.
+fn output_file(args: &CalibrateArgs, settings: &CalibrationSettings) -> PathBuf {
+    if let Some(out) = &args.out {
+        return out.clone();
+    }
+    let config_dir = args.config.config.parent().map(PathBuf::from).unwrap_or_default();
+    config_dir.join(settings.output_file.as_deref().unwrap_or("calibration.yaml"))
+}

@@ -1,0 +1,183 @@
+//! What `vservoctl calibrate` prints: the plan (`--dry-run`), or the solution with its residuals per view and
+//! overall and, when the truth is known (the simulated cell's `[camera.truth]`), its errors against it.
+
+use std::fmt::Write as _;
+use std::path::Path;
+
+use anyhow::Result;
+use nalgebra::{Matrix4, Quaternion, UnitQuaternion};
+use serde_json::{Value, json};
+use vservo_config::{CameraTruth, Config};
+use vservo_scene::IsometryMatrix3;
+
+use super::plan::PlannedPose;
+use super::solver::Solved;
+use crate::output::print_stdout;
+
+/// The plan: each pose's joints and how much of the board it sees.
+pub fn print_plan(config: &Config, planned: &[PlannedPose], json: bool) -> Result<()> {
+    let joints = config.arm.joint_count();
+    if json {
+        let poses: Vec<Value> = planned
+            .iter()
+            .map(|p| {
+                json!({
+                    "q_rad": p.q.iter().take(joints).collect::<Vec<_>>(),
+                    "camera_from_board_translation_m": p.camera_from_board.translation.vector.as_slice(),
+                    "tags_in_view": p.tags_in_view,
+                })
+            })
+            .collect();
+        print_stdout(&format!("{}\n", json!({"poses": poses, "moved": false})))?;
+        return Ok(());
+    }
+    let mut text = format!(
+        "{} poses planned, each reachable and with the board in view (nothing moved):\n",
+        planned.len()
+    );
+    for (k, p) in planned.iter().enumerate() {
+        let q: Vec<String> = p.q.iter().take(joints).map(|v| format!("{:7.1}", v.to_degrees())).collect();
+        let _ = writeln!(
+            text,
+            "  pose {:2}: q = [{}]°, board {:.3} m away, {} tags in view",
+            k + 1,
+            q.join(" "),
+            p.camera_from_board.translation.vector.norm(),
+            p.tags_in_view
+        );
+    }
+    print_stdout(&text)?;
+    Ok(())
+}
+
+/// The solved transform as an isometry.
+fn isometry(rows: &[Vec<f64>]) -> Option<IsometryMatrix3<f64>> {
+    let flat: Vec<f64> = rows.iter().flatten().copied().collect();
+    if flat.len() != 16 {
+        return None;
+    }
+    let m = Matrix4::from_row_slice(&flat);
+    let rotation = nalgebra::Rotation3::from_matrix(&m.fixed_view::<3, 3>(0, 0).into_owned());
+    Some(IsometryMatrix3::from_parts(nalgebra::Translation3::new(m[(0, 3)], m[(1, 3)], m[(2, 3)]), rotation))
+}
+
+/// How far a solution is from the truth.
+fn errors(solved: &Solved, truth: &CameraTruth) -> Value {
+    let recovered = isometry(&solved.tool_from_camera.matrix);
+    let (translation_mm, rotation_deg) = recovered.map_or((f64::NAN, f64::NAN), |r| {
+        let e = truth.tool_from_camera.inverse() * r;
+        (e.translation.vector.norm() * 1e3, e.rotation.angle().to_degrees())
+    });
+    let percent = |got: f64, true_value: f64| 100.0 * (got - true_value) / true_value;
+    let lens = truth.intrinsics.distortion().coefficients();
+    json!({
+        "tool_from_camera_translation_mm": translation_mm,
+        "tool_from_camera_rotation_deg": rotation_deg,
+        "fx_percent": percent(solved.fx, truth.intrinsics.fx_px()),
+        "fy_percent": percent(solved.fy, truth.intrinsics.fy_px()),
+        "cx_px": solved.cx - truth.intrinsics.principal_point_px().x,
+        "cy_px": solved.cy - truth.intrinsics.principal_point_px().y,
+        "k1": solved.k1 - lens[0],
+    })
+}
+
+/// The configuration's belief against the truth, for scale.
+fn belief_errors(config: &Config, truth: &CameraTruth) -> Value {
+    let e = truth.tool_from_camera.inverse() * config.tool_from_camera;
+    json!({
+        "tool_from_camera_translation_mm": e.translation.vector.norm() * 1e3,
+        "tool_from_camera_rotation_deg": e.rotation.angle().to_degrees(),
+        "fx_percent": 100.0 * (config.camera.fx_px() - truth.intrinsics.fx_px()) / truth.intrinsics.fx_px(),
+        "fy_percent": 100.0 * (config.camera.fy_px() - truth.intrinsics.fy_px()) / truth.intrinsics.fy_px(),
+        "k1": config.camera.distortion().coefficients()[0] - truth.intrinsics.distortion().coefficients()[0],
+    })
+}
+
+/// The report of a solved calibration: text, or one JSON object on the last line.
+pub fn solved(
+    config: &Config,
+    solved: &Solved,
+    truth: Option<&CameraTruth>,
+    out: &Path,
+    views_dir: &Path,
+    json: bool,
+) -> String {
+    let against_truth = truth.map(|t| (errors(solved, t), belief_errors(config, t)));
+    if json {
+        let mut object = serde_json::to_value(solved).unwrap_or(Value::Null);
+        object["calibration_file"] = json!(out.display().to_string());
+        object["views_dir"] = json!(views_dir.display().to_string());
+        if let Some((error, believed)) = &against_truth {
+            object["error_against_truth"] = error.clone();
+            object["configured_error_against_truth"] = believed.clone();
+        }
+        return format!("{object}\n");
+    }
+    let mut text = String::new();
+    let _ = writeln!(text, "calibrated from {} views ({}):", solved.views.len(), solved.solver);
+    let _ = writeln!(
+        text,
+        "  fx {:.3} px, fy {:.3} px, principal point ({:.3}, {:.3}) px, distortion [{}]",
+        solved.fx,
+        solved.fy,
+        solved.cx,
+        solved.cy,
+        solved.distortion.iter().map(|v| format!("{v:.5}")).collect::<Vec<_>>().join(", ")
+    );
+    let t = &solved.tool_from_camera;
+    let q = UnitQuaternion::from_quaternion(Quaternion::new(
+        t.quaternion_xyzw[3],
+        t.quaternion_xyzw[0],
+        t.quaternion_xyzw[1],
+        t.quaternion_xyzw[2],
+    ));
+    let (roll, pitch, yaw) = q.euler_angles();
+    let _ = writeln!(
+        text,
+        "  tool_from_camera: translation [{:.5}, {:.5}, {:.5}] m, rotation rpy [{:.3}, {:.3}, {:.3}]°",
+        t.translation_m[0],
+        t.translation_m[1],
+        t.translation_m[2],
+        roll.to_degrees(),
+        pitch.to_degrees(),
+        yaw.to_degrees()
+    );
+    let _ = writeln!(
+        text,
+        "  residuals: reprojection {:.3} px RMS; AX = XB {:.4}° and {:.3} mm RMS over every pair of views",
+        solved.rms_px, solved.ax_xb_rotation_deg, solved.ax_xb_translation_mm
+    );
+    for (k, view) in solved.views.iter().enumerate() {
+        let _ = writeln!(
+            text,
+            "    view {:2} ({}): {} tags, {:.3} px RMS, its own board pose {:.4}° / {:.3} mm from the joint one",
+            k + 1,
+            view.image,
+            view.tags_found,
+            view.rms_px,
+            view.hand_eye_rotation_deg,
+            view.hand_eye_translation_mm
+        );
+    }
+    if !solved.views_unused.is_empty() {
+        let _ = writeln!(text, "  not used (too few tags found): {}", solved.views_unused.join(", "));
+    }
+    if let Some((error, believed)) = &against_truth {
+        let _ = writeln!(
+            text,
+            "  against [camera.truth]: tool_from_camera {:.3} mm and {:.4}° off, fx {:+.4} %, fy {:+.4} %, k1 {:+.5} (the configuration was {:.2} mm, {:.3}°, fx {:+.2} %, fy {:+.2} %, k1 {:+.4} off)",
+            error["tool_from_camera_translation_mm"].as_f64().unwrap_or(f64::NAN),
+            error["tool_from_camera_rotation_deg"].as_f64().unwrap_or(f64::NAN),
+            error["fx_percent"].as_f64().unwrap_or(f64::NAN),
+            error["fy_percent"].as_f64().unwrap_or(f64::NAN),
+            error["k1"].as_f64().unwrap_or(f64::NAN),
+            believed["tool_from_camera_translation_mm"].as_f64().unwrap_or(f64::NAN),
+            believed["tool_from_camera_rotation_deg"].as_f64().unwrap_or(f64::NAN),
+            believed["fx_percent"].as_f64().unwrap_or(f64::NAN),
+            believed["fy_percent"].as_f64().unwrap_or(f64::NAN),
+            believed["k1"].as_f64().unwrap_or(f64::NAN),
+        );
+    }
+    let _ = writeln!(text, "wrote {} (the views are in {})", out.display(), views_dir.display());
+    text
+}

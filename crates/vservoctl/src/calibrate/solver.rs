@@ -1,0 +1,114 @@
+//! Runs the solver, clients/python/vservo_calibrate.py (OpenCV and SciPy, docs/CALIBRATION.md), on a dataset
+//! and reads its answer.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+use anyhow::{Context, Result, bail};
+use serde::Deserialize;
+
+use crate::UsageError;
+
+/// A transform as the solver gives it.
+#[derive(Debug, Clone, Deserialize, serde::Serialize)]
+pub struct SolvedTransform {
+    /// The 4 × 4 matrix, rows.
+    pub matrix: Vec<Vec<f64>>,
+    /// Its translation (m).
+    pub translation_m: [f64; 3],
+    /// Its rotation as a unit quaternion [x, y, z, w].
+    pub quaternion_xyzw: [f64; 4],
+}
+
+/// One view's residuals.
+#[derive(Debug, Clone, Deserialize, serde::Serialize)]
+pub struct ViewResidual {
+    /// The image file.
+    pub image: String,
+    /// Tags found in it.
+    pub tags_found: usize,
+    /// Reprojection RMS through the arm's pose (px).
+    pub rms_px: f64,
+    /// The board's pose from this view alone against the joint solution: rotation (°).
+    pub hand_eye_rotation_deg: f64,
+    /// … and translation (mm).
+    pub hand_eye_translation_mm: f64,
+}
+
+/// The solver's answer.
+#[derive(Debug, Clone, Deserialize, serde::Serialize)]
+pub struct Solved {
+    /// Focal lengths (px).
+    pub fx: f64,
+    /// fy.
+    pub fy: f64,
+    /// Principal point (px, vservo's pixels).
+    pub cx: f64,
+    /// cy.
+    pub cy: f64,
+    /// k1.
+    pub k1: f64,
+    /// OpenCV's k1, k2, p1, p2, k3.
+    pub distortion: [f64; 5],
+    /// The hand-eye transform.
+    pub tool_from_camera: SolvedTransform,
+    /// The board in the arm's base.
+    pub base_from_board: SolvedTransform,
+    /// Reprojection RMS over every corner (px).
+    pub rms_px: f64,
+    /// AX = XB over every pair of views: RMS rotation (°).
+    pub ax_xb_rotation_deg: f64,
+    /// … and translation (mm).
+    pub ax_xb_translation_mm: f64,
+    /// Per view.
+    pub views: Vec<ViewResidual>,
+    /// Views that found too few tags.
+    pub views_unused: Vec<String>,
+    /// What solved it.
+    pub solver: String,
+}
+
+/// The solver script: `--solver`, else beside the executable in a source tree (target/<profile>/ →
+/// clients/python/), else where the Debian package puts it.
+pub fn locate(given: Option<&Path>) -> Result<PathBuf, UsageError> {
+    if let Some(path) = given {
+        return Ok(path.to_path_buf());
+    }
+    let exe = std::env::current_exe().ok();
+    let candidates = exe
+        .iter()
+        .flat_map(|exe| {
+            exe.ancestors().skip(1).take(4).map(|dir| dir.join("clients/python/vservo_calibrate.py"))
+        })
+        .chain(std::iter::once(PathBuf::from("/usr/share/vservo/vservo_calibrate.py")));
+    let mut looked = Vec::new();
+    for candidate in candidates {
+        if candidate.is_file() {
+            return Ok(candidate);
+        }
+        looked.push(candidate.display().to_string());
+    }
+    Err(UsageError(format!(
+        "the solver vservo_calibrate.py is not found (looked at {}); give it with --solver",
+        looked.join(", ")
+    )))
+}
+
+/// Runs `python solver dataset_dir`; a refusal (exit 2) is the user's to act on.
+pub fn solve(python: &Path, solver: &Path, dataset_dir: &Path) -> Result<Solved> {
+    let output = Command::new(python)
+        .arg(solver)
+        .arg(dataset_dir)
+        .output()
+        .with_context(|| format!("starting {} {}", python.display(), solver.display()))?;
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    match output.status.code() {
+        Some(0) => {}
+        Some(2) => return Err(UsageError(format!("the views cannot be solved: {}", stderr.trim())).into()),
+        _ => bail!("the solver {} failed ({}): {}", solver.display(), output.status, stderr.trim()),
+    }
+    let text = String::from_utf8_lossy(&output.stdout);
+    serde_json::from_str(text.trim()).with_context(|| {
+        format!("reading the solver's answer: {}", text.chars().take(200).collect::<String>())
+    })
+}

@@ -1,0 +1,138 @@
+//! `vservoctl calibrate` on the simulated cell of config/calibration-demo.toml, whose camera really is
+//! another than the configuration believes (`[camera.truth]`: the mount 5 mm and 2° off, the focal lengths 2 %
+//! longer, the lens and principal point off), with image noise σ = 2 grey levels and 12 poses: the recovered
+//! calibration against that truth (the issue's bars), the file it writes read back as `camera.calibration_file`,
+//! and the refusals before anything moves.
+
+use std::path::{Path, PathBuf};
+
+use serde_json::Value;
+use vservo_system_tests::{config_from, repository_root, run};
+
+const DEMO: &str = "config/calibration-demo.toml";
+
+fn scratch(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("vservo-calibrate-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).expect("a scratch directory");
+    dir
+}
+
+fn python() -> String {
+    repository_root().join("target/python-venv/bin/python").display().to_string()
+}
+
+fn calibrate(config: &str, out: &Path, extra: &[&str]) -> std::process::Output {
+    let (out, python) = (out.display().to_string(), python());
+    let mut args =
+        vec!["calibrate", "--config", config, "--lockstep", "--json", "--out", &out, "--python", &python];
+    args.extend_from_slice(extra);
+    run("vservoctl", &args)
+}
+
+fn last_line_json(stdout: &[u8]) -> Value {
+    let text = String::from_utf8_lossy(stdout);
+    serde_json::from_str(text.lines().last().expect("a line")).expect("the last line is JSON")
+}
+
+fn number(value: &Value, path: &[&str]) -> f64 {
+    path.iter().fold(value, |v, key| &v[*key]).as_f64().unwrap_or_else(|| panic!("{path:?} in {value}"))
+}
+
+#[test]
+fn the_demo_cell_is_calibrated_within_the_bars_and_its_file_reads_back() {
+    let dir = scratch("demo");
+    let out = dir.join("calibration.yaml");
+    let demo = repository_root().join(DEMO).display().to_string();
+    let output = calibrate(&demo, &out, &[]);
+    assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stderr));
+    let report = last_line_json(&output.stdout);
+    eprintln!("{report}");
+    // the premise: the configuration is as far off as the issue says
+    let believed = &report["configured_error_against_truth"];
+    assert!((number(believed, &["tool_from_camera_translation_mm"]) - 5.0).abs() < 0.01, "{believed}");
+    assert!((number(believed, &["tool_from_camera_rotation_deg"]) - 2.0).abs() < 0.01, "{believed}");
+    assert!((number(believed, &["fx_percent"]) + 1.96).abs() < 0.01, "{believed}");
+    assert_eq!(report["views"].as_array().map(Vec::len), Some(12), "every view used");
+    // the issue's bars
+    let error = &report["error_against_truth"];
+    assert!(number(error, &["tool_from_camera_translation_mm"]) < 1.0, "{error}");
+    assert!(number(error, &["tool_from_camera_rotation_deg"]) < 0.2, "{error}");
+    assert!(number(error, &["fx_percent"]).abs() < 0.3, "{error}");
+    assert!(number(error, &["fy_percent"]).abs() < 0.3, "{error}");
+    assert!(number(error, &["k1"]).abs() < 0.01, "{error}");
+    assert!(number(&report, &["rms_px"]) < 0.5, "{report}");
+
+    // the file, read as a calibration file, gives what was solved (the principal point through OpenCV's
+    // pixels and back)
+    let extended = dir.join("calibrated.toml");
+    std::fs::write(
+        &extended,
+        format!("extends = {demo:?}\n[camera]\ncalibration_file = {:?}\n", out.display().to_string()),
+    )
+    .expect("written");
+    let config = vservo_config::Config::load(&extended).expect("the calibrated configuration loads");
+    let close = |a: f64, b: f64| (a - b).abs() < 1e-6 * b.abs().max(1.0);
+    assert!(close(config.camera.fx_px(), number(&report, &["fx"])), "{}", config.camera.fx_px());
+    assert!(close(config.camera.fy_px(), number(&report, &["fy"])));
+    assert!(close(config.camera.principal_point_px().x, number(&report, &["cx"])));
+    assert!(close(config.camera.principal_point_px().y, number(&report, &["cy"])));
+    assert!(close(config.camera.distortion().coefficients()[0], number(&report, &["k1"])));
+    let translation = config.tool_from_camera.translation.vector;
+    for (axis, value) in translation.iter().enumerate() {
+        let solved = report["tool_from_camera"]["translation_m"][axis].as_f64().expect("a number");
+        assert!((value - solved).abs() < 1e-9, "axis {axis}: {value} against {solved}");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn a_plan_out_of_reach_and_poses_about_one_axis_are_refused_before_anything_moves() {
+    let dir = scratch("refused");
+    let out = dir.join("calibration.yaml");
+    let views = dir.join("calibration-views");
+
+    let far = config_from(DEMO, &[("distance_m = 0.3", "distance_m = 1.5")]);
+    let output = calibrate(&far.arg(), &out, &[]);
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert_eq!(output.status.code(), Some(2), "{stderr}");
+    assert!(
+        stderr.contains("refused before anything moves") && stderr.contains("out of the arm's reach"),
+        "{stderr}"
+    );
+    assert!(!views.exists() && !out.exists(), "nothing taken, nothing written");
+
+    // the plan's first pose, then the tool turned about its own z axis only (the camera rolls)
+    let demo = repository_root().join(DEMO).display().to_string();
+    let planned = run("vservoctl", &["calibrate", "--config", &demo, "--dry-run", "--json"]);
+    assert!(planned.status.success(), "{}", String::from_utf8_lossy(&planned.stderr));
+    let planned = last_line_json(&planned.stdout);
+    assert_eq!(planned["poses"].as_array().map(Vec::len), Some(12), "{planned}");
+    assert_eq!(planned["moved"], Value::Bool(false));
+    let first: Vec<f64> =
+        planned["poses"][0]["q_rad"].as_array().expect("joints").iter().filter_map(Value::as_f64).collect();
+    let about_one_axis: Vec<Vec<f64>> = (0..12)
+        .map(|k| {
+            let mut q = first.clone();
+            q[5] += (f64::from(k) - 5.5) * 4f64.to_radians();
+            q
+        })
+        .collect();
+    let poses = dir.join("poses.json");
+    std::fs::write(&poses, serde_json::to_string(&about_one_axis).expect("JSON")).expect("written");
+    let output = calibrate(&demo, &out, &["--poses", poses.to_str().expect("utf-8")]);
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert_eq!(output.status.code(), Some(2), "{stderr}");
+    assert!(stderr.contains("rotation axes are too parallel"), "{stderr}");
+    assert!(!views.exists() && !out.exists(), "nothing taken, nothing written");
+
+    // a pose outside the limits is refused naming it
+    let mut outside = about_one_axis.clone();
+    outside[3][1] = 10.0;
+    std::fs::write(&poses, serde_json::to_string(&outside).expect("JSON")).expect("written");
+    let output = calibrate(&demo, &out, &["--poses", poses.to_str().expect("utf-8")]);
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert_eq!(output.status.code(), Some(2), "{stderr}");
+    assert!(stderr.contains("pose 4 is outside joint 2's limits"), "{stderr}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
