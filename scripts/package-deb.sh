@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Builds the Debian package of vservo into target/debian/: vservod and vservoctl in /usr/bin, the systemd unit,
 # the default configuration as a conffile in /etc/vservo/, the `vservo` system user (sysusers.d), the
-# documentation. Installing it is the whole installation:
+# documentation, the calibration solver in /usr/share/vservo/. Installing it is the whole installation:
 #   apt install ./target/debian/vservo_<version>_<arch>.deb && systemctl enable --now vservo
 # Needs dpkg-deb (Debian's dpkg) and cargo. Prints the package's path on its last line.
 set -euo pipefail
@@ -17,6 +17,8 @@ install -D -m 755 target/release/vservod "${stage}/usr/bin/vservod"
 install -D -m 755 target/release/vservoctl "${stage}/usr/bin/vservoctl"
 install -D -m 644 config/systemd/vservo.service "${stage}/lib/systemd/system/vservo.service"
 install -D -m 644 config/vservo.toml "${stage}/etc/vservo/vservo.toml"
+# `vservoctl calibrate`'s solver, where the command looks for it (docs/CALIBRATION.md)
+install -D -m 644 clients/python/vservo_calibrate.py "${stage}/usr/share/vservo/vservo_calibrate.py"
 install -d -m 755 "${stage}/usr/lib/sysusers.d"
 printf 'u vservo - "vservo visual-servo daemon" /nonexistent /usr/sbin/nologin\n' >"${stage}/usr/lib/sysusers.d/vservo.conf"
 doc="${stage}/usr/share/doc/vservo"
@@ -48,6 +50,8 @@ Description: real-time visual-servo controller daemon
  manipulator - optimal control approach" (IEEE T-RA 1996): an LQ visual servo
  for a PUMA 560 with a hand camera, as real-time processes over iceoryx2 shared
  memory under a systemd daemon. The simulated arm and camera are the defaults.
+ `vservoctl calibrate` runs /usr/share/vservo/vservo_calibrate.py, which needs
+ Python 3 with OpenCV 4.7 or later (pip: opencv-python-headless) and SciPy.
 CONTROL
 echo "/etc/vservo/vservo.toml" >"${stage}/DEBIAN/conffiles"
 cat >"${stage}/DEBIAN/postinst" <<'SCRIPT'

@@ -9,8 +9,10 @@ the board's one pose in the arm's base, so that every corner of every view is re
 measured pose. Nothing is solved by hand here.
 
 Pixels: vservo's pixel (u, v) covers [u, u+1) × [v, v+1) (its centre at u + ½); OpenCV puts a pixel's centre at
-u. The detected corners are moved by +½ into vservo's convention before anything is solved, so every number in
-and out is vservo's.
+u, but its AprilTag corner refinement, like the AprilTag library, adds the half pixel itself (`fit_quad`'s
+"adjust for pixel center bias"): its corners are in vservo's pixels as they come (measured: +0.53 / +0.46 px
+against the same corners refined by CORNER_REFINE_SUBPIX, which are in OpenCV's). Every number in and out is
+vservo's; a test checks the detected corners against the true projections of the simulated cell.
 
 usage: vservo_calibrate.py DATASET_DIR   (reads DATASET_DIR/dataset.json, prints one JSON object)
 Exit 2 with the reason on stderr when the views cannot determine the calibration.
@@ -24,13 +26,20 @@ from pathlib import Path
 import cv2
 import numpy as np
 from scipy.optimize import least_squares
+from scipy.spatial.transform import Rotation
 
 # a view is used when it finds at least this many tags (each gives four corners)
 MIN_TAGS_PER_VIEW = 4
 # and the calibration needs at least this many such views
 MIN_VIEWS = 6
-# OpenCV's pixel centres are at integers, vservo's at + ½
-OPENCV_TO_VSERVO_PX = 0.5
+# what is added to the detector's corners to make them vservo's pixels: nothing, with the AprilTag refinement
+CORNERS_TO_VSERVO_PX = 0.0
+# a solution whose reprojection is worse than this does not fit the views: it is refused, not written
+MAX_RMS_PX = 1.0
+# the rotations between the views used must turn about axes spread this far (as `vservoctl calibrate` checks
+# its plan: rotations of 5° or more, axes 15° apart or more)
+MIN_ROTATION_DEG = 5.0
+MIN_AXIS_SPREAD_DEG = 15.0
 
 
 class Refused(Exception):
@@ -82,7 +91,7 @@ def detect(dataset_dir, dataset, layout):
                 continue
             tags.append(tag_id)
             object_points.append(layout[tag_id])
-            image_points.append(tag_corners.reshape(4, 2) + OPENCV_TO_VSERVO_PX)
+            image_points.append(tag_corners.reshape(4, 2) + CORNERS_TO_VSERVO_PX)
         found_views.append({
             "tags": sorted(tags),
             "object": np.concatenate(object_points).astype(np.float32) if tags else None,
@@ -118,12 +127,22 @@ def rotation_deg(m):
 
 
 def quaternion_xyzw(m):
-    r = m[:3, :3]
-    w = math.sqrt(max(0.0, 1.0 + r[0, 0] + r[1, 1] + r[2, 2])) / 2.0
-    x = math.copysign(math.sqrt(max(0.0, 1.0 + r[0, 0] - r[1, 1] - r[2, 2])) / 2.0, r[2, 1] - r[1, 2])
-    y = math.copysign(math.sqrt(max(0.0, 1.0 - r[0, 0] + r[1, 1] - r[2, 2])) / 2.0, r[0, 2] - r[2, 0])
-    z = math.copysign(math.sqrt(max(0.0, 1.0 - r[0, 0] - r[1, 1] + r[2, 2])) / 2.0, r[1, 0] - r[0, 1])
-    return [x, y, z, w]
+    return [float(v) for v in Rotation.from_matrix(m[:3, :3]).as_quat()]
+
+
+def check_spread(base_from_tool):
+    """The views used must rotate about two axes at least (AX = XB), as `vservoctl calibrate`'s plan did."""
+    axes = []
+    for i, a in enumerate(base_from_tool):
+        for b in base_from_tool[i + 1:]:
+            rotvec = Rotation.from_matrix(a[:3, :3].T @ b[:3, :3]).as_rotvec()
+            if np.degrees(np.linalg.norm(rotvec)) >= MIN_ROTATION_DEG:
+                axes.append(rotvec / np.linalg.norm(rotvec))
+    spread = max((math.degrees(math.acos(min(1.0, abs(float(a @ b))))) for i, a in enumerate(axes)
+                  for b in axes[i + 1:]), default=0.0)
+    if spread < MIN_AXIS_SPREAD_DEG:
+        raise Refused(f"the rotations between the views used turn about axes within {spread:.1f}° of each other; "
+                      f"AX = XB needs {MIN_AXIS_SPREAD_DEG:.0f}° or more")
 
 
 def intrinsics_matrix(fx, fy, cx, cy):
@@ -177,6 +196,8 @@ def refine(views, base_from_tool, k, d, tool_from_camera, base_from_board):
                          to_vector(base_from_board)])
     result = least_squares(reprojection, x0, args=(views, base_from_tool), method="lm", x_scale="jac",
                            xtol=1e-14, ftol=1e-14, gtol=1e-14, max_nfev=20000)
+    if result.status <= 0 or not np.all(np.isfinite(result.x)):
+        raise Refused(f"the joint refinement did not converge ({result.message})")
     return unpack(result.x)
 
 
@@ -210,6 +231,8 @@ def per_view(views, base_from_tool, k, d, tool_from_camera, base_from_board, nam
     for view, tool, name in zip(views, base_from_tool, names):
         ok, rvec, tvec = cv2.solvePnP(view["object"].astype(float), view["image"].astype(float), k, d,
                                       flags=cv2.SOLVEPNP_ITERATIVE)
+        if not ok:
+            raise Refused(f"{name}: the board's pose cannot be found from its corners")
         own = pose(cv2.Rodrigues(rvec)[0], tvec)
         camera_from_board.append(own)
         joint = np.linalg.inv(tool @ tool_from_camera) @ base_from_board
@@ -228,6 +251,9 @@ def transform_json(m):
 
 
 def solve(dataset_dir):
+    if not cv2.__version__.startswith("4."):
+        # OpenCV 5 changes the AprilTag dictionaries' orientation and corner order
+        raise Refused(f"OpenCV {cv2.__version__}: the solver is written for OpenCV 4 (4.7 or later)")
     dataset = json.loads((dataset_dir / "dataset.json").read_text())
     layout = board_corners(dataset["board"])
     image_size = tuple(dataset["image_size"])
@@ -240,6 +266,7 @@ def solve(dataset_dir):
     views = [found[i] for i in used]
     names = [dataset["views"][i]["image"] for i in used]
     base_from_tool = [matrix(dataset["views"][i]["base_from_tool"]) for i in used]
+    check_spread(base_from_tool)
     zhang_rms, k, d, camera_from_board = zhang(views, image_size, dataset["camera"])
     tsai = hand_eye(base_from_tool, camera_from_board, cv2.CALIB_HAND_EYE_TSAI)
     park = hand_eye(base_from_tool, camera_from_board, cv2.CALIB_HAND_EYE_PARK)
@@ -250,12 +277,16 @@ def solve(dataset_dir):
     residuals = reprojection(
         np.concatenate([[k[0, 0], k[1, 1], k[0, 2], k[1, 2]], d[:4], to_vector(tool_from_camera),
                         to_vector(base_from_board)]), views, base_from_tool).reshape(-1, 2)
+    rms_px = float(np.sqrt(np.mean(np.sum(residuals ** 2, axis=1))))
+    if not rms_px <= MAX_RMS_PX:
+        raise Refused(f"the solution does not fit the views: reprojection {rms_px:.2f} px RMS (more than "
+                      f"{MAX_RMS_PX} px; per view: " + ", ".join(f"{v['rms_px']:.2f}" for v in report) + ")")
     return {
         "fx": float(k[0, 0]), "fy": float(k[1, 1]), "cx": float(k[0, 2]), "cy": float(k[1, 2]),
         "k1": float(d[0]), "distortion": [float(v) for v in d],
         "tool_from_camera": transform_json(tool_from_camera),
         "base_from_board": transform_json(base_from_board),
-        "rms_px": float(np.sqrt(np.mean(np.sum(residuals ** 2, axis=1)))),
+        "rms_px": rms_px,
         "ax_xb_rotation_deg": rotation_rms,
         "ax_xb_translation_mm": translation_rms,
         "views": report,

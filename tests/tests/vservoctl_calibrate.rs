@@ -2,7 +2,7 @@
 //! another than the configuration believes (`[camera.truth]`: the mount 5 mm and 2° off, the focal lengths 2 %
 //! longer, the lens and principal point off), with image noise σ = 2 grey levels and 12 poses: the recovered
 //! calibration against that truth (the bars), the file it writes read back as `camera.calibration_file`,
-//! and the refusals before anything moves.
+//! the detected corners against the true projections, and the refusals before anything moves.
 
 use std::path::{Path, PathBuf};
 
@@ -62,6 +62,18 @@ fn the_demo_cell_is_calibrated_within_the_bars_and_its_file_reads_back() {
     assert!(number(error, &["fy_percent"]).abs() < 0.3, "{error}");
     assert!(number(error, &["k1"]).abs() < 0.01, "{error}");
     assert!(number(&report, &["rms_px"]) < 0.5, "{report}");
+
+    // the detected corners are where the true camera images the board's corners, in vservo's pixels: OpenCV's
+    // projection of the truth moved by half a pixel (a mix-up of the conventions is a 0.5 px mean offset)
+    let report_file = dir.join("report.json");
+    std::fs::write(&report_file, report.to_string()).expect("written");
+    let checked = std::process::Command::new(python())
+        .arg(repository_root().join("tests/python/check_calibration_corners.py"))
+        .args([dir.join("calibration-views"), report_file])
+        .output()
+        .expect("python runs");
+    assert!(checked.status.success(), "{}", String::from_utf8_lossy(&checked.stderr));
+    eprintln!("corners against the truth: {}", String::from_utf8_lossy(&checked.stdout));
 
     // the file, read as a calibration file, gives what was solved (the principal point through OpenCV's
     // pixels and back)

@@ -225,18 +225,23 @@ impl Scene<'_> {
     }
 
     /// The pixel box (u0, u1, v0, v1), exclusive ends, that holds the black squares of the tag and of the
-    /// calibration grid; `None` without either or when part of them is behind the camera (they are then
-    /// drawn by the edge sampler alone).
+    /// calibration grid; `None` without either. When part of them is behind the camera the box is the whole
+    /// image: every pixel of the board is then judged against the tags.
     fn tags_box(&self) -> Option<(i64, i64, i64, i64)> {
+        const WHOLE_IMAGE: (i64, i64, i64, i64) = (i64::MIN / 2, i64::MAX / 2, i64::MIN / 2, i64::MAX / 2);
         let tag = self.board.apriltag().map(|tag| {
             let c = tag.centre_in_board();
             let r = 0.5 * tag.size_m();
             self.board_box([Point2::new(c.x - r, c.y - r), Point2::new(c.x + r, c.y + r)])
+                .unwrap_or(WHOLE_IMAGE)
         });
-        let grid = self.board.calibration_grid.map(|grid| self.board_box(grid.tags_extent_in_board()));
+        let grid = self
+            .board
+            .calibration_grid
+            .map(|grid| self.board_box(grid.tags_extent_in_board()).unwrap_or(WHOLE_IMAGE));
         match (tag, grid) {
-            (Some(a), Some(b)) => Some((a?.0.min(b?.0), a?.1.max(b?.1), a?.2.min(b?.2), a?.3.max(b?.3))),
-            (Some(one), None) | (None, Some(one)) => one,
+            (Some(a), Some(b)) => Some((a.0.min(b.0), a.1.max(b.1), a.2.min(b.2), a.3.max(b.3))),
+            (Some(one), None) | (None, Some(one)) => Some(one),
             (None, None) => None,
         }
     }

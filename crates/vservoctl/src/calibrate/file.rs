@@ -5,14 +5,15 @@
 
 use std::path::Path;
 
-use anyhow::{Context, Result};
+use anyhow::{Context, Result, bail};
 use vservo_config::Config;
 use vservo_config::calibration::OPENCV_TO_VSERVO_PX;
 
 use super::solver::Solved;
 
 /// Writes the file, replacing one that is there.
-pub fn write(path: &Path, config: &Config, solved: &Solved, views: usize) -> Result<()> {
+pub fn write(path: &Path, config: &Config, solved: &Solved) -> Result<()> {
+    let views = solved.views.len();
     let number = |v: f64| format!("{v:.10e}");
     let matrix = |name: &str, rows: usize, cols: usize, data: &[f64]| {
         let values: Vec<String> = data.iter().map(|&v| number(v)).collect();
@@ -24,6 +25,12 @@ pub fn write(path: &Path, config: &Config, solved: &Solved, views: usize) -> Res
     let (cx, cy) = (solved.cx - OPENCV_TO_VSERVO_PX, solved.cy - OPENCV_TO_VSERVO_PX);
     let camera_matrix = [solved.fx, 0.0, cx, 0.0, solved.fy, cy, 0.0, 0.0, 1.0];
     let tool: Vec<f64> = solved.tool_from_camera.matrix.iter().flatten().copied().collect();
+    if tool.len() != 16 || !tool.iter().all(|v| v.is_finite()) {
+        bail!(
+            "the solver's tool_from_camera is not a 4 × 4 matrix of numbers: {:?}",
+            solved.tool_from_camera.matrix
+        );
+    }
     let text = format!(
         "%YAML:1.0\n---\n# vservoctl calibrate, {views} views of the board of {}: reprojection {:.3} px RMS, AX = XB {:.4}° / {:.3} mm RMS\n# ({})\nimage_width: {}\nimage_height: {}\n{}{}{}",
         config.origin,

@@ -95,9 +95,10 @@ pub fn run(args: &CalibrateArgs) -> Result<()> {
     )?;
     let solver_path = solver::locate(args.solver.as_deref())?;
     let solved = solver::solve(&args.python, &solver_path, &views_dir)?;
-    file::write(&out, &config, &solved, views.len())?;
-    let truth = args.lockstep.then(|| config.true_camera());
-    let text = report::solved(&config, &solved, truth.as_ref(), &out, &views_dir, args.json);
+    file::write(&out, &config, &solved)?;
+    let truth = args.lockstep.then(|| (config.true_camera(), cell.base_from_board()));
+    let truth = truth.as_ref().map(|(camera, board)| (camera, board));
+    let text = report::solved(&config, &solved, truth, &out, &views_dir, args.json);
     print_stdout(&text)?;
     Ok(())
 }

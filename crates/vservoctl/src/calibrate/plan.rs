@@ -146,7 +146,8 @@ pub fn board_from_camera(
     let tilt = if k.is_multiple_of(2) { settings.tilt_rad } else { 0.5 * settings.tilt_rad };
     let roll = ROLLS_RAD[k % ROLLS_RAD.len()];
     let [low, high] = settings.board.tags_extent_in_board();
-    // aimed off the centre, the other way round than the camera stands
+    // aimed off the centre, going round twice as fast as the azimuth (so the board's image visits every side of
+    // the image from several directions)
     let aim = Point3::new(
         -AIM_OFF_CENTRE * 0.5 * (high.x - low.x) * (2.0 * azimuth).cos(),
         -AIM_OFF_CENTRE * 0.5 * (high.y - low.y) * (2.0 * azimuth).sin(),

@@ -97,19 +97,24 @@ fn belief_errors(config: &Config, truth: &CameraTruth) -> Value {
 pub fn solved(
     config: &Config,
     solved: &Solved,
-    truth: Option<&CameraTruth>,
+    truth: Option<(&CameraTruth, &IsometryMatrix3<f64>)>,
     out: &Path,
     views_dir: &Path,
     json: bool,
 ) -> String {
-    let against_truth = truth.map(|t| (errors(solved, t), belief_errors(config, t)));
+    let against_truth = truth.map(|(t, _)| (errors(solved, t), belief_errors(config, t)));
     if json {
         let mut object = serde_json::to_value(solved).unwrap_or(Value::Null);
         object["calibration_file"] = json!(out.display().to_string());
         object["views_dir"] = json!(views_dir.display().to_string());
-        if let Some((error, believed)) = &against_truth {
+        if let (Some((error, believed)), Some((t, base_from_board))) = (&against_truth, truth) {
             object["error_against_truth"] = error.clone();
             object["configured_error_against_truth"] = believed.clone();
+            object["truth"] = json!({
+                "camera": super::dataset::camera_json(&t.intrinsics),
+                "tool_from_camera": super::dataset::rows(&t.tool_from_camera),
+                "base_from_board": super::dataset::rows(base_from_board),
+            });
         }
         return format!("{object}\n");
     }
