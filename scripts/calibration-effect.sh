@@ -3,7 +3,7 @@
 # simulated cell is calibrated (`vservoctl calibrate --lockstep`), then the robust law tracks the board on a
 # circle (4 cm at 5 rev/min, the target's motion fed forward) three times in the lockstep simulator: believing
 # the configured (nominal, wrong) camera, the calibrated one, and the truth. Prints one line per run and, last,
-# one JSON object with the calibration's errors and each run's tracking errors.
+# one JSON object with the calibration's errors and each run's tracking errors (scripts/calibration-effect.py).
 # usage: scripts/calibration-effect.sh [--bin-dir DIR]   (default: a release build)
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -49,18 +49,7 @@ tool_from_camera = { translation_m = [0.003, -0.004, 0.08], rotation_rpy_deg = [
 TOML
 for belief in nominal calibrated truth; do
     "$bin_dir/vservoctl" sim --config "$out/$belief.toml" --out "$out/$belief" >/dev/null
+    "$bin_dir/vservoctl" gains --config "$out/$belief.toml" --json > "$out/$belief-gains.json"
     echo "$belief: $(tr -d '\n' < "$out/$belief/summary.json" | tr -s ' ')"
 done
-target/python-venv/bin/python - "$out" <<'PY'
-import json, sys
-out = sys.argv[1]
-calibration = json.load(open(f"{out}/calibration.json"))
-runs = {}
-for belief in ("nominal", "calibrated", "truth"):
-    s = json.load(open(f"{out}/{belief}/summary.json"))
-    runs[belief] = {"max_error_x_px": s["max_error_x_px"], "max_error_y_px": s["max_error_y_px"],
-                    "final_error_px": s["final_error_px"]}
-print(json.dumps({"calibration_error_against_truth": calibration["error_against_truth"],
-                  "configured_error_against_truth": calibration["configured_error_against_truth"],
-                  "tracking_after_first_revolution": runs}))
-PY
+target/python-venv/bin/python scripts/calibration-effect.py "$out"
