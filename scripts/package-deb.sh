@@ -50,7 +50,7 @@ Description: real-time visual-servo controller daemon
  manipulator - optimal control approach" (IEEE T-RA 1996): an LQ visual servo
  for a PUMA 560 with a hand camera, as real-time processes over iceoryx2 shared
  memory under a systemd daemon. The simulated arm and camera are the defaults.
- `vservoctl calibrate` runs /usr/share/vservo/vservo_calibrate.py, which needs
+ vservoctl calibrate runs /usr/share/vservo/vservo_calibrate.py, which needs
  Python 3 with OpenCV 4.7 or later (pip: opencv-python-headless) and SciPy.
 CONTROL
 echo "/etc/vservo/vservo.toml" >"${stage}/DEBIAN/conffiles"
