@@ -91,6 +91,8 @@ pub struct Interpolator {
     latest_at_s: Option<f64>,
     reference: Reference,
     stop_scale: f64,
+    /// A joint move in progress (the goal and the share of the speed limits), in place of the twists.
+    joint_goal: Option<(JointVector, f64)>,
 }
 
 impl Interpolator {
@@ -118,7 +120,29 @@ impl Interpolator {
                 velocity_limited: false,
             },
             stop_scale: 1.0,
+            joint_goal: None,
         }
+    }
+
+    /// Moves the joints to `goal` at up to `speed_fraction` of their speed limits instead of following twists
+    /// (`crate::joint_move`), until [`Interpolator::end_joint_move`]; twists set meanwhile are kept but not
+    /// followed.
+    pub fn move_joints_to(&mut self, goal: JointVector, speed_fraction: f64) {
+        self.joint_goal = Some((goal, speed_fraction));
+    }
+
+    /// Ends a joint move: the reference goes on from where it is, following twists again (a zero twist ramps
+    /// it to rest at the acceleration limits, as after a safe stop).
+    pub fn end_joint_move(&mut self) {
+        self.joint_goal = None;
+    }
+
+    /// Whether a joint move is in progress and the reference is on its goal, at rest.
+    pub fn joint_move_arrived(&self) -> bool {
+        self.joint_goal.is_some_and(|(goal, _)| {
+            crate::joint_move::arrived(&goal, &self.reference.q, self.arm.joint_count())
+                && self.reference.qd.iter().all(|v| *v == 0.0)
+        })
     }
 
     /// A new camera twist from the servo, received at `now_s`.
@@ -148,6 +172,9 @@ impl Interpolator {
 
     /// Advances the reference by one tick ending at `now_s`.
     pub fn step(&mut self, now_s: f64) -> &Reference {
+        if let Some((goal, speed_fraction)) = self.joint_goal {
+            return self.step_joint_move(&goal, speed_fraction);
+        }
         let s = &self.settings;
         let dt = s.control_period_s;
         let stale = self.latest_at_s.is_none_or(|at| now_s - at > s.stale_after_s);
@@ -208,6 +235,36 @@ impl Interpolator {
         let qdd = (qd - self.reference.qd) / dt;
         let q_next = q + qd * dt;
         self.reference = Reference { q: q_next, qd, qdd, stopping: stale, damped, velocity_limited };
+        &self.reference
+    }
+}
+
+impl Interpolator {
+    /// One tick of a joint move: each joint's rate towards the goal, its change limited joint by joint.
+    fn step_joint_move(&mut self, goal: &JointVector, speed_fraction: f64) -> &Reference {
+        let s = &self.settings;
+        let dt = s.control_period_s;
+        let joints = self.arm.joint_count();
+        let q = self.reference.q;
+        let wanted = crate::joint_move::rates_toward(
+            goal,
+            &q,
+            &self.limits[..joints],
+            &s.acceleration_limit,
+            speed_fraction,
+            dt,
+        );
+        let mut qd = self.reference.qd;
+        for j in 0..joints {
+            let step = s.acceleration_limit[j] * dt;
+            qd[j] += (wanted[j] - qd[j]).clamp(-step, step);
+        }
+        if !qd.iter().all(|v| v.is_finite()) {
+            qd = JointVector::zeros();
+        }
+        let qdd = (qd - self.reference.qd) / dt;
+        self.reference =
+            Reference { q: q + qd * dt, qd, qdd, stopping: false, damped: false, velocity_limited: false };
         &self.reference
     }
 }

@@ -18,6 +18,7 @@
 //! No I/O, clocks or allocation on the per-tick path.
 
 pub mod interpolator;
+pub mod joint_move;
 pub mod joint_servo;
 pub mod plant;
 pub mod redundancy;

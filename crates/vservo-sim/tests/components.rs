@@ -204,3 +204,49 @@ fn passing_near_a_singularity_gives_no_joint_velocity_spike() {
     assert!(largest < 1.5, "joint speed {largest} rad/s near the singularity");
     assert!(largest_undamped > 2.0 * largest, "damping made no difference: {largest_undamped} vs {largest}");
 }
+
+/// A joint move (what `vservoctl calibrate` asks between its views) ends at rest on its goal, each joint
+/// within its share of the speed limit and its acceleration limit; ended half way, the reference ramps to rest
+/// as after a safe stop.
+#[test]
+fn a_joint_move_stops_on_its_goal_and_ends_at_rest_when_ended_half_way() {
+    let settings = InterpolatorSettings::new(0.085, 0.001);
+    let start = puma560::QN;
+    let goal = start + six_joints([0.3, -0.2, 0.25, -0.8, 0.5, 1.2]);
+    let limits: Vec<_> = puma560::puma560().limits().collect();
+    let mut interpolator = interpolator_with(start, settings);
+    interpolator.move_joints_to(goal, 0.3);
+    let mut ticks = 0;
+    let mut previous = *interpolator.reference();
+    while !interpolator.joint_move_arrived() {
+        ticks += 1;
+        assert!(ticks < 20_000, "still moving after 20 s: {}", interpolator.reference().q);
+        let reference = *interpolator.step(ticks as f64 * 0.001);
+        for (j, limit) in limits.iter().enumerate() {
+            assert!(reference.qd[j].abs() <= 0.3 * limit.velocity_max + 1e-12, "joint {j}");
+            let change = (reference.qd[j] - previous.qd[j]).abs();
+            assert!(change <= settings.acceleration_limit[j] * 0.001 + 1e-12, "joint {j}");
+        }
+        previous = reference;
+    }
+    assert!((interpolator.reference().q - goal).amax() < 1e-6);
+    // the slowest joint (6: 1.2 rad at 0.3 of its limit) sets the time
+    let seconds = ticks as f64 * 0.001;
+    let slowest = 1.2 / (0.3 * limits[5].velocity_max);
+    assert!(seconds >= slowest && seconds < slowest + 1.0, "{seconds} s against {slowest} s");
+
+    // a new move ended half way: the reference comes to rest and stays there
+    interpolator.move_joints_to(start, 0.3);
+    for k in 0..500 {
+        interpolator.step(seconds + k as f64 * 0.001);
+    }
+    assert!(interpolator.reference().qd.amax() > 0.1, "moving");
+    interpolator.end_joint_move();
+    for k in 0..3000 {
+        interpolator.step(seconds + 0.5 + k as f64 * 0.001);
+    }
+    let rest = interpolator.reference().q;
+    assert_eq!(interpolator.reference().qd.amax(), 0.0, "at rest");
+    interpolator.step(seconds + 4.0);
+    assert_eq!(interpolator.reference().q, rest, "and held");
+}
