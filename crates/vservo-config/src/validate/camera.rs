@@ -8,13 +8,19 @@ use crate::calibration::Calibration;
 use crate::raw::{RawCamera, RawCameraSource, RawGstreamer};
 use crate::{CameraTruth, ConfigError, GstreamerCamera, VisionSource};
 
-/// The intrinsics: from `calibration_file`, or the image size, the principal point inside it, the focal
+/// `camera.calibration_file`, read and parsed once, if written.
+pub fn calibration_file(check: &Checker, c: &RawCamera) -> Result<Option<Calibration>, ConfigError> {
+    c.calibration_file.as_deref().map(|file| calibration(check, c, file)).transpose()
+}
+
+/// The intrinsics: from the calibration file, or the image size, the principal point inside it, the focal
 /// lengths (`focal_px`, or `fx_px` and `fy_px`) and the lens's `distortion` (none when not written).
-pub fn intrinsics(check: &Checker, c: &RawCamera) -> Result<CameraIntrinsics, ConfigError> {
-    let calibration = match &c.calibration_file {
-        Some(file) => Some(calibration(check, c, file)?),
-        None => None,
-    };
+pub fn intrinsics(
+    check: &Checker,
+    c: &RawCamera,
+    calibration: Option<&Calibration>,
+) -> Result<CameraIntrinsics, ConfigError> {
+    let calibration = calibration.copied();
     let given = |key: &str, value: Option<i64>, from_file: Option<u32>| match (value, from_file) {
         (Some(v), _) => Ok(v),
         (None, Some(v)) => Ok(i64::from(v)),
@@ -152,13 +158,10 @@ fn fits_camera_image(check: &Checker, width_px: u32, height_px: u32) -> Result<(
 pub fn tool_from_camera(
     check: &Checker,
     c: &RawCamera,
+    calibration: Option<&Calibration>,
 ) -> Result<nalgebra::IsometryMatrix3<f64>, ConfigError> {
     let written = check.pose("camera.tool_from_camera", &c.tool_from_camera, 2.0)?;
-    let from_file = match &c.calibration_file {
-        Some(file) => calibration(check, c, file)?.tool_from_camera,
-        None => None,
-    };
-    Ok(from_file.unwrap_or(written))
+    Ok(calibration.and_then(|k| k.tool_from_camera).unwrap_or(written))
 }
 
 /// `[camera.truth]`, if written: the simulated camera as it really is (a calibration's known answer), its

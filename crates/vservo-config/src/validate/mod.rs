@@ -28,15 +28,17 @@ pub fn validate(raw: RawConfig, file: &str) -> Result<Config, ConfigError> {
     let check = Checker { file };
     let instance = timing::instance(&check, &raw.instance)?;
     let timing = timing::timing(&check, &raw.timing)?;
-    let camera = camera::intrinsics(&check, &raw.camera)?;
-    let tool_from_camera = camera::tool_from_camera(&check, &raw.camera)?;
+    let calibration_file = camera::calibration_file(&check, &raw.camera)?;
+    let camera = camera::intrinsics(&check, &raw.camera, calibration_file.as_ref())?;
+    let tool_from_camera = camera::tool_from_camera(&check, &raw.camera, calibration_file.as_ref())?;
     let camera_truth = camera::truth(&check, &raw.camera, &camera, &tool_from_camera)?;
     let mut board = object::board(&check, &raw.object, &raw.target)?;
     let calibration = raw.calibration.as_ref().map(|c| calibration_board::settings(&check, c)).transpose()?;
-    if let Some(c) = raw.calibration.as_ref().filter(|c| c.printed_on_object) {
-        let grid = calibration.as_ref().map(|settings| settings.board);
-        board.calibration_grid =
-            grid.map(|grid| calibration_board::printed(&check, c, &raw.object, &board, grid)).transpose()?;
+    if let (Some(written), Some(settings)) = (&raw.calibration, &calibration)
+        && written.printed_on_object
+    {
+        let grid = calibration_board::printed(&check, written, &raw.object, &board, settings.board)?;
+        board.calibration_grid = Some(grid);
     }
     let arm = arm::arm(&check, &raw.robot.arm)?;
     let desired = desired::desired(&check, &raw.desired, &arm, &camera, &board)?;

@@ -207,11 +207,12 @@ pub fn plan(
         }
         let base_from_tool = cell.base_from_board * board_from_camera * cell.tool_from_camera.inverse();
         let Some(q) = cell.arm.reach(&base_from_tool, &near) else {
-            let tilt = (-board_from_camera.rotation.matrix()[(2, 2)]).acos();
+            // the optical axis against the board's normal
+            let tilt = board_from_camera.rotation.matrix()[(2, 2)].acos();
             return Err(PlanRefused::Unreachable {
                 pose: k + 1,
                 distance_m,
-                tilt_deg: (std::f64::consts::PI - tilt).to_degrees().min(tilt.to_degrees()),
+                tilt_deg: tilt.to_degrees(),
                 azimuth_deg: 360.0 * k as f64 / n as f64,
             });
         };

@@ -61,13 +61,17 @@ fn isometry(rows: &[Vec<f64>]) -> Option<IsometryMatrix3<f64>> {
     Some(IsometryMatrix3::from_parts(nalgebra::Translation3::new(m[(0, 3)], m[(1, 3)], m[(2, 3)]), rotation))
 }
 
+/// How far `other` is from `truth`: translation (mm) and rotation angle (°) of truth⁻¹ · other.
+fn pose_error(truth: &IsometryMatrix3<f64>, other: &IsometryMatrix3<f64>) -> (f64, f64) {
+    let e = truth.inverse() * other;
+    (e.translation.vector.norm() * 1e3, e.rotation.angle().to_degrees())
+}
+
 /// How far a solution is from the truth.
 fn errors(solved: &Solved, truth: &CameraTruth) -> Value {
     let recovered = isometry(&solved.tool_from_camera.matrix);
-    let (translation_mm, rotation_deg) = recovered.map_or((f64::NAN, f64::NAN), |r| {
-        let e = truth.tool_from_camera.inverse() * r;
-        (e.translation.vector.norm() * 1e3, e.rotation.angle().to_degrees())
-    });
+    let (translation_mm, rotation_deg) =
+        recovered.map_or((f64::NAN, f64::NAN), |r| pose_error(&truth.tool_from_camera, &r));
     let percent = |got: f64, true_value: f64| 100.0 * (got - true_value) / true_value;
     let lens = truth.intrinsics.distortion().coefficients();
     json!({
@@ -83,10 +87,10 @@ fn errors(solved: &Solved, truth: &CameraTruth) -> Value {
 
 /// The configuration's belief against the truth, for scale.
 fn belief_errors(config: &Config, truth: &CameraTruth) -> Value {
-    let e = truth.tool_from_camera.inverse() * config.tool_from_camera;
+    let (translation_mm, rotation_deg) = pose_error(&truth.tool_from_camera, &config.tool_from_camera);
     json!({
-        "tool_from_camera_translation_mm": e.translation.vector.norm() * 1e3,
-        "tool_from_camera_rotation_deg": e.rotation.angle().to_degrees(),
+        "tool_from_camera_translation_mm": translation_mm,
+        "tool_from_camera_rotation_deg": rotation_deg,
         "fx_percent": 100.0 * (config.camera.fx_px() - truth.intrinsics.fx_px()) / truth.intrinsics.fx_px(),
         "fy_percent": 100.0 * (config.camera.fy_px() - truth.intrinsics.fy_px()) / truth.intrinsics.fy_px(),
         "k1": config.camera.distortion().coefficients()[0] - truth.intrinsics.distortion().coefficients()[0],
