@@ -27,16 +27,17 @@ import time
 
 import iceoryx2 as iox2
 
-SCHEMA_VERSION = 7
+SCHEMA_VERSION = 8
 (TARGET_FEATURES, TARGET_POSE, TARGET_TEACH, OBJECT_HOLD, OBJECT_STEP, OBJECT_CIRCLE, RELOAD, RESUME,
- SAFE_STOP) = range(1, 10)
-STATES = ["starting", "running", "degraded", "stopping", "safe-stop"]
+ SAFE_STOP, MOVE_JOINTS, SERVO) = range(1, 12)
+STATES = ["starting", "running", "degraded", "stopping", "safe-stop", "moving"]
+MAX_JOINTS = 7
 FAULTS = ["none", "position_limit", "velocity_limit", "torque_saturated", "driver_fault", "target_lost",
           "robot_stalled", "requested", "stream_taken", "camera_stalled"]
 
 
 class Command(ctypes.Structure):
-    """vservo::Command, 144 bytes."""
+    """vservo::Command, 216 bytes."""
 
     _fields_ = [
         ("schema", ctypes.c_uint32),
@@ -47,6 +48,10 @@ class Command(ctypes.Structure):
         ("rotation_rpy_rad", ctypes.c_double * 3),
         ("radius_m", ctypes.c_double),
         ("rev_per_min", ctypes.c_double),
+        ("joint_count", ctypes.c_uint32),
+        ("reserved", ctypes.c_uint32),
+        ("joints_rad", ctypes.c_double * MAX_JOINTS),
+        ("speed_fraction", ctypes.c_double),
     ]
 
     @staticmethod
@@ -389,6 +394,21 @@ class Client:
 
     def object_circle(self, radius_m: float, rev_per_min: float) -> CommandReply:
         return self.request(Command(kind=OBJECT_CIRCLE, radius_m=radius_m, rev_per_min=rev_per_min))
+
+    def move_joints(self, joints_rad, speed_fraction: float) -> CommandReply:
+        """Move the arm's joints to `joints_rad` (the arm's joint count of values) at up to `speed_fraction`
+        (0–1] of their speed limits and hold them there instead of servoing, until `servo`; refused in a safe
+        stop, outside the joint limits or with values for joints the arm does not have."""
+        if len(joints_rad) > MAX_JOINTS:
+            raise ValueError(f"{len(joints_rad)} joint values; the protocol carries {MAX_JOINTS} at most")
+        command = Command(kind=MOVE_JOINTS, speed_fraction=speed_fraction, joint_count=len(joints_rad))
+        for i, q in enumerate(joints_rad):
+            command.joints_rad[i] = q
+        return self.request(command)
+
+    def servo(self) -> CommandReply:
+        """End a joint move: servo again from where the arm is."""
+        return self.request(Command(kind=SERVO))
 
     def _latest(self, service: str, payload):
         # open, never create: a client that created the daemon's services with other sizes would stop the

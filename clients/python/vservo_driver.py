@@ -1,4 +1,4 @@
-"""The driver side of vservo's contract (docs/DRIVERS.md, docs/PROTOCOL.md schema 7), shared by the reference
+"""The driver side of vservo's contract (docs/DRIVERS.md, docs/PROTOCOL.md schema 8), shared by the reference
 drivers (mujoco_driver.py, pybullet_driver.py): the payloads a robot and camera driver exchange with vservo as
 ctypes structures, their codes, deadlines on CLOCK_MONOTONIC, and the iceoryx2 node and services opened exactly
 as vservo creates them. A driver of your own may import it too (with vservo_client.py beside it).
@@ -12,7 +12,7 @@ import iceoryx2 as iox2
 
 import vservo_client  # finds the instance as every vservo client does (clients/python/vservo_client.py)
 
-SCHEMA = 7
+SCHEMA = 8
 MAX_JOINTS = 7  # joints joint_state and joint_command have room for; joint_count says how many are the arm's
 TORQUE, VELOCITY, POSITION = 0, 1, 2  # command modes
 FOLLOWING, HOLDING = 0, 1  # driver_status

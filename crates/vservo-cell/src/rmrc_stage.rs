@@ -164,6 +164,30 @@ impl RmrcStage {
         self.interpolator.set_twist(twist, tick as f64 * self.settings.control_period_s);
     }
 
+    /// Moves the joints to `goal` at up to `speed_fraction` of their speed limits instead of following twists,
+    /// until [`RmrcStage::end_joint_move`] (the interpolator's joint move; a restart at rest drops it, so the
+    /// caller asks again while the move is in force). A goal outside the arm's joint limits or not finite, or a
+    /// share outside (0, 1], is refused (`false`): the move ends and a zero twist brings the arm to rest.
+    pub fn move_joints_to(&mut self, goal: JointVector, speed_fraction: f64, tick: u64) -> bool {
+        let within = self.arm.links.iter().take(self.arm.joint_count()).zip(goal.iter()).all(|(link, q)| {
+            link.limits.position_ok(*q)
+        }) && speed_fraction > 0.0
+            && speed_fraction <= 1.0;
+        if within {
+            self.interpolator.move_joints_to(goal, speed_fraction);
+        } else {
+            self.end_joint_move();
+            self.set_twist(Twist::zeros(), tick);
+        }
+        within
+    }
+
+    /// Ends a joint move (none in progress: nothing happens): the reference follows twists again, a zero one
+    /// ramping it to rest at the acceleration limits.
+    pub fn end_joint_move(&mut self) {
+        self.interpolator.end_joint_move();
+    }
+
     /// The command interface of the driver.
     pub fn command_interface(&self) -> CommandInterface {
         self.command

@@ -58,6 +58,14 @@ pub enum ClientError {
         /// Its command slots.
         slots: usize,
     },
+    /// More joint values than the protocol carries: nothing was sent.
+    #[error("{given} joint values; the protocol carries {carried} at most")]
+    TooManyJoints {
+        /// The values given.
+        given: usize,
+        /// What a command carries.
+        carried: usize,
+    },
     /// The safe-stop path refused the request (no daemon reads it, or it is not there).
     #[error(transparent)]
     SafeStopPath(#[from] vservo_protocol::stop_path::SafeStopPathError),
@@ -237,6 +245,30 @@ impl Client {
     /// otherwise): [`safe_stop`] (the safe-stop path) needs none.
     pub fn safe_stop_command(&mut self) -> Result<Reply, ClientError> {
         self.request(CommandMsg::new(CommandKind::SafeStop, 0))
+    }
+
+    /// Moves the arm's joints to `joints_rad` (the arm's joint count of values, at most
+    /// [`vservo_protocol::MAX_JOINTS`]) at up to `speed_fraction` (0–1] of their speed limits, and holds them
+    /// there instead of servoing, until [`Client::servo`]; the daemon refuses it in a safe stop, outside the
+    /// joint limits or with values for joints the arm does not have. The reply comes at once: the joint states
+    /// say when the arm is there.
+    pub fn move_joints(&mut self, joints_rad: &[f64], speed_fraction: f64) -> Result<Reply, ClientError> {
+        let mut command = CommandMsg::new(CommandKind::MoveJoints, 0);
+        if joints_rad.len() > command.joints_rad.len() {
+            return Err(ClientError::TooManyJoints {
+                given: joints_rad.len(),
+                carried: command.joints_rad.len(),
+            });
+        }
+        command.joints_rad[..joints_rad.len()].copy_from_slice(joints_rad);
+        command.joint_count = joints_rad.len() as u32;
+        command.speed_fraction = speed_fraction;
+        self.request(command)
+    }
+
+    /// Ends a joint move: the cell servos again from where the arm is.
+    pub fn servo(&mut self) -> Result<Reply, ClientError> {
+        self.request(CommandMsg::new(CommandKind::Servo, 0))
     }
 
     /// A subscriber to one of the instance's topics (payload type as in docs/PROTOCOL.md).

@@ -88,7 +88,7 @@ pub struct FaultView {
 pub struct StatusView {
     /// The instance name.
     pub instance: String,
-    /// "starting", "running", "degraded", "stopping" or "safe-stop" (a fault holds the arm at rest: see
+    /// "starting", "running", "moving" (a client's joint move), "degraded", "stopping" or "safe-stop" (a fault holds the arm at rest: see
     /// `fault`).
     pub state: &'static str,
     /// The fault that holds the cell, or the last one; null when none since the start.

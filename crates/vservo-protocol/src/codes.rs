@@ -160,6 +160,9 @@ wire_code! {
         /// Two or more marks missing (`missing_mask`), or one and no design for the three seen (their desired
         /// images in a line): steering the camera back to where all were last seen.
         Reacquiring = 6, "reacquiring";
+        /// The cell moves the arm's joints to a goal a client set (`cell_mode` moving, `vservoctl calibrate`):
+        /// zero twist, the marks not looked at.
+        Moving = 7, "moving";
     }
 }
 
@@ -200,6 +203,9 @@ wire_code! {
         /// A fault stopped the cell (`status.fault` says which, `fault_since_ns` since when): the arm is
         /// brought to rest and held until the cell is resumed.
         SafeStop = 4, "safe-stop";
+        /// The arm moves its joints to a goal a client set (`vservoctl calibrate`), or holds there, instead of
+        /// servoing; `servo` (or a safe stop) ends it.
+        Moving = 5, "moving";
     }
 }
 
@@ -238,6 +244,9 @@ wire_code! {
         /// Safe stop: the servo sends zero twists, the rmrc ramps the reference to rest at its acceleration
         /// limits and holds it there, whatever twist arrives.
         SafeStop = 1, "safe_stop";
+        /// A joint move: the rmrc takes each joint to `goal_rad` at up to `speed_fraction` of its speed limit,
+        /// braking at its acceleration limit, and holds it there; the servo sends zero twists.
+        Moving = 2, "moving";
     }
 }
 
@@ -276,6 +285,12 @@ wire_code! {
         Resume = 8, "resume";
         /// Bring the arm to rest and hold it: a safe stop asked for by the client (fault `requested`).
         SafeStop = 9, "safe_stop";
+        /// Move the arm's joints to `joints_rad` at up to `speed_fraction` (0–1] of their speed limits and hold
+        /// them there instead of servoing (`vservoctl calibrate`); refused in a safe stop, outside the joint
+        /// limits, or with values for joints the arm does not have.
+        MoveJoints = 10, "move_joints";
+        /// End a joint move: servo again from where the arm is.
+        Servo = 11, "servo";
     }
 }
 
@@ -338,8 +353,8 @@ mod tests {
 
     #[test]
     fn an_unknown_number_is_refused_naming_what_it_is() {
-        let refused = Verdict::try_from(7).err();
-        assert_eq!(refused, Some(UnknownCode { what: "verdict", code: 7 }));
+        let refused = Verdict::try_from(8).err();
+        assert_eq!(refused, Some(UnknownCode { what: "verdict", code: 8 }));
         assert_eq!(
             CommandKind::try_from(0).err().map(|e| e.to_string()).as_deref(),
             Some("command kind 0 is not a known code")

@@ -13,7 +13,7 @@ use iceoryx2::prelude::ZeroCopySend;
 /// command interface and period; `joint_torque` became `joint_command`; `camera_image` added.
 /// 6: `features` and `camera_twist` carry the seal of the node that made them; `gains` and `object` a stamp.
 /// 7: `joint_state` and `joint_command` carry up to seven joints and say how many (`joint_count`).
-pub const SCHEMA_VERSION: u32 = 7;
+pub const SCHEMA_VERSION: u32 = 8;
 
 /// Joints `joint_state` and `joint_command` have room for: the arm's joints come first, the slots past
 /// `joint_count` are zero.
@@ -415,6 +415,10 @@ wire_message! {
         fault: u32 as Fault,
         /// safe stop: bit j, joint j + 1 concerned
         fault_joints: u32,
+        /// moving: the share of each joint's speed limit it may move at (0–1]
+        speed_fraction: f64,
+        /// moving: the joints' goal (rad; the slots past the arm's joints zero)
+        goal_rad: [f64; MAX_JOINTS],
         /// CLOCK_MONOTONIC when decided (ns)
         stamp_ns: u64,
         /// the daemon's seal (SipHash-2-4 of the fields under the run's key): other modes are refused
@@ -442,6 +446,14 @@ wire_message! {
         radius_m: f64,
         /// object circle: speed (rev/min)
         rev_per_min: f64,
+        /// move joints: how many of `joints_rad` are given (the arm's joint count)
+        joint_count: u32,
+        /// zero
+        reserved: u32,
+        /// move joints: the goal (rad; the slots past `joint_count` zero)
+        joints_rad: [f64; MAX_JOINTS],
+        /// move joints: the share of each joint's speed limit it may move at (0–1]
+        speed_fraction: f64,
     }
 }
 
@@ -609,8 +621,10 @@ mod tests {
         assert_eq!(offset_of!(DaemonStatusMsg, nodes), 32);
         assert_eq!(offset_of!(DaemonStatusMsg, tick_rate_hz), 160);
         assert_eq!(size_of::<DaemonStatusMsg>(), 32 + 4 * 32 + 16 + 8 + 24);
-        assert_eq!(size_of::<CellModeMsg>(), 40);
-        assert_eq!(size_of::<CommandMsg>(), 16 + 64 + 48 + 16);
+        assert_eq!(size_of::<CellModeMsg>(), 32 + 56 + 16);
+        assert_eq!(offset_of!(CellModeMsg, goal_rad), 32);
+        assert_eq!(size_of::<CommandMsg>(), 16 + 64 + 48 + 16 + 8 + 56 + 8);
+        assert_eq!(offset_of!(CommandMsg, joints_rad), 152);
         assert_eq!(size_of::<CommandReplyMsg>(), 24 + 64 + REASON_BYTES);
         assert_eq!(offset_of!(GainsMsg, feature_gain), 16);
         assert_eq!(size_of::<ObjectMsg>(), 16 + 24 + 16 + 8 + 8);

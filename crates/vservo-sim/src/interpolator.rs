@@ -124,8 +124,8 @@ impl Interpolator {
         }
     }
 
-    /// Moves the joints to `goal` at up to `speed_fraction` of their speed limits instead of following twists
-    /// (`crate::joint_move`), until [`Interpolator::end_joint_move`]; twists set meanwhile are kept but not
+    /// Moves the joints to `goal` at up to `speed_fraction` of their speed limits and `speed_fraction`² of their
+    /// acceleration limits instead of following twists (`crate::joint_move`), until [`Interpolator::end_joint_move`]; twists set meanwhile are kept but not
     /// followed.
     pub fn move_joints_to(&mut self, goal: JointVector, speed_fraction: f64) {
         self.joint_goal = Some((goal, speed_fraction));
@@ -240,23 +240,21 @@ impl Interpolator {
 }
 
 impl Interpolator {
-    /// One tick of a joint move: each joint's rate towards the goal, its change limited joint by joint.
+    /// One tick of a joint move: each joint's rate towards the goal, its change limited joint by joint. The
+    /// share of the speed limits scales the move in time (as a controller's speed override does): the
+    /// accelerations by its square, so that a slow move also asks the drives for less torque.
     fn step_joint_move(&mut self, goal: &JointVector, speed_fraction: f64) -> &Reference {
         let s = &self.settings;
         let dt = s.control_period_s;
         let joints = self.arm.joint_count();
         let q = self.reference.q;
-        let wanted = crate::joint_move::rates_toward(
-            goal,
-            &q,
-            &self.limits[..joints],
-            &s.acceleration_limit,
-            speed_fraction,
-            dt,
-        );
+        let share = if speed_fraction.is_finite() { speed_fraction.clamp(0.0, 1.0) } else { 0.0 };
+        let acceleration = s.acceleration_limit * (share * share);
+        let wanted =
+            crate::joint_move::rates_toward(goal, &q, &self.limits[..joints], &acceleration, share, dt);
         let mut qd = self.reference.qd;
         for j in 0..joints {
-            let step = s.acceleration_limit[j] * dt;
+            let step = acceleration[j] * dt;
             qd[j] += (wanted[j] - qd[j]).clamp(-step, step);
         }
         if !qd.iter().all(|v| v.is_finite()) {

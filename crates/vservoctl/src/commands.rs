@@ -1,5 +1,5 @@
-//! `vservoctl target`, `object`, `reload`, `safe-stop` and `resume`: commands to a running instance, each
-//! answered by the daemon with whether it was accepted and why not.
+//! `vservoctl target`, `object`, `reload`, `safe-stop`, `resume`, `move-joints` and `servo`: commands to a
+//! running instance, each answered by the daemon with whether it was accepted and why not.
 
 use clap::{Args, Subcommand};
 use vservo_client::{Client, Reply};
@@ -82,6 +82,19 @@ pub struct ReloadArgs {
     instance: InstanceArg,
 }
 
+/// Arguments of `vservoctl move-joints`.
+#[derive(Args, Debug)]
+pub struct MoveJointsArgs {
+    /// The goal: one angle per joint of the arm, q1,…,qn (rad).
+    #[arg(long, value_delimiter = ',', allow_hyphen_values = true, required = true)]
+    q: Vec<f64>,
+    /// The share of each joint's speed limit the move may use, (0, 1].
+    #[arg(long, default_value_t = 0.2)]
+    speed_fraction: f64,
+    #[command(flatten)]
+    instance: InstanceArg,
+}
+
 fn exactly<const N: usize>(option: &str, values: &[f64]) -> Result<[f64; N], UsageError> {
     <[f64; N]>::try_from(values).map_err(|_| {
         UsageError(format!("{option}: expected {N} comma-separated numbers, got {}", values.len()))
@@ -154,4 +167,16 @@ pub fn safe_stop(args: &ReloadArgs) -> anyhow::Result<()> {
 pub fn resume(args: &ReloadArgs) -> anyhow::Result<()> {
     let mut client = Client::connect(&args.instance.name()?)?;
     report(client.resume()?)
+}
+
+/// `vservoctl move-joints`: the arm moves its joints to the goal and holds them there until `servo`.
+pub fn move_joints(args: &MoveJointsArgs) -> anyhow::Result<()> {
+    let mut client = Client::connect(&args.instance.name()?)?;
+    report(client.move_joints(&args.q, args.speed_fraction)?)
+}
+
+/// `vservoctl servo`: ends a joint move.
+pub fn servo(args: &ReloadArgs) -> anyhow::Result<()> {
+    let mut client = Client::connect(&args.instance.name()?)?;
+    report(client.servo()?)
 }

@@ -78,6 +78,11 @@ enum Command {
     SafeStop(commands::ReloadArgs),
     /// Servo again after a safe stop (refused, with each cause, while a fault's cause is still there).
     Resume(commands::ReloadArgs),
+    /// Move a running instance's arm to joint angles at a share of the speed limits, and hold it there instead
+    /// of servoing (refused in a safe stop or outside the joint limits) until `servo`.
+    MoveJoints(commands::MoveJointsArgs),
+    /// End a joint move: servo again from where the arm is.
+    Servo(commands::ReloadArgs),
     /// A live terminal view of a running instance: nodes, loop timing, fault, servo, feature error (q quits).
     Top(top::TopArgs),
     /// Record every service of a running instance to an MCAP file.
@@ -112,6 +117,8 @@ fn main() -> ExitCode {
         Command::Reload(args) => commands::reload(&args),
         Command::SafeStop(args) => commands::safe_stop(&args),
         Command::Resume(args) => commands::resume(&args),
+        Command::MoveJoints(args) => commands::move_joints(&args),
+        Command::Servo(args) => commands::servo(&args),
         Command::Top(args) => top::run(&args),
         Command::Record(args) => record::run(&args),
         // the live view serves the instance to its viewers: its memory is private like the daemon's

@@ -68,7 +68,7 @@ fn draw(frame: &mut ratatui::Frame, gathered: &Gathered, view: &StatusView, refr
 /// The instance's state, robot driver, error and fault.
 fn draw_instance(frame: &mut ratatui::Frame, header: ratatui::layout::Rect, view: &StatusView) {
     let state_style = match view.state {
-        "running" => Style::default().fg(Color::Green),
+        "running" | "moving" => Style::default().fg(Color::Green),
         "safe-stop" => Style::default().fg(Color::Red).add_modifier(Modifier::BOLD),
         _ => Style::default().fg(Color::Yellow),
     };

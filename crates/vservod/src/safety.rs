@@ -1,6 +1,7 @@
-//! The safe stop as the daemon carries it out: the [`FaultMonitor`]'s decisions become sealed `cell_mode`
+//! The cell mode as the daemon carries it out: the [`FaultMonitor`]'s decisions become sealed `cell_mode`
 //! messages (the rmrc ramps the arm to rest at its acceleration limits and holds it, the servo sends zero
-//! twists), one log line each, and the fault in the status.
+//! twists), one log line each, and the fault in the status; and a client's joint move (moving) and its end
+//! (servoing). A safe stop ends a move's motion but not the move: a resume takes the arm on to its goal.
 
 use iceoryx2::port::publisher::Publisher;
 use iceoryx2::port::update_connections::UpdateConnections;
@@ -8,6 +9,7 @@ use iceoryx2::prelude::{Node, ipc};
 use vservo_protocol::{CellMode, CellModeMsg, DaemonStatusMsg, Fault, SCHEMA_VERSION, Topic};
 use vservo_runtime::clock::monotonic_ns;
 
+use crate::commands::JointMove;
 use crate::faults::{AlreadyHeld, Conditions, Decision, FaultMonitor, LatchedFault, ResumeRefused};
 
 /// A resume carried out.
@@ -19,11 +21,17 @@ pub struct Resumed {
     pub fault: Fault,
     /// How long the cell was held (s).
     pub held_s: f64,
+    /// What the cell does again: servoing, or moving on to a joint move's goal.
+    pub mode: CellMode,
 }
 
 impl std::fmt::Display for Resumed {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        write!(f, "resumed {} after {} (held {:.1} s)", self.how, self.fault, self.held_s)
+        write!(f, "resumed {} after {} (held {:.1} s)", self.how, self.fault, self.held_s)?;
+        if self.mode == CellMode::Moving {
+            write!(f, "; the joint move goes on to its goal")?;
+        }
+        Ok(())
     }
 }
 
@@ -39,6 +47,12 @@ pub enum SafetyRefused {
     /// The nodes could not be told.
     #[error("publishing the cell mode: {0}")]
     Publish(String),
+    /// A joint move or its end asked for while the cell is held.
+    #[error("the cell is in a safe stop ({0}): `vservoctl resume` first")]
+    Held(Fault),
+    /// The end of a joint move asked for while none is in force.
+    #[error("the cell is not moving its joints: it servos already")]
+    NotMoving,
 }
 
 /// The monitor and the `cell_mode` publisher.
@@ -47,6 +61,8 @@ pub struct Safety {
     publisher: Publisher<ipc::Service, CellModeMsg, ()>,
     seal_key: vservo_protocol::seal::SealKey,
     sequence: u64,
+    /// A client's joint move in force (held by a safe stop, it goes on after the resume).
+    joint_move: Option<JointMove>,
 }
 
 impl Safety {
@@ -64,6 +80,7 @@ impl Safety {
             publisher: vservo_protocol::publisher(node, instance, Topic::CellMode)?,
             seal_key,
             sequence: 0,
+            joint_move: None,
         };
         safety.publish(CellMode::Servoing, None)?;
         Ok(safety)
@@ -79,13 +96,22 @@ impl Safety {
         self.monitor.latched().is_some()
     }
 
+    /// The joint move in force, if any (moving, or held in a safe stop that interrupted one).
+    pub fn joint_move(&self) -> Option<&JointMove> {
+        self.joint_move.as_ref()
+    }
+
+    /// Publishes the mode; a joint move's goal goes with "moving".
     fn publish(&mut self, mode: CellMode, fault: Option<&LatchedFault>) -> anyhow::Result<()> {
+        let joint_move = self.joint_move.filter(|_| mode == CellMode::Moving);
         let mut message = CellModeMsg {
             schema: SCHEMA_VERSION,
             mode: mode.into(),
             sequence: self.sequence + 1,
             fault: fault.map_or(Fault::None, |f| f.code).into(),
             fault_joints: fault.map_or(0, |f| f.joints),
+            speed_fraction: joint_move.map_or(0.0, |m| m.speed_fraction),
+            goal_rad: joint_move.map_or([0.0; vservo_protocol::MAX_JOINTS], |m| m.goal_rad),
             stamp_ns: monotonic_ns(),
             seal: 0,
         };
@@ -108,10 +134,16 @@ impl Safety {
         }
     }
 
+    /// The mode the cell is in when not held: moving while a joint move is in force, else servoing.
+    fn running_mode(&self) -> CellMode {
+        if self.joint_move.is_some() { CellMode::Moving } else { CellMode::Servoing }
+    }
+
     fn leave(&mut self, fault: &LatchedFault, how: &str) -> Result<Resumed, SafetyRefused> {
-        self.publish(CellMode::Servoing, None).map_err(|e| SafetyRefused::Publish(e.to_string()))?;
+        let mode = self.running_mode();
+        self.publish(mode, None).map_err(|e| SafetyRefused::Publish(e.to_string()))?;
         let held_s = monotonic_ns().saturating_sub(fault.since_ns) as f64 / 1e9;
-        let resumed = Resumed { how: how.to_string(), fault: fault.code, held_s };
+        let resumed = Resumed { how: how.to_string(), fault: fault.code, held_s, mode };
         tracing::warn!("{resumed}");
         Ok(resumed)
     }
@@ -138,6 +170,31 @@ impl Safety {
     pub fn resume(&mut self, conditions: &Conditions) -> Result<Resumed, SafetyRefused> {
         let fault = self.monitor.resume(conditions)?;
         self.leave(&fault, "on command")
+    }
+
+    /// A client's joint move (refused while the cell is held): the rmrc takes the joints to the goal instead of
+    /// following the servo's twists.
+    pub fn move_joints(&mut self, joint_move: JointMove) -> Result<(), SafetyRefused> {
+        if let Some(fault) = self.monitor.latched() {
+            return Err(SafetyRefused::Held(fault.code));
+        }
+        let before = self.joint_move.replace(joint_move);
+        self.publish(CellMode::Moving, None).map_err(|e| {
+            self.joint_move = before;
+            SafetyRefused::Publish(e.to_string())
+        })
+    }
+
+    /// A client's end of a joint move: servoing again (refused while held, or when no move is in force).
+    pub fn servo(&mut self) -> Result<(), SafetyRefused> {
+        if let Some(fault) = self.monitor.latched() {
+            return Err(SafetyRefused::Held(fault.code));
+        }
+        let before = self.joint_move.take().ok_or(SafetyRefused::NotMoving)?;
+        self.publish(CellMode::Servoing, None).map_err(|e| {
+            self.joint_move = Some(before);
+            SafetyRefused::Publish(e.to_string())
+        })
     }
 
     /// A client's `safe-stop`.

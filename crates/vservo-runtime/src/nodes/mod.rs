@@ -60,16 +60,45 @@ fn latest<T: Payload>(subscriber: &Subscriber<ipc::Service, T, ()>, counters: &C
     newest
 }
 
+/// The cell mode in force, as a node acts on it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) enum ModeInForce {
+    /// The servo's twists move the arm.
+    Servoing,
+    /// Held in a safe stop.
+    SafeStop,
+    /// A joint move to `goal` at `speed_fraction` of the speed limits (the joints past the arm's zero).
+    Moving { goal: vservo_arm::JointVector, speed_fraction: f64 },
+}
+
+impl ModeInForce {
+    /// The mode a sealed message says; none for a mode this build does not know or a move that is not finite.
+    fn of(message: &vservo_protocol::CellModeMsg) -> Option<Self> {
+        match CellMode::try_from(message.mode).ok()? {
+            CellMode::Servoing => Some(Self::Servoing),
+            CellMode::SafeStop => Some(Self::SafeStop),
+            CellMode::Moving => {
+                let goal = vservo_arm::JointVector::from(message.goal_rad);
+                let finite = goal.iter().all(|v| v.is_finite()) && message.speed_fraction.is_finite();
+                let speed_fraction = message.speed_fraction;
+                (finite && speed_fraction > 0.0 && speed_fraction <= 1.0)
+                    .then_some(Self::Moving { goal, speed_fraction })
+            }
+        }
+    }
+}
+
 /// The cell mode the daemon set: the newest sealed [`CellModeMsg`] heard so far (newest by the daemon's stamp,
-/// `vservo_protocol::freshness`). A message without the run's seal, of a mode this build does not know, older
-/// than the one in force or stamped in the future, is refused and counted.
+/// `vservo_protocol::freshness`). A message without the run's seal, of a mode this build does not know (or a
+/// move that is not finite or not at a share of the speed limits in (0, 1]), older than the one in force or
+/// stamped in the future, is refused and counted.
 ///
 /// [`CellModeMsg`]: vservo_protocol::CellModeMsg
 pub(crate) struct CellModeFollower {
     subscriber: Subscriber<ipc::Service, vservo_protocol::CellModeMsg, ()>,
     /// The mode in force; until the daemon's first word: servoing (the daemon publishes its mode before it
     /// starts a node).
-    mode: CellMode,
+    mode: ModeInForce,
     /// What the mode in force came with; none before the daemon's first word.
     issue: Option<Issue>,
 }
@@ -78,24 +107,24 @@ impl CellModeFollower {
     pub(crate) fn open(node: &Node<ipc::Service>, instance: &str) -> Result<Self, RuntimeError> {
         Ok(Self {
             subscriber: vservo_protocol::subscriber(node, instance, vservo_protocol::Topic::CellMode)?,
-            mode: CellMode::Servoing,
+            mode: ModeInForce::Servoing,
             issue: None,
         })
     }
 
-    /// Takes what arrived; whether the cell is held in a safe stop.
-    pub(crate) fn safe_stop(
+    /// Takes what arrived; the mode in force.
+    pub(crate) fn mode(
         &mut self,
         key: Option<&vservo_protocol::seal::SealKey>,
         counters: &Counters,
-    ) -> bool {
+    ) -> ModeInForce {
         while let Ok(Some(sample)) = self.subscriber.receive() {
             let message = *sample;
             let sealed = vservo_protocol::seal::sealed_by(key, &message);
             let issue = Issue { stamp_ns: message.stamp_ns, counter: message.sequence };
             let standing = freshness::standing(self.issue, issue, crate::clock::monotonic_ns());
-            match CellMode::try_from(message.mode) {
-                Ok(mode)
+            match ModeInForce::of(&message) {
+                Some(mode)
                     if vservo_protocol::inbox::accept(message).is_ok() && sealed && standing.is_newer() =>
                 {
                     self.mode = mode;
@@ -105,6 +134,6 @@ impl CellModeFollower {
                 _ => {}
             }
         }
-        self.mode == CellMode::SafeStop
+        self.mode
     }
 }

@@ -23,7 +23,7 @@ use vservo_protocol::{
     Verdict,
 };
 
-use super::{CellModeFollower, IDLE_WAIT, NodeBase, go_realtime, latest, start};
+use super::{CellModeFollower, IDLE_WAIT, ModeInForce, NodeBase, go_realtime, latest, start};
 use crate::clock::monotonic_ns;
 use crate::telemetry::{Counters, CycleSample};
 use crate::wire::{command_mode, joints_from_wire, joints_to_wire, wire_joint_count};
@@ -35,7 +35,8 @@ struct Ports {
     state_listener: Listener<ipc::Service>,
     twists: Subscriber<ipc::Service, CameraTwistMsg, ()>,
     commands: Publisher<ipc::Service, JointCommandMsg, ()>,
-    /// The daemon's safe stop: the reference ramps to rest and is held, whatever twist arrives.
+    /// The daemon's safe stop (the reference ramps to rest and is held, whatever twist arrives) and joint
+    /// moves.
     cell_mode: CellModeFollower,
 }
 
@@ -144,8 +145,9 @@ impl Rmrc {
         }
     }
 
-    /// Takes in the twists that came (refused ones counted; they bring the arm to rest), then a zero twist
-    /// if the cell is held or the daemon gone.
+    /// Takes in the twists that came (refused ones counted; they bring the arm to rest), then acts on the cell
+    /// mode: a safe stop or the daemon gone gives a zero twist (and ends a joint move), a joint move takes the
+    /// reference to its goal instead of the twists, servoing ends a joint move.
     fn take_twists(&mut self, ports: &mut Ports, tick: u64, context: &NodeContext, counters: &Counters) {
         let key = context.seal_key.as_ref();
         while let Some(taken) = ports.twists.next_message() {
@@ -169,10 +171,21 @@ impl Rmrc {
                 None => counters.rejected(),
             }
         }
-        // a safe stop, or no daemon and so no servo to trust: a zero twist, which the interpolator ramps to at
-        // its acceleration limits and then holds
-        if self.orphaned.is_orphaned() || ports.cell_mode.safe_stop(context.seal_key.as_ref(), counters) {
-            self.stage.set_twist(Twist::zeros(), tick);
+        let mode = ports.cell_mode.mode(key, counters);
+        // no daemon and so no servo to trust: as a safe stop
+        let mode = if self.orphaned.is_orphaned() { ModeInForce::SafeStop } else { mode };
+        match mode {
+            ModeInForce::Servoing => self.stage.end_joint_move(),
+            // a zero twist, which the interpolator ramps to at its acceleration limits and then holds
+            ModeInForce::SafeStop => {
+                self.stage.end_joint_move();
+                self.stage.set_twist(Twist::zeros(), tick);
+            }
+            ModeInForce::Moving { goal, speed_fraction } => {
+                if !self.stage.move_joints_to(goal, speed_fraction, tick) {
+                    counters.rejected();
+                }
+            }
         }
     }
 

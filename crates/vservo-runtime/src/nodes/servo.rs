@@ -18,7 +18,7 @@ use vservo_protocol::{
 };
 use vservo_scene::FeatureVector;
 
-use super::{CellModeFollower, IDLE_WAIT, NodeBase, go_realtime, latest, start};
+use super::{CellModeFollower, IDLE_WAIT, ModeInForce, NodeBase, go_realtime, latest, start};
 use crate::clock::monotonic_ns;
 use crate::telemetry::{Counters, CycleSample, LoopMonitor, Note};
 use crate::wire::to_array;
@@ -37,9 +37,11 @@ fn law_flags_on_wire(flags: LawFlags) -> u32 {
     .fold(0, |bits, (_, bit)| bits | bit)
 }
 
-/// The stage's verdict as the wire says it (`camera_twist.verdict`).
-fn verdict_on_wire(servo: ServoVerdict) -> Verdict {
+/// The stage's verdict as the wire says it (`camera_twist.verdict`); held while the cell moves its joints,
+/// the servo says so (moving) rather than safe stop.
+fn verdict_on_wire(servo: ServoVerdict, moving: bool) -> Verdict {
     match servo {
+        ServoVerdict::Held if moving => Verdict::Moving,
         ServoVerdict::Waiting => Verdict::Waiting,
         ServoVerdict::Servoing => Verdict::Servoing,
         ServoVerdict::ServoingOnThree(_) => Verdict::ServoingOnThree,
@@ -91,6 +93,8 @@ struct Servo {
     last: (u64, u64),
     /// (verdict, missing marks) of the last frame, for one log line per change of what the servo does.
     doing: (Verdict, u8),
+    /// The cell moves its joints (`cell_mode` moving): held, and saying so.
+    moving: bool,
 }
 
 impl Servo {
@@ -104,6 +108,7 @@ impl Servo {
             period_ns: (context.cell.config().timing.vision_period_s * 1e9).round() as u64,
             last: (0, 0),
             doing: (Verdict::Waiting, 0),
+            moving: false,
         }
     }
 
@@ -129,7 +134,9 @@ impl Servo {
     }
 
     /// The stage's answer to a feature vector: held in a safe stop, else the law's.
-    fn answer(&mut self, message: &FeaturesMsg, held: bool) -> ServoStep {
+    fn answer(&mut self, message: &FeaturesMsg, mode: ModeInForce) -> ServoStep {
+        self.moving = matches!(mode, ModeInForce::Moving { .. });
+        let held = mode != ModeInForce::Servoing;
         let features = FeatureVector::from(message.features_px);
         let base_from_camera = pose_from_wire(&message.base_from_camera);
         let input = ServoInput {
@@ -151,7 +158,7 @@ impl Servo {
         };
         CameraTwistMsg {
             schema: SCHEMA_VERSION,
-            verdict: verdict_on_wire(step.verdict).into(),
+            verdict: verdict_on_wire(step.verdict, self.moving).into(),
             frame: message.frame,
             capture_tick: message.capture_tick,
             gains_version: self.gains_version,
@@ -166,7 +173,7 @@ impl Servo {
 
     /// Says a change of what the servo does (after the twist is sent, and only when it changes).
     fn note_change(&mut self, step: &ServoStep, message: &FeaturesMsg, monitor: &LoopMonitor) {
-        let now = (verdict_on_wire(step.verdict), step.verdict.missing_mask());
+        let now = (verdict_on_wire(step.verdict, self.moving), step.verdict.missing_mask());
         if now != self.doing {
             let mark_status = message.mark_status.map(|code| MarkStatus::try_from(code).ok());
             monitor.note(Note::ServoVerdict { before: self.doing, now, mark_status });
@@ -213,8 +220,8 @@ pub fn run(context: &NodeContext) -> Result<(), RuntimeError> {
                 counters.rejected();
                 continue;
             };
-            let held = ports.cell_mode.safe_stop(context.seal_key.as_ref(), counters);
-            let step = servo.answer(&message, held);
+            let mode = ports.cell_mode.mode(context.seal_key.as_ref(), counters);
+            let step = servo.answer(&message, mode);
             // a mark outside the image is no measurement: taken as missing, the message counted refused
             if step.outside != 0 {
                 counters.rejected();
@@ -258,9 +265,10 @@ mod tests {
             ServoVerdict::Held,
         ];
         for verdict in all {
-            assert_eq!(verdict_on_wire(verdict).moves(), verdict.moves(), "{verdict:?}");
+            assert_eq!(verdict_on_wire(verdict, false).moves(), verdict.moves(), "{verdict:?}");
         }
-        assert_eq!(verdict_on_wire(ServoVerdict::Held), Verdict::SafeStop);
+        assert_eq!(verdict_on_wire(ServoVerdict::Held, false), Verdict::SafeStop);
+        assert_eq!(verdict_on_wire(ServoVerdict::Held, true), Verdict::Moving);
     }
 
     #[test]

@@ -5,6 +5,7 @@
 //! it was accepted, and why not ([`outcome`]). Gains are designed here and handed to the servo (`gains`,
 //! history 1), object commands to the plant (`object`).
 
+mod joint_move;
 mod object;
 mod outcome;
 mod reload;
@@ -32,6 +33,7 @@ use crate::faults::Conditions;
 use crate::log_limit::LogLimit;
 use crate::safety::Safety;
 use crate::systemd::Systemd;
+pub use joint_move::JointMove;
 use object::ObjectMotion;
 pub use outcome::GainsRefused;
 pub use outcome::{Accepted, CommandRefused};
@@ -207,6 +209,12 @@ impl Commander {
             CommandKind::ObjectHold | CommandKind::ObjectStep | CommandKind::ObjectCircle => {
                 self.object(kind, command)
             }
+            CommandKind::MoveJoints => {
+                let joint_move = joint_move::check(command, &self.config.arm)?;
+                safety.move_joints(joint_move)?;
+                Ok(Accepted::Moving(joint_move))
+            }
+            CommandKind::Servo => Ok(safety.servo().map(|()| Accepted::Servoing)?),
         }
     }
 

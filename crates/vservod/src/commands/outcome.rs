@@ -3,6 +3,7 @@
 
 use vservo_cell::target::TargetRefused;
 
+use super::joint_move::{JointMove, MoveRefused};
 use super::object::{ObjectMotion, ObjectRefused};
 use super::reload::ReloadRefused;
 use crate::safety::{Resumed, SafetyRefused};
@@ -48,6 +49,10 @@ pub enum Accepted {
     SafeStop,
     /// The cell servos again.
     Resumed(Resumed),
+    /// The arm moves its joints to a goal.
+    Moving(JointMove),
+    /// A joint move ended: the cell servos again.
+    Servoing,
 }
 
 impl std::fmt::Display for Accepted {
@@ -65,6 +70,10 @@ impl std::fmt::Display for Accepted {
                 write!(f, "safe stop: the arm is brought to rest and held; `vservoctl resume` servos again")
             }
             Accepted::Resumed(resumed) => write!(f, "{resumed}"),
+            Accepted::Moving(joint_move) => {
+                write!(f, "{joint_move}; it holds there until `servo` (a safe stop holds it on the way)")
+            }
+            Accepted::Servoing => write!(f, "the joint move ended: servoing again"),
         }
     }
 }
@@ -98,6 +107,9 @@ pub enum CommandRefused {
     /// The object command is refused.
     #[error("object: {0}")]
     Object(#[from] ObjectRefused),
+    /// The joint move is refused.
+    #[error("move joints: {0}")]
+    Move(#[from] MoveRefused),
     /// The object command cannot be handed to the plant.
     #[error("object: {0}")]
     ObjectPublish(String),

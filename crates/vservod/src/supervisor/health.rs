@@ -107,11 +107,18 @@ pub fn resume_conditions<'a>(
     }
 }
 
-/// The daemon's state: a safe stop holds; every node healthy with the robot running is running; before
-/// the first time it was, starting; after, degraded.
-pub fn daemon_state(holding: bool, all_healthy: bool, robot: RobotState, ever_ready: bool) -> DaemonState {
+/// The daemon's state: a safe stop holds; every node healthy with the robot running is running, or moving
+/// while a client's joint move is in force; before the first time it was, starting; after, degraded.
+pub fn daemon_state(
+    holding: bool,
+    moving: bool,
+    all_healthy: bool,
+    robot: RobotState,
+    ever_ready: bool,
+) -> DaemonState {
     match (all_healthy && robot == RobotState::Running, ever_ready) {
         _ if holding => DaemonState::SafeStop,
+        (true, _) if moving => DaemonState::Moving,
         (true, _) => DaemonState::Running,
         (false, false) => DaemonState::Starting,
         (false, true) => DaemonState::Degraded,
@@ -214,17 +221,20 @@ mod tests {
     #[test]
     fn the_daemon_starts_runs_degrades_and_a_safe_stop_overrides_all() {
         let (running, stalled) = (RobotState::Running, RobotState::Stalled);
-        assert_eq!(daemon_state(false, false, running, false), DaemonState::Starting);
+        assert_eq!(daemon_state(false, false, false, running, false), DaemonState::Starting);
         assert_eq!(
-            daemon_state(false, true, stalled, false),
+            daemon_state(false, false, true, stalled, false),
             DaemonState::Starting,
             "the robot is part of it"
         );
-        assert_eq!(daemon_state(false, true, running, false), DaemonState::Running);
-        assert_eq!(daemon_state(false, false, running, true), DaemonState::Degraded);
-        assert_eq!(daemon_state(false, true, stalled, true), DaemonState::Degraded);
-        assert_eq!(daemon_state(true, true, running, true), DaemonState::SafeStop);
-        assert_eq!(daemon_state(true, false, stalled, false), DaemonState::SafeStop);
+        assert_eq!(daemon_state(false, false, true, running, false), DaemonState::Running);
+        assert_eq!(daemon_state(false, false, false, running, true), DaemonState::Degraded);
+        assert_eq!(daemon_state(false, false, true, stalled, true), DaemonState::Degraded);
+        assert_eq!(daemon_state(true, false, true, running, true), DaemonState::SafeStop);
+        assert_eq!(daemon_state(true, false, false, stalled, false), DaemonState::SafeStop);
+        assert_eq!(daemon_state(false, true, true, running, true), DaemonState::Moving);
+        assert_eq!(daemon_state(true, true, true, running, true), DaemonState::SafeStop, "held on the way");
+        assert_eq!(daemon_state(false, true, false, running, true), DaemonState::Degraded);
     }
 
     #[test]

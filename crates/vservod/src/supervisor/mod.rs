@@ -419,7 +419,13 @@ impl Daemon {
     fn report(&mut self, now: Instant, motion_nodes_healthy: bool) {
         let all_healthy = self.nodes.iter().all(|n| n.record.healthy(now));
         let state =
-            health::daemon_state(self.safety.holding(), all_healthy, self.robot, self.readiness.ever_ready());
+            health::daemon_state(
+                self.safety.holding(),
+                self.safety.joint_move().is_some(),
+                all_healthy,
+                self.robot,
+                self.readiness.ever_ready(),
+            );
         let facts = StatusFacts {
             state,
             robot: self.robot,
