@@ -14,8 +14,12 @@ u, but its AprilTag corner refinement, like the AprilTag library, adds the half 
 against the same corners refined by CORNER_REFINE_SUBPIX, which are in OpenCV's). Every number in and out is
 vservo's; a test checks the detected corners against the true projections of the simulated cell.
 
-usage: vservo_calibrate.py DATASET_DIR   (reads DATASET_DIR/dataset.json, prints one JSON object)
-Exit 2 with the reason on stderr when the views cannot determine the calibration.
+usage: vservo_calibrate.py DATASET_DIR            (reads DATASET_DIR/dataset.json, prints one JSON object)
+       vservo_calibrate.py --locate DATASET_DIR   (where the board is in the first view, through the camera as
+                                                  the dataset believes it: OpenCV's solvePnP on every corner
+                                                  found; what `vservoctl calibrate` plans a running cell's
+                                                  poses around)
+Exit 2 with the reason on stderr when the views cannot determine the calibration (or the board is not found).
 """
 
 import json
@@ -297,12 +301,36 @@ def solve(dataset_dir):
     }
 
 
+def locate(dataset_dir):
+    """The board's pose in the first view's camera (camera_from_board), through the believed camera."""
+    dataset = json.loads((dataset_dir / "dataset.json").read_text())
+    layout = board_corners(dataset["board"])
+    found = detect(dataset_dir, {"views": dataset["views"][:1]}, layout)[0]
+    if len(found["tags"]) < MIN_TAGS_PER_VIEW:
+        raise Refused(f"the board is not in view: {len(found['tags'])} of its tags found ({MIN_TAGS_PER_VIEW} "
+                      f"needed); bring the camera over the board (as for servoing) and try again")
+    nominal = dataset["camera"]
+    k = intrinsics_matrix(nominal["fx"], nominal["fy"], nominal["cx"], nominal["cy"])
+    d = np.array(nominal["distortion"], dtype=float)
+    ok, rvec, tvec = cv2.solvePnP(found["object"], found["image"], k, d, flags=cv2.SOLVEPNP_ITERATIVE)
+    if not ok:
+        raise Refused("OpenCV's solvePnP found no pose of the board in the view")
+    projected, _ = cv2.projectPoints(found["object"], rvec, tvec, k, d)
+    rms_px = float(np.sqrt(np.mean(np.sum((projected.reshape(-1, 2) - found["image"]) ** 2, axis=1))))
+    return {"camera_from_board": transform_json(pose(cv2.Rodrigues(rvec)[0], tvec)),
+            "tags_found": len(found["tags"]), "rms_px": rms_px}
+
+
 def main():
-    if len(sys.argv) != 2:
+    arguments = sys.argv[1:]
+    locating = arguments[:1] == ["--locate"]
+    if locating:
+        arguments = arguments[1:]
+    if len(arguments) != 1:
         print(__doc__, file=sys.stderr)
         return 2
     try:
-        result = solve(Path(sys.argv[1]))
+        result = locate(Path(arguments[0])) if locating else solve(Path(arguments[0]))
     except Refused as refused:
         print(f"vservo_calibrate: {refused}", file=sys.stderr)
         return 2

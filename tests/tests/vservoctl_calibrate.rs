@@ -116,7 +116,7 @@ fn a_plan_out_of_reach_and_poses_about_one_axis_are_refused_before_anything_move
 
     // the plan's first pose, then the tool turned about its own z axis only (the camera rolls)
     let demo = repository_root().join(DEMO).display().to_string();
-    let planned = run("vservoctl", &["calibrate", "--config", &demo, "--dry-run", "--json"]);
+    let planned = run("vservoctl", &["calibrate", "--config", &demo, "--lockstep", "--dry-run", "--json"]);
     assert!(planned.status.success(), "{}", String::from_utf8_lossy(&planned.stderr));
     let planned = last_line_json(&planned.stdout);
     assert_eq!(planned["poses"].as_array().map(Vec::len), Some(12), "{planned}");

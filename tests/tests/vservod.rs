@@ -213,7 +213,10 @@ fn lockstep_replaying(
             .iter()
             .filter_map(|(tick, (epoch, stamp_ns))| {
                 let tick = after_start(tick)?;
-                Some((tick, vservo_lockstep::DriverTick { epoch: *epoch, tick, stamp_ns: *stamp_ns }))
+                Some((
+                    tick,
+                    vservo_lockstep::DriverTick { epoch: *epoch, tick, stamp_ns: *stamp_ns, holding: false },
+                ))
             })
             .collect(),
     };

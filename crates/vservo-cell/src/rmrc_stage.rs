@@ -40,13 +40,17 @@ pub struct DriverTick {
     pub tick: u64,
     /// The state's stamp on the driver's clock (ns).
     pub stamp_ns: u64,
+    /// The driver says it holds the arm (`driver_status` holding: no valid command came in time, or it
+    /// refused the last): the arm is not following the reference.
+    pub holding: bool,
 }
 
 /// What the rmrc made of a joint state it follows.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Following {
-    /// The first state, a new driver, or the driver back after a gap: the reference started again at rest
-    /// from the measured joints, dropping the twist it held.
+    /// The first state, a new driver, the driver back after a gap, or a driver that holds the arm: the
+    /// reference started again at rest from the measured joints, dropping the twist it held (it never runs
+    /// ahead of an arm that is not following it).
     Resynced,
     /// The same driver, carried on; `missed_ticks` ticks since the last command were stepped through unanswered.
     Continued {
@@ -123,7 +127,7 @@ impl RmrcStage {
     /// `q` if it does not carry on from the last state followed, else steps the reference through the ticks
     /// left unanswered since the last command. Allocates nothing.
     pub fn follow(&mut self, at: DriverTick, q: &JointVector, qd: &JointVector) -> Following {
-        let carries_on = self.followed.is_some_and(|before| !self.gap.breaks(&before, &at));
+        let carries_on = !at.holding && self.followed.is_some_and(|before| !self.gap.breaks(&before, &at));
         self.followed = Some(at);
         if !carries_on {
             self.restart_at_rest(q, at.tick);
@@ -169,9 +173,14 @@ impl RmrcStage {
     /// caller asks again while the move is in force). A goal outside the arm's joint limits or not finite, or a
     /// share outside (0, 1], is refused (`false`): the move ends and a zero twist brings the arm to rest.
     pub fn move_joints_to(&mut self, goal: JointVector, speed_fraction: f64, tick: u64) -> bool {
-        let within = self.arm.links.iter().take(self.arm.joint_count()).zip(goal.iter()).all(|(link, q)| {
-            link.limits.position_ok(*q)
-        }) && speed_fraction > 0.0
+        let within = self
+            .arm
+            .links
+            .iter()
+            .take(self.arm.joint_count())
+            .zip(goal.iter())
+            .all(|(link, q)| link.limits.position_ok(*q))
+            && speed_fraction > 0.0
             && speed_fraction <= 1.0;
         if within {
             self.interpolator.move_joints_to(goal, speed_fraction);
@@ -255,7 +264,7 @@ mod tests {
     }
 
     fn at(epoch: u64, tick: u64, period_ns: u64) -> DriverTick {
-        DriverTick { epoch, tick, stamp_ns: tick * period_ns }
+        DriverTick { epoch, tick, stamp_ns: tick * period_ns, holding: false }
     }
 
     #[test]
@@ -275,12 +284,23 @@ mod tests {
         assert_eq!(rmrc.follow(at(8, 102, period_ns), &q, &qd), Following::Resynced);
         rmrc.step(102, &q, &qd);
         // the next tick, but stamped after the stall deadline (50 periods)
-        let stalled = DriverTick { epoch: 8, tick: 103, stamp_ns: 102 * period_ns + 51 * period_ns };
+        let stalled =
+            DriverTick { epoch: 8, tick: 103, stamp_ns: 102 * period_ns + 51 * period_ns, holding: false };
         assert_eq!(rmrc.follow(stalled, &q, &qd), Following::Resynced);
         assert_eq!(rmrc.since_tick(), 103);
         rmrc.step(103, &q, &qd);
         // a jump of more ticks than the deadline allows
         assert_eq!(rmrc.follow(at(8, 103 + 51, period_ns), &q, &qd), Following::Resynced);
+        rmrc.step(103 + 51, &q, &qd);
+        // the driver holds the arm: the reference starts again from where it is, and carries on after
+        let holding = DriverTick { holding: true, ..at(8, 103 + 52, period_ns) };
+        assert_eq!(rmrc.follow(holding, &q, &qd), Following::Resynced);
+        assert_eq!(rmrc.since_tick(), 103 + 52);
+        rmrc.step(103 + 52, &q, &qd);
+        assert_eq!(
+            rmrc.follow(at(8, 103 + 53, period_ns), &q, &qd),
+            Following::Continued { missed_ticks: 0 }
+        );
     }
 
     #[test]

@@ -8,9 +8,11 @@ use vservo_cell::{Cell, DriverTick};
 
 #[test]
 fn the_dynamic_arm_follows_a_joint_move_to_its_goal_within_its_speed_limits() {
-    let config =
-        vservo_config::Config::load(concat!(env!("CARGO_MANIFEST_DIR"), "/../../config/vservo-apriltag.toml"))
-            .expect("the AprilTag cell loads");
+    let config = vservo_config::Config::load(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../../config/vservo-apriltag.toml"
+    ))
+    .expect("the AprilTag cell loads");
     let cell = Cell::simulated(&config).expect("the cell");
     let mut plant = cell.plant();
     let start = plant.state().q;
@@ -26,7 +28,11 @@ fn the_dynamic_arm_follows_a_joint_move_to_its_goal_within_its_speed_limits() {
     let ticks = 8000;
     for tick in 0..ticks {
         let state = *plant.state();
-        rmrc.follow(DriverTick { epoch: 1, tick, stamp_ns: tick * period_ns }, &state.q, &state.qd);
+        rmrc.follow(
+            DriverTick { epoch: 1, tick, stamp_ns: tick * period_ns, holding: false },
+            &state.q,
+            &state.qd,
+        );
         assert!(rmrc.move_joints_to(goal, 0.2, tick));
         let command = rmrc.step(tick, &state.q, &state.qd);
         if let vservo_cell::ActuatorCommand::Torque(torque) = command {
@@ -36,11 +42,15 @@ fn the_dynamic_arm_follows_a_joint_move_to_its_goal_within_its_speed_limits() {
         }
         plant.apply(&command);
         for j in 0..6 {
-            worst_speed_share = worst_speed_share.max(plant.state().qd[j].abs() / arm.links[j].limits.velocity_max);
+            worst_speed_share =
+                worst_speed_share.max(plant.state().qd[j].abs() / arm.links[j].limits.velocity_max);
         }
     }
     let error: JointVector = goal - plant.state().q;
-    eprintln!("worst speed share {worst_speed_share:.3}, torque {worst_torque_share:.3}, error {:.2e}", error.amax());
+    eprintln!(
+        "worst speed share {worst_speed_share:.3}, torque {worst_torque_share:.3}, error {:.2e}",
+        error.amax()
+    );
     assert!(worst_speed_share < 0.25, "moved at {worst_speed_share} of a speed limit (share 0.2)");
     assert!(worst_torque_share < 1.0, "asked for {worst_torque_share} of a torque limit");
     // at rest as the daemon counts it (the joint servo holds the arm in a small limit cycle against friction)

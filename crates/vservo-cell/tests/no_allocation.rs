@@ -147,7 +147,7 @@ fn runs_without_allocating(config: vservo_config::Config) -> [LawFlags; COUNTED_
                 }
                 continue;
             }
-            let at = DriverTick { epoch, tick, stamp_ns: tick * period_ns };
+            let at = DriverTick { epoch, tick, stamp_ns: tick * period_ns, holding: false };
             match rmrc.follow(at, &state.q, &state.qd) {
                 Following::Resynced => followed[0] += 1,
                 Following::Continued { missed_ticks: 0 } => followed[1] += 1,

@@ -279,6 +279,14 @@ impl Client {
         Ok(vservo_protocol::client_subscriber::<T>(&self.node, &self.instance, topic)?)
     }
 
+    /// A subscriber to the instance's camera images (`camera_image`: the pixels with a
+    /// [`vservo_protocol::CameraImageHeader`]).
+    pub fn subscribe_camera_images(
+        &self,
+    ) -> Result<Subscriber<ipc::Service, [u8], vservo_protocol::CameraImageHeader>, ClientError> {
+        Ok(vservo_protocol::camera_image_subscriber(&self.node, &self.instance, Opening::OpenOnly)?)
+    }
+
     /// The daemon's latest status, waiting up to `timeout` for it.
     pub fn status(&self, timeout: Duration) -> Result<DaemonStatusMsg, ClientError> {
         let subscriber = self.subscribe::<DaemonStatusMsg>(Topic::Status)?;

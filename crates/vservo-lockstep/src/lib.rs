@@ -127,7 +127,9 @@ impl Pace<'_> {
     /// The joint state the rmrc answers at `tick`, if it answered one.
     fn state_answered(&self, tick: u64) -> Option<DriverTick> {
         match self {
-            Pace::Own { period_ns } => Some(DriverTick { epoch: 0, tick, stamp_ns: tick * period_ns }),
+            Pace::Own { period_ns } => {
+                Some(DriverTick { epoch: 0, tick, stamp_ns: tick * period_ns, holding: false })
+            }
             Pace::Replay(replay) => replay.states_answered.get(&tick).copied(),
         }
     }

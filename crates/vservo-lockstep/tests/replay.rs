@@ -21,7 +21,7 @@ fn answered(t0_ns: u64, stall: Option<(u64, u64)>) -> HashMap<u64, DriverTick> {
     (0..1000)
         .map(|tick| {
             let late = stall.filter(|(at, _)| tick >= *at).map_or(0, |(_, gap_ns)| gap_ns);
-            (tick, DriverTick { epoch: 7, tick, stamp_ns: t0_ns + tick * PERIOD_NS + late })
+            (tick, DriverTick { epoch: 7, tick, stamp_ns: t0_ns + tick * PERIOD_NS + late, holding: false })
         })
         .collect()
 }

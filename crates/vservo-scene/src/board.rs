@@ -62,7 +62,7 @@ impl AprilTag {
     pub fn tag36h11(id: u32, size_m: f64, centre_in_board: Point2<f64>) -> Result<Self, UnknownTagId> {
         match u16::try_from(id) {
             Ok(small) if (small as usize) < tag36h11::CODES.len() => {
-                Ok(Self { id: small, size_m, centre_in_board, black_cells: black_cells(small) })
+                Ok(Self { id: small, size_m, centre_in_board, black_cells: BLACK_CELLS[small as usize] })
             }
             _ => Err(UnknownTagId { id }),
         }
@@ -136,18 +136,30 @@ impl AprilTag {
 }
 
 /// The black cells of tag `id`: all, but those of the code's 1 bits.
-fn black_cells(id: u16) -> u64 {
-    let code = tag36h11::CODES[id as usize];
+const fn black_cells(id: usize) -> u64 {
+    let code = tag36h11::CODES[id];
     let mut cells = u64::MAX;
-    for i in 0..tag36h11::BITS {
+    let mut i = 0;
+    while i < tag36h11::BITS {
         if code >> (tag36h11::BITS - 1 - i) & 1 == 1 {
-            let cell =
-                u32::from(tag36h11::BIT_Y[i]) * tag36h11::WIDTH_AT_BORDER + u32::from(tag36h11::BIT_X[i]);
+            let cell = tag36h11::BIT_Y[i] as u32 * tag36h11::WIDTH_AT_BORDER + tag36h11::BIT_X[i] as u32;
             cells &= !(1u64 << cell);
         }
+        i += 1;
     }
     cells
 }
+
+/// Every tag's black cells, made at compile time (a grid's renderer makes its tags pixel by pixel).
+static BLACK_CELLS: [u64; tag36h11::CODES.len()] = {
+    let mut table = [0; tag36h11::CODES.len()];
+    let mut id = 0;
+    while id < table.len() {
+        table[id] = black_cells(id);
+        id += 1;
+    }
+    table
+};
 
 impl Board {
     /// The paper's board (docs/REPRODUCTION.md): marks placed so that, 0.5 m fronto-parallel in front of the paper's

@@ -5,7 +5,7 @@ use std::hint::black_box;
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use nalgebra::{Point2, Rotation3, Translation3, Vector3};
-use vservo_scene::{AprilTag, Board, CameraIntrinsics, Distortion, IsometryMatrix3};
+use vservo_scene::{AprilTag, Board, CameraIntrinsics, Distortion, IsometryMatrix3, TagGrid};
 use vservo_vision::{Extractor, ExtractorSettings, Prediction, RenderSettings, Renderer};
 
 fn vision(c: &mut Criterion) {
@@ -80,6 +80,24 @@ fn render_through_a_lens(c: &mut Criterion, board: &Board) {
         b.iter(|| {
             frame += 1;
             renderer.render(black_box(&tag_board), black_box(&pose), frame).as_raw().len()
+        })
+    });
+    // config/calibration-demo.toml's calibration board (`vservoctl board`'s 5 × 7 grid of 28 mm tags) 0.3 m
+    // away, tilted, through the same lens
+    let grid = TagGrid::new(7, 5, 0.028, 0.008, 0).expect("a grid");
+    let target = grid.tag(17).expect("tag 17");
+    let [low, high] = grid.tags_extent_in_board();
+    let margin = Vector3::new(0.02, 0.02, 0.0).xy();
+    let mut grid_board = Board::with_apriltag(target, [low - margin, high + margin]);
+    grid_board.calibration_grid = Some(grid);
+    let grid_pose = IsometryMatrix3::from_parts(
+        Translation3::new(0.01, -0.01, 0.3),
+        Rotation3::from_scaled_axis(Vector3::new(0.25, -0.2, 0.3)),
+    );
+    c.bench_function("render_640x480_lens_calibration_grid", |b| {
+        b.iter(|| {
+            frame += 1;
+            renderer.render(black_box(&grid_board), black_box(&grid_pose), frame).as_raw().len()
         })
     });
 }

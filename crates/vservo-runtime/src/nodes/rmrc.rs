@@ -19,8 +19,8 @@ use vservo_protocol::TakeMessages;
 use vservo_protocol::seal::SealKey;
 use vservo_protocol::seal::{sealed_by, sign_with};
 use vservo_protocol::{
-    CameraTwistMsg, CommandMode, JointCommandMsg, JointStateMsg, MAX_JOINTS, NodeRole, SCHEMA_VERSION, Topic,
-    Verdict,
+    CameraTwistMsg, CommandMode, DriverStatus, JointCommandMsg, JointStateMsg, MAX_JOINTS, NodeRole,
+    SCHEMA_VERSION, Topic, Verdict,
 };
 
 use super::{CellModeFollower, IDLE_WAIT, ModeInForce, NodeBase, go_realtime, latest, start};
@@ -136,7 +136,9 @@ impl Rmrc {
 
     /// Follows the state (the stage decides a restart at rest or a catch-up; both counted).
     fn follow(&mut self, state: &JointStateMsg, q: &JointVector, qd: &JointVector, counters: &Counters) {
-        let at = DriverTick { epoch: state.driver_epoch, tick: state.tick, stamp_ns: state.stamp_ns };
+        let holding = DriverStatus::try_from(state.driver_status) == Ok(DriverStatus::Holding);
+        let at =
+            DriverTick { epoch: state.driver_epoch, tick: state.tick, stamp_ns: state.stamp_ns, holding };
         match self.stage.follow(at, q, qd) {
             // logged by the telemetry thread, off this path
             Following::Resynced => counters.resynced(),

@@ -2,15 +2,18 @@
 //! from views of the calibration board (`[calibration]`) at poses spread over a half sphere around it
 //! (docs/CALIBRATION.md).
 //!
-//! The steps: plan the poses (`plan`: each reachable and with the board in view, checked before anything
-//! moves) and check their spread (`spread`); take the views (`capture`: here the simulated cell in lockstep, its
-//! camera as `[camera.truth]` says it is); hand them to the solver (`dataset`, `solver`: OpenCV and SciPy); report
-//! the residuals and, when the truth is known, the errors against it (`report`); write the calibration file
+//! The steps: find the board (`live`: through a running vservod, from a view where the arm is now; in lockstep
+//! where the configuration's world puts it); plan the poses (`plan`: each reachable and with the board in view,
+//! checked before anything moves) and check their spread (`spread`); take the views (`live`: moving the arm
+//! through the daemon and taking the camera's frames; `capture`: the simulated cell in lockstep, its camera as
+//! `[camera.truth]` says it is); hand them to the solver (`dataset`, `solver`: OpenCV and SciPy); report the
+//! residuals and, when the truth is known, the errors against it (`report`); write the calibration file
 //! (`file`).
 
 mod capture;
 mod dataset;
 mod file;
+mod live;
 mod plan;
 mod report;
 mod solver;
@@ -33,9 +36,13 @@ pub struct CalibrateArgs {
     config: ConfigArg,
     /// Calibrate the configured simulated cell in the lockstep simulator (no daemon): the arm is put at each
     /// pose and the simulated camera, as `[camera.truth]` says it is, takes the view; the result is compared
-    /// with that truth.
+    /// with that truth. Without it the configuration's running instance is calibrated: its arm is moved.
     #[arg(long)]
     lockstep: bool,
+    /// The share of each joint's speed limit the moves between views use, (0, 1] (the accelerations: its
+    /// square).
+    #[arg(long, default_value_t = 0.25)]
+    speed_fraction: f64,
     /// Take these poses instead of planning them: a JSON list of joint vectors (rad), in the order taken;
     /// each is checked inside the limits and with the board in view, and the set for its spread.
     #[arg(long, value_name = "FILE")]
@@ -66,23 +73,37 @@ pub struct CalibrateArgs {
 pub fn run(args: &CalibrateArgs) -> Result<()> {
     let config = args.config.load()?;
     let settings = settings_of(&config)?;
-    if !args.lockstep && !args.dry_run {
-        return Err(UsageError(
-            "calibrating through a running vservod is not available yet: --lockstep calibrates the simulated \
-             cell the configuration describes, --dry-run plans and checks the poses"
-                .into(),
-        )
-        .into());
-    }
-    let cell = capture::Simulated::new(&config)?;
     let given = args.poses.as_deref().map(read_poses).transpose()?;
-    let planned = plan_poses(&config, &settings, &cell, given.as_deref())?;
-    if args.dry_run {
-        return report::print_plan(&config, &planned, args.json);
-    }
-    let views = cell.take_views(&planned);
+    let solver_path = solver::locate(args.solver.as_deref())?;
     let out = output_file(args, &settings);
     let views_dir = args.views.clone().unwrap_or_else(|| out.with_file_name("calibration-views"));
+    let (views, truth) = if args.lockstep {
+        let cell = capture::Simulated::new(&config)?;
+        let board = cell.base_from_board();
+        let planned = plan_poses(&config, &settings, config.desired.joints, board, given.as_deref())?;
+        if args.dry_run {
+            return report::print_plan(&config, &planned, args.json);
+        }
+        (cell.take_views(&planned), Some((config.true_camera(), board)))
+    } else {
+        let mut cell = live::Running::connect(&config, args.speed_fraction)?;
+        // a dry run moves nothing: it waits for the arm to be at rest; a calibration holds it where it is
+        let (start, settled_ns) = if args.dry_run {
+            let settled_ns = cell.at_rest(LOCATE_REST_WAIT)?;
+            (cell.joints_now()?, settled_ns)
+        } else {
+            cell.hold_here()?
+        };
+        let located = Located { start, settled_ns };
+        let board = locate_board(&config, &settings, &mut cell, &located, args, &solver_path, &views_dir)?;
+        let planned = plan_poses(&config, &settings, located.start, board, given.as_deref())?;
+        if args.dry_run {
+            return report::print_plan(&config, &planned, args.json);
+        }
+        let views = cell.take_views(&planned)?;
+        cell.finish(&located.start)?;
+        (views, simulated_truth(&config))
+    };
     let measured: Vec<_> = views.iter().map(|v| v.base_from_tool).collect();
     spread::check(&measured).map_err(|e| UsageError(format!("the views taken: {e}")))?;
     dataset::write(
@@ -93,14 +114,66 @@ pub fn run(args: &CalibrateArgs) -> Result<()> {
         &settings.board,
         config.arm.joint_count(),
     )?;
-    let solver_path = solver::locate(args.solver.as_deref())?;
     let solved = solver::solve(&args.python, &solver_path, &views_dir)?;
     file::write(&out, &config, &solved)?;
-    let truth = args.lockstep.then(|| (config.true_camera(), cell.base_from_board()));
     let truth = truth.as_ref().map(|(camera, board)| (camera, board));
     let text = report::solved(&config, &solved, truth, &out, &views_dir, args.json);
     print_stdout(&text)?;
     Ok(())
+}
+
+/// How long a dry run waits for the arm to be at rest before it locates the board.
+const LOCATE_REST_WAIT: std::time::Duration = std::time::Duration::from_secs(20);
+
+/// Where the arm is, at rest, when the calibration starts.
+struct Located {
+    start: vservo_arm::JointVector,
+    /// The stamp of the joint state from which it is known at rest (a frame after it sees it so).
+    settled_ns: u64,
+}
+
+/// Where the board is in the arm's base, from a view where the arm is now: the solver finds the board's pose
+/// in the camera through the camera and mount the configuration believes (a few millimetres off on a cell not
+/// yet calibrated, which the plan's margins take).
+fn locate_board(
+    config: &Config,
+    settings: &CalibrationSettings,
+    cell: &mut live::Running,
+    at: &Located,
+    args: &CalibrateArgs,
+    solver_path: &std::path::Path,
+    views_dir: &std::path::Path,
+) -> Result<vservo_scene::IsometryMatrix3<f64>> {
+    let view = cell.take_view("locating the board", at.settled_ns)?;
+    let dir = views_dir.join("locate");
+    dataset::write(
+        &dir,
+        std::slice::from_ref(&view),
+        &config.camera,
+        &config.tool_from_camera,
+        &settings.board,
+        config.arm.joint_count(),
+    )?;
+    let located = solver::locate_board(&args.python, solver_path, &dir)?;
+    let camera_from_board = report::isometry(&located.camera_from_board.matrix)
+        .ok_or_else(|| anyhow::anyhow!("the solver's board pose is not a 4 × 4 matrix"))?;
+    eprintln!(
+        "the board: {} tags found, {:.3} m from the camera ({:.2} px RMS through the configured camera)",
+        located.tags_found,
+        camera_from_board.translation.vector.norm(),
+        located.rms_px
+    );
+    Ok(config.arm.base_from_tool(&at.start) * config.tool_from_camera * camera_from_board)
+}
+
+/// The truth of a simulated cell run by vservod (its own plant and simulated camera): the camera as
+/// `[camera.truth]` says it is, the board where the configuration's world puts it (unless a client moved it).
+fn simulated_truth(
+    config: &Config,
+) -> Option<(vservo_config::CameraTruth, vservo_scene::IsometryMatrix3<f64>)> {
+    let simulated = config.robot.driver == vservo_config::RobotDriver::Simulated
+        && config.vision.source == vservo_config::VisionSource::Simulated;
+    simulated.then(|| (config.true_camera(), config.base_from_board(&config.arm)))
 }
 
 /// `[calibration]`, which the command needs.
@@ -118,17 +191,18 @@ fn settings_of(config: &Config) -> Result<CalibrationSettings, UsageError> {
 fn plan_poses(
     config: &Config,
     settings: &CalibrationSettings,
-    cell: &capture::Simulated,
+    start: vservo_arm::JointVector,
+    base_from_board: vservo_scene::IsometryMatrix3<f64>,
     given: Option<&[Vec<f64>]>,
 ) -> Result<Vec<plan::PlannedPose>, UsageError> {
     let distance_m =
         settings.distance_m.unwrap_or_else(|| config.desired.camera_from_board.translation.vector.norm());
     let planner_cell = plan::Cell {
         arm: &config.arm,
-        start: config.desired.joints,
+        start,
         camera: &config.camera,
         tool_from_camera: config.tool_from_camera,
-        base_from_board: cell.base_from_board(),
+        base_from_board,
     };
     let planned = match given {
         Some(joints) => plan::given(&planner_cell, &settings.board, joints),

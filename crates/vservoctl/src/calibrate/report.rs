@@ -51,7 +51,7 @@ pub fn print_plan(config: &Config, planned: &[PlannedPose], json: bool) -> Resul
 }
 
 /// The solved transform as an isometry.
-fn isometry(rows: &[Vec<f64>]) -> Option<IsometryMatrix3<f64>> {
+pub fn isometry(rows: &[Vec<f64>]) -> Option<IsometryMatrix3<f64>> {
     let flat: Vec<f64> = rows.iter().flatten().copied().collect();
     if flat.len() != 16 {
         return None;

@@ -96,18 +96,48 @@ pub fn locate(given: Option<&Path>) -> Result<PathBuf, UsageError> {
 
 /// Runs `python solver dataset_dir`; a refusal (exit 2) is the user's to act on.
 pub fn solve(python: &Path, solver: &Path, dataset_dir: &Path) -> Result<Solved> {
+    let text = run(python, solver, &[dataset_dir.as_os_str()], "the views cannot be solved")?;
+    parse(&text)
+}
+
+/// Where the board is in a view.
+#[derive(Debug, Clone, Deserialize)]
+pub struct Located {
+    /// The board in the camera's frame, through the camera as the configuration believes it.
+    pub camera_from_board: SolvedTransform,
+    /// Tags found.
+    pub tags_found: usize,
+    /// Reprojection RMS of the corners (px).
+    pub rms_px: f64,
+}
+
+/// Runs `python solver --locate dataset_dir`: the board's pose in the dataset's first view.
+pub fn locate_board(python: &Path, solver: &Path, dataset_dir: &Path) -> Result<Located> {
+    let text = run(
+        python,
+        solver,
+        &[std::ffi::OsStr::new("--locate"), dataset_dir.as_os_str()],
+        "the board cannot be located",
+    )?;
+    parse(&text)
+}
+
+/// Runs the solver with `args`; its standard output, or its refusal (exit 2) prefixed by `refused`.
+fn run(python: &Path, solver: &Path, args: &[&std::ffi::OsStr], refused: &str) -> Result<String> {
     let output = Command::new(python)
         .arg(solver)
-        .arg(dataset_dir)
+        .args(args)
         .output()
         .with_context(|| format!("starting {} {}", python.display(), solver.display()))?;
     let stderr = String::from_utf8_lossy(&output.stderr);
     match output.status.code() {
-        Some(0) => {}
-        Some(2) => return Err(UsageError(format!("the views cannot be solved: {}", stderr.trim())).into()),
+        Some(0) => Ok(String::from_utf8_lossy(&output.stdout).into_owned()),
+        Some(2) => Err(UsageError(format!("{refused}: {}", stderr.trim())).into()),
         _ => bail!("the solver {} failed ({}): {}", solver.display(), output.status, stderr.trim()),
     }
-    let text = String::from_utf8_lossy(&output.stdout);
+}
+
+fn parse<T: serde::de::DeserializeOwned>(text: &str) -> Result<T> {
     serde_json::from_str(text.trim()).with_context(|| {
         format!("reading the solver's answer: {}", text.chars().take(200).collect::<String>())
     })

@@ -117,7 +117,12 @@ mod tests {
     use vservo_protocol::CommandKind;
 
     fn command(joints_rad: [f64; MAX_JOINTS], speed_fraction: f64) -> CommandMsg {
-        CommandMsg { joint_count: 6, joints_rad, speed_fraction, ..CommandMsg::new(CommandKind::MoveJoints, 1) }
+        CommandMsg {
+            joint_count: 6,
+            joints_rad,
+            speed_fraction,
+            ..CommandMsg::new(CommandKind::MoveJoints, 1)
+        }
     }
 
     #[test]
@@ -141,10 +146,13 @@ mod tests {
         ));
         let mut not_a_number = inside;
         not_a_number[4] = f64::NAN;
-        assert!(matches!(check(&command(not_a_number, 0.25), &arm), Err(MoveRefused::NotFinite { joint: 5, .. })));
+        assert!(matches!(
+            check(&command(not_a_number, 0.25), &arm),
+            Err(MoveRefused::NotFinite { joint: 5, .. })
+        ));
         let mut seventh = inside;
         seventh[6] = 0.2;
-        let refused = check(&command(seventh, 0.25), &arm).unwrap_err();
+        let refused = check(&command(seventh, 0.25), &arm).expect_err("no seventh joint");
         assert_eq!(refused, MoveRefused::NoSuchJoint { joint: 7, goal_rad: 0.2, joints: 6 });
         assert!(refused.to_string().contains("6-joint arm"), "{refused}");
         for fraction in [0.0, -0.1, 1.5, f64::NAN, f64::INFINITY] {

@@ -418,14 +418,13 @@ impl Daemon {
     /// the status line every `status_every`.
     fn report(&mut self, now: Instant, motion_nodes_healthy: bool) {
         let all_healthy = self.nodes.iter().all(|n| n.record.healthy(now));
-        let state =
-            health::daemon_state(
-                self.safety.holding(),
-                self.safety.joint_move().is_some(),
-                all_healthy,
-                self.robot,
-                self.readiness.ever_ready(),
-            );
+        let state = health::daemon_state(
+            self.safety.holding(),
+            self.safety.joint_move().is_some(),
+            all_healthy,
+            self.robot,
+            self.readiness.ever_ready(),
+        );
         let facts = StatusFacts {
             state,
             robot: self.robot,
