@@ -6,18 +6,22 @@
 # final feature error and the settling time; with --json the last line is one JSON object
 # (final_error_px, settling_time_s, …). Logs and the recorded features are left in target/mujoco-run/.
 #
-#   scripts/run-mujoco.sh [--config FILE] [--duration-s S] [--json] [--compare]
+#   scripts/run-mujoco.sh [--config FILE] [--duration-s S] [--json] [--compare] [--calibrate]
 #
 # --config runs another external cell (default config/mujoco.toml; config/mujoco-apriltag.toml is the AprilTag
 # through a distorting lens): the driver renders what `vservoctl scene` says of it (lens and target included).
 # --compare also runs the built-in simulation of the same cell in the lockstep simulator (vservoctl sim on
 # config/vservo.toml with the MuJoCo cell's pipeline delay: none, as MuJoCo's frames reach the servo within a
 # frame) and adds its settling time and the RMS difference of the two feature trajectories.
+# --calibrate (with config/mujoco-calibration.toml: the calibration board, and a camera whose truth is apart
+# from what is believed) servos for --duration-s, then runs `vservoctl calibrate` against the running cell
+# (the driver renders the camera's truth and its noise) and prints its report; with --json its last line.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 duration=20
 json=0
 compare=0
+calibrate=0
 config=config/mujoco.toml
 while [ $# -gt 0 ]; do
     case "$1" in
@@ -25,9 +29,10 @@ while [ $# -gt 0 ]; do
         --duration-s=*) duration="${1#*=}"; shift ;;
         --json) json=1; shift ;;
         --compare) compare=1; shift ;;
+        --calibrate) calibrate=1; shift ;;
         --config) config="$2"; shift 2 ;;
         --config=*) config="${1#*=}"; shift ;;
-        *) echo "run-mujoco: unknown argument $1 (expected --config FILE, --duration-s S, --json, --compare)" >&2
+        *) echo "run-mujoco: unknown argument $1 (expected --config FILE, --duration-s S, --json, --compare, --calibrate)" >&2
            exit 2 ;;
     esac
 done
@@ -61,8 +66,10 @@ trap cleanup EXIT
 
 "$bin/vservod" --config "$config" > "$out/vservod.log" 2>&1 &
 pids+=($!)
+noise=()
+[ "$calibrate" = 1 ] && noise=(--camera-noise)
 "$python" clients/python/mujoco_driver.py --scene "$out/scene.json" --instance "$instance" --fifo-priority 50 \
-    > "$out/driver.log" 2>&1 &
+    "${noise[@]}" > "$out/driver.log" 2>&1 &
 driver=$!
 pids+=("$driver")
 # the features from the first frame on
@@ -71,6 +78,22 @@ echo_pid=$!
 pids+=("$echo_pid")
 say "run-mujoco: vservod and the MuJoCo driver run; recording $duration s of features (logs in $out/)"
 wait "$echo_pid" || true
+if [ "$calibrate" = 1 ]; then
+    say "run-mujoco: calibrating the running cell (vservoctl calibrate)"
+    calibrated=0
+    "$vservoctl" calibrate --config "$config" --json --out "$out/calibration.yaml" --python "$python" \
+        > "$out/calibration.json" 2> "$out/calibration.log" || calibrated=$?
+    "$vservoctl" status --instance "$instance" > "$out/status.txt" 2>&1 || true
+    cleanup
+    trap - EXIT
+    if [ "$calibrated" != 0 ]; then
+        cat "$out/calibration.log" >&2
+        exit "$calibrated"
+    fi
+    say "$(cat "$out/calibration.log")"
+    tail -n 1 "$out/calibration.json"
+    exit 0
+fi
 "$vservoctl" status --instance "$instance" > "$out/status.txt" 2>&1 || true
 cleanup
 trap - EXIT

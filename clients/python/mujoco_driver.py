@@ -163,6 +163,27 @@ class Lens:
         return np.clip(top * (1 - ty) + bottom * ty + 0.5, 0, 255).astype(np.uint8)
 
 
+def tag_boxes(tag) -> str:
+    """A tag's black cells as thin black boxes on the board (the white ones are the board), each row's runs of
+    black cells one box."""
+    cell = tag["size_m"] / 8
+    (cx, cy) = tag["centre_in_board_m"]
+    boxes = []
+    for row, cells in enumerate(tag["black_cells"]):
+        column = 0
+        while column < len(cells):
+            if not cells[column]:
+                column += 1
+                continue
+            start = column
+            while column < len(cells) and cells[column]:
+                column += 1
+            centre = (start + column - 1) / 2
+            boxes.append(f'<geom type="box" size="{(column - start) * cell / 2:.9g} {cell / 2:.9g} 0.00005" '
+                         f'pos="{cx + (centre - 3.5) * cell:.9g} {cy + (row - 3.5) * cell:.9g} -0.00005" material="mark"/>')
+    return "".join(boxes)
+
+
 def build_mjcf(scene) -> str:
     """The arm (body i is DH frame i-1 turned by q_i about its z), the hand camera, the board with its marks.
 
@@ -195,13 +216,11 @@ def build_mjcf(scene) -> str:
     thickness = 0.005  # the white face is the board plane z = 0; the marks lie on it, 0.1 mm towards the camera
     marks = "".join(f'<geom type="cylinder" size="{board["mark_diameter_m"] / 2:.9g} 0.00005" pos="{x:.9g} {y:.9g} -0.00005" '
                     f'material="mark"/>' for x, y in board["marks_in_board_m"])
-    tag = board.get("apriltag")
-    if tag:  # an AprilTag target: its black cells as thin black boxes on the board (the white ones are the board)
-        cell = tag["size_m"] / 8
-        (cx, cy) = tag["centre_in_board_m"]
-        marks = "".join(f'<geom type="box" size="{cell / 2:.9g} {cell / 2:.9g} 0.00005" '
-                        f'pos="{cx + (column - 3.5) * cell:.9g} {cy + (row - 3.5) * cell:.9g} -0.00005" material="mark"/>'
-                        for row, cells in enumerate(tag["black_cells"]) for column, black in enumerate(cells) if black)
+    # an AprilTag target, and the calibration board printed around it (its tags include the target's)
+    grid = (board.get("calibration_grid") or {}).get("tags", [])
+    tags = grid or ([board["apriltag"]] if board.get("apriltag") else [])
+    if tags:
+        marks = "".join(tag_boxes(tag) for tag in tags)
     actuators = "".join(f'<position joint="q{i}" kp="1"/><velocity joint="q{i}" kv="1"/>' for i in range(1, 7))
     return f"""
 <mujoco model="vservo-cell">
@@ -295,6 +314,8 @@ class Camera(threading.Thread):
         self.model, self.scene, self.instance = model, scene, instance
         self.latest_state, self.stop, self.save_image = latest_state, stop, save_image
         self.render_ms, self.ready = [], threading.Event()
+        self.noise_sigma_gray = 0.0  # --camera-noise sets it
+        self.noise = np.random.default_rng(1)
 
     def grab(self, renderer, data, q):
         """The image (height × width, u8) the hand camera sees with the arm at q."""
@@ -302,7 +323,11 @@ class Camera(threading.Thread):
         mujoco.mj_kinematics(self.model, data)
         mujoco.mj_camlight(self.model, data)
         renderer.update_scene(data, camera="hand")
-        return self.lens.image(renderer.render()[:, :, 0])  # every surface is gray: red = green = blue
+        image = self.lens.image(renderer.render()[:, :, 0])  # every surface is gray: red = green = blue
+        if self.noise_sigma_gray > 0:  # the configured camera's noise (`vision.render.noise_sigma_gray`)
+            noisy = image + self.noise.normal(0.0, self.noise_sigma_gray, image.shape)
+            image = np.clip(np.rint(noisy), 0, 255).astype(np.uint8)
+        return image
 
     def run(self):
         width, height = self.scene["camera"]["width_px"], self.scene["camera"]["height_px"]
@@ -381,6 +406,8 @@ def main(argv=None) -> int:
     parser.add_argument("--save-image", help="write the first camera image here (PGM)")
     parser.add_argument("--fifo-priority", type=int, default=0, help="SCHED_FIFO priority of the arm loop (0: none)")
     parser.add_argument("--rtp-port", type=int, help="stream the camera as RTP raw video to 127.0.0.1:PORT instead")
+    parser.add_argument("--camera-noise", action="store_true",
+                        help="add the configured camera's Gaussian noise (the scene's camera.noise_sigma_gray) to each frame")
     options = parser.parse_args(argv)
     with open(options.scene) as file:
         scene = json.load(file)
@@ -411,6 +438,8 @@ def main(argv=None) -> int:
 
     camera = Camera(model, scene, instance, latest_state, stop, options.save_image, max(0, options.fifo_priority - 1),
                     options.rtp_port)
+    if options.camera_noise:
+        camera.noise_sigma_gray = float(scene["camera"].get("noise_sigma_gray", 0.0))
     period_ns = round(scene["robot"]["period_s"] * 1e9)
     camera.start()
     while not camera.ready.wait(0.1):

@@ -403,3 +403,29 @@ pub fn run_script_to_convergence(script: &str, extra: &[&str]) -> Value {
     assert!(summary["settling_time_s"].as_f64().is_some(), "{summary}");
     summary
 }
+
+/// The calibration issue's bars on a `vservoctl calibrate --json` report against `[camera.truth]`:
+/// `tool_from_camera` within 1 mm and 0.2°, fx and fy within 0.3 %, k1 within 0.01, from 12 views; and the
+/// premise, that the configuration believed a camera 5 mm, 2° and 2 % off.
+pub fn assert_calibration_within_the_bars(report: &Value) {
+    let number = |value: &Value, key: &str| value[key].as_f64().unwrap_or_else(|| panic!("{key} in {value}"));
+    let believed = &report["configured_error_against_truth"];
+    assert!((number(believed, "tool_from_camera_translation_mm") - 5.0).abs() < 0.01, "{believed}");
+    assert!((number(believed, "tool_from_camera_rotation_deg") - 2.0).abs() < 0.01, "{believed}");
+    assert!((number(believed, "fx_percent") + 1.96).abs() < 0.01, "{believed}");
+    assert_eq!(report["views"].as_array().map(Vec::len), Some(12), "every view used: {report}");
+    let error = &report["error_against_truth"];
+    assert!(number(error, "tool_from_camera_translation_mm") < 1.0, "{error}");
+    assert!(number(error, "tool_from_camera_rotation_deg") < 0.2, "{error}");
+    assert!(number(error, "fx_percent").abs() < 0.3, "{error}");
+    assert!(number(error, "fy_percent").abs() < 0.3, "{error}");
+    assert!(number(error, "k1").abs() < 0.01, "{error}");
+    assert!(number(report, "rms_px") < 0.5, "{report}");
+    // the last line's object has what the issue names
+    for key in ["fx", "fy", "k1"] {
+        assert!(report[key].is_number(), "{key}: {report}");
+    }
+    let tool_from_camera = &report["tool_from_camera"];
+    assert_eq!(tool_from_camera["translation_m"].as_array().map(Vec::len), Some(3), "{report}");
+    assert_eq!(tool_from_camera["quaternion_xyzw"].as_array().map(Vec::len), Some(4), "{report}");
+}

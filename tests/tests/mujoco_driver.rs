@@ -35,6 +35,26 @@ fn run_mujoco_with_an_apriltag_through_a_lens_converges_below_one_pixel() {
 }
 
 /// The driver started on its own, as a user runs it.
+/// The calibration through a running vservod on the reference driver (config/mujoco-calibration.toml: MuJoCo
+/// renders the calibration board and the camera as `[camera.truth]` says it is, with its noise): the bars.
+#[test]
+fn run_mujoco_calibrates_the_cell_within_the_bars() {
+    let _one = exclusive();
+    let bin_dir = vservo_system_tests::binary("vservod").parent().expect("target/<profile>").to_path_buf();
+    let out = std::process::Command::new(repository_root().join("scripts/run-mujoco.sh"))
+        .args(["--config", "config/mujoco-calibration.toml", "--calibrate", "--duration-s", "4", "--json"])
+        .env("VSERVO_BIN_DIR", &bin_dir)
+        .stdin(std::process::Stdio::null())
+        .output()
+        .expect("run-mujoco.sh runs");
+    let (stdout, stderr) = (String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr));
+    assert!(out.status.success(), "{stdout}\n{stderr}");
+    let report: serde_json::Value =
+        serde_json::from_str(stdout.lines().last().expect("a JSON line")).expect("the last line is JSON");
+    println!("{report}");
+    vservo_system_tests::assert_calibration_within_the_bars(&report);
+}
+
 fn start_driver(scene: &std::path::Path, instance: &str) -> Killed {
     let log = scene.with_extension(format!("driver-{}.log", std::process::id()));
     let child = Command::new(python())

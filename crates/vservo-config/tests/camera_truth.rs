@@ -46,8 +46,18 @@ fn bad_values_and_a_camera_that_is_not_simulated_are_refused_by_key() {
         let refusal = refused_key(with(truth));
         assert!(refusal.starts_with(key), "{truth}: {refusal}");
     }
-    let external = DEFAULT.replacen("source = \"simulated\"", "source = \"external\"", 1);
+    // recorded images were taken by a real camera; an external one may be a driver simulating the cell
+    let recorded = DEFAULT.replacen("source = \"simulated\"", "source = \"directory\"", 1).replacen(
+        "directory = \"\"",
+        "directory = \"/tmp\"",
+        1,
+    );
     let refusal =
-        refused_key(Config::from_toml(&format!("{external}\n[camera.truth]\nfx_px = 900.0\n"), "x.toml"));
+        refused_key(Config::from_toml(&format!("{recorded}\n[camera.truth]\nfx_px = 900.0\n"), "x.toml"));
     assert!(refusal.starts_with("camera.truth |") && refusal.contains("simulated"), "{refusal}");
+    let external = DEFAULT.replacen("source = \"simulated\"", "source = \"external\"", 1);
+    let simulating_driver =
+        Config::from_toml(&format!("{external}\n[camera.truth]\nfx_px = 900.0\n"), "x.toml")
+            .expect("an external camera may have a truth");
+    assert_eq!(simulating_driver.true_camera().intrinsics.fx_px(), 900.0);
 }

@@ -1,7 +1,11 @@
 //! `vservoctl scene`: the cell a configuration describes, as one JSON object, for drivers and simulators
 //! written outside this repository (the MuJoCo reference driver builds its model from it): the arm's
 //! standard-DH table or its URDF (file, links, joint names) and limits, the joints the scenario starts at, the camera on the hand and its
-//! intrinsics, the board with its marks and where it stands, the periods and the robot driver's settings.
+//! intrinsics, the board with its marks (and the calibration board printed on it) and where it stands, the
+//! periods and the robot driver's settings. The camera is the real one: where `[camera.truth]` says the camera
+//! and its mount differ from what the configuration believes, a driver that simulates the cell renders the
+//! truth, as vservo's own simulated camera does (`believed_camera` and `believed_tool_from_camera` give the
+//! belief).
 
 use anyhow::Result;
 use clap::Args;
@@ -46,6 +50,7 @@ pub fn run(args: &SceneArgs) -> Result<()> {
         arm.joints().iter().map(|l| f(&l.limits)).collect()
     };
     let board = &config.board;
+    let truth = config.true_camera();
     let scene = json!({
         "instance": config.instance,
         "arm": {
@@ -63,18 +68,11 @@ pub fn run(args: &SceneArgs) -> Result<()> {
         "start_joints_rad": &cell.start_joints().as_slice()[..arm.joint_count()],
         "desired_joints_rad": &config.desired.joints.as_slice()[..arm.joint_count()],
         "desired_features_px": config.desired.features.as_slice(),
-        "tool_from_camera": matrix4(&config.tool_from_camera),
+        "tool_from_camera": matrix4(&truth.tool_from_camera),
         "base_from_board": matrix4(&config.base_from_board(arm)),
-        "camera": {
-            // (focal_px: fy, for a driver that takes one focal length, as a vertical field of view)
-            "focal_px": config.camera.fy_px(),
-            "fx_px": config.camera.fx_px(),
-            "fy_px": config.camera.fy_px(),
-            "distortion": config.camera.distortion().coefficients(),
-            "principal_point_px": [config.camera.principal_point_px().x, config.camera.principal_point_px().y],
-            "width_px": config.camera.width_px(),
-            "height_px": config.camera.height_px(),
-        },
+        "camera": camera_json(&truth.intrinsics, config.vision.render.noise_sigma_gray),
+        "believed_tool_from_camera": matrix4(&config.tool_from_camera),
+        "believed_camera": camera_json(&config.camera, config.vision.render.noise_sigma_gray),
         "board": {
             "mark_diameter_m": board.mark_diameter_m,
             "marks_in_board_m": board.marks_in_board.iter().map(|p| [p.x, p.y]).collect::<Vec<_>>(),
@@ -86,6 +84,15 @@ pub fn run(args: &SceneArgs) -> Result<()> {
                 "size_m": tag.size_m(),
                 "centre_in_board_m": [tag.centre_in_board().x, tag.centre_in_board().y],
                 "black_cells": black_cells(tag),
+            })),
+            // the calibration board (`vservoctl board`) printed on it, its tags as the target's
+            "calibration_grid": board.calibration_grid.as_ref().map(|grid| json!({
+                "tags": grid.tags().map(|tag| json!({
+                    "id": tag.id(),
+                    "size_m": tag.size_m(),
+                    "centre_in_board_m": [tag.centre_in_board().x, tag.centre_in_board().y],
+                    "black_cells": black_cells(&tag),
+                })).collect::<Vec<_>>(),
             })),
         },
         "timing": {"vision_period_s": config.timing.vision_period_s},
@@ -101,6 +108,21 @@ pub fn run(args: &SceneArgs) -> Result<()> {
     });
     print_stdout(&format!("{}\n", serde_json::to_string_pretty(&scene)?))?;
     Ok(())
+}
+
+/// A camera's intrinsics and lens, and the noise of its images (gray levels).
+fn camera_json(camera: &vservo_scene::CameraIntrinsics, noise_sigma_gray: f64) -> Value {
+    json!({
+        // (focal_px: fy, for a driver that takes one focal length, as a vertical field of view)
+        "focal_px": camera.fy_px(),
+        "fx_px": camera.fx_px(),
+        "fy_px": camera.fy_px(),
+        "distortion": camera.distortion().coefficients(),
+        "principal_point_px": [camera.principal_point_px().x, camera.principal_point_px().y],
+        "width_px": camera.width_px(),
+        "height_px": camera.height_px(),
+        "noise_sigma_gray": noise_sigma_gray,
+    })
 }
 
 /// `file` as an absolute path (as given when it cannot be resolved: the driver then says it is missing).

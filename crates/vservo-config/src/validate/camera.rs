@@ -165,8 +165,10 @@ pub fn tool_from_camera(
 }
 
 /// `[camera.truth]`, if written: the simulated camera as it really is (a calibration's known answer), its
-/// intrinsics and its mount, each key the believed value where left out. Refused with a camera that is not
-/// simulated (a real camera is where it is; what it is, is for a calibration to find).
+/// intrinsics and its mount, each key the believed value where left out: vservo's simulated camera renders it,
+/// and so does a driver that simulates the cell from `vservoctl scene` (an external camera: the reference
+/// drivers). Refused with recorded images (a real camera is where it is; what it is, is for a calibration to
+/// find).
 pub fn truth(
     check: &Checker,
     c: &RawCamera,
@@ -174,11 +176,12 @@ pub fn truth(
     believed_tool_from_camera: &nalgebra::IsometryMatrix3<f64>,
 ) -> Result<Option<CameraTruth>, ConfigError> {
     let Some(t) = &c.truth else { return Ok(None) };
-    if c.source != RawCameraSource::Simulated {
+    if c.source == RawCameraSource::Directory {
         return Err(check.invalid(
             "camera.truth",
             "(given)",
-            "is the simulated camera's: a real camera is where it is (camera.source = \"simulated\" only)",
+            "is a simulated camera's: recorded images were taken by a real camera, which is where it is \
+             (camera.source = \"simulated\", or \"external\" for a driver that simulates the cell)",
         ));
     }
     let focal = |key: &str, v: Option<f64>, believed: f64| {

@@ -154,12 +154,8 @@ impl Running {
     /// for `vservoctl resume` (the daemon then takes the move on); a move ended by another client, a refusal
     /// or a timeout stops the calibration.
     pub fn move_to(&mut self, what: &str, goal: &JointVector) -> Result<u64> {
-        let joints = self.arm.joint_count();
         let from = self.joints_now()?;
-        let reply = self.client.move_joints(&goal.as_slice()[..joints], self.speed_fraction)?;
-        if !reply.accepted {
-            return Err(UsageError(format!("{what}: the daemon refused the move: {}", reply.reason)).into());
-        }
+        self.ask_to_move(what, goal)?;
         let expected = move_duration(&self.arm, &self.acceleration_limit, &from, goal, self.speed_fraction);
         let allowed = expected.mul_f64(2.0) + Duration::from_secs(10);
         let mut moving_for = Duration::ZERO;
@@ -200,6 +196,33 @@ impl Running {
                     );
                 }
             }
+        }
+    }
+
+    /// Sends the move; while the cell is held in a safe stop (which refuses it), waits for the resume first.
+    fn ask_to_move(&mut self, what: &str, goal: &JointVector) -> Result<()> {
+        let joints = self.arm.joint_count();
+        let started = Instant::now();
+        let mut told_held = false;
+        loop {
+            let reply = self.client.move_joints(&goal.as_slice()[..joints], self.speed_fraction)?;
+            if reply.accepted {
+                return Ok(());
+            }
+            let status = self.client.status(Duration::from_secs(2))?;
+            if DaemonState::try_from(status.state) != Ok(DaemonState::SafeStop) {
+                return Err(
+                    UsageError(format!("{what}: the daemon refused the move: {}", reply.reason)).into()
+                );
+            }
+            self.held(what, &mut told_held)?;
+            if started.elapsed() > HELD_WAIT {
+                bail!(
+                    "{what}: the cell stayed in a safe stop for {} s; calibration stopped",
+                    HELD_WAIT.as_secs()
+                );
+            }
+            std::thread::sleep(STATUS_EVERY);
         }
     }
 

@@ -166,14 +166,13 @@ fn locate_board(
     Ok(config.arm.base_from_tool(&at.start) * config.tool_from_camera * camera_from_board)
 }
 
-/// The truth of a simulated cell run by vservod (its own plant and simulated camera): the camera as
-/// `[camera.truth]` says it is, the board where the configuration's world puts it (unless a client moved it).
+/// The truth of a simulated cell (`[camera.truth]`, which only a simulated camera may have: vservo's, or a
+/// driver's that renders `vservoctl scene`): the camera as it says, the board where the configuration's world
+/// puts it (unless a client moved it).
 fn simulated_truth(
     config: &Config,
 ) -> Option<(vservo_config::CameraTruth, vservo_scene::IsometryMatrix3<f64>)> {
-    let simulated = config.robot.driver == vservo_config::RobotDriver::Simulated
-        && config.vision.source == vservo_config::VisionSource::Simulated;
-    simulated.then(|| (config.true_camera(), config.base_from_board(&config.arm)))
+    config.camera_truth.map(|truth| (truth, config.base_from_board(&config.arm)))
 }
 
 /// `[calibration]`, which the command needs.
