@@ -69,7 +69,7 @@ pids+=($!)
 noise=()
 [ "$calibrate" = 1 ] && noise=(--camera-noise)
 "$python" clients/python/mujoco_driver.py --scene "$out/scene.json" --instance "$instance" --fifo-priority 50 \
-    "${noise[@]}" > "$out/driver.log" 2>&1 &
+    ${noise[@]+"${noise[@]}"} > "$out/driver.log" 2>&1 &
 driver=$!
 pids+=("$driver")
 # the features from the first frame on

@@ -34,7 +34,6 @@ fn run_mujoco_with_an_apriltag_through_a_lens_converges_below_one_pixel() {
     run_script_to_convergence("run-mujoco.sh", &["--config", "config/mujoco-apriltag.toml"]);
 }
 
-/// The driver started on its own, as a user runs it.
 /// The calibration through a running vservod on the reference driver (config/mujoco-calibration.toml: MuJoCo
 /// renders the calibration board and the camera as `[camera.truth]` says it is, with its noise): the bars.
 #[test]
@@ -55,6 +54,7 @@ fn run_mujoco_calibrates_the_cell_within_the_bars() {
     vservo_system_tests::assert_calibration_within_the_bars(&report);
 }
 
+/// The driver started on its own, as a user runs it.
 fn start_driver(scene: &std::path::Path, instance: &str) -> Killed {
     let log = scene.with_extension(format!("driver-{}.log", std::process::id()));
     let child = Command::new(python())

@@ -157,14 +157,22 @@ fn read_rmrc(echo: Child) -> (Child, std::thread::JoinHandle<RmrcSeen>) {
     (echo, reader)
 }
 
-/// Which command the simulated arm followed over each period, from `vservoctl echo joint_state` started
-/// before the daemon: period's first tick → the tick the applied command answered (`None`: it held the arm).
-/// Periods the echo missed count as answered in time.
-fn read_applied(echo: Child) -> (Child, std::thread::JoinHandle<HashMap<u64, Option<u64>>>) {
+/// What the simulated arm did, from `vservoctl echo joint_state` started before the daemon: which command it
+/// followed over each period (period's first tick → the tick the applied command answered; `None`: it held the
+/// arm; periods the echo missed count as answered in time), and the ticks of the states that said it held the
+/// arm (`driver_status` holding: the rmrc starts its reference again at rest on them).
+#[derive(Debug, Default)]
+struct ArmSeen {
+    applied: HashMap<u64, Option<u64>>,
+    holding: HashSet<u64>,
+}
+
+fn read_applied(echo: Child) -> (Child, std::thread::JoinHandle<ArmSeen>) {
     let mut echo = echo;
     let stdout = echo.stdout.take().expect("piped");
+    let holding_code = u64::from(vservo_protocol::DriverStatus::Holding.code());
     let reader = std::thread::spawn(move || {
-        let mut applied = HashMap::new();
+        let mut seen = ArmSeen::default();
         for line in BufReader::new(stdout).lines() {
             let Ok(line) = line else { break };
             let Ok(message) = serde_json::from_str::<Value>(&line) else { continue };
@@ -172,10 +180,13 @@ fn read_applied(echo: Child) -> (Child, std::thread::JoinHandle<HashMap<u64, Opt
                 (message["tick"].as_u64(), message["applied_command_tick"].as_u64())
                 && tick > 0
             {
-                applied.insert(tick - 1, (answered != u64::MAX).then_some(answered));
+                seen.applied.insert(tick - 1, (answered != u64::MAX).then_some(answered));
+                if message["driver_status"].as_u64() == Some(holding_code) {
+                    seen.holding.insert(tick);
+                }
             }
         }
-        applied
+        seen
     });
     (echo, reader)
 }
@@ -187,7 +198,7 @@ fn read_applied(echo: Child) -> (Child, std::thread::JoinHandle<HashMap<u64, Opt
 fn lockstep_replaying(
     config: &TempConfig,
     rmrc: &RmrcSeen,
-    applied: &HashMap<u64, Option<u64>>,
+    arm: &ArmSeen,
     first_tick: u64,
 ) -> (Vec<(u64, [f64; 8])>, HashSet<u64>) {
     let text = std::fs::read_to_string(&config.path).expect("the configuration");
@@ -202,7 +213,8 @@ fn lockstep_replaying(
                 Some((after_start(capture)?, applied.saturating_sub(first_tick)))
             })
             .collect(),
-        command_applied: applied
+        command_applied: arm
+            .applied
             .iter()
             .filter_map(|(tick, answered)| {
                 Some((after_start(tick)?, answered.map(|answered| answered.saturating_sub(first_tick))))
@@ -211,11 +223,12 @@ fn lockstep_replaying(
         states_answered: rmrc
             .answered
             .iter()
-            .filter_map(|(tick, (epoch, stamp_ns))| {
-                let tick = after_start(tick)?;
+            .filter_map(|(answered, (epoch, stamp_ns))| {
+                let tick = after_start(answered)?;
+                let holding = arm.holding.contains(answered);
                 Some((
                     tick,
-                    vservo_lockstep::DriverTick { epoch: *epoch, tick, stamp_ns: *stamp_ns, holding: false },
+                    vservo_lockstep::DriverTick { epoch: *epoch, tick, stamp_ns: *stamp_ns, holding },
                 ))
             })
             .collect(),
@@ -270,7 +283,8 @@ fn the_daemon_runs_the_translation_step_like_the_lockstep_simulator() {
     }
     let rmrc = commands_reader.join().expect("the reader");
     let (taken_in, resyncs) = (&rmrc.taken_in, &rmrc.resyncs);
-    let applied = states_reader.join().expect("the reader");
+    let arm = states_reader.join().expect("the reader");
+    let applied = &arm.applied;
     assert_eq!(runtime.len(), frames, "{}", daemon.log());
 
     // the real-time run starts when its first image is taken; the arm is at rest until then
@@ -300,7 +314,7 @@ fn the_daemon_runs_the_translation_step_like_the_lockstep_simulator() {
     let nominal = lockstep_features(&config);
     let nominal_rms_px = rms_to(&|tick| interpolate(&nominal, tick as f64 * 0.001));
     // against the lockstep run that takes each twist in when the real-time run did
-    let (replayed, replayed_resyncs) = lockstep_replaying(&config, &rmrc, &applied, first_tick);
+    let (replayed, replayed_resyncs) = lockstep_replaying(&config, &rmrc, &arm, first_tick);
     // the rmrc's restarts at rest after the first state it answered in the lockstep run's span (where the
     // replay's rmrc starts)
     let first_answered =

@@ -48,7 +48,7 @@ pub use chain::{Chain, ChainJoint};
 pub use drive::Drive;
 pub use dynamics::DynamicsError;
 pub use ik::{ArmConfig, IkSolution, IkSolutions};
-pub use limits::{JointLimits, LimitViolation, LimitedQuantity};
+pub use limits::{GOAL_MARGIN_RAD, JointLimits, LimitViolation, LimitedQuantity};
 pub use link::{DhParameters, Link, LinkInertia};
 
 use nalgebra::{IsometryMatrix3, Matrix6, SMatrix, SVector, Vector3};

@@ -15,11 +15,21 @@ pub struct JointLimits {
     pub torque_max: f64,
 }
 
+/// How far inside its limits a joint's goal must be (rad): a goal on a limit would leave the arm's position check
+/// a rounding error from a fault.
+pub const GOAL_MARGIN_RAD: f64 = 0.01;
+
 impl JointLimits {
     /// Whether `q` lies inside the position range (bounds included).
     #[inline]
     pub fn position_ok(&self, q: f64) -> bool {
         q >= self.position_min && q <= self.position_max
+    }
+
+    /// Whether `q` may be a joint move's goal: [`GOAL_MARGIN_RAD`] inside the position range.
+    #[inline]
+    pub fn holds_goal(&self, q: f64) -> bool {
+        q >= self.position_min + GOAL_MARGIN_RAD && q <= self.position_max - GOAL_MARGIN_RAD
     }
 }
 

@@ -244,8 +244,9 @@ wire_code! {
         /// Safe stop: the servo sends zero twists, the rmrc ramps the reference to rest at its acceleration
         /// limits and holds it there, whatever twist arrives.
         SafeStop = 1, "safe_stop";
-        /// A joint move: the rmrc takes each joint to `goal_rad` at up to `speed_fraction` of its speed limit,
-        /// braking at its acceleration limit, and holds it there; the servo sends zero twists.
+        /// A joint move: the rmrc takes each joint to `goal_rad` at up to `speed_fraction` of its speed limit
+        /// (speeding up at `speed_fraction`² of its acceleration limit, stopping on the goal), and holds it there;
+        /// the servo sends zero twists.
         Moving = 2, "moving";
     }
 }

@@ -124,9 +124,9 @@ impl Interpolator {
         }
     }
 
-    /// Moves the joints to `goal` at up to `speed_fraction` of their speed limits and `speed_fraction`² of their
-    /// acceleration limits instead of following twists (`crate::joint_move`), until [`Interpolator::end_joint_move`]; twists set meanwhile are kept but not
-    /// followed.
+    /// Moves the joints to `goal` at up to `speed_fraction` of their speed limits, speeding up at
+    /// `speed_fraction`² of their acceleration limits, instead of following twists (`crate::joint_move`), until
+    /// [`Interpolator::end_joint_move`]; twists set meanwhile are kept but not followed.
     pub fn move_joints_to(&mut self, goal: JointVector, speed_fraction: f64) {
         self.joint_goal = Some((goal, speed_fraction));
     }
@@ -241,8 +241,11 @@ impl Interpolator {
 
 impl Interpolator {
     /// One tick of a joint move: each joint's rate towards the goal, its change limited joint by joint. The
-    /// share of the speed limits scales the move in time (as a controller's speed override does): the
-    /// accelerations by its square, so that a slow move also asks the drives for less torque.
+    /// share of the speed limits scales the move in time (as a controller's speed override does): speeding up
+    /// and the planned braking onto the goal at the square of the share of the acceleration limits, so that a
+    /// slow move also asks the drives for less torque. A joint faster than the move goes or moving away from its
+    /// goal (the move began while the arm moved, or replaced a faster one) brakes at its full limit, as a safe
+    /// stop does.
     fn step_joint_move(&mut self, goal: &JointVector, speed_fraction: f64) -> &Reference {
         let s = &self.settings;
         let dt = s.control_period_s;
@@ -253,8 +256,11 @@ impl Interpolator {
         let wanted =
             crate::joint_move::rates_toward(goal, &q, &self.limits[..joints], &acceleration, share, dt);
         let mut qd = self.reference.qd;
-        for j in 0..joints {
-            let step = acceleration[j] * dt;
+        for (j, limit) in self.limits[..joints].iter().enumerate() {
+            // faster than this move goes, or away from its goal: a motion the move did not start
+            let error = goal[j] - q[j];
+            let slowing = qd[j].abs() > share * limit.velocity_max || qd[j] * error < 0.0;
+            let step = if slowing { s.acceleration_limit[j] } else { acceleration[j] } * dt;
             qd[j] += (wanted[j] - qd[j]).clamp(-step, step);
         }
         if !qd.iter().all(|v| v.is_finite()) {

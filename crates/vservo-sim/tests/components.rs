@@ -261,3 +261,44 @@ fn a_joint_move_stops_on_its_goal_and_ends_at_rest_when_ended_half_way() {
     interpolator.step(seconds + 4.0);
     assert_eq!(interpolator.reference().q, rest, "and held");
 }
+
+/// A slow joint move asked for while the reference moves fast (servoing, or a faster move before it) brakes each
+/// joint at its full acceleration limit, as a safe stop does, not at the slow move's share of it; and it still
+/// stops on its goal.
+#[test]
+fn a_slow_joint_move_begun_while_moving_brakes_at_the_full_limit_and_stops_on_its_goal() {
+    let settings = InterpolatorSettings::new(0.085, 0.001);
+    let start = puma560::QN;
+    let limits: Vec<_> = puma560::puma560().limits().collect();
+    let mut interpolator = interpolator_with(start, settings);
+    // moving fast: joint 6 at 0.8 of its speed limit on a move towards a far goal
+    interpolator.move_joints_to(start + six_joints([0.0, 0.0, 0.0, 0.0, 0.0, 3.0]), 0.8);
+    let mut tick = 0;
+    while interpolator.reference().qd[5] < 0.79 * limits[5].velocity_max {
+        tick += 1;
+        assert!(tick < 5000, "never up to speed");
+        interpolator.step(tick as f64 * 0.001);
+    }
+    let speed = interpolator.reference().qd[5];
+    let here = interpolator.reference().q;
+    // a slow move to where the arm is now
+    interpolator.move_joints_to(here, 0.05);
+    let mut ticks_to_rest = 0;
+    while interpolator.reference().qd[5] > 0.0 {
+        ticks_to_rest += 1;
+        assert!(ticks_to_rest < 20_000, "never slowed down");
+        interpolator.step((tick + ticks_to_rest) as f64 * 0.001);
+    }
+    let full_limit_ticks = speed / (settings.acceleration_limit[5] * 0.001);
+    assert!(
+        f64::from(ticks_to_rest) <= full_limit_ticks.ceil() + 1.0,
+        "{ticks_to_rest} ticks to slow down, {full_limit_ticks:.0} at the full limit"
+    );
+    let mut more = 0;
+    while !interpolator.joint_move_arrived() {
+        more += 1;
+        assert!(more < 60_000, "never arrived: {}", interpolator.reference().q);
+        interpolator.step((tick + ticks_to_rest + more) as f64 * 0.001);
+    }
+    assert!((interpolator.reference().q - here).amax() < 1e-6);
+}

@@ -47,7 +47,7 @@ pub enum SafetyRefused {
     /// The nodes could not be told.
     #[error("publishing the cell mode: {0}")]
     Publish(String),
-    /// A joint move or its end asked for while the cell is held.
+    /// A joint move asked for while the cell is held.
     #[error("the cell is in a safe stop ({0}): `vservoctl resume` first")]
     Held(Fault),
     /// The end of a joint move asked for while none is in force.
@@ -185,16 +185,19 @@ impl Safety {
         })
     }
 
-    /// A client's end of a joint move: servoing again (refused while held, or when no move is in force).
-    pub fn servo(&mut self) -> Result<(), SafetyRefused> {
-        if let Some(fault) = self.monitor.latched() {
-            return Err(SafetyRefused::Held(fault.code));
-        }
+    /// A client's end of a joint move (refused when none is in force): servoing again; held in a safe stop,
+    /// the move is cancelled (nothing moves; the resume then servos instead of taking the move on). Whether the
+    /// cell is still held is returned.
+    pub fn servo(&mut self) -> Result<bool, SafetyRefused> {
         let before = self.joint_move.take().ok_or(SafetyRefused::NotMoving)?;
+        if self.monitor.latched().is_some() {
+            return Ok(true);
+        }
         self.publish(CellMode::Servoing, None).map_err(|e| {
             self.joint_move = Some(before);
             SafetyRefused::Publish(e.to_string())
-        })
+        })?;
+        Ok(false)
     }
 
     /// A client's `safe-stop`.

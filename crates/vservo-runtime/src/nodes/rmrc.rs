@@ -147,9 +147,7 @@ impl Rmrc {
         }
     }
 
-    /// Takes in the twists that came (refused ones counted; they bring the arm to rest), then acts on the cell
-    /// mode: a safe stop or the daemon gone gives a zero twist (and ends a joint move), a joint move takes the
-    /// reference to its goal instead of the twists, servoing ends a joint move.
+    /// Takes in the twists that came (refused ones counted; they bring the arm to rest).
     fn take_twists(&mut self, ports: &mut Ports, tick: u64, context: &NodeContext, counters: &Counters) {
         let key = context.seal_key.as_ref();
         while let Some(taken) = ports.twists.next_message() {
@@ -173,7 +171,13 @@ impl Rmrc {
                 None => counters.rejected(),
             }
         }
-        let mode = ports.cell_mode.mode(key, counters);
+    }
+
+    /// Acts on the cell mode: a safe stop or the daemon gone gives a zero twist (and ends a joint move), a joint
+    /// move takes the reference to its goal instead of the twists (a goal outside the limits refused and
+    /// counted), servoing ends a joint move.
+    fn apply_mode(&mut self, ports: &mut Ports, tick: u64, context: &NodeContext, counters: &Counters) {
+        let mode = ports.cell_mode.mode(context.seal_key.as_ref(), counters);
         // no daemon and so no servo to trust: as a safe stop
         let mode = if self.orphaned.is_orphaned() { ModeInForce::SafeStop } else { mode };
         match mode {
@@ -239,6 +243,7 @@ pub fn run(context: &NodeContext) -> Result<(), RuntimeError> {
         };
         rmrc.follow(&state, &q, &qd, counters);
         rmrc.take_twists(&mut ports, state.tick, context, counters);
+        rmrc.apply_mode(&mut ports, state.tick, context, counters);
         let message = rmrc.command(&state, &q, &qd);
         ports.send(message, context.seal_key.as_ref());
         let done = monotonic_ns();

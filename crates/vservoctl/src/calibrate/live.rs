@@ -4,11 +4,15 @@
 //! its goal for [`SETTLE`], with the joints of the joint state stamped nearest the frame's exposure. At the end
 //! the arm goes back to where it started and the cell servos again.
 //!
-//! What can go wrong stops the calibration with the reason and leaves the arm held where it is (the joint move
-//! in force): servoing from a calibration pose, where the target may be out of view, is the user's decision
-//! (`vservoctl servo`).
+//! What goes wrong before the first pose gives the cell back to the servo (the arm is where it was). Later, what
+//! goes wrong (a refusal, an arm that does not settle, no frame, SIGINT or SIGTERM) stops the calibration with
+//! the reason and leaves the arm held where it is (a joint move to its own joints; in a safe stop, the move
+//! cancelled, so that the resume servos instead of taking it on): servoing from a calibration pose, where the
+//! target may be out of view, is the user's decision (`vservoctl servo`).
 
 use std::collections::VecDeque;
+use std::sync::Arc;
+use std::sync::atomic::AtomicBool;
 use std::time::{Duration, Instant};
 
 use anyhow::{Context, Result, bail};
@@ -50,6 +54,8 @@ pub struct Running {
     image_size: (u32, u32),
     speed_fraction: f64,
     recent: VecDeque<JointStateMsg>,
+    /// Set on SIGINT or SIGTERM: the calibration stops, the arm held.
+    interrupted: Arc<AtomicBool>,
 }
 
 impl Running {
@@ -58,6 +64,8 @@ impl Running {
         if !(speed_fraction > 0.0 && speed_fraction <= 1.0) {
             return Err(UsageError(format!("--speed-fraction {speed_fraction}: must be in (0, 1]")).into());
         }
+        // before any other thread: the signals are taken by the flag's thread only
+        let interrupted = crate::stop::stop_flag()?;
         let client = Client::connect(&config.instance).with_context(|| {
             format!("{}: no running vservod of instance {:?}", config.origin, config.instance)
         })?;
@@ -86,7 +94,47 @@ impl Running {
             image_size: (config.camera.width_px(), config.camera.height_px()),
             speed_fraction,
             recent: VecDeque::with_capacity(KEPT_STATES),
+            interrupted,
         })
+    }
+
+    /// An error when SIGINT or SIGTERM came.
+    fn go_on(&self, what: &str) -> Result<()> {
+        if crate::stop::stopped(&self.interrupted) {
+            bail!("{what}: interrupted (SIGINT or SIGTERM)");
+        }
+        Ok(())
+    }
+
+    /// After an error before the first pose: the servo gets the cell back (the arm is where it was).
+    pub fn give_back(&mut self, error: anyhow::Error) -> anyhow::Error {
+        match self.client.servo() {
+            Ok(reply) if reply.accepted => error.context("nothing was moved; the cell servos again"),
+            Ok(reply) => {
+                error.context(format!("the cell could not be given back to the servo: {}", reply.reason))
+            }
+            Err(e) => error.context(format!("the cell could not be given back to the servo: {e}")),
+        }
+    }
+
+    /// After an error on the way: the arm held where it is (in a safe stop: the move cancelled).
+    pub fn stop_here(&mut self, error: anyhow::Error) -> anyhow::Error {
+        let held_here = self.joints_now().and_then(|here| {
+            let joints = self.arm.joint_count();
+            Ok(self.client.move_joints(&here.as_slice()[..joints], self.speed_fraction)?)
+        });
+        match held_here {
+            Ok(reply) if reply.accepted => error
+                .context("calibration stopped; the arm is held where it is (`vservoctl servo` servos again)"),
+            _ => match self.client.servo() {
+                Ok(reply) if reply.accepted => {
+                    error.context(format!("calibration stopped; {}", reply.reason))
+                }
+                Ok(reply) => error
+                    .context(format!("calibration stopped; the move could not be ended: {}", reply.reason)),
+                Err(e) => error.context(format!("calibration stopped; the move could not be ended: {e}")),
+            },
+        }
     }
 
     /// Keeps the joint states that came (this build's schema, the arm's joint count).
@@ -130,6 +178,7 @@ impl Running {
             if let Some(stamp_ns) = self.settled(None) {
                 return Ok(stamp_ns);
             }
+            self.go_on("waiting for the arm to come to rest")?;
             if started.elapsed() > wait {
                 return Err(UsageError(format!(
                     "the arm did not come to rest within {} s (is the cell still servoing towards its target?); \
@@ -165,6 +214,7 @@ impl Running {
         let mut last_poll = Instant::now();
         loop {
             std::thread::sleep(POLL);
+            self.go_on(what)?;
             let step = last_poll.elapsed();
             last_poll = Instant::now();
             self.drain_states()?;
@@ -189,8 +239,7 @@ impl Running {
                 moving_for += step;
                 if moving_for > allowed {
                     bail!(
-                        "{what}: the arm did not settle on its goal within {:.1} s (the move should take {:.1} s); \
-                         calibration stopped, the arm is held where it is (`vservoctl servo` servos again)",
+                        "{what}: the arm did not settle on its goal within {:.1} s (the move should take {:.1} s)",
                         allowed.as_secs_f64(),
                         expected.as_secs_f64()
                     );
@@ -216,6 +265,7 @@ impl Running {
                 );
             }
             self.held(what, &mut told_held)?;
+            self.go_on(what)?;
             if started.elapsed() > HELD_WAIT {
                 bail!(
                     "{what}: the cell stayed in a safe stop for {} s; calibration stopped",
@@ -298,6 +348,7 @@ impl Running {
             if started.elapsed() > FRAME_WAIT {
                 bail!("{what}: no camera frame within {} s of the arm settling", FRAME_WAIT.as_secs());
             }
+            self.go_on(what)?;
             std::thread::sleep(POLL);
         }
     }

@@ -87,21 +87,24 @@ pub fn run(args: &CalibrateArgs) -> Result<()> {
         (cell.take_views(&planned), Some((config.true_camera(), board)))
     } else {
         let mut cell = live::Running::connect(&config, args.speed_fraction)?;
-        // a dry run moves nothing: it waits for the arm to be at rest; a calibration holds it where it is
-        let (start, settled_ns) = if args.dry_run {
-            let settled_ns = cell.at_rest(LOCATE_REST_WAIT)?;
-            (cell.joints_now()?, settled_ns)
-        } else {
-            cell.hold_here()?
-        };
-        let located = Located { start, settled_ns };
-        let board = locate_board(&config, &settings, &mut cell, &located, args, &solver_path, &views_dir)?;
-        let planned = plan_poses(&config, &settings, located.start, board, given.as_deref())?;
+        let solver = SolverRun { python: &args.python, script: &solver_path, views_dir: &views_dir };
         if args.dry_run {
+            // a dry run moves nothing: it waits for the arm to be at rest
+            let settled_ns = cell.at_rest(LOCATE_REST_WAIT)?;
+            let located = Located { start: cell.joints_now()?, settled_ns };
+            let planned =
+                locate_and_plan(&config, &settings, &mut cell, &located, &solver, given.as_deref())?;
             return report::print_plan(&config, &planned, args.json);
         }
-        let views = cell.take_views(&planned)?;
-        cell.finish(&located.start)?;
+        let (start, settled_ns) = cell.hold_here().map_err(|e| cell.stop_here(e))?;
+        let located = Located { start, settled_ns };
+        let planned =
+            match locate_and_plan(&config, &settings, &mut cell, &located, &solver, given.as_deref()) {
+                Ok(planned) => planned,
+                Err(e) => return Err(cell.give_back(e)),
+            };
+        let views = cell.take_views(&planned).map_err(|e| cell.stop_here(e))?;
+        cell.finish(&located.start).map_err(|e| cell.stop_here(e))?;
         (views, simulated_truth(&config))
     };
     let measured: Vec<_> = views.iter().map(|v| v.base_from_tool).collect();
@@ -132,6 +135,26 @@ struct Located {
     settled_ns: u64,
 }
 
+/// The board located from where the arm is, and the poses planned around it (refused before anything moves).
+fn locate_and_plan(
+    config: &Config,
+    settings: &CalibrationSettings,
+    cell: &mut live::Running,
+    at: &Located,
+    solver: &SolverRun,
+    given: Option<&[Vec<f64>]>,
+) -> Result<Vec<plan::PlannedPose>> {
+    let board = locate_board(config, settings, cell, at, solver)?;
+    Ok(plan_poses(config, settings, at.start, board, given)?)
+}
+
+/// How the solver is run, and where the views go.
+struct SolverRun<'a> {
+    python: &'a std::path::Path,
+    script: &'a std::path::Path,
+    views_dir: &'a std::path::Path,
+}
+
 /// Where the board is in the arm's base, from a view where the arm is now: the solver finds the board's pose
 /// in the camera through the camera and mount the configuration believes (a few millimetres off on a cell not
 /// yet calibrated, which the plan's margins take).
@@ -140,12 +163,10 @@ fn locate_board(
     settings: &CalibrationSettings,
     cell: &mut live::Running,
     at: &Located,
-    args: &CalibrateArgs,
-    solver_path: &std::path::Path,
-    views_dir: &std::path::Path,
+    solver: &SolverRun,
 ) -> Result<vservo_scene::IsometryMatrix3<f64>> {
     let view = cell.take_view("locating the board", at.settled_ns)?;
-    let dir = views_dir.join("locate");
+    let dir = solver.views_dir.join("locate");
     dataset::write(
         &dir,
         std::slice::from_ref(&view),
@@ -154,7 +175,7 @@ fn locate_board(
         &settings.board,
         config.arm.joint_count(),
     )?;
-    let located = solver::locate_board(&args.python, solver_path, &dir)?;
+    let located = solver::locate_board(solver.python, solver.script, &dir)?;
     let camera_from_board = report::isometry(&located.camera_from_board.matrix)
         .ok_or_else(|| anyhow::anyhow!("the solver's board pose is not a 4 × 4 matrix"))?;
     eprintln!(

@@ -75,8 +75,11 @@ pub enum PlanRefused {
         /// The arm's joints.
         joints: usize,
     },
-    /// A given pose is outside a joint's limits.
-    #[error("pose {pose} is outside joint {joint}'s limits")]
+    /// A given pose is outside a joint's limits (less the margin a joint move's goal keeps).
+    #[error(
+        "pose {pose} is outside joint {joint}'s limits ({} rad inside them at least)",
+        vservo_arm::GOAL_MARGIN_RAD
+    )]
     OutsideLimits {
         /// Which pose (from 1).
         pose: usize,
@@ -115,7 +118,7 @@ pub fn given(cell: &Cell, grid: &TagGrid, joints: &[Vec<f64>]) -> Result<Vec<Pla
             .limits()
             .zip(q.iter())
             .enumerate()
-            .find(|(_, (limits, value))| !limits.position_ok(**value))
+            .find(|(_, (limits, value))| !limits.holds_goal(**value))
         {
             return Err(PlanRefused::OutsideLimits { pose: k + 1, joint: joint + 1 });
         }
@@ -206,7 +209,12 @@ pub fn plan(
             });
         }
         let base_from_tool = cell.base_from_board * board_from_camera * cell.tool_from_camera.inverse();
-        let Some(q) = cell.arm.reach(&base_from_tool, &near) else {
+        // the daemon moves the joints to goals inside the limits by a margin only: a solution closer is none
+        let reached = cell
+            .arm
+            .reach(&base_from_tool, &near)
+            .filter(|q| cell.arm.limits().zip(q.iter()).all(|(limits, value)| limits.holds_goal(*value)));
+        let Some(q) = reached else {
             // the optical axis against the board's normal
             let tilt = board_from_camera.rotation.matrix()[(2, 2)].acos();
             return Err(PlanRefused::Unreachable {
@@ -275,7 +283,7 @@ mod tests {
                 (arm.base_from_tool(&pose.q).to_homogeneous() - pose.base_from_tool.to_homogeneous()).norm()
                     < 1e-6
             );
-            assert!(arm.limits().zip(pose.q.iter()).all(|(limits, q)| limits.position_ok(*q)));
+            assert!(arm.limits().zip(pose.q.iter()).all(|(limits, q)| limits.holds_goal(*q)));
             assert!(pose.tags_in_view >= 28, "{}", pose.tags_in_view);
         }
         // 3 m away is beyond the PUMA's reach

@@ -1,13 +1,13 @@
 //! A client's joint move (`move_joints`, what `vservoctl calibrate` asks between its views), checked before the
-//! cell is told: every goal of the arm's joints finite and inside its limits with [`LIMIT_MARGIN_RAD`] to
-//! spare, no goal for a joint the arm does not have, and the share of the speed limits in (0, 1].
+//! cell is told: every goal of the arm's joints finite and inside its limits with
+//! [`vservo_arm::GOAL_MARGIN_RAD`] to spare, no goal for a joint the arm does not have, and the share of the
+//! speed limits in [[`MIN_SPEED_FRACTION`], 1].
 
-use vservo_arm::SerialArm;
-use vservo_protocol::{CommandMsg, MAX_JOINTS};
+use vservo_arm::{GOAL_MARGIN_RAD, SerialArm};
+use vservo_protocol::{CommandMsg, MAX_JOINTS, RobotState};
 
-/// How far inside its limits a joint's goal must be (rad): a goal on a limit would leave the arm's position
-/// check a rounding error from a fault.
-pub const LIMIT_MARGIN_RAD: f64 = 0.01;
+/// The smallest share of the speed limits a move may ask for: slower, a move would take hours.
+pub const MIN_SPEED_FRACTION: f64 = 0.01;
 
 /// A joint move the cell carries out.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -46,7 +46,7 @@ pub enum MoveRefused {
     /// A goal outside the joint's limits (less the margin).
     #[error(
         "joint {joint}: the goal {goal_rad:.4} rad is outside its limits [{min_rad:.4}, {max_rad:.4}] rad \
-         ({LIMIT_MARGIN_RAD} rad inside them at least)"
+         ({GOAL_MARGIN_RAD} rad inside them at least)"
     )]
     OutsideLimits {
         /// The joint (from 1).
@@ -76,8 +76,11 @@ pub enum MoveRefused {
         /// The arm's joints.
         joints: usize,
     },
+    /// The robot driver is not running (no joint state yet, or stalled).
+    #[error("the robot driver is {}: a joint move needs its joint states", .0.name())]
+    RobotNotRunning(RobotState),
     /// The share of the speed limits out of range.
-    #[error("the speed fraction {0} is not in (0, 1]")]
+    #[error("the speed fraction {0} is not in [{MIN_SPEED_FRACTION}, 1]")]
     SpeedFraction(f64),
 }
 
@@ -88,7 +91,7 @@ pub fn check(command: &CommandMsg, arm: &SerialArm) -> Result<JointMove, MoveRef
         return Err(MoveRefused::JointCount { given: command.joint_count, joints });
     }
     let fraction = command.speed_fraction;
-    if !(fraction > 0.0 && fraction <= 1.0) {
+    if !(MIN_SPEED_FRACTION..=1.0).contains(&fraction) {
         return Err(MoveRefused::SpeedFraction(fraction));
     }
     for (j, &goal_rad) in command.joints_rad.iter().enumerate() {
@@ -104,7 +107,7 @@ pub fn check(command: &CommandMsg, arm: &SerialArm) -> Result<JointMove, MoveRef
         }
         let limits = arm.links[j].limits;
         let (min_rad, max_rad) = (limits.position_min, limits.position_max);
-        if goal_rad < min_rad + LIMIT_MARGIN_RAD || goal_rad > max_rad - LIMIT_MARGIN_RAD {
+        if !limits.holds_goal(goal_rad) {
             return Err(MoveRefused::OutsideLimits { joint, goal_rad, min_rad, max_rad });
         }
     }
@@ -134,7 +137,7 @@ mod tests {
         assert_eq!((taken.goal_rad, taken.speed_fraction, taken.joints), (inside, 0.25, 6));
 
         let mut beyond = inside;
-        beyond[2] = limits.position_max - LIMIT_MARGIN_RAD / 2.0;
+        beyond[2] = limits.position_max - GOAL_MARGIN_RAD / 2.0;
         assert!(matches!(
             check(&command(beyond, 0.25), &arm),
             Err(MoveRefused::OutsideLimits { joint: 3, .. })
@@ -155,7 +158,7 @@ mod tests {
         let refused = check(&command(seventh, 0.25), &arm).expect_err("no seventh joint");
         assert_eq!(refused, MoveRefused::NoSuchJoint { joint: 7, goal_rad: 0.2, joints: 6 });
         assert!(refused.to_string().contains("6-joint arm"), "{refused}");
-        for fraction in [0.0, -0.1, 1.5, f64::NAN, f64::INFINITY] {
+        for fraction in [0.0, 0.005, -0.1, 1.5, f64::NAN, f64::INFINITY] {
             assert!(
                 matches!(check(&command(inside, fraction), &arm), Err(MoveRefused::SpeedFraction(_))),
                 "{fraction}"

@@ -24,7 +24,7 @@ use vservo_control::{Gains, LawGains};
 use vservo_protocol::seal::SealKey;
 use vservo_protocol::{
     CommandKind, CommandMsg, CommandReplyMsg, FEATURES, FeaturesMsg, GainsMsg, JointStateMsg, ObjectMsg,
-    SCHEMA_VERSION, Topic,
+    RobotState, SCHEMA_VERSION, Topic,
 };
 use vservo_runtime::gains::gains_message;
 use vservo_scene::FeatureVector;
@@ -210,11 +210,19 @@ impl Commander {
                 self.object(kind, command)
             }
             CommandKind::MoveJoints => {
+                // a driver that is not running would take the move up when it comes back, not the servo
+                if heard.conditions.robot != RobotState::Running {
+                    return Err(CommandRefused::Move(joint_move::MoveRefused::RobotNotRunning(
+                        heard.conditions.robot,
+                    )));
+                }
                 let joint_move = joint_move::check(command, &self.config.arm)?;
                 safety.move_joints(joint_move)?;
                 Ok(Accepted::Moving(joint_move))
             }
-            CommandKind::Servo => Ok(safety.servo().map(|()| Accepted::Servoing)?),
+            CommandKind::Servo => Ok(safety
+                .servo()
+                .map(|held| if held { Accepted::MoveCancelled } else { Accepted::Servoing })?),
         }
     }
 

@@ -53,6 +53,8 @@ pub enum Accepted {
     Moving(JointMove),
     /// A joint move ended: the cell servos again.
     Servoing,
+    /// A joint move cancelled while the cell is held in a safe stop.
+    MoveCancelled,
 }
 
 impl std::fmt::Display for Accepted {
@@ -74,6 +76,10 @@ impl std::fmt::Display for Accepted {
                 write!(f, "{joint_move}; it holds there until `servo` (a safe stop holds it on the way)")
             }
             Accepted::Servoing => write!(f, "the joint move ended: servoing again"),
+            Accepted::MoveCancelled => write!(
+                f,
+                "the joint move is cancelled; the cell stays in its safe stop, and `vservoctl resume` servos from where the arm is"
+            ),
         }
     }
 }
