@@ -195,10 +195,13 @@ fn a_running_cell_is_calibrated_through_vservod_within_the_bars_and_a_safe_stop_
             .spawn()
             .expect("vservoctl calibrate starts"),
     );
-    // while a move carries the arm to a pose (not the hold, not the settling): a safe stop holds it
+    // while a move carries the arm to a pose (after the hold and the board's location, not while settling): a
+    // safe stop holds it
+    let located = || std::fs::read_to_string(&stderr_file).is_ok_and(|text| text.contains("the board:"));
     assert!(
         wait_until(Duration::from_secs(30), || {
-            status(&instance).is_some_and(|s| s["state"] == "moving")
+            located()
+                && status(&instance).is_some_and(|s| s["state"] == "moving")
                 && fastest_joint_rad_s(&instance, "0.2") > 0.05
         }),
         "{}",

@@ -249,22 +249,29 @@ impl Running {
     }
 
     /// Sends the move; while the cell is held in a safe stop (which refuses it), waits for the resume first.
+    /// The status is published every 100 ms, so it can lag the daemon's decision (a safe stop, or a resume,
+    /// just taken): a refusal the status does not explain is asked again once before it stops the calibration.
     fn ask_to_move(&mut self, what: &str, goal: &JointVector) -> Result<()> {
         let joints = self.arm.joint_count();
         let started = Instant::now();
         let mut told_held = false;
+        let mut asked_again = false;
         loop {
             let reply = self.client.move_joints(&goal.as_slice()[..joints], self.speed_fraction)?;
             if reply.accepted {
                 return Ok(());
             }
             let status = self.client.status(Duration::from_secs(2))?;
-            if DaemonState::try_from(status.state) != Ok(DaemonState::SafeStop) {
+            let held = DaemonState::try_from(status.state) == Ok(DaemonState::SafeStop);
+            if !held && asked_again {
                 return Err(
                     UsageError(format!("{what}: the daemon refused the move: {}", reply.reason)).into()
                 );
             }
-            self.held(what, &mut told_held)?;
+            asked_again = !held;
+            if held {
+                self.held(what, &mut told_held)?;
+            }
             self.go_on(what)?;
             if started.elapsed() > HELD_WAIT {
                 bail!(
@@ -272,7 +279,7 @@ impl Running {
                     HELD_WAIT.as_secs()
                 );
             }
-            std::thread::sleep(STATUS_EVERY);
+            std::thread::sleep(2 * STATUS_EVERY);
         }
     }
 
