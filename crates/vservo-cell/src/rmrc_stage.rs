@@ -170,18 +170,13 @@ impl RmrcStage {
 
     /// Moves the joints to `goal` at up to `speed_fraction` of their speed limits instead of following twists,
     /// until [`RmrcStage::end_joint_move`] (the interpolator's joint move; a restart at rest drops it, so the
-    /// caller asks again while the move is in force). A goal outside the arm's joint limits or not finite, or a
-    /// share outside (0, 1], is refused (`false`): the move ends and a zero twist brings the arm to rest.
+    /// caller asks again while the move is in force). A goal the daemon would refuse (not inside the arm's
+    /// joint limits by `vservo_arm::GOAL_MARGIN_RAD`, or not finite) or a share outside
+    /// `vservo_sim::joint_move::speed_fraction_ok` is refused (`false`): the move ends and a zero twist brings
+    /// the arm to rest.
     pub fn move_joints_to(&mut self, goal: JointVector, speed_fraction: f64, tick: u64) -> bool {
-        let within = self
-            .arm
-            .links
-            .iter()
-            .take(self.arm.joint_count())
-            .zip(goal.iter())
-            .all(|(link, q)| link.limits.position_ok(*q))
-            && speed_fraction > 0.0
-            && speed_fraction <= 1.0;
+        let within = self.arm.limits().zip(goal.iter()).all(|(limits, q)| limits.holds_goal(*q))
+            && vservo_sim::joint_move::speed_fraction_ok(speed_fraction);
         if within {
             self.interpolator.move_joints_to(goal, speed_fraction);
         } else {

@@ -131,10 +131,12 @@ fn runs_without_allocating(config: vservo_config::Config) -> [LawFlags; COUNTED_
     });
     assert_eq!(per_frame, 0, "allocations in {COUNTED_FRAMES} frames of vision and servo");
     // the driver's states as the rmrc follows them: every tick, but none from tick 300 to 309 (the rmrc
-    // catches up), and a new driver epoch from tick 700 (the rmrc starts again at rest); the rmrc's first
-    // state is a start at rest too
+    // catches up), one at tick 400 saying the driver holds the arm (the rmrc starts again at rest), a joint move
+    // from tick 500 to 649, and a new driver epoch from tick 700 (the rmrc starts again at rest); the rmrc's
+    // first state is a start at rest too
     let period_ns = (config.robot.period_s * 1e9).round() as u64;
     let mut followed = [0u32; 3];
+    let goal = plant.state().q + vservo_arm::JointVector::from_element(0.05);
     let per_tick = allocations_in(|| {
         let mut last = None;
         for _ in 0..1000 {
@@ -147,11 +149,16 @@ fn runs_without_allocating(config: vservo_config::Config) -> [LawFlags; COUNTED_
                 }
                 continue;
             }
-            let at = DriverTick { epoch, tick, stamp_ns: tick * period_ns, holding: false };
+            let at = DriverTick { epoch, tick, stamp_ns: tick * period_ns, holding: tick == 400 };
             match rmrc.follow(at, &state.q, &state.qd) {
                 Following::Resynced => followed[0] += 1,
                 Following::Continued { missed_ticks: 0 } => followed[1] += 1,
                 Following::Continued { missed_ticks } => followed[2] += missed_ticks as u32,
+            }
+            if (500..650).contains(&tick) {
+                assert!(rmrc.move_joints_to(goal, 0.25, tick), "a goal inside the limits");
+            } else if tick == 650 {
+                rmrc.end_joint_move();
             }
             let command = rmrc.step(tick, &state.q, &state.qd);
             plant.apply(&command);
@@ -160,8 +167,8 @@ fn runs_without_allocating(config: vservo_config::Config) -> [LawFlags; COUNTED_
         plant.hold();
     });
     assert_eq!(per_tick, 0, "allocations in 1000 ticks of rmrc and plant");
-    // the first state, and the new epoch; the ten ticks asleep stepped through at once
-    assert_eq!((followed[0], followed[2]), (2, 10), "resynced, continued, ticks caught up: {followed:?}");
+    // the first state, the driver holding, and the new epoch; the ten ticks asleep stepped through at once
+    assert_eq!((followed[0], followed[2]), (3, 10), "resynced, continued, ticks caught up: {followed:?}");
     flags
 }
 

@@ -61,6 +61,11 @@ pub enum Topic {
 /// Telemetry publishers at once: one per node.
 pub const TELEMETRY_WRITERS: usize = 4;
 
+/// Below this joint speed (rad/s) the arm is at rest (the joint servo's last friction corrections stay below
+/// it): where the nodes stop when the daemon is gone, the daemon's shutdown waits, and `vservoctl calibrate`
+/// takes a view.
+pub const AT_REST_RAD_S: f64 = 0.01;
+
 /// Notifiers of an event service at once: the one writer of the data service it wakes for.
 pub const EVENT_NOTIFIERS: usize = 1;
 

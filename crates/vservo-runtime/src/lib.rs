@@ -73,6 +73,6 @@ impl NodeContext {
     }
 }
 
-/// Below this joint speed (rad/s) the arm is at rest (the joint servo's last friction corrections stay
-/// below it): a node that outlives the daemon stops there, and so does the daemon's own safe stop.
-pub const AT_REST_RAD_S: f64 = 0.01;
+/// Below this joint speed (rad/s) the arm is at rest: a node that outlives the daemon stops there, and so does
+/// the daemon's own safe stop (the rule is the protocol's, which clients share).
+pub use vservo_protocol::AT_REST_RAD_S;

@@ -1,13 +1,22 @@
 //! A move of the joints to a goal (what `vservoctl calibrate` asks of a running cell between its views): each
-//! joint runs at up to a share of its speed limit and brakes at its acceleration limit so as to stop on the
-//! goal (overshooting by less than 1e-5 rad where the cruise turns into braking between two ticks). The change of each joint's rate must then be limited joint by joint (a joint move
-//! keeps no common direction; scaling the change as a whole, as the twist path does, would slow one joint's
-//! braking for another's start and overshoot). Allocation-free, for the 1 ms path.
+//! joint runs at up to a share of its speed limit and brakes at a given acceleration so as to stop on the goal
+//! (overshooting by less than 1e-5 rad where the cruise turns into braking between two ticks). The change of
+//! each joint's rate must then be limited joint by joint (a joint move keeps no common direction; scaling the
+//! change as a whole, as the twist path does, would slow one joint's braking for another's start and
+//! overshoot). Allocation-free, for the 1 ms path.
 
 use vservo_arm::{JointLimits, JointVector};
 
 /// Below this distance (rad) a joint is on its goal.
 pub const ARRIVED_RAD: f64 = 1e-6;
+
+/// The smallest share of the speed limits a move may ask for: slower, a move would take hours.
+pub const MIN_SPEED_FRACTION: f64 = 0.01;
+
+/// Whether `speed_fraction` is a share of the speed limits a move may use: in [[`MIN_SPEED_FRACTION`], 1].
+pub fn speed_fraction_ok(speed_fraction: f64) -> bool {
+    (MIN_SPEED_FRACTION..=1.0).contains(&speed_fraction)
+}
 
 /// The joint rates for the coming tick of `dt` that take `q` towards `goal`: per joint, towards the goal at
 /// `speed_fraction` of its speed limit at most, no faster than braking at `acceleration` tick by tick allows

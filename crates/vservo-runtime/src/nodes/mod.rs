@@ -79,10 +79,10 @@ impl ModeInForce {
             CellMode::SafeStop => Some(Self::SafeStop),
             CellMode::Moving => {
                 let goal = vservo_arm::JointVector::from(message.goal_rad);
-                let finite = goal.iter().all(|v| v.is_finite()) && message.speed_fraction.is_finite();
                 let speed_fraction = message.speed_fraction;
-                (finite && speed_fraction > 0.0 && speed_fraction <= 1.0)
-                    .then_some(Self::Moving { goal, speed_fraction })
+                (goal.iter().all(|v| v.is_finite())
+                    && vservo_sim::joint_move::speed_fraction_ok(speed_fraction))
+                .then_some(Self::Moving { goal, speed_fraction })
             }
         }
     }
@@ -90,8 +90,8 @@ impl ModeInForce {
 
 /// The cell mode the daemon set: the newest sealed [`CellModeMsg`] heard so far (newest by the daemon's stamp,
 /// `vservo_protocol::freshness`). A message without the run's seal, of a mode this build does not know (or a
-/// move that is not finite or not at a share of the speed limits in (0, 1]), older than the one in force or
-/// stamped in the future, is refused and counted.
+/// move that is not finite or not at a share of the speed limits a move may use), older than the one in force
+/// or stamped in the future, is refused and counted.
 ///
 /// [`CellModeMsg`]: vservo_protocol::CellModeMsg
 pub(crate) struct CellModeFollower {

@@ -22,7 +22,7 @@ use image::GrayImage;
 use vservo_arm::{JointVector, SerialArm};
 use vservo_client::Client;
 use vservo_config::Config;
-use vservo_protocol::{CameraImageHeader, DaemonState, JointStateMsg, PixelFormat, Topic};
+use vservo_protocol::{AT_REST_RAD_S, CameraImageHeader, DaemonState, JointStateMsg, PixelFormat, Topic};
 
 use super::dataset::View;
 use super::plan::PlannedPose;
@@ -32,8 +32,6 @@ use crate::UsageError;
 pub const SETTLE: Duration = Duration::from_millis(500);
 /// A joint this close to its goal (rad) is on it (the joint servo's steady error is well below).
 pub const ON_GOAL_RAD: f64 = 0.005;
-/// A joint slower than this (rad/s) is at rest.
-pub const AT_REST_RAD_S: f64 = 0.01;
 /// How long a safe stop is waited out (for `vservoctl resume`) before the calibration gives up.
 const HELD_WAIT: Duration = Duration::from_secs(120);
 /// How long a camera frame is waited for once the arm has settled.

@@ -1,13 +1,11 @@
 //! A client's joint move (`move_joints`, what `vservoctl calibrate` asks between its views), checked before the
 //! cell is told: every goal of the arm's joints finite and inside its limits with
 //! [`vservo_arm::GOAL_MARGIN_RAD`] to spare, no goal for a joint the arm does not have, and the share of the
-//! speed limits in [[`MIN_SPEED_FRACTION`], 1].
+//! speed limits in [[`MIN_SPEED_FRACTION`], 1] (`vservo_sim::joint_move`, the rule the rmrc applies too).
 
 use vservo_arm::{GOAL_MARGIN_RAD, SerialArm};
 use vservo_protocol::{CommandMsg, MAX_JOINTS, RobotState};
-
-/// The smallest share of the speed limits a move may ask for: slower, a move would take hours.
-pub const MIN_SPEED_FRACTION: f64 = 0.01;
+use vservo_sim::joint_move::{MIN_SPEED_FRACTION, speed_fraction_ok};
 
 /// A joint move the cell carries out.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -91,7 +89,7 @@ pub fn check(command: &CommandMsg, arm: &SerialArm) -> Result<JointMove, MoveRef
         return Err(MoveRefused::JointCount { given: command.joint_count, joints });
     }
     let fraction = command.speed_fraction;
-    if !(MIN_SPEED_FRACTION..=1.0).contains(&fraction) {
+    if !speed_fraction_ok(fraction) {
         return Err(MoveRefused::SpeedFraction(fraction));
     }
     for (j, &goal_rad) in command.joints_rad.iter().enumerate() {
