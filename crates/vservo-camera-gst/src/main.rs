@@ -12,10 +12,7 @@ mod pipeline;
 mod publish;
 
 use std::process::ExitCode;
-use std::sync::Arc;
-use std::sync::atomic::{AtomicBool, Ordering};
 
-use anyhow::Context;
 use clap::Parser;
 
 /// The exit code when another live process holds the camera slot (vservod's for the same refusal).
@@ -35,7 +32,9 @@ struct Cli {
 fn main() -> ExitCode {
     init_logging();
     let cli = Cli::parse();
-    let result = stop_flag().and_then(|stop| publish::run(&cli.config, cli.stats_every_s, &stop));
+    let result = vservo_protocol::signals::stop_flag()
+        .map_err(anyhow::Error::from)
+        .and_then(|stop| publish::run(&cli.config, cli.stats_every_s, &stop));
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(error) => {
@@ -57,25 +56,4 @@ fn init_logging() {
         .with_writer(std::io::stderr)
         .with_ansi(std::io::stderr().is_terminal())
         .init();
-}
-
-/// SIGTERM and SIGINT set the flag: blocked in every thread (GStreamer's and iceoryx2's included, started
-/// after this) and taken by one thread with sigwait, so no handler of anyone else's replaces ours.
-fn stop_flag() -> anyhow::Result<Arc<AtomicBool>> {
-    use nix::sys::signal::{SigSet, Signal};
-    let stop = Arc::new(AtomicBool::new(false));
-    let mut signals = SigSet::empty();
-    signals.add(Signal::SIGTERM);
-    signals.add(Signal::SIGINT);
-    signals.thread_block().context("blocking SIGTERM and SIGINT")?;
-    let flag = stop.clone();
-    std::thread::Builder::new()
-        .name("signals".into())
-        .spawn(move || {
-            if signals.wait().is_ok() {
-                flag.store(true, Ordering::Relaxed);
-            }
-        })
-        .context("starting the signal thread")?;
-    Ok(stop)
 }

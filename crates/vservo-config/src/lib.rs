@@ -86,6 +86,8 @@ pub struct Config {
     pub reacquire: Reacquire,
     /// `[viewer]`: the live view in Foxglove.
     pub viewer: Viewer,
+    /// `[ros2]`: the bridge to a ROS 2 graph.
+    pub ros2: Ros2,
     /// `[camera.gstreamer]`: the GStreamer camera driver's settings, if the file has them.
     pub gstreamer: Option<GstreamerCamera>,
     /// `[calibration]`: the calibration board and poses, if the file has them.

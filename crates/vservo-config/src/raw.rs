@@ -31,6 +31,8 @@ pub struct RawConfig {
     #[serde(default)]
     pub viewer: RawViewer,
     #[serde(default)]
+    pub ros2: RawRos2,
+    #[serde(default)]
     pub target: RawTarget,
     #[serde(default)]
     pub calibration: Option<RawCalibration>,
@@ -115,6 +117,36 @@ pub struct RawViewer {
 impl Default for RawViewer {
     fn default() -> Self {
         Self { enabled: false, address: "127.0.0.1".into(), port: 8765, max_clients: 4 }
+    }
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct RawRos2 {
+    pub enabled: bool,
+    pub domain_id: i64,
+    pub namespace: String,
+    pub interface: String,
+    pub publish: Vec<crate::Ros2Topic>,
+    pub image_every: i64,
+    pub joint_state_rate_hz: f64,
+    pub joint_names: Vec<String>,
+    pub allow_motion: bool,
+}
+
+impl Default for RawRos2 {
+    fn default() -> Self {
+        Self {
+            enabled: false,
+            domain_id: 0,
+            namespace: String::new(),
+            interface: String::new(),
+            publish: crate::Ros2Topic::ALL.to_vec(),
+            image_every: 1,
+            joint_state_rate_hz: 100.0,
+            joint_names: Vec::new(),
+            allow_motion: false,
+        }
     }
 }
 

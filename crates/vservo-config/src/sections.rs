@@ -24,6 +24,66 @@ pub struct Viewer {
     pub max_clients: u32,
 }
 
+/// `[ros2]`: vservod starts `vservo-ros2`, the bridge to a ROS 2 graph over DDS (docs/ROS2.md), a client of
+/// the instance like any other. Optional in the file: off by default; on, it publishes but takes nothing that
+/// moves the arm unless `allow_motion`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Ros2 {
+    /// Whether vservod starts the bridge.
+    pub enabled: bool,
+    /// The DDS domain (ROS_DOMAIN_ID), 0–232.
+    pub domain_id: u16,
+    /// The ROS namespace of the bridge's topics and services: empty (none) or `/name[/name…]`.
+    pub namespace: String,
+    /// The one interface DDS uses, by its IP address (`127.0.0.1`: this machine only); `None`: every
+    /// interface.
+    pub interface: Option<std::net::IpAddr>,
+    /// What the bridge publishes.
+    pub publish: Vec<Ros2Topic>,
+    /// The camera's images: every n-th frame (1: all).
+    pub image_every: u32,
+    /// `joint_states` and the arm's `tf` at most this often (Hz; the driver's rate at most).
+    pub joint_state_rate_hz: f64,
+    /// The arm's joint names in ROS (a URDF's, for `robot_state_publisher`), from the base outwards; empty:
+    /// `joint1` … `jointN`.
+    pub joint_names: Vec<String>,
+    /// Whether the ROS graph may move the arm (`resume`, targets); `safe_stop` is always taken.
+    pub allow_motion: bool,
+}
+
+/// A topic the ROS 2 bridge can publish (`[ros2] publish`), by its name in the file.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Ros2Topic {
+    /// `joint_states` (`sensor_msgs/JointState`).
+    JointStates,
+    /// `tf` (`tf2_msgs/TFMessage`): the arm's links, the camera and the target as seen.
+    Tf,
+    /// `camera/image_raw` (`sensor_msgs/Image`).
+    Image,
+    /// `camera/camera_info` (`sensor_msgs/CameraInfo`).
+    CameraInfo,
+    /// `vservo/features` (`std_msgs/Float64MultiArray`).
+    Features,
+    /// `vservo/camera_twist` (`geometry_msgs/TwistStamped`).
+    CameraTwist,
+    /// `diagnostics` (`diagnostic_msgs/DiagnosticArray`).
+    Diagnostics,
+}
+
+impl Ros2Topic {
+    /// Every topic, the default.
+    pub const ALL: [Ros2Topic; 7] = [
+        Ros2Topic::JointStates,
+        Ros2Topic::Tf,
+        Ros2Topic::Image,
+        Ros2Topic::CameraInfo,
+        Ros2Topic::Features,
+        Ros2Topic::CameraTwist,
+        Ros2Topic::Diagnostics,
+    ];
+}
+
 /// `[reacquire]`: with fewer than three marks seen, the servo steers the camera back to its pose when it last
 /// saw all four, proportionally with speed caps. Optional in the file (the defaults below apply); read at
 /// start (a reload that changes it is refused).

@@ -13,6 +13,7 @@ pub mod instance_dir;
 pub mod layout;
 pub mod messages;
 pub mod seal;
+pub mod signals;
 pub mod stop_path;
 pub mod writers;
 

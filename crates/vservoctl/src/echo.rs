@@ -65,9 +65,9 @@ fn print_lines(
     mut next: impl FnMut() -> anyhow::Result<Option<Value>>,
 ) -> anyhow::Result<()> {
     // SIGINT and SIGTERM end it cleanly: the node's resources go with it
-    let stop = crate::stop::stop_flag()?;
+    let stop = vservo_protocol::signals::stop_flag()?;
     let mut printed = 0u64;
-    while !crate::stop::stopped(&stop) {
+    while !vservo_protocol::signals::stopped(&stop) {
         while let Some(line) = next()? {
             print_stdout(&format!("{line}\n"))?;
             printed += 1;

@@ -26,7 +26,6 @@ mod seconds_arg;
 mod sim;
 mod stability;
 mod status;
-mod stop;
 mod top;
 mod view;
 mod view_token;

@@ -63,7 +63,7 @@ impl Sink for McapSink {
 
 pub fn run(args: &RecordArgs) -> anyhow::Result<()> {
     // SIGINT and SIGTERM end the recording cleanly (the file gets its summary)
-    let stop = crate::stop::stop_flag()?;
+    let stop = vservo_protocol::signals::stop_flag()?;
     let until = args.duration_s.map(|s| Instant::now() + Duration::from_secs_f64(s));
     let over = || stop.load(Ordering::Relaxed) || until.is_some_and(|u| Instant::now() >= u);
     // started before the daemon, it waits for the instance (within its duration)

@@ -69,7 +69,7 @@ pub fn run(args: &ViewArgs) -> anyhow::Result<()> {
         return print_url(&args.instance);
     }
     // SIGINT and SIGTERM end it cleanly
-    let stop = crate::stop::stop_flag()?;
+    let stop = vservo_protocol::signals::stop_flag()?;
     // started before the daemon (or by it), it waits for the instance
     let connection = Connection::open_when_there(&args.instance, || stop.load(Ordering::Relaxed))?;
     let instance_dir = vservo_protocol::InstanceDir::locate(&connection.instance)?;

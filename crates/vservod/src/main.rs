@@ -8,13 +8,13 @@
 
 mod commands;
 mod faults;
+mod helpers;
 mod log_limit;
 mod node_process;
 mod safety;
 mod stop_path;
 mod supervisor;
 mod systemd;
-mod viewer;
 
 use std::path::PathBuf;
 use std::process::ExitCode;

@@ -11,6 +11,7 @@ mod desired;
 mod object;
 mod operation;
 mod robot;
+mod ros2;
 mod runtime;
 mod scenario;
 mod simulation;
@@ -41,6 +42,7 @@ pub fn validate(raw: RawConfig, file: &str) -> Result<Config, ConfigError> {
         board.calibration_grid = Some(grid);
     }
     let arm = arm::arm(&check, &raw.robot.arm)?;
+    let ros2 = ros2::ros2(&check, &raw.ros2, arm.joint_count())?;
     let desired = desired::desired(&check, &raw.desired, &arm, &camera, &board)?;
     let controller = controller::controller(&check, &raw.controller, &camera, &desired.features)?;
     let source = camera::source(&check, &raw.camera)?;
@@ -76,6 +78,7 @@ pub fn validate(raw: RawConfig, file: &str) -> Result<Config, ConfigError> {
         faults: operation::faults(&check, &raw.faults)?,
         reacquire,
         viewer: operation::viewer(&check, &raw.viewer)?,
+        ros2,
         gstreamer: raw.camera.gstreamer.as_ref().map(|g| camera::gstreamer(&check, g)).transpose()?,
         calibration,
     })

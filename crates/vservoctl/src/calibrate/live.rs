@@ -63,7 +63,7 @@ impl Running {
             return Err(UsageError(format!("--speed-fraction {speed_fraction}: must be in (0, 1]")).into());
         }
         // before any other thread: the signals are taken by the flag's thread only
-        let interrupted = crate::stop::stop_flag()?;
+        let interrupted = vservo_protocol::signals::stop_flag()?;
         let client = Client::connect(&config.instance).with_context(|| {
             format!("{}: no running vservod of instance {:?}", config.origin, config.instance)
         })?;
@@ -98,7 +98,7 @@ impl Running {
 
     /// An error when SIGINT or SIGTERM came.
     fn go_on(&self, what: &str) -> Result<()> {
-        if crate::stop::stopped(&self.interrupted) {
+        if vservo_protocol::signals::stopped(&self.interrupted) {
             bail!("{what}: interrupted (SIGINT or SIGTERM)");
         }
         Ok(())

@@ -110,6 +110,7 @@ pub fn diff(old: &Config, new: &Config) -> ConfigDiff {
         faults,
         reacquire,
         viewer,
+        ros2,
         // read by the GStreamer camera driver at its start, not by the daemon
         gstreamer: _,
         // read by `vservoctl calibrate`; a board printed on the simulated object is in `board`
@@ -157,6 +158,9 @@ pub fn diff(old: &Config, new: &Config) -> ConfigDiff {
         viewer != &new.viewer,
         &fields!("viewer", viewer, new.viewer; enabled, address, port, max_clients),
     );
+    let ros2_keys = fields!("ros2", ros2, new.ros2; enabled, domain_id, namespace, interface, publish,
+        image_every, allow_motion);
+    section(r, "ros2", ros2 != &new.ros2, &ros2_keys);
     ConfigDiff { live, restart_only: restart }
 }
 

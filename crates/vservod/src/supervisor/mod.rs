@@ -33,10 +33,10 @@ use vservo_runtime::clock::{PeriodicTimer, monotonic_ns};
 
 use crate::commands::{Commander, LoopState};
 use crate::faults::Conditions;
+use crate::helpers::Helper;
 use crate::safety::Safety;
 use crate::stop_path::{BurstEvent, Bursts};
 use crate::systemd::Systemd;
-use crate::viewer::Viewer;
 use cleanup::{Cleanup, CleanupClock};
 use health::{CameraSeen, CameraWatch, Readiness, RobotChange};
 use launch::{Launcher, Resume, Supervised};
@@ -118,7 +118,8 @@ struct Daemon {
     safety: Safety,
     commander: Commander,
     systemd: Systemd,
-    viewer: Viewer,
+    viewer: Helper,
+    ros2_bridge: Helper,
     nodes: Vec<Supervised>,
     /// Who holds each stream's writer slot.
     streams: StreamWatch,
@@ -208,7 +209,9 @@ impl Daemon {
             );
         }
         let nodes = start_nodes(&settings, &launcher, commander.config_text())?;
-        let viewer = Viewer::start(&config.viewer, &launcher.executable, &launcher.config_path, claim.base());
+        let (executable, config_path) = (&launcher.executable, &launcher.config_path);
+        let viewer = Helper::viewer(&config.viewer, executable, config_path, claim.base());
+        let ros2_bridge = Helper::ros2_bridge(&config.ros2, executable, config_path, claim.base());
         let now = Instant::now();
         Ok(Self {
             settings,
@@ -222,6 +225,7 @@ impl Daemon {
             commander,
             systemd: Systemd::new(),
             viewer,
+            ros2_bridge,
             nodes,
             streams,
             heard: LoopHeard::default(),
@@ -238,6 +242,7 @@ impl Daemon {
     fn cycle(&mut self, reload_requested: bool) {
         let now = Instant::now();
         self.viewer.poll();
+        self.ros2_bridge.poll();
         if reload_requested {
             self.reload();
         }
@@ -456,9 +461,10 @@ impl Daemon {
         }
     }
 
-    /// Stops the viewer and the nodes in order, the arm brought to rest first.
+    /// Stops the helpers and the nodes in order, the arm brought to rest first.
     fn stop(mut self) {
         self.viewer.stop();
+        self.ros2_bridge.stop();
         self.systemd.stopping();
         tracing::info!("stopping: zero twist, ramping the arm to rest");
         shutdown::stop_safely(

@@ -1,0 +1,136 @@
+//! The bridge's side of the ROS 2 graph: the DDS participant (in the configured domain, on one interface
+//! if asked), the `vservo` node in the namespace, a publisher for each topic configured and the two
+//! services.
+
+use anyhow::Context as _;
+use ros2_client::{
+    Context, MessageTypeName, Name, Node, NodeName, NodeOptions, Publisher, QosProfile, Server,
+    ServiceMapping, ServiceTypeName,
+};
+use vservo_config::{Ros2, Ros2Topic};
+use vservo_ros2::msg::{
+    CameraInfo, DiagnosticArray, Float64MultiArray, Image, JointState, RosType, TfMessage, TriggerRequest,
+    TriggerResponse, TwistStamped,
+};
+use vservo_ros2::{names, qos};
+
+/// A `std_srvs/Trigger` server.
+pub type TriggerServer = Server<TriggerRequest, TriggerResponse>;
+
+/// The publishers (each only if configured) and the services.
+pub struct Graph {
+    pub joint_states: Option<Publisher<JointState>>,
+    pub tf: Option<Publisher<TfMessage>>,
+    pub image: Option<Publisher<Image>>,
+    pub camera_info: Option<Publisher<CameraInfo>>,
+    pub features: Option<Publisher<Float64MultiArray>>,
+    pub camera_twist: Option<Publisher<TwistStamped>>,
+    pub diagnostics: Option<Publisher<DiagnosticArray>>,
+    pub safe_stop: TriggerServer,
+    pub resume: TriggerServer,
+    /// Kept alive with its entities.
+    _node: Node,
+    _context: Context,
+}
+
+impl Graph {
+    /// Joins the domain and creates the node, its publishers and its services.
+    pub fn open(settings: &Ros2) -> anyhow::Result<Self> {
+        let context = Context::from_domain_participant(participant(settings)?)
+            .map_err(|e| anyhow::anyhow!("creating the ROS 2 context: {e:?}"))?;
+        let namespace = if settings.namespace.is_empty() { "/" } else { settings.namespace.as_str() };
+        let node_name = NodeName::new(namespace, names::NODE)
+            .map_err(|e| anyhow::anyhow!("ros2.namespace {namespace:?}: {e:?}"))?;
+        let mut node = context
+            .new_node(node_name, NodeOptions::new().enable_rosout(false))
+            .map_err(|e| anyhow::anyhow!("creating the ROS 2 node: {e:?}"))?;
+        let mut maker = Maker { node: &mut node, settings };
+        let graph = Self {
+            joint_states: maker.publisher(Ros2Topic::JointStates, qos::SENSOR_DATA)?,
+            tf: maker.publisher(Ros2Topic::Tf, qos::TF)?,
+            image: maker.publisher(Ros2Topic::Image, qos::SENSOR_DATA)?,
+            camera_info: maker.publisher(Ros2Topic::CameraInfo, qos::SENSOR_DATA)?,
+            features: maker.publisher(Ros2Topic::Features, qos::SENSOR_DATA)?,
+            camera_twist: maker.publisher(Ros2Topic::CameraTwist, qos::SENSOR_DATA)?,
+            diagnostics: maker.publisher(Ros2Topic::Diagnostics, qos::RELIABLE)?,
+            safe_stop: maker.trigger_server(names::SAFE_STOP)?,
+            resume: maker.trigger_server(names::RESUME)?,
+            _node: node,
+            _context: context,
+        };
+        Ok(graph)
+    }
+}
+
+/// The DDS participant: in the configured domain; with `interface`, advertised and multicasting on that
+/// interface only.
+fn participant(settings: &Ros2) -> anyhow::Result<rustdds::DomainParticipant> {
+    let mut builder = rustdds::DomainParticipantBuilder::new(settings.domain_id);
+    if let Some(address) = settings.interface {
+        check_local(address)?;
+        builder = builder.with_only_networks([address]);
+    }
+    builder.build().with_context(|| format!("joining DDS domain {}", settings.domain_id))
+}
+
+/// `ros2.interface` must be one of this machine's addresses: DDS would otherwise be bound to nothing.
+fn check_local(address: std::net::IpAddr) -> anyhow::Result<()> {
+    let local = nix::ifaddrs::getifaddrs()
+        .context("listing this machine's interfaces")?
+        .filter_map(|interface| interface.address)
+        .filter_map(|socket| {
+            let v4 = socket.as_sockaddr_in().map(|s| std::net::IpAddr::V4(s.ip()));
+            v4.or_else(|| socket.as_sockaddr_in6().map(|s| std::net::IpAddr::V6(s.ip())))
+        })
+        .any(|ip| ip == address);
+    anyhow::ensure!(local, "ros2.interface = \"{address}\" is not an address of this machine's interfaces");
+    Ok(())
+}
+
+struct Maker<'a> {
+    node: &'a mut Node,
+    settings: &'a Ros2,
+}
+
+impl Maker<'_> {
+    /// A publisher on `topic` if the configuration publishes it.
+    fn publisher<T: RosType>(
+        &mut self,
+        topic: Ros2Topic,
+        qos: QosProfile,
+    ) -> anyhow::Result<Option<Publisher<T>>> {
+        if !self.settings.publish.contains(&topic) {
+            return Ok(None);
+        }
+        let name = self.name(names::topic(topic))?;
+        let ros_topic = self
+            .node
+            .create_topic(&name, MessageTypeName::new(T::PACKAGE, T::NAME), &qos)
+            .map_err(|e| anyhow::anyhow!("creating the topic {}: {e:?}", names::topic(topic)))?;
+        let publisher = self
+            .node
+            .create_publisher::<T>(&ros_topic, None)
+            .map_err(|e| anyhow::anyhow!("creating the publisher of {}: {e:?}", names::topic(topic)))?;
+        Ok(Some(publisher))
+    }
+
+    /// A `std_srvs/Trigger` service, with the request/reply mapping of ROS 2 on Cyclone DDS.
+    fn trigger_server(&mut self, relative: &str) -> anyhow::Result<TriggerServer> {
+        let name = self.name(relative)?;
+        self.node
+            .create_server::<TriggerRequest, TriggerResponse>(
+                ServiceMapping::Cyclone,
+                &name,
+                &ServiceTypeName::new("std_srvs", "Trigger"),
+                qos::SERVICES,
+                qos::SERVICES,
+            )
+            .map_err(|e| anyhow::anyhow!("creating the service {relative}: {e:?}"))
+    }
+
+    /// A name in the namespace, absolute.
+    fn name(&self, relative: &str) -> anyhow::Result<Name> {
+        let absolute = names::absolute(&self.settings.namespace, relative);
+        Name::parse(&absolute).map_err(|e| anyhow::anyhow!("the ROS name {absolute:?}: {e:?}"))
+    }
+}

@@ -1,0 +1,78 @@
+//! `vservo-ros2`: a vservo instance in a ROS 2 graph (docs/ROS2.md). vservod starts it with `[ros2]
+//! enabled = true` and restarts it if it ends; it also runs on its own: `vservo-ros2 --config FILE`.
+//!
+//! It publishes what the instance's services carry as ROS 2 messages (`joint_states`, `tf`, the camera's
+//! image and camera info, the features, the twist, `diagnostics`) and serves `vservo/safe_stop` (always
+//! taken: the instance's safe-stop path, which no client can crowd out) and `vservo/resume` (refused unless
+//! `[ros2] allow_motion`). It never writes to the loop's services.
+//!
+//! Exit codes: 0 after SIGINT/SIGTERM, 1 on an error, 2 on a configuration it cannot run.
+
+mod bridge;
+mod cell;
+mod graph;
+mod services;
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use clap::Parser;
+
+/// The bridge from a vservo instance to a ROS 2 graph over DDS.
+#[derive(Parser, Debug)]
+#[command(name = "vservo-ros2", version)]
+struct Cli {
+    /// The instance's configuration: its `[instance] name`, `[ros2]` and the cell's arm, camera and board.
+    #[arg(long, value_name = "FILE", default_value = "config/vservo.toml")]
+    config: PathBuf,
+    /// Started by this vservod: end when it does, however it ends.
+    #[arg(long, value_name = "PID", hide = true)]
+    daemon_pid: Option<i32>,
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    init_logging();
+    let config = match vservo_config::Config::load(&cli.config) {
+        Ok(config) => config,
+        Err(error) => {
+            tracing::error!("{error}");
+            return ExitCode::from(2);
+        }
+    };
+    let result = vservo_protocol::signals::stop_flag().map_err(anyhow::Error::from).and_then(|stop| {
+        if let Some(pid) = cli.daemon_pid {
+            end_with_daemon(pid, &stop)?;
+        }
+        bridge::run(&config, &cli.config, &stop)
+    });
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(error) => {
+            tracing::error!("{error:#}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+/// However the daemon ends (SIGKILL included), the bridge gets SIGTERM and stops; if it has already gone,
+/// the bridge stops at once.
+fn end_with_daemon(daemon_pid: i32, stop: &std::sync::atomic::AtomicBool) -> anyhow::Result<()> {
+    use anyhow::Context;
+    nix::sys::prctl::set_pdeathsig(nix::sys::signal::Signal::SIGTERM).context("prctl(PR_SET_PDEATHSIG)")?;
+    if nix::unistd::getppid().as_raw() != daemon_pid {
+        stop.store(true, std::sync::atomic::Ordering::Relaxed);
+    }
+    Ok(())
+}
+
+fn init_logging() {
+    use std::io::IsTerminal;
+    let filter = tracing_subscriber::EnvFilter::try_from_default_env()
+        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("info,rustdds=warn,ros2_client=warn"));
+    tracing_subscriber::fmt()
+        .with_env_filter(filter)
+        .with_writer(std::io::stderr)
+        .with_ansi(std::io::stderr().is_terminal())
+        .init();
+}

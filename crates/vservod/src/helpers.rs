@@ -1,0 +1,123 @@
+//! The helper processes vservod starts when the configuration asks for them, restarts if they end and stops
+//! with the cell: the live view (`[viewer] enabled = true`: `vservoctl view` on the configured address and
+//! port) and the ROS 2 bridge (`[ros2] enabled = true`: `vservo-ros2`), both installed next to vservod. A
+//! helper is a client of the instance like any other: it reads with iceoryx2's safe overflow, so a slow or
+//! absent helper never slows the loop, and its failure is a warning, never a fault of the cell.
+
+use std::path::Path;
+use std::process::{Child, Command, Stdio};
+use std::time::{Duration, Instant};
+
+use nix::sys::signal::{Signal, kill};
+use nix::unistd::Pid;
+
+/// After a helper ended, wait this long before starting it again.
+const RESTART_AFTER: Duration = Duration::from_secs(5);
+
+/// A helper process, if the configuration asks for it.
+pub struct Helper {
+    /// What it is, for the log.
+    what: &'static str,
+    command: Option<Command>,
+    child: Option<Child>,
+    restart_at: Option<Instant>,
+}
+
+/// A helper's command: the program next to vservod, run as vservod's own processes are.
+fn helper_command(vservod: &Path, program: &str, runtime_base: &Path) -> Command {
+    let mut command = Command::new(vservod.with_file_name(program));
+    command
+        .env(vservo_protocol::instance_dir::RUNTIME_DIR_ENV, runtime_base)
+        .env_remove("NOTIFY_SOCKET")
+        .env_remove("WATCHDOG_USEC")
+        .env_remove("WATCHDOG_PID")
+        .stdin(Stdio::null());
+    command
+}
+
+impl Helper {
+    /// The Foxglove viewer, started when `settings.enabled`.
+    pub fn viewer(
+        settings: &vservo_config::Viewer,
+        vservod: &Path,
+        config_path: &Path,
+        runtime_base: &Path,
+    ) -> Self {
+        let command = settings.enabled.then(|| {
+            let mut command = helper_command(vservod, "vservoctl", runtime_base);
+            command
+                .arg("view")
+                .arg("--config")
+                .arg(config_path)
+                .arg("--address")
+                .arg(&settings.address)
+                .arg("--port")
+                .arg(settings.port.to_string())
+                .arg("--max-clients")
+                .arg(settings.max_clients.to_string());
+            command
+        });
+        Self::start("the Foxglove viewer (vservoctl view)", command)
+    }
+
+    /// The ROS 2 bridge, started when `settings.enabled`.
+    pub fn ros2_bridge(
+        settings: &vservo_config::Ros2,
+        vservod: &Path,
+        config_path: &Path,
+        runtime_base: &Path,
+    ) -> Self {
+        let command = settings.enabled.then(|| {
+            let mut command = helper_command(vservod, "vservo-ros2", runtime_base);
+            command.arg("--config").arg(config_path).arg("--daemon-pid").arg(std::process::id().to_string());
+            command
+        });
+        Self::start("the ROS 2 bridge (vservo-ros2)", command)
+    }
+
+    fn start(what: &'static str, command: Option<Command>) -> Self {
+        let mut helper = Self { what, command, child: None, restart_at: Some(Instant::now()) };
+        helper.poll();
+        helper
+    }
+
+    /// Starts the helper again once it has been gone for [`RESTART_AFTER`]; call every supervisor cycle.
+    pub fn poll(&mut self) {
+        let Some(command) = self.command.as_mut() else { return };
+        if let Some(child) = &mut self.child
+            && let Ok(Some(status)) = child.try_wait()
+        {
+            tracing::warn!(%status, restart_in_s = RESTART_AFTER.as_secs_f64(), "{} ended", self.what);
+            self.child = None;
+            self.restart_at = Some(Instant::now() + RESTART_AFTER);
+        }
+        if self.child.is_none() && self.restart_at.is_some_and(|at| Instant::now() >= at) {
+            self.restart_at = None;
+            match command.spawn() {
+                Ok(child) => {
+                    tracing::info!(pid = child.id(), "{} started", self.what);
+                    self.child = Some(child);
+                }
+                Err(error) => {
+                    tracing::warn!(%error, "{} could not be started", self.what);
+                    self.restart_at = Some(Instant::now() + RESTART_AFTER);
+                }
+            }
+        }
+    }
+
+    /// Stops the helper (SIGTERM, then SIGKILL after a second).
+    pub fn stop(&mut self) {
+        let Some(mut child) = self.child.take() else { return };
+        let _ = kill(Pid::from_raw(child.id() as i32), Signal::SIGTERM);
+        let until = Instant::now() + Duration::from_secs(1);
+        while Instant::now() < until {
+            if let Ok(Some(_)) = child.try_wait() {
+                return;
+            }
+            std::thread::sleep(Duration::from_millis(10));
+        }
+        let _ = child.kill();
+        let _ = child.wait();
+    }
+}

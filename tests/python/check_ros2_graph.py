@@ -1,0 +1,163 @@
+"""A ROS 2 node on Cyclone DDS (ROS 2's names and types on the wire, clients/python/ros2_types.py) that
+listens to vservo's ROS 2 bridge for a while, calls its services, and prints one JSON object of what it got:
+per topic the count and the newest sample; per service call the reply. The test judges it
+(tests/tests/ros2_bridge.rs).
+
+    check_ros2_graph.py --domain D [--namespace /ns] [--seconds S] [--before vservo/safe_stop]
+                        [--settle-s S] [--after vservo/resume ...]
+
+It waits for the first joint state, calls the `--before` services, waits `--settle-s`, listens for
+`--seconds`, then calls the `--after` services.
+"""
+
+import argparse
+import json
+import os
+import random
+import sys
+import time
+
+sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "..", "clients", "python"))
+
+from cyclonedds.core import Policy, Qos  # noqa: E402
+from cyclonedds.domain import DomainParticipant  # noqa: E402
+from cyclonedds.pub import DataWriter  # noqa: E402
+from cyclonedds.sub import DataReader  # noqa: E402
+from cyclonedds.topic import Topic  # noqa: E402
+from cyclonedds.util import duration  # noqa: E402
+
+import ros2_types as ros  # noqa: E402
+
+TOPICS = {
+    "joint_states": ros.JointState,
+    "tf": ros.TFMessage,
+    "camera/image_raw": ros.Image,
+    "camera/camera_info": ros.CameraInfo,
+    "vservo/features": ros.Float64MultiArray,
+    "vservo/camera_twist": ros.TwistStamped,
+    "diagnostics": ros.DiagnosticArray,
+}
+
+
+def stamp_s(header):
+    return header.stamp.sec + header.stamp.nanosec * 1e-9
+
+
+def summary(name, sample):
+    """What the test checks of a topic's newest sample."""
+    if name == "joint_states":
+        return {"stamp_s": stamp_s(sample.header), "name": list(sample.name), "position": list(sample.position),
+                "velocity": list(sample.velocity), "effort": list(sample.effort)}
+    if name == "camera/image_raw":
+        data = bytes(sample.data)
+        return {"stamp_s": stamp_s(sample.header), "frame_id": sample.header.frame_id, "width": sample.width,
+                "height": sample.height, "encoding": sample.encoding, "step": sample.step, "bytes": len(data),
+                "distinct_values": len(set(data))}
+    if name == "camera/camera_info":
+        return {"stamp_s": stamp_s(sample.header), "frame_id": sample.header.frame_id, "width": sample.width,
+                "height": sample.height, "distortion_model": sample.distortion_model, "d": list(sample.d),
+                "k": list(sample.k), "p": list(sample.p)}
+    if name == "vservo/features":
+        return {"data": [None if v != v else v for v in sample.data],
+                "dims": [(d.label, d.size, d.stride) for d in sample.layout.dim]}
+    if name == "vservo/camera_twist":
+        t = sample.twist
+        return {"stamp_s": stamp_s(sample.header), "frame_id": sample.header.frame_id,
+                "linear": [t.linear.x, t.linear.y, t.linear.z], "angular": [t.angular.x, t.angular.y, t.angular.z]}
+    if name == "diagnostics":
+        return {"stamp_s": stamp_s(sample.header),
+                "status": [{"name": s.name, "level": s.level, "message": s.message,
+                            "values": {kv.key: kv.value for kv in s.values}} for s in sample.status]}
+    return None
+
+
+def transform_json(t):
+    tr, q = t.transform.translation, t.transform.rotation
+    return {"stamp_s": stamp_s(t.header), "parent": t.header.frame_id, "child": t.child_frame_id,
+            "translation": [tr.x, tr.y, tr.z], "rotation_xyzw": [q.x, q.y, q.z, q.w]}
+
+
+def call(participant, namespace, service, qos, timeout_s=5.0):
+    """Calls a std_srvs/Trigger service as rmw_cyclonedds does; the reply that echoes our id and number."""
+    request_topic, reply_topic = ros.service_names(namespace, service)
+    writer = DataWriter(participant, Topic(participant, request_topic, ros.TriggerRequest), qos=qos)
+    reader = DataReader(participant, Topic(participant, reply_topic, ros.TriggerResponse), qos=qos)
+    client_id = [random.randrange(256) for _ in range(8)]
+    number = random.randrange(1, 1 << 40)
+    deadline = time.time() + timeout_s
+    # the bridge's reader must have matched ours before a request can reach it
+    while time.time() < deadline and not writer.get_matched_subscriptions():
+        time.sleep(0.05)
+    time.sleep(0.2)
+    writer.write(ros.TriggerRequest(client_id=client_id, sequence_number=number))
+    foreign = 0
+    while time.time() < deadline:
+        for reply in reader.take(10):
+            if list(reply.client_id) == client_id and reply.sequence_number == number:
+                return {"answered": True, "success": reply.success, "message": reply.message, "foreign": foreign}
+            foreign += 1
+        time.sleep(0.02)
+    return {"answered": False, "foreign": foreign}
+
+
+def main():
+    parser = argparse.ArgumentParser()
+    parser.add_argument("--domain", type=int, required=True)
+    parser.add_argument("--namespace", default="")
+    parser.add_argument("--seconds", type=float, default=3.0)
+    parser.add_argument("--before", action="append", default=[], help="a service to call before listening")
+    parser.add_argument("--settle-s", type=float, default=1.5, help="the wait after the --before calls")
+    parser.add_argument("--after", action="append", default=[], help="a service to call after listening")
+    parser.add_argument("--wait-s", type=float, default=20.0, help="the longest wait for the first joint state")
+    args = parser.parse_args()
+
+    participant = DomainParticipant(args.domain)
+    reliable = Qos(Policy.Reliability.Reliable(duration(milliseconds=100)), Policy.History.KeepLast(10))
+    best_effort = Qos(Policy.Reliability.BestEffort, Policy.History.KeepLast(10))
+    readers = {}
+    for name, kind in TOPICS.items():
+        qos = reliable if name in ("tf", "diagnostics") else best_effort
+        readers[name] = DataReader(participant, Topic(participant, ros.topic_name(args.namespace, name), kind), qos=qos)
+
+    counts = {name: 0 for name in TOPICS}
+    newest = {}
+    frames = {}
+
+    def take(keep):
+        for name, reader in readers.items():
+            for sample in reader.take(100):
+                if not keep:
+                    continue
+                counts[name] += 1
+                newest[name] = sample
+                if name == "tf":
+                    for t in sample.transforms:
+                        frames[f"{t.header.frame_id}->{t.child_frame_id}"] = transform_json(t)
+
+    started = time.time()
+    while time.time() - started < args.wait_s and not readers["joint_states"].take(1):
+        time.sleep(0.01)
+    calls = []
+    for service in args.before:
+        calls.append({"service": service, **call(participant, args.namespace, service, reliable)})
+    if args.before:
+        time.sleep(args.settle_s)
+    take(keep=False)
+    listening = time.time()
+    while time.time() - listening < args.seconds:
+        take(keep=True)
+        time.sleep(0.01)
+    for service in args.after:
+        calls.append({"service": service, **call(participant, args.namespace, service, reliable)})
+
+    print(json.dumps({
+        "wall_s": time.time(),
+        "counts": counts,
+        "newest": {name: summary(name, sample) for name, sample in newest.items() if name != "tf"},
+        "tf": frames,
+        "calls": calls,
+    }))
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,215 @@
+//! The ROS 2 bridge (`vservo-ros2`, started by vservod with config/vservo-ros2.toml) against a real DDS: a
+//! Cyclone DDS participant that follows ROS 2's conventions on the wire (tests/python/check_ros2_graph.py,
+//! clients/python/ros2_types.py) hears every topic with ROS 2's type names and vservo's content, and its
+//! `std_srvs/Trigger` calls of `safe_stop` and `resume` are answered: a safe stop always, a resume only where
+//! the configuration lets the ROS graph move the arm.
+//!
+//! Each test runs its instance on a ROS domain of its own (the tests of one CI run share the network).
+
+use std::process::Command;
+use std::time::Duration;
+
+use nalgebra::{Isometry3, Matrix3, Rotation3, Translation3, UnitQuaternion};
+use serde_json::Value;
+use vservo_system_tests::{
+    Daemon, config_from, echo_lines, exclusive, numbers, repository_root, running, status, unique, wait_until,
+};
+
+/// A ROS domain no other test of this run uses (the process id picks it; 0 is left to users).
+fn domain(offset: u32) -> u32 {
+    10 + (std::process::id() * 2 + offset) % 200
+}
+
+/// config/vservo-ros2.toml under its own instance and domain, `allow_motion` as given.
+fn daemon(
+    name: &str,
+    domain_id: u32,
+    allow_motion: bool,
+) -> (String, vservo_system_tests::TempConfig, Daemon) {
+    let instance = unique(name);
+    let config = config_from(
+        "config/vservo-ros2.toml",
+        &[
+            ("name = \"default\"", &format!("name = \"{instance}\"")),
+            ("domain_id = 0", &format!("domain_id = {domain_id}")),
+            ("allow_motion = false", &format!("allow_motion = {allow_motion}")),
+        ],
+    );
+    let daemon = Daemon::start(&config);
+    assert!(
+        wait_until(Duration::from_secs(15), || status(&instance).is_some_and(|s| running(&s))),
+        "{}",
+        daemon.log()
+    );
+    (instance, config, daemon)
+}
+
+/// The Cyclone DDS peer: calls the `before` services (a safe stop holds the arm, so what it hears after is of
+/// an arm at rest), listens for 3 s, calls the `after` services, and prints what it got.
+fn peer(domain_id: u32, before: &[&str], after: &[&str]) -> Value {
+    let interpreter = repository_root().join("target/python-venv/bin/python");
+    let mut command = Command::new(&interpreter);
+    command.arg(repository_root().join("tests/python/check_ros2_graph.py")).args([
+        "--domain",
+        &domain_id.to_string(),
+        "--seconds",
+        "3",
+    ]);
+    for service in before {
+        command.args(["--before", service]);
+    }
+    for service in after {
+        command.args(["--after", service]);
+    }
+    let out = command.output().expect("the Cyclone DDS peer runs (scripts/setup.sh installs cyclonedds)");
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    serde_json::from_slice(&out.stdout).expect("the peer prints one JSON object")
+}
+
+fn pose(translation: &[f64], rotation_xyzw: &[f64]) -> Isometry3<f64> {
+    let q = nalgebra::Quaternion::new(rotation_xyzw[3], rotation_xyzw[0], rotation_xyzw[1], rotation_xyzw[2]);
+    Isometry3::from_parts(
+        Translation3::new(translation[0], translation[1], translation[2]),
+        UnitQuaternion::from_quaternion(q),
+    )
+}
+
+/// The 3 × 4 row-major top of a transform, as vservo's messages carry it.
+fn pose_of_rows(m: &[f64]) -> Isometry3<f64> {
+    let rotation = Matrix3::new(m[0], m[1], m[2], m[4], m[5], m[6], m[8], m[9], m[10]);
+    Isometry3::from_parts(
+        Translation3::new(m[3], m[7], m[11]),
+        UnitQuaternion::from_rotation_matrix(&Rotation3::from_matrix(&rotation)),
+    )
+}
+
+fn tf_pose(tf: &Value, parent: &str, child: &str) -> Isometry3<f64> {
+    let t = &tf[format!("{parent}->{child}")];
+    assert!(t.is_object(), "tf has no {parent} -> {child}: {tf}");
+    pose(&numbers(&t["translation"]), &numbers(&t["rotation_xyzw"]))
+}
+
+fn close(a: &[f64], b: &[f64], tolerance: f64) -> bool {
+    a.len() == b.len() && a.iter().zip(b).all(|(x, y)| (x - y).abs() <= tolerance)
+}
+
+#[test]
+fn a_ros2_node_hears_the_cell_and_its_safe_stop_is_taken() {
+    let _one = exclusive();
+    let domain_id = domain(0);
+    let (instance, _config, daemon) = daemon("ros2", domain_id, false);
+    let heard = peer(domain_id, &["vservo/safe_stop"], &["vservo/resume"]);
+
+    // the services: a safe stop always, a resume refused (allow_motion = false), each with its reason
+    let calls = heard["calls"].as_array().expect("calls");
+    assert_eq!(calls[0]["answered"], true, "{heard}");
+    assert_eq!(calls[0]["success"], true, "{}", calls[0]);
+    assert_eq!(calls[1]["answered"], true, "{heard}");
+    assert_eq!(calls[1]["success"], false, "{}", calls[1]);
+    assert!(calls[1]["message"].as_str().is_some_and(|m| m.contains("allow_motion")), "{}", calls[1]);
+    let now = status(&instance).expect("status");
+    assert_eq!(now["state"], "safe-stop", "{now}");
+    assert_eq!(now["fault"]["name"], "requested", "{now}");
+
+    // every topic, under ROS 2's type names (a reader of another type name hears nothing)
+    let counts = &heard["counts"];
+    for topic in ["joint_states", "tf", "camera/image_raw", "camera/camera_info", "vservo/features"] {
+        assert!(counts[topic].as_u64().unwrap_or(0) > 0, "nothing on {topic}: {heard}");
+    }
+    for topic in ["vservo/camera_twist", "diagnostics"] {
+        assert!(counts[topic].as_u64().unwrap_or(0) > 0, "nothing on {topic}: {counts}");
+    }
+    // joint_states at the configured 100 Hz over 3 s (best effort: allow a loaded machine to lose some)
+    assert!(counts["joint_states"].as_u64().unwrap_or(0) >= 150, "{counts}");
+
+    // the joints: the arm held at rest, as vservo's own joint state says
+    let newest = &heard["newest"];
+    let joints = &newest["joint_states"];
+    let names: Vec<&str> =
+        joints["name"].as_array().expect("names").iter().filter_map(Value::as_str).collect();
+    assert_eq!(names, ["joint1", "joint2", "joint3", "joint4", "joint5", "joint6"]);
+    let state = echo_lines(&instance, "joint_state", "0.3").pop().expect("a joint state");
+    let q = &numbers(&state["q_rad"])[..6];
+    assert!(close(&numbers(&joints["position"]), q, 1e-6), "ROS {joints} vs vservo {q:?}");
+    let wall_s = heard["wall_s"].as_f64().expect("wall");
+    let stamp_s = joints["stamp_s"].as_f64().expect("stamp");
+    assert!(
+        (wall_s - 5.0..=wall_s).contains(&stamp_s),
+        "joint_states stamped {stamp_s}, peer's clock {wall_s}"
+    );
+
+    // tf: the chain base → link1 … link6 → camera is the camera's pose vservo's vision node reports, and
+    // the target seen from the camera is the simulated board, both from vservo's own messages
+    let tf = &heard["tf"];
+    let mut base_from_camera = Isometry3::identity();
+    let frames = ["base", "link1", "link2", "link3", "link4", "link5", "link6", "camera"];
+    for pair in frames.windows(2) {
+        base_from_camera *= tf_pose(tf, pair[0], pair[1]);
+    }
+    let features = echo_lines(&instance, "features", "0.3").pop().expect("features");
+    let reported = pose_of_rows(&numbers(&features["base_from_camera"]));
+    assert!((base_from_camera.translation.vector - reported.translation.vector).norm() < 1e-6);
+    assert!(base_from_camera.rotation.angle_to(&reported.rotation) < 1e-6);
+    let world = echo_lines(&instance, "sim_world", "0.3").pop().expect("sim_world");
+    let camera_from_board = reported.inverse() * pose_of_rows(&numbers(&world["base_from_board"]));
+    let seen = tf_pose(tf, "camera", "target");
+    let error_m = (seen.translation.vector - camera_from_board.translation.vector).norm();
+    assert!(error_m < 0.005, "the target seen {seen} vs the board {camera_from_board}: {error_m} m");
+
+    // the camera: its images and their camera info (OpenCV's pixel centres: the principal point ½ px less)
+    let image = &newest["camera/image_raw"];
+    assert_eq!((image["width"].as_u64(), image["height"].as_u64()), (Some(512), Some(512)), "{image}");
+    assert_eq!((image["encoding"].as_str(), image["step"].as_u64()), (Some("mono8"), Some(512)));
+    assert_eq!(image["bytes"].as_u64(), Some(512 * 512));
+    assert!(image["distinct_values"].as_u64().unwrap_or(0) > 16, "a blank image: {image}");
+    assert_eq!(image["frame_id"], "camera");
+    let info = &newest["camera/camera_info"];
+    assert_eq!(info["distortion_model"], "plumb_bob");
+    assert_eq!(numbers(&info["k"]), [500.0, 0.0, 255.5, 0.0, 500.0, 255.5, 0.0, 0.0, 1.0]);
+    assert_eq!(numbers(&info["d"]), [0.0; 5]);
+
+    // the twist of a held cell is zero; the features are the four marks', in OpenCV's pixels
+    let twist = &newest["vservo/camera_twist"];
+    assert_eq!(twist["frame_id"], "camera");
+    assert!(
+        numbers(&twist["linear"]).iter().chain(&numbers(&twist["angular"])).all(|v| *v == 0.0),
+        "{twist}"
+    );
+    let features_ros = numbers(&newest["vservo/features"]["data"]);
+    let features_vservo = numbers(&features["features_px"]);
+    let in_opencv_px: Vec<f64> = features_vservo.iter().map(|v| v - 0.5).collect();
+    assert!(close(&features_ros, &in_opencv_px, 0.05), "{features_ros:?} vs {features_vservo:?}");
+
+    // diagnostics: the cell in a safe stop (an error), each node, and the bridge's count of the refusal
+    let diagnostics = newest["diagnostics"]["status"].as_array().expect("diagnostics");
+    let named = |suffix: &str| {
+        diagnostics
+            .iter()
+            .find(|s| s["name"].as_str().is_some_and(|n| n == format!("vservo/{instance}: {suffix}")))
+            .unwrap_or_else(|| panic!("no diagnostics of {suffix}: {diagnostics:?}"))
+    };
+    let cell = named("cell");
+    assert_eq!(cell["level"], 2, "{cell}");
+    assert_eq!(cell["values"]["fault"], "requested", "{cell}");
+    for node in ["plant", "vision", "servo", "rmrc"] {
+        assert_eq!(named(node)["values"]["state"], "running");
+    }
+    assert_eq!(named("ros2 bridge")["values"]["allow_motion"], "false");
+    daemon.stop();
+}
+
+#[test]
+fn resume_over_ros2_only_where_the_configuration_allows_it() {
+    let _one = exclusive();
+    let domain_id = domain(1);
+    let (instance, _config, daemon) = daemon("ros2-resume", domain_id, true);
+    let heard = peer(domain_id, &["vservo/safe_stop"], &["vservo/resume"]);
+    let calls = heard["calls"].as_array().expect("calls");
+    assert!(calls.iter().all(|c| c["answered"] == true && c["success"] == true), "{heard}");
+    assert!(
+        wait_until(Duration::from_secs(3), || status(&instance).is_some_and(|s| running(&s))),
+        "{:?}",
+        status(&instance)
+    );
+    daemon.stop();
+}
