@@ -20,11 +20,12 @@ fn domain(offset: u32) -> u32 {
     10 + (std::process::id() * 2 + offset) % 200
 }
 
-/// config/vservo-ros2.toml under its own instance and domain, `allow_motion` as given.
+/// config/vservo-ros2.toml under its own instance and domain, `allow_motion` and the interface as given.
 fn daemon(
     name: &str,
     domain_id: u32,
     allow_motion: bool,
+    interface: &str,
 ) -> (String, vservo_system_tests::TempConfig, Daemon) {
     let instance = unique(name);
     let config = config_from(
@@ -33,6 +34,7 @@ fn daemon(
             ("name = \"default\"", &format!("name = \"{instance}\"")),
             ("domain_id = 0", &format!("domain_id = {domain_id}")),
             ("allow_motion = false", &format!("allow_motion = {allow_motion}")),
+            ("interface = \"\"", &format!("interface = \"{interface}\"")),
         ],
     );
     let daemon = Daemon::start(&config);
@@ -47,8 +49,26 @@ fn daemon(
 /// The Cyclone DDS peer: calls the `before` services (a safe stop holds the arm, so what it hears after is of
 /// an arm at rest), listens for 3 s, calls the `after` services, and prints what it got.
 fn peer(domain_id: u32, before: &[&str], after: &[&str]) -> Value {
+    peer_on(domain_id, before, after, None)
+}
+
+/// [`peer`], with Cyclone DDS on the one interface of this address only (unicast discovery of this machine's
+/// participants when it is the loopback, which carries no multicast).
+fn peer_on(domain_id: u32, before: &[&str], after: &[&str], address: Option<&str>) -> Value {
     let interpreter = repository_root().join("target/python-venv/bin/python");
     let mut command = Command::new(&interpreter);
+    if let Some(address) = address {
+        let multicast = if address.starts_with("127.") { "false" } else { "true" };
+        command.env(
+            "CYCLONEDDS_URI",
+            format!(
+                "<CycloneDDS><Domain id=\"any\"><General><Interfaces><NetworkInterface address=\"{address}\"/>\
+                 </Interfaces><AllowMulticast>{multicast}</AllowMulticast></General><Discovery>\
+                 <ParticipantIndex>auto</ParticipantIndex><MaxAutoParticipantIndex>30</MaxAutoParticipantIndex>\
+                 <Peers><Peer address=\"127.0.0.1\"/></Peers></Discovery></Domain></CycloneDDS>"
+            ),
+        );
+    }
     command.arg(repository_root().join("tests/python/check_ros2_graph.py")).args([
         "--domain",
         &domain_id.to_string(),
@@ -97,8 +117,11 @@ fn close(a: &[f64], b: &[f64], tolerance: f64) -> bool {
 fn a_ros2_node_hears_the_cell_and_its_safe_stop_is_taken() {
     let _one = exclusive();
     let domain_id = domain(0);
-    let (instance, _config, daemon) = daemon("ros2", domain_id, false);
-    let heard = peer(domain_id, &["vservo/safe_stop"], &["vservo/resume"]);
+    let (instance, _config, daemon) = daemon("ros2", domain_id, false, "");
+    // the peer on the machine's outside interface, as another host's node would be (the loopback test's
+    // control: unbound, the bridge is heard there)
+    let outside = outside_address().expect("this machine has a network interface besides the loopback");
+    let heard = peer_on(domain_id, &["vservo/safe_stop"], &["vservo/resume"], Some(&outside));
 
     // the services: a safe stop always, a resume refused (allow_motion = false), each with its reason
     let calls = heard["calls"].as_array().expect("calls");
@@ -202,7 +225,7 @@ fn a_ros2_node_hears_the_cell_and_its_safe_stop_is_taken() {
 fn resume_over_ros2_only_where_the_configuration_allows_it() {
     let _one = exclusive();
     let domain_id = domain(1);
-    let (instance, _config, daemon) = daemon("ros2-resume", domain_id, true);
+    let (instance, _config, daemon) = daemon("ros2-resume", domain_id, true, "");
     let heard = peer(domain_id, &["vservo/safe_stop"], &["vservo/resume"]);
     let calls = heard["calls"].as_array().expect("calls");
     assert!(calls.iter().all(|c| c["answered"] == true && c["success"] == true), "{heard}");
@@ -211,5 +234,34 @@ fn resume_over_ros2_only_where_the_configuration_allows_it() {
         "{:?}",
         status(&instance)
     );
+    daemon.stop();
+}
+
+/// This machine's first IPv4 address that is not the loopback's (`ip -j -4 addr`).
+fn outside_address() -> Option<String> {
+    let out = Command::new("ip").args(["-j", "-4", "addr"]).output().ok()?;
+    let interfaces: Value = serde_json::from_slice(&out.stdout).ok()?;
+    interfaces
+        .as_array()?
+        .iter()
+        .flat_map(|i| i["addr_info"].as_array().cloned().unwrap_or_default())
+        .find_map(|a| a["local"].as_str().filter(|ip| !ip.starts_with("127.")).map(str::to_string))
+}
+
+#[test]
+fn bound_to_the_loopback_the_bridge_is_heard_on_this_machine_only() {
+    let _one = exclusive();
+    let domain_id = domain(2);
+    let outside = outside_address().expect("this machine has a network interface besides the loopback");
+    let (_instance, _config, daemon) = daemon("ros2-lo", domain_id, false, "127.0.0.1");
+    // on the loopback: the cell is heard and a safe stop taken
+    let here = peer_on(domain_id, &[], &["vservo/safe_stop"], Some("127.0.0.1"));
+    assert!(here["counts"]["joint_states"].as_u64().unwrap_or(0) > 0, "{here}");
+    assert_eq!(here["calls"][0]["success"], true, "{here}");
+    // on the machine's other interface, where another host would be: nothing, and no request reaches it
+    let there = peer_on(domain_id, &[], &["vservo/safe_stop"], Some(&outside));
+    let heard: u64 = there["counts"].as_object().expect("counts").values().filter_map(Value::as_u64).sum();
+    assert_eq!(heard, 0, "heard on {outside}: {there}");
+    assert_eq!(there["calls"][0]["answered"], false, "{there}");
     daemon.stop();
 }
