@@ -71,6 +71,12 @@ def summary(name, sample):
     return None
 
 
+def percentiles(values):
+    ordered = sorted(values)
+    at = lambda p: 1e3 * ordered[min(len(ordered) - 1, int(p * len(ordered)))]  # noqa: E731
+    return {"count": len(ordered), "p50": at(0.5), "p99": at(0.99), "max": 1e3 * ordered[-1]}
+
+
 def transform_json(t):
     tr, q = t.transform.translation, t.transform.rotation
     return {"stamp_s": stamp_s(t.header), "parent": t.header.frame_id, "child": t.child_frame_id,
@@ -122,6 +128,8 @@ def main():
     counts = {name: 0 for name in TOPICS}
     newest = {}
     frames = {}
+    # receipt less the header's stamp (s): the measurement (or exposure) to this node, both on this machine's clock
+    ages = {"joint_states": [], "camera/image_raw": []}
 
     def take(keep):
         for name, reader in readers.items():
@@ -130,6 +138,8 @@ def main():
                     continue
                 counts[name] += 1
                 newest[name] = sample
+                if name in ages:
+                    ages[name].append(time.time() - stamp_s(sample.header))
                 if name == "tf":
                     for t in sample.transforms:
                         frames[f"{t.header.frame_id}->{t.child_frame_id}"] = transform_json(t)
@@ -156,6 +166,7 @@ def main():
         "newest": {name: summary(name, sample) for name, sample in newest.items() if name != "tf"},
         "tf": frames,
         "calls": calls,
+        "age_ms": {name: percentiles(values) for name, values in ages.items() if values},
     }))
 
 
