@@ -41,6 +41,7 @@ impl<T: Payload> Tap<T> {
 
 /// The instance's services the bridge reads.
 pub struct Cell {
+    /// The instance's client: for commands.
     pub client: Client,
     joint_state: Tap<JointStateMsg>,
     features: Tap<FeaturesMsg>,

@@ -1,4 +1,6 @@
-//! vservo's messages as ROS 2 messages: pure functions, no I/O.
+//! vservo's messages as ROS 2 messages.
+//!
+//! Pure functions, but [`StampClock::now`], which reads the clocks.
 //!
 //! Conventions at the ROS boundary (docs/ROS2.md):
 //! - stamps are ROS time, the system clock's (CLOCK_REALTIME); vservo stamps with CLOCK_MONOTONIC, and
@@ -36,6 +38,18 @@ pub struct StampClock {
 }
 
 impl StampClock {
+    /// CLOCK_REALTIME − CLOCK_MONOTONIC, read now (0 if a clock cannot be read).
+    pub fn now() -> Self {
+        use nix::time::{ClockId, clock_gettime};
+        let ns = |clock| {
+            clock_gettime(clock)
+                .map_or(0, |t| i128::from(t.tv_sec()) * 1_000_000_000 + i128::from(t.tv_nsec()))
+        };
+        let monotonic = ns(ClockId::CLOCK_MONOTONIC);
+        let realtime = ns(ClockId::CLOCK_REALTIME);
+        Self { realtime_minus_monotonic_ns: realtime - monotonic }
+    }
+
     /// The ROS time of a CLOCK_MONOTONIC stamp; zero (ROS's "no time") for a stamp of 0 (none).
     pub fn ros_time(&self, monotonic_ns: u64) -> Time {
         if monotonic_ns == 0 {

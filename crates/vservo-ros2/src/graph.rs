@@ -12,6 +12,7 @@ use vservo_ros2::msg::{
     CameraInfo, DiagnosticArray, Float64MultiArray, Image, JointState, RosType, TfMessage, TriggerRequest,
     TriggerResponse, TwistStamped,
 };
+use vservo_ros2::translate::RosMessage;
 use vservo_ros2::{names, qos};
 
 /// A `std_srvs/Trigger` server.
@@ -59,6 +60,28 @@ impl Graph {
             _context: context,
         };
         Ok(graph)
+    }
+}
+
+impl Graph {
+    /// Publishes a message on its topic if the topic is configured; `Err` when DDS refused it (a reliable
+    /// window full).
+    pub fn publish(&self, message: RosMessage) -> Result<(), ()> {
+        fn on<T: serde::Serialize>(publisher: &Option<Publisher<T>>, message: T) -> Result<(), ()> {
+            match publisher {
+                Some(publisher) => publisher.publish(message).map_err(|_| ()),
+                None => Ok(()),
+            }
+        }
+        match message {
+            RosMessage::JointState(m) => on(&self.joint_states, m),
+            RosMessage::Tf(m) => on(&self.tf, m),
+            RosMessage::Image(m) => on(&self.image, m),
+            RosMessage::CameraInfo(m) => on(&self.camera_info, m),
+            RosMessage::Features(m) => on(&self.features, m),
+            RosMessage::CameraTwist(m) => on(&self.camera_twist, m),
+            RosMessage::Diagnostics(m) => on(&self.diagnostics, m),
+        }
     }
 }
 

@@ -9,10 +9,15 @@
 //! interface.
 //!
 //! This library holds what can be checked without a network: the ROS 2 message types ([`msg`]), the
-//! conversions from vservo's messages ([`convert`]), the QoS ROS 2 users expect ([`qos`]) and the topic and
-//! service names in a namespace ([`names`]).
+//! conversions from vservo's messages ([`convert`]) and which are made when ([`translate`]), the QoS ROS 2
+//! users expect ([`qos`]), the topic and service names in a namespace ([`names`]); and the instance's side
+//! ([`cell`]: its services, read). `vservoctl record --ros2` writes the same messages to MCAP ([`schema`]:
+//! their ROS 2 message definitions and CDR).
 
+pub mod cell;
 pub mod convert;
 pub mod msg;
 pub mod names;
 pub mod qos;
+pub mod schema;
+pub mod translate;

@@ -9,7 +9,6 @@
 //! Exit codes: 0 after SIGINT/SIGTERM, 1 on an error, 2 on a configuration it cannot run.
 
 mod bridge;
-mod cell;
 mod graph;
 mod services;
 

@@ -1,0 +1,168 @@
+//! The ROS 2 message definitions of the bridge's messages, as a ROS 2 MCAP file carries them (schema encoding
+//! `ros2msg`: the message's `.msg` text, then each type it uses after a line of 80 `=` and `MSG: pkg/Type`,
+//! as `rosbag2` writes them), and the messages' CDR (message encoding `cdr`: the 4-byte encapsulation header
+//! of little-endian CDR, then the body).
+
+use crate::msg::RosType;
+
+/// The `.msg` text of each type the bridge's messages use, as ROS 2 Jazzy's packages define them (comments
+/// left out; field types written with their package).
+const DEFINITIONS: &[(&str, &str)] = &[
+    ("builtin_interfaces/Time", "int32 sec\nuint32 nanosec\n"),
+    ("std_msgs/Header", "builtin_interfaces/Time stamp\nstring frame_id\n"),
+    (
+        "sensor_msgs/JointState",
+        "std_msgs/Header header\nstring[] name\nfloat64[] position\nfloat64[] velocity\nfloat64[] effort\n",
+    ),
+    ("geometry_msgs/Vector3", "float64 x\nfloat64 y\nfloat64 z\n"),
+    ("geometry_msgs/Quaternion", "float64 x\nfloat64 y\nfloat64 z\nfloat64 w\n"),
+    ("geometry_msgs/Transform", "geometry_msgs/Vector3 translation\ngeometry_msgs/Quaternion rotation\n"),
+    (
+        "geometry_msgs/TransformStamped",
+        "std_msgs/Header header\nstring child_frame_id\ngeometry_msgs/Transform transform\n",
+    ),
+    ("tf2_msgs/TFMessage", "geometry_msgs/TransformStamped[] transforms\n"),
+    (
+        "sensor_msgs/Image",
+        "std_msgs/Header header\nuint32 height\nuint32 width\nstring encoding\nuint8 is_bigendian\nuint32 step\n\
+         uint8[] data\n",
+    ),
+    (
+        "sensor_msgs/RegionOfInterest",
+        "uint32 x_offset\nuint32 y_offset\nuint32 height\nuint32 width\nbool do_rectify\n",
+    ),
+    (
+        "sensor_msgs/CameraInfo",
+        "std_msgs/Header header\nuint32 height\nuint32 width\nstring distortion_model\nfloat64[] d\nfloat64[9] k\n\
+         float64[9] r\nfloat64[12] p\nuint32 binning_x\nuint32 binning_y\nsensor_msgs/RegionOfInterest roi\n",
+    ),
+    ("geometry_msgs/Twist", "geometry_msgs/Vector3 linear\ngeometry_msgs/Vector3 angular\n"),
+    ("geometry_msgs/TwistStamped", "std_msgs/Header header\ngeometry_msgs/Twist twist\n"),
+    ("std_msgs/MultiArrayDimension", "string label\nuint32 size\nuint32 stride\n"),
+    ("std_msgs/MultiArrayLayout", "std_msgs/MultiArrayDimension[] dim\nuint32 data_offset\n"),
+    ("std_msgs/Float64MultiArray", "std_msgs/MultiArrayLayout layout\nfloat64[] data\n"),
+    ("diagnostic_msgs/KeyValue", "string key\nstring value\n"),
+    (
+        "diagnostic_msgs/DiagnosticStatus",
+        "byte OK=0\nbyte WARN=1\nbyte ERROR=2\nbyte STALE=3\nbyte level\nstring name\nstring message\n\
+         string hardware_id\ndiagnostic_msgs/KeyValue[] values\n",
+    ),
+    (
+        "diagnostic_msgs/DiagnosticArray",
+        "std_msgs/Header header\ndiagnostic_msgs/DiagnosticStatus[] status\n",
+    ),
+];
+
+fn definition(name: &str) -> Option<&'static str> {
+    DEFINITIONS.iter().find(|(n, _)| *n == name).map(|(_, text)| *text)
+}
+
+/// The types a definition's fields name (`pkg/Type`), in order of appearance.
+fn used_types(text: &str) -> impl DoubleEndedIterator<Item = &str> {
+    text.lines()
+        .filter_map(|line| line.split_whitespace().next())
+        .filter(|field_type| field_type.contains('/'))
+        .map(|field_type| field_type.split('[').next().unwrap_or(field_type))
+}
+
+/// A type's MCAP schema name (`sensor_msgs/msg/JointState`).
+pub fn schema_name<T: RosType>() -> String {
+    format!("{}/msg/{}", T::PACKAGE, T::NAME)
+}
+
+/// A type's `ros2msg` schema: its definition, then every type it uses, depth first, each once.
+pub fn schema_text<T: RosType>() -> String {
+    let name = format!("{}/{}", T::PACKAGE, T::NAME);
+    let mut text = definition(&name).unwrap_or_default().to_string();
+    let mut done = vec![name.clone()];
+    let mut pending: Vec<String> = used_types(&text).rev().map(str::to_string).collect();
+    while let Some(used) = pending.pop() {
+        if done.contains(&used) {
+            continue;
+        }
+        let Some(body) = definition(&used) else { continue };
+        text.push_str(&format!("{}\nMSG: {used}\n{body}", "=".repeat(80)));
+        pending.extend(used_types(body).rev().map(str::to_string));
+        done.push(used);
+    }
+    text
+}
+
+/// Whether every type a message's schema uses is defined here.
+pub fn fully_defined<T: RosType>() -> bool {
+    let text = schema_text::<T>();
+    let defined = |used: &str| definition(used).is_some();
+    text.split(&"=".repeat(80)).all(|part| used_types(part).all(defined))
+        && definition(&format!("{}/{}", T::PACKAGE, T::NAME)).is_some()
+}
+
+/// A message's CDR as ROS 2 writes it to a bag: the encapsulation header of little-endian CDR, then the body.
+pub fn cdr<T: RosType>(message: &T) -> Result<Vec<u8>, cdr_encoding::Error> {
+    let body = cdr_encoding::to_vec::<T, byteorder::LittleEndian>(message)?;
+    let mut bytes = Vec::with_capacity(4 + body.len());
+    bytes.extend_from_slice(&[0x00, 0x01, 0x00, 0x00]);
+    bytes.extend_from_slice(&body);
+    Ok(bytes)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::msg::{
+        CameraInfo, DiagnosticArray, Float64MultiArray, Header, Image, JointState, TfMessage, Time,
+        TwistStamped,
+    };
+
+    #[test]
+    fn every_schema_is_complete() {
+        assert!(fully_defined::<JointState>());
+        assert!(fully_defined::<TfMessage>());
+        assert!(fully_defined::<Image>());
+        assert!(fully_defined::<CameraInfo>());
+        assert!(fully_defined::<Float64MultiArray>());
+        assert!(fully_defined::<TwistStamped>());
+        assert!(fully_defined::<DiagnosticArray>());
+    }
+
+    #[test]
+    fn a_schema_lists_each_type_it_uses_once() {
+        let text = schema_text::<TfMessage>();
+        assert!(text.starts_with("geometry_msgs/TransformStamped[] transforms\n"));
+        for used in
+            ["std_msgs/Header", "builtin_interfaces/Time", "geometry_msgs/Transform", "geometry_msgs/Vector3"]
+        {
+            assert_eq!(text.matches(&format!("MSG: {used}\n")).count(), 1, "{used} in {text}");
+        }
+        assert_eq!(schema_name::<TfMessage>(), "tf2_msgs/msg/TFMessage");
+    }
+
+    #[test]
+    fn cdr_of_a_joint_state_by_hand() {
+        let message = JointState {
+            header: Header { stamp: Time { sec: 1, nanosec: 2 }, frame_id: "b".into() },
+            name: vec!["j".into()],
+            position: vec![0.5],
+            velocity: vec![],
+            effort: vec![],
+        };
+        let bytes = cdr(&message).expect("serializes");
+        let expected: Vec<u8> = [
+            &[0, 1, 0, 0][..],     // encapsulation: CDR, little-endian
+            &1i32.to_le_bytes(),   // stamp.sec
+            &2u32.to_le_bytes(),   // stamp.nanosec
+            &2u32.to_le_bytes(),   // frame_id: length with the NUL
+            b"b\0",                //
+            &[0, 0],               // to 4
+            &1u32.to_le_bytes(),   // name: one string
+            &2u32.to_le_bytes(),   //
+            b"j\0",                //
+            &[0, 0],               // to 4
+            &1u32.to_le_bytes(),   // position: one, its float at 32 from the body's start (8-aligned)
+            &0.5f64.to_le_bytes(), //
+            &0u32.to_le_bytes(),   // velocity, effort: none
+            &0u32.to_le_bytes(),
+        ]
+        .concat();
+        assert_eq!(bytes, expected);
+    }
+}

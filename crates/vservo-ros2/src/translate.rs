@@ -1,0 +1,226 @@
+//! What the instance published, as the ROS 2 messages of the configured topics: joint states at most at the
+//! configured rate with the arm's tf, each frame's features and the target as seen, each twist, each image
+//! with its camera info, the diagnostics on request. The bridge publishes them over DDS, `vservoctl record
+//! --ros2` writes them to MCAP. Pure but for the clock offset the caller reads.
+
+use vservo_config::{Config, Ros2Topic};
+use vservo_protocol::{
+    CameraImageHeader, CameraTwistMsg, DaemonStatusMsg, FeaturesMsg, JointStateMsg, SCHEMA_VERSION,
+    TelemetryMsg,
+};
+
+use crate::cell::Arrived;
+use crate::convert::{self, StampClock};
+use crate::msg::{
+    CameraInfo, DiagnosticArray, DiagnosticStatus, Float64MultiArray, Image, JointState, TfMessage,
+    TwistStamped,
+};
+
+/// A ROS 2 message of one of the bridge's topics.
+#[derive(Debug, Clone, PartialEq)]
+pub enum RosMessage {
+    /// `joint_states`.
+    JointState(JointState),
+    /// `tf`.
+    Tf(TfMessage),
+    /// `camera/image_raw`.
+    Image(Image),
+    /// `camera/camera_info`.
+    CameraInfo(CameraInfo),
+    /// `vservo/features`.
+    Features(Float64MultiArray),
+    /// `vservo/camera_twist`.
+    CameraTwist(TwistStamped),
+    /// `diagnostics`.
+    Diagnostics(DiagnosticArray),
+}
+
+impl RosMessage {
+    /// Its topic.
+    pub fn topic(&self) -> Ros2Topic {
+        match self {
+            RosMessage::JointState(_) => Ros2Topic::JointStates,
+            RosMessage::Tf(_) => Ros2Topic::Tf,
+            RosMessage::Image(_) => Ros2Topic::Image,
+            RosMessage::CameraInfo(_) => Ros2Topic::CameraInfo,
+            RosMessage::Features(_) => Ros2Topic::Features,
+            RosMessage::CameraTwist(_) => Ros2Topic::CameraTwist,
+            RosMessage::Diagnostics(_) => Ros2Topic::Diagnostics,
+        }
+    }
+}
+
+/// Which topics, how often.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Selection {
+    /// The topics made.
+    pub topics: Vec<Ros2Topic>,
+    /// Every n-th camera image (the camera info comes with every frame).
+    pub image_every: u64,
+    /// Joint states (and the arm's tf) at most this often (Hz).
+    pub joint_state_rate_hz: f64,
+}
+
+impl Selection {
+    /// As `[ros2]` configures it.
+    pub fn configured(config: &Config) -> Self {
+        Self {
+            topics: config.ros2.publish.clone(),
+            image_every: u64::from(config.ros2.image_every),
+            joint_state_rate_hz: config.ros2.joint_state_rate_hz,
+        }
+    }
+}
+
+/// Turns what arrived into ROS 2 messages.
+pub struct Translator {
+    selection: Selection,
+    instance: String,
+    joint_names: Vec<String>,
+    arm: vservo_arm::SerialArm,
+    tool_from_camera: nalgebra::IsometryMatrix3<f64>,
+    camera: vservo_scene::CameraIntrinsics,
+    board: vservo_scene::Board,
+    /// The system clock's offset from the monotonic one: the caller keeps it current.
+    pub clock: StampClock,
+    /// The stamp of the last joint state made (ns, CLOCK_MONOTONIC).
+    last_joint_state_ns: u64,
+    joint_state_every_ns: u64,
+    /// The daemon's newest status.
+    status: Option<DaemonStatusMsg>,
+    /// Each node's newest telemetry.
+    telemetry: [Option<TelemetryMsg>; 4],
+    /// Messages refused: of another schema, an image of another format, a joint state of another arm.
+    pub refused: u64,
+}
+
+impl Translator {
+    /// For the cell `config` describes; `clock` as read now.
+    pub fn new(config: &Config, selection: Selection, clock: StampClock) -> Self {
+        Self {
+            joint_state_every_ns: (1e9 / selection.joint_state_rate_hz) as u64,
+            selection,
+            instance: config.instance.clone(),
+            joint_names: convert::joint_names(&config.ros2.joint_names, config.arm.joint_count()),
+            arm: config.arm.clone(),
+            tool_from_camera: config.tool_from_camera,
+            camera: config.camera,
+            board: config.board,
+            clock,
+            last_joint_state_ns: 0,
+            status: None,
+            telemetry: [None; 4],
+            refused: 0,
+        }
+    }
+
+    fn wants(&self, topic: Ros2Topic) -> bool {
+        self.selection.topics.contains(&topic)
+    }
+
+    /// What arrived, as messages to `out`; the status and telemetry kept for [`Translator::diagnostics`].
+    pub fn take(&mut self, arrived: &Arrived, out: &mut impl FnMut(RosMessage)) {
+        self.status = arrived.status.or(self.status);
+        for (kept, new) in self.telemetry.iter_mut().zip(arrived.telemetry) {
+            *kept = new.or(*kept);
+        }
+        if let Some(state) = &arrived.joint_state {
+            self.joint_state(state, out);
+        }
+        for features in &arrived.features {
+            self.features(features, out);
+        }
+        for twist in &arrived.twists {
+            self.twist(twist, out);
+        }
+    }
+
+    /// `joint_states` and the arm's `tf`, at most at the selected rate.
+    fn joint_state(&mut self, state: &JointStateMsg, out: &mut impl FnMut(RosMessage)) {
+        if state.schema != SCHEMA_VERSION {
+            self.refused += 1;
+            return;
+        }
+        if state.stamp_ns.saturating_sub(self.last_joint_state_ns) < self.joint_state_every_ns {
+            return;
+        }
+        self.last_joint_state_ns = state.stamp_ns;
+        let stamp = self.clock.ros_time(state.stamp_ns);
+        if self.wants(Ros2Topic::JointStates) {
+            match convert::joint_state(state, &self.joint_names, stamp) {
+                Some(message) => out(RosMessage::JointState(message)),
+                None => self.refused += 1,
+            }
+        }
+        if self.wants(Ros2Topic::Tf) {
+            let transforms = convert::arm_transforms(&self.arm, &self.tool_from_camera, state, stamp);
+            if !transforms.is_empty() {
+                out(RosMessage::Tf(TfMessage { transforms }));
+            }
+        }
+    }
+
+    /// A frame's features, and the target as seen in them on `tf`, stamped with the frame's exposure.
+    fn features(&mut self, features: &FeaturesMsg, out: &mut impl FnMut(RosMessage)) {
+        if features.schema != SCHEMA_VERSION {
+            self.refused += 1;
+            return;
+        }
+        if self.wants(Ros2Topic::Features) {
+            out(RosMessage::Features(convert::features(features)));
+        }
+        let stamp = self.clock.ros_time(features.capture_stamp_ns);
+        if self.wants(Ros2Topic::Tf)
+            && let Some(target) = convert::target_transform(&self.camera, &self.board, features, stamp)
+        {
+            out(RosMessage::Tf(TfMessage { transforms: vec![target] }));
+        }
+    }
+
+    fn twist(&mut self, twist: &CameraTwistMsg, out: &mut impl FnMut(RosMessage)) {
+        if twist.schema != SCHEMA_VERSION {
+            self.refused += 1;
+        } else if self.wants(Ros2Topic::CameraTwist) {
+            out(RosMessage::CameraTwist(convert::twist(twist, self.clock.ros_time(twist.stamp_ns))));
+        }
+    }
+
+    /// A camera image (every n-th) and its camera info, with the exposure's stamp.
+    pub fn image(&mut self, header: &CameraImageHeader, pixels: &[u8], out: &mut impl FnMut(RosMessage)) {
+        if header.schema != SCHEMA_VERSION {
+            self.refused += 1;
+            return;
+        }
+        let stamp = self.clock.ros_time(header.capture_stamp_ns);
+        if self.wants(Ros2Topic::CameraInfo) {
+            out(RosMessage::CameraInfo(convert::camera_info(&self.camera, stamp)));
+        }
+        let every = self.selection.image_every.max(1);
+        if self.wants(Ros2Topic::Image) && header.frame.is_multiple_of(every) {
+            match convert::image(header, pixels, stamp) {
+                Some(image) => out(RosMessage::Image(image)),
+                None => self.refused += 1,
+            }
+        }
+    }
+
+    /// The cell's and nodes' diagnostics (each node's telemetry if it is of the process the daemon runs) and
+    /// `extra`; none before the daemon's first status.
+    pub fn diagnostics(&self, extra: Vec<DiagnosticStatus>, out: &mut impl FnMut(RosMessage)) {
+        let Some(status) = self.status else { return };
+        if !self.wants(Ros2Topic::Diagnostics) {
+            return;
+        }
+        let telemetry: [Option<TelemetryMsg>; 4] =
+            std::array::from_fn(|i| self.telemetry[i].filter(|t| status.nodes[i].pid == t.pid));
+        let view = vservo_client::StatusView::new(&self.instance, &status, &telemetry);
+        let mut message = convert::diagnostics(&view, self.clock.ros_time(status.stamp_ns));
+        message.status.extend(extra);
+        out(RosMessage::Diagnostics(message));
+    }
+
+    /// The instance's name.
+    pub fn instance(&self) -> &str {
+        &self.instance
+    }
+}
