@@ -77,7 +77,7 @@ impl Graph {
             RosMessage::JointState(m) => on(&self.joint_states, m),
             RosMessage::Tf(m) => on(&self.tf, m),
             RosMessage::Image(m) => on(&self.image, m),
-            RosMessage::CameraInfo(m) => on(&self.camera_info, m),
+            RosMessage::CameraInfo(m) => on(&self.camera_info, *m),
             RosMessage::Features(m) => on(&self.features, m),
             RosMessage::CameraTwist(m) => on(&self.camera_twist, m),
             RosMessage::Diagnostics(m) => on(&self.diagnostics, m),

@@ -26,7 +26,7 @@ pub enum RosMessage {
     /// `camera/image_raw`.
     Image(Image),
     /// `camera/camera_info`.
-    CameraInfo(CameraInfo),
+    CameraInfo(Box<CameraInfo>),
     /// `vservo/features`.
     Features(Float64MultiArray),
     /// `vservo/camera_twist`.
@@ -193,7 +193,7 @@ impl Translator {
         }
         let stamp = self.clock.ros_time(header.capture_stamp_ns);
         if self.wants(Ros2Topic::CameraInfo) {
-            out(RosMessage::CameraInfo(convert::camera_info(&self.camera, stamp)));
+            out(RosMessage::CameraInfo(Box::new(convert::camera_info(&self.camera, stamp))));
         }
         let every = self.selection.image_every.max(1);
         if self.wants(Ros2Topic::Image) && header.frame.is_multiple_of(every) {
