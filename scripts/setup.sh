@@ -48,6 +48,12 @@ if ! "${venv}/bin/python" -c 'import scipy' >/dev/null 2>&1; then
     "${venv}/bin/python" -m pip install -q scipy==1.17.1
 fi
 
+# the ROS 2 bridge's tests (docs/ROS2.md): Eclipse Cyclone DDS as ROS 2 nodes speak it (the wheel bundles the C
+# library), and the rosbags library that reads `vservoctl record --ros2` as ROS users' tooling does
+if ! "${venv}/bin/python" -c 'import cyclonedds, rosbags' >/dev/null 2>&1; then
+    "${venv}/bin/python" -m pip install -q cyclonedds==11.0.1 rosbags==0.11.9
+fi
+
 # The PyBullet reference driver (clients/python/pybullet_driver.py, scripts/run-pybullet.sh) and the arms' URDFs
 # it ships in pybullet_data (xArm6, Franka Panda: config/arms/ reads them through target/pybullet_data)
 if ! "${venv}/bin/python" -c 'import pybullet' >/dev/null 2>&1; then

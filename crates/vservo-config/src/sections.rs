@@ -52,7 +52,7 @@ pub struct Ros2 {
 }
 
 /// A topic the ROS 2 bridge can publish (`[ros2] publish`), by its name in the file.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, serde::Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Ros2Topic {
     /// `joint_states` (`sensor_msgs/JointState`).

@@ -29,7 +29,9 @@ pub fn run(config: &Config, config_path: &Path, stop: &AtomicBool) -> anyhow::Re
         allow_motion = config.ros2.allow_motion,
         "in the ROS 2 graph"
     );
-    let Some(mut cell) = Cell::connect(&config.instance, stop)? else { return Ok(()) };
+    let Some(mut cell) = Cell::connect(&config.instance, || vservo_protocol::signals::stopped(stop))? else {
+        return Ok(());
+    };
     tracing::info!(instance = %config.instance, "bridging the instance");
     let mut bridge = Bridge {
         config,

@@ -2,7 +2,6 @@
 //! bridge loses its oldest samples, it never slows the loop). A service is opened when it exists: the
 //! daemon may still be starting, a node may not be up, and a cell without a simulated robot never has some.
 
-use std::sync::atomic::AtomicBool;
 use std::time::Duration;
 
 use iceoryx2::port::subscriber::Subscriber;
@@ -69,13 +68,13 @@ pub struct Arrived {
 }
 
 impl Cell {
-    /// Connects to the instance, waiting for its daemon until `stop` is set (`None` then).
-    pub fn connect(instance: &str, stop: &AtomicBool) -> Result<Option<Self>, ClientError> {
+    /// Connects to the instance, waiting for its daemon until `give_up()` says so (`None` then).
+    pub fn connect(instance: &str, mut give_up: impl FnMut() -> bool) -> Result<Option<Self>, ClientError> {
         let mut said = false;
         let client = loop {
             match Client::connect(instance) {
                 Ok(client) => break client,
-                Err(_) if vservo_protocol::signals::stopped(stop) => return Ok(None),
+                Err(_) if give_up() => return Ok(None),
                 Err(error) => {
                     if !said {
                         tracing::info!(instance, %error, "waiting for the instance");

@@ -88,6 +88,26 @@ pub fn schema_text<T: RosType>() -> String {
     text
 }
 
+/// A topic's message type: its MCAP schema name and `ros2msg` text.
+pub fn of_topic(topic: vservo_config::Ros2Topic) -> (String, String) {
+    use crate::msg::{
+        CameraInfo, DiagnosticArray, Float64MultiArray, Image, JointState, TfMessage, TwistStamped,
+    };
+    use vservo_config::Ros2Topic;
+    fn both<T: RosType>() -> (String, String) {
+        (schema_name::<T>(), schema_text::<T>())
+    }
+    match topic {
+        Ros2Topic::JointStates => both::<JointState>(),
+        Ros2Topic::Tf => both::<TfMessage>(),
+        Ros2Topic::Image => both::<Image>(),
+        Ros2Topic::CameraInfo => both::<CameraInfo>(),
+        Ros2Topic::Features => both::<Float64MultiArray>(),
+        Ros2Topic::CameraTwist => both::<TwistStamped>(),
+        Ros2Topic::Diagnostics => both::<DiagnosticArray>(),
+    }
+}
+
 /// Whether every type a message's schema uses is defined here.
 pub fn fully_defined<T: RosType>() -> bool {
     let text = schema_text::<T>();

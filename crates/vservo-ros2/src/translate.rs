@@ -12,7 +12,7 @@ use vservo_protocol::{
 use crate::cell::Arrived;
 use crate::convert::{self, StampClock};
 use crate::msg::{
-    CameraInfo, DiagnosticArray, DiagnosticStatus, Float64MultiArray, Image, JointState, TfMessage,
+    CameraInfo, DiagnosticArray, DiagnosticStatus, Float64MultiArray, Image, JointState, TfMessage, Time,
     TwistStamped,
 };
 
@@ -36,6 +36,33 @@ pub enum RosMessage {
 }
 
 impl RosMessage {
+    /// Its CDR as ROS 2 writes it to a bag ([`crate::schema::cdr`]).
+    pub fn cdr(&self) -> Result<Vec<u8>, cdr_encoding::Error> {
+        use crate::schema::cdr;
+        match self {
+            RosMessage::JointState(m) => cdr(m),
+            RosMessage::Tf(m) => cdr(m),
+            RosMessage::Image(m) => cdr(m),
+            RosMessage::CameraInfo(m) => cdr(m.as_ref()),
+            RosMessage::Features(m) => cdr(m),
+            RosMessage::CameraTwist(m) => cdr(m),
+            RosMessage::Diagnostics(m) => cdr(m),
+        }
+    }
+
+    /// Its stamp (a tf message's first transform's), if it has one.
+    pub fn stamp(&self) -> Option<Time> {
+        match self {
+            RosMessage::JointState(m) => Some(m.header.stamp),
+            RosMessage::Tf(m) => m.transforms.first().map(|t| t.header.stamp),
+            RosMessage::Image(m) => Some(m.header.stamp),
+            RosMessage::CameraInfo(m) => Some(m.header.stamp),
+            RosMessage::Features(_) => None,
+            RosMessage::CameraTwist(m) => Some(m.header.stamp),
+            RosMessage::Diagnostics(m) => Some(m.header.stamp),
+        }
+    }
+
     /// Its topic.
     pub fn topic(&self) -> Ros2Topic {
         match self {

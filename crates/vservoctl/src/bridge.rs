@@ -5,7 +5,6 @@
 //! iceoryx2's safe overflow: a slow bridge loses its oldest samples, it never slows the loop.
 
 use std::collections::BTreeMap;
-use std::path::PathBuf;
 use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 
 use anyhow::Context;
@@ -251,15 +250,7 @@ struct CellDrawing {
 /// The arm and camera mount of the instance: from the configuration its daemon runs, else from
 /// `--config` (else config/vservo.toml).
 fn cell_drawing(instance: &InstanceArg, name: &str) -> anyhow::Result<CellDrawing> {
-    let in_force = vservo_protocol::InstanceDir::locate(name).map(|dir| dir.configuration());
-    let path = match in_force {
-        Ok(path) if path.exists() => path,
-        _ => instance.config.clone().unwrap_or_else(|| PathBuf::from("config/vservo.toml")),
-    };
-    let config = vservo_config::Config::load(&path)?;
-    if config.instance != name {
-        anyhow::bail!("{} configures instance \"{}\", not \"{name}\"", path.display(), config.instance);
-    }
+    let config = instance.configuration_in_force(name)?;
     Ok(CellDrawing { arm: config.arm, tool_from_camera: config.tool_from_camera })
 }
 

@@ -46,6 +46,23 @@ impl InstanceArg {
     }
 }
 
+impl InstanceArg {
+    /// The configuration the instance `name` runs: the one its daemon wrote to the instance's directory,
+    /// else `--config` (else config/vservo.toml), which must name that instance.
+    pub fn configuration_in_force(&self, name: &str) -> anyhow::Result<vservo_config::Config> {
+        let in_force = vservo_protocol::InstanceDir::locate(name).map(|dir| dir.configuration());
+        let path = match in_force {
+            Ok(path) if path.exists() => path,
+            _ => self.config.clone().unwrap_or_else(|| PathBuf::from("config/vservo.toml")),
+        };
+        let config = vservo_config::Config::load(&path)?;
+        if config.instance != name {
+            anyhow::bail!("{} configures instance \"{}\", not \"{name}\"", path.display(), config.instance);
+        }
+        Ok(config)
+    }
+}
+
 /// A connection to an instance's services.
 pub struct Connection {
     /// The instance.

@@ -21,6 +21,7 @@ mod output;
 mod plot_recording;
 mod plots;
 mod record;
+mod record_ros2;
 mod scene;
 mod seconds_arg;
 mod sim;

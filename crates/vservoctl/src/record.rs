@@ -1,6 +1,8 @@
 //! `vservoctl record`: every service of a running instance, and the cell as Foxglove shows it
-//! (`crate::bridge`), into an MCAP file with zstd-compressed chunks. The file is created with mode 0600:
-//! a recording holds everything the cell saw and did, for the daemon's user only.
+//! (`crate::bridge`), into an MCAP file with zstd-compressed chunks; with `--ros2`, the cell as the ROS 2
+//! bridge publishes it instead (`crate::record_ros2`: ROS 2 message schemas and CDR, for `ros2 bag` and
+//! `rosbags`). The file is created with mode 0600: a recording holds everything the cell saw and did, for
+//! the daemon's user only.
 
 use std::collections::BTreeMap;
 use std::fs::{File, OpenOptions};
@@ -27,9 +29,14 @@ pub struct RecordArgs {
     duration_s: Option<f64>,
     /// Record every n-th camera image (1: every one; 0: none).
     #[arg(long, default_value_t = 1, value_name = "N")]
-    image_every: u64,
+    pub image_every: u64,
+    /// Write the ROS 2 messages of the bridge (docs/ROS2.md) — joint_states, tf, the camera's image and
+    /// camera info, the features, the twist, diagnostics — with their ROS 2 schemas and CDR, as `ros2 bag`
+    /// records them, instead of vservo's own messages.
+    #[arg(long)]
+    pub ros2: bool,
     #[command(flatten)]
-    instance: InstanceArg,
+    pub instance: InstanceArg,
 }
 
 /// An MCAP file as the bridge's sink.
@@ -61,27 +68,41 @@ impl Sink for McapSink {
     }
 }
 
-pub fn run(args: &RecordArgs) -> anyhow::Result<()> {
-    // SIGINT and SIGTERM end the recording cleanly (the file gets its summary)
-    let stop = vservo_protocol::signals::stop_flag()?;
-    let until = args.duration_s.map(|s| Instant::now() + Duration::from_secs_f64(s));
-    let over = || stop.load(Ordering::Relaxed) || until.is_some_and(|u| Instant::now() >= u);
-    // started before the daemon, it waits for the instance (within its duration)
-    let connection = Connection::open_when_there(&args.instance, over)?;
-    // the mode is given at creation (no chmod after: no moment at which others could open it); a file that
-    // exists already is overwritten and keeps its mode
+/// The MCAP file: created with mode 0600 (given at creation, no chmod after: no moment at which others could
+/// open it; a file that exists already is overwritten and keeps its mode), zstd-compressed chunks.
+pub fn create(path: &std::path::Path, profile: &str) -> anyhow::Result<mcap::Writer<BufWriter<File>>> {
     let file = OpenOptions::new()
         .write(true)
         .create(true)
         .truncate(true)
         .mode(0o600)
-        .open(&args.out)
-        .with_context(|| format!("creating {}", args.out.display()))?;
-    let writer = mcap::WriteOptions::new()
-        .profile("")
+        .open(path)
+        .with_context(|| format!("creating {}", path.display()))?;
+    Ok(mcap::WriteOptions::new()
+        .profile(profile)
         .library(concat!("vservoctl ", env!("CARGO_PKG_VERSION")))
         .compression(Some(mcap::Compression::Zstd))
-        .create(BufWriter::new(file))?;
+        .create(BufWriter::new(file))?)
+}
+
+impl RecordArgs {
+    /// The file to write.
+    pub fn out_path(&self) -> &std::path::Path {
+        &self.out
+    }
+}
+
+pub fn run(args: &RecordArgs) -> anyhow::Result<()> {
+    // SIGINT and SIGTERM end the recording cleanly (the file gets its summary)
+    let stop = vservo_protocol::signals::stop_flag()?;
+    let until = args.duration_s.map(|s| Instant::now() + Duration::from_secs_f64(s));
+    let over = || stop.load(Ordering::Relaxed) || until.is_some_and(|u| Instant::now() >= u);
+    if args.ros2 {
+        return crate::record_ros2::run(args, over);
+    }
+    // started before the daemon, it waits for the instance (within its duration)
+    let connection = Connection::open_when_there(&args.instance, over)?;
+    let writer = create(&args.out, "")?;
     let sink = McapSink { writer, channels: BTreeMap::new() };
     let mut bridge = Bridge::new(sink, &connection, &args.instance, args.image_every)?;
     bridge.run(&connection, over)?;
