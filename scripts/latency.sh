@@ -4,11 +4,13 @@
 # clock_nanosleep(TIMER_ABSTIME) loop with the plant's real-time settings, running at the same time.
 # Prints p50/p99/p99.9/max and the ratios to the floor.
 #
-#   scripts/latency.sh [SECONDS=30] [CONFIG=config/vservo.toml] [viewer]
+#   scripts/latency.sh [SECONDS=30] [CONFIG=config/vservo.toml] [viewer|ros2]
 #
 # With `viewer`, vservod also serves the cell to Foxglove ([viewer] enabled) and a Foxglove WebSocket client
 # (tests/python/foxglove_client.py, given the URL with the view's token by `vservoctl view --url`) takes every
 # image, annotation, transform, joint state and status during the measurement.
+# With `ros2`, vservod also runs the ROS 2 bridge ([ros2] enabled, on ROS domain 42) and a Cyclone DDS node
+# (tests/python/check_ros2_graph.py) takes every topic during the measurement (docs/ROS2.md).
 # The config's instance must not be running already. Release builds; the figures go in docs/BENCHMARKS.md.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -16,14 +18,18 @@ seconds="${1:-30}"
 config="${2:-config/vservo.toml}"
 viewer="${3:-}"
 scripts/setup.sh
-cargo build --release --locked -q -p vservod -p vservoctl
+cargo build --release --locked -q -p vservod -p vservoctl -p vservo-ros2
 cargo build --release --locked -q -p vservo-runtime --example bare_loop
 log="$(mktemp)"
 floor="$(mktemp)"
 with_viewer="$(mktemp --suffix=.toml)"
 trap 'rm -f "$log" "$floor" "$with_viewer"' EXIT
+# the section's own `enabled` only (each section runs to the next header)
 if [ "${viewer}" = viewer ]; then
-    sed '/^\[viewer\]/,$ s/^enabled = false/enabled = true/' "${config}" >"${with_viewer}"
+    sed '/^\[viewer\]/,/^\[/ s/^enabled = false/enabled = true/' "${config}" >"${with_viewer}"
+    config="${with_viewer}"
+elif [ "${viewer}" = ros2 ]; then
+    sed '/^\[ros2\]/,/^\[/ { s/^enabled = false/enabled = true/; s/^domain_id = 0/domain_id = 42/ }' "${config}" >"${with_viewer}"
     config="${with_viewer}"
 fi
 
@@ -42,9 +48,12 @@ if [ "${viewer}" = viewer ]; then
     done
     target/python-venv/bin/python tests/python/foxglove_client.py "${url}" "${instance}" "${seconds}" &
     client=$!
+elif [ "${viewer}" = ros2 ]; then
+    target/python-venv/bin/python tests/python/check_ros2_graph.py --domain 42 --seconds "${seconds}" >/dev/null &
+    client=$!
 fi
 ./target/release/examples/bare_loop "$seconds" "$config" >"$floor"
-[ -n "${client}" ] && { wait "${client}" || echo "latency: the Foxglove client failed" >&2; }
+[ -n "${client}" ] && { wait "${client}" || echo "latency: the ${viewer} client failed" >&2; }
 kill -TERM "$daemon"
 wait "$daemon"
 

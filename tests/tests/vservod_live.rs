@@ -333,7 +333,7 @@ fn daemon_with_viewer(instance: &str, port: u16) -> (vservo_system_tests::TempCo
         "config/vservo.toml",
         &[
             ("name = \"default\"", &format!("name = \"{instance}\"")),
-            ("enabled = false", "enabled = true"),
+            ("enabled = false\nmax_clients", "enabled = true\nmax_clients"),
             ("port = 8765", &format!("port = {port}")),
         ],
     );

@@ -57,7 +57,7 @@ impl Helper {
                 .arg(settings.max_clients.to_string());
             command
         });
-        Self::start("the Foxglove viewer (vservoctl view)", command)
+        Self::start("the Foxglove viewer", command)
     }
 
     /// The ROS 2 bridge, started when `settings.enabled`.
@@ -72,7 +72,7 @@ impl Helper {
             command.arg("--config").arg(config_path).arg("--daemon-pid").arg(std::process::id().to_string());
             command
         });
-        Self::start("the ROS 2 bridge (vservo-ros2)", command)
+        Self::start("the ROS 2 bridge", command)
     }
 
     fn start(what: &'static str, command: Option<Command>) -> Self {
