@@ -7,10 +7,11 @@ and `.srv` files of ROS 2 Jazzy field for field, so a Cyclone DDS participant bu
 a ROS 2 node (the test peers of vservo's ROS 2 bridge, docs/ROS2.md).
 """
 
+import types
 from dataclasses import dataclass, field
 
 from cyclonedds.idl import IdlStruct
-from cyclonedds.idl.types import array, float64, int32, int64, sequence, uint8, uint32
+from cyclonedds.idl.types import array, float64, int32, int64, sequence, uint8, uint32, uint64
 
 
 @dataclass
@@ -154,23 +155,6 @@ class DiagnosticArray(IdlStruct, typename="diagnostic_msgs::msg::dds_::Diagnosti
     status: sequence[DiagnosticStatus] = field(default_factory=list)
 
 
-# std_srvs/Trigger as rmw_cyclonedds puts it on the wire: the request/reply header, then the fields (an empty
-# request carries the one member IDL needs)
-@dataclass
-class TriggerRequest(IdlStruct, typename="std_srvs::srv::dds_::Trigger_Request_"):
-    client_id: array[uint8, 8] = field(default_factory=lambda: [0] * 8)
-    sequence_number: int64 = 0
-    structure_needs_at_least_one_member: uint8 = 0
-
-
-@dataclass
-class TriggerResponse(IdlStruct, typename="std_srvs::srv::dds_::Trigger_Response_"):
-    client_id: array[uint8, 8] = field(default_factory=lambda: [0] * 8)
-    sequence_number: int64 = 0
-    success: bool = False
-    message: str = ""
-
-
 def topic_name(namespace, relative):
     """The DDS topic of a ROS 2 topic."""
     return f"rt{namespace}/{relative}"
@@ -179,3 +163,49 @@ def topic_name(namespace, relative):
 def service_names(namespace, relative):
     """The DDS request and reply topics of a ROS 2 service."""
     return f"rq{namespace}/{relative}Request", f"rr{namespace}/{relative}Reply"
+
+
+@dataclass
+class Point(IdlStruct, typename="geometry_msgs::msg::dds_::Point_"):
+    x: float64 = 0.0
+    y: float64 = 0.0
+    z: float64 = 0.0
+
+
+@dataclass
+class Pose(IdlStruct, typename="geometry_msgs::msg::dds_::Pose_"):
+    position: Point = field(default_factory=Point)
+    orientation: Quaternion = field(default_factory=Quaternion)
+
+
+def service_types(package, service, request_fields, response_fields):
+    """A ROS 2 service's request and reply types as rmw_cyclonedds puts them on the wire: the client's 8-byte
+    id and a 64-bit sequence number (the reply echoes both), then the `.srv` file's fields, given as
+    (name, type, default) with a default factory for lists."""
+    header = [("client_id", array[uint8, 8], lambda: [0] * 8), ("sequence_number", int64, 0)]
+
+    def make(part, fields):
+        typename = f"{package}::srv::dds_::{service}_{part}_"
+
+        def body(namespace):
+            namespace["__annotations__"] = {name: kind for name, kind, _ in header + fields}
+            for name, _, default in header + fields:
+                namespace[name] = field(default_factory=default) if callable(default) else default
+
+        return dataclass(types.new_class(f"{service}{part}", (IdlStruct,), {"typename": typename}, body))
+
+    return make("Request", request_fields), make("Response", response_fields)
+
+
+# std_srvs/Trigger: an empty request carries the one member IDL needs
+TriggerRequest, TriggerResponse = service_types(
+    "std_srvs", "Trigger", [("structure_needs_at_least_one_member", uint8, 0)],
+    [("success", bool, False), ("message", str, "")])
+
+# vservo_msgs (clients/ros2/vservo_msgs): the bridge's target services
+_TARGET_RESPONSE = [("accepted", bool, False), ("reason", str, ""), ("gains_version", uint64, 0),
+                    ("target_features_px", array[float64, 8], lambda: [0.0] * 8)]
+SetTargetFeaturesRequest, SetTargetFeaturesResponse = service_types(
+    "vservo_msgs", "SetTargetFeatures", [("features_px", array[float64, 8], lambda: [0.0] * 8)], _TARGET_RESPONSE)
+SetTargetPoseRequest, SetTargetPoseResponse = service_types(
+    "vservo_msgs", "SetTargetPose", [("camera_from_target", Pose, Pose)], _TARGET_RESPONSE)

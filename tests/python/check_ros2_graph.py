@@ -83,11 +83,33 @@ def transform_json(t):
             "translation": [tr.x, tr.y, tr.z], "rotation_xyzw": [q.x, q.y, q.z, q.w]}
 
 
-def call(participant, namespace, service, qos, timeout_s=5.0):
-    """Calls a std_srvs/Trigger service as rmw_cyclonedds does; the reply that echoes our id and number."""
+def request_of(spec):
+    """A service call given as NAME (std_srvs/Trigger), NAME=x1,y1,...,x4,y4 (set_target_features) or
+    NAME=x,y,z,qx,qy,qz,qw (set_target_pose): the service, its request and its reply types, the request's fields."""
+    name, _, values = spec.partition("=")
+    numbers = [float(v) for v in values.split(",")] if values else []
+    if name.endswith("set_target_features"):
+        return name, ros.SetTargetFeaturesRequest, ros.SetTargetFeaturesResponse, {"features_px": numbers}
+    if name.endswith("set_target_pose"):
+        x, y, z, qx, qy, qz, qw = numbers
+        pose = ros.Pose(position=ros.Point(x=x, y=y, z=z), orientation=ros.Quaternion(x=qx, y=qy, z=qz, w=qw))
+        return name, ros.SetTargetPoseRequest, ros.SetTargetPoseResponse, {"camera_from_target": pose}
+    return name, ros.TriggerRequest, ros.TriggerResponse, {}
+
+
+def reply_json(reply):
+    if hasattr(reply, "success"):
+        return {"success": reply.success, "message": reply.message}
+    return {"success": reply.accepted, "message": reply.reason, "gains_version": reply.gains_version,
+            "target_features_px": [None if v != v else v for v in reply.target_features_px]}
+
+
+def call(participant, namespace, spec, qos, timeout_s=5.0):
+    """Calls a service as rmw_cyclonedds does; the reply that echoes our id and number."""
+    service, request_type, reply_type, fields = request_of(spec)
     request_topic, reply_topic = ros.service_names(namespace, service)
-    writer = DataWriter(participant, Topic(participant, request_topic, ros.TriggerRequest), qos=qos)
-    reader = DataReader(participant, Topic(participant, reply_topic, ros.TriggerResponse), qos=qos)
+    writer = DataWriter(participant, Topic(participant, request_topic, request_type), qos=qos)
+    reader = DataReader(participant, Topic(participant, reply_topic, reply_type), qos=qos)
     client_id = [random.randrange(256) for _ in range(8)]
     number = random.randrange(1, 1 << 40)
     deadline = time.time() + timeout_s
@@ -95,12 +117,12 @@ def call(participant, namespace, service, qos, timeout_s=5.0):
     while time.time() < deadline and not writer.get_matched_subscriptions():
         time.sleep(0.05)
     time.sleep(0.2)
-    writer.write(ros.TriggerRequest(client_id=client_id, sequence_number=number))
+    writer.write(request_type(client_id=client_id, sequence_number=number, **fields))
     foreign = 0
     while time.time() < deadline:
         for reply in reader.take(10):
             if list(reply.client_id) == client_id and reply.sequence_number == number:
-                return {"answered": True, "success": reply.success, "message": reply.message, "foreign": foreign}
+                return {"answered": True, "foreign": foreign, **reply_json(reply)}
             foreign += 1
         time.sleep(0.02)
     return {"answered": False, "foreign": foreign}
@@ -149,7 +171,7 @@ def main():
         time.sleep(0.01)
     calls = []
     for service in args.before:
-        calls.append({"service": service, **call(participant, args.namespace, service, reliable)})
+        calls.append({"service": service.partition("=")[0], **call(participant, args.namespace, service, reliable)})
     if args.before:
         time.sleep(args.settle_s)
     take(keep=False)
@@ -158,7 +180,7 @@ def main():
         take(keep=True)
         time.sleep(0.01)
     for service in args.after:
-        calls.append({"service": service, **call(participant, args.namespace, service, reliable)})
+        calls.append({"service": service.partition("=")[0], **call(participant, args.namespace, service, reliable)})
 
     print(json.dumps({
         "wall_s": time.time(),

@@ -68,9 +68,33 @@ impl TempConfig {
 }
 
 impl Drop for TempConfig {
+    /// Removes the file and, for an instance of this test run (its name ends in `-<this process id>`), what
+    /// its daemon left: the instance's runtime directory and shared memory. A test's configuration outlives
+    /// its daemons (they are declared after it, and dropped — killed and waited for — first), so this runs
+    /// when the test is over, passed or failed.
     fn drop(&mut self) {
+        if let Ok(instance) = vservo_config::Config::instance_of(&self.path)
+            && instance.ends_with(&format!("-{}", std::process::id()))
+        {
+            remove_instance(&instance);
+        }
         let _ = std::fs::remove_file(&self.path);
     }
+}
+
+/// Removes what a stopped instance leaves behind: its runtime directory (lock, prefix, configuration,
+/// safe-stop path; kept by the daemon for drivers across its restarts) and its shared memory
+/// (`/dev/shm/<prefix>*`).
+pub fn remove_instance(instance: &str) {
+    let Ok(dir) = vservo_protocol::InstanceDir::locate(instance) else { return };
+    if let Ok(entries) = std::fs::read_dir("/dev/shm") {
+        for entry in entries.flatten() {
+            if entry.file_name().to_string_lossy().starts_with(&dir.prefix) {
+                let _ = std::fs::remove_file(entry.path());
+            }
+        }
+    }
+    let _ = std::fs::remove_dir_all(&dir.path);
 }
 
 // ---- the daemon, for the tests that run it (one at a time per test binary) ----

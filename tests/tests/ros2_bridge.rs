@@ -1,8 +1,8 @@
 //! The ROS 2 bridge (`vservo-ros2`, started by vservod with config/vservo-ros2.toml) against a real DDS: a
 //! Cyclone DDS participant that follows ROS 2's conventions on the wire (tests/python/check_ros2_graph.py,
 //! clients/python/ros2_types.py) hears every topic with ROS 2's type names and vservo's content, and its
-//! `std_srvs/Trigger` calls of `safe_stop` and `resume` are answered: a safe stop always, a resume only where
-//! the configuration lets the ROS graph move the arm.
+//! calls are answered: `safe_stop` always; `resume` and the targets (`vservo_msgs/SetTargetFeatures`,
+//! `SetTargetPose`) only where the configuration lets the ROS graph move the arm, checked by the daemon.
 //!
 //! Each test runs its instance on a ROS domain of its own (the tests of one CI run share the network).
 
@@ -121,7 +121,8 @@ fn a_ros2_node_hears_the_cell_and_its_safe_stop_is_taken() {
     // the peer on the machine's outside interface, as another host's node would be (the loopback test's
     // control: unbound, the bridge is heard there)
     let outside = outside_address().expect("this machine has a network interface besides the loopback");
-    let heard = peer_on(domain_id, &["vservo/safe_stop"], &["vservo/resume"], Some(&outside));
+    let target = "vservo/set_target_features=160.5,167.5,327.5,177.5,348.5,74.5,181.5,69.5";
+    let heard = peer_on(domain_id, &["vservo/safe_stop"], &["vservo/resume", target], Some(&outside));
 
     // the services: a safe stop always, a resume refused (allow_motion = false), each with its reason
     let calls = heard["calls"].as_array().expect("calls");
@@ -130,6 +131,8 @@ fn a_ros2_node_hears_the_cell_and_its_safe_stop_is_taken() {
     assert_eq!(calls[1]["answered"], true, "{heard}");
     assert_eq!(calls[1]["success"], false, "{}", calls[1]);
     assert!(calls[1]["message"].as_str().is_some_and(|m| m.contains("allow_motion")), "{}", calls[1]);
+    assert_eq!((&calls[2]["answered"], &calls[2]["success"]), (&Value::Bool(true), &Value::Bool(false)));
+    assert!(calls[2]["message"].as_str().is_some_and(|m| m.contains("allow_motion")), "{}", calls[2]);
     let now = status(&instance).expect("status");
     assert_eq!(now["state"], "safe-stop", "{now}");
     assert_eq!(now["fault"]["name"], "requested", "{now}");
@@ -226,14 +229,57 @@ fn resume_over_ros2_only_where_the_configuration_allows_it() {
     let _one = exclusive();
     let domain_id = domain(1);
     let (instance, _config, daemon) = daemon("ros2-resume", domain_id, true, "");
-    let heard = peer(domain_id, &["vservo/safe_stop"], &["vservo/resume"]);
+    let after = [
+        "vservo/resume",
+        // ξ_d in ROS's pixels (vservo's less ½): taken, checked and acknowledged by the daemon
+        "vservo/set_target_features=160.5,167.5,327.5,177.5,348.5,74.5,181.5,69.5",
+        "vservo/set_target_features=nan,167.5,327.5,177.5,348.5,74.5,181.5,69.5",
+        // a pose: 0.45 m in front, turned 0.1 rad about the optical axis (qz = sin 0.05, qw = cos 0.05)
+        "vservo/set_target_pose=0,0,0.45,0,0,0.04997916927067833,0.9987502603949663",
+        "vservo/set_target_pose=0,0,0.45,0,0,0,0",
+    ];
+    let heard = peer(domain_id, &["vservo/safe_stop"], &after);
     let calls = heard["calls"].as_array().expect("calls");
-    assert!(calls.iter().all(|c| c["answered"] == true && c["success"] == true), "{heard}");
+    assert!(calls.iter().all(|c| c["answered"] == true), "{heard}");
+    assert!(calls[..3].iter().all(|c| c["success"] == true), "{heard}");
+    assert_eq!(calls[2]["gains_version"], 2, "{}", calls[2]);
+    assert_eq!(
+        numbers(&calls[2]["target_features_px"]),
+        [160.5, 167.5, 327.5, 177.5, 348.5, 74.5, 181.5, 69.5],
+        "{}",
+        calls[2]
+    );
+    assert_eq!(calls[3]["success"], false, "{}", calls[3]);
+    assert!(calls[3]["message"].as_str().is_some_and(|m| m.contains("finite")), "{}", calls[3]);
+    assert_eq!((&calls[4]["success"], &calls[4]["gains_version"]), (&Value::Bool(true), &Value::from(3)));
+    assert_eq!(calls[5]["success"], false, "{}", calls[5]);
+    assert!(calls[5]["message"].as_str().is_some_and(|m| m.contains("unit quaternion")), "{}", calls[5]);
     assert!(
         wait_until(Duration::from_secs(3), || status(&instance).is_some_and(|s| running(&s))),
         "{:?}",
         status(&instance)
     );
+    // the servo runs the pose's target: ξ_d of a board 0.45 m away, turned about the axis, in vservo's pixels
+    let gains = echo_lines(&instance, "gains", "0.5").pop().expect("gains");
+    assert_eq!(gains["version"], 3, "{gains}");
+    let pose_features = numbers(&gains["desired_features_px"]);
+    let replied: Vec<f64> = numbers(&calls[4]["target_features_px"]).iter().map(|v| v + 0.5).collect();
+    assert!(close(&pose_features, &replied, 1e-9), "{pose_features:?} vs the reply's {replied:?}");
+    // the paper's camera and board (config/vservo.toml), the board at 0.45 m turned 0.1 rad about the axis
+    let camera = vservo_scene::CameraIntrinsics::paper();
+    let camera_from_board = nalgebra::IsometryMatrix3::from_parts(
+        Translation3::new(0.0, 0.0, 0.45),
+        Rotation3::from_axis_angle(&nalgebra::Vector3::z_axis(), 0.1),
+    );
+    let expected: Vec<f64> = vservo_scene::Board::paper()
+        .marks_in_board
+        .iter()
+        .flat_map(|mark| {
+            let p = camera.project(&(camera_from_board * mark)).expect("in front");
+            [p.x, p.y]
+        })
+        .collect();
+    assert!(close(&pose_features, &expected, 1e-6), "{pose_features:?} vs {expected:?}");
     daemon.stop();
 }
 

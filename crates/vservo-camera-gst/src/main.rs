@@ -30,7 +30,7 @@ struct Cli {
 }
 
 fn main() -> ExitCode {
-    init_logging();
+    vservo_runtime::logging::to_stderr("info");
     let cli = Cli::parse();
     let result = vservo_protocol::signals::stop_flag()
         .map_err(anyhow::Error::from)
@@ -45,15 +45,4 @@ fn main() -> ExitCode {
             if slot_taken { ExitCode::from(SLOT_TAKEN_EXIT) } else { ExitCode::FAILURE }
         }
     }
-}
-
-fn init_logging() {
-    use std::io::IsTerminal;
-    let filter = tracing_subscriber::EnvFilter::try_from_env("VSERVO_LOG")
-        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("info"));
-    tracing_subscriber::fmt()
-        .with_env_filter(filter)
-        .with_writer(std::io::stderr)
-        .with_ansi(std::io::stderr().is_terminal())
-        .init();
 }

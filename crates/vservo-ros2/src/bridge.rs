@@ -104,7 +104,7 @@ impl Bridge<'_> {
             config_path: self.config_path,
             counts: &mut self.requests,
         }
-        .serve(&self.graph.safe_stop, &self.graph.resume);
+        .serve(&self.graph);
         Ok(())
     }
 }

@@ -251,6 +251,10 @@ fn key_value(key: &str, value: impl ToString) -> KeyValue {
     KeyValue { key: key.to_string(), value: value.to_string() }
 }
 
+fn counters(pairs: &[(&str, u64)]) -> Vec<KeyValue> {
+    pairs.iter().map(|(key, value)| key_value(key, value)).collect()
+}
+
 fn cell_status(view: &StatusView) -> DiagnosticStatus {
     let level = match view.state {
         "running" | "moving" => DiagnosticStatus::OK,
@@ -291,16 +295,16 @@ fn cell_status(view: &StatusView) -> DiagnosticStatus {
 
 fn node_status(instance: &str, name: &str, node: &vservo_client::NodeView) -> DiagnosticStatus {
     let level = if node.running && node.healthy { DiagnosticStatus::OK } else { DiagnosticStatus::WARN };
-    let mut values = vec![
-        key_value("state", node.state),
-        key_value("pid", node.pid),
-        key_value("restarts", node.restarts),
-        key_value("cycles", node.cycles),
-        key_value("overruns", node.overruns),
-        key_value("skipped_periods", node.skipped_periods),
-        key_value("late_answers", node.late_answers),
-        key_value("rejected_messages", node.rejected_messages),
-    ];
+    let mut values = vec![key_value("state", node.state)];
+    values.extend(counters(&[
+        ("pid", u64::from(node.pid)),
+        ("restarts", node.restarts),
+        ("cycles", node.cycles),
+        ("overruns", node.overruns),
+        ("skipped_periods", node.skipped_periods),
+        ("late_answers", node.late_answers),
+        ("rejected_messages", node.rejected_messages),
+    ]));
     let timings = [
         ("wake_latency", node.wake_latency_us),
         ("execution", node.execution_us),
@@ -352,15 +356,17 @@ pub fn bridge_status(instance: &str, counts: &BridgeCounts) -> DiagnosticStatus 
         name: format!("vservo/{instance}: ros2 bridge"),
         message: if counts.allow_motion { "motion commands on" } else { "motion commands off" }.to_string(),
         hardware_id: instance.to_string(),
-        values: vec![
-            key_value("published", counts.published),
-            key_value("failed", counts.failed),
-            key_value("refused_messages", counts.refused_messages),
-            key_value("requests_done", counts.requests_done),
-            key_value("requests_refused", counts.requests_refused),
-            key_value("requests_bad", counts.requests_bad),
-            key_value("allow_motion", counts.allow_motion),
-        ],
+        values: counters(&[
+            ("published", counts.published),
+            ("failed", counts.failed),
+            ("refused_messages", counts.refused_messages),
+            ("requests_done", counts.requests_done),
+            ("requests_refused", counts.requests_refused),
+            ("requests_bad", counts.requests_bad),
+        ])
+        .into_iter()
+        .chain([key_value("allow_motion", counts.allow_motion)])
+        .collect(),
     }
 }
 

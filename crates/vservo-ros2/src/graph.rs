@@ -9,8 +9,8 @@ use ros2_client::{
 };
 use vservo_config::{Ros2, Ros2Topic};
 use vservo_ros2::msg::{
-    CameraInfo, DiagnosticArray, Float64MultiArray, Image, JointState, RosType, TfMessage, TriggerRequest,
-    TriggerResponse, TwistStamped,
+    CameraInfo, DiagnosticArray, Float64MultiArray, Image, JointState, RosType, SetTargetFeaturesRequest,
+    SetTargetPoseRequest, SetTargetResponse, TfMessage, TriggerRequest, TriggerResponse, TwistStamped,
 };
 use vservo_ros2::translate::RosMessage;
 use vservo_ros2::{names, qos};
@@ -29,6 +29,8 @@ pub struct Graph {
     pub diagnostics: Option<Publisher<DiagnosticArray>>,
     pub safe_stop: TriggerServer,
     pub resume: TriggerServer,
+    pub set_target_features: Server<SetTargetFeaturesRequest, SetTargetResponse>,
+    pub set_target_pose: Server<SetTargetPoseRequest, SetTargetResponse>,
     /// Kept alive with its entities.
     _node: Node,
     _context: Context,
@@ -54,8 +56,14 @@ impl Graph {
             features: maker.publisher(Ros2Topic::Features, qos::SENSOR_DATA)?,
             camera_twist: maker.publisher(Ros2Topic::CameraTwist, qos::SENSOR_DATA)?,
             diagnostics: maker.publisher(Ros2Topic::Diagnostics, qos::RELIABLE)?,
-            safe_stop: maker.trigger_server(names::SAFE_STOP)?,
-            resume: maker.trigger_server(names::RESUME)?,
+            safe_stop: maker.server(names::SAFE_STOP, "std_srvs", "Trigger")?,
+            resume: maker.server(names::RESUME, "std_srvs", "Trigger")?,
+            set_target_features: maker.server(
+                names::SET_TARGET_FEATURES,
+                "vservo_msgs",
+                "SetTargetFeatures",
+            )?,
+            set_target_pose: maker.server(names::SET_TARGET_POSE, "vservo_msgs", "SetTargetPose")?,
             _node: node,
             _context: context,
         };
@@ -137,14 +145,19 @@ impl Maker<'_> {
         Ok(Some(publisher))
     }
 
-    /// A `std_srvs/Trigger` service, with the request/reply mapping of ROS 2 on Cyclone DDS.
-    fn trigger_server(&mut self, relative: &str) -> anyhow::Result<TriggerServer> {
+    /// A service of type `package/name`, with the request/reply mapping of ROS 2 on Cyclone DDS.
+    fn server<Q: ros2_client::Message + Clone + 'static, A: ros2_client::Message + 'static>(
+        &mut self,
+        relative: &str,
+        package: &str,
+        type_name: &str,
+    ) -> anyhow::Result<Server<Q, A>> {
         let name = self.name(relative)?;
         self.node
-            .create_server::<TriggerRequest, TriggerResponse>(
+            .create_server::<Q, A>(
                 ServiceMapping::Cyclone,
                 &name,
-                &ServiceTypeName::new("std_srvs", "Trigger"),
+                &ServiceTypeName::new(package, type_name),
                 qos::SERVICES,
                 qos::SERVICES,
             )

@@ -20,4 +20,5 @@ pub mod msg;
 pub mod names;
 pub mod qos;
 pub mod schema;
+pub mod target;
 pub mod translate;

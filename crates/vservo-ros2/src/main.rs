@@ -31,7 +31,7 @@ struct Cli {
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
-    init_logging();
+    vservo_runtime::logging::to_stderr("info,rustdds=error,ros2_client=error");
     let config = match vservo_config::Config::load(&cli.config) {
         Ok(config) => config,
         Err(error) => {
@@ -63,15 +63,4 @@ fn end_with_daemon(daemon_pid: i32, stop: &std::sync::atomic::AtomicBool) -> any
         stop.store(true, std::sync::atomic::Ordering::Relaxed);
     }
     Ok(())
-}
-
-fn init_logging() {
-    use std::io::IsTerminal;
-    let filter = tracing_subscriber::EnvFilter::try_from_default_env()
-        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("info,rustdds=error,ros2_client=error"));
-    tracing_subscriber::fmt()
-        .with_env_filter(filter)
-        .with_writer(std::io::stderr)
-        .with_ansi(std::io::stderr().is_terminal())
-        .init();
 }

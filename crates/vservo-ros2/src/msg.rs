@@ -287,3 +287,53 @@ pub struct TriggerResponse {
     pub message: String,
 }
 impl ros2_client::Message for TriggerResponse {}
+
+/// `geometry_msgs/Point`.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
+pub struct Point {
+    /// x (m).
+    pub x: f64,
+    /// y (m).
+    pub y: f64,
+    /// z (m).
+    pub z: f64,
+}
+
+/// `geometry_msgs/Pose`.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
+pub struct Pose {
+    /// The origin.
+    pub position: Point,
+    /// The orientation.
+    pub orientation: Quaternion,
+}
+
+/// `vservo_msgs/SetTargetFeatures`'s request (clients/ros2/vservo_msgs): ξ_d in ROS's pixels.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
+pub struct SetTargetFeaturesRequest {
+    /// [x₁ y₁ … x₄ y₄] (px, a pixel's centre at whole coordinates, the lens's distortion taken out).
+    pub features_px: [f64; 8],
+}
+impl ros2_client::Message for SetTargetFeaturesRequest {}
+
+/// `vservo_msgs/SetTargetPose`'s request: where the camera should see the target.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
+pub struct SetTargetPoseRequest {
+    /// The target's pose in the desired camera frame (m; a unit quaternion).
+    pub camera_from_target: Pose,
+}
+impl ros2_client::Message for SetTargetPoseRequest {}
+
+/// The response of `vservo_msgs/SetTargetFeatures` and `SetTargetPose` (the same fields).
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct SetTargetResponse {
+    /// Whether the daemon took the target.
+    pub accepted: bool,
+    /// Why not, or what was done.
+    pub reason: String,
+    /// The gains version in force after it.
+    pub gains_version: u64,
+    /// ξ_d in force after it (ROS's pixels).
+    pub target_features_px: [f64; 8],
+}
+impl ros2_client::Message for SetTargetResponse {}

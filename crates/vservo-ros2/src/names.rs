@@ -11,6 +11,11 @@ pub const SAFE_STOP: &str = "vservo/safe_stop";
 /// The service that ends a safe stop (served only with `[ros2] allow_motion`).
 pub const RESUME: &str = "vservo/resume";
 
+/// The service that sets ξ_d (served only with `[ros2] allow_motion`).
+pub const SET_TARGET_FEATURES: &str = "vservo/set_target_features";
+/// The service that sets the camera's desired pose relative to the target (only with `allow_motion`).
+pub const SET_TARGET_POSE: &str = "vservo/set_target_pose";
+
 /// A topic's name relative to the namespace.
 pub fn topic(topic: Ros2Topic) -> &'static str {
     match topic {

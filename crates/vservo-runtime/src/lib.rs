@@ -18,6 +18,7 @@
 pub mod clock;
 pub mod gains;
 pub mod joint_history;
+pub mod logging;
 pub mod nodes;
 pub mod notes;
 pub mod realtime;

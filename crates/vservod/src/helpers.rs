@@ -23,56 +23,51 @@ pub struct Helper {
     restart_at: Option<Instant>,
 }
 
-/// A helper's command: the program next to vservod, run as vservod's own processes are.
-fn helper_command(vservod: &Path, program: &str, runtime_base: &Path) -> Command {
-    let mut command = Command::new(vservod.with_file_name(program));
-    command
-        .env(vservo_protocol::instance_dir::RUNTIME_DIR_ENV, runtime_base)
-        .env_remove("NOTIFY_SOCKET")
-        .env_remove("WATCHDOG_USEC")
-        .env_remove("WATCHDOG_PID")
-        .stdin(Stdio::null());
-    command
+/// Where the helpers are and what they are given.
+pub struct Launch<'a> {
+    /// vservod's own executable: the helpers are installed next to it.
+    pub vservod: &'a Path,
+    /// The configuration file vservod runs.
+    pub config_path: &'a Path,
+    /// The instance's runtime base.
+    pub runtime_base: &'a Path,
+}
+
+impl Launch<'_> {
+    /// `program` (next to vservod) with `--config` and `args`, run as vservod's own processes are; `None`
+    /// when not `enabled`.
+    fn command(&self, enabled: bool, program: &str, args: &[String]) -> Option<Command> {
+        enabled.then(|| {
+            let mut command = Command::new(self.vservod.with_file_name(program));
+            command
+                .args(args)
+                .arg("--config")
+                .arg(self.config_path)
+                .env(vservo_protocol::instance_dir::RUNTIME_DIR_ENV, self.runtime_base)
+                .env_remove("NOTIFY_SOCKET")
+                .env_remove("WATCHDOG_USEC")
+                .env_remove("WATCHDOG_PID")
+                .stdin(Stdio::null());
+            command
+        })
+    }
 }
 
 impl Helper {
-    /// The Foxglove viewer, started when `settings.enabled`.
-    pub fn viewer(
-        settings: &vservo_config::Viewer,
-        vservod: &Path,
-        config_path: &Path,
-        runtime_base: &Path,
-    ) -> Self {
-        let command = settings.enabled.then(|| {
-            let mut command = helper_command(vservod, "vservoctl", runtime_base);
-            command
-                .arg("view")
-                .arg("--config")
-                .arg(config_path)
-                .arg("--address")
-                .arg(&settings.address)
-                .arg("--port")
-                .arg(settings.port.to_string())
-                .arg("--max-clients")
-                .arg(settings.max_clients.to_string());
-            command
-        });
-        Self::start("the Foxglove viewer", command)
+    /// The Foxglove viewer (`vservoctl view`), started when `settings.enabled`.
+    pub fn viewer(settings: &vservo_config::Viewer, launch: &Launch) -> Self {
+        let args = ["view", "--address", &settings.address, "--port", &settings.port.to_string()]
+            .into_iter()
+            .map(String::from)
+            .chain(["--max-clients".to_string(), settings.max_clients.to_string()])
+            .collect::<Vec<_>>();
+        Self::start("the Foxglove viewer", launch.command(settings.enabled, "vservoctl", &args))
     }
 
-    /// The ROS 2 bridge, started when `settings.enabled`.
-    pub fn ros2_bridge(
-        settings: &vservo_config::Ros2,
-        vservod: &Path,
-        config_path: &Path,
-        runtime_base: &Path,
-    ) -> Self {
-        let command = settings.enabled.then(|| {
-            let mut command = helper_command(vservod, "vservo-ros2", runtime_base);
-            command.arg("--config").arg(config_path).arg("--daemon-pid").arg(std::process::id().to_string());
-            command
-        });
-        Self::start("the ROS 2 bridge", command)
+    /// The ROS 2 bridge (`vservo-ros2`), started when `settings.enabled`; it ends with this daemon.
+    pub fn ros2_bridge(settings: &vservo_config::Ros2, launch: &Launch) -> Self {
+        let args = ["--daemon-pid".to_string(), std::process::id().to_string()];
+        Self::start("the ROS 2 bridge", launch.command(settings.enabled, "vservo-ros2", &args))
     }
 
     fn start(what: &'static str, command: Option<Command>) -> Self {

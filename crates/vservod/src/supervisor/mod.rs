@@ -33,7 +33,7 @@ use vservo_runtime::clock::{PeriodicTimer, monotonic_ns};
 
 use crate::commands::{Commander, LoopState};
 use crate::faults::Conditions;
-use crate::helpers::Helper;
+use crate::helpers::{Helper, Launch};
 use crate::safety::Safety;
 use crate::stop_path::{BurstEvent, Bursts};
 use crate::systemd::Systemd;
@@ -209,9 +209,13 @@ impl Daemon {
             );
         }
         let nodes = start_nodes(&settings, &launcher, commander.config_text())?;
-        let (executable, config_path) = (&launcher.executable, &launcher.config_path);
-        let viewer = Helper::viewer(&config.viewer, executable, config_path, claim.base());
-        let ros2_bridge = Helper::ros2_bridge(&config.ros2, executable, config_path, claim.base());
+        let launch = Launch {
+            vservod: &launcher.executable,
+            config_path: &launcher.config_path,
+            runtime_base: claim.base(),
+        };
+        let viewer = Helper::viewer(&config.viewer, &launch);
+        let ros2_bridge = Helper::ros2_bridge(&config.ros2, &launch);
         let now = Instant::now();
         Ok(Self {
             settings,

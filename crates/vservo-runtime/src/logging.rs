@@ -1,0 +1,14 @@
+//! Logging of the instance's helper and driver processes (the camera driver, the ROS 2 bridge): to stderr,
+//! filtered by `VSERVO_LOG` (tracing's filter syntax) or else `default_filter`, in colour on a terminal only.
+
+/// Sets up the process's logging; call once, first.
+pub fn to_stderr(default_filter: &str) {
+    use std::io::IsTerminal;
+    let filter = tracing_subscriber::EnvFilter::try_from_env("VSERVO_LOG")
+        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new(default_filter));
+    tracing_subscriber::fmt()
+        .with_env_filter(filter)
+        .with_writer(std::io::stderr)
+        .with_ansi(std::io::stderr().is_terminal())
+        .init();
+}
