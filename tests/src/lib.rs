@@ -147,6 +147,13 @@ impl Daemon {
         Self::spawn(command, config, status_every_s)
     }
 
+    /// In the network namespace `netns` (`ip netns exec`, which becomes vservod: killing it kills the daemon).
+    pub fn start_in(config: &TempConfig, netns: &str) -> Daemon {
+        let mut command = Command::new("ip");
+        command.args(["netns", "exec", netns]).arg(binary("vservod"));
+        Self::spawn(command, config, "0")
+    }
+
     /// Run by another user (`uid`, `gid`; the test runs as root), with no runtime directory in its
     /// environment: its instance lands in that user's own base (`/tmp/vservo-<uid>`). The process is
     /// vservod itself (no `runuser` in between), so killing it kills the daemon.
@@ -452,4 +459,58 @@ pub fn assert_calibration_within_the_bars(report: &Value) {
     let tool_from_camera = &report["tool_from_camera"];
     assert_eq!(tool_from_camera["translation_m"].as_array().map(Vec::len), Some(3), "{report}");
     assert_eq!(tool_from_camera["quaternion_xyzw"].as_array().map(Vec::len), Some(4), "{report}");
+}
+
+/// Two network namespaces joined by a veth pair, as the two PCs of a cell on their own network (needs root);
+/// deleted, with the pair, when dropped.
+pub struct TwoHosts {
+    /// The namespaces' names.
+    pub names: [String; 2],
+    /// Their addresses on the pair's network.
+    pub addresses: [String; 2],
+}
+
+impl TwoHosts {
+    /// `vs<pid>a` (10.N.M.1) and `vs<pid>b` (10.N.M.2), N.M from this process's id.
+    pub fn new() -> Result<Self, String> {
+        let pid = std::process::id();
+        let names = [format!("vs{pid}a"), format!("vs{pid}b")];
+        let subnet = format!("10.{}.{}", 100 + (pid / 256) % 100, pid % 256);
+        let addresses = [format!("{subnet}.1"), format!("{subnet}.2")];
+        let hosts = Self { names, addresses };
+        let [a, b] = &hosts.names;
+        let (veth_a, veth_b) = (format!("{a}v"), format!("{b}v"));
+        let steps: Vec<Vec<String>> = vec![
+            vec!["netns".into(), "add".into(), a.clone()],
+            vec!["netns".into(), "add".into(), b.clone()],
+            ["link", "add", &veth_a, "type", "veth", "peer", "name", &veth_b].map(String::from).to_vec(),
+            ["link", "set", &veth_a, "netns", a].map(String::from).to_vec(),
+            ["link", "set", &veth_b, "netns", b].map(String::from).to_vec(),
+            ["-n", a, "addr", "add", &format!("{}/24", hosts.addresses[0]), "dev", &veth_a]
+                .map(String::from)
+                .to_vec(),
+            ["-n", b, "addr", "add", &format!("{}/24", hosts.addresses[1]), "dev", &veth_b]
+                .map(String::from)
+                .to_vec(),
+            ["-n", a, "link", "set", &veth_a, "up"].map(String::from).to_vec(),
+            ["-n", b, "link", "set", &veth_b, "up"].map(String::from).to_vec(),
+            ["-n", a, "link", "set", "lo", "up"].map(String::from).to_vec(),
+            ["-n", b, "link", "set", "lo", "up"].map(String::from).to_vec(),
+        ];
+        for step in steps {
+            let out = Command::new("ip").args(&step).output().map_err(|e| format!("ip: {e}"))?;
+            if !out.status.success() {
+                return Err(format!("ip {}: {}", step.join(" "), String::from_utf8_lossy(&out.stderr)));
+            }
+        }
+        Ok(hosts)
+    }
+}
+
+impl Drop for TwoHosts {
+    fn drop(&mut self) {
+        for name in &self.names {
+            let _ = Command::new("ip").args(["netns", "del", name]).output();
+        }
+    }
 }

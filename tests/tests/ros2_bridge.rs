@@ -12,7 +12,8 @@ use std::time::Duration;
 use nalgebra::{Isometry3, Matrix3, Rotation3, Translation3, UnitQuaternion};
 use serde_json::Value;
 use vservo_system_tests::{
-    Daemon, config_from, echo_lines, exclusive, numbers, repository_root, running, status, unique, wait_until,
+    Daemon, TwoHosts, config_from, echo_lines, exclusive, numbers, repository_root, running, status, unique,
+    wait_until,
 };
 
 /// A ROS domain no other test of this run uses (the process id picks it; 0 is left to users).
@@ -27,6 +28,17 @@ fn daemon(
     allow_motion: bool,
     interface: &str,
 ) -> (String, vservo_system_tests::TempConfig, Daemon) {
+    daemon_in(name, domain_id, allow_motion, interface, None)
+}
+
+/// [`daemon`], in a network namespace if given.
+fn daemon_in(
+    name: &str,
+    domain_id: u32,
+    allow_motion: bool,
+    interface: &str,
+    netns: Option<&str>,
+) -> (String, vservo_system_tests::TempConfig, Daemon) {
     let instance = unique(name);
     let config = config_from(
         "config/vservo-ros2.toml",
@@ -37,7 +49,10 @@ fn daemon(
             ("interface = \"\"", &format!("interface = \"{interface}\"")),
         ],
     );
-    let daemon = Daemon::start(&config);
+    let daemon = match netns {
+        Some(netns) => Daemon::start_in(&config, netns),
+        None => Daemon::start(&config),
+    };
     assert!(
         wait_until(Duration::from_secs(15), || status(&instance).is_some_and(|s| running(&s))),
         "{}",
@@ -55,8 +70,26 @@ fn peer(domain_id: u32, before: &[&str], after: &[&str]) -> Value {
 /// [`peer`], with Cyclone DDS on the one interface of this address only (unicast discovery of this machine's
 /// participants when it is the loopback, which carries no multicast).
 fn peer_on(domain_id: u32, before: &[&str], after: &[&str], address: Option<&str>) -> Value {
+    peer_in(domain_id, before, after, address, None)
+}
+
+/// [`peer_on`], in a network namespace if given.
+fn peer_in(
+    domain_id: u32,
+    before: &[&str],
+    after: &[&str],
+    address: Option<&str>,
+    netns: Option<&str>,
+) -> Value {
     let interpreter = repository_root().join("target/python-venv/bin/python");
-    let mut command = Command::new(&interpreter);
+    let mut command = match netns {
+        Some(netns) => {
+            let mut command = Command::new("ip");
+            command.args(["netns", "exec", netns]).arg(&interpreter);
+            command
+        }
+        None => Command::new(&interpreter),
+    };
     if let Some(address) = address {
         let multicast = if address.starts_with("127.") { "false" } else { "true" };
         command.env(
@@ -309,5 +342,26 @@ fn bound_to_the_loopback_the_bridge_is_heard_on_this_machine_only() {
     let heard: u64 = there["counts"].as_object().expect("counts").values().filter_map(Value::as_u64).sum();
     assert_eq!(heard, 0, "heard on {outside}: {there}");
     assert_eq!(there["calls"][0]["answered"], false, "{there}");
+    daemon.stop();
+}
+
+#[test]
+fn across_two_hosts_the_cell_is_heard_and_stopped_on_the_cells_network() {
+    let _one = exclusive();
+    // vservod on one host, a ROS 2 node on the other, joined by their own network (two network namespaces)
+    let hosts =
+        TwoHosts::new().expect("two network namespaces joined by a veth pair (the tests run as root)");
+    let domain_id = domain(3);
+    let (instance, _config, daemon) =
+        daemon_in("ros2-hosts", domain_id, false, &hosts.addresses[0], Some(&hosts.names[0]));
+    let heard =
+        peer_in(domain_id, &["vservo/safe_stop"], &[], Some(&hosts.addresses[1]), Some(&hosts.names[1]));
+    let counts = &heard["counts"];
+    for topic in ["joint_states", "tf", "camera/image_raw", "camera/camera_info", "diagnostics"] {
+        assert!(counts[topic].as_u64().unwrap_or(0) > 0, "nothing on {topic} from the other host: {heard}");
+    }
+    assert_eq!(heard["calls"][0]["success"], true, "{heard}");
+    let now = status(&instance).expect("status");
+    assert_eq!(now["fault"]["name"], "requested", "{now}");
     daemon.stop();
 }
