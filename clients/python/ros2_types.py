@@ -14,187 +14,137 @@ from cyclonedds.idl import IdlStruct
 from cyclonedds.idl.types import array, float64, int32, int64, sequence, uint8, uint32, uint64
 
 
-@dataclass
-class Time(IdlStruct, typename="builtin_interfaces::msg::dds_::Time_"):
-    sec: int32 = 0
-    nanosec: uint32 = 0
+def _typed(class_name, typename, fields):
+    """An IDL structure of `fields` (name, type, default; a callable default is a factory, for lists and
+    nested structures), in their order, with its DDS type name."""
+
+    def body(namespace):
+        namespace["__annotations__"] = {name: kind for name, kind, _ in fields}
+        for name, _, default in fields:
+            namespace[name] = field(default_factory=default) if callable(default) else default
+
+    return dataclass(types.new_class(class_name, (IdlStruct,), {"typename": typename}, body))
 
 
-@dataclass
-class Header(IdlStruct, typename="std_msgs::msg::dds_::Header_"):
-    stamp: Time = field(default_factory=Time)
-    frame_id: str = ""
+def message(package, name, fields):
+    """The ROS 2 message `package/msg/name` as DDS carries it: `package::msg::dds_::name_`."""
+    return _typed(name, f"{package}::msg::dds_::{name}_", fields)
 
 
-@dataclass
-class JointState(IdlStruct, typename="sensor_msgs::msg::dds_::JointState_"):
-    header: Header = field(default_factory=Header)
-    name: sequence[str] = field(default_factory=list)
-    position: sequence[float64] = field(default_factory=list)
-    velocity: sequence[float64] = field(default_factory=list)
-    effort: sequence[float64] = field(default_factory=list)
+Time = message("builtin_interfaces", "Time", [("sec", int32, 0), ("nanosec", uint32, 0)])
 
+Header = message("std_msgs", "Header", [("stamp", Time, Time), ("frame_id", str, "")])
 
-@dataclass
-class Vector3(IdlStruct, typename="geometry_msgs::msg::dds_::Vector3_"):
-    x: float64 = 0.0
-    y: float64 = 0.0
-    z: float64 = 0.0
+JointState = message("sensor_msgs", "JointState", [
+    ("header", Header, Header),
+    ("name", sequence[str], list),
+    ("position", sequence[float64], list),
+    ("velocity", sequence[float64], list),
+    ("effort", sequence[float64], list),
+])
 
+Vector3 = message("geometry_msgs", "Vector3", [("x", float64, 0.0), ("y", float64, 0.0), ("z", float64, 0.0)])
 
-@dataclass
-class Quaternion(IdlStruct, typename="geometry_msgs::msg::dds_::Quaternion_"):
-    x: float64 = 0.0
-    y: float64 = 0.0
-    z: float64 = 0.0
-    w: float64 = 1.0
+Quaternion = message("geometry_msgs", "Quaternion", [
+    ("x", float64, 0.0),
+    ("y", float64, 0.0),
+    ("z", float64, 0.0),
+    ("w", float64, 1.0),
+])
 
+Transform = message("geometry_msgs", "Transform", [
+    ("translation", Vector3, Vector3),
+    ("rotation", Quaternion, Quaternion),
+])
 
-@dataclass
-class Transform(IdlStruct, typename="geometry_msgs::msg::dds_::Transform_"):
-    translation: Vector3 = field(default_factory=Vector3)
-    rotation: Quaternion = field(default_factory=Quaternion)
+TransformStamped = message("geometry_msgs", "TransformStamped", [
+    ("header", Header, Header),
+    ("child_frame_id", str, ""),
+    ("transform", Transform, Transform),
+])
 
+TFMessage = message("tf2_msgs", "TFMessage", [("transforms", sequence[TransformStamped], list)])
 
-@dataclass
-class TransformStamped(IdlStruct, typename="geometry_msgs::msg::dds_::TransformStamped_"):
-    header: Header = field(default_factory=Header)
-    child_frame_id: str = ""
-    transform: Transform = field(default_factory=Transform)
+Image = message("sensor_msgs", "Image", [
+    ("header", Header, Header),
+    ("height", uint32, 0),
+    ("width", uint32, 0),
+    ("encoding", str, ""),
+    ("is_bigendian", uint8, 0),
+    ("step", uint32, 0),
+    ("data", sequence[uint8], list),
+])
 
+RegionOfInterest = message("sensor_msgs", "RegionOfInterest", [
+    ("x_offset", uint32, 0),
+    ("y_offset", uint32, 0),
+    ("height", uint32, 0),
+    ("width", uint32, 0),
+    ("do_rectify", bool, False),
+])
 
-@dataclass
-class TFMessage(IdlStruct, typename="tf2_msgs::msg::dds_::TFMessage_"):
-    transforms: sequence[TransformStamped] = field(default_factory=list)
+CameraInfo = message("sensor_msgs", "CameraInfo", [
+    ("header", Header, Header),
+    ("height", uint32, 0),
+    ("width", uint32, 0),
+    ("distortion_model", str, ""),
+    ("d", sequence[float64], list),
+    ("k", array[float64, 9], lambda: [0.0] * 9),
+    ("r", array[float64, 9], lambda: [0.0] * 9),
+    ("p", array[float64, 12], lambda: [0.0] * 12),
+    ("binning_x", uint32, 0),
+    ("binning_y", uint32, 0),
+    ("roi", RegionOfInterest, RegionOfInterest),
+])
 
+Twist = message("geometry_msgs", "Twist", [("linear", Vector3, Vector3), ("angular", Vector3, Vector3)])
 
-@dataclass
-class Image(IdlStruct, typename="sensor_msgs::msg::dds_::Image_"):
-    header: Header = field(default_factory=Header)
-    height: uint32 = 0
-    width: uint32 = 0
-    encoding: str = ""
-    is_bigendian: uint8 = 0
-    step: uint32 = 0
-    data: sequence[uint8] = field(default_factory=list)
+TwistStamped = message("geometry_msgs", "TwistStamped", [("header", Header, Header), ("twist", Twist, Twist)])
 
+MultiArrayDimension = message("std_msgs", "MultiArrayDimension", [
+    ("label", str, ""),
+    ("size", uint32, 0),
+    ("stride", uint32, 0),
+])
 
-@dataclass
-class RegionOfInterest(IdlStruct, typename="sensor_msgs::msg::dds_::RegionOfInterest_"):
-    x_offset: uint32 = 0
-    y_offset: uint32 = 0
-    height: uint32 = 0
-    width: uint32 = 0
-    do_rectify: bool = False
+MultiArrayLayout = message("std_msgs", "MultiArrayLayout", [
+    ("dim", sequence[MultiArrayDimension], list),
+    ("data_offset", uint32, 0),
+])
 
+Float64MultiArray = message("std_msgs", "Float64MultiArray", [
+    ("layout", MultiArrayLayout, MultiArrayLayout),
+    ("data", sequence[float64], list),
+])
 
-@dataclass
-class CameraInfo(IdlStruct, typename="sensor_msgs::msg::dds_::CameraInfo_"):
-    header: Header = field(default_factory=Header)
-    height: uint32 = 0
-    width: uint32 = 0
-    distortion_model: str = ""
-    d: sequence[float64] = field(default_factory=list)
-    k: array[float64, 9] = field(default_factory=lambda: [0.0] * 9)
-    r: array[float64, 9] = field(default_factory=lambda: [0.0] * 9)
-    p: array[float64, 12] = field(default_factory=lambda: [0.0] * 12)
-    binning_x: uint32 = 0
-    binning_y: uint32 = 0
-    roi: RegionOfInterest = field(default_factory=RegionOfInterest)
+KeyValue = message("diagnostic_msgs", "KeyValue", [("key", str, ""), ("value", str, "")])
 
+DiagnosticStatus = message("diagnostic_msgs", "DiagnosticStatus", [
+    ("level", uint8, 0),
+    ("name", str, ""),
+    ("message", str, ""),
+    ("hardware_id", str, ""),
+    ("values", sequence[KeyValue], list),
+])
 
-@dataclass
-class Twist(IdlStruct, typename="geometry_msgs::msg::dds_::Twist_"):
-    linear: Vector3 = field(default_factory=Vector3)
-    angular: Vector3 = field(default_factory=Vector3)
+DiagnosticArray = message("diagnostic_msgs", "DiagnosticArray", [
+    ("header", Header, Header),
+    ("status", sequence[DiagnosticStatus], list),
+])
 
+Point = message("geometry_msgs", "Point", [("x", float64, 0.0), ("y", float64, 0.0), ("z", float64, 0.0)])
 
-@dataclass
-class TwistStamped(IdlStruct, typename="geometry_msgs::msg::dds_::TwistStamped_"):
-    header: Header = field(default_factory=Header)
-    twist: Twist = field(default_factory=Twist)
-
-
-@dataclass
-class MultiArrayDimension(IdlStruct, typename="std_msgs::msg::dds_::MultiArrayDimension_"):
-    label: str = ""
-    size: uint32 = 0
-    stride: uint32 = 0
-
-
-@dataclass
-class MultiArrayLayout(IdlStruct, typename="std_msgs::msg::dds_::MultiArrayLayout_"):
-    dim: sequence[MultiArrayDimension] = field(default_factory=list)
-    data_offset: uint32 = 0
-
-
-@dataclass
-class Float64MultiArray(IdlStruct, typename="std_msgs::msg::dds_::Float64MultiArray_"):
-    layout: MultiArrayLayout = field(default_factory=MultiArrayLayout)
-    data: sequence[float64] = field(default_factory=list)
-
-
-@dataclass
-class KeyValue(IdlStruct, typename="diagnostic_msgs::msg::dds_::KeyValue_"):
-    key: str = ""
-    value: str = ""
-
-
-@dataclass
-class DiagnosticStatus(IdlStruct, typename="diagnostic_msgs::msg::dds_::DiagnosticStatus_"):
-    level: uint8 = 0
-    name: str = ""
-    message: str = ""
-    hardware_id: str = ""
-    values: sequence[KeyValue] = field(default_factory=list)
-
-
-@dataclass
-class DiagnosticArray(IdlStruct, typename="diagnostic_msgs::msg::dds_::DiagnosticArray_"):
-    header: Header = field(default_factory=Header)
-    status: sequence[DiagnosticStatus] = field(default_factory=list)
-
-
-def topic_name(namespace, relative):
-    """The DDS topic of a ROS 2 topic."""
-    return f"rt{namespace}/{relative}"
-
-
-def service_names(namespace, relative):
-    """The DDS request and reply topics of a ROS 2 service."""
-    return f"rq{namespace}/{relative}Request", f"rr{namespace}/{relative}Reply"
-
-
-@dataclass
-class Point(IdlStruct, typename="geometry_msgs::msg::dds_::Point_"):
-    x: float64 = 0.0
-    y: float64 = 0.0
-    z: float64 = 0.0
-
-
-@dataclass
-class Pose(IdlStruct, typename="geometry_msgs::msg::dds_::Pose_"):
-    position: Point = field(default_factory=Point)
-    orientation: Quaternion = field(default_factory=Quaternion)
+Pose = message("geometry_msgs", "Pose", [("position", Point, Point), ("orientation", Quaternion, Quaternion)])
 
 
 def service_types(package, service, request_fields, response_fields):
     """A ROS 2 service's request and reply types as rmw_cyclonedds puts them on the wire: the client's 8-byte
-    id and a 64-bit sequence number (the reply echoes both), then the `.srv` file's fields, given as
-    (name, type, default) with a default factory for lists."""
+    id and a 64-bit sequence number (the reply echoes both), then the `.srv` file's fields."""
     header = [("client_id", array[uint8, 8], lambda: [0] * 8), ("sequence_number", int64, 0)]
-
-    def make(part, fields):
-        typename = f"{package}::srv::dds_::{service}_{part}_"
-
-        def body(namespace):
-            namespace["__annotations__"] = {name: kind for name, kind, _ in header + fields}
-            for name, _, default in header + fields:
-                namespace[name] = field(default_factory=default) if callable(default) else default
-
-        return dataclass(types.new_class(f"{service}{part}", (IdlStruct,), {"typename": typename}, body))
-
-    return make("Request", request_fields), make("Response", response_fields)
+    return tuple(
+        _typed(f"{service}{part}", f"{package}::srv::dds_::{service}_{part}_", header + fields)
+        for part, fields in (("Request", request_fields), ("Response", response_fields))
+    )
 
 
 # std_srvs/Trigger: an empty request carries the one member IDL needs
@@ -209,3 +159,13 @@ SetTargetFeaturesRequest, SetTargetFeaturesResponse = service_types(
     "vservo_msgs", "SetTargetFeatures", [("features_px", array[float64, 8], lambda: [0.0] * 8)], _TARGET_RESPONSE)
 SetTargetPoseRequest, SetTargetPoseResponse = service_types(
     "vservo_msgs", "SetTargetPose", [("camera_from_target", Pose, Pose)], _TARGET_RESPONSE)
+
+
+def topic_name(namespace, relative):
+    """The DDS topic of a ROS 2 topic."""
+    return f"rt{namespace}/{relative}"
+
+
+def service_names(namespace, relative):
+    """The DDS request and reply topics of a ROS 2 service."""
+    return f"rq{namespace}/{relative}Request", f"rr{namespace}/{relative}Reply"
