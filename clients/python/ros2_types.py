@@ -11,7 +11,7 @@ import types
 from dataclasses import dataclass, field
 
 from cyclonedds.idl import IdlStruct
-from cyclonedds.idl.types import array, float64, int32, int64, sequence, uint8, uint32, uint64
+from cyclonedds.idl.types import array, float64, int32, int64, sequence, uint8, uint32, uint64  # noqa: F401
 
 
 def _typed(class_name, typename, fields):
@@ -135,6 +135,22 @@ DiagnosticArray = message("diagnostic_msgs", "DiagnosticArray", [
 Point = message("geometry_msgs", "Point", [("x", float64, 0.0), ("y", float64, 0.0), ("z", float64, 0.0)])
 
 Pose = message("geometry_msgs", "Pose", [("position", Point, Point), ("orientation", Quaternion, Quaternion)])
+
+# rmw_dds_common (Jazzy: a 16-byte Gid): which ROS 2 nodes a participant holds, on `ros_discovery_info` (no `rt/`),
+# what `ros2 node list` reads
+Gid = message("rmw_dds_common", "Gid", [("data", array[uint8, 16], lambda: [0] * 16)])
+
+NodeEntitiesInfo = message("rmw_dds_common", "NodeEntitiesInfo", [
+    ("node_namespace", str, ""),
+    ("node_name", str, ""),
+    ("reader_gid_seq", sequence[Gid], list),
+    ("writer_gid_seq", sequence[Gid], list),
+])
+
+ParticipantEntitiesInfo = message("rmw_dds_common", "ParticipantEntitiesInfo", [
+    ("gid", Gid, Gid),
+    ("node_entities_info_seq", sequence[NodeEntitiesInfo], list),
+])
 
 
 def service_types(package, service, request_fields, response_fields):

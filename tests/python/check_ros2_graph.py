@@ -97,6 +97,26 @@ def request_of(spec):
     return name, ros.TriggerRequest, ros.TriggerResponse, {}
 
 
+def send_malformed(participant, namespace, service, qos):
+    """Writes requests under the service's request type name that are not ones (4 bytes where the header alone
+    is 16): the bridge must refuse them, count them, and do nothing."""
+    bad_type = ros._typed("Malformed", "std_srvs::srv::dds_::Trigger_Request_",
+                          [("client_id", ros.array[ros.uint8, 4], lambda: [0] * 4)])
+    request_topic, _ = ros.service_names(namespace, service)
+    writer = DataWriter(participant, Topic(participant, request_topic, bad_type), qos=qos)
+    deadline = time.time() + 5.0
+    while time.time() < deadline and not writer.get_matched_subscriptions():
+        time.sleep(0.05)
+    # a few times: the bridge drops what arrives before it has matched this writer (volatile)
+    for _ in range(3):
+        time.sleep(0.5)
+        writer.write(bad_type(client_id=[9, 9, 9, 9]))
+    matched = bool(writer.get_matched_subscriptions())
+    # the writer lives until the reliable sample is acknowledged (deleted at once, it may never be sent)
+    writer.wait_for_acks(duration(seconds=2))
+    return {"service": service, "malformed": True, "matched": matched}
+
+
 def reply_json(reply):
     if hasattr(reply, "success"):
         return {"success": reply.success, "message": reply.message}
@@ -113,10 +133,11 @@ def call(participant, namespace, spec, qos, timeout_s=5.0):
     client_id = [random.randrange(256) for _ in range(8)]
     number = random.randrange(1, 1 << 40)
     deadline = time.time() + timeout_s
-    # the bridge's reader must have matched ours before a request can reach it
-    while time.time() < deadline and not writer.get_matched_subscriptions():
+    # as rclpy's service_is_ready: our requests matched by the server's reader and its replies by ours; then a
+    # moment for the server's side of the match (it drops what comes from a writer it does not know yet)
+    while time.time() < deadline and not (writer.get_matched_subscriptions() and reader.get_matched_publications()):
         time.sleep(0.05)
-    time.sleep(0.2)
+    time.sleep(0.5)
     writer.write(request_type(client_id=client_id, sequence_number=number, **fields))
     foreign = 0
     while time.time() < deadline:
@@ -135,6 +156,8 @@ def main():
     parser.add_argument("--seconds", type=float, default=3.0)
     parser.add_argument("--before", action="append", default=[], help="a service to call before listening")
     parser.add_argument("--settle-s", type=float, default=1.5, help="the wait after the --before calls")
+    parser.add_argument("--malformed", action="append", default=[],
+                        help="a service to send a malformed request to before listening")
     parser.add_argument("--after", action="append", default=[], help="a service to call after listening")
     parser.add_argument("--wait-s", type=float, default=20.0, help="the longest wait for the first joint state")
     args = parser.parse_args()
@@ -147,6 +170,11 @@ def main():
         qos = reliable if name in ("tf", "diagnostics") else best_effort
         readers[name] = DataReader(participant, Topic(participant, ros.topic_name(args.namespace, name), kind), qos=qos)
 
+    # the ROS 2 nodes the graph announces (what `ros2 node list` shows), kept for late joiners
+    discovery = DataReader(participant, Topic(participant, "ros_discovery_info", ros.ParticipantEntitiesInfo),
+                           qos=Qos(Policy.Reliability.Reliable(duration(milliseconds=100)),
+                                   Policy.Durability.TransientLocal, Policy.History.KeepLast(1)))
+    nodes = set()
     counts = {name: 0 for name in TOPICS}
     newest = {}
     frames = {}
@@ -169,15 +197,18 @@ def main():
     started = time.time()
     while time.time() - started < args.wait_s and not readers["joint_states"].take(1):
         time.sleep(0.01)
-    calls = []
+    calls = [send_malformed(participant, args.namespace, service, reliable) for service in args.malformed]
     for service in args.before:
         calls.append({"service": service.partition("=")[0], **call(participant, args.namespace, service, reliable)})
-    if args.before:
+    if args.before or args.malformed:
         time.sleep(args.settle_s)
     take(keep=False)
     listening = time.time()
     while time.time() - listening < args.seconds:
         take(keep=True)
+        for info in discovery.take(10):
+            for node in info.node_entities_info_seq:
+                nodes.add(f"{node.node_namespace.rstrip('/')}/{node.node_name}")
         time.sleep(0.01)
     for service in args.after:
         calls.append({"service": service.partition("=")[0], **call(participant, args.namespace, service, reliable)})
@@ -189,6 +220,7 @@ def main():
         "tf": frames,
         "calls": calls,
         "age_ms": {name: percentiles(values) for name, values in ages.items() if values},
+        "ros_nodes": sorted(nodes),
     }))
 
 

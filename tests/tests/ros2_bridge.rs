@@ -81,6 +81,18 @@ fn peer_in(
     address: Option<&str>,
     netns: Option<&str>,
 ) -> Value {
+    peer_with(domain_id, before, after, address, netns, &[])
+}
+
+/// [`peer_in`], sending a malformed request to each of `malformed` first.
+fn peer_with(
+    domain_id: u32,
+    before: &[&str],
+    after: &[&str],
+    address: Option<&str>,
+    netns: Option<&str>,
+    malformed: &[&str],
+) -> Value {
     let interpreter = repository_root().join("target/python-venv/bin/python");
     let mut command = match netns {
         Some(netns) => {
@@ -113,6 +125,9 @@ fn peer_in(
     }
     for service in after {
         command.args(["--after", service]);
+    }
+    for service in malformed {
+        command.args(["--malformed", service]);
     }
     let out = command.output().expect("the Cyclone DDS peer runs (scripts/setup.sh installs cyclonedds)");
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
@@ -178,6 +193,12 @@ fn a_ros2_node_hears_the_cell_and_its_safe_stop_is_taken() {
     for topic in ["vservo/camera_twist", "diagnostics"] {
         assert!(counts[topic].as_u64().unwrap_or(0) > 0, "nothing on {topic}: {counts}");
     }
+    // the bridge is a ROS 2 node of the graph (`ros2 node list`: ros_discovery_info)
+    assert!(
+        heard["ros_nodes"].as_array().is_some_and(|n| n.contains(&Value::from("/vservo"))),
+        "{}",
+        heard["ros_nodes"]
+    );
     // joint_states at the configured 100 Hz over 3 s (best effort: allow a loaded machine to lose some)
     assert!(counts["joint_states"].as_u64().unwrap_or(0) >= 150, "{counts}");
 
@@ -332,7 +353,19 @@ fn bound_to_the_loopback_the_bridge_is_heard_on_this_machine_only() {
     let _one = exclusive();
     let domain_id = domain(2);
     let outside = outside_address().expect("this machine has a network interface besides the loopback");
-    let (_instance, _config, daemon) = daemon("ros2-lo", domain_id, false, "127.0.0.1");
+    let (instance, _config, daemon) = daemon("ros2-lo", domain_id, false, "127.0.0.1");
+    // malformed requests are refused and counted, and change nothing
+    let refused = peer_with(domain_id, &[], &[], Some("127.0.0.1"), None, &["vservo/safe_stop"]);
+    assert_eq!(refused["calls"][0]["matched"], true, "{refused}");
+    let diagnostics = refused["newest"]["diagnostics"]["status"].as_array().cloned().unwrap_or_default();
+    let bridge = diagnostics
+        .iter()
+        .find(|s| s["name"].as_str().is_some_and(|n| n.ends_with("ros2 bridge")))
+        .unwrap_or_else(|| panic!("no bridge diagnostics: {refused}"));
+    let bad: u64 = bridge["values"]["requests_bad"].as_str().and_then(|v| v.parse().ok()).unwrap_or(0);
+    assert!((1..=3).contains(&bad), "three malformed requests sent: {bridge}");
+    assert_eq!(bridge["level"], 1, "a refused request is a warning: {bridge}");
+    assert!(status(&instance).is_some_and(|s| running(&s)), "a malformed request changed the cell");
     // on the loopback: the cell is heard and a safe stop taken
     let here = peer_on(domain_id, &[], &["vservo/safe_stop"], Some("127.0.0.1"));
     assert!(here["counts"]["joint_states"].as_u64().unwrap_or(0) > 0, "{here}");

@@ -14,6 +14,10 @@ use crate::graph::Graph;
 /// How long a safe stop waits for the daemon's status to show it.
 const CONFIRM_SAFE_STOP_WITHIN: Duration = Duration::from_millis(500);
 
+/// The most requests of one service answered per look: a flood of requests waits in DDS (which keeps the
+/// newest few) rather than stall the topics.
+const REQUESTS_PER_LOOK: usize = 4;
+
 /// Requests by what came of them.
 #[derive(Debug, Default, Clone, Copy)]
 pub struct Counts {
@@ -65,7 +69,7 @@ impl Services<'_> {
         server: &Server<Q, A>,
         answer: fn(&mut Self, Q) -> A,
     ) {
-        loop {
+        for _ in 0..REQUESTS_PER_LOOK {
             match server.receive_request() {
                 Ok(Some((id, request))) => {
                     let response = answer(self, request);
