@@ -61,77 +61,63 @@ fn daemon_in(
     (instance, config, daemon)
 }
 
-/// The Cyclone DDS peer: calls the `before` services (a safe stop holds the arm, so what it hears after is of
-/// an arm at rest), listens for 3 s, calls the `after` services, and prints what it got.
-fn peer(domain_id: u32, before: &[&str], after: &[&str]) -> Value {
-    peer_on(domain_id, before, after, None)
+/// A run of the Cyclone DDS peer: it sends malformed requests to the `malformed` services, calls the `before`
+/// services (a safe stop holds the arm, so what it hears after is of an arm at rest), listens for 3 s, calls
+/// the `after` services, and prints what it got. With `address`, Cyclone DDS uses that one interface only
+/// (unicast discovery of this machine's participants when it is the loopback, which carries no multicast);
+/// with `netns`, it runs in that network namespace.
+#[derive(Default)]
+struct Peer<'a> {
+    before: &'a [&'a str],
+    after: &'a [&'a str],
+    malformed: &'a [&'a str],
+    address: Option<&'a str>,
+    netns: Option<&'a str>,
 }
 
-/// [`peer`], with Cyclone DDS on the one interface of this address only (unicast discovery of this machine's
-/// participants when it is the loopback, which carries no multicast).
-fn peer_on(domain_id: u32, before: &[&str], after: &[&str], address: Option<&str>) -> Value {
-    peer_in(domain_id, before, after, address, None)
-}
-
-/// [`peer_on`], in a network namespace if given.
-fn peer_in(
-    domain_id: u32,
-    before: &[&str],
-    after: &[&str],
-    address: Option<&str>,
-    netns: Option<&str>,
-) -> Value {
-    peer_with(domain_id, before, after, address, netns, &[])
-}
-
-/// [`peer_in`], sending a malformed request to each of `malformed` first.
-fn peer_with(
-    domain_id: u32,
-    before: &[&str],
-    after: &[&str],
-    address: Option<&str>,
-    netns: Option<&str>,
-    malformed: &[&str],
-) -> Value {
-    let interpreter = repository_root().join("target/python-venv/bin/python");
-    let mut command = match netns {
-        Some(netns) => {
-            let mut command = Command::new("ip");
-            command.args(["netns", "exec", netns]).arg(&interpreter);
-            command
+impl Peer<'_> {
+    fn run(&self, domain_id: u32) -> Value {
+        let Peer { before, after, malformed, address, netns } = *self;
+        let interpreter = repository_root().join("target/python-venv/bin/python");
+        let mut command = match netns {
+            Some(netns) => {
+                let mut command = Command::new("ip");
+                command.args(["netns", "exec", netns]).arg(&interpreter);
+                command
+            }
+            None => Command::new(&interpreter),
+        };
+        if let Some(address) = address {
+            let multicast = if address.starts_with("127.") { "false" } else { "true" };
+            command.env(
+                "CYCLONEDDS_URI",
+                format!(
+                    "<CycloneDDS><Domain id=\"any\"><General><Interfaces><NetworkInterface address=\"{address}\"/>\
+                     </Interfaces><AllowMulticast>{multicast}</AllowMulticast></General><Discovery>\
+                     <ParticipantIndex>auto</ParticipantIndex><MaxAutoParticipantIndex>30</MaxAutoParticipantIndex>\
+                     <Peers><Peer address=\"127.0.0.1\"/></Peers></Discovery></Domain></CycloneDDS>"
+                ),
+            );
         }
-        None => Command::new(&interpreter),
-    };
-    if let Some(address) = address {
-        let multicast = if address.starts_with("127.") { "false" } else { "true" };
-        command.env(
-            "CYCLONEDDS_URI",
-            format!(
-                "<CycloneDDS><Domain id=\"any\"><General><Interfaces><NetworkInterface address=\"{address}\"/>\
-                 </Interfaces><AllowMulticast>{multicast}</AllowMulticast></General><Discovery>\
-                 <ParticipantIndex>auto</ParticipantIndex><MaxAutoParticipantIndex>30</MaxAutoParticipantIndex>\
-                 <Peers><Peer address=\"127.0.0.1\"/></Peers></Discovery></Domain></CycloneDDS>"
-            ),
-        );
+        command.arg(repository_root().join("tests/python/check_ros2_graph.py")).args([
+            "--domain",
+            &domain_id.to_string(),
+            "--seconds",
+            "3",
+        ]);
+        for service in before {
+            command.args(["--before", service]);
+        }
+        for service in after {
+            command.args(["--after", service]);
+        }
+        for service in malformed {
+            command.args(["--malformed", service]);
+        }
+        let out = command.output().expect("the Cyclone DDS peer runs (scripts/setup.sh installs cyclonedds)");
+        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+        serde_json::from_slice(&out.stdout).expect("the peer prints one JSON object")
     }
-    command.arg(repository_root().join("tests/python/check_ros2_graph.py")).args([
-        "--domain",
-        &domain_id.to_string(),
-        "--seconds",
-        "3",
-    ]);
-    for service in before {
-        command.args(["--before", service]);
-    }
-    for service in after {
-        command.args(["--after", service]);
-    }
-    for service in malformed {
-        command.args(["--malformed", service]);
-    }
-    let out = command.output().expect("the Cyclone DDS peer runs (scripts/setup.sh installs cyclonedds)");
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-    serde_json::from_slice(&out.stdout).expect("the peer prints one JSON object")
 }
 
 fn pose(translation: &[f64], rotation_xyzw: &[f64]) -> Isometry3<f64> {
@@ -170,7 +156,13 @@ fn a_ros2_node_hears_the_cell_and_its_safe_stop_is_taken() {
     // control: unbound, the bridge is heard there)
     let outside = outside_address().expect("this machine has a network interface besides the loopback");
     let target = "vservo/set_target_features=160.5,167.5,327.5,177.5,348.5,74.5,181.5,69.5";
-    let heard = peer_on(domain_id, &["vservo/safe_stop"], &["vservo/resume", target], Some(&outside));
+    let heard = Peer {
+        before: &["vservo/safe_stop"],
+        after: &["vservo/resume", target],
+        address: Some(&outside),
+        ..Peer::default()
+    }
+    .run(domain_id);
 
     // the services: a safe stop always, a resume refused (allow_motion = false), each with its reason
     let calls = heard["calls"].as_array().expect("calls");
@@ -292,7 +284,7 @@ fn resume_over_ros2_only_where_the_configuration_allows_it() {
         "vservo/set_target_pose=0,0,0.45,0,0,0.04997916927067833,0.9987502603949663",
         "vservo/set_target_pose=0,0,0.45,0,0,0,0",
     ];
-    let heard = peer(domain_id, &["vservo/safe_stop"], &after);
+    let heard = Peer { before: &["vservo/safe_stop"], after: &after, ..Peer::default() }.run(domain_id);
     let calls = heard["calls"].as_array().expect("calls");
     assert!(calls.iter().all(|c| c["answered"] == true), "{heard}");
     assert!(calls[..3].iter().all(|c| c["success"] == true), "{heard}");
@@ -355,7 +347,8 @@ fn bound_to_the_loopback_the_bridge_is_heard_on_this_machine_only() {
     let outside = outside_address().expect("this machine has a network interface besides the loopback");
     let (instance, _config, daemon) = daemon("ros2-lo", domain_id, false, "127.0.0.1");
     // malformed requests are refused and counted, and change nothing
-    let refused = peer_with(domain_id, &[], &[], Some("127.0.0.1"), None, &["vservo/safe_stop"]);
+    let refused = Peer { malformed: &["vservo/safe_stop"], address: Some("127.0.0.1"), ..Peer::default() }
+        .run(domain_id);
     assert_eq!(refused["calls"][0]["matched"], true, "{refused}");
     let diagnostics = refused["newest"]["diagnostics"]["status"].as_array().cloned().unwrap_or_default();
     let bridge = diagnostics
@@ -367,11 +360,13 @@ fn bound_to_the_loopback_the_bridge_is_heard_on_this_machine_only() {
     assert_eq!(bridge["level"], 1, "a refused request is a warning: {bridge}");
     assert!(status(&instance).is_some_and(|s| running(&s)), "a malformed request changed the cell");
     // on the loopback: the cell is heard and a safe stop taken
-    let here = peer_on(domain_id, &[], &["vservo/safe_stop"], Some("127.0.0.1"));
+    let here =
+        Peer { after: &["vservo/safe_stop"], address: Some("127.0.0.1"), ..Peer::default() }.run(domain_id);
     assert!(here["counts"]["joint_states"].as_u64().unwrap_or(0) > 0, "{here}");
     assert_eq!(here["calls"][0]["success"], true, "{here}");
     // on the machine's other interface, where another host would be: nothing, and no request reaches it
-    let there = peer_on(domain_id, &[], &["vservo/safe_stop"], Some(&outside));
+    let there =
+        Peer { after: &["vservo/safe_stop"], address: Some(&outside), ..Peer::default() }.run(domain_id);
     let heard: u64 = there["counts"].as_object().expect("counts").values().filter_map(Value::as_u64).sum();
     assert_eq!(heard, 0, "heard on {outside}: {there}");
     assert_eq!(there["calls"][0]["answered"], false, "{there}");
@@ -387,8 +382,13 @@ fn across_two_hosts_the_cell_is_heard_and_stopped_on_the_cells_network() {
     let domain_id = domain(3);
     let (instance, _config, daemon) =
         daemon_in("ros2-hosts", domain_id, false, &hosts.addresses[0], Some(&hosts.names[0]));
-    let heard =
-        peer_in(domain_id, &["vservo/safe_stop"], &[], Some(&hosts.addresses[1]), Some(&hosts.names[1]));
+    let heard = Peer {
+        before: &["vservo/safe_stop"],
+        address: Some(&hosts.addresses[1]),
+        netns: Some(&hosts.names[1]),
+        ..Peer::default()
+    }
+    .run(domain_id);
     let counts = &heard["counts"];
     for topic in ["joint_states", "tf", "camera/image_raw", "camera/camera_info", "diagnostics"] {
         assert!(counts[topic].as_u64().unwrap_or(0) > 0, "nothing on {topic} from the other host: {heard}");
