@@ -43,13 +43,7 @@ pub fn default_config() -> PathBuf {
 pub fn config_with(old: &str, new: &str) -> TempConfig {
     let text = std::fs::read_to_string(default_config()).expect("the default config is readable");
     assert!(text.contains(old), "the default config holds {old:?}");
-    let path = std::env::temp_dir().join(format!(
-        "vservo-test-{}-{}.toml",
-        std::process::id(),
-        TEMP_COUNTER.fetch_add(1, std::sync::atomic::Ordering::Relaxed)
-    ));
-    std::fs::write(&path, text.replacen(old, new, 1)).expect("temporary file is writable");
-    TempConfig { path }
+    TempConfig::written(&text.replacen(old, new, 1))
 }
 
 static TEMP_COUNTER: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
@@ -58,9 +52,23 @@ static TEMP_COUNTER: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicU
 pub struct TempConfig {
     /// Its path.
     pub path: PathBuf,
+    /// The instance it names when written (a test may overwrite the file since).
+    instance: Option<String>,
 }
 
 impl TempConfig {
+    /// `text` in a temporary file of its own.
+    fn written(text: &str) -> TempConfig {
+        let path = std::env::temp_dir().join(format!(
+            "vservo-test-{}-{}.toml",
+            std::process::id(),
+            TEMP_COUNTER.fetch_add(1, std::sync::atomic::Ordering::Relaxed)
+        ));
+        std::fs::write(&path, text).expect("temporary file is writable");
+        let instance = vservo_config::Config::instance_of(&path).ok();
+        TempConfig { path, instance }
+    }
+
     /// The path as a string for command lines.
     pub fn arg(&self) -> String {
         self.path.display().to_string()
@@ -68,15 +76,15 @@ impl TempConfig {
 }
 
 impl Drop for TempConfig {
-    /// Removes the file and, for an instance of this test run (its name ends in `-<this process id>`), what
+    /// Removes the file and, for an instance of this test run (its name, as written, ends in `-<this process id>`), what
     /// its daemon left: the instance's runtime directory and shared memory. A test's configuration outlives
     /// its daemons (they are declared after it, and dropped — killed and waited for — first), so this runs
     /// when the test is over, passed or failed.
     fn drop(&mut self) {
-        if let Ok(instance) = vservo_config::Config::instance_of(&self.path)
+        if let Some(instance) = &self.instance
             && instance.ends_with(&format!("-{}", std::process::id()))
         {
-            remove_instance(&instance);
+            remove_instance(instance);
         }
         let _ = std::fs::remove_file(&self.path);
     }
@@ -313,13 +321,7 @@ pub fn config_from(file: &str, replacements: &[(&str, &str)]) -> TempConfig {
         assert!(text.contains(old), "{file} holds {old:?}");
         text = text.replacen(old, new, 1);
     }
-    let path = std::env::temp_dir().join(format!(
-        "vservo-test-{}-{}.toml",
-        std::process::id(),
-        TEMP_COUNTER.fetch_add(1, std::sync::atomic::Ordering::Relaxed)
-    ));
-    std::fs::write(&path, text).expect("temporary file is writable");
-    TempConfig { path }
+    TempConfig::written(&text)
 }
 
 /// A child process killed when the guard is dropped (a test that fails still cleans up).

@@ -1,23 +1,16 @@
 //! The bridge's loop: every few milliseconds it takes what the instance published and publishes it to ROS 2
-//! (`vservo_ros2::translate`), then answers the services' requests; once a second it publishes the
-//! diagnostics and reads the system clock's offset again.
+//! (`vservo_ros2::translate`, the diagnostics once a second), then answers the services' requests.
 
 use std::path::Path;
 use std::sync::atomic::AtomicBool;
-use std::time::{Duration, Instant};
 
 use vservo_config::Config;
-use vservo_ros2::cell::{Arrived, Cell};
+use vservo_ros2::cell::Cell;
 use vservo_ros2::convert::{self, BridgeCounts};
-use vservo_ros2::translate::{RosMessage, Selection, Translator};
+use vservo_ros2::translate::{LOOK_EVERY, Looks, RosMessage, Selection, Translator};
 
 use crate::graph::Graph;
 use crate::services::{Counts, Services};
-
-/// How long the loop sleeps between looks.
-const LOOK_EVERY: Duration = Duration::from_millis(2);
-/// Diagnostics, the services not yet open and the clock offset, this often.
-const SLOW_EVERY: Duration = Duration::from_secs(1);
 
 /// Runs until `stop` is set.
 pub fn run(config: &Config, config_path: &Path, stop: &AtomicBool) -> anyhow::Result<()> {
@@ -36,21 +29,15 @@ pub fn run(config: &Config, config_path: &Path, stop: &AtomicBool) -> anyhow::Re
     let mut bridge = Bridge {
         config,
         config_path,
-        translator: Translator::new(config, Selection::configured(config), convert::StampClock::now()),
+        translator: Translator::new(config, Selection::configured(config)),
         graph,
         requests: Counts::default(),
         published: 0,
         failed: 0,
     };
-    let mut next_slow = Instant::now();
+    let mut looks = Looks::default();
     while !vservo_protocol::signals::stopped(stop) {
-        let slow = Instant::now() >= next_slow;
-        if slow {
-            next_slow = Instant::now() + SLOW_EVERY;
-            bridge.translator.clock = convert::StampClock::now();
-            cell.open();
-        }
-        bridge.step(&mut cell, slow)?;
+        bridge.step(&mut cell, looks.slow())?;
         std::thread::sleep(LOOK_EVERY);
     }
     tracing::info!(published = bridge.published, failed = bridge.failed, "stopped (SIGINT/SIGTERM)");
@@ -72,34 +59,29 @@ struct Bridge<'a> {
 impl Bridge<'_> {
     /// One look: what arrived, published; the requests answered.
     fn step(&mut self, cell: &mut Cell, slow: bool) -> anyhow::Result<()> {
-        let mut arrived = Arrived::default();
-        cell.take(&mut arrived);
         let graph = &self.graph;
         let (mut published, mut failed) = (0, 0);
         let mut publish = |message: RosMessage| match graph.publish(message) {
             Ok(()) => published += 1,
             Err(()) => failed += 1,
         };
-        self.translator.take(&arrived, &mut publish);
-        cell.each_image(|header, pixels| self.translator.image(header, pixels, &mut publish))?;
-        if slow {
+        let bridge_status = |refused_messages| {
             let counts = BridgeCounts {
                 published: self.published,
                 failed: self.failed,
-                refused_messages: cell.refused + self.translator.refused,
+                refused_messages,
                 requests_done: self.requests.done,
                 requests_refused: self.requests.refused,
                 requests_bad: self.requests.bad,
                 allow_motion: self.config.ros2.allow_motion,
             };
-            let bridge_status = convert::bridge_status(&self.config.instance, &counts);
-            self.translator.diagnostics(vec![bridge_status], &mut publish);
-        }
+            vec![convert::bridge_status(&self.config.instance, &counts)]
+        };
+        self.translator.look(cell, slow, bridge_status, &mut publish)?;
         self.published += published;
         self.failed += failed;
         Services {
             client: &mut cell.client,
-            instance: &self.config.instance,
             allow_motion: self.config.ros2.allow_motion,
             config_path: self.config_path,
             counts: &mut self.requests,

@@ -48,7 +48,7 @@ pub struct Cell {
     status: Tap<DaemonStatusMsg>,
     telemetry: Tap<TelemetryMsg>,
     images: Option<Subscriber<ipc::Service, [u8], CameraImageHeader>>,
-    /// Messages of another schema, refused.
+    /// Messages of another schema, refused (`vservo_protocol::inbox`).
     pub refused: u64,
 }
 
@@ -124,8 +124,8 @@ impl Cell {
         });
     }
 
-    /// Each camera image waiting, to `each` with its header and pixels.
-    pub fn each_image(&self, mut each: impl FnMut(&CameraImageHeader, &[u8])) -> Result<(), ClientError> {
+    /// Each camera image waiting, to `each` with its header and pixels; one of another schema is refused.
+    pub fn each_image(&mut self, mut each: impl FnMut(&CameraImageHeader, &[u8])) -> Result<(), ClientError> {
         let Some(subscriber) = &self.images else { return Ok(()) };
         loop {
             let received = subscriber.receive().map_err(|e| ClientError::Transport {
@@ -133,7 +133,10 @@ impl Cell {
                 reason: e.to_string(),
             })?;
             let Some(sample) = received else { return Ok(()) };
-            each(sample.user_header(), sample.payload());
+            match vservo_protocol::inbox::accept(*sample.user_header()) {
+                Ok(header) => each(&header, sample.payload()),
+                Err(_) => self.refused += 1,
+            }
         }
     }
 }

@@ -1,6 +1,6 @@
 //! The bridge's side of the ROS 2 graph: the DDS participant (in the configured domain, on one interface
-//! if asked), the `vservo` node in the namespace, a publisher for each topic configured and the two
-//! services.
+//! if asked), the `vservo` node in the namespace, a publisher for each topic configured and the services
+//! (`crate::services` answers them).
 
 use anyhow::Context as _;
 use ros2_client::{
@@ -69,9 +69,7 @@ impl Graph {
         };
         Ok(graph)
     }
-}
 
-impl Graph {
     /// Publishes a message on its topic if the topic is configured; `Err` when DDS refused it (a reliable
     /// window full).
     pub fn publish(&self, message: RosMessage) -> Result<(), ()> {

@@ -1,5 +1,5 @@
-//! The bridge's topic and service names, relative to its namespace as a ROS 2 node's are, and the DDS
-//! names ROS 2 puts on the wire for them (`rt/` topics, `rq/…Request` and `rr/…Reply` services).
+//! The bridge's topic and service names, relative to its namespace as a ROS 2 node's are (ros2-client puts
+//! them on the wire as ROS 2 does: `rt/` topics, `rq/…Request` and `rr/…Reply` services).
 
 use vservo_config::Ros2Topic;
 
@@ -34,29 +34,21 @@ pub fn absolute(namespace: &str, relative: &str) -> String {
     format!("{namespace}/{relative}")
 }
 
-/// The DDS topic a ROS 2 topic is on.
-pub fn dds_topic(namespace: &str, relative: &str) -> String {
-    format!("rt{}", absolute(namespace, relative))
-}
-
-/// The DDS topics of a ROS 2 service: its requests and its replies.
-pub fn dds_service(namespace: &str, relative: &str) -> (String, String) {
-    let name = absolute(namespace, relative);
-    (format!("rq{name}Request"), format!("rr{name}Reply"))
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
 
+    /// The DDS names ros2-client gives our names: ROS 2's (`rt/` topics, `rq/…Request` services).
     #[test]
     fn wire_names_follow_ros2() {
-        assert_eq!(dds_topic("", topic(Ros2Topic::JointStates)), "rt/joint_states");
-        assert_eq!(dds_topic("/cell1", topic(Ros2Topic::Image)), "rt/cell1/camera/image_raw");
-        assert_eq!(
-            dds_service("", SAFE_STOP),
-            ("rq/vservo/safe_stopRequest".to_string(), "rr/vservo/safe_stopReply".to_string())
-        );
+        let node = ros2_client::NodeName::new("/", NODE).expect("a node name");
+        let dds = |namespace: &str, relative: &str, prefix: &str, suffix: &str| {
+            let name = ros2_client::Name::parse(&absolute(namespace, relative)).expect("a ROS name");
+            name.to_dds_name(prefix, &node, suffix)
+        };
+        assert_eq!(dds("", topic(Ros2Topic::JointStates), "rt", ""), "rt/joint_states");
+        assert_eq!(dds("/cell1", topic(Ros2Topic::Image), "rt", ""), "rt/cell1/camera/image_raw");
+        assert_eq!(dds("", SAFE_STOP, "rq", "Request"), "rq/vservo/safe_stopRequest");
     }
 
     #[test]

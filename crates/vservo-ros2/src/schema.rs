@@ -108,14 +108,6 @@ pub fn of_topic(topic: vservo_config::Ros2Topic) -> (String, String) {
     }
 }
 
-/// Whether every type a message's schema uses is defined here.
-pub fn fully_defined<T: RosType>() -> bool {
-    let text = schema_text::<T>();
-    let defined = |used: &str| definition(used).is_some();
-    text.split(&"=".repeat(80)).all(|part| used_types(part).all(defined))
-        && definition(&format!("{}/{}", T::PACKAGE, T::NAME)).is_some()
-}
-
 /// A message's CDR as ROS 2 writes it to a bag: the encapsulation header of little-endian CDR, then the body.
 pub fn cdr<T: RosType>(message: &T) -> Result<Vec<u8>, cdr_encoding::Error> {
     let body = cdr_encoding::to_vec::<T, byteorder::LittleEndian>(message)?;
@@ -132,6 +124,14 @@ mod tests {
         CameraInfo, DiagnosticArray, Float64MultiArray, Header, Image, JointState, TfMessage, Time,
         TwistStamped,
     };
+
+    /// Whether every type a message's schema uses is defined here.
+    fn fully_defined<T: RosType>() -> bool {
+        let text = schema_text::<T>();
+        let defined = |used: &str| definition(used).is_some();
+        text.split(&"=".repeat(80)).all(|part| used_types(part).all(defined))
+            && definition(&format!("{}/{}", T::PACKAGE, T::NAME)).is_some()
+    }
 
     #[test]
     fn every_schema_is_complete() {

@@ -25,14 +25,13 @@ pub struct Counts {
     pub done: u64,
     /// Refused: by the bridge (motion not allowed) or by the daemon.
     pub refused: u64,
-    /// Unreadable (not a `std_srvs/Trigger` request) or not answered.
+    /// Unreadable (not of the service's request type) or not answered.
     pub bad: u64,
 }
 
 /// What the services need.
 pub struct Services<'a> {
     pub client: &'a mut Client,
-    pub instance: &'a str,
     pub allow_motion: bool,
     pub config_path: &'a std::path::Path,
     pub counts: &'a mut Counts,
@@ -132,7 +131,7 @@ impl Services<'_> {
 
     /// Safe stop, on the instance's safe-stop path.
     fn safe_stop(&mut self) -> TriggerResponse {
-        match vservo_client::safe_stop(self.instance, CONFIRM_SAFE_STOP_WITHIN) {
+        match vservo_client::safe_stop(self.client.instance(), CONFIRM_SAFE_STOP_WITHIN) {
             Ok(stopped) => {
                 tracing::warn!("safe stop asked for over ROS 2");
                 let held = if stopped.held_before { "already held" } else { "held" };

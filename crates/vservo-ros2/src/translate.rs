@@ -1,15 +1,18 @@
 //! What the instance published, as the ROS 2 messages of the configured topics: joint states at most at the
 //! configured rate with the arm's tf, each frame's features and the target as seen, each twist, each image
 //! with its camera info, the diagnostics on request. The bridge publishes them over DDS, `vservoctl record
-//! --ros2` writes them to MCAP. Pure but for the clock offset the caller reads.
+//! --ros2` writes them to MCAP, both a look at a time ([`Translator::look`], [`Looks`]).
 
 use vservo_config::{Config, Ros2Topic};
 use vservo_protocol::{
-    CameraImageHeader, CameraTwistMsg, DaemonStatusMsg, FeaturesMsg, JointStateMsg, SCHEMA_VERSION,
-    TelemetryMsg,
+    CameraImageHeader, CameraTwistMsg, DaemonStatusMsg, FeaturesMsg, JointStateMsg, TelemetryMsg,
 };
 
-use crate::cell::Arrived;
+use std::time::{Duration, Instant};
+
+use vservo_client::ClientError;
+
+use crate::cell::{Arrived, Cell};
 use crate::convert::{self, StampClock};
 use crate::msg::{
     CameraInfo, DiagnosticArray, DiagnosticStatus, Float64MultiArray, Image, JointState, TfMessage, Time,
@@ -99,6 +102,35 @@ impl Selection {
     }
 }
 
+/// How long a reader of the instance sleeps between looks.
+pub const LOOK_EVERY: Duration = Duration::from_millis(2);
+/// The clock offset is re-read, services not yet open are opened and diagnostics made this often.
+const SLOW_EVERY: Duration = Duration::from_secs(1);
+
+/// Which looks are the slow ones (once a second, the first at once).
+#[derive(Debug)]
+pub struct Looks {
+    next_slow: Instant,
+}
+
+impl Default for Looks {
+    fn default() -> Self {
+        Self { next_slow: Instant::now() }
+    }
+}
+
+impl Looks {
+    /// Whether this look is a slow one.
+    pub fn slow(&mut self) -> bool {
+        let now = Instant::now();
+        let slow = now >= self.next_slow;
+        if slow {
+            self.next_slow = now + SLOW_EVERY;
+        }
+        slow
+    }
+}
+
 /// Turns what arrived into ROS 2 messages.
 pub struct Translator {
     selection: Selection,
@@ -108,8 +140,8 @@ pub struct Translator {
     tool_from_camera: nalgebra::IsometryMatrix3<f64>,
     camera: vservo_scene::CameraIntrinsics,
     board: vservo_scene::Board,
-    /// The system clock's offset from the monotonic one: the caller keeps it current.
-    pub clock: StampClock,
+    /// The system clock's offset from the monotonic one, read again on each slow look.
+    clock: StampClock,
     /// The stamp of the last joint state made (ns, CLOCK_MONOTONIC).
     last_joint_state_ns: u64,
     joint_state_every_ns: u64,
@@ -117,13 +149,14 @@ pub struct Translator {
     status: Option<DaemonStatusMsg>,
     /// Each node's newest telemetry.
     telemetry: [Option<TelemetryMsg>; 4],
-    /// Messages refused: of another schema, an image of another format, a joint state of another arm.
-    pub refused: u64,
+    /// Messages that cannot be made: an image of another format or short, a joint state of another arm
+    /// (those of another schema the instance's side refuses, [`crate::cell::Cell::refused`]).
+    refused: u64,
 }
 
 impl Translator {
-    /// For the cell `config` describes; `clock` as read now.
-    pub fn new(config: &Config, selection: Selection, clock: StampClock) -> Self {
+    /// For the cell `config` describes.
+    pub fn new(config: &Config, selection: Selection) -> Self {
         Self {
             joint_state_every_ns: (1e9 / selection.joint_state_rate_hz) as u64,
             selection,
@@ -133,7 +166,7 @@ impl Translator {
             tool_from_camera: config.tool_from_camera,
             camera: config.camera,
             board: config.board,
-            clock,
+            clock: StampClock::now(),
             last_joint_state_ns: 0,
             status: None,
             telemetry: [None; 4],
@@ -141,12 +174,36 @@ impl Translator {
         }
     }
 
+    /// One look at the instance: what arrived, and each image, as messages to `out`; on a slow look the clock
+    /// offset read again, the services not yet open opened, and the diagnostics with `extra(refused)` (the
+    /// messages refused so far) after the cell's and nodes'.
+    pub fn look(
+        &mut self,
+        cell: &mut Cell,
+        slow: bool,
+        extra: impl FnOnce(u64) -> Vec<DiagnosticStatus>,
+        out: &mut impl FnMut(RosMessage),
+    ) -> Result<(), ClientError> {
+        if slow {
+            self.clock = StampClock::now();
+            cell.open();
+        }
+        let mut arrived = Arrived::default();
+        cell.take(&mut arrived);
+        self.take(&arrived, out);
+        cell.each_image(|header, pixels| self.image(header, pixels, out))?;
+        if slow {
+            self.diagnostics(extra(cell.refused + self.refused), out);
+        }
+        Ok(())
+    }
+
     fn wants(&self, topic: Ros2Topic) -> bool {
         self.selection.topics.contains(&topic)
     }
 
-    /// What arrived, as messages to `out`; the status and telemetry kept for [`Translator::diagnostics`].
-    pub fn take(&mut self, arrived: &Arrived, out: &mut impl FnMut(RosMessage)) {
+    /// What arrived (of this schema: the inbox refused the others), as messages to `out`; the status and telemetry kept for [`Translator::diagnostics`].
+    fn take(&mut self, arrived: &Arrived, out: &mut impl FnMut(RosMessage)) {
         self.status = arrived.status.or(self.status);
         for (kept, new) in self.telemetry.iter_mut().zip(arrived.telemetry) {
             *kept = new.or(*kept);
@@ -164,10 +221,6 @@ impl Translator {
 
     /// `joint_states` and the arm's `tf`, at most at the selected rate.
     fn joint_state(&mut self, state: &JointStateMsg, out: &mut impl FnMut(RosMessage)) {
-        if state.schema != SCHEMA_VERSION {
-            self.refused += 1;
-            return;
-        }
         if state.stamp_ns.saturating_sub(self.last_joint_state_ns) < self.joint_state_every_ns {
             return;
         }
@@ -189,10 +242,6 @@ impl Translator {
 
     /// A frame's features, and the target as seen in them on `tf`, stamped with the frame's exposure.
     fn features(&mut self, features: &FeaturesMsg, out: &mut impl FnMut(RosMessage)) {
-        if features.schema != SCHEMA_VERSION {
-            self.refused += 1;
-            return;
-        }
         if self.wants(Ros2Topic::Features) {
             out(RosMessage::Features(convert::features(features)));
         }
@@ -205,19 +254,13 @@ impl Translator {
     }
 
     fn twist(&mut self, twist: &CameraTwistMsg, out: &mut impl FnMut(RosMessage)) {
-        if twist.schema != SCHEMA_VERSION {
-            self.refused += 1;
-        } else if self.wants(Ros2Topic::CameraTwist) {
+        if self.wants(Ros2Topic::CameraTwist) {
             out(RosMessage::CameraTwist(convert::twist(twist, self.clock.ros_time(twist.stamp_ns))));
         }
     }
 
     /// A camera image (every n-th) and its camera info, with the exposure's stamp.
-    pub fn image(&mut self, header: &CameraImageHeader, pixels: &[u8], out: &mut impl FnMut(RosMessage)) {
-        if header.schema != SCHEMA_VERSION {
-            self.refused += 1;
-            return;
-        }
+    fn image(&mut self, header: &CameraImageHeader, pixels: &[u8], out: &mut impl FnMut(RosMessage)) {
         let stamp = self.clock.ros_time(header.capture_stamp_ns);
         if self.wants(Ros2Topic::CameraInfo) {
             out(RosMessage::CameraInfo(Box::new(convert::camera_info(&self.camera, stamp))));
@@ -233,7 +276,7 @@ impl Translator {
 
     /// The cell's and nodes' diagnostics (each node's telemetry if it is of the process the daemon runs) and
     /// `extra`; none before the daemon's first status.
-    pub fn diagnostics(&self, extra: Vec<DiagnosticStatus>, out: &mut impl FnMut(RosMessage)) {
+    fn diagnostics(&self, extra: Vec<DiagnosticStatus>, out: &mut impl FnMut(RosMessage)) {
         let Some(status) = self.status else { return };
         if !self.wants(Ros2Topic::Diagnostics) {
             return;
@@ -244,10 +287,5 @@ impl Translator {
         let mut message = convert::diagnostics(&view, self.clock.ros_time(status.stamp_ns));
         message.status.extend(extra);
         out(RosMessage::Diagnostics(message));
-    }
-
-    /// The instance's name.
-    pub fn instance(&self) -> &str {
-        &self.instance
     }
 }

@@ -23,7 +23,7 @@ use crate::instance::{Connection, InstanceArg};
 pub struct RecordArgs {
     /// The MCAP file to write.
     #[arg(long)]
-    out: PathBuf,
+    pub out: PathBuf,
     /// Stop after this long (s); otherwise at Ctrl-C or SIGTERM.
     #[arg(long, value_parser = crate::seconds_arg::seconds)]
     duration_s: Option<f64>,
@@ -83,13 +83,6 @@ pub fn create(path: &std::path::Path, profile: &str) -> anyhow::Result<mcap::Wri
         .library(concat!("vservoctl ", env!("CARGO_PKG_VERSION")))
         .compression(Some(mcap::Compression::Zstd))
         .create(BufWriter::new(file))?)
-}
-
-impl RecordArgs {
-    /// The file to write.
-    pub fn out_path(&self) -> &std::path::Path {
-        &self.out
-    }
 }
 
 pub fn run(args: &RecordArgs) -> anyhow::Result<()> {

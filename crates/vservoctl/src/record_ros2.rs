@@ -4,18 +4,14 @@
 //! (docs/ROS2.md, "Recordings").
 
 use std::collections::BTreeMap;
-use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
+use std::time::{SystemTime, UNIX_EPOCH};
 
 use anyhow::Context;
 use vservo_config::Ros2Topic;
-use vservo_ros2::cell::{Arrived, Cell};
-use vservo_ros2::convert::StampClock;
-use vservo_ros2::translate::{RosMessage, Selection, Translator};
+use vservo_ros2::cell::Cell;
+use vservo_ros2::translate::{LOOK_EVERY, Looks, RosMessage, Selection, Translator};
 
 use crate::record::RecordArgs;
-
-/// How long the loop sleeps between looks.
-const LOOK_EVERY: Duration = Duration::from_millis(2);
 
 /// Records until `over()` says so.
 pub fn run(args: &RecordArgs, mut over: impl FnMut() -> bool) -> anyhow::Result<()> {
@@ -31,28 +27,16 @@ pub fn run(args: &RecordArgs, mut over: impl FnMut() -> bool) -> anyhow::Result<
         joint_state_rate_hz: config.ros2.joint_state_rate_hz,
     };
     let mut recording = Recording::create(args, &config.ros2.namespace, &topics)?;
-    let mut translator = Translator::new(&config, selection, StampClock::now());
-    let mut next_slow = Instant::now();
+    let mut translator = Translator::new(&config, selection);
+    let mut looks = Looks::default();
     while !over() {
-        let slow = Instant::now() >= next_slow;
-        if slow {
-            next_slow = Instant::now() + Duration::from_secs(1);
-            translator.clock = StampClock::now();
-            cell.open();
-        }
-        let mut arrived = Arrived::default();
-        cell.take(&mut arrived);
         let mut write = |message: RosMessage| recording.write(&message);
-        translator.take(&arrived, &mut write);
-        cell.each_image(|header, pixels| translator.image(header, pixels, &mut write))?;
-        if slow {
-            translator.diagnostics(Vec::new(), &mut write);
-        }
+        translator.look(&mut cell, looks.slow(), |_| Vec::new(), &mut write)?;
         recording.failed()?;
         std::thread::sleep(LOOK_EVERY);
     }
     recording.writer.finish()?;
-    eprintln!("vservoctl: recorded {} ROS 2 messages to {}", recording.written, args.out_path().display());
+    eprintln!("vservoctl: recorded {} ROS 2 messages to {}", recording.written, &args.out.display());
     Ok(())
 }
 
@@ -68,7 +52,7 @@ struct Recording {
 
 impl Recording {
     fn create(args: &RecordArgs, namespace: &str, topics: &[Ros2Topic]) -> anyhow::Result<Self> {
-        let mut writer = crate::record::create(args.out_path(), "ros2")?;
+        let mut writer = crate::record::create(&args.out, "ros2")?;
         let mut channels = BTreeMap::new();
         for topic in topics {
             let (schema_name, schema_text) = vservo_ros2::schema::of_topic(*topic);
