@@ -76,6 +76,9 @@ pids+=("$driver")
 "$vservoctl" echo features --instance "$instance" --duration-s "$duration" > "$out/features.jsonl" &
 echo_pid=$!
 pids+=("$echo_pid")
+# the rmrc's commands: which twist each follows, for the capture → command latency
+"$vservoctl" echo joint_command --instance "$instance" --duration-s "$duration" > "$out/commands.jsonl" &
+pids+=($!)
 say "run-mujoco: vservod and the MuJoCo driver run; recording $duration s of features (logs in $out/)"
 wait "$echo_pid" || true
 if [ "$calibrate" = 1 ]; then
@@ -108,6 +111,9 @@ if [ "$compare" = 1 ]; then
         --compare-settling "$("$python" -c 'import json,sys; print(json.load(sys.stdin)["settling_time_s"])' \
             < "$out/lockstep/summary.json")")"
 fi
+latency="$("$python" scripts/capture_to_command.py "$out/features.jsonl" "$out/commands.jsonl")"
+summary="$("$python" -c 'import json,sys; a=json.loads(sys.argv[1]); a.update(json.loads(sys.argv[2])); print(json.dumps(a))' \
+    "$summary" "$latency")"
 say "$(cat "$out/status.txt" 2>/dev/null | head -3)"
 say "run-mujoco: $summary"
 [ "$json" = 1 ] && echo "$summary"

@@ -2,7 +2,6 @@
 
 use std::path::Path;
 use std::sync::atomic::{AtomicBool, Ordering};
-use std::time::Duration;
 
 use anyhow::Context;
 use iceoryx2::port::notifier::Notifier;
@@ -84,19 +83,10 @@ struct Output {
 impl Output {
     /// Waits for the instance's runtime directory (vservod makes it), then takes the slot.
     fn connect(instance: &str, stop: &AtomicBool) -> anyhow::Result<Option<Output>> {
-        let mut said = false;
-        let dir = loop {
-            if stop.load(Ordering::Relaxed) {
-                return Ok(None);
-            }
-            match vservo_protocol::InstanceDir::locate_waiting(instance, Duration::from_secs(1)) {
-                Ok(dir) => break dir,
-                Err(why) if !said => {
-                    tracing::info!("instance {instance:?}: {why}; waiting for vservod");
-                    said = true;
-                }
-                Err(_) => {}
-            }
+        let stopped = || stop.load(Ordering::Relaxed);
+        let waiting = |why: &_| tracing::info!("instance {instance:?}: {why}; waiting for vservod");
+        let Some(dir) = vservo_protocol::InstanceDir::locate_until(instance, stopped, waiting)? else {
+            return Ok(None);
         };
         let node = vservo_protocol::create_node_in(&dir, "gst-camera")?;
         let publisher = vservo_protocol::camera_image_publisher(&node, instance)

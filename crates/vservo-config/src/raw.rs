@@ -4,7 +4,7 @@
 
 use serde::Deserialize;
 
-use crate::{CommandInterface, ResumePolicy, RobotDriver};
+use crate::{CommandInterface, ResumePolicy};
 
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -132,6 +132,29 @@ pub struct RawRos2 {
     pub joint_state_rate_hz: f64,
     pub joint_names: Vec<String>,
     pub allow_motion: bool,
+    pub driver: RawRos2Driver,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct RawRos2Driver {
+    pub joint_states_topic: String,
+    pub command_topic: String,
+    pub image_topic: String,
+    pub hold_after_s: f64,
+    pub clock_tolerance_s: f64,
+}
+
+impl Default for RawRos2Driver {
+    fn default() -> Self {
+        Self {
+            joint_states_topic: "/joint_states".into(),
+            command_topic: "/forward_velocity_controller/commands".into(),
+            image_topic: "/camera/image_raw".into(),
+            hold_after_s: 0.02,
+            clock_tolerance_s: 0.05,
+        }
+    }
 }
 
 impl Default for RawRos2 {
@@ -146,6 +169,7 @@ impl Default for RawRos2 {
             joint_state_rate_hz: 100.0,
             joint_names: Vec::new(),
             allow_motion: false,
+            driver: RawRos2Driver::default(),
         }
     }
 }
@@ -183,7 +207,7 @@ impl Default for RawFaults {
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct RawRobot {
-    pub driver: RobotDriver,
+    pub driver: RawRobotDriver,
     pub command: Option<CommandInterface>,
     pub period_s: Option<f64>,
     pub state_timeout_periods: i64,
@@ -195,7 +219,7 @@ pub struct RawRobot {
 impl Default for RawRobot {
     fn default() -> Self {
         Self {
-            driver: RobotDriver::Simulated,
+            driver: RawRobotDriver::Simulated,
             command: None,
             period_s: None,
             state_timeout_periods: 50,
@@ -510,6 +534,16 @@ pub enum RawCameraSource {
     Simulated,
     External,
     Directory,
+    Ros2,
+}
+
+/// `robot.driver`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum RawRobotDriver {
+    Simulated,
+    External,
+    Ros2,
 }
 
 /// `controller.law`.

@@ -49,6 +49,39 @@ pub struct Ros2 {
     pub joint_names: Vec<String>,
     /// Whether the ROS graph may move the arm (`resume`, targets); `safe_stop` is always taken.
     pub allow_motion: bool,
+    /// The arm and the camera vservo takes from the ROS 2 graph (`[robot] driver = "ros2"`, `[camera] source =
+    /// "ros2"`): `vservo-ros2 --driver`, which vservod starts.
+    pub driver: Ros2Driver,
+}
+
+/// `[ros2.driver]`: a ros2_control arm and a ROS camera as vservo's robot and camera drivers (docs/ROS2.md,
+/// "ROS 2 as the driver"). The topics are absolute ROS names (a relative one in the file is resolved in
+/// `[ros2] namespace`).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Ros2Driver {
+    /// `[robot] driver = "ros2"`: the arm's joint states are read from ROS 2 and its controller commanded there.
+    pub arm: bool,
+    /// `[camera] source = "ros2"`: the images are read from ROS 2.
+    pub camera: bool,
+    /// The arm's `sensor_msgs/JointState` (its `joint_state_broadcaster`'s).
+    pub joint_states_topic: String,
+    /// The `std_msgs/Float64MultiArray` a forward velocity or position controller takes, in `joint_names` order.
+    pub command_topic: String,
+    /// The camera's `sensor_msgs/Image`.
+    pub image_topic: String,
+    /// No valid command from vservo for this long (s): the driver commands rest (zero velocities, or the
+    /// position where holding began) and reports itself holding; also when no joint state comes.
+    pub hold_after_s: f64,
+    /// A header stamp further than this (s) from its arrival on this machine's clock is not believed (the
+    /// hosts' clocks are not in step): the message is stamped with its arrival, and a WARN line says so.
+    pub clock_tolerance_s: f64,
+}
+
+impl Ros2Driver {
+    /// Whether vservod starts the ROS 2 driver.
+    pub fn runs(&self) -> bool {
+        self.arm || self.camera
+    }
 }
 
 /// A topic the ROS 2 bridge can publish (`[ros2] publish`), by its name in the file.

@@ -271,6 +271,29 @@ impl InstanceDir {
         }
     }
 
+    /// [`InstanceDir::locate`], waiting while no daemon has made the instance's directory, until `give_up()`
+    /// says so (`Ok(None)` then); `waiting` is told why, once, when the wait begins (for the log).
+    pub fn locate_until(
+        instance: &str,
+        mut give_up: impl FnMut() -> bool,
+        waiting: impl FnOnce(&InstanceDirError),
+    ) -> Result<Option<Self>, InstanceDirError> {
+        let mut waiting = Some(waiting);
+        loop {
+            if give_up() {
+                return Ok(None);
+            }
+            match Self::locate_waiting(instance, std::time::Duration::from_secs(1)) {
+                Err(why @ InstanceDirError::NotRunning { .. }) => {
+                    if let Some(tell) = waiting.take() {
+                        tell(&why);
+                    }
+                }
+                result => return result.map(Some),
+            }
+        }
+    }
+
     /// The configuration the instance's daemon runs (resolved: every key it is run with), written by the
     /// daemon when it starts ([`InstanceClaim::write_configuration`]): how a client that found the instance
     /// by its name learns its arm and camera.

@@ -60,6 +60,34 @@ impl StampClock {
     }
 }
 
+/// A header stamp as CLOCK_MONOTONIC, believed or not: a stamp of another host whose clock is not in step with
+/// this one's (or none) says nothing of when the data was taken here.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Arrival {
+    /// The stamp to use (CLOCK_MONOTONIC ns): the header's, or the arrival's when the header's is not believed.
+    pub stamp_ns: u64,
+    /// Whether the header's stamp was not believed: zero, in the future or older than the tolerance.
+    pub restamped: bool,
+    /// The header stamp's distance before the arrival (ns; negative: after it).
+    pub age_ns: i128,
+}
+
+impl StampClock {
+    /// The stamp of a message whose header says `stamp` and which arrived at `arrival_ns` (CLOCK_MONOTONIC):
+    /// the header's, unless it is zero or more than `tolerance_ns` from the arrival (in the future, or old).
+    pub fn arrival(&self, stamp: &Time, arrival_ns: u64, tolerance_ns: u64) -> Arrival {
+        let unix_ns = i128::from(stamp.sec) * 1_000_000_000 + i128::from(stamp.nanosec);
+        let monotonic_ns = unix_ns - self.realtime_minus_monotonic_ns;
+        let age_ns = i128::from(arrival_ns) - monotonic_ns;
+        let believed = unix_ns != 0 && age_ns.unsigned_abs() <= u128::from(tolerance_ns) && monotonic_ns > 0;
+        Arrival {
+            stamp_ns: if believed { monotonic_ns as u64 } else { arrival_ns },
+            restamped: !believed,
+            age_ns,
+        }
+    }
+}
+
 /// A time in ns since 1970 as seconds and nanoseconds (clamped to what `builtin_interfaces/Time` holds).
 pub fn time_of_unix_ns(unix_ns: i128) -> Time {
     let sec = unix_ns.div_euclid(1_000_000_000).clamp(i128::from(i32::MIN), i128::from(i32::MAX));
@@ -386,6 +414,26 @@ mod tests {
         let clock = StampClock { realtime_minus_monotonic_ns: 1_700_000_000_000_000_000 };
         assert_eq!(clock.ros_time(2_500_000_000), Time { sec: 1_700_000_002, nanosec: 500_000_000 });
         assert_eq!(clock.ros_time(0), Time::default(), "no stamp stays no time");
+    }
+
+    #[test]
+    fn header_stamps_are_believed_within_the_tolerance() {
+        let clock = StampClock { realtime_minus_monotonic_ns: 1_700_000_000_000_000_000 };
+        let arrival_ns = 10_000_000_000;
+        let stamp = clock.ros_time(arrival_ns - 3_000_000); // taken 3 ms before it arrived
+        let taken = clock.arrival(&stamp, arrival_ns, 50_000_000);
+        assert_eq!(taken, Arrival { stamp_ns: arrival_ns - 3_000_000, restamped: false, age_ns: 3_000_000 });
+        let round_trip = clock.ros_time(taken.stamp_ns);
+        assert_eq!(round_trip, stamp);
+        for (stamp, why) in [
+            (Time::default(), "no stamp"),
+            (clock.ros_time(arrival_ns - 60_000_000), "older than the tolerance"),
+            (clock.ros_time(arrival_ns + 60_000_000), "in the future"),
+            (Time { sec: 12, nanosec: 0 }, "a clock that started at boot"),
+        ] {
+            let taken = clock.arrival(&stamp, arrival_ns, 50_000_000);
+            assert!(taken.restamped && taken.stamp_ns == arrival_ns, "{why}: {taken:?}");
+        }
     }
 
     fn state(joint_count: u32, q: [f64; 7]) -> JointStateMsg {

@@ -93,7 +93,7 @@ impl Graph {
 
 /// The DDS participant: in the configured domain; with `interface`, advertised and multicasting on that
 /// interface only.
-fn participant(settings: &Ros2) -> anyhow::Result<rustdds::DomainParticipant> {
+pub fn participant(settings: &Ros2) -> anyhow::Result<rustdds::DomainParticipant> {
     let mut builder = rustdds::DomainParticipantBuilder::new(settings.domain_id);
     if let Some(address) = settings.interface {
         check_local(address)?;

@@ -14,8 +14,10 @@
 //! ([`cell`]: its services, read). `vservoctl record --ros2` writes the same messages to MCAP ([`schema`]:
 //! their ROS 2 message definitions and CDR).
 
+pub mod arm_driver;
 pub mod cell;
 pub mod convert;
+pub mod image_in;
 pub mod msg;
 pub mod names;
 pub mod qos;

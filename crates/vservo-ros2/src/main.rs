@@ -6,9 +6,14 @@
 //! taken: the instance's safe-stop path, which no client can crowd out) and `vservo/resume` (refused unless
 //! `[ros2] allow_motion`). It never writes to the loop's services.
 //!
+//! With `--driver` it is instead the instance's robot and camera driver over ROS 2 (`[robot] driver = "ros2"`,
+//! `[camera] source = "ros2"`): it reads a ros2_control arm's joint states and commands its forward
+//! controller, and takes a ROS camera's images (vservod starts it so when they are configured).
+//!
 //! Exit codes: 0 after SIGINT/SIGTERM, 1 on an error, 2 on a configuration it cannot run.
 
 mod bridge;
+mod driver;
 mod graph;
 mod services;
 
@@ -24,6 +29,10 @@ struct Cli {
     /// The instance's configuration: its `[instance] name`, `[ros2]` and the cell's arm, camera and board.
     #[arg(long, value_name = "FILE", default_value = "config/vservo.toml")]
     config: PathBuf,
+    /// Be the instance's robot and camera driver over ROS 2 (`[robot] driver = "ros2"`, `[camera] source =
+    /// "ros2"`) instead of the bridge.
+    #[arg(long)]
+    driver: bool,
     /// Started by this vservod: end when it does, however it ends.
     #[arg(long, value_name = "PID", hide = true)]
     daemon_pid: Option<i32>,
@@ -43,7 +52,7 @@ fn main() -> ExitCode {
         if let Some(pid) = cli.daemon_pid {
             end_with_daemon(pid, &stop)?;
         }
-        bridge::run(&config, &cli.config, &stop)
+        if cli.driver { driver::run(&config, &stop) } else { bridge::run(&config, &cli.config, &stop) }
     });
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -21,6 +21,10 @@ pub const RELIABLE: QosProfile = QosProfile::publisher_default()
     .durability(Durability::Volatile)
     .history(History::KeepLast { depth: 10 });
 
+/// A ros2_control controller's commands (`rmw_qos_profile_default`, what its subscriber asks): reliable,
+/// volatile, the last 10.
+pub const COMMANDS: QosProfile = RELIABLE;
+
 /// tf2's broadcaster: reliable, the last 100.
 pub const TF: QosProfile = QosProfile::publisher_default()
     .reliability(DONT_BLOCK)

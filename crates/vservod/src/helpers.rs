@@ -1,7 +1,8 @@
 //! The helper processes vservod starts when the configuration asks for them, restarts if they end and stops
 //! with the cell: the live view (`[viewer] enabled = true`: `vservoctl view` on the configured address and
-//! port) and the ROS 2 bridge (`[ros2] enabled = true`: `vservo-ros2`), both installed next to vservod. A
-//! helper is a client of the instance like any other: it reads with iceoryx2's safe overflow, so a slow or
+//! port), the ROS 2 bridge (`[ros2] enabled = true`: `vservo-ros2`) and the ROS 2 driver (`[robot] driver` or
+//! `[camera] source` = `"ros2"`: `vservo-ros2 --driver`), all installed next to vservod. The viewer and the
+//! bridge are clients of the instance like any other: they read with iceoryx2's safe overflow, so a slow or
 //! absent helper never slows the loop, and its failure is a warning, never a fault of the cell.
 
 use std::path::Path;
@@ -68,6 +69,14 @@ impl Helper {
     pub fn ros2_bridge(settings: &vservo_config::Ros2, launch: &Launch) -> Self {
         let args = ["--daemon-pid".to_string(), std::process::id().to_string()];
         Self::start("the ROS 2 bridge", launch.command(settings.enabled, "vservo-ros2", &args))
+    }
+
+    /// The ROS 2 driver (`vservo-ros2 --driver`), started when `[robot] driver` or `[camera] source` is
+    /// `"ros2"`; it ends with this daemon. Unlike the other helpers it is the cell's driver: while it is away
+    /// the arm is found stalled (or the camera silent) and the cell stops safely, as with any driver.
+    pub fn ros2_driver(settings: &vservo_config::Ros2, launch: &Launch) -> Self {
+        let args = ["--driver".to_string(), "--daemon-pid".to_string(), std::process::id().to_string()];
+        Self::start("the ROS 2 driver", launch.command(settings.driver.runs(), "vservo-ros2", &args))
     }
 
     fn start(what: &'static str, command: Option<Command>) -> Self {

@@ -226,7 +226,7 @@ pub fn truth(
 pub fn source(check: &Checker, c: &RawCamera) -> Result<VisionSource, ConfigError> {
     Ok(match c.source {
         RawCameraSource::Simulated => VisionSource::Simulated,
-        RawCameraSource::External => VisionSource::External,
+        RawCameraSource::External | RawCameraSource::Ros2 => VisionSource::External,
         RawCameraSource::Directory => {
             if c.directory.trim().is_empty() {
                 return Err(check.invalid(

@@ -42,7 +42,11 @@ pub fn validate(raw: RawConfig, file: &str) -> Result<Config, ConfigError> {
         board.calibration_grid = Some(grid);
     }
     let arm = arm::arm(&check, &raw.robot.arm)?;
-    let ros2 = ros2::ros2(&check, &raw.ros2, arm.joint_count())?;
+    let from_ros2 = ros2::FromRos2 {
+        arm: raw.robot.driver == crate::raw::RawRobotDriver::Ros2,
+        camera: raw.camera.source == crate::raw::RawCameraSource::Ros2,
+    };
+    let ros2 = ros2::ros2(&check, &raw.ros2, arm.joint_count(), from_ros2)?;
     let desired = desired::desired(&check, &raw.desired, &arm, &camera, &board)?;
     let controller = controller::controller(&check, &raw.controller, &camera, &desired.features)?;
     let source = camera::source(&check, &raw.camera)?;

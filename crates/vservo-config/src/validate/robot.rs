@@ -4,7 +4,7 @@
 use vservo_sim::plant::PlantMode;
 
 use super::checker::Checker;
-use crate::raw::{RawArmPreset, RawRobot};
+use crate::raw::{RawArmPreset, RawRobot, RawRobotDriver};
 use crate::{CommandInterface, ConfigError, PlantSettings, Robot, RobotDriver, Timing, VisionSource};
 
 /// The robot. The simulated driver's command follows from `plant.mode` (dynamic: torque; kinematic:
@@ -29,7 +29,7 @@ pub fn robot(
     let max_camera_rotation_rad_s =
         check.within("robot.max_camera_rotation_rad_s", r.max_camera_rotation_rad_s, 0.001, 20.0, "rad/s")?;
     Ok(Robot {
-        driver: r.driver,
+        driver: driver(r.driver),
         command,
         period_s,
         state_timeout_periods,
@@ -38,11 +38,20 @@ pub fn robot(
     })
 }
 
+/// Who drives the arm: the ROS 2 driver (`vservo-ros2 --driver`) is an external driver behind the same
+/// contract.
+fn driver(raw: RawRobotDriver) -> RobotDriver {
+    match raw {
+        RawRobotDriver::Simulated => RobotDriver::Simulated,
+        RawRobotDriver::External | RawRobotDriver::Ros2 => RobotDriver::External,
+    }
+}
+
 /// `robot.command`: the simulated driver's follows from the plant (a declaration must agree); an external
-/// driver must declare one.
+/// driver must declare one; a ros2_control forward controller takes velocities or positions.
 fn command(check: &Checker, r: &RawRobot, plant: &PlantSettings) -> Result<CommandInterface, ConfigError> {
     match r.driver {
-        RobotDriver::Simulated => {
+        RawRobotDriver::Simulated => {
             let simulated = match plant.mode {
                 PlantMode::Dynamic => CommandInterface::Torque,
                 PlantMode::Kinematic => CommandInterface::Position,
@@ -60,7 +69,16 @@ fn command(check: &Checker, r: &RawRobot, plant: &PlantSettings) -> Result<Comma
                 None => Ok(simulated),
             }
         }
-        RobotDriver::External => r.command.ok_or_else(|| {
+        RawRobotDriver::Ros2 => match r.command {
+            Some(CommandInterface::Torque) => Err(check.invalid(
+                "robot.command",
+                "\"torque\"",
+                "the ROS 2 driver commands a ros2_control forward controller of velocities or positions: \
+                 \"velocity\" or \"position\"",
+            )),
+            declared => Ok(declared.unwrap_or(CommandInterface::Velocity)),
+        },
+        RawRobotDriver::External => r.command.ok_or_else(|| {
             check.invalid(
                 "robot.command",
                 "(missing)",
@@ -73,7 +91,7 @@ fn command(check: &Checker, r: &RawRobot, plant: &PlantSettings) -> Result<Comma
 /// `robot.period_s`: an external driver's, 10 kHz to 10 Hz; the simulated driver's is the control period.
 fn period_s(check: &Checker, r: &RawRobot, timing: &Timing) -> Result<f64, ConfigError> {
     match (r.driver, r.period_s) {
-        (RobotDriver::Simulated, Some(p)) if p != timing.control_period_s => Err(check.invalid(
+        (RawRobotDriver::Simulated, Some(p)) if p != timing.control_period_s => Err(check.invalid(
             "robot.period_s",
             p,
             format!(
@@ -133,7 +151,7 @@ pub fn driver_and_camera_agree(
         return Err(check.invalid(
             "camera.source",
             "\"simulated\"",
-            "the simulated camera sees the simulated world, which an external robot driver has none of; set camera.source = \"external\" (a camera driver) or robot.driver = \"simulated\"",
+            "the simulated camera sees the simulated world, which an external robot driver has none of; set camera.source = \"external\" (a camera driver), \"ros2\" (a ROS camera) or robot.driver = \"simulated\"",
         ));
     }
     Ok(())

@@ -1,8 +1,8 @@
 //! `[ros2]`: the ROS 2 bridge's domain, namespace, interface and topics.
 
 use super::checker::Checker;
-use crate::raw::RawRos2;
-use crate::{ConfigError, Ros2};
+use crate::raw::{RawRos2, RawRos2Driver};
+use crate::{ConfigError, Ros2, Ros2Driver, Ros2Topic};
 
 /// The highest ROS_DOMAIN_ID: DDS's port formula (7400 + 250 · domain + …) leaves no valid port above it.
 pub const MAX_DOMAIN_ID: u16 = 232;
@@ -10,8 +10,18 @@ pub const MAX_DOMAIN_ID: u16 = 232;
 /// The most frames `image_every` may skip.
 const MAX_IMAGE_EVERY: u32 = 1000;
 
-/// The bridge's settings, each value in range.
-pub fn ros2(check: &Checker, r: &RawRos2, joint_count: usize) -> Result<Ros2, ConfigError> {
+/// What vservo takes from the ROS 2 graph: the arm (`[robot] driver = "ros2"`), the camera (`[camera] source =
+/// "ros2"`).
+#[derive(Debug, Clone, Copy, Default)]
+pub struct FromRos2 {
+    /// The arm.
+    pub arm: bool,
+    /// The camera.
+    pub camera: bool,
+}
+
+/// The bridge's and the driver's settings, each value in range.
+pub fn ros2(check: &Checker, r: &RawRos2, joint_count: usize, from: FromRos2) -> Result<Ros2, ConfigError> {
     let domain_id = check.whole(
         "ros2.domain_id",
         r.domain_id,
@@ -53,6 +63,8 @@ pub fn ros2(check: &Checker, r: &RawRos2, joint_count: usize) -> Result<Ros2, Co
             ));
         }
     }
+    let driver = driver(check, &r.driver, &r.namespace, from)?;
+    bridge_apart_from_driver(check, r, &driver)?;
     Ok(Ros2 {
         enabled: r.enabled,
         domain_id,
@@ -63,7 +75,85 @@ pub fn ros2(check: &Checker, r: &RawRos2, joint_count: usize) -> Result<Ros2, Co
         joint_state_rate_hz,
         joint_names: r.joint_names.clone(),
         allow_motion: r.allow_motion,
+        driver,
     })
+}
+
+/// `[ros2.driver]`: its topics as absolute names, its hold and clock tolerance in range.
+fn driver(
+    check: &Checker,
+    d: &RawRos2Driver,
+    namespace: &str,
+    from: FromRos2,
+) -> Result<Ros2Driver, ConfigError> {
+    let topic = |key: &str, name: &str| {
+        topic_ok(name)
+            .map(|()| resolved(namespace, name))
+            .map_err(|reason| check.invalid(key, format!("{name:?}"), reason))
+    };
+    Ok(Ros2Driver {
+        arm: from.arm,
+        camera: from.camera,
+        joint_states_topic: topic("ros2.driver.joint_states_topic", &d.joint_states_topic)?,
+        command_topic: topic("ros2.driver.command_topic", &d.command_topic)?,
+        image_topic: topic("ros2.driver.image_topic", &d.image_topic)?,
+        hold_after_s: check.within("ros2.driver.hold_after_s", d.hold_after_s, 0.001, 1.0, "s")?,
+        clock_tolerance_s: check.within(
+            "ros2.driver.clock_tolerance_s",
+            d.clock_tolerance_s,
+            0.001,
+            10.0,
+            "s",
+        )?,
+    })
+}
+
+/// The bridge does not publish on a topic the driver reads: it would feed the arm's joint states (or the
+/// camera's images) back to where they come from.
+fn bridge_apart_from_driver(check: &Checker, r: &RawRos2, driver: &Ros2Driver) -> Result<(), ConfigError> {
+    let bridge_topic = |topic: Ros2Topic, relative: &str| {
+        (r.enabled && r.publish.contains(&topic)).then(|| resolved(&r.namespace, relative))
+    };
+    let clashes = [
+        (
+            driver.arm,
+            bridge_topic(Ros2Topic::JointStates, "joint_states"),
+            &driver.joint_states_topic,
+            "joint_states",
+        ),
+        (driver.camera, bridge_topic(Ros2Topic::Image, "camera/image_raw"), &driver.image_topic, "image"),
+    ];
+    for (read, published, topic, name) in clashes {
+        if read && published.as_ref() == Some(topic) {
+            return Err(check.invalid(
+                "ros2.publish",
+                format!("{name:?}"),
+                format!(
+                    "the bridge would publish on {topic}, the topic the ROS 2 driver reads: leave {name:?} out of \
+                     ros2.publish (the arm's own driver publishes it already)"
+                ),
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// A topic name as ROS takes one: absolute (`/a/b`) or relative (`a/b`), names of letters, digits and `_`.
+fn topic_ok(name: &str) -> Result<(), &'static str> {
+    let relative = name.strip_prefix('/').unwrap_or(name);
+    if relative.split('/').all(ros_token_ok) {
+        Ok(())
+    } else {
+        Err(
+            "must be a ROS topic name: names of letters, digits and '_' (not starting with a digit) joined by \
+             single '/', absolute (\"/joint_states\") or relative to ros2.namespace",
+        )
+    }
+}
+
+/// A topic name made absolute in `namespace`.
+fn resolved(namespace: &str, name: &str) -> String {
+    if name.starts_with('/') { name.to_string() } else { format!("{namespace}/{name}") }
 }
 
 /// The interface by its address: empty for every interface.
@@ -125,7 +215,41 @@ mod tests {
     }
 
     fn checked(r: &RawRos2) -> Result<Ros2, ConfigError> {
-        ros2(&Checker { file: "test.toml" }, r, 6)
+        ros2(&Checker { file: "test.toml" }, r, 6, FromRos2::default())
+    }
+
+    #[test]
+    fn driver_topics_resolve_in_the_namespace() {
+        let mut r = raw();
+        r.namespace = "/cell1".into();
+        r.driver.joint_states_topic = "arm/joint_states".into();
+        let settings = checked(&r).expect("a relative and an absolute topic");
+        assert_eq!(settings.driver.joint_states_topic, "/cell1/arm/joint_states");
+        assert_eq!(settings.driver.command_topic, "/forward_velocity_controller/commands");
+        assert!(!settings.driver.runs());
+        for bad in ["", "/", "joint states", "/a//b", "a/", "~/x"] {
+            r.driver.joint_states_topic = bad.into();
+            let error = checked(&r).expect_err(bad).to_string();
+            assert!(error.contains("ros2.driver.joint_states_topic"), "{error}");
+        }
+    }
+
+    #[test]
+    fn the_bridge_does_not_publish_what_the_driver_reads() {
+        let mut r = raw();
+        r.enabled = true;
+        let arm = FromRos2 { arm: true, camera: false };
+        let error = ros2(&Checker { file: "test.toml" }, &r, 6, arm).expect_err("a clash").to_string();
+        assert!(error.contains("ros2.publish") && error.contains("/joint_states"), "{error}");
+        r.namespace = "/vservo_cell".into();
+        assert!(ros2(&Checker { file: "test.toml" }, &r, 6, arm).is_ok(), "apart in a namespace");
+        r.namespace.clear();
+        r.publish.retain(|t| *t != Ros2Topic::JointStates);
+        assert!(ros2(&Checker { file: "test.toml" }, &r, 6, arm).is_ok(), "joint_states left out");
+        let camera = FromRos2 { arm: false, camera: true };
+        let error =
+            ros2(&Checker { file: "test.toml" }, &r, 6, camera).expect_err("an image clash").to_string();
+        assert!(error.contains("/camera/image_raw"), "{error}");
     }
 
     #[test]

@@ -120,6 +120,7 @@ struct Daemon {
     systemd: Systemd,
     viewer: Helper,
     ros2_bridge: Helper,
+    ros2_driver: Helper,
     nodes: Vec<Supervised>,
     /// Who holds each stream's writer slot.
     streams: StreamWatch,
@@ -216,6 +217,7 @@ impl Daemon {
         };
         let viewer = Helper::viewer(&config.viewer, &launch);
         let ros2_bridge = Helper::ros2_bridge(&config.ros2, &launch);
+        let ros2_driver = Helper::ros2_driver(&config.ros2, &launch);
         let now = Instant::now();
         Ok(Self {
             settings,
@@ -230,6 +232,7 @@ impl Daemon {
             systemd: Systemd::new(),
             viewer,
             ros2_bridge,
+            ros2_driver,
             nodes,
             streams,
             heard: LoopHeard::default(),
@@ -247,6 +250,7 @@ impl Daemon {
         let now = Instant::now();
         self.viewer.poll();
         self.ros2_bridge.poll();
+        self.ros2_driver.poll();
         if reload_requested {
             self.reload();
         }
@@ -478,6 +482,8 @@ impl Daemon {
             self.settings.stop_timeout,
             self.safety.monitor(),
         );
+        // the ROS 2 driver last: it carries the ramp to rest to the arm, then commands rest as it ends
+        self.ros2_driver.stop();
         let cleaned = vservo_protocol::cleanup_dead_nodes(&self.node);
         if cleaned > 0 {
             tracing::info!(cleaned, "removed the leftovers of nodes that did not stop cleanly");

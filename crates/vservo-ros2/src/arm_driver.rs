@@ -1,0 +1,514 @@
+//! A ros2_control arm as vservo's robot driver, the pure part (docs/ROS2.md, "ROS 2 as the driver"): each
+//! `sensor_msgs/JointState` of the arm becomes a `joint_state` of docs/DRIVERS.md, and the rmrc's newest
+//! `joint_command` the `std_msgs/Float64MultiArray` its forward velocity (or position) controller takes.
+//!
+//! A forward controller holds its last command for ever: this is the watchdog. With no valid command for
+//! `[ros2.driver] hold_after_s` (vservo gone, stalled or refusing), the arm is commanded to rest (zero
+//! velocities, or the position where holding began) and the joint state says `holding`; the caller also sends
+//! that command when the arm's joint states stop, and when it ends.
+//!
+//! No I/O and no clock here: times come in as arguments (CLOCK_MONOTONIC ns), so the rules are tested as
+//! functions.
+
+use vservo_arm::SerialArm;
+use vservo_protocol::messages::fault_bits;
+use vservo_protocol::{
+    CommandMode, DriverStatus, JointCommandMsg, JointStateMsg, MAX_JOINTS, SCHEMA_VERSION,
+};
+
+use crate::msg::JointState;
+
+/// A command must answer the joint state last published or one or two before it (docs/DRIVERS.md, "When to
+/// read the command").
+pub const MAX_COMMAND_AGE_TICKS: u64 = 2;
+
+/// What the driver knows of the arm and its controller.
+#[derive(Debug, Clone)]
+pub struct ArmSettings {
+    /// The arm's joints in ROS, from the base outwards: also the order of the controller's command.
+    pub joint_names: Vec<String>,
+    /// The controller's interface: velocity or position.
+    pub mode: CommandMode,
+    /// The arm's joint-state period (ns): `[robot] period_s`.
+    pub period_ns: u64,
+    /// No valid command for this long: hold (ns).
+    pub hold_after_ns: u64,
+    /// Each joint's lowest angle (rad): the position-limit bits.
+    pub position_min_rad: [f64; MAX_JOINTS],
+    /// Each joint's highest angle (rad).
+    pub position_max_rad: [f64; MAX_JOINTS],
+    /// Each joint's speed limit (rad/s): the velocity-limit bits.
+    pub velocity_max_rad_s: [f64; MAX_JOINTS],
+}
+
+impl ArmSettings {
+    /// From the configuration's arm, `[robot]` and `[ros2]`.
+    pub fn of(config: &vservo_config::Config) -> Self {
+        let arm: &SerialArm = &config.arm;
+        let joint_count = arm.joint_count();
+        let mut settings = Self {
+            joint_names: crate::convert::joint_names(&config.ros2.joint_names, joint_count),
+            mode: match config.command_interface() {
+                vservo_config::CommandInterface::Position => CommandMode::Position,
+                _ => CommandMode::Velocity,
+            },
+            period_ns: (config.robot.period_s * 1e9).round() as u64,
+            hold_after_ns: (config.ros2.driver.hold_after_s * 1e9).round() as u64,
+            position_min_rad: [f64::NEG_INFINITY; MAX_JOINTS],
+            position_max_rad: [f64::INFINITY; MAX_JOINTS],
+            velocity_max_rad_s: [f64::INFINITY; MAX_JOINTS],
+        };
+        for (j, limits) in arm.limits().enumerate().take(joint_count) {
+            settings.position_min_rad[j] = limits.position_min;
+            settings.position_max_rad[j] = limits.position_max;
+            settings.velocity_max_rad_s[j] = limits.velocity_max;
+        }
+        settings
+    }
+
+    fn joint_count(&self) -> usize {
+        self.joint_names.len()
+    }
+}
+
+/// A joint state of the arm's that is not passed on.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum StateRefused {
+    /// A configured joint is not in it (another arm's, or `[ros2] joint_names` do not match the URDF's).
+    #[error("has no joint {0:?} (ros2.joint_names)")]
+    MissingJoint(String),
+    /// Its positions, velocities or efforts do not match its names, or a position is not finite.
+    #[error("is malformed: {0}")]
+    Malformed(&'static str),
+    /// Its stamp is not after the last one passed on (a repeat, or out of order).
+    #[error(
+        "is not newer than the last one (stamp {stamp_ns} ns, period {tick}; the last passed on: {last_tick})"
+    )]
+    NotNewer {
+        /// Its stamp (CLOCK_MONOTONIC ns).
+        stamp_ns: u64,
+        /// The tick the stamp makes.
+        tick: u64,
+        /// The last tick passed on.
+        last_tick: u64,
+    },
+}
+
+impl StateRefused {
+    /// The kind of refusal, for a log that says each kind once.
+    pub fn kind(&self) -> &'static str {
+        match self {
+            StateRefused::MissingJoint(_) => "joint state without a configured joint",
+            StateRefused::Malformed(_) => "malformed joint state",
+            StateRefused::NotNewer { .. } => "joint state not newer",
+        }
+    }
+}
+
+/// What the driver counts (logged now and then).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct ArmCounts {
+    /// Joint states passed on to vservo.
+    pub states: u64,
+    /// Joint states refused.
+    pub states_refused: u64,
+    /// Commands of vservo's taken.
+    pub commands_taken: u64,
+    /// Commands of vservo's refused (another epoch, mode or arm, too old, not finite).
+    pub commands_refused: u64,
+    /// Controller commands sent while holding.
+    pub holds: u64,
+}
+
+/// The command in force: the controller's values and the joint state it answers.
+#[derive(Debug, Clone, Copy)]
+struct InForce {
+    values: [f64; MAX_JOINTS],
+    answers_tick: u64,
+    taken_ns: u64,
+}
+
+/// One joint state passed on: the vservo message, and the controller's command to send now.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Step {
+    /// For `joint_state`.
+    pub state: JointStateMsg,
+    /// For the controller: `Float64MultiArray.data`, in `joint_names` order.
+    pub command: Vec<f64>,
+}
+
+/// The driver's state between joint states.
+#[derive(Debug, Clone)]
+pub struct ArmFollower {
+    settings: ArmSettings,
+    epoch: u64,
+    /// The stamp of the first joint state: tick 0.
+    origin_ns: Option<u64>,
+    last_tick: u64,
+    last: Option<(u64, [f64; MAX_JOINTS])>,
+    in_force: Option<InForce>,
+    /// The command applied over the period that is running (reported in the next state).
+    applying: u64,
+    /// Where the arm is held (position mode), from when holding began.
+    hold_at: Option<[f64; MAX_JOINTS]>,
+    /// What happened so far.
+    pub counts: ArmCounts,
+}
+
+impl ArmFollower {
+    /// A driver run that starts now: `epoch` is its start time (ns), as docs/DRIVERS.md asks.
+    pub fn new(settings: ArmSettings, epoch: u64) -> Self {
+        Self {
+            settings,
+            epoch,
+            origin_ns: None,
+            last_tick: 0,
+            last: None,
+            in_force: None,
+            applying: u64::MAX,
+            hold_at: None,
+            counts: ArmCounts::default(),
+        }
+    }
+
+    /// Takes one of vservo's commands if it is this run's, of the declared mode and arm, recent and finite.
+    pub fn take_command(&mut self, command: &JointCommandMsg, now_ns: u64) {
+        let n = self.settings.joint_count();
+        let values = match self.settings.mode {
+            CommandMode::Position => command.q_ref_rad,
+            _ => command.qd_ref_rad_s,
+        };
+        let recent = self.origin_ns.is_some()
+            && command.answers_tick <= self.last_tick
+            && command.answers_tick + MAX_COMMAND_AGE_TICKS >= self.last_tick;
+        let valid = command.mode == self.settings.mode.code()
+            && command.joint_count as usize == n
+            && command.driver_epoch == self.epoch
+            && recent
+            && values[..n].iter().all(|v| v.is_finite());
+        if valid {
+            self.in_force = Some(InForce { values, answers_tick: command.answers_tick, taken_ns: now_ns });
+            self.counts.commands_taken += 1;
+        } else {
+            self.counts.commands_refused += 1;
+        }
+    }
+
+    /// One of the arm's joint states, measured at `stamp_ns` and received at `now_ns`: the `joint_state` to
+    /// publish and the controller command to send now (for the period it starts).
+    pub fn on_joint_state(
+        &mut self,
+        ros: &JointState,
+        stamp_ns: u64,
+        now_ns: u64,
+    ) -> Result<Step, StateRefused> {
+        let measured = self.measured(ros).inspect_err(|_| self.counts.states_refused += 1)?;
+        let tick = self.tick_of(stamp_ns).inspect_err(|_| self.counts.states_refused += 1)?;
+        let qd_rad_s =
+            measured.qd_rad_s.unwrap_or_else(|| self.velocity_from_positions(stamp_ns, &measured.q_rad));
+        let (status, command) = self.command_for(now_ns, &measured.q_rad);
+        let mut state = JointStateMsg {
+            schema: SCHEMA_VERSION,
+            faults: self.fault_bits(&measured.q_rad, &qd_rad_s),
+            tick,
+            stamp_ns,
+            driver_epoch: self.epoch,
+            period_ns: self.settings.period_ns,
+            command_mode: self.settings.mode.code(),
+            driver_status: status.code(),
+            joint_count: self.settings.joint_count() as u32,
+            q_rad: measured.q_rad,
+            qd_rad_s,
+            torque_nm: measured.torque_nm,
+            ..JointStateMsg::default()
+        };
+        state.applied_command_tick = self.applying;
+        self.applying = match status {
+            DriverStatus::Following => self.in_force.map_or(u64::MAX, |c| c.answers_tick),
+            _ => u64::MAX,
+        };
+        self.origin_ns.get_or_insert(stamp_ns);
+        self.last_tick = tick;
+        self.last = Some((stamp_ns, measured.q_rad));
+        self.counts.states += 1;
+        Ok(Step { state, command })
+    }
+
+    /// The controller command that holds the arm: zero velocities, or the position where holding began
+    /// (the last measured one). For when the joint states stop, and at the end.
+    pub fn hold(&mut self) -> Vec<f64> {
+        self.in_force = None;
+        self.applying = u64::MAX;
+        self.counts.holds += 1;
+        let q_rad = self.last.map(|(_, q)| q);
+        self.hold_values(q_rad)
+    }
+
+    /// Whether a command has come in time: the status to report and the controller's command.
+    fn command_for(&mut self, now_ns: u64, q_rad: &[f64; MAX_JOINTS]) -> (DriverStatus, Vec<f64>) {
+        let n = self.settings.joint_count();
+        match self.in_force {
+            Some(c) if now_ns.saturating_sub(c.taken_ns) <= self.settings.hold_after_ns => {
+                self.hold_at = None;
+                (DriverStatus::Following, c.values[..n].to_vec())
+            }
+            _ => {
+                self.in_force = None;
+                self.counts.holds += 1;
+                (DriverStatus::Holding, self.hold_values(Some(*q_rad)))
+            }
+        }
+    }
+
+    /// Rest: zero velocities; or the position where holding began (`q_rad` if it begins now).
+    fn hold_values(&mut self, q_rad: Option<[f64; MAX_JOINTS]>) -> Vec<f64> {
+        let n = self.settings.joint_count();
+        match self.settings.mode {
+            CommandMode::Position => match self.hold_at.or(q_rad) {
+                Some(at) => {
+                    self.hold_at = Some(at);
+                    at[..n].to_vec()
+                }
+                None => Vec::new(),
+            },
+            _ => vec![0.0; n],
+        }
+    }
+
+    /// The configured joints' values in the message, by name.
+    fn measured(&self, ros: &JointState) -> Result<Measured, StateRefused> {
+        let named = ros.name.len();
+        if ros.position.len() != named {
+            return Err(StateRefused::Malformed("positions and names differ in number"));
+        }
+        let velocities = ros.velocity.len() == named;
+        let efforts = ros.effort.len() == named;
+        if (!velocities && !ros.velocity.is_empty()) || (!efforts && !ros.effort.is_empty()) {
+            return Err(StateRefused::Malformed("velocities or efforts and names differ in number"));
+        }
+        let mut measured = Measured {
+            q_rad: [0.0; MAX_JOINTS],
+            qd_rad_s: velocities.then_some([0.0; MAX_JOINTS]),
+            torque_nm: [f64::NAN; MAX_JOINTS],
+        };
+        for (j, name) in self.settings.joint_names.iter().enumerate() {
+            let i = ros
+                .name
+                .iter()
+                .position(|n| n == name)
+                .ok_or_else(|| StateRefused::MissingJoint(name.clone()))?;
+            measured.q_rad[j] = ros.position[i];
+            if let Some(qd) = &mut measured.qd_rad_s {
+                qd[j] = ros.velocity[i];
+            }
+            if efforts {
+                measured.torque_nm[j] = ros.effort[i];
+            }
+        }
+        let n = self.settings.joint_count();
+        if !measured.q_rad[..n].iter().all(|q| q.is_finite())
+            || !measured.qd_rad_s.is_none_or(|qd| qd[..n].iter().all(|v| v.is_finite()))
+        {
+            return Err(StateRefused::Malformed("a position or velocity is not finite"));
+        }
+        Ok(measured)
+    }
+
+    /// The arm's periods since the first state: the stamp's distance from it in periods (docs/DRIVERS.md,
+    /// "`tick` over missed periods"), and at least one more than the last: a state that came late and the
+    /// next one on time may round to the same period, and both are the arm's.
+    fn tick_of(&self, stamp_ns: u64) -> Result<u64, StateRefused> {
+        let (Some(origin_ns), Some((last_ns, _))) = (self.origin_ns, self.last) else { return Ok(0) };
+        let period = self.settings.period_ns.max(1);
+        let periods = (stamp_ns.saturating_sub(origin_ns) + period / 2) / period;
+        if stamp_ns <= last_ns {
+            return Err(StateRefused::NotNewer { stamp_ns, tick: periods, last_tick: self.last_tick });
+        }
+        Ok(periods.max(self.last_tick + 1))
+    }
+
+    /// With no velocities in the message: the positions' change since the last state, or zero at the first.
+    fn velocity_from_positions(&self, stamp_ns: u64, q_rad: &[f64; MAX_JOINTS]) -> [f64; MAX_JOINTS] {
+        match self.last {
+            Some((last_ns, last_q)) if stamp_ns > last_ns => {
+                let dt_s = (stamp_ns - last_ns) as f64 * 1e-9;
+                std::array::from_fn(|j| (q_rad[j] - last_q[j]) / dt_s)
+            }
+            _ => [0.0; MAX_JOINTS],
+        }
+    }
+
+    /// The position- and velocity-limit bits of the configured arm (docs/DRIVERS.md, `faults`).
+    fn fault_bits(&self, q_rad: &[f64; MAX_JOINTS], qd_rad_s: &[f64; MAX_JOINTS]) -> u32 {
+        let s = &self.settings;
+        (0..s.joint_count()).fold(0, |bits, j| {
+            let position = q_rad[j] <= s.position_min_rad[j] || q_rad[j] >= s.position_max_rad[j];
+            let velocity = qd_rad_s[j].abs() > s.velocity_max_rad_s[j];
+            bits | (u32::from(position) << (fault_bits::POSITION_LIMIT_SHIFT + j as u32))
+                | (u32::from(velocity) << (fault_bits::VELOCITY_LIMIT_SHIFT + j as u32))
+        })
+    }
+}
+
+/// A joint state's values in the configured order.
+struct Measured {
+    q_rad: [f64; MAX_JOINTS],
+    qd_rad_s: Option<[f64; MAX_JOINTS]>,
+    torque_nm: [f64; MAX_JOINTS],
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const PERIOD_NS: u64 = 2_000_000;
+    const EPOCH: u64 = 77;
+
+    fn settings(mode: CommandMode) -> ArmSettings {
+        ArmSettings {
+            joint_names: (1..=6).map(|j| format!("j{j}")).collect(),
+            mode,
+            period_ns: PERIOD_NS,
+            hold_after_ns: 20_000_000,
+            position_min_rad: [-3.0; MAX_JOINTS],
+            position_max_rad: [3.0; MAX_JOINTS],
+            velocity_max_rad_s: [2.0; MAX_JOINTS],
+        }
+    }
+
+    /// A ROS joint state with the joints in reverse order (the broadcaster's order is the URDF's, not ours).
+    fn ros_state(q: [f64; 6]) -> JointState {
+        JointState {
+            name: (1..=6).rev().map(|j| format!("j{j}")).chain(["gripper".to_string()]).collect(),
+            position: q.iter().rev().copied().chain([0.5]).collect(),
+            velocity: vec![0.1; 7],
+            effort: Vec::new(),
+            ..JointState::default()
+        }
+    }
+
+    fn command_answering(tick: u64, qd: f64) -> JointCommandMsg {
+        JointCommandMsg {
+            schema: SCHEMA_VERSION,
+            mode: CommandMode::Velocity.code(),
+            joint_count: 6,
+            answers_tick: tick,
+            driver_epoch: EPOCH,
+            qd_ref_rad_s: [qd; MAX_JOINTS],
+            q_ref_rad: [0.25; MAX_JOINTS],
+            ..JointCommandMsg::default()
+        }
+    }
+
+    #[test]
+    fn joints_are_taken_by_name_and_ticks_by_stamp() {
+        let mut arm = ArmFollower::new(settings(CommandMode::Velocity), EPOCH);
+        let q = [0.1, 0.2, 0.3, 0.4, 0.5, 0.6];
+        let first = arm.on_joint_state(&ros_state(q), 1_000_000_000, 1_000_100_000).expect("the first");
+        assert_eq!(&first.state.q_rad[..6], &q);
+        assert_eq!(first.state.q_rad[6], 0.0, "the gripper is not a joint of the arm");
+        assert_eq!((first.state.tick, first.state.driver_epoch, first.state.joint_count), (0, EPOCH, 6));
+        assert!(first.state.torque_nm[..6].iter().all(|t| t.is_nan()), "no efforts: unknown torque");
+        // three periods later (two states lost on the way): the tick says so
+        let later =
+            arm.on_joint_state(&ros_state(q), 1_000_000_000 + 3 * PERIOD_NS + 1000, 0).expect("later");
+        assert_eq!(later.state.tick, 3);
+        // a state that came 1.2 periods late, then the next on time: both the arm's, one tick apart
+        let late =
+            arm.on_joint_state(&ros_state(q), 1_000_000_000 + 5 * PERIOD_NS + 1000, 0).expect("late one");
+        assert_eq!(late.state.tick, 5);
+        let on_time = arm.on_joint_state(&ros_state(q), 1_000_000_000 + 5 * PERIOD_NS + 900_000, 0);
+        assert_eq!(on_time.expect("on time").state.tick, 6);
+        let repeat = arm.on_joint_state(&ros_state(q), 1_000_000_000 + 5 * PERIOD_NS + 900_000, 0);
+        assert!(matches!(repeat, Err(StateRefused::NotNewer { .. })), "{repeat:?}");
+        let mut other_arm = ros_state(q);
+        other_arm.name[0] = "elbow".into();
+        let refused = arm.on_joint_state(&other_arm, 1_000_000_000 + 8 * PERIOD_NS, 0);
+        assert_eq!(refused, Err(StateRefused::MissingJoint("j6".into())));
+        let mut nan = ros_state(q);
+        nan.position[2] = f64::NAN;
+        assert!(matches!(
+            arm.on_joint_state(&nan, 1_000_000_000 + 9 * PERIOD_NS, 0),
+            Err(StateRefused::Malformed(_))
+        ));
+        assert_eq!((arm.counts.states, arm.counts.states_refused), (4, 3));
+    }
+
+    #[test]
+    fn a_recent_command_of_this_run_is_followed_and_reported_applied() {
+        let mut arm = ArmFollower::new(settings(CommandMode::Velocity), EPOCH);
+        let q = [0.0; 6];
+        let t0 = 5_000_000_000;
+        let first = arm.on_joint_state(&ros_state(q), t0, t0).expect("state 0");
+        assert_eq!(first.state.driver_status, DriverStatus::Holding.code(), "no command yet");
+        assert_eq!(first.command, vec![0.0; 6], "rest");
+        arm.take_command(&command_answering(0, 0.3), t0 + 100_000);
+        let second = arm.on_joint_state(&ros_state(q), t0 + PERIOD_NS, t0 + PERIOD_NS).expect("state 1");
+        assert_eq!(second.state.driver_status, DriverStatus::Following.code());
+        assert_eq!(second.command, vec![0.3; 6]);
+        assert_eq!(second.state.applied_command_tick, u64::MAX, "nothing was applied over period 0");
+        let third =
+            arm.on_joint_state(&ros_state(q), t0 + 2 * PERIOD_NS, t0 + 2 * PERIOD_NS).expect("state 2");
+        assert_eq!(third.state.applied_command_tick, 0, "the command answering state 0, over period 1");
+        // refused: another epoch, another mode, another arm, too old, not finite
+        let mut nan = command_answering(2, 0.1);
+        nan.qd_ref_rad_s[4] = f64::NAN;
+        let refused = [
+            JointCommandMsg { driver_epoch: EPOCH + 1, ..command_answering(2, 0.1) },
+            JointCommandMsg { mode: CommandMode::Position.code(), ..command_answering(2, 0.1) },
+            JointCommandMsg { joint_count: 7, ..command_answering(2, 0.1) },
+            command_answering(3, 0.1),
+            nan,
+        ];
+        for command in &refused {
+            arm.take_command(command, t0 + 2 * PERIOD_NS + 100_000);
+        }
+        assert_eq!(arm.counts.commands_refused, 5);
+        let fourth =
+            arm.on_joint_state(&ros_state(q), t0 + 3 * PERIOD_NS, t0 + 3 * PERIOD_NS).expect("state 3");
+        assert_eq!(fourth.command, vec![0.3; 6], "the refused ones changed nothing");
+    }
+
+    #[test]
+    fn with_no_command_in_time_the_arm_is_held() {
+        let mut arm = ArmFollower::new(settings(CommandMode::Velocity), EPOCH);
+        let t0 = 1_000_000_000;
+        arm.on_joint_state(&ros_state([0.0; 6]), t0, t0).expect("state 0");
+        arm.take_command(&command_answering(0, 0.3), t0 + 100_000);
+        let within = t0 + 10 * PERIOD_NS;
+        let step = arm.on_joint_state(&ros_state([0.0; 6]), within, t0 + 20_100_000).expect("within");
+        assert_eq!(step.command, vec![0.3; 6], "20 ms after the command: still followed");
+        let late =
+            arm.on_joint_state(&ros_state([0.0; 6]), within + PERIOD_NS, t0 + 20_200_000).expect("late");
+        assert_eq!(late.state.driver_status, DriverStatus::Holding.code());
+        assert_eq!(late.command, vec![0.0; 6]);
+        assert_eq!(arm.hold(), vec![0.0; 6], "the hold when the joint states stop");
+    }
+
+    #[test]
+    fn position_mode_holds_where_holding_began() {
+        let mut arm = ArmFollower::new(settings(CommandMode::Position), EPOCH);
+        let t0 = 1_000_000_000;
+        let q = [0.1, 0.2, 0.3, 0.4, 0.5, 0.6];
+        let first = arm.on_joint_state(&ros_state(q), t0, t0).expect("state 0");
+        assert_eq!(first.command, q.to_vec(), "held where it is");
+        let drifted =
+            arm.on_joint_state(&ros_state([0.7; 6]), t0 + PERIOD_NS, t0 + PERIOD_NS).expect("state 1");
+        assert_eq!(drifted.command, q.to_vec(), "still where holding began, not where the arm drifted");
+        let command = JointCommandMsg { mode: CommandMode::Position.code(), ..command_answering(1, 0.0) };
+        arm.take_command(&command, t0 + PERIOD_NS + 1000);
+        let following = arm.on_joint_state(&ros_state([0.7; 6]), t0 + 2 * PERIOD_NS, t0 + 2 * PERIOD_NS);
+        assert_eq!(following.expect("state 2").command, vec![0.25; 6], "q_ref");
+    }
+
+    #[test]
+    fn limits_set_fault_bits() {
+        let mut arm = ArmFollower::new(settings(CommandMode::Velocity), EPOCH);
+        let mut state = ros_state([0.0, 0.0, 3.1, 0.0, 0.0, 0.0]);
+        state.velocity[0] = -2.5; // the message's first joint is j6
+        let step = arm.on_joint_state(&state, 1_000_000_000, 0).expect("state");
+        let position = fault_bits::joints(step.state.faults, fault_bits::POSITION_LIMIT_SHIFT);
+        let velocity = fault_bits::joints(step.state.faults, fault_bits::VELOCITY_LIMIT_SHIFT);
+        assert_eq!((position, velocity), (1 << 2, 1 << 5));
+    }
+}

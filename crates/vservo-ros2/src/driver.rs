@@ -1,0 +1,425 @@
+//! `vservo-ros2 --driver`: a ros2_control arm (`[robot] driver = "ros2"`) and a ROS camera (`[camera] source =
+//! "ros2"`) as the instance's robot and camera drivers (docs/ROS2.md, "ROS 2 as the driver"; the contract is
+//! docs/DRIVERS.md's). vservod starts it when either is configured and restarts it if it ends.
+//!
+//! Each of the arm's joint states, as it arrives: the rmrc's newest command is taken (it answers the state
+//! before), sent to the arm's forward controller, and the state is published on `joint_state` and its event
+//! (`vservo_ros2::arm_driver` has the rules). Each of the camera's images is published on `camera_image`,
+//! stamped with its header's exposure. Nothing here is on the 1 ms path: the rmrc answers the state this
+//! process publishes, as it answers any driver's.
+
+use std::sync::atomic::AtomicBool;
+use std::time::Duration;
+
+use anyhow::Context as _;
+use iceoryx2::port::notifier::Notifier;
+use iceoryx2::port::publisher::Publisher as IoxPublisher;
+use iceoryx2::port::subscriber::Subscriber as IoxSubscriber;
+use iceoryx2::prelude::ipc;
+use ros2_client::{MessageTypeName, Name, Node, NodeName, NodeOptions, Publisher, QosProfile, Subscription};
+use rustdds::mio1::{Events, Interest, Poll, Token};
+use vservo_config::Config;
+use vservo_protocol::inbox::TakeMessages;
+use vservo_protocol::{
+    CameraImageHeader, JointCommandMsg, JointStateMsg, PixelFormat, SCHEMA_VERSION, Topic,
+};
+use vservo_ros2::arm_driver::{ArmFollower, ArmSettings};
+use vservo_ros2::convert::StampClock;
+use vservo_ros2::msg::{Float64MultiArray, Image, JointState, RosType};
+use vservo_ros2::{image_in, qos};
+use vservo_runtime::clock::monotonic_ns;
+
+use crate::graph;
+
+const ARM: Token = Token(0);
+const CAMERA: Token = Token(1);
+
+/// The longest wait for a message before the watchdog, the stop flag and the clocks are looked at.
+const WAKE_EVERY: Duration = Duration::from_millis(1);
+
+/// How often the counts are logged.
+const REPORT_EVERY_NS: u64 = 10_000_000_000;
+
+/// How many times the hold command is sent at the end (the controller's reliable reader gets one of them).
+const HOLDS_AT_EXIT: usize = 3;
+
+/// Runs until `stop` is set.
+pub fn run(config: &Config, stop: &AtomicBool) -> anyhow::Result<()> {
+    let settings = &config.ros2;
+    anyhow::ensure!(
+        settings.driver.runs(),
+        "{}: neither [robot] driver nor [camera] source is \"ros2\": there is nothing for the ROS 2 driver to do",
+        config.origin
+    );
+    let mut ros = RosSide::open(config)?;
+    let stopped = || vservo_protocol::signals::stopped(stop);
+    let waiting = |why: &_| tracing::info!("instance {:?}: {why}; waiting for vservod", config.instance);
+    let Some(dir) = vservo_protocol::InstanceDir::locate_until(&config.instance, stopped, waiting)? else {
+        return Ok(());
+    };
+    let mut cell = CellSide::connect(config, &dir)?;
+    let mut driver = Driver::new(config);
+    let mut poll = Poll::new().context("mio")?;
+    ros.register(&poll)?;
+    let mut events = Events::with_capacity(8);
+    tracing::info!(
+        arm = %ros.arm.as_ref().map_or("-", |a| a.topics.as_str()),
+        camera = %if config.ros2.driver.camera { config.ros2.driver.image_topic.as_str() } else { "-" },
+        "driving the instance {:?} from ROS 2 (domain {})",
+        config.instance,
+        settings.domain_id
+    );
+    while !vservo_protocol::signals::stopped(stop) {
+        if let Err(error) = poll.poll(&mut events, Some(WAKE_EVERY))
+            && error.kind() != std::io::ErrorKind::Interrupted
+        {
+            return Err(error).context("waiting for ROS 2 messages");
+        }
+        driver.look(&ros, &mut cell);
+    }
+    driver.finish(&ros);
+    Ok(())
+}
+
+/// The arm's topics: its joint states in, its controller's commands out.
+struct ArmTopics {
+    joint_states: Subscription<JointState>,
+    commands: Publisher<Float64MultiArray>,
+    /// For the log.
+    topics: String,
+}
+
+/// The driver's node in the ROS 2 graph.
+struct RosSide {
+    arm: Option<ArmTopics>,
+    images: Option<Subscription<Image>>,
+    _node: Node,
+    _context: ros2_client::Context,
+}
+
+impl RosSide {
+    fn open(config: &Config) -> anyhow::Result<Self> {
+        let settings = &config.ros2;
+        let context = ros2_client::Context::from_domain_participant(graph::participant(settings)?)
+            .map_err(|e| anyhow::anyhow!("creating the ROS 2 context: {e:?}"))?;
+        let namespace = if settings.namespace.is_empty() { "/" } else { settings.namespace.as_str() };
+        let node_name = NodeName::new(namespace, "vservo_driver")
+            .map_err(|e| anyhow::anyhow!("ros2.namespace {namespace:?}: {e:?}"))?;
+        let mut node = context
+            .new_node(node_name, NodeOptions::new().enable_rosout(false))
+            .map_err(|e| anyhow::anyhow!("creating the ROS 2 node: {e:?}"))?;
+        let driver = &settings.driver;
+        let arm = if driver.arm {
+            Some(ArmTopics {
+                joint_states: subscription(&mut node, &driver.joint_states_topic, qos::SENSOR_DATA)?,
+                commands: publisher(&mut node, &driver.command_topic, qos::COMMANDS)?,
+                topics: format!("{} → {}", driver.joint_states_topic, driver.command_topic),
+            })
+        } else {
+            None
+        };
+        let images = driver
+            .camera
+            .then(|| subscription(&mut node, &driver.image_topic, qos::SENSOR_DATA))
+            .transpose()?;
+        Ok(Self { arm, images, _node: node, _context: context })
+    }
+
+    /// Wakes `poll` when a joint state or an image arrives.
+    fn register(&mut self, poll: &Poll) -> anyhow::Result<()> {
+        if let Some(arm) = &mut self.arm {
+            poll.registry().register(&mut arm.joint_states, ARM, Interest::READABLE).context("mio")?;
+        }
+        if let Some(images) = &mut self.images {
+            poll.registry().register(images, CAMERA, Interest::READABLE).context("mio")?;
+        }
+        Ok(())
+    }
+}
+
+fn ros_name(absolute: &str) -> anyhow::Result<Name> {
+    Name::parse(absolute).map_err(|e| anyhow::anyhow!("the ROS name {absolute:?}: {e:?}"))
+}
+
+fn subscription<T: RosType + serde::de::DeserializeOwned + 'static>(
+    node: &mut Node,
+    absolute: &str,
+    qos: QosProfile,
+) -> anyhow::Result<Subscription<T>> {
+    let topic = node
+        .create_topic(&ros_name(absolute)?, MessageTypeName::new(T::PACKAGE, T::NAME), &qos)
+        .map_err(|e| anyhow::anyhow!("the topic {absolute}: {e:?}"))?;
+    node.create_subscription::<T>(&topic, None)
+        .map_err(|e| anyhow::anyhow!("subscribing to {absolute}: {e:?}"))
+}
+
+fn publisher<T: RosType>(node: &mut Node, absolute: &str, qos: QosProfile) -> anyhow::Result<Publisher<T>> {
+    let topic = node
+        .create_topic(&ros_name(absolute)?, MessageTypeName::new(T::PACKAGE, T::NAME), &qos)
+        .map_err(|e| anyhow::anyhow!("the topic {absolute}: {e:?}"))?;
+    node.create_publisher::<T>(&topic, None).map_err(|e| anyhow::anyhow!("publishing on {absolute}: {e:?}"))
+}
+
+/// The instance's side: the robot driver's and the camera driver's streams (their one writer slots).
+struct CellSide {
+    arm: Option<ArmPorts>,
+    camera: Option<CameraPorts>,
+    _node: iceoryx2::node::Node<ipc::Service>,
+}
+
+struct ArmPorts {
+    states: IoxPublisher<ipc::Service, JointStateMsg, ()>,
+    wake: Notifier<ipc::Service>,
+    commands: IoxSubscriber<ipc::Service, JointCommandMsg, ()>,
+}
+
+struct CameraPorts {
+    images: IoxPublisher<ipc::Service, [u8], CameraImageHeader>,
+    wake: Notifier<ipc::Service>,
+}
+
+impl CellSide {
+    fn connect(config: &Config, dir: &vservo_protocol::InstanceDir) -> anyhow::Result<Self> {
+        let instance = config.instance.as_str();
+        let node = vservo_protocol::create_node_in(dir, "ros2-driver")?;
+        let arm = if config.ros2.driver.arm {
+            Some(ArmPorts {
+                states: vservo_protocol::publisher(&node, instance, Topic::JointState)
+                    .context("the joint_state stream (is another robot driver running?)")?,
+                wake: vservo_protocol::notifier(&node, instance, Topic::JointState)?,
+                commands: vservo_protocol::subscriber(&node, instance, Topic::JointCommand)?,
+            })
+        } else {
+            None
+        };
+        let camera = if config.ros2.driver.camera {
+            Some(CameraPorts {
+                images: vservo_protocol::camera_image_publisher(&node, instance)
+                    .context("the camera_image stream (is another camera driver running?)")?,
+                wake: vservo_protocol::camera_image_notifier(&node, instance)?,
+            })
+        } else {
+            None
+        };
+        Ok(Self { arm, camera, _node: node })
+    }
+}
+
+/// What the driver logs: each kind of refusal once (then counted), the counts now and then.
+#[derive(Default)]
+struct Report {
+    said: std::collections::BTreeSet<String>,
+    last_ns: u64,
+    images: u64,
+    images_refused: u64,
+    restamped: u64,
+    publish_failed: u64,
+}
+
+impl Report {
+    /// A WARN line the first time something of `kind` happens (`what` says it), then only counted.
+    fn once(&mut self, kind: &str, what: impl FnOnce() -> String) {
+        if self.said.insert(kind.to_string()) {
+            tracing::warn!("{} (said once; counted from now on)", what());
+        }
+    }
+}
+
+/// The driver's state: the arm's rules, the camera's frame counter and buffer, the clocks.
+struct Driver {
+    arm: Option<ArmFollower>,
+    /// When the last joint state came, and the last hold was sent for their absence (ns).
+    last_state_ns: u64,
+    last_silent_hold_ns: u64,
+    hold_after_ns: u64,
+    tolerance_ns: u64,
+    width: u32,
+    height: u32,
+    gray: Vec<u8>,
+    frame: u64,
+    clock: StampClock,
+    clock_read_ns: u64,
+    report: Report,
+}
+
+impl Driver {
+    fn new(config: &Config) -> Self {
+        let now = monotonic_ns();
+        let driver = &config.ros2.driver;
+        let (width, height) = (config.camera.width_px(), config.camera.height_px());
+        Self {
+            arm: driver.arm.then(|| ArmFollower::new(ArmSettings::of(config), now)),
+            last_state_ns: now,
+            last_silent_hold_ns: 0,
+            hold_after_ns: (driver.hold_after_s * 1e9) as u64,
+            tolerance_ns: (driver.clock_tolerance_s * 1e9) as u64,
+            width,
+            height,
+            gray: vec![0; width as usize * height as usize],
+            frame: 0,
+            clock: StampClock::now(),
+            clock_read_ns: now,
+            report: Report { last_ns: now, ..Report::default() },
+        }
+    }
+
+    /// Everything that arrived, passed on; the watchdog; the clocks and the log.
+    fn look(&mut self, ros: &RosSide, cell: &mut CellSide) {
+        if let (Some(topics), Some(ports)) = (&ros.arm, &cell.arm) {
+            self.joint_states(topics, ports);
+        }
+        if let (Some(images), Some(ports)) = (&ros.images, &cell.camera) {
+            self.images(images, ports);
+        }
+        let now = monotonic_ns();
+        if now - self.clock_read_ns > 1_000_000_000 {
+            (self.clock, self.clock_read_ns) = (StampClock::now(), now);
+        }
+        if now - self.report.last_ns > REPORT_EVERY_NS {
+            self.log_counts("running");
+            self.report.last_ns = now;
+        }
+    }
+
+    /// Each joint state: the newest command to the controller, the state to vservo. With none for the hold
+    /// time: rest to the controller (the arm's driver may have stalled, and its controller holds the last
+    /// command for ever).
+    fn joint_states(&mut self, topics: &ArmTopics, ports: &ArmPorts) {
+        let Some(arm) = &mut self.arm else { return };
+        loop {
+            let (message, _info) = match topics.joint_states.take() {
+                Ok(Some(taken)) => taken,
+                Ok(None) => break,
+                Err(error) => {
+                    self.report
+                        .once("unreadable state", || format!("a joint state could not be read: {error:?}"));
+                    continue;
+                }
+            };
+            let now = monotonic_ns();
+            ports.commands.each_message(|command| arm.take_command(&command, now));
+            let arrival = self.clock.arrival(&message.header.stamp, now, self.tolerance_ns);
+            if arrival.restamped {
+                self.report.restamped += 1;
+                self.report.once("restamped state", || {
+                    format!(
+                        "{}: a header stamp {:.3} s from its arrival (ros2.driver.clock_tolerance_s): are the \
+                         hosts' clocks in step (chrony, PTP)? Such states are stamped with their arrival",
+                        topics.topics,
+                        arrival.age_ns as f64 / 1e9
+                    )
+                });
+            }
+            match arm.on_joint_state(&message, arrival.stamp_ns, now) {
+                Ok(step) => {
+                    if topics.commands.publish(command_message(step.command)).is_err() {
+                        self.report.publish_failed += 1;
+                    }
+                    let _ = ports.states.send_copy(step.state);
+                    let _ = ports.wake.notify();
+                    self.last_state_ns = now;
+                }
+                Err(refused) => {
+                    self.report
+                        .once(refused.kind(), || format!("a joint state of {} {refused}", topics.topics));
+                }
+            }
+        }
+        let now = monotonic_ns();
+        let silent = now - self.last_state_ns > self.hold_after_ns;
+        if silent && now - self.last_silent_hold_ns > self.hold_after_ns {
+            let _ = topics.commands.publish(command_message(arm.hold()));
+            self.last_silent_hold_ns = now;
+        }
+    }
+
+    /// Each image: as 8-bit gray onto `camera_image`, stamped with its exposure.
+    fn images(&mut self, images: &Subscription<Image>, ports: &CameraPorts) {
+        loop {
+            let image = match images.take() {
+                Ok(Some((image, _info))) => image,
+                Ok(None) => break,
+                Err(error) => {
+                    self.report.once("unreadable image", || format!("an image could not be read: {error:?}"));
+                    continue;
+                }
+            };
+            let now = monotonic_ns();
+            if let Err(refused) = image_in::to_gray8(&image, self.width, self.height, &mut self.gray) {
+                self.report.images_refused += 1;
+                self.report.once(refused.kind(), || format!("an image {refused}"));
+                continue;
+            }
+            let arrival = self.clock.arrival(&image.header.stamp, now, self.tolerance_ns);
+            if arrival.restamped {
+                self.report.restamped += 1;
+                self.report.once("restamped image", || {
+                    format!(
+                        "an image's header stamp {:.3} s from its arrival (ros2.driver.clock_tolerance_s): are \
+                         the hosts' clocks in step (chrony, PTP)? Such images are stamped with their arrival",
+                        arrival.age_ns as f64 / 1e9
+                    )
+                });
+            }
+            self.publish_image(ports, arrival.stamp_ns);
+        }
+    }
+
+    fn publish_image(&mut self, ports: &CameraPorts, capture_stamp_ns: u64) {
+        let Ok(sample) = ports.images.loan_slice_uninit(self.gray.len()) else {
+            self.report.publish_failed += 1;
+            return;
+        };
+        let mut sample = sample;
+        *sample.user_header_mut() = CameraImageHeader {
+            schema: SCHEMA_VERSION,
+            format: PixelFormat::Mono8.into(),
+            width: self.width,
+            height: self.height,
+            stride_bytes: self.width,
+            reserved: 0,
+            frame: self.frame,
+            capture_stamp_ns,
+        };
+        if sample.write_from_slice(&self.gray).send().is_err() {
+            self.report.publish_failed += 1;
+            return;
+        }
+        let _ = ports.wake.notify();
+        self.frame += 1;
+        self.report.images += 1;
+    }
+
+    /// At the end: the arm commanded to rest.
+    fn finish(&mut self, ros: &RosSide) {
+        if let (Some(arm), Some(topics)) = (&mut self.arm, &ros.arm) {
+            for _ in 0..HOLDS_AT_EXIT {
+                let _ = topics.commands.publish(command_message(arm.hold()));
+                std::thread::sleep(Duration::from_millis(2));
+            }
+        }
+        self.log_counts("stopped (SIGINT/SIGTERM); the arm commanded to rest");
+    }
+
+    fn log_counts(&self, what: &str) {
+        let arm = self.arm.as_ref().map(|a| a.counts).unwrap_or_default();
+        tracing::info!(
+            states = arm.states,
+            states_refused = arm.states_refused,
+            commands_taken = arm.commands_taken,
+            commands_refused = arm.commands_refused,
+            holds = arm.holds,
+            images = self.report.images,
+            images_refused = self.report.images_refused,
+            restamped = self.report.restamped,
+            publish_failed = self.report.publish_failed,
+            "{what}"
+        );
+    }
+}
+
+/// A forward controller's command: the values, in the controller's joint order, with no layout (as
+/// `ros2 topic pub` sends one).
+fn command_message(data: Vec<f64>) -> Float64MultiArray {
+    Float64MultiArray { data, ..Float64MultiArray::default() }
+}

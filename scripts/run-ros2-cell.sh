@@ -1,0 +1,142 @@
+#!/usr/bin/env bash
+# The loop closed through ROS 2: vservod on config/vservo-ros2-cell.toml ([robot] driver = "ros2", [camera]
+# source = "ros2") starts `vservo-ros2 --driver`, which reads the arm's /joint_states and the camera's
+# /camera/image_raw and commands /forward_velocity_controller/commands over DDS; the arm and the camera are
+# clients/python/ros2_control_arm.py, a Cyclone DDS node that plays a ros2_control arm (joint_state_broadcaster
+# and a forward velocity controller around MuJoCo's PUMA 560) and a ROS camera (MuJoCo's render). Runs the
+# paper's translation step for --duration-s seconds (default 20), then stops both and prints the final feature
+# error, the settling time and the capture→command latency; with --json the last line is one JSON object
+# (final_error_px, settling_time_s, …). Logs and the recorded features are left in target/ros2-cell-run/.
+#
+#   scripts/run-ros2-cell.sh [--netns] [--duration-s S] [--json] [--domain D]
+#
+# --netns: vservod in one network namespace and the arm and camera node in another, joined by a veth pair:
+# the two PCs of a real cell (root; `ip netns`). --domain: the ROS domain (default: one from this process's id,
+# so that runs side by side do not meet). Each run has an instance of its own and removes what it leaves.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+duration=20
+json=0
+netns=0
+domain=$((1 + $$ % 200))
+while [ $# -gt 0 ]; do
+    case "$1" in
+        --duration-s) duration="$2"; shift 2 ;;
+        --duration-s=*) duration="${1#*=}"; shift ;;
+        --json) json=1; shift ;;
+        --netns) netns=1; shift ;;
+        --domain) domain="$2"; shift 2 ;;
+        --domain=*) domain="${1#*=}"; shift ;;
+        *) echo "run-ros2-cell: unknown argument $1 (expected --netns, --duration-s S, --json, --domain D)" >&2
+           exit 2 ;;
+    esac
+done
+say() { [ "$json" = 1 ] && echo "$*" >&2 || echo "$*"; }
+
+scripts/setup.sh >&2
+scripts/setup-mujoco.sh >&2
+# VSERVO_BIN_DIR: binaries already built (the integration test passes its own); else a release build
+bin="${VSERVO_BIN_DIR:-}"
+if [ -z "$bin" ]; then
+    cargo build --release --locked -q -p vservod -p vservoctl -p vservo-ros2 >&2
+    bin=./target/release
+fi
+bin="$(cd "$bin" && pwd)"
+root="$(pwd)"
+out="$root/target/ros2-cell-run"
+[ "$netns" = 1 ] && out="$out-netns"
+rm -rf "$out"
+mkdir -p "$out"
+python="$root/target/python-venv/bin/python"
+vservoctl="$bin/vservoctl"
+instance="ros2-cell-$$"
+# this run's instance, domain and runtime directory (removed at the end, shared memory included)
+export VSERVO_RUNTIME_DIR="/tmp/vsc-$$"  # short: iceoryx2's socket paths must fit in 107 bytes
+cat > "$out/cell.toml" <<EOF
+extends = "$root/config/vservo-ros2-cell.toml"
+
+[instance]
+name = "$instance"
+
+[ros2]
+domain_id = $domain
+EOF
+config="$out/cell.toml"
+"$vservoctl" scene --config "$config" > "$out/scene.json"
+desired="$("$python" -c 'import json,sys; print(",".join(str(v) for v in json.load(sys.stdin)["desired_features_px"]))' < "$out/scene.json")"
+
+# --netns: two network namespaces joined by a veth pair, 10.N.M.1 (vservod) and 10.N.M.2 (the arm and camera)
+in_cell=()
+in_arm=()
+hosts=()
+if [ "$netns" = 1 ]; then
+    a="vsc$$a"; b="vsc$$b"
+    subnet="10.$((100 + ($$ / 256) % 100)).$(($$ % 256))"
+    ip netns add "$a"; hosts+=("$a")
+    ip netns add "$b"; hosts+=("$b")
+    ip link add "${a}v" type veth peer name "${b}v"
+    ip link set "${a}v" netns "$a"
+    ip link set "${b}v" netns "$b"
+    ip -n "$a" addr add "$subnet.1/24" dev "${a}v"
+    ip -n "$b" addr add "$subnet.2/24" dev "${b}v"
+    for ns in "$a" "$b"; do
+        ip -n "$ns" link set lo up
+    done
+    ip -n "$a" link set "${a}v" up
+    ip -n "$b" link set "${b}v" up
+    in_cell=(ip netns exec "$a")
+    in_arm=(ip netns exec "$b")
+    say "run-ros2-cell: vservod in network namespace $a ($subnet.1), the arm and camera in $b ($subnet.2)"
+fi
+
+pids=()
+cleanup() {
+    for pid in "${pids[@]}"; do kill -TERM "$pid" 2>/dev/null || true; done
+    for _ in $(seq 50); do
+        alive=0
+        for pid in "${pids[@]}"; do kill -0 "$pid" 2>/dev/null && alive=1; done
+        [ "$alive" = 0 ] && break
+        sleep 0.1
+    done
+    for pid in "${pids[@]}"; do kill -KILL "$pid" 2>/dev/null || true; done
+    pids=()
+    for ns in ${hosts[@]+"${hosts[@]}"}; do ip netns del "$ns" 2>/dev/null || true; done
+    hosts=()
+    if [ -f "$VSERVO_RUNTIME_DIR/$instance/prefix" ]; then
+        prefix="$(cat "$VSERVO_RUNTIME_DIR/$instance/prefix")"
+        [ -n "$prefix" ] && rm -f /dev/shm/"$prefix"* 2>/dev/null || true
+    fi
+    rm -rf "$VSERVO_RUNTIME_DIR"
+}
+trap cleanup EXIT
+
+${in_cell[@]+"${in_cell[@]}"} "$bin/vservod" --config "$config" > "$out/vservod.log" 2>&1 &
+pids+=($!)
+${in_arm[@]+"${in_arm[@]}"} "$python" clients/python/ros2_control_arm.py --scene "$out/scene.json" \
+    --domain "$domain" --summary "$out/arm.json" > "$out/arm.log" 2>&1 &
+pids+=($!)
+# the features from the first frame on, once vservod runs the instance
+for _ in $(seq 200); do
+    "$vservoctl" status --instance "$instance" > /dev/null 2>&1 && break
+    sleep 0.1
+done
+"$vservoctl" echo features --instance "$instance" --duration-s "$duration" > "$out/features.jsonl" &
+echo_pid=$!
+pids+=("$echo_pid")
+# the rmrc's commands: which twist each follows, for the capture → command latency
+"$vservoctl" echo joint_command --instance "$instance" --duration-s "$duration" > "$out/commands.jsonl" &
+pids+=($!)
+say "run-ros2-cell: vservod and the ROS 2 arm and camera run on domain $domain; recording $duration s of features (logs in $out/)"
+wait "$echo_pid" || true
+"$vservoctl" status --instance "$instance" > "$out/status.txt" 2>&1 || true
+cleanup
+trap - EXIT
+
+summary="$("$python" scripts/feature_summary.py "$out/features.jsonl" --desired "$desired")"
+latency="$("$python" scripts/capture_to_command.py "$out/features.jsonl" "$out/commands.jsonl" --arm "$out/arm.json")"
+summary="$("$python" -c 'import json,sys; a=json.loads(sys.argv[1]); a.update(json.loads(sys.argv[2])); print(json.dumps(a))' \
+    "$summary" "$latency")"
+say "$(head -3 "$out/status.txt" 2>/dev/null)"
+say "run-ros2-cell: $summary"
+[ "$json" = 1 ] && echo "$summary"
+exit 0
