@@ -72,7 +72,11 @@ noise=()
     ${noise[@]+"${noise[@]}"} > "$out/driver.log" 2>&1 &
 driver=$!
 pids+=("$driver")
-# the features from the first frame on
+# the features from the first frame on, once vservod's nodes have made their services
+for _ in $(seq 200); do
+    "$vservoctl" echo features --instance "$instance" --duration-s 0.05 > /dev/null 2>&1 && break
+    sleep 0.1
+done
 "$vservoctl" echo features --instance "$instance" --duration-s "$duration" > "$out/features.jsonl" &
 echo_pid=$!
 pids+=("$echo_pid")

@@ -115,9 +115,9 @@ pids+=($!)
 ${in_arm[@]+"${in_arm[@]}"} "$python" clients/python/ros2_control_arm.py --scene "$out/scene.json" \
     --domain "$domain" --summary "$out/arm.json" > "$out/arm.log" 2>&1 &
 pids+=($!)
-# the features from the first frame on, once vservod runs the instance
+# the features from the first frame on, once vservod's nodes have made their services
 for _ in $(seq 200); do
-    "$vservoctl" status --instance "$instance" > /dev/null 2>&1 && break
+    "$vservoctl" echo features --instance "$instance" --duration-s 0.05 > /dev/null 2>&1 && break
     sleep 0.1
 done
 "$vservoctl" echo features --instance "$instance" --duration-s "$duration" > "$out/features.jsonl" &

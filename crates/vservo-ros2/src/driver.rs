@@ -214,6 +214,34 @@ struct Report {
     images_refused: u64,
     restamped: u64,
     publish_failed: u64,
+    /// Header stamp → arrival here, since the last report: the DDS hop of a joint state; an image's
+    /// exposure → arrival (its readout or rendering, and the hop).
+    state_age: Ages,
+    image_age: Ages,
+}
+
+/// How old messages were when they arrived: count, mean and largest.
+#[derive(Default, Clone, Copy)]
+struct Ages {
+    count: u64,
+    sum_ns: i128,
+    max_ns: i128,
+}
+
+impl Ages {
+    fn add(&mut self, age_ns: i128) {
+        self.count += 1;
+        self.sum_ns += age_ns;
+        self.max_ns = if self.count == 1 { age_ns } else { self.max_ns.max(age_ns) };
+    }
+
+    /// "mean/max ms", or "-" with none.
+    fn text(&self) -> String {
+        match self.count {
+            0 => "-".to_string(),
+            n => format!("{:.2}/{:.2}", self.sum_ns as f64 / n as f64 / 1e6, self.max_ns as f64 / 1e6),
+        }
+    }
 }
 
 impl Report {
@@ -278,6 +306,7 @@ impl Driver {
         if now - self.report.last_ns > REPORT_EVERY_NS {
             self.log_counts("running");
             self.report.last_ns = now;
+            (self.report.state_age, self.report.image_age) = (Ages::default(), Ages::default());
         }
     }
 
@@ -299,6 +328,7 @@ impl Driver {
             let now = monotonic_ns();
             ports.commands.each_message(|command| arm.take_command(&command, now));
             let arrival = self.clock.arrival(&message.header.stamp, now, self.tolerance_ns);
+            self.report.state_age.add(arrival.age_ns);
             if arrival.restamped {
                 self.report.restamped += 1;
                 self.report.once("restamped state", || {
@@ -351,6 +381,7 @@ impl Driver {
                 continue;
             }
             let arrival = self.clock.arrival(&image.header.stamp, now, self.tolerance_ns);
+            self.report.image_age.add(arrival.age_ns);
             if arrival.restamped {
                 self.report.restamped += 1;
                 self.report.once("restamped image", || {
@@ -413,7 +444,9 @@ impl Driver {
             images_refused = self.report.images_refused,
             restamped = self.report.restamped,
             publish_failed = self.report.publish_failed,
-            "{what}"
+            state_age_ms = %self.report.state_age.text(),
+            image_age_ms = %self.report.image_age.text(),
+            "{what} (ages: header stamp → arrival, mean/max since the last report)"
         );
     }
 }
