@@ -158,6 +158,39 @@ fn the_mujoco_cell_declares_an_external_velocity_driver_and_camera() {
     assert_eq!(default.command_interface(), vservo_config::CommandInterface::Position);
 }
 
+/// config/vservo-ros2-cell.toml: the arm and the camera from ROS 2, an external driver behind the contract to
+/// the rest of vservo; velocity by default, position taken, torques refused (a forward controller takes none).
+#[test]
+fn the_ros2_cell_takes_its_arm_and_camera_from_ros2() {
+    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../config/vservo-ros2-cell.toml");
+    let config = Config::load(path).expect("config/vservo-ros2-cell.toml is valid");
+    assert_eq!(config.robot.driver, vservo_config::RobotDriver::External);
+    assert_eq!(config.vision.source, vservo_config::VisionSource::External);
+    assert_eq!(config.command_interface(), vservo_config::CommandInterface::Velocity);
+    let driver = &config.ros2.driver;
+    assert!(driver.arm && driver.camera && driver.runs() && !config.ros2.enabled);
+    assert_eq!(driver.command_topic, "/forward_velocity_controller/commands");
+    assert!((config.robot.period_s - 0.002).abs() < 1e-15);
+
+    let ros2_arm = DEFAULT.replacen("driver = \"simulated\"", "driver = \"ros2\"", 1).replacen(
+        "source = \"simulated\"",
+        "source = \"ros2\"",
+        1,
+    );
+    let config = Config::from_toml(&ros2_arm, "t").expect("velocity by default");
+    assert_eq!(config.command_interface(), vservo_config::CommandInterface::Velocity);
+    let position = ros2_arm.replacen("# command = \"velocity\"", "command = \"position\"", 1);
+    let config = Config::from_toml(&position, "t").expect("position");
+    assert_eq!(config.command_interface(), vservo_config::CommandInterface::Position);
+    let torque = ros2_arm.replacen("# command = \"velocity\"", "command = \"torque\"", 1);
+    let error = refused(&torque).to_string();
+    assert!(error.contains("robot.command") && error.contains("forward controller"), "{error}");
+    // the bridge on as well, publishing the arm's own joint_states back onto the topic the driver reads
+    let clash = ros2_arm.replacen("enabled = false\n# ROS_DOMAIN_ID", "enabled = true\n# ROS_DOMAIN_ID", 1);
+    let error = refused(&clash).to_string();
+    assert!(error.contains("ros2.publish") && error.contains("/joint_states"), "{error}");
+}
+
 /// A custom arm (a UR5's published standard-DH table) with an external velocity driver: kinematics from
 /// the file, reach by the numerical solution; the simulated driver takes it kinematically only.
 #[test]

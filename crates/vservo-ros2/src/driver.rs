@@ -326,7 +326,13 @@ impl Driver {
                 }
             };
             let now = monotonic_ns();
-            ports.commands.each_message(|command| arm.take_command(&command, now));
+            let other_schema = ports.commands.each_message(|command| arm.take_command(&command, now));
+            if other_schema > 0 {
+                arm.counts.commands_refused += other_schema;
+                self.report.once("command of another schema", || {
+                    "a joint_command of another schema (another build of vservo?) was refused".to_string()
+                });
+            }
             let arrival = self.clock.arrival(&message.header.stamp, now, self.tolerance_ns);
             self.report.state_age.add(arrival.age_ns);
             if arrival.restamped {
