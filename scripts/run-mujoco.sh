@@ -36,20 +36,15 @@ while [ $# -gt 0 ]; do
            exit 2 ;;
     esac
 done
-say() { [ "$json" = 1 ] && echo "$*" >&2 || echo "$*"; }
+python=target/python-venv/bin/python
+source scripts/lib/cell-run.sh
 
 scripts/setup.sh >&2
 scripts/setup-mujoco.sh >&2
-# VSERVO_BIN_DIR: binaries already built (the integration test passes its own); else a release build
-bin="${VSERVO_BIN_DIR:-}"
-if [ -z "$bin" ]; then
-    cargo build --release --locked -q -p vservod -p vservoctl >&2
-    bin=./target/release
-fi
+cell_binaries
 out=target/mujoco-run
 rm -rf "$out"
 mkdir -p "$out"
-python=target/python-venv/bin/python
 vservoctl="$bin/vservoctl"
 
 "$vservoctl" scene --config "$config" > "$out/scene.json"
@@ -57,11 +52,7 @@ instance="$("$python" -c 'import json,sys; print(json.load(sys.stdin)["instance"
 desired="$("$python" -c 'import json,sys; print(",".join(str(v) for v in json.load(sys.stdin)["desired_features_px"]))' < "$out/scene.json")"
 
 pids=()
-cleanup() {
-    for pid in "${pids[@]}"; do kill -TERM "$pid" 2>/dev/null || true; done
-    sleep 1
-    for pid in "${pids[@]}"; do kill -KILL "$pid" 2>/dev/null || true; done
-}
+cleanup() { stop_processes ${pids[@]+"${pids[@]}"}; }
 trap cleanup EXIT
 
 "$bin/vservod" --config "$config" > "$out/vservod.log" 2>&1 &
@@ -72,11 +63,8 @@ noise=()
     ${noise[@]+"${noise[@]}"} > "$out/driver.log" 2>&1 &
 driver=$!
 pids+=("$driver")
-# the features from the first frame on, once vservod's nodes have made their services
-for _ in $(seq 200); do
-    "$vservoctl" echo features --instance "$instance" --duration-s 0.05 > /dev/null 2>&1 && break
-    sleep 0.1
-done
+# the features from the first frame on
+wait_for_features "$instance"
 "$vservoctl" echo features --instance "$instance" --duration-s "$duration" > "$out/features.jsonl" &
 echo_pid=$!
 pids+=("$echo_pid")
@@ -116,8 +104,7 @@ if [ "$compare" = 1 ]; then
             < "$out/lockstep/summary.json")")"
 fi
 latency="$("$python" scripts/capture_to_command.py "$out/features.jsonl" "$out/commands.jsonl")"
-summary="$("$python" -c 'import json,sys; a=json.loads(sys.argv[1]); a.update(json.loads(sys.argv[2])); print(json.dumps(a))' \
-    "$summary" "$latency")"
+summary="$(merge_json "$summary" "$latency")"
 say "$(cat "$out/status.txt" 2>/dev/null | head -3)"
 say "run-mujoco: $summary"
 [ "$json" = 1 ] && echo "$summary"

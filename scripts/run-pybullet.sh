@@ -47,18 +47,13 @@ for file in "$config" "$urdf"; do
 done
 urdf="$(cd "$(dirname "$urdf")" && pwd)/$(basename "$urdf")"
 config="$(cd "$(dirname "$config")" && pwd)/$(basename "$config")"
-say() { [ "$json" = 1 ] && echo "$*" >&2 || echo "$*"; }
+python=target/python-venv/bin/python
+source scripts/lib/cell-run.sh
 
 scripts/setup.sh >&2
-python=target/python-venv/bin/python
 "$python" -c 'import pybullet' 2>/dev/null ||
     { echo "run-pybullet: pybullet is not in $python's venv (scripts/setup.sh installs it)" >&2; exit 1; }
-# VSERVO_BIN_DIR: binaries already built (the integration test passes its own); else a release build
-bin="${VSERVO_BIN_DIR:-}"
-if [ -z "$bin" ]; then
-    cargo build --release --locked -q -p vservod -p vservoctl >&2
-    bin=./target/release
-fi
+cell_binaries
 out=target/pybullet-run
 rm -rf "$out"
 mkdir -p "$out"
@@ -93,12 +88,8 @@ instance="$("$python" -c 'import json,sys; print(json.load(sys.stdin)["instance"
 desired="$("$python" -c 'import json,sys; print(",".join(str(v) for v in json.load(sys.stdin)["desired_features_px"]))' < "$out/scene.json")"
 
 pids=()
-cleanup() {
-    # the driver ends its camera process itself (on SIGTERM, and on its own death: PR_SET_PDEATHSIG)
-    for pid in "${pids[@]}"; do kill -TERM "$pid" 2>/dev/null || true; done
-    sleep 1
-    for pid in "${pids[@]}"; do kill -KILL "$pid" 2>/dev/null || true; done
-}
+# the driver ends its camera process itself (on SIGTERM, and on its own death: PR_SET_PDEATHSIG)
+cleanup() { stop_processes ${pids[@]+"${pids[@]}"}; }
 trap cleanup EXIT
 
 "$bin/vservod" --config "$config" > "$out/vservod.log" 2>&1 &
@@ -108,6 +99,7 @@ pids+=($!)
 driver=$!
 pids+=("$driver")
 # the features from the first frame on
+wait_for_features "$instance"
 "$vservoctl" echo features --instance "$instance" --duration-s "$duration" > "$out/features.jsonl" &
 echo_pid=$!
 pids+=("$echo_pid")

@@ -31,23 +31,17 @@ while [ $# -gt 0 ]; do
            exit 2 ;;
     esac
 done
-say() { [ "$json" = 1 ] && echo "$*" >&2 || echo "$*"; }
+root="$(pwd)"
+python="$root/target/python-venv/bin/python"
+source scripts/lib/cell-run.sh
 
 scripts/setup.sh >&2
 scripts/setup-mujoco.sh >&2
-# VSERVO_BIN_DIR: binaries already built (the integration test passes its own); else a release build
-bin="${VSERVO_BIN_DIR:-}"
-if [ -z "$bin" ]; then
-    cargo build --release --locked -q -p vservod -p vservoctl -p vservo-ros2 >&2
-    bin=./target/release
-fi
-bin="$(cd "$bin" && pwd)"
-root="$(pwd)"
+cell_binaries vservo-ros2
 out="$root/target/ros2-cell-run"
 [ "$netns" = 1 ] && out="$out-netns"
 rm -rf "$out"
 mkdir -p "$out"
-python="$root/target/python-venv/bin/python"
 vservoctl="$bin/vservoctl"
 instance="ros2-cell-$$"
 # this run's instance, domain and runtime directory (removed at the end, shared memory included)
@@ -91,14 +85,7 @@ fi
 
 pids=()
 cleanup() {
-    for pid in "${pids[@]}"; do kill -TERM "$pid" 2>/dev/null || true; done
-    for _ in $(seq 50); do
-        alive=0
-        for pid in "${pids[@]}"; do kill -0 "$pid" 2>/dev/null && alive=1; done
-        [ "$alive" = 0 ] && break
-        sleep 0.1
-    done
-    for pid in "${pids[@]}"; do kill -KILL "$pid" 2>/dev/null || true; done
+    stop_processes ${pids[@]+"${pids[@]}"}
     pids=()
     for ns in ${hosts[@]+"${hosts[@]}"}; do ip netns del "$ns" 2>/dev/null || true; done
     hosts=()
@@ -115,11 +102,8 @@ pids+=($!)
 ${in_arm[@]+"${in_arm[@]}"} "$python" clients/python/ros2_control_arm.py --scene "$out/scene.json" \
     --domain "$domain" --summary "$out/arm.json" > "$out/arm.log" 2>&1 &
 pids+=($!)
-# the features from the first frame on, once vservod's nodes have made their services
-for _ in $(seq 200); do
-    "$vservoctl" echo features --instance "$instance" --duration-s 0.05 > /dev/null 2>&1 && break
-    sleep 0.1
-done
+# the features from the first frame on
+wait_for_features "$instance"
 "$vservoctl" echo features --instance "$instance" --duration-s "$duration" > "$out/features.jsonl" &
 echo_pid=$!
 pids+=("$echo_pid")
@@ -134,8 +118,7 @@ trap - EXIT
 
 summary="$("$python" scripts/feature_summary.py "$out/features.jsonl" --desired "$desired")"
 latency="$("$python" scripts/capture_to_command.py "$out/features.jsonl" "$out/commands.jsonl" --arm "$out/arm.json")"
-summary="$("$python" -c 'import json,sys; a=json.loads(sys.argv[1]); a.update(json.loads(sys.argv[2])); print(json.dumps(a))' \
-    "$summary" "$latency")"
+summary="$(merge_json "$summary" "$latency")"
 say "$(head -3 "$out/status.txt" 2>/dev/null)"
 say "run-ros2-cell: $summary"
 [ "$json" = 1 ] && echo "$summary"

@@ -20,34 +20,25 @@ while [ $# -gt 0 ]; do
         *) echo "run-rtp-camera: unknown argument $1 (expected --duration-s S, --json)" >&2; exit 2 ;;
     esac
 done
-say() { [ "$json" = 1 ] && echo "$*" >&2 || echo "$*"; }
+python=target/python-venv/bin/python
+source scripts/lib/cell-run.sh
 
 scripts/setup.sh >&2
 scripts/setup-mujoco.sh >&2
-# VSERVO_BIN_DIR: binaries already built (the integration test passes its own); else a release build
-bin="${VSERVO_BIN_DIR:-}"
-if [ -z "$bin" ]; then
-    cargo build --release --locked -q -p vservod -p vservoctl -p vservo-camera-gst >&2
-    bin=./target/release
-fi
+cell_binaries vservo-camera-gst
 config=config/rtp-camera.toml
 instance=rtp-camera
 port="$(sed -n 's/^pipeline = "udpsrc port=\([0-9]*\) .*/\1/p' "$config")"
 out=target/rtp-camera-run
 rm -rf "$out"
 mkdir -p "$out"
-python=target/python-venv/bin/python
 vservoctl="$bin/vservoctl"
 
 "$vservoctl" scene --config "$config" > "$out/scene.json"
 desired="$("$python" -c 'import json,sys; print(",".join(str(v) for v in json.load(sys.stdin)["desired_features_px"]))' < "$out/scene.json")"
 
 pids=()
-cleanup() {
-    for pid in "${pids[@]}"; do kill -TERM "$pid" 2>/dev/null || true; done
-    sleep 1
-    for pid in "${pids[@]}"; do kill -KILL "$pid" 2>/dev/null || true; done
-}
+cleanup() { stop_processes ${pids[@]+"${pids[@]}"}; }
 trap cleanup EXIT
 
 "$bin/vservod" --config "$config" > "$out/vservod.log" 2>&1 &
@@ -57,6 +48,7 @@ pids+=($!)
 "$python" clients/python/mujoco_driver.py --scene "$out/scene.json" --instance "$instance" --fifo-priority 50 \
     --rtp-port "$port" > "$out/driver.log" 2>&1 &
 pids+=($!)
+wait_for_features "$instance"
 "$vservoctl" echo features --instance "$instance" --duration-s "$duration" > "$out/features.jsonl" &
 echo_pid=$!
 pids+=("$echo_pid")

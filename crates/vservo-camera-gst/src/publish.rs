@@ -9,7 +9,7 @@ use iceoryx2::port::publisher::Publisher;
 use iceoryx2::prelude::ipc;
 use vservo_camera_gst::frames::FrameCounter;
 use vservo_camera_gst::stamp::{self, StampSource};
-use vservo_protocol::{CameraImageHeader, PixelFormat, SCHEMA_VERSION};
+use vservo_protocol::CameraImageHeader;
 use vservo_runtime::clock::monotonic_ns;
 
 use crate::pipeline::{self, Camera, Frame, PipelineError};
@@ -119,21 +119,14 @@ impl Publishing {
             watch.unreadable += 1;
             return;
         }
-        let Ok(mut sample) = self.out.publisher.loan_slice_uninit(self.image.len()) else {
-            watch.no_slot += 1;
-            return;
-        };
-        *sample.user_header_mut() = CameraImageHeader {
-            schema: SCHEMA_VERSION,
-            format: PixelFormat::Mono8.into(),
-            width: self.width,
-            height: self.height,
-            stride_bytes: self.width,
-            reserved: 0,
-            frame: step.frame,
-            capture_stamp_ns: stamp.monotonic_ns,
-        };
-        if sample.write_from_slice(&self.image).send().is_err() {
+        let size = (self.width, self.height);
+        if !vservo_protocol::publish_mono8(
+            &self.out.publisher,
+            size,
+            &self.image,
+            step.frame,
+            stamp.monotonic_ns,
+        ) {
             watch.no_slot += 1;
             return;
         }

@@ -480,6 +480,30 @@ pub fn camera_image_publisher(
     )
 }
 
+/// An 8-bit gray image of `width` × `height` (rows packed: `pixels.len()` is their product) published on
+/// `camera_image` as frame `frame`, exposed at `capture_stamp_ns`; `false` when no sample was free or the
+/// send failed (the caller counts it).
+pub fn publish_mono8(
+    publisher: &Publisher<ipc::Service, [u8], CameraImageHeader>,
+    (width, height): (u32, u32),
+    pixels: &[u8],
+    frame: u64,
+    capture_stamp_ns: u64,
+) -> bool {
+    let Ok(mut sample) = publisher.loan_slice_uninit(pixels.len()) else { return false };
+    *sample.user_header_mut() = CameraImageHeader {
+        schema: SCHEMA_VERSION,
+        format: PixelFormat::Mono8.into(),
+        width,
+        height,
+        stride_bytes: width,
+        reserved: 0,
+        frame,
+        capture_stamp_ns,
+    };
+    sample.write_from_slice(pixels).send().is_ok()
+}
+
 /// A subscriber of camera images (the vision node creates the service if no camera has yet; clients
 /// only open it).
 pub fn camera_image_subscriber(

@@ -20,9 +20,7 @@ use ros2_client::{MessageTypeName, Name, Node, NodeName, NodeOptions, Publisher,
 use rustdds::mio1::{Events, Interest, Poll, Token};
 use vservo_config::Config;
 use vservo_protocol::inbox::TakeMessages;
-use vservo_protocol::{
-    CameraImageHeader, JointCommandMsg, JointStateMsg, PixelFormat, SCHEMA_VERSION, Topic,
-};
+use vservo_protocol::{CameraImageHeader, JointCommandMsg, JointStateMsg, Topic};
 use vservo_ros2::arm_driver::{ArmFollower, ArmSettings};
 use vservo_ros2::convert::StampClock;
 use vservo_ros2::msg::{Float64MultiArray, Image, JointState, RosType};
@@ -403,22 +401,8 @@ impl Driver {
     }
 
     fn publish_image(&mut self, ports: &CameraPorts, capture_stamp_ns: u64) {
-        let Ok(sample) = ports.images.loan_slice_uninit(self.gray.len()) else {
-            self.report.publish_failed += 1;
-            return;
-        };
-        let mut sample = sample;
-        *sample.user_header_mut() = CameraImageHeader {
-            schema: SCHEMA_VERSION,
-            format: PixelFormat::Mono8.into(),
-            width: self.width,
-            height: self.height,
-            stride_bytes: self.width,
-            reserved: 0,
-            frame: self.frame,
-            capture_stamp_ns,
-        };
-        if sample.write_from_slice(&self.gray).send().is_err() {
+        let size = (self.width, self.height);
+        if !vservo_protocol::publish_mono8(&ports.images, size, &self.gray, self.frame, capture_stamp_ns) {
             self.report.publish_failed += 1;
             return;
         }

@@ -421,17 +421,11 @@ pub fn publish_image(
     frame: u64,
     capture_stamp_ns: u64,
 ) {
-    let (width, height) = image.dimensions();
-    let Ok(mut sample) = publisher.loan_slice_uninit(image.as_raw().len()) else { return };
-    *sample.user_header_mut() = CameraImageHeader {
-        schema: SCHEMA_VERSION,
-        format: PixelFormat::Mono8.into(),
-        width,
-        height,
-        stride_bytes: width,
-        reserved: 0,
+    let _ = vservo_protocol::publish_mono8(
+        publisher,
+        image.dimensions(),
+        image.as_raw(),
         frame,
         capture_stamp_ns,
-    };
-    let _ = sample.write_from_slice(image.as_raw()).send();
+    );
 }

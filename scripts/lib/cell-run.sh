@@ -1,0 +1,45 @@
+# Sourced by scripts/run-*.sh, which run vservod with a driver for a while and summarise the run: what they do
+# alike. Expects the repository root as the working directory, and `json` (0 or 1) and `python` set.
+
+# say TEXT…: to stdout, or to stderr with --json (the JSON summary stays the last line on stdout).
+say() { [ "${json:-0}" = 1 ] && echo "$*" >&2 || echo "$*"; }
+
+# cell_binaries PACKAGE…: sets `bin` to the directory of vservod, vservoctl and the packages' binaries: the
+# one VSERVO_BIN_DIR names (binaries already built: the integration tests pass theirs), else target/release
+# after a release build.
+cell_binaries() {
+    bin="${VSERVO_BIN_DIR:-}"
+    if [ -z "$bin" ]; then
+        local packages=()
+        for package in vservod vservoctl "$@"; do packages+=(-p "$package"); done
+        cargo build --release --locked -q "${packages[@]}" >&2
+        bin=./target/release
+    fi
+    bin="$(cd "$bin" && pwd)"
+}
+
+# wait_for_features INSTANCE: until vservod's nodes have made their services (at most 20 s), so that a
+# recording started next hears the first frame.
+wait_for_features() {
+    for _ in $(seq 200); do
+        "$bin/vservoctl" echo features --instance "$1" --duration-s 0.05 > /dev/null 2>&1 && return 0
+        sleep 0.1
+    done
+}
+
+# stop_processes PID…: SIGTERM, up to 5 s to end, then SIGKILL.
+stop_processes() {
+    for pid in "$@"; do kill -TERM "$pid" 2>/dev/null || true; done
+    for _ in $(seq 50); do
+        local alive=0
+        for pid in "$@"; do kill -0 "$pid" 2>/dev/null && alive=1; done
+        [ "$alive" = 0 ] && return 0
+        sleep 0.1
+    done
+    for pid in "$@"; do kill -KILL "$pid" 2>/dev/null || true; done
+}
+
+# merge_json A B: the JSON object A with B's keys added.
+merge_json() {
+    "$python" -c 'import json,sys; a=json.loads(sys.argv[1]); a.update(json.loads(sys.argv[2])); print(json.dumps(a))' "$1" "$2"
+}
