@@ -9,7 +9,8 @@ to the driver). The same measure for any driver: the iceoryx2 path (scripts/run-
     capture_to_command.py FEATURES.jsonl COMMANDS.jsonl [--arm ARM_SUMMARY.json]
 
 --arm adds what the arm measured of its commands (clients/python/ros2_control_arm.py's summary: the time
-from a joint state's stamp to the arrival of the next command, which covers both DDS hops and the rmrc).
+from a joint state's stamp to the arrival of the next command, which covers both DDS hops and the rmrc; how
+many commands it took and refused).
 Prints one JSON object (ms).
 """
 
@@ -51,9 +52,9 @@ def main():
     if args.arm:
         with open(args.arm) as f:
             arm = json.load(f)
-        for key in ("state_to_command_ms_p50", "state_to_command_ms_p99"):
+        for key in ("state_to_command_ms_p50", "state_to_command_ms_p99", "commands_taken", "commands_refused"):
             if key in arm:
-                summary[key] = arm[key]
+                summary[key if key.startswith("state") else f"arm_{key}"] = arm[key]
     print(json.dumps(summary))
     return 0
 

@@ -8,16 +8,18 @@
 # error, the settling time and the capture→command latency; with --json the last line is one JSON object
 # (final_error_px, settling_time_s, …). Logs and the recorded features are left in target/ros2-cell-run/.
 #
-#   scripts/run-ros2-cell.sh [--netns] [--duration-s S] [--json] [--domain D]
+#   scripts/run-ros2-cell.sh [--netns] [--position] [--duration-s S] [--json] [--domain D]
 #
 # --netns: vservod in one network namespace and the arm and camera node in another, joined by a veth pair:
-# the two PCs of a real cell (root; `ip netns`). --domain: the ROS domain (default: one from this process's id,
+# the two PCs of a real cell (root; `ip netns`). --position: the arm's forward position controller
+# (/forward_position_controller/commands) in place of the velocity one. --domain: the ROS domain (default: one from this process's id,
 # so that runs side by side do not meet). Each run has an instance of its own and removes what it leaves.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 duration=20
 json=0
 netns=0
+controller=velocity
 domain=$((1 + $$ % 200))
 while [ $# -gt 0 ]; do
     case "$1" in
@@ -25,9 +27,10 @@ while [ $# -gt 0 ]; do
         --duration-s=*) duration="${1#*=}"; shift ;;
         --json) json=1; shift ;;
         --netns) netns=1; shift ;;
+        --position) controller=position; shift ;;
         --domain) domain="$2"; shift 2 ;;
         --domain=*) domain="${1#*=}"; shift ;;
-        *) echo "run-ros2-cell: unknown argument $1 (expected --netns, --duration-s S, --json, --domain D)" >&2
+        *) echo "run-ros2-cell: unknown argument $1 (expected --netns, --position, --duration-s S, --json, --domain D)" >&2
            exit 2 ;;
     esac
 done
@@ -40,6 +43,7 @@ scripts/setup-mujoco.sh >&2
 cell_binaries vservo-ros2
 out="$root/target/ros2-cell-run"
 [ "$netns" = 1 ] && out="$out-netns"
+[ "$controller" = position ] && out="$out-position"
 rm -rf "$out"
 mkdir -p "$out"
 vservoctl="$bin/vservoctl"
@@ -52,8 +56,14 @@ extends = "$root/config/vservo-ros2-cell.toml"
 [instance]
 name = "$instance"
 
+[robot]
+command = "$controller"
+
 [ros2]
 domain_id = $domain
+
+[ros2.driver]
+command_topic = "/forward_${controller}_controller/commands"
 EOF
 config="$out/cell.toml"
 "$vservoctl" scene --config "$config" > "$out/scene.json"
@@ -100,7 +110,7 @@ trap cleanup EXIT
 ${in_cell[@]+"${in_cell[@]}"} "$bin/vservod" --config "$config" > "$out/vservod.log" 2>&1 &
 pids+=($!)
 ${in_arm[@]+"${in_arm[@]}"} "$python" clients/python/ros2_control_arm.py --scene "$out/scene.json" \
-    --domain "$domain" --summary "$out/arm.json" > "$out/arm.log" 2>&1 &
+    --domain "$domain" --controller "$controller" --summary "$out/arm.json" > "$out/arm.log" 2>&1 &
 pids+=($!)
 # the features from the first frame on
 wait_for_features "$instance"

@@ -14,7 +14,9 @@ closing its visual-servo loop through ROS 2. The arm and the camera are mujoco_d
   torques, stamped with the system clock (ROS time) when they were read;
 - forward_command_controller: it takes `std_msgs/Float64MultiArray` on `forward_velocity_controller/commands`
   (`rt/forward_velocity_controller/commands`, `std_msgs::msg::dds_::Float64MultiArray_`; reliable, the last 10)
-  as the joint velocities (rad/s) and holds each until the next, with no timeout, as the real controller does
+  as the joint velocities (rad/s), or with --controller position on `forward_position_controller/commands` as
+  the joint positions (rad) to reach by the period's end, and holds each until the next, with no timeout, as
+  the real controller does
   (the watchdog is the commander's); one whose length is not the joint count is refused, as is one with a value
   not finite (which the real controller would pass on);
 - camera: every vision period it renders the hand camera at the newest joint state and publishes
@@ -24,7 +26,8 @@ closing its visual-servo loop through ROS 2. The arm and the camera are mujoco_d
 
     ros2_control_arm.py --scene scene.json --domain D [--namespace /ns] [--duration-s S]
                         [--joint-names j1,j2,...] [--joint-states-topic joint_states]
-                        [--command-topic forward_velocity_controller/commands] [--image-topic camera/image_raw]
+                        [--controller velocity|position] [--command-topic forward_velocity_controller/commands]
+                        [--image-topic camera/image_raw]
                         [--image-reliable] [--rate-hz R] [--summary FILE]
 
 Topic names are relative to --namespace; a leading / makes one absolute. The scene comes from `vservoctl scene
@@ -115,20 +118,29 @@ def serialization_is_exact():
     return True
 
 
-class VelocityController:
-    """ros2_control's forward_command_controller for joint velocities: the newest Float64MultiArray is the
-    command, held until the next (no timeout).
+class ForwardController:
+    """ros2_control's forward_command_controller on the joints' velocity or position interface: the newest
+    Float64MultiArray is the command, held until the next (no timeout).
 
     Read once a period, before the joint state goes out: ros2_control's update() reads the newest message its
     subscription stored; a message's receipt here is when it is taken (up to one period after it arrived).
     """
 
-    def __init__(self, reader, joint_count):
-        self.reader, self.joint_count = reader, joint_count
-        self.velocity_rad_s = np.zeros(joint_count)
+    def __init__(self, reader, joint_count, interface):
+        self.reader, self.joint_count, self.interface = reader, joint_count, interface
+        self.command = None  # rad/s or rad, as the interface says; none yet: the arm stays where it is
         self.taken, self.refused_length, self.refused_non_finite = 0, 0, 0
         self.last_command = None
         self.state_to_command_ns = array("q")  # receipt less the stamp of the newest joint state before it
+
+    def velocity_rad_s(self, q_ref_rad, period_s):
+        """The joint velocities for the next period: the command (velocity), or what takes the arm's
+        reference to the commanded position by the period's end (position)."""
+        if self.command is None:
+            return np.zeros(self.joint_count)
+        if self.interface == "position":
+            return (self.command - q_ref_rad) / period_s
+        return self.command
 
     def update(self, newest_state_stamp_ns):
         for sample in self.reader.take(COMMANDS_PER_TAKE):
@@ -138,12 +150,12 @@ class VelocityController:
             if len(sample.data) != self.joint_count:
                 self.refused_length += 1  # as the real controller: the wrong size is ignored
                 continue
-            velocity_rad_s = np.array(sample.data, dtype=float)
-            if not np.all(np.isfinite(velocity_rad_s)):
+            command = np.array(sample.data, dtype=float)
+            if not np.all(np.isfinite(command)):
                 # the real controller writes NaN or infinity through to the hardware; this arm refuses it
                 self.refused_non_finite += 1
                 continue
-            self.velocity_rad_s, self.last_command = velocity_rad_s, sample.data
+            self.command, self.last_command = command, sample.data
             self.taken += 1
             if newest_state_stamp_ns is not None:
                 self.state_to_command_ns.append(received_ns - newest_state_stamp_ns)
@@ -271,7 +283,10 @@ def parse_arguments(argv):
     parser.add_argument("--duration-s", type=float, default=math.inf)
     parser.add_argument("--joint-names", help="comma-separated; default joint1..jointN")
     parser.add_argument("--joint-states-topic", default="joint_states")
-    parser.add_argument("--command-topic", default="forward_velocity_controller/commands")
+    parser.add_argument("--controller", choices=("velocity", "position"), default="velocity",
+                        help="the forward controller's interface (default velocity)")
+    parser.add_argument("--command-topic", help="default forward_velocity_controller/commands, or "
+                        "forward_position_controller/commands with --controller position")
     parser.add_argument("--image-topic", default="camera/image_raw")
     parser.add_argument("--image-reliable", action="store_true",
                         help="publish images reliable, the last 10 (usb_cam's) instead of best effort, the last 5")
@@ -316,8 +331,10 @@ def run_arm(arm, broadcaster, controller, shared, period_ns, steps, duration_s, 
             break
         sleep_until(start_ns + (tick + 1) * period_ns)
         periods = max(1, (time.monotonic_ns() - start_ns) // period_ns - tick)
-        for _ in range(min(periods, MAX_CATCH_UP_PERIODS) * steps):
-            arm.step(controller.velocity_rad_s)
+        for _ in range(min(periods, MAX_CATCH_UP_PERIODS)):
+            velocity_rad_s = controller.velocity_rad_s(arm.q_ref, period_ns / 1e9)
+            for _ in range(steps):
+                arm.step(velocity_rad_s)
         tick += periods
         periods_missed += periods - 1
     return {"elapsed_s": (time.monotonic_ns() - start_ns) / 1e9, "gaps_ns": gaps_ns, "periods_missed": periods_missed,
@@ -341,7 +358,8 @@ def summarize(options, topics, joint_names, period_s, steps, arm, loop, broadcas
         "commands_refused": controller.refused,
         "commands_refused_length": controller.refused_length,
         "commands_refused_non_finite": controller.refused_non_finite,
-        "last_command_rad_s": controller.last_command,
+        "controller": controller.interface,
+        "last_command": controller.last_command,
         "state_to_command_count": len(controller.state_to_command_ns),  # receipt less the newest state's stamp
         **percentiles_ms("state_to_command_ms", controller.state_to_command_ns),
         "frames_published": camera.published,
@@ -378,14 +396,15 @@ def main(argv=None) -> int:
 
     namespace = "/" + options.namespace.strip("/") if options.namespace.strip("/") else ""
     topics = {kind: dds_topic(namespace, name) for kind, name in (
-        ("joint_states", options.joint_states_topic), ("commands", options.command_topic),
+        ("joint_states", options.joint_states_topic), ("commands", options.command_topic or f"forward_{options.controller}_controller/commands"),
         ("image", options.image_topic))}
     participant = DomainParticipant(options.domain)
     broadcaster = JointStateBroadcaster(
         DataWriter(participant, Topic(participant, topics["joint_states"], ros.JointState), qos=RELIABLE),
         joint_names)
-    controller = VelocityController(
-        DataReader(participant, Topic(participant, topics["commands"], ros.Float64MultiArray), qos=RELIABLE), joints)
+    controller = ForwardController(
+        DataReader(participant, Topic(participant, topics["commands"], ros.Float64MultiArray), qos=RELIABLE), joints,
+        options.controller)
     image_qos = RELIABLE if options.image_reliable else SENSOR_DATA
     image_writer = DataWriter(participant, Topic(participant, topics["image"], ros.Image), qos=image_qos)
 
@@ -414,7 +433,7 @@ def report(summary):
     log(f"{summary['joint_states_published']} joint states ({summary['joint_states_per_s'] or 0:.1f}/s at "
         f"{summary['rate_hz']:g} Hz), gap p50/p99/max "
         f"{ms('joint_state_gap_ms_p50', 'joint_state_gap_ms_p99', 'joint_state_gap_ms_max')} ms; commands taken "
-        f"{summary['commands_taken']}, refused {summary['commands_refused']}, last {summary['last_command_rad_s']}; "
+        f"{summary['commands_taken']}, refused {summary['commands_refused']}, last {summary['last_command']}; "
         f"state→command p50/p99 {ms('state_to_command_ms_p50', 'state_to_command_ms_p99')} ms; "
         f"{summary['frames_published']} frames, render mean/max {ms('render_ms_mean', 'render_ms_max')} ms, "
         f"publish mean/max {ms('image_publish_ms_mean', 'image_publish_ms_max')} ms")

@@ -22,6 +22,12 @@ fn assert_latency_measured(summary: &Value) {
     let (p50, p99) = (number("capture_to_command_ms_p50"), number("capture_to_command_ms_p99"));
     assert!(0.0 < p50 && p50 <= p99, "{summary}");
     assert!(number("state_to_command_ms_p50") > 0.0, "{summary}");
+    assert!(number("arm_commands_taken") > 1000.0, "{summary}");
+    assert_eq!(
+        summary["arm_commands_refused"].as_u64(),
+        Some(0),
+        "every command the arm got was whole: {summary}"
+    );
 }
 
 /// `scripts/run-ros2-cell.sh --json`: vservod and the arm's node on one host.
@@ -38,6 +44,14 @@ fn run_ros2_cell_converges_below_one_pixel() {
 fn run_ros2_cell_across_two_hosts_converges_below_one_pixel() {
     let _one = exclusive();
     let summary = run_script_to_convergence("run-ros2-cell.sh", &["--netns"]);
+    assert_latency_measured(&summary);
+}
+
+/// `scripts/run-ros2-cell.sh --position --json`: the arm's forward position controller, `q_ref` each period.
+#[test]
+fn run_ros2_cell_with_a_position_controller_converges_below_one_pixel() {
+    let _one = exclusive();
+    let summary = run_script_to_convergence("run-ros2-cell.sh", &["--position"]);
     assert_latency_measured(&summary);
 }
 
@@ -127,7 +141,7 @@ fn a_silent_ros2_arm_stops_the_cell_and_a_killed_vservod_leaves_it_at_rest() {
     let summary: Value =
         serde_json::from_str(&std::fs::read_to_string(&arm_summary).expect("the arm's summary"))
             .expect("JSON");
-    let last: Vec<f64> = summary["last_command_rad_s"]
+    let last: Vec<f64> = summary["last_command"]
         .as_array()
         .expect("a last command")
         .iter()

@@ -235,13 +235,15 @@ impl ArmFollower {
     }
 
     /// The controller command that holds the arm: zero velocities, or the position where holding began
-    /// (the last measured one). For when the joint states stop, and at the end.
-    pub fn hold(&mut self) -> Vec<f64> {
+    /// (the last measured one). For when the joint states stop, and at the end. `None` in position mode
+    /// before any joint state: there is no position to hold, and an empty command would only be refused.
+    pub fn hold(&mut self) -> Option<Vec<f64>> {
         self.in_force = None;
         self.applying = u64::MAX;
-        self.counts.holds += 1;
         let q_rad = self.last.map(|(_, q)| q);
-        self.hold_values(q_rad)
+        let values = self.hold_values(q_rad);
+        self.counts.holds += u64::from(values.is_some());
+        values
     }
 
     /// Whether a command has come in time: the status to report and the controller's command.
@@ -255,23 +257,23 @@ impl ArmFollower {
             _ => {
                 self.in_force = None;
                 self.counts.holds += 1;
-                (DriverStatus::Holding, self.hold_values(Some(*q_rad)))
+                let at = self.hold_values(Some(*q_rad)).unwrap_or_default();
+                (DriverStatus::Holding, at)
             }
         }
     }
 
-    /// Rest: zero velocities; or the position where holding began (`q_rad` if it begins now).
-    fn hold_values(&mut self, q_rad: Option<[f64; MAX_JOINTS]>) -> Vec<f64> {
+    /// Rest: zero velocities; or the position where holding began (`q_rad` if it begins now; none if no
+    /// position is known).
+    fn hold_values(&mut self, q_rad: Option<[f64; MAX_JOINTS]>) -> Option<Vec<f64>> {
         let n = self.settings.joint_count();
         match self.settings.mode {
-            CommandMode::Position => match self.hold_at.or(q_rad) {
-                Some(at) => {
-                    self.hold_at = Some(at);
-                    at[..n].to_vec()
-                }
-                None => Vec::new(),
-            },
-            _ => vec![0.0; n],
+            CommandMode::Position => {
+                let at = self.hold_at.or(q_rad)?;
+                self.hold_at = Some(at);
+                Some(at[..n].to_vec())
+            }
+            _ => Some(vec![0.0; n]),
         }
     }
 
@@ -482,12 +484,13 @@ mod tests {
             arm.on_joint_state(&ros_state([0.0; 6]), within + PERIOD_NS, t0 + 20_200_000).expect("late");
         assert_eq!(late.state.driver_status, DriverStatus::Holding.code());
         assert_eq!(late.command, vec![0.0; 6]);
-        assert_eq!(arm.hold(), vec![0.0; 6], "the hold when the joint states stop");
+        assert_eq!(arm.hold(), Some(vec![0.0; 6]), "the hold when the joint states stop");
     }
 
     #[test]
     fn position_mode_holds_where_holding_began() {
         let mut arm = ArmFollower::new(settings(CommandMode::Position), EPOCH);
+        assert_eq!(arm.hold(), None, "no position known yet: nothing to hold at");
         let t0 = 1_000_000_000;
         let q = [0.1, 0.2, 0.3, 0.4, 0.5, 0.6];
         let first = arm.on_joint_state(&ros_state(q), t0, t0).expect("state 0");

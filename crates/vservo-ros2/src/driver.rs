@@ -362,7 +362,9 @@ impl Driver {
         let now = monotonic_ns();
         let silent = now - self.last_state_ns > self.hold_after_ns;
         if silent && now - self.last_silent_hold_ns > self.hold_after_ns {
-            let _ = topics.commands.publish(command_message(arm.hold()));
+            if let Some(rest) = arm.hold() {
+                let _ = topics.commands.publish(command_message(rest));
+            }
             self.last_silent_hold_ns = now;
         }
     }
@@ -415,7 +417,9 @@ impl Driver {
     fn finish(&mut self, ros: &RosSide) {
         if let (Some(arm), Some(topics)) = (&mut self.arm, &ros.arm) {
             for _ in 0..HOLDS_AT_EXIT {
-                let _ = topics.commands.publish(command_message(arm.hold()));
+                if let Some(rest) = arm.hold() {
+                    let _ = topics.commands.publish(command_message(rest));
+                }
                 std::thread::sleep(Duration::from_millis(2));
             }
         }
