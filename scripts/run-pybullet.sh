@@ -99,7 +99,7 @@ pids+=($!)
 driver=$!
 pids+=("$driver")
 # the features from the first frame on
-wait_for_features "$instance"
+wait_for_features "$instance" "$out/vservod.log"
 "$vservoctl" echo features --instance "$instance" --duration-s "$duration" > "$out/features.jsonl" &
 echo_pid=$!
 pids+=("$echo_pid")

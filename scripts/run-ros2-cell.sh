@@ -113,7 +113,7 @@ ${in_arm[@]+"${in_arm[@]}"} "$python" clients/python/ros2_control_arm.py --scene
     --domain "$domain" --controller "$controller" --summary "$out/arm.json" > "$out/arm.log" 2>&1 &
 pids+=($!)
 # the features from the first frame on
-wait_for_features "$instance"
+wait_for_features "$instance" "$out/vservod.log"
 "$vservoctl" echo features --instance "$instance" --duration-s "$duration" > "$out/features.jsonl" &
 echo_pid=$!
 pids+=("$echo_pid")

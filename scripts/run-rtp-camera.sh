@@ -48,7 +48,7 @@ pids+=($!)
 "$python" clients/python/mujoco_driver.py --scene "$out/scene.json" --instance "$instance" --fifo-priority 50 \
     --rtp-port "$port" > "$out/driver.log" 2>&1 &
 pids+=($!)
-wait_for_features "$instance"
+wait_for_features "$instance" "$out/vservod.log"
 "$vservoctl" echo features --instance "$instance" --duration-s "$duration" > "$out/features.jsonl" &
 echo_pid=$!
 pids+=("$echo_pid")

@@ -18,9 +18,15 @@ cell_binaries() {
     bin="$(cd "$bin" && pwd)"
 }
 
-# wait_for_features INSTANCE: until vservod's nodes have made their services (at most 20 s), so that a
-# recording started next hears the first frame.
+# wait_for_features INSTANCE VSERVOD_LOG: until vservod has claimed the instance (its log says it starts the
+# nodes) and its nodes have made their services (at most 20 s each), so that a recording started next hears
+# the first frame. No client of the instance is made before the claim: one would find the last run's
+# prefix and make its shared memory first.
 wait_for_features() {
+    for _ in $(seq 200); do
+        grep -q "starting the nodes" "$2" 2>/dev/null && break
+        sleep 0.1
+    done
     for _ in $(seq 200); do
         "$bin/vservoctl" echo features --instance "$1" --duration-s 0.05 > /dev/null 2>&1 && return 0
         sleep 0.1

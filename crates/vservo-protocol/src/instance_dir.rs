@@ -458,7 +458,28 @@ impl InstanceClaim {
                 None
             }
         };
-        prepare_node_counter(&dir)?;
+        let renewed_because = match prepare_node_counter(&dir)? {
+            CounterMade::Owner => renewed_because,
+            CounterMade::ByAnother(name) => {
+                // a client of the last run's prefix made it in the moment between the check and now (iceoryx2
+                // makes it for every user to write): that prefix is done with; a new one no client can know
+                // yet (it is written below)
+                forget_prefix(&dir);
+                dir.prefix = new_prefix()?;
+                match prepare_node_counter(&dir)? {
+                    CounterMade::Owner => {}
+                    CounterMade::ByAnother(name) => {
+                        return Err(InstanceDirError::Iceoryx2 {
+                            instance: instance.to_string(),
+                            reason: format!("{SHM_DIR}/{name} appeared under a prefix just drawn"),
+                        });
+                    }
+                }
+                Some(format!(
+                    "{SHM_DIR}/{name} was made by a client of the last run's prefix as this daemon was starting"
+                ))
+            }
+        };
         write_file_atomically(&prefix_path, format!("{}\n", dir.prefix).as_bytes())?;
         Ok(Self { dir, _lock: lock, renewed_because })
     }
@@ -557,14 +578,24 @@ fn foreign_or_exposed(prefix: &str) -> Option<String> {
     })
 }
 
+/// Who made iceoryx2's node counter of an instance's prefix.
+enum CounterMade {
+    /// The daemon, owner-only (or it was there, ours and private, from the last run).
+    Owner,
+    /// Another process, since the daemon looked (its name in /dev/shm).
+    ByAnother(String),
+}
+
 /// iceoryx2 creates its node counter segment for every user to write (mode 0666). The daemon makes it
 /// first, owner-only: the name is learnt from a throwaway node under a second random prefix (whose
-/// segment is removed at once), the content is iceoryx2's version word and a zero counter.
-fn prepare_node_counter(dir: &InstanceDir) -> Result<(), InstanceDirError> {
+/// segment is removed at once), the content is iceoryx2's version word and a zero counter. A client that
+/// read the last run's prefix may make it first, between the daemon's look and its making:
+/// [`CounterMade::ByAnother`].
+fn prepare_node_counter(dir: &InstanceDir) -> Result<CounterMade, InstanceDirError> {
     let refused = |reason: String| InstanceDirError::Iceoryx2 { instance: dir.instance.clone(), reason };
     let existing = shm_names(&dir.prefix).into_iter().find(|n| n.ends_with(NODE_COUNTER_SUFFIX));
     if existing.is_some() {
-        return Ok(()); // ours and private: foreign_or_exposed said so
+        return Ok(CounterMade::Owner); // ours and private: foreign_or_exposed said so
     }
     let scratch = InstanceDir { prefix: new_prefix()?, ..dir.clone() };
     let node = NodeBuilder::new()
@@ -592,15 +623,21 @@ fn prepare_node_counter(dir: &InstanceDir) -> Result<(), InstanceDirError> {
     let mut content = [0u8; 16];
     let version = iceoryx2_bb_elementary::package_version::PackageVersion::get().to_u64();
     content[..8].copy_from_slice(&version.to_ne_bytes());
-    let mut file = OpenOptions::new()
+    let opened = OpenOptions::new()
         .write(true)
         .create_new(true)
         .mode(0o600)
         .custom_flags(nix::libc::O_NOFOLLOW)
-        .open(&path)
-        .map_err(io(&path, "creating iceoryx2's node counter owner-only"))?;
+        .open(&path);
+    let mut file = match opened {
+        Ok(file) => file,
+        Err(e) if e.kind() == ErrorKind::AlreadyExists => {
+            return Ok(CounterMade::ByAnother(format!("{}{rest}", dir.prefix)));
+        }
+        Err(e) => return Err(io(&path, "creating iceoryx2's node counter owner-only")(e)),
+    };
     file.write_all(&content).map_err(io(&path, "writing iceoryx2's node counter"))?;
-    Ok(())
+    Ok(CounterMade::Owner)
 }
 
 /// The names in /dev/shm that start with `prefix`.

@@ -35,6 +35,10 @@ const CAMERA: Token = Token(1);
 /// The longest wait for a message before the watchdog, the stop flag and the clocks are looked at.
 const WAKE_EVERY: Duration = Duration::from_millis(1);
 
+/// The most messages of one topic taken in one look: the other topic and the watchdog are looked at between,
+/// whatever comes (a failed take consumes its sample, so the loops end, but a flood must not starve the rest).
+const MAX_TAKES_PER_LOOK: usize = 64;
+
 /// How often the counts are logged.
 const REPORT_EVERY_NS: u64 = 10_000_000_000;
 
@@ -313,7 +317,7 @@ impl Driver {
     /// command for ever).
     fn joint_states(&mut self, topics: &ArmTopics, ports: &ArmPorts) {
         let Some(arm) = &mut self.arm else { return };
-        loop {
+        for _ in 0..MAX_TAKES_PER_LOOK {
             let (message, _info) = match topics.joint_states.take() {
                 Ok(Some(taken)) => taken,
                 Ok(None) => break,
@@ -371,7 +375,7 @@ impl Driver {
 
     /// Each image: as 8-bit gray onto `camera_image`, stamped with its exposure.
     fn images(&mut self, images: &Subscription<Image>, ports: &CameraPorts) {
-        loop {
+        for _ in 0..MAX_TAKES_PER_LOOK {
             let image = match images.take() {
                 Ok(Some((image, _info))) => image,
                 Ok(None) => break,
