@@ -72,8 +72,8 @@ pub struct Ros2Driver {
     /// No valid command from vservo for this long (s): the driver commands rest (zero velocities, or the
     /// position where holding began) and reports itself holding; also when no joint state comes.
     pub hold_after_s: f64,
-    /// A header stamp further than this (s) from its arrival on this machine's clock is not believed (the
-    /// hosts' clocks are not in step): the message is stamped with its arrival, and a WARN line says so.
+    /// A header stamp more than this (s) in the future of its arrival on this machine's clock is replaced by
+    /// the arrival; one older than this is kept and flagged (late data, or the hosts' clocks not in step).
     pub clock_tolerance_s: f64,
 }
 

@@ -137,6 +137,42 @@ pub struct Step {
     pub command: Vec<f64>,
 }
 
+/// How many gaps between joint states the arm's period is judged on (their median).
+pub const PERIOD_CHECK_GAPS: usize = 64;
+
+/// Whether the arm's joint states come at `[robot] period_s`: a wrong period would make every tick a period
+/// the arm did not live (the rmrc's reference would run ahead of time, or behind it). Judged on the median of
+/// the last [`PERIOD_CHECK_GAPS`] gaps between stamps, which a late state or a lost one does not move; the
+/// arm's own period is taken within −25 % and +50 %.
+#[derive(Debug, Clone)]
+struct PeriodCheck {
+    gaps_ns: [u64; PERIOD_CHECK_GAPS],
+    count: usize,
+}
+
+impl PeriodCheck {
+    fn new() -> Self {
+        Self { gaps_ns: [0; PERIOD_CHECK_GAPS], count: 0 }
+    }
+
+    fn add(&mut self, gap_ns: u64) {
+        self.gaps_ns[self.count % PERIOD_CHECK_GAPS] = gap_ns;
+        self.count += 1;
+    }
+
+    /// The median gap (ns) once enough were seen, if it is not the configured period's.
+    fn mismatch(&self, period_ns: u64) -> Option<u64> {
+        if self.count < PERIOD_CHECK_GAPS {
+            return None;
+        }
+        let mut sorted = self.gaps_ns;
+        sorted.sort_unstable();
+        let median_ns = sorted[PERIOD_CHECK_GAPS / 2];
+        let period = period_ns as f64;
+        (!(0.75 * period..=1.5 * period).contains(&(median_ns as f64))).then_some(median_ns)
+    }
+}
+
 /// The driver's state between joint states.
 #[derive(Debug, Clone)]
 pub struct ArmFollower {
@@ -151,6 +187,8 @@ pub struct ArmFollower {
     applying: u64,
     /// Where the arm is held (position mode), from when holding began.
     hold_at: Option<[f64; MAX_JOINTS]>,
+    /// The arm's period as its stamps say.
+    period_check: PeriodCheck,
     /// What happened so far.
     pub counts: ArmCounts,
 }
@@ -167,6 +205,7 @@ impl ArmFollower {
             in_force: None,
             applying: u64::MAX,
             hold_at: None,
+            period_check: PeriodCheck::new(),
             counts: ArmCounts::default(),
         }
     }
@@ -206,7 +245,18 @@ impl ArmFollower {
         let tick = self.tick_of(stamp_ns).inspect_err(|_| self.counts.states_refused += 1)?;
         let qd_rad_s =
             measured.qd_rad_s.unwrap_or_else(|| self.velocity_from_positions(stamp_ns, &measured.q_rad));
-        let (status, command) = self.command_for(now_ns, &measured.q_rad);
+        if let Some((last_ns, _)) = self.last {
+            self.period_check.add(stamp_ns - last_ns);
+        }
+        let (status, command) = match self.period_mismatch_ns() {
+            // not the configured arm's period: a fault (the cell stops safely), the arm held
+            Some(_) => {
+                self.in_force = None;
+                let at = self.hold_values(Some(measured.q_rad)).unwrap_or_default();
+                (DriverStatus::Fault, at)
+            }
+            None => self.command_for(now_ns, &measured.q_rad),
+        };
         let mut state = JointStateMsg {
             schema: SCHEMA_VERSION,
             faults: self.fault_bits(&measured.q_rad, &qd_rad_s),
@@ -244,6 +294,17 @@ impl ArmFollower {
         let values = self.hold_values(q_rad);
         self.counts.holds += u64::from(values.is_some());
         values
+    }
+
+    /// The configured period of the arm's joint states (ns).
+    pub fn period_ns(&self) -> u64 {
+        self.settings.period_ns
+    }
+
+    /// The median gap between the arm's joint states (ns) when it is not `[robot] period_s`: the driver then
+    /// reports a fault and holds the arm.
+    pub fn period_mismatch_ns(&self) -> Option<u64> {
+        self.period_check.mismatch(self.settings.period_ns)
     }
 
     /// Whether a command has come in time: the status to report and the controller's command.
@@ -502,6 +563,39 @@ mod tests {
         arm.take_command(&command, t0 + PERIOD_NS + 1000);
         let following = arm.on_joint_state(&ros_state([0.7; 6]), t0 + 2 * PERIOD_NS, t0 + 2 * PERIOD_NS);
         assert_eq!(following.expect("state 2").command, vec![0.25; 6], "q_ref");
+    }
+
+    /// Joint states every 1 ms for a configured 2 ms: each would count as a period the arm did not live; after
+    /// [`PERIOD_CHECK_GAPS`] of them the driver reports a fault and holds. A late state and a lost one among
+    /// states at the right period change nothing.
+    #[test]
+    fn an_arm_of_another_period_is_a_fault() {
+        let mut arm = ArmFollower::new(settings(CommandMode::Velocity), EPOCH);
+        let t0 = 1_000_000_000;
+        let mut last = None;
+        for k in 0..=PERIOD_CHECK_GAPS as u64 {
+            let stamp = t0 + k * PERIOD_NS / 2;
+            arm.take_command(&command_answering(k.saturating_sub(1), 0.3), stamp);
+            last = Some(arm.on_joint_state(&ros_state([0.0; 6]), stamp, stamp).expect("a state"));
+        }
+        let last = last.expect("states");
+        assert_eq!(arm.period_mismatch_ns(), Some(PERIOD_NS / 2));
+        assert_eq!(last.state.driver_status, DriverStatus::Fault.code());
+        assert_eq!(last.command, vec![0.0; 6], "held");
+
+        let mut arm = ArmFollower::new(settings(CommandMode::Velocity), EPOCH);
+        let mut stamp = t0;
+        for k in 0..3 * PERIOD_CHECK_GAPS as u64 {
+            stamp += match k % 20 {
+                7 => 2 * PERIOD_NS,      // one lost
+                13 => PERIOD_NS * 5 / 2, // one late
+                14 => PERIOD_NS / 2,     // and the next on time
+                _ => PERIOD_NS,
+            };
+            let step = arm.on_joint_state(&ros_state([0.0; 6]), stamp, stamp).expect("a state");
+            assert_ne!(step.state.driver_status, DriverStatus::Fault.code(), "state {k}");
+        }
+        assert_eq!(arm.period_mismatch_ns(), None);
     }
 
     #[test]

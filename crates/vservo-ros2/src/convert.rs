@@ -60,29 +60,36 @@ impl StampClock {
     }
 }
 
-/// A header stamp as CLOCK_MONOTONIC, believed or not: a stamp of another host whose clock is not in step with
-/// this one's (or none) says nothing of when the data was taken here.
+/// A header stamp as CLOCK_MONOTONIC. A stamp of another host whose clock is not in step with this one's says
+/// little of when the data was taken here: one in the future, or none, is replaced by the arrival; one older
+/// than the tolerance is kept, flagged (late data, or a clock behind this one's: which, no stamp can say; kept,
+/// it lets the vision node drop a stale image rather than take it for a fresh one).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Arrival {
-    /// The stamp to use (CLOCK_MONOTONIC ns): the header's, or the arrival's when the header's is not believed.
+    /// The stamp to use (CLOCK_MONOTONIC ns): the header's, or the arrival's when the header has none usable.
     pub stamp_ns: u64,
-    /// Whether the header's stamp was not believed: zero, in the future or older than the tolerance.
+    /// Whether the header's stamp was replaced by the arrival: zero, before this machine's boot, or more than
+    /// the tolerance in the future.
     pub restamped: bool,
+    /// Whether the header's stamp is kept though older than the tolerance at arrival.
+    pub late: bool,
     /// The header stamp's distance before the arrival (ns; negative: after it).
     pub age_ns: i128,
 }
 
 impl StampClock {
-    /// The stamp of a message whose header says `stamp` and which arrived at `arrival_ns` (CLOCK_MONOTONIC):
-    /// the header's, unless it is zero or more than `tolerance_ns` from the arrival (in the future, or old).
+    /// The stamp of a message whose header says `stamp` and which arrived at `arrival_ns` (CLOCK_MONOTONIC),
+    /// judged with `tolerance_ns` ([`Arrival`]).
     pub fn arrival(&self, stamp: &Time, arrival_ns: u64, tolerance_ns: u64) -> Arrival {
         let unix_ns = i128::from(stamp.sec) * 1_000_000_000 + i128::from(stamp.nanosec);
         let monotonic_ns = unix_ns - self.realtime_minus_monotonic_ns;
         let age_ns = i128::from(arrival_ns) - monotonic_ns;
-        let believed = unix_ns != 0 && age_ns.unsigned_abs() <= u128::from(tolerance_ns) && monotonic_ns > 0;
+        let tolerance = i128::from(tolerance_ns);
+        let usable = unix_ns != 0 && monotonic_ns > 0 && age_ns >= -tolerance;
         Arrival {
-            stamp_ns: if believed { monotonic_ns as u64 } else { arrival_ns },
-            restamped: !believed,
+            stamp_ns: if usable { monotonic_ns as u64 } else { arrival_ns },
+            restamped: !usable,
+            late: usable && age_ns > tolerance,
             age_ns,
         }
     }
@@ -417,22 +424,28 @@ mod tests {
     }
 
     #[test]
-    fn header_stamps_are_believed_within_the_tolerance() {
+    fn header_stamps_are_kept_unless_unusable() {
         let clock = StampClock { realtime_minus_monotonic_ns: 1_700_000_000_000_000_000 };
         let arrival_ns = 10_000_000_000;
         let stamp = clock.ros_time(arrival_ns - 3_000_000); // taken 3 ms before it arrived
         let taken = clock.arrival(&stamp, arrival_ns, 50_000_000);
-        assert_eq!(taken, Arrival { stamp_ns: arrival_ns - 3_000_000, restamped: false, age_ns: 3_000_000 });
-        let round_trip = clock.ros_time(taken.stamp_ns);
-        assert_eq!(round_trip, stamp);
+        let on_time =
+            Arrival { stamp_ns: arrival_ns - 3_000_000, restamped: false, late: false, age_ns: 3_000_000 };
+        assert_eq!(taken, on_time);
+        assert_eq!(clock.ros_time(taken.stamp_ns), stamp, "the way back");
+        let old = clock.arrival(&clock.ros_time(arrival_ns - 60_000_000), arrival_ns, 50_000_000);
+        assert_eq!(
+            (old.stamp_ns, old.restamped, old.late),
+            (arrival_ns - 60_000_000, false, true),
+            "kept, late"
+        );
         for (stamp, why) in [
             (Time::default(), "no stamp"),
-            (clock.ros_time(arrival_ns - 60_000_000), "older than the tolerance"),
             (clock.ros_time(arrival_ns + 60_000_000), "in the future"),
-            (Time { sec: 12, nanosec: 0 }, "a clock that started at boot"),
+            (Time { sec: 12, nanosec: 0 }, "before this machine's boot (a clock that started at its own)"),
         ] {
             let taken = clock.arrival(&stamp, arrival_ns, 50_000_000);
-            assert!(taken.restamped && taken.stamp_ns == arrival_ns, "{why}: {taken:?}");
+            assert!(taken.restamped && !taken.late && taken.stamp_ns == arrival_ns, "{why}: {taken:?}");
         }
     }
 

@@ -87,7 +87,8 @@ pub fn run(config: &Config, stop: &AtomicBool) -> anyhow::Result<()> {
 struct ArmTopics {
     joint_states: Subscription<JointState>,
     commands: Publisher<Float64MultiArray>,
-    /// For the log.
+    /// The joint states' topic, and both, for the log.
+    joint_states_topic: String,
     topics: String,
 }
 
@@ -115,6 +116,7 @@ impl RosSide {
             Some(ArmTopics {
                 joint_states: subscription(&mut node, &driver.joint_states_topic, qos::SENSOR_DATA)?,
                 commands: publisher(&mut node, &driver.command_topic, qos::COMMANDS)?,
+                joint_states_topic: driver.joint_states_topic.clone(),
                 topics: format!("{} → {}", driver.joint_states_topic, driver.command_topic),
             })
         } else {
@@ -215,6 +217,7 @@ struct Report {
     images: u64,
     images_refused: u64,
     restamped: u64,
+    late: u64,
     publish_failed: u64,
     /// Header stamp → arrival here, since the last report: the DDS hop of a joint state; an image's
     /// exposure → arrival (its readout or rendering, and the hop).
@@ -247,6 +250,31 @@ impl Ages {
 }
 
 impl Report {
+    /// A message's stamp: its age counted, a replaced or a late stamp counted and said once per topic.
+    fn stamps(&mut self, arrival: &vservo_ros2::convert::Arrival, topic: &str) {
+        let age_s = arrival.age_ns as f64 / 1e9;
+        if arrival.restamped {
+            self.restamped += 1;
+            self.once(&format!("restamped {topic}"), || {
+                format!(
+                    "{topic}: a header stamp that is zero, or {:.3} s in the future of its arrival \
+                     (ros2.driver.clock_tolerance_s): is the sender's clock ahead of this machine's (chrony, PTP)? \
+                     Such messages are stamped with their arrival",
+                    -age_s
+                )
+            });
+        } else if arrival.late {
+            self.late += 1;
+            self.once(&format!("late {topic}"), || {
+                format!(
+                    "{topic}: a header stamp {age_s:.3} s before its arrival (ros2.driver.clock_tolerance_s): late \
+                     data, or the sender's clock behind this machine's (chrony, PTP)? The stamp is kept: an image \
+                     this old is dropped by the vision node as stale"
+                )
+            });
+        }
+    }
+
     /// A WARN line the first time something of `kind` happens (`what` says it), then only counted.
     fn once(&mut self, kind: &str, what: impl FnOnce() -> String) {
         if self.said.insert(kind.to_string()) {
@@ -263,6 +291,8 @@ struct Driver {
     last_silent_hold_ns: u64,
     hold_after_ns: u64,
     tolerance_ns: u64,
+    /// The camera's topic, its image size, and the gray image (made once).
+    image_topic: String,
     width: u32,
     height: u32,
     gray: Vec<u8>,
@@ -283,6 +313,7 @@ impl Driver {
             last_silent_hold_ns: 0,
             hold_after_ns: (driver.hold_after_s * 1e9) as u64,
             tolerance_ns: (driver.clock_tolerance_s * 1e9) as u64,
+            image_topic: driver.image_topic.clone(),
             width,
             height,
             gray: vec![0; width as usize * height as usize],
@@ -337,19 +368,21 @@ impl Driver {
             }
             let arrival = self.clock.arrival(&message.header.stamp, now, self.tolerance_ns);
             self.report.state_age.add(arrival.age_ns);
-            if arrival.restamped {
-                self.report.restamped += 1;
-                self.report.once("restamped state", || {
-                    format!(
-                        "{}: a header stamp {:.3} s from its arrival (ros2.driver.clock_tolerance_s): are the \
-                         hosts' clocks in step (chrony, PTP)? Such states are stamped with their arrival",
-                        topics.topics,
-                        arrival.age_ns as f64 / 1e9
-                    )
-                });
-            }
+            self.report.stamps(&arrival, &topics.joint_states_topic);
             match arm.on_joint_state(&message, arrival.stamp_ns, now) {
                 Ok(step) => {
+                    if let Some(median_ns) = arm.period_mismatch_ns() {
+                        self.report.once("period", || {
+                            format!(
+                                "{}: the arm's joint states come every {:.3} ms (median), not every [robot] \
+                                 period_s = {:.3} ms: the driver reports a fault and holds the arm; set period_s \
+                                 to the arm's period",
+                                topics.topics,
+                                median_ns as f64 / 1e6,
+                                arm.period_ns() as f64 / 1e6
+                            )
+                        });
+                    }
                     if topics.commands.publish(command_message(step.command)).is_err() {
                         self.report.publish_failed += 1;
                     }
@@ -392,16 +425,7 @@ impl Driver {
             }
             let arrival = self.clock.arrival(&image.header.stamp, now, self.tolerance_ns);
             self.report.image_age.add(arrival.age_ns);
-            if arrival.restamped {
-                self.report.restamped += 1;
-                self.report.once("restamped image", || {
-                    format!(
-                        "an image's header stamp {:.3} s from its arrival (ros2.driver.clock_tolerance_s): are \
-                         the hosts' clocks in step (chrony, PTP)? Such images are stamped with their arrival",
-                        arrival.age_ns as f64 / 1e9
-                    )
-                });
-            }
+            self.report.stamps(&arrival, &self.image_topic);
             self.publish_image(ports, arrival.stamp_ns);
         }
     }
@@ -441,6 +465,7 @@ impl Driver {
             images = self.report.images,
             images_refused = self.report.images_refused,
             restamped = self.report.restamped,
+            late = self.report.late,
             publish_failed = self.report.publish_failed,
             state_age_ms = %self.report.state_age.text(),
             image_age_ms = %self.report.image_age.text(),
