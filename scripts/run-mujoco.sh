@@ -63,16 +63,8 @@ noise=()
     ${noise[@]+"${noise[@]}"} > "$out/driver.log" 2>&1 &
 driver=$!
 pids+=("$driver")
-# the features from the first frame on
-wait_for_features "$instance" "$out/vservod.log"
-"$vservoctl" echo features --instance "$instance" --duration-s "$duration" > "$out/features.jsonl" &
-echo_pid=$!
-pids+=("$echo_pid")
-# the rmrc's commands: which twist each follows, for the capture → command latency
-"$vservoctl" echo joint_command --instance "$instance" --duration-s "$duration" > "$out/commands.jsonl" &
-pids+=($!)
 say "run-mujoco: vservod and the MuJoCo driver run; recording $duration s of features (logs in $out/)"
-wait "$echo_pid" || true
+record_run "$instance" "$duration" "$out" commands
 if [ "$calibrate" = 1 ]; then
     say "run-mujoco: calibrating the running cell (vservoctl calibrate)"
     calibrated=0
@@ -89,7 +81,6 @@ if [ "$calibrate" = 1 ]; then
     tail -n 1 "$out/calibration.json"
     exit 0
 fi
-"$vservoctl" status --instance "$instance" > "$out/status.txt" 2>&1 || true
 cleanup
 trap - EXIT
 

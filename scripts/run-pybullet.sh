@@ -98,14 +98,8 @@ pids+=($!)
     --fifo-priority 50 --save-image "$out/first.pgm" > "$out/driver.log" 2>&1 &
 driver=$!
 pids+=("$driver")
-# the features from the first frame on
-wait_for_features "$instance" "$out/vservod.log"
-"$vservoctl" echo features --instance "$instance" --duration-s "$duration" > "$out/features.jsonl" &
-echo_pid=$!
-pids+=("$echo_pid")
 say "run-pybullet: vservod and the PyBullet driver run; recording $duration s of features (logs in $out/)"
-wait "$echo_pid" || true
-"$vservoctl" status --instance "$instance" > "$out/status.txt" 2>&1 || true
+record_run "$instance" "$duration" "$out"
 cleanup
 trap - EXIT
 

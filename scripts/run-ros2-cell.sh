@@ -112,17 +112,8 @@ pids+=($!)
 ${in_arm[@]+"${in_arm[@]}"} "$python" clients/python/ros2_control_arm.py --scene "$out/scene.json" \
     --domain "$domain" --controller "$controller" --summary "$out/arm.json" > "$out/arm.log" 2>&1 &
 pids+=($!)
-# the features from the first frame on
-wait_for_features "$instance" "$out/vservod.log"
-"$vservoctl" echo features --instance "$instance" --duration-s "$duration" > "$out/features.jsonl" &
-echo_pid=$!
-pids+=("$echo_pid")
-# the rmrc's commands: which twist each follows, for the capture → command latency
-"$vservoctl" echo joint_command --instance "$instance" --duration-s "$duration" > "$out/commands.jsonl" &
-pids+=($!)
 say "run-ros2-cell: vservod and the ROS 2 arm and camera run on domain $domain; recording $duration s of features (logs in $out/)"
-wait "$echo_pid" || true
-"$vservoctl" status --instance "$instance" > "$out/status.txt" 2>&1 || true
+record_run "$instance" "$duration" "$out" commands
 cleanup
 trap - EXIT
 

@@ -48,13 +48,8 @@ pids+=($!)
 "$python" clients/python/mujoco_driver.py --scene "$out/scene.json" --instance "$instance" --fifo-priority 50 \
     --rtp-port "$port" > "$out/driver.log" 2>&1 &
 pids+=($!)
-wait_for_features "$instance" "$out/vservod.log"
-"$vservoctl" echo features --instance "$instance" --duration-s "$duration" > "$out/features.jsonl" &
-echo_pid=$!
-pids+=("$echo_pid")
 say "run-rtp-camera: vservod, the GStreamer camera (RTP on 127.0.0.1:$port) and the MuJoCo driver run; recording $duration s of features (logs in $out/)"
-wait "$echo_pid" || true
-"$vservoctl" status --instance "$instance" > "$out/status.txt" 2>&1 || true
+record_run "$instance" "$duration" "$out"
 "$vservoctl" status --json --instance "$instance" > "$out/status.json" 2>/dev/null || true
 cleanup
 trap - EXIT

@@ -18,19 +18,30 @@ cell_binaries() {
     bin="$(cd "$bin" && pwd)"
 }
 
-# wait_for_features INSTANCE VSERVOD_LOG: until vservod has claimed the instance (its log says it starts the
-# nodes) and its nodes have made their services (at most 20 s each), so that a recording started next hears
-# the first frame. No client of the instance is made before the claim: one would find the last run's
-# prefix and make its shared memory first.
-wait_for_features() {
+# record_run INSTANCE DURATION OUT [commands]: once vservod has claimed the instance (OUT/vservod.log says it
+# starts the nodes) and its nodes have made their services (at most 20 s each), records DURATION seconds of
+# features to OUT/features.jsonl — from the first frame on — and, with `commands`, the rmrc's joint commands to
+# OUT/commands.jsonl (for the capture → command latency); then the status to OUT/status.txt. No client of the
+# instance is made before the claim: one would find the last run's prefix and make its shared memory first.
+record_run() {
+    local instance="$1" duration="$2" out="$3"
     for _ in $(seq 200); do
-        grep -q "starting the nodes" "$2" 2>/dev/null && break
+        grep -q "starting the nodes" "$out/vservod.log" 2>/dev/null && break
         sleep 0.1
     done
     for _ in $(seq 200); do
-        "$bin/vservoctl" echo features --instance "$1" --duration-s 0.05 > /dev/null 2>&1 && return 0
+        "$bin/vservoctl" echo features --instance "$instance" --duration-s 0.05 > /dev/null 2>&1 && break
         sleep 0.1
     done
+    "$bin/vservoctl" echo features --instance "$instance" --duration-s "$duration" > "$out/features.jsonl" &
+    local features=$!
+    pids+=("$features")
+    if [ "${4:-}" = commands ]; then
+        "$bin/vservoctl" echo joint_command --instance "$instance" --duration-s "$duration" > "$out/commands.jsonl" &
+        pids+=($!)
+    fi
+    wait "$features" || true
+    "$bin/vservoctl" status --instance "$instance" > "$out/status.txt" 2>&1 || true
 }
 
 # stop_processes PID…: SIGTERM, up to 5 s to end, then SIGKILL.

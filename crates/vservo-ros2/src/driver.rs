@@ -225,6 +225,13 @@ struct Report {
     image_age: Ages,
 }
 
+/// The two streams the driver takes.
+#[derive(Clone, Copy)]
+enum Stream {
+    JointStates,
+    Images,
+}
+
 /// How old messages were when they arrived: count, mean and largest.
 #[derive(Default, Clone, Copy)]
 struct Ages {
@@ -250,8 +257,13 @@ impl Ages {
 }
 
 impl Report {
-    /// A message's stamp: its age counted, a replaced or a late stamp counted and said once per topic.
-    fn stamps(&mut self, arrival: &vservo_ros2::convert::Arrival, topic: &str) {
+    /// A message's stamp: its age counted with its stream's, a replaced or a late stamp counted and said once
+    /// per topic.
+    fn stamps(&mut self, arrival: &vservo_ros2::convert::Arrival, stream: Stream, topic: &str) {
+        match stream {
+            Stream::JointStates => self.state_age.add(arrival.age_ns),
+            Stream::Images => self.image_age.add(arrival.age_ns),
+        }
         let age_s = arrival.age_ns as f64 / 1e9;
         if arrival.restamped {
             self.restamped += 1;
@@ -367,8 +379,7 @@ impl Driver {
                 });
             }
             let arrival = self.clock.arrival(&message.header.stamp, now, self.tolerance_ns);
-            self.report.state_age.add(arrival.age_ns);
-            self.report.stamps(&arrival, &topics.joint_states_topic);
+            self.report.stamps(&arrival, Stream::JointStates, &topics.joint_states_topic);
             match arm.on_joint_state(&message, arrival.stamp_ns, now) {
                 Ok(step) => {
                     if let Some(median_ns) = arm.period_mismatch_ns() {
@@ -399,9 +410,7 @@ impl Driver {
         let now = monotonic_ns();
         let silent = now - self.last_state_ns > self.hold_after_ns;
         if silent && now - self.last_silent_hold_ns > self.hold_after_ns {
-            if let Some(rest) = arm.hold() {
-                let _ = topics.commands.publish(command_message(rest));
-            }
+            send_rest(arm, topics);
             self.last_silent_hold_ns = now;
         }
     }
@@ -424,8 +433,7 @@ impl Driver {
                 continue;
             }
             let arrival = self.clock.arrival(&image.header.stamp, now, self.tolerance_ns);
-            self.report.image_age.add(arrival.age_ns);
-            self.report.stamps(&arrival, &self.image_topic);
+            self.report.stamps(&arrival, Stream::Images, &self.image_topic);
             self.publish_image(ports, arrival.stamp_ns);
         }
     }
@@ -445,9 +453,7 @@ impl Driver {
     fn finish(&mut self, ros: &RosSide) {
         if let (Some(arm), Some(topics)) = (&mut self.arm, &ros.arm) {
             for _ in 0..HOLDS_AT_EXIT {
-                if let Some(rest) = arm.hold() {
-                    let _ = topics.commands.publish(command_message(rest));
-                }
+                send_rest(arm, topics);
                 std::thread::sleep(Duration::from_millis(2));
             }
         }
@@ -471,6 +477,13 @@ impl Driver {
             image_age_ms = %self.report.image_age.text(),
             "{what} (ages: header stamp → arrival, mean/max since the last report)"
         );
+    }
+}
+
+/// The arm commanded to rest ([`ArmFollower::hold`]), if there is a rest to command.
+fn send_rest(arm: &mut ArmFollower, topics: &ArmTopics) {
+    if let Some(rest) = arm.hold() {
+        let _ = topics.commands.publish(command_message(rest));
     }
 }
 
