@@ -81,6 +81,8 @@ source = "external"
 driver = "external"
 command = "velocity"
 period_s = $period
+# a simulated arm: the cell servos at once (a real arm's starts held until \`vservoctl resume\`)
+start = "servoing"
 TOML
 config="$out/pybullet.toml"
 "$vservoctl" scene --config "$config" > "$out/scene.json"
@@ -99,11 +101,14 @@ pids+=($!)
 driver=$!
 pids+=("$driver")
 say "run-pybullet: vservod and the PyBullet driver run; recording $duration s of features (logs in $out/)"
-record_run "$instance" "$duration" "$out"
+record_run "$instance" "$duration" "$out" commands
 cleanup
 trap - EXIT
 
 summary="$("$python" scripts/feature_summary.py "$out/features.jsonl" --desired "$desired")"
+# the rmrc's commands against the arm's own speed, acceleration and jerk limits, as its controller would see them
+limits="$("$python" scripts/command_limits.py "$out/commands.jsonl" "$out/scene.json")"
+summary="$(merge_json "$summary" "$limits")"
 say "$(cat "$out/status.txt" 2>/dev/null | head -3)"
 say "$(grep '^pybullet_driver: ' "$out/driver.log" 2>/dev/null | grep -v 'waiting for it' || true)"
 say "run-pybullet: $summary"

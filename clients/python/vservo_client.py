@@ -33,7 +33,7 @@ SCHEMA_VERSION = 8
 STATES = ["starting", "running", "degraded", "stopping", "safe-stop", "moving"]
 MAX_JOINTS = 7
 FAULTS = ["none", "position_limit", "velocity_limit", "torque_saturated", "driver_fault", "target_lost",
-          "robot_stalled", "requested", "stream_taken", "camera_stalled"]
+          "robot_stalled", "requested", "stream_taken", "camera_stalled", "start_held"]
 
 
 class Command(ctypes.Structure):

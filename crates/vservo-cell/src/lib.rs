@@ -176,12 +176,16 @@ impl Cell {
         let mut settings = self.config.interpolator;
         settings.control_period_s = self.config.robot.period_s;
         // the simulated kinematic plant is the ideal robot of the paper's check (docs/REPRODUCTION.md), which
-        // moves the camera exactly as commanded: no acceleration limit between it and the twist. Any other
+        // moves the camera exactly as commanded: no acceleration, jerk or tool speed limit between it and the
+        // twist. Any other
         // driver, an external one above all, keeps the limits.
         if self.config.robot.driver == RobotDriver::Simulated
             && self.config.plant.mode == PlantMode::Kinematic
         {
             settings.acceleration_limit = JointVector::from_element(f64::INFINITY);
+            settings.jerk_limit = None;
+            settings.tool_speed_limit_m_s = f64::INFINITY;
+            settings.tool_rotation_limit_rad_s = f64::INFINITY;
         }
         RmrcStage::new(&self.config, settings, self.arm.clone(), *q)
     }

@@ -208,6 +208,7 @@ impl Default for RawFaults {
 #[serde(deny_unknown_fields, default)]
 pub struct RawRobot {
     pub driver: RawRobotDriver,
+    pub start: Option<RawStart>,
     pub command: Option<CommandInterface>,
     pub period_s: Option<f64>,
     pub state_timeout_periods: i64,
@@ -220,6 +221,7 @@ impl Default for RawRobot {
     fn default() -> Self {
         Self {
             driver: RawRobotDriver::Simulated,
+            start: None,
             command: None,
             period_s: None,
             state_timeout_periods: 50,
@@ -240,6 +242,10 @@ pub struct RawArm {
     pub dh: Option<Vec<[f64; 4]>>,
     pub joint_limits_rad: Option<Vec<[f64; 2]>>,
     pub velocity_limits_rad_s: Option<Vec<f64>>,
+    pub acceleration_limits_rad_s2: Option<Vec<f64>>,
+    pub jerk_limits_rad_s3: Option<Vec<f64>>,
+    pub tool_speed_limit_m_s: Option<f64>,
+    pub tool_rotation_limit_rad_s: Option<f64>,
 }
 
 impl Default for RawArm {
@@ -252,6 +258,10 @@ impl Default for RawArm {
             dh: None,
             joint_limits_rad: None,
             velocity_limits_rad_s: None,
+            acceleration_limits_rad_s2: None,
+            jerk_limits_rad_s3: None,
+            tool_speed_limit_m_s: None,
+            tool_rotation_limit_rad_s: None,
         }
     }
 }
@@ -463,7 +473,14 @@ pub struct RawInterpolator {
     pub max_damping: f64,
     pub stale_twist_frames: f64,
     pub stop_ramp_s: f64,
-    pub acceleration_limit_rad_s2: Vec<f64>,
+    /// Optional: the arm's own (`robot.arm.acceleration_limits_rad_s2`, or the PUMA 560's) unless narrowed here.
+    #[serde(default)]
+    pub acceleration_limit_rad_s2: Option<Vec<f64>>,
+    /// Optional caps on the tool's speed (m/s) and angular speed (rad/s), below the arm's own.
+    #[serde(default)]
+    pub tool_speed_limit_m_s: Option<f64>,
+    #[serde(default)]
+    pub tool_rotation_limit_rad_s: Option<f64>,
     /// Optional, so that a configuration written before seven-joint arms (an installed /etc/vservo/vservo.toml
     /// kept over an upgrade) still loads.
     #[serde(default)]
@@ -535,6 +552,14 @@ pub enum RawCameraSource {
     External,
     Directory,
     Ros2,
+}
+
+/// `robot.start`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum RawStart {
+    Held,
+    Servoing,
 }
 
 /// `robot.driver`.

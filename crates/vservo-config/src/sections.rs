@@ -191,6 +191,9 @@ impl ResumePolicy {
 pub struct Robot {
     /// Who publishes `joint_state` and applies `joint_command`.
     pub driver: RobotDriver,
+    /// Whether the cell comes up held (a safe stop `start_held`, ended by `vservoctl resume`) rather than
+    /// servoing at once: `robot.start`, "held" by default for an external driver, a real arm's first motion.
+    pub start_held: bool,
     /// The command an external driver takes ([`crate::Config::command_interface`] gives the one in force: the
     /// simulated driver's follows from `plant.mode`).
     pub command: CommandInterface,

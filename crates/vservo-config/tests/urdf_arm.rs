@@ -7,6 +7,8 @@ use vservo_config::{Config, ConfigError};
 
 const DEFAULT: &str = include_str!("../../../config/vservo.toml");
 const LIMIT: &str = r#"<limit lower="-2.5" upper="2.5" velocity="3" effort="10"/>"#;
+/// A six-joint arm's own accelerations (an arm from a URDF must give them).
+const ACCELERATIONS: &str = "acceleration_limits_rad_s2 = [10.0, 10.0, 10.0, 10.0, 10.0, 10.0]";
 
 /// A directory of this test's own, removed when dropped.
 struct Scratch(PathBuf);
@@ -18,8 +20,14 @@ impl Scratch {
         Self(path)
     }
 
-    /// Writes `urdf` and a configuration whose `[robot.arm]` reads it, with `arm_keys` added; loads it.
+    /// Writes `urdf` and a configuration whose `[robot.arm]` reads it, with [`ACCELERATIONS`] and `arm_keys`
+    /// added; loads it.
     fn load(&self, urdf: &str, arm_keys: &str, plant_mode: &str) -> Result<Config, ConfigError> {
+        self.load_arm(urdf, &format!("{ACCELERATIONS}\n{arm_keys}"), plant_mode)
+    }
+
+    /// Writes `urdf` and a configuration whose `[robot.arm]` reads it, with `arm_keys` added; loads it.
+    fn load_arm(&self, urdf: &str, arm_keys: &str, plant_mode: &str) -> Result<Config, ConfigError> {
         std::fs::write(self.0.join("arm.urdf"), urdf).expect("written");
         let text = DEFAULT
             .replacen(
@@ -171,16 +179,16 @@ fn a_seven_joint_arm_takes_seven_values_per_joint_key() {
                 1,
             ),
     );
-    let (key, message) = refusal(write_and_load(text.clone()));
-    assert_eq!(key, "interpolator.acceleration_limit_rad_s2", "{message}");
+    let six = text.replacen(tip, &format!("{tip}\n{ACCELERATIONS}"), 1);
+    let (key, message) = refusal(write_and_load(six));
+    assert_eq!(key, "robot.arm.acceleration_limits_rad_s2", "{message}");
     assert!(message.contains("must list the 7 joints"), "{message}");
-    let accelerations = "acceleration_limit_rad_s2 = [22.5, 22.5, 45.0, 90.0, 90.0, 90.0, 90.0]";
-    let text =
-        text.replacen("acceleration_limit_rad_s2 = [22.5, 22.5, 45.0, 90.0, 90.0, 90.0]", accelerations, 1);
+    let accelerations = "acceleration_limits_rad_s2 = [10.0, 10.0, 10.0, 10.0, 10.0, 10.0, 20.0]";
+    let text = text.replacen(tip, &format!("{tip}\n{accelerations}"), 1);
     let config = write_and_load(text.clone()).expect("seven values each");
     assert_eq!(config.arm.joint_count(), 7);
     assert_eq!(config.desired.joints[6], 0.1);
-    assert_eq!(config.interpolator.acceleration_limit[6], 90.0);
+    assert_eq!(config.interpolator.acceleration_limit[6], 20.0);
     assert_eq!(config.interpolator.null_space.posture, None);
     let posture = |values: &str| {
         text.replacen("posture_gain = 0.5", &format!("posture_gain = 0.5\nposture_rad = {values}"), 1)
@@ -189,6 +197,63 @@ fn a_seven_joint_arm_takes_seven_values_per_joint_key() {
     assert_eq!(key, "interpolator.null_space.posture_rad", "{message}");
     let config = write_and_load(posture("[0.0, 0.1, 0.0, -0.5, 0.0, 0.7, 0.0]")).expect("a posture of seven");
     assert_eq!(config.interpolator.null_space.posture.map(|p| p[5]), Some(0.7));
+}
+
+/// Limits belong to the arm: an arm from a URDF without accelerations of its own is refused naming the keys to
+/// write (it never takes the PUMA 560's); its jerk and tool speed limits are taken; the interpolator may narrow
+/// them, never widen them; an external driver's tool is capped by default, and the cell starts held.
+#[test]
+fn an_arm_without_limits_of_its_own_is_refused_and_the_interpolator_only_narrows_them() {
+    let scratch = Scratch::new("limits");
+    let tip = "tip_link = \"flange\"";
+    let (key, message) = refusal(scratch.load_arm(&urdf(6, 0, "", ""), tip, "kinematic"));
+    assert_eq!(key, "robot.arm.acceleration_limits_rad_s2", "{message}");
+    for word in ["no acceleration limits of its own", "robot.arm.jerk_limits_rad_s3", "config/arms/fr3.toml"]
+    {
+        assert!(message.contains(word), "{message:?} should say {word:?}");
+    }
+    let keys = format!(
+        "{tip}\n{ACCELERATIONS}\njerk_limits_rad_s3 = [500.0, 500.0, 500.0, 500.0, 500.0, 250.0]\n\
+         tool_speed_limit_m_s = 1.0\ntool_rotation_limit_rad_s = 2.0"
+    );
+    let config = scratch.load_arm(&urdf(6, 0, "", ""), &keys, "kinematic").expect("limits of its own");
+    assert_eq!(config.interpolator.acceleration_limit[0], 10.0);
+    assert_eq!(config.interpolator.jerk_limit.map(|j| j[5]), Some(250.0));
+    assert_eq!(config.interpolator.tool_speed_limit_m_s, 1.0);
+    assert_eq!(config.interpolator.tool_rotation_limit_rad_s, 2.0);
+    assert!(!config.robot.start_held, "the simulated driver servos at once");
+    let path = scratch.0.join("cell.toml");
+    let written = std::fs::read_to_string(&path).expect("the configuration");
+    let with = |from: &str, to: &str| {
+        let camera = if to.contains("external") { "source = \"external\"" } else { "source = \"simulated\"" };
+        let text = written.replacen(from, to, 1).replacen("source = \"simulated\"", camera, 1);
+        std::fs::write(&path, text).expect("written");
+        Config::load(&path)
+    };
+    let narrow = "[interpolator]\nacceleration_limit_rad_s2 = [5.0, 5.0, 5.0, 5.0, 5.0, 5.0]";
+    let config = with("[interpolator]", narrow).expect("narrowed");
+    assert_eq!(config.interpolator.acceleration_limit[3], 5.0);
+    let wide = "[interpolator]\nacceleration_limit_rad_s2 = [5.0, 5.0, 50.0, 5.0, 5.0, 5.0]";
+    let (key, message) = refusal(with("[interpolator]", wide));
+    assert_eq!(key, "interpolator.acceleration_limit_rad_s2", "{message}");
+    assert!(message.contains("joint 3 asks for 50 rad/s², above the arm's 10 rad/s²"), "{message}");
+    let external = "driver = \"external\"\ncommand = \"velocity\"\nperiod_s = 0.001";
+    let config = with("driver = \"simulated\"", external).expect("an external arm");
+    assert!(config.robot.start_held, "an external arm's cell starts held");
+    assert_eq!(
+        config.interpolator.tool_speed_limit_m_s, 0.25,
+        "the first motion's cap, below the arm's 1 m/s"
+    );
+    assert_eq!(config.interpolator.tool_rotation_limit_rad_s, 0.75);
+    let config =
+        with("driver = \"simulated\"", &format!("{external}\nstart = \"servoing\"")).expect("servoing");
+    assert!(!config.robot.start_held);
+    // the PUMA 560 has its own accelerations and no jerk limit
+    let puma =
+        Config::load(concat!(env!("CARGO_MANIFEST_DIR"), "/../../config/vservo.toml")).expect("the default");
+    assert_eq!(puma.interpolator.acceleration_limit[2], 45.0);
+    assert_eq!(puma.interpolator.jerk_limit, None);
+    assert_eq!(puma.interpolator.tool_speed_limit_m_s, f64::INFINITY);
 }
 
 /// A configuration written before the null-space keys (an installed one kept over an upgrade) loads, with

@@ -233,6 +233,9 @@ wire_code! {
         StreamTaken = 8, "stream_taken";
         /// The camera sent no frame for longer than `faults.camera_timeout_periods` vision periods.
         CameraStalled = 9, "camera_stalled";
+        /// The cell came up held (`robot.start = "held"`, the default for an external driver): nothing moves
+        /// until `vservoctl resume`; never resumed automatically.
+        StartHeld = 10, "start_held";
     }
 }
 

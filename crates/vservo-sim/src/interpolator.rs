@@ -5,7 +5,13 @@ use nalgebra::{Matrix6, Vector3, Vector6};
 use vservo_arm::{DH_JOINTS, Jacobian, JointLimits, JointVector, MAX_JOINTS, SerialArm, Transform};
 use vservo_control::Twist;
 
+use crate::motion_limits::{JointMotion, MotionLimits, MotionState, velocity_headroom};
 use crate::redundancy::{self, Damping, NullSpaceTask};
+
+/// The share of an arm's speed, acceleration and jerk limits a jerk-limited reference uses at most: a controller
+/// that checks the discrete derivatives of the commands against the published numbers (libfranka checks each
+/// minus 1e-3) sees every command inside them, rounding included.
+pub const LIMIT_MARGIN: f64 = 0.995;
 
 /// How the twist is held between vision frames.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -38,6 +44,15 @@ pub struct InterpolatorSettings {
     /// velocity; passed on raw, its acceleration (Δq̇/1 ms) would ask the joint servo for more torque than
     /// the motors have. The change is scaled as a whole, so the direction of motion is kept.
     pub acceleration_limit: JointVector,
+    /// The most each joint's reference acceleration may change per second (rad/s³), where the arm declares
+    /// it. With it, the reference is jerk-limited on every path ([`crate::motion_limits`]): its acceleration
+    /// ramps rather than steps. Without it (`None`, the PUMA 560's case: no jerk limit is published for it),
+    /// the acceleration may step to its limit within a tick, as before jerk limits.
+    pub jerk_limit: Option<JointVector>,
+    /// The tool's speed (m/s) the twist is scaled down to, whole, where it asks for more (infinite: none).
+    pub tool_speed_limit_m_s: f64,
+    /// The tool's angular speed (rad/s) the twist is scaled down to, whole, where it asks for more.
+    pub tool_rotation_limit_rad_s: f64,
     /// What a seven-joint arm does with the joint it has to spare (a six-joint arm has none).
     pub null_space: NullSpaceTask,
 }
@@ -56,6 +71,9 @@ impl InterpolatorSettings {
             // about what the PUMA's torque limits allow over its inertia at the nominal pose, with margin (a
             // seventh joint, a wrist's, as the PUMA's wrist)
             acceleration_limit: JointVector::from([22.5, 22.5, 45.0, 90.0, 90.0, 90.0, 90.0]),
+            jerk_limit: None,
+            tool_speed_limit_m_s: f64::INFINITY,
+            tool_rotation_limit_rad_s: f64::INFINITY,
             null_space: NullSpaceTask::default(),
         }
     }
@@ -78,6 +96,12 @@ pub struct Reference {
     pub velocity_limited: bool,
 }
 
+impl Reference {
+    fn state(&self) -> MotionState {
+        MotionState { q: self.q, qd: self.qd, qdd: self.qdd }
+    }
+}
+
 /// The interpolator's state.
 #[derive(Debug, Clone)]
 pub struct Interpolator {
@@ -93,6 +117,8 @@ pub struct Interpolator {
     stop_scale: f64,
     /// A joint move in progress (the goal and the share of the speed limits), in place of the twists.
     joint_goal: Option<(JointVector, f64)>,
+    /// The jerk-limited generator of the reference, where the arm has jerk limits.
+    motion: Option<JointMotion>,
 }
 
 impl Interpolator {
@@ -103,6 +129,8 @@ impl Interpolator {
         tool_from_camera: Transform,
         q: JointVector,
     ) -> Self {
+        let motion =
+            settings.jerk_limit.map(|_| JointMotion::new(arm.joint_count(), settings.control_period_s));
         Self {
             settings,
             limits: arm.links.map(|link| link.limits),
@@ -121,6 +149,25 @@ impl Interpolator {
             },
             stop_scale: 1.0,
             joint_goal: None,
+            motion,
+        }
+    }
+
+    /// How many ticks the jerk-limited generator refused (it fell back to easing the acceleration off).
+    pub fn motion_refusals(&self) -> u64 {
+        self.motion.as_ref().map_or(0, JointMotion::refusals)
+    }
+
+    /// The arm's motion limits for the generator: speed, acceleration and jerk, each scaled by `share` to its
+    /// power (a move at a share of the speed is the same move slowed down in time), and kept
+    /// [`LIMIT_MARGIN`] inside the arm's.
+    fn motion_limits(&self, jerk: &JointVector, share: f64) -> MotionLimits {
+        let velocity = JointVector::from_fn(|j, _| self.limits[j].velocity_max);
+        let kept = share * LIMIT_MARGIN;
+        MotionLimits {
+            velocity: velocity * kept,
+            acceleration: self.settings.acceleration_limit * (kept * kept),
+            jerk: jerk * (kept * kept * kept),
         }
     }
 
@@ -194,6 +241,7 @@ impl Interpolator {
         let mut tool_twist = Vector6::zeros();
         tool_twist.fixed_rows_mut::<3>(0).copy_from(&v_tool);
         tool_twist.fixed_rows_mut::<3>(3).copy_from(&omega);
+        let tool_twist = within_tool_speeds(tool_twist, s.tool_speed_limit_m_s, s.tool_rotation_limit_rad_s);
 
         let joints = self.arm.joint_count();
         let (mut qd, damped) = if joints == DH_JOINTS {
@@ -201,20 +249,29 @@ impl Interpolator {
         } else {
             let damping =
                 Damping { manipulability_threshold: s.manipulability_threshold, max_damping: s.max_damping };
+            // the spare joint's own motion stops with the twist's: a stale twist brings the whole arm to rest
+            let null_space = NullSpaceTask {
+                limit_gain: s.null_space.limit_gain * self.stop_scale,
+                posture_gain: s.null_space.posture_gain * self.stop_scale,
+                ..s.null_space
+            };
             let rates = redundancy::resolve(
                 &jacobian,
                 &q,
                 &self.limits[..joints],
                 &tool_twist,
                 &damping,
-                &s.null_space,
+                &null_space,
             );
             (rates.qd, rates.damped)
         };
-        // joint speed limits: scale the whole vector, keeping the direction of motion
+        // joint speed limits: scale the whole vector, keeping the direction of motion (with jerk limits, as
+        // far inside them as the reference may go past its target)
+        let motion_limits = s.jerk_limit.map(|jerk| self.motion_limits(&jerk, 1.0));
         let mut worst: f64 = 1.0;
         for (j, limits) in self.limits[..joints].iter().enumerate() {
-            worst = worst.max(qd[j].abs() / limits.velocity_max);
+            let headroom = motion_limits.as_ref().map_or(0.0, |m| velocity_headroom(m, j));
+            worst = worst.max(qd[j].abs() / (limits.velocity_max - headroom).max(f64::MIN_POSITIVE));
         }
         let velocity_limited = worst > 1.0;
         if velocity_limited || !worst.is_finite() {
@@ -222,6 +279,18 @@ impl Interpolator {
         }
         if !qd.iter().all(|v| v.is_finite()) {
             qd = JointVector::zeros();
+        }
+        if let (Some(motion), Some(limits)) = (self.motion.as_mut(), motion_limits) {
+            let next = motion.velocity_step(&self.reference.state(), &qd, &limits);
+            self.reference = Reference {
+                q: next.q,
+                qd: next.qd,
+                qdd: next.qdd,
+                stopping: stale,
+                damped,
+                velocity_limited,
+            };
+            return &self.reference;
         }
         // acceleration limits, the change scaled as a whole
         let change = qd - self.reference.qd;
@@ -247,6 +316,9 @@ impl Interpolator {
     /// goal (the move began while the arm moved, or replaced a faster one) brakes at its full limit, as a safe
     /// stop does.
     fn step_joint_move(&mut self, goal: &JointVector, speed_fraction: f64) -> &Reference {
+        if let Some(jerk) = self.settings.jerk_limit {
+            return self.step_jerk_limited_joint_move(goal, speed_fraction, &jerk);
+        }
         let s = &self.settings;
         let dt = s.control_period_s;
         let joints = self.arm.joint_count();
@@ -271,6 +343,52 @@ impl Interpolator {
             Reference { q: q + qd * dt, qd, qdd, stopping: false, damped: false, velocity_limited: false };
         &self.reference
     }
+}
+
+impl Interpolator {
+    /// One tick of a joint move within the arm's jerk limits: the time-optimal move onto the goal within the
+    /// share's limits (speed × share, acceleration × share², jerk × share³). A reference outside those (the
+    /// move began while the arm moved faster) is first brought to rest within the full limits, as a safe stop
+    /// does, since braking within a small share's would carry it far.
+    fn step_jerk_limited_joint_move(
+        &mut self,
+        goal: &JointVector,
+        speed_fraction: f64,
+        jerk: &JointVector,
+    ) -> &Reference {
+        let share = if speed_fraction.is_finite() { speed_fraction.clamp(0.0, 1.0) } else { 0.0 };
+        let full = self.motion_limits(jerk, 1.0);
+        let scaled = self.motion_limits(jerk, share);
+        let from = self.reference.state();
+        let joints = self.arm.joint_count();
+        let within = (0..joints)
+            .all(|j| from.qd[j].abs() <= scaled.velocity[j] && from.qdd[j].abs() <= scaled.acceleration[j]);
+        let Some(motion) = self.motion.as_mut() else {
+            return &self.reference;
+        };
+        let next = if within {
+            motion.position_step(&from, goal, &scaled)
+        } else {
+            motion.velocity_step(&from, &JointVector::zeros(), &full)
+        };
+        self.reference = Reference {
+            q: next.q,
+            qd: next.qd,
+            qdd: next.qdd,
+            stopping: false,
+            damped: false,
+            velocity_limited: false,
+        };
+        &self.reference
+    }
+}
+
+/// The tool twist scaled down, whole, so that its linear part is at most `speed_m_s` and its angular part at
+/// most `rotation_rad_s` (the direction kept).
+fn within_tool_speeds(twist: Vector6<f64>, speed_m_s: f64, rotation_rad_s: f64) -> Vector6<f64> {
+    let over =
+        (twist.fixed_rows::<3>(0).norm() / speed_m_s).max(twist.fixed_rows::<3>(3).norm() / rotation_rad_s);
+    if over > 1.0 && over.is_finite() { twist / over } else { twist }
 }
 
 /// A six-joint arm's rates: the Jacobian inverted where it is well conditioned, by damped least squares near

@@ -10,7 +10,8 @@
 //! - [`interpolator::Interpolator`]: the resolved-motion-rate interpolator — the latest camera twist held
 //!   (or interpolated), mapped to the base frame through `tool_from_camera`, q̇_d from the Jacobian with
 //!   damped least squares near singularities (a seven-joint arm through [`redundancy`], its spare joint in
-//!   the null space), joint velocity and acceleration limits, and a stale-twist watchdog;
+//!   the null space), the tool's speed limits, joint velocity, acceleration and (where the arm has them) jerk
+//!   limits ([`motion_limits`]: Ruckig's online trajectory generation), and a stale-twist watchdog;
 //! - [`joint_servo::JointServo`]: computed torque, or PD plus gravity;
 //! - [`redundancy::resolve`]: a tool twist into joint rates for a chain of six or seven joints, the spare
 //!   joint of a seven-joint arm moved in the null space away from its limits (and towards a posture).
@@ -20,6 +21,7 @@
 pub mod interpolator;
 pub mod joint_move;
 pub mod joint_servo;
+pub mod motion_limits;
 pub mod plant;
 pub mod redundancy;
 pub mod world;

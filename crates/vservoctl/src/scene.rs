@@ -64,6 +64,12 @@ pub fn run(args: &SceneArgs) -> Result<()> {
             "joint_limits_rad": limits(&|l| json!([l.position_min, l.position_max])),
             "velocity_limits_rad_s": limits(&|l| json!(l.velocity_max)),
             "torque_limits_nm": limits(&|l| json!(l.torque_max)),
+            // the motion limits the joint reference keeps (the arm's, narrowed by [interpolator]); no jerk limit:
+            // null (the reference's acceleration may step within a tick)
+            "acceleration_limits_rad_s2": &config.interpolator.acceleration_limit.as_slice()[..arm.joint_count()],
+            "jerk_limits_rad_s3": config.interpolator.jerk_limit.map(|j| j.as_slice()[..arm.joint_count()].to_vec()),
+            "tool_speed_limit_m_s": finite(config.interpolator.tool_speed_limit_m_s),
+            "tool_rotation_limit_rad_s": finite(config.interpolator.tool_rotation_limit_rad_s),
         },
         "start_joints_rad": &cell.start_joints().as_slice()[..arm.joint_count()],
         "desired_joints_rad": &config.desired.joints.as_slice()[..arm.joint_count()],
@@ -145,4 +151,9 @@ fn black_cells(tag: &vservo_scene::AprilTag) -> Vec<Vec<bool>> {
                 .collect()
         })
         .collect()
+}
+
+/// A limit as JSON: null where there is none (infinite).
+fn finite(value: f64) -> Option<f64> {
+    value.is_finite().then_some(value)
 }

@@ -76,6 +76,11 @@ pub enum Cause {
     /// A client asked for the safe stop.
     #[error("asked for by a client")]
     Requested,
+    /// The cell came up held (`robot.start = "held"`): a first motion waits for a resume.
+    #[error(
+        "the cell came up held (robot.start = \"held\"); `vservoctl check`, then `vservoctl resume` begins servoing"
+    )]
+    StartHeld,
     /// A process that is not a stream's writer holds its writer slot, or a node's port was refused because
     /// its slots are held (the log names the stream and the process).
     #[error("a stream's writer slot is held by a process that is not its writer")]
@@ -95,6 +100,7 @@ impl Cause {
             Cause::TorqueSaturated(_) => Some(Fault::TorqueSaturated),
             Cause::MarksMissing(_) => Some(Fault::TargetLost),
             Cause::Requested => Some(Fault::Requested),
+            Cause::StartHeld => Some(Fault::StartHeld),
             Cause::StreamTaken => Some(Fault::StreamTaken),
         }
     }
@@ -412,7 +418,9 @@ impl FaultMonitor {
                 None => Decision::Same,
             };
         }
-        if self.settings.resume != ResumePolicy::Automatic {
+        // a held start waits for a resume on command, whatever the policy
+        let held_at_start = self.latched.as_ref().is_some_and(|f| f.code == Fault::StartHeld);
+        if self.settings.resume != ResumePolicy::Automatic || held_at_start {
             return Decision::Same;
         }
         // held, the servo no longer reports the marks: whether they are back is the features' to say (causes)
@@ -449,6 +457,12 @@ impl FaultMonitor {
             return Err(AlreadyHeld(fault.code));
         }
         Ok(self.latch(Cause::Requested, now_ns))
+    }
+
+    /// Holds the cell from its start (`robot.start = "held"`): the fault `start_held`, which only a resume on
+    /// command ends.
+    pub fn hold_at_start(&mut self, now_ns: u64) -> LatchedFault {
+        self.latch(Cause::StartHeld, now_ns)
     }
 
     /// Servo again: refused, naming every cause, while one is present; the fault it ends on success.

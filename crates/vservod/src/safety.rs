@@ -66,12 +66,12 @@ pub struct Safety {
 }
 
 impl Safety {
-    /// Opens `cell_mode` and publishes "servoing" (sequence 1): call before any node starts, so that every
-    /// node finds the mode in the service's history.
+    /// Opens `cell_mode` and publishes "servoing", or with `start_held` a safe stop `start_held` (sequence 1):
+    /// call before any node starts, so that every node finds the mode in the service's history.
     pub fn new(
         node: &Node<ipc::Service>,
         instance: &str,
-        settings: vservo_config::Faults,
+        (settings, start_held): (vservo_config::Faults, bool),
         arm_joints: u32,
         seal_key: vservo_protocol::seal::SealKey,
     ) -> anyhow::Result<Self> {
@@ -82,7 +82,16 @@ impl Safety {
             sequence: 0,
             joint_move: None,
         };
-        safety.publish(CellMode::Servoing, None)?;
+        if start_held {
+            let fault = safety.monitor.hold_at_start(monotonic_ns());
+            tracing::warn!(
+                fault = fault.code.name(),
+                "the cell starts held (robot.start = \"held\"): nothing moves until `vservoctl resume`"
+            );
+            safety.publish(CellMode::SafeStop, Some(&fault))?;
+        } else {
+            safety.publish(CellMode::Servoing, None)?;
+        }
         Ok(safety)
     }
 

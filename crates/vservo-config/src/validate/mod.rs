@@ -8,6 +8,7 @@ mod camera;
 mod checker;
 mod controller;
 mod desired;
+mod motion;
 mod object;
 mod operation;
 mod robot;
@@ -52,7 +53,13 @@ pub fn validate(raw: RawConfig, file: &str) -> Result<Config, ConfigError> {
     let source = camera::source(&check, &raw.camera)?;
     let vision = vision::vision(&check, &raw.vision, source)?;
     let plant = simulation::plant(&check, &raw.plant)?;
-    let interpolator = simulation::interpolator(&check, &raw.interpolator, &timing, &arm)?;
+    let interpolator = simulation::interpolator(
+        &check,
+        &raw.interpolator,
+        &timing,
+        (&raw.robot.arm, &arm),
+        raw.robot.driver,
+    )?;
     let joint_servo = simulation::joint_servo(&check, &raw.joint_servo)?;
     let scenario = scenario::scenario(&check, &raw.scenario)?;
     let robot = robot::robot(&check, &raw.robot, &plant, &timing)?;

@@ -4,7 +4,7 @@
 use vservo_sim::plant::PlantMode;
 
 use super::checker::Checker;
-use crate::raw::{RawArmPreset, RawRobot, RawRobotDriver};
+use crate::raw::{RawArmPreset, RawRobot, RawRobotDriver, RawStart};
 use crate::{CommandInterface, ConfigError, PlantSettings, Robot, RobotDriver, Timing, VisionSource};
 
 /// The robot. The simulated driver's command follows from `plant.mode` (dynamic: torque; kinematic:
@@ -30,6 +30,7 @@ pub fn robot(
         check.within("robot.max_camera_rotation_rad_s", r.max_camera_rotation_rad_s, 0.001, 20.0, "rad/s")?;
     Ok(Robot {
         driver: driver(r.driver),
+        start_held: start_held(r),
         command,
         period_s,
         state_timeout_periods,
@@ -44,6 +45,15 @@ fn driver(raw: RawRobotDriver) -> RobotDriver {
     match raw {
         RawRobotDriver::Simulated => RobotDriver::Simulated,
         RawRobotDriver::External | RawRobotDriver::Ros2 => RobotDriver::External,
+    }
+}
+
+/// `robot.start`: as written, else held for an external driver (a real arm's first motion waits for
+/// `vservoctl resume`) and servoing for the simulated one.
+fn start_held(r: &RawRobot) -> bool {
+    match r.start {
+        Some(start) => start == RawStart::Held,
+        None => r.driver != RawRobotDriver::Simulated,
     }
 }
 

@@ -8,7 +8,9 @@ use vservo_sim::redundancy::NullSpaceTask;
 use super::checker::Checker;
 use vservo_sim::plant::{KinematicFollows, KinematicResponse};
 
-use crate::raw::{RawInterpolator, RawJointServo, RawKinematicFollows, RawNullSpace, RawPlant};
+use crate::raw::{
+    RawArm, RawInterpolator, RawJointServo, RawKinematicFollows, RawNullSpace, RawPlant, RawRobotDriver,
+};
 use crate::{ConfigError, JointServoSettings, PlantSettings, Timing};
 
 /// The plant's mode and its integration steps.
@@ -23,12 +25,14 @@ pub fn plant(check: &Checker, p: &RawPlant) -> Result<PlantSettings, ConfigError
     Ok(PlantSettings { mode: p.mode.into(), rk4_substeps, kinematic: KinematicResponse { follows, lag_s } })
 }
 
-/// The interpolator, stepping at the control period between vision periods, for `arm`.
+/// The interpolator, stepping at the control period between vision periods, for `arm` (written as `a`) on
+/// `driver`: within the arm's motion limits ([`super::motion`]).
 pub fn interpolator(
     check: &Checker,
     i: &RawInterpolator,
     timing: &Timing,
-    arm: &SerialArm,
+    (a, arm): (&RawArm, &SerialArm),
+    driver: RawRobotDriver,
 ) -> Result<InterpolatorSettings, ConfigError> {
     let manipulability_threshold =
         check.within("interpolator.manipulability_threshold", i.manipulability_threshold, 0.0, 10.0, "")?;
@@ -41,13 +45,7 @@ pub fn interpolator(
         "vision periods",
     )?;
     let stop_ramp_s = check.within("interpolator.stop_ramp_s", i.stop_ramp_s, 0.001, 10.0, "s")?;
-    let acceleration_limit = check.per_joint(
-        "interpolator.acceleration_limit_rad_s2",
-        &i.acceleration_limit_rad_s2,
-        arm,
-        (0.01, 1000.0),
-        "rad/s²",
-    )?;
+    let limits = super::motion::limits_in_force(check, a, i, driver, arm)?;
     Ok(InterpolatorSettings {
         hold: i.twist_hold.into(),
         vision_period_s: timing.vision_period_s,
@@ -56,7 +54,10 @@ pub fn interpolator(
         max_damping,
         stale_after_s: stale_frames * timing.vision_period_s,
         stop_ramp_s,
-        acceleration_limit,
+        acceleration_limit: limits.acceleration,
+        jerk_limit: limits.jerk,
+        tool_speed_limit_m_s: limits.tool_speed_m_s,
+        tool_rotation_limit_rad_s: limits.tool_rotation_rad_s,
         null_space: null_space(check, &i.null_space, arm)?,
     })
 }

@@ -193,8 +193,13 @@ impl Daemon {
         let stop_path = SafeStopReader::create(claim.dir())?;
         // the cell mode first: every node finds it in the service's history
         let arm_joints = settings.arm_joints as u32;
-        let safety =
-            Safety::new(&node, &settings.instance, config.faults, arm_joints, launcher.seal_key.clone())?;
+        let safety = Safety::new(
+            &node,
+            &settings.instance,
+            (config.faults, config.robot.start_held),
+            arm_joints,
+            launcher.seal_key.clone(),
+        )?;
         let path = &launcher.config_path;
         let commander =
             Commander::new(&node, path, config.clone(), config_text, launcher.seal_key.clone(), &gains)?;

@@ -1,0 +1,192 @@
+//! The jerk-limited reference: whatever twists, joint moves and stops come, on arms with published jerk limits
+//! (config/arms/fr3.toml, seven joints; config/arms/ur5e.toml, six), and at their singularities, the joint
+//! reference's velocity, acceleration and jerk, measured as a robot controller measures them (differences of the
+//! commanded velocities, tick by tick), stay within each joint's limits.
+
+use proptest::prelude::*;
+use vservo_arm::JointVector;
+use vservo_config::Config;
+use vservo_control::Twist;
+use vservo_sim::interpolator::Interpolator;
+
+/// How far past a limit rounding may put a measured value (relative).
+const ROUNDING: f64 = 1e-6;
+
+fn config(arm: &str) -> Config {
+    let path = format!("{}/../../config/arms/{arm}.toml", env!("CARGO_MANIFEST_DIR"));
+    Config::load(&path).expect("the arm's configuration loads")
+}
+
+/// What a controller sees of the commanded velocities: the largest speed, acceleration and jerk per joint.
+#[derive(Debug, Default)]
+struct Measured {
+    velocity: JointVector,
+    acceleration: JointVector,
+    jerk: JointVector,
+    last_qd: JointVector,
+    last_qdd: JointVector,
+}
+
+impl Measured {
+    fn take(&mut self, qd: &JointVector, dt: f64) {
+        let qdd = (qd - self.last_qd) / dt;
+        let jerk = (qdd - self.last_qdd) / dt;
+        for j in 0..qd.len() {
+            self.velocity[j] = self.velocity[j].max(qd[j].abs());
+            self.acceleration[j] = self.acceleration[j].max(qdd[j].abs());
+            self.jerk[j] = self.jerk[j].max(jerk[j].abs());
+        }
+        self.last_qd = *qd;
+        self.last_qdd = qdd;
+    }
+
+    /// Each joint within the limits of `config`'s arm (the reference's own, not a tolerance of the test's).
+    fn assert_within(&self, config: &Config, what: &str) {
+        let i = &config.interpolator;
+        let jerk = i.jerk_limit.expect("the arm has jerk limits");
+        for (j, limits) in config.arm.limits().enumerate() {
+            let over = |value: f64, limit: f64| value > limit * (1.0 + ROUNDING);
+            assert!(!over(self.velocity[j], limits.velocity_max), "{what}: joint {} speed {self:?}", j + 1);
+            assert!(
+                !over(self.acceleration[j], i.acceleration_limit[j]),
+                "{what}: joint {} accel {self:?}",
+                j + 1
+            );
+            assert!(!over(self.jerk[j], jerk[j]), "{what}: joint {} jerk {self:?}", j + 1);
+        }
+    }
+}
+
+/// What the cell asks of the interpolator during one vision period.
+#[derive(Debug, Clone)]
+enum Ask {
+    /// A camera twist (m/s, rad/s).
+    Twist([f64; 6]),
+    /// Nothing new: the last twist is held, then goes stale and the reference ramps to rest.
+    Nothing,
+    /// A joint move by these offsets from the desired pose, at this share of the speed limits.
+    Move([f64; 7], f64),
+    /// The joint move ends; twists again.
+    EndMove,
+}
+
+fn ask() -> impl Strategy<Value = Ask> {
+    prop_oneof![
+        4 => prop::array::uniform6(-1.0..1.0f64).prop_map(|v| Ask::Twist([v[0], v[1], v[2], 3.0 * v[3], 3.0 * v[4], 3.0 * v[5]])),
+        2 => Just(Ask::Nothing),
+        1 => (prop::array::uniform7(-0.3..0.3f64), 0.05..1.0f64).prop_map(|(d, s)| Ask::Move(d, s)),
+        1 => Just(Ask::EndMove),
+    ]
+}
+
+/// Runs `asks` one vision period each from `q`, measuring every tick's reference.
+fn run(config: &Config, q: JointVector, asks: &[Ask]) -> (Measured, Interpolator) {
+    let settings = config.interpolator;
+    let dt = settings.control_period_s;
+    let ticks_per_frame = (settings.vision_period_s / dt).round() as u64;
+    let mut interpolator = Interpolator::new(settings, config.arm.clone(), config.tool_from_camera, q);
+    let mut measured = Measured::default();
+    let mut tick = 0u64;
+    for ask in asks {
+        let now_s = tick as f64 * dt;
+        match ask {
+            Ask::Twist(v) => interpolator.set_twist(Twist::from_row_slice(v), now_s),
+            Ask::Nothing => {}
+            Ask::Move(offset, share) => {
+                let joints = config.arm.joint_count();
+                let goal = JointVector::from_fn(|j, _| {
+                    if j >= joints {
+                        return 0.0;
+                    }
+                    let limits = config.arm.links[j].limits;
+                    (config.desired.joints[j] + offset[j])
+                        .clamp(limits.position_min + 0.02, limits.position_max - 0.02)
+                });
+                interpolator.move_joints_to(goal, *share);
+            }
+            Ask::EndMove => interpolator.end_joint_move(),
+        }
+        for _ in 0..ticks_per_frame {
+            tick += 1;
+            let reference = *interpolator.step(tick as f64 * dt);
+            assert!(reference.q.iter().chain(reference.qd.iter()).all(|v| v.is_finite()), "{reference:?}");
+            measured.take(&reference.qd, dt);
+        }
+    }
+    // and to rest
+    interpolator.end_joint_move();
+    interpolator.set_twist(Twist::zeros(), tick as f64 * dt);
+    for _ in 0..2000 {
+        tick += 1;
+        measured.take(&interpolator.step(tick as f64 * dt).qd, dt);
+    }
+    assert_eq!(interpolator.reference().qd, JointVector::zeros(), "at rest, exactly");
+    (measured, interpolator)
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 24, .. ProptestConfig::default() })]
+
+    #[test]
+    fn the_fr3_reference_keeps_its_limits_whatever_is_asked(asks in prop::collection::vec(ask(), 1..24)) {
+        let config = config("fr3");
+        let (measured, interpolator) = run(&config, config.desired.joints, &asks);
+        measured.assert_within(&config, "FR3");
+        prop_assert_eq!(interpolator.motion_refusals(), 0);
+    }
+
+    #[test]
+    fn the_ur5e_reference_keeps_its_limits_whatever_is_asked(asks in prop::collection::vec(ask(), 1..24)) {
+        let config = config("ur5e");
+        let (measured, interpolator) = run(&config, config.desired.joints, &asks);
+        measured.assert_within(&config, "UR5e");
+        prop_assert_eq!(interpolator.motion_refusals(), 0);
+    }
+}
+
+/// At a singularity the damped inverse asks for large joint rates; the reference still keeps every limit: a UR5e
+/// with its wrist straight (wrist 2 at zero: wrists 1 and 3 aligned) and an FR3 with its elbow stretched out.
+#[test]
+fn at_a_wrist_or_elbow_singularity_the_reference_keeps_its_limits() {
+    let fast = Ask::Twist([0.2, -0.2, 0.1, 1.0, -1.0, 0.5]);
+    let ur5e = config("ur5e");
+    let mut wrist_straight = ur5e.desired.joints;
+    wrist_straight[4] = 0.0;
+    let (measured, _) = run(&ur5e, wrist_straight, &[fast.clone(), fast.clone(), Ask::Nothing, fast.clone()]);
+    measured.assert_within(&ur5e, "UR5e at its wrist singularity");
+    assert!(measured.velocity.amax() > 0.1, "it moved: {measured:?}");
+    let fr3 = config("fr3");
+    let mut stretched = fr3.desired.joints;
+    stretched[3] = -0.16;
+    let (measured, _) = run(&fr3, stretched, &[fast.clone(), fast, Ask::Nothing]);
+    measured.assert_within(&fr3, "FR3 with its elbow stretched");
+    assert!(measured.velocity.amax() > 0.1, "it moved: {measured:?}");
+}
+
+/// The limits are not met by standing still: a large step of the twist uses the jerk the arm allows, and the
+/// tool's speed is held to the configured cap.
+#[test]
+fn a_step_uses_the_jerk_limit_and_the_tool_speed_is_capped() {
+    let fr3 = config("fr3");
+    let step = Ask::Twist([0.5, 0.0, 0.0, 0.0, 0.0, 0.0]);
+    let (measured, _) = run(&fr3, fr3.desired.joints, &[step.clone(), step]);
+    let jerk = fr3.interpolator.jerk_limit.expect("jerk limits");
+    let used = (0..7).map(|j| measured.jerk[j] / jerk[j]).fold(0.0, f64::max);
+    assert!(used > 0.5, "the step ramps at the jerk limit: {used} of it");
+    // the tool held to 0.25 m/s (the first motion's cap) though 0.5 m/s was asked
+    let settings = fr3.interpolator;
+    let mut interpolator =
+        Interpolator::new(settings, fr3.arm.clone(), fr3.tool_from_camera, fr3.desired.joints);
+    interpolator.set_twist(Twist::new(0.5, 0.0, 0.0, 0.0, 0.0, 0.0), 0.0);
+    let mut q = fr3.desired.joints;
+    for tick in 1..=60 {
+        q = interpolator.step(tick as f64 * settings.control_period_s).q;
+    }
+    let before = fr3.arm.base_from_tool(&q).translation.vector;
+    for tick in 61..=70 {
+        q = interpolator.step(tick as f64 * settings.control_period_s).q;
+    }
+    let speed =
+        (fr3.arm.base_from_tool(&q).translation.vector - before).norm() / (10.0 * settings.control_period_s);
+    assert!(speed > 0.2 && speed <= 0.25 * 1.001, "the tool at {speed} m/s");
+}
