@@ -7,7 +7,12 @@
 # settling time; with --json the last line is one JSON object (final_error_px, settling_time_s, …). Logs, the
 # scene, the first camera image (first.pgm) and the recorded features are left in target/pybullet-run/.
 #
-#   scripts/run-pybullet.sh --urdf FILE --config FILE [--duration-s S] [--json]
+#   scripts/run-pybullet.sh --urdf FILE --config FILE [--duration-s S] [--held-s S] [--json]
+#
+# --held-s S: the cell starts held, as a real arm's does (robot.start = "held"): S seconds of its twists, joint
+# commands and joint states are recorded while held, then `vservoctl resume` begins servoing; the summary adds what
+# moved while held (held_max_twist, held_max_command_rad_s, held_joint_motion_rad) and whether the resume was taken.
+# The summary also says how the rmrc's commands stand against the arm's own limits (scripts/command_limits.py).
 #
 # --urdf is the URDF PyBullet simulates: the arm the configuration models (its meshes are found beside it and in
 # pybullet_data). --config is any configuration of a cell (the lockstep's, e.g. config/arms/xarm6.toml): the run
@@ -23,7 +28,8 @@ period=""
 json=0
 config=""
 urdf=""
-usage="expected --urdf FILE --config FILE [--duration-s S] [--period-s S] [--json]"
+held=""
+usage="expected --urdf FILE --config FILE [--duration-s S] [--period-s S] [--held-s S] [--json]"
 while [ $# -gt 0 ]; do
     case "$1" in
         --duration-s) duration="$2"; shift 2 ;;
@@ -35,6 +41,8 @@ while [ $# -gt 0 ]; do
         --period-s=*) period="${1#*=}"; shift ;;
         --urdf) urdf="$2"; shift 2 ;;
         --urdf=*) urdf="${1#*=}"; shift ;;
+        --held-s) held="$2"; shift 2 ;;
+        --held-s=*) held="${1#*=}"; shift ;;
         *) echo "run-pybullet: unknown argument $1 ($usage)" >&2; exit 2 ;;
     esac
 done
@@ -81,8 +89,9 @@ source = "external"
 driver = "external"
 command = "velocity"
 period_s = $period
-# a simulated arm: the cell servos at once (a real arm's starts held until \`vservoctl resume\`)
-start = "servoing"
+# a simulated arm servos at once unless --held-s: then it starts held, as a real arm's cell does, until
+# \`vservoctl resume\`
+start = "$([ -n "$held" ] && echo held || echo servoing)"
 TOML
 config="$out/pybullet.toml"
 "$vservoctl" scene --config "$config" > "$out/scene.json"
@@ -101,6 +110,10 @@ pids+=($!)
 driver=$!
 pids+=("$driver")
 say "run-pybullet: vservod and the PyBullet driver run; recording $duration s of features (logs in $out/)"
+if [ -n "$held" ]; then
+    say "run-pybullet: the cell starts held; recording $held s of it, then \`vservoctl resume\`"
+    hold_then_resume "$instance" "$held" "$out"
+fi
 record_run "$instance" "$duration" "$out" commands
 cleanup
 trap - EXIT
@@ -109,6 +122,7 @@ summary="$("$python" scripts/feature_summary.py "$out/features.jsonl" --desired 
 # the rmrc's commands against the arm's own speed, acceleration and jerk limits, as its controller would see them
 limits="$("$python" scripts/command_limits.py "$out/commands.jsonl" "$out/scene.json")"
 summary="$(merge_json "$summary" "$limits")"
+[ -n "$held" ] && summary="$(merge_json "$summary" "$(cat "$out/held.json")")"
 say "$(cat "$out/status.txt" 2>/dev/null | head -3)"
 say "$(grep '^pybullet_driver: ' "$out/driver.log" 2>/dev/null | grep -v 'waiting for it' || true)"
 say "run-pybullet: $summary"

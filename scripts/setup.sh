@@ -89,3 +89,8 @@ fi
 # The MuJoCo reference driver (clients/python/mujoco_driver.py, scripts/run-mujoco.sh and its test): headless
 # OpenGL from Debian and PyPI's mujoco in the same venv.
 scripts/setup-mujoco.sh
+
+# The Franka's own protocol checked by a third party's robot side (crates/vservo-franka's tests, the Franka driver's,
+# scripts/run-franka-sim.sh): franka-sim (an FCI server on MuJoCo with the FCI's motion-limit checker) and franky-sim
+# (its FR3 model) in a venv of their own (franka-sim pins numpy 1.26.4 and mujoco < 3.3)
+scripts/setup-franka-sim.sh "$(pwd)" >/dev/null

@@ -18,13 +18,10 @@ cell_binaries() {
     bin="$(cd "$bin" && pwd)"
 }
 
-# record_run INSTANCE DURATION OUT [commands]: once vservod has claimed the instance (OUT/vservod.log says it
-# starts the nodes) and its nodes have made their services (at most 20 s each), records DURATION seconds of
-# features to OUT/features.jsonl — from the first frame on — and, with `commands`, the rmrc's joint commands to
-# OUT/commands.jsonl (for the capture → command latency); then the status to OUT/status.txt. No client of the
-# instance is made before the claim: one would find the last run's prefix and make its shared memory first.
-record_run() {
-    local instance="$1" duration="$2" out="$3"
+# wait_for_cell INSTANCE OUT: until vservod has claimed the instance (OUT/vservod.log says it starts the nodes)
+# and its nodes have made their services (at most 20 s each).
+wait_for_cell() {
+    local instance="$1" out="$2"
     for _ in $(seq 200); do
         grep -q "starting the nodes" "$out/vservod.log" 2>/dev/null && break
         sleep 0.1
@@ -33,6 +30,40 @@ record_run() {
         "$bin/vservoctl" echo features --instance "$instance" --duration-s 0.05 > /dev/null 2>&1 && break
         sleep 0.1
     done
+}
+
+# hold_then_resume INSTANCE HELD_S OUT: the first motion of a cell that starts held (robot.start = "held"): records
+# HELD_S seconds of camera twists, joint commands and joint states to OUT/held-*.jsonl while it is held, then
+# `vservoctl resume` (retried while the resume is refused, at most 20 s: the driver's first joint states). The
+# held phase's summary is OUT/held.json (scripts/held_summary.py).
+hold_then_resume() {
+    local instance="$1" held_s="$2" out="$3" recorders=()
+    wait_for_cell "$instance" "$out"
+    for topic in camera_twist joint_command joint_state; do
+        "$bin/vservoctl" echo "$topic" --instance "$instance" --duration-s "$held_s" > "$out/held-$topic.jsonl" &
+        recorders+=($!)
+    done
+    pids+=("${recorders[@]}")
+    wait "${recorders[@]}" || true
+    local resumed=0
+    for _ in $(seq 100); do
+        if "$bin/vservoctl" resume --instance "$instance" > "$out/resume.txt" 2>&1; then
+            resumed=1
+            break
+        fi
+        sleep 0.2
+    done
+    "$python" scripts/held_summary.py "$out" "$resumed" > "$out/held.json"
+}
+
+# record_run INSTANCE DURATION OUT [commands]: once vservod has claimed the instance (OUT/vservod.log says it
+# starts the nodes) and its nodes have made their services (at most 20 s each), records DURATION seconds of
+# features to OUT/features.jsonl — from the first frame on — and, with `commands`, the rmrc's joint commands to
+# OUT/commands.jsonl (for the capture → command latency); then the status to OUT/status.txt. No client of the
+# instance is made before the claim: one would find the last run's prefix and make its shared memory first.
+record_run() {
+    local instance="$1" duration="$2" out="$3"
+    wait_for_cell "$instance" "$out"
     "$bin/vservoctl" echo features --instance "$instance" --duration-s "$duration" > "$out/features.jsonl" &
     local features=$!
     pids+=("$features")

@@ -36,30 +36,76 @@ fn camera_processes() -> Vec<u32> {
         .collect()
 }
 
-/// `scripts/run-pybullet.sh --json` on the xArm6, the Panda, the iiwa and a UR5e, the README's way to try it; nothing of
-/// the driver outlives the run (its camera process ends with it).
+/// The run's commands as the arm's controller would see them (scripts/command_limits.py: the largest commanded speed,
+/// acceleration and jerk per period, each as a share of the arm's own limit): every one within the limits, and
+/// enough of them consecutive to measure.
+fn assert_commands_within_the_arms_limits(arm: &str, summary: &serde_json::Value) {
+    let share = |key: &str| summary[key].as_f64().unwrap_or_else(|| panic!("{arm}: {key} in {summary}"));
+    assert!(share("consecutive_triples") > 1000.0, "{arm}: too few consecutive commands: {summary}");
+    for key in ["max_velocity_ratio", "max_acceleration_ratio", "max_jerk_ratio"] {
+        assert!(share(key) <= 1.0, "{arm}: {key} {} over the limit: {summary}", share(key));
+    }
+    // the arm moved with the limits in force, not in a crawl that keeps any limit
+    assert!(share("max_jerk_ratio") > 0.5, "{arm}: {summary}");
+}
+
+/// A cell that started held (`--held-s`): while held its servo published twists (the premise: it ran) that were
+/// all zero, the rmrc answered every joint state with a zero velocity, the arm stood still (PyBullet's own drift
+/// under a zero command aside), and the resume was taken.
+fn assert_held_until_resumed(summary: &serde_json::Value) {
+    let number = |key: &str| summary[key].as_f64().unwrap_or_else(|| panic!("{key} in {summary}"));
+    assert!(number("held_twists") >= 15.0 && number("held_commands") >= 1000.0, "ran while held: {summary}");
+    assert_eq!(number("held_max_twist"), 0.0, "{summary}");
+    assert_eq!(number("held_max_command_rad_s"), 0.0, "{summary}");
+    assert!(number("held_joint_motion_rad") < 1e-4, "{summary}");
+    assert_eq!(summary["resumed"], true, "{summary}");
+    let reply = summary["resume_reply"].as_str().unwrap_or("");
+    assert!(reply.contains("start_held"), "{summary}");
+}
+
+/// `scripts/run-pybullet.sh --json` on every arm of config/arms/ that has a URDF (the xArm6, the Panda, the FR3,
+/// the iiwa and a UR5e), the README's way to try it: each converges, and its commanded joint stream (`vservoctl echo
+/// joint_command`) stays within that arm's own velocity, acceleration and jerk limits; nothing of the driver outlives
+/// the run (its camera process ends with it).
 #[test]
-fn run_pybullet_with_the_xarm6_the_panda_the_iiwa_and_a_ur5e_converges_below_one_pixel() {
+fn run_pybullet_with_every_arm_file_converges_below_one_pixel_within_the_arms_limits() {
     let _one = exclusive();
     let urdf = pybullet_data().join("xarm/xarm6_robot.urdf");
     assert!(urdf.exists(), "{}", urdf.display());
     let urdf = urdf.display().to_string();
     // each arm at its own rate, as its configuration gives it (timing.control_period_s): the xArm at 250 Hz
-    run_script_to_convergence("run-pybullet.sh", &["--urdf", &urdf, "--config", "config/arms/xarm6.toml"]);
+    let xarm6 = run_script_to_convergence(
+        "run-pybullet.sh",
+        &["--urdf", &urdf, "--config", "config/arms/xarm6.toml"],
+    );
+    assert_commands_within_the_arms_limits("xarm6", &xarm6);
     let overlay = std::fs::read_to_string(repository_root().join("target/pybullet-run/pybullet.toml"))
         .expect("the run's overlay");
     assert!(overlay.contains("period_s = 0.004"), "{overlay}");
-    // seven joints: the Panda at its own rate, 1 kHz
+    // seven joints: the Panda (FER) at its own rate, 1 kHz, within Franka's published limits
     let panda = pybullet_data().join("franka_panda/panda.urdf").display().to_string();
-    run_script_to_convergence("run-pybullet.sh", &["--urdf", &panda, "--config", "config/arms/panda.toml"]);
+    let summary = run_script_to_convergence(
+        "run-pybullet.sh",
+        &["--urdf", &panda, "--config", "config/arms/panda.toml"],
+    );
+    assert_commands_within_the_arms_limits("panda", &summary);
+    // the FR3, from its own files: jerk 5000 rad/s³ and acceleration 10 rad/s² per joint; its cell starts held, as
+    // a real arm's: for 2 s nothing moves and no twist or command but zero is sent, then `vservoctl resume`
+    let fr3 = ["--urdf", "config/arms/fr3.urdf", "--config", "config/arms/fr3.toml", "--held-s", "2"];
+    let summary = run_script_to_convergence("run-pybullet.sh", &fr3);
+    assert_commands_within_the_arms_limits("fr3", &summary);
+    assert_held_until_resumed(&summary);
     // a second seven-joint arm with a configuration file only: the KUKA LBR iiwa of pybullet_data
     let iiwa = pybullet_data().join("kuka_iiwa/model.urdf").display().to_string();
-    run_script_to_convergence("run-pybullet.sh", &["--urdf", &iiwa, "--config", "config/arms/iiwa.toml"]);
+    let summary =
+        run_script_to_convergence("run-pybullet.sh", &["--urdf", &iiwa, "--config", "config/arms/iiwa.toml"]);
+    assert_commands_within_the_arms_limits("iiwa", &summary);
     // another arm with nothing but its files: a UR5e (its URDF written from its DH parameters) at 500 Hz
-    run_script_to_convergence(
+    let summary = run_script_to_convergence(
         "run-pybullet.sh",
         &["--urdf", "config/arms/ur5e.urdf", "--config", "config/arms/ur5e.toml"],
     );
+    assert_commands_within_the_arms_limits("ur5e", &summary);
     assert!(
         wait_until(Duration::from_secs(3), || camera_processes().is_empty()),
         "camera processes left behind: {:?}",

@@ -1,0 +1,193 @@
+//! The client against a scripted in-process robot: version refusals, a malformed first state, franka-sim's
+//! padded 16-byte responses interleaved with another id, newest-state selection, and an abort.
+
+use std::io::{Read, Write};
+use std::net::{SocketAddr, TcpListener, TcpStream, UdpSocket};
+use std::thread;
+use std::time::Duration;
+
+use vservo_franka::client::ConnectError;
+use vservo_franka::{
+    Connection, ControllerMode, DecodeError, JointVelocityCommand, MotionGeneratorMode, MotionOutcome,
+    MotionPhase, MoveStatus, RecvStateError, RobotCommand, RobotError, RobotErrors, RobotMode, RobotState,
+    SendCommandError,
+};
+
+const T: Duration = Duration::from_secs(2);
+
+/// The robot's side of one connection: its TCP stream, its UDP socket, the client's UDP address.
+struct Robot {
+    tcp: TcpStream,
+    udp: UdpSocket,
+    client_udp: SocketAddr,
+}
+
+impl Robot {
+    fn read_frame(&mut self) -> (u32, u32, Vec<u8>) {
+        let mut header = [0u8; 12];
+        self.tcp.read_exact(&mut header).expect("robot reads a header");
+        let word = |i: usize| u32::from_le_bytes([header[i], header[i + 1], header[i + 2], header[i + 3]]);
+        let mut body = vec![0u8; word(8) as usize - 12];
+        self.tcp.read_exact(&mut body).expect("robot reads a body");
+        (word(0), word(4), body)
+    }
+
+    fn respond(&mut self, command: u32, id: u32, body: &[u8]) {
+        let size = (12 + body.len()) as u32;
+        let mut frame = Vec::new();
+        for w in [command, id, size] {
+            frame.extend_from_slice(&w.to_le_bytes());
+        }
+        frame.extend_from_slice(body);
+        self.tcp.write_all(&frame).expect("robot writes a response");
+    }
+
+    fn send_state(&self, state: &RobotState) {
+        self.udp.send_to(&state.encode(), self.client_udp).expect("robot sends a state");
+    }
+}
+
+/// Accepts one client, reads its Connect, answers `status`/`version`, and hands the robot to `script`.
+fn fake_robot(
+    status: u8,
+    version: u16,
+    script: impl FnOnce(&mut Robot) + Send + 'static,
+) -> (SocketAddr, thread::JoinHandle<()>) {
+    let listener = TcpListener::bind("127.0.0.1:0").expect("bind TCP");
+    let addr = listener.local_addr().expect("local addr");
+    let handle = thread::spawn(move || {
+        let (tcp, peer) = listener.accept().expect("accept");
+        tcp.set_nodelay(true).expect("no Nagle: each response goes out at once");
+        let udp = UdpSocket::bind("127.0.0.1:0").expect("bind UDP");
+        let mut robot = Robot { tcp, udp, client_udp: peer };
+        let (command, id, body) = robot.read_frame();
+        assert_eq!((command, body.len()), (0, 4), "Connect request");
+        assert_eq!(u16::from_le_bytes([body[0], body[1]]), 10, "client announces version 10");
+        robot.client_udp = SocketAddr::new(peer.ip(), u16::from_le_bytes([body[2], body[3]]));
+        let v = version.to_le_bytes();
+        robot.respond(0, id, &[status, v[0], v[1]]);
+        script(&mut robot);
+    });
+    (addr, handle)
+}
+
+#[test]
+fn a_server_of_another_version_is_refused_naming_both_versions() {
+    let (addr, robot) = fake_robot(0, 9, |_| {});
+    let err = Connection::connect(addr, T).expect_err("version 9 refused");
+    assert!(matches!(err, ConnectError::VersionMismatch { server: 9, client: 10, .. }), "{err:?}");
+    let text = err.to_string();
+    assert!(text.contains("version 9") && text.contains("version 10"), "{text}");
+    robot.join().expect("robot thread");
+
+    let (addr, robot) = fake_robot(1, 11, |_| {});
+    let err = Connection::connect(addr, T).expect_err("incompatible refused");
+    assert!(matches!(err, ConnectError::IncompatibleVersion { server: 11, client: 10, .. }), "{err:?}");
+    robot.join().expect("robot thread");
+}
+
+#[test]
+fn a_short_first_state_is_refused_naming_both_sizes() {
+    let (addr, robot) = fake_robot(0, 10, |r| {
+        r.udp.send_to(&[0u8; 1376], r.client_udp).expect("send");
+    });
+    let err = Connection::connect(addr, T).expect_err("short state refused");
+    match &err {
+        ConnectError::FirstState(RecvStateError::Malformed { source, .. }) => {
+            assert_eq!(*source, DecodeError::WrongSize { what: "RobotState", got: 1376, expected: 1377 });
+        }
+        other => panic!("unexpected {other:?}"),
+    }
+    let text = err.to_string();
+    assert!(text.contains("1376") && text.contains("1377"), "{text}");
+    robot.join().expect("robot thread");
+}
+
+fn running(id: u64) -> RobotState {
+    RobotState {
+        robot_mode: RobotMode::Move,
+        motion_generator_mode: MotionGeneratorMode::JointVelocity,
+        controller_mode: ControllerMode::JointImpedance,
+        control_command_success_rate: 1.0,
+        ..RobotState::idle(id)
+    }
+}
+
+#[test]
+fn a_motion_with_padded_interleaved_responses_newest_state_and_an_abort() {
+    let (addr, robot) = fake_robot(0, 10, |r| {
+        r.send_state(&RobotState::idle(1));
+        let (command, move_id, body) = r.read_frame();
+        assert_eq!((command, body.len()), (1, 113), "Move request");
+        assert_eq!(&body[0..8], &[0, 0, 0, 0, 1, 0, 0, 0], "joint impedance, joint velocity");
+        r.respond(2, move_id + 100, &[0, 0, 0, 0]); // a frame for another id first
+        r.respond(1, move_id, &[1, 0, 0, 0]); // kMotionStarted, padded to 16 bytes like franka-sim
+        thread::sleep(Duration::from_millis(20));
+        r.send_state(&running(2));
+        let mut buf = [0u8; 2048];
+        let (n, _) = r.udp.recv_from(&mut buf).expect("command");
+        let command = RobotCommand::decode(&buf[..n]).expect("a 371-byte command");
+        assert_eq!(command.message_id, 2);
+        assert_eq!(command.dq_c[0], 0.01);
+        r.send_state(&running(3));
+        r.send_state(&running(4));
+        thread::sleep(Duration::from_millis(100));
+        let errors = RobotErrors::NONE.with(RobotError::JointMotionGeneratorAccelerationDiscontinuity);
+        r.send_state(&RobotState {
+            robot_mode: RobotMode::Reflex,
+            motion_generator_mode: MotionGeneratorMode::Idle,
+            controller_mode: ControllerMode::Other,
+            errors,
+            reflex_reason: errors,
+            ..RobotState::idle(5)
+        });
+        r.respond(1, move_id, &[8, 0, 0, 0]); // kReflexAborted
+        let (command, aer_id, body) = r.read_frame();
+        assert_eq!((command, body.len()), (10, 0), "AutomaticErrorRecovery request");
+        r.respond(10, aer_id, &[0, 0, 0, 0]);
+        r.send_state(&RobotState::idle(6));
+    });
+
+    let mut conn = Connection::connect(addr, T).expect("connect");
+    assert_eq!(conn.server_version(), 10);
+    assert_eq!(conn.first_state().message_id, 1);
+    let idle = conn.first_state().clone();
+    assert!(matches!(
+        conn.send_command(&idle, &JointVelocityCommand::new([0.0; 7])),
+        Err(SendCommandError::NoActiveMotion)
+    ));
+    let state = conn.start_joint_velocity_motion(T).expect("motion starts");
+    assert_eq!(state.message_id, 2);
+    assert_eq!(MotionPhase::of(&state), MotionPhase::Running);
+    let bad = JointVelocityCommand::new([f64::INFINITY, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]);
+    assert!(matches!(conn.send_command(&state, &bad), Err(SendCommandError::NonFinite { joint: 0, .. })));
+    let dq = [0.01, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0];
+    conn.send_command(&state, &JointVelocityCommand::new(dq)).expect("command sent");
+    thread::sleep(Duration::from_millis(50));
+    let newest = conn.recv_state(T).expect("state");
+    assert_eq!(newest.message_id, 4, "state 3 was queued behind 4 and dropped");
+    assert!(matches!(
+        conn.send_command(&state, &JointVelocityCommand::new(dq)),
+        Err(SendCommandError::StaleState { answered: 2, newest: 4 })
+    ));
+    let aborted = conn.recv_state(T).expect("state");
+    assert_eq!(
+        MotionPhase::of(&aborted),
+        MotionPhase::Aborted {
+            errors: RobotErrors::NONE.with(RobotError::JointMotionGeneratorAccelerationDiscontinuity)
+        }
+    );
+    let outcome = conn.motion_result(T).expect("Move final response");
+    match outcome {
+        MotionOutcome::Aborted { status, errors, .. } => {
+            assert_eq!(status, MoveStatus::ReflexAborted);
+            assert_eq!(errors.names(), ["joint_motion_generator_acceleration_discontinuity"]);
+        }
+        other => panic!("unexpected {other:?}"),
+    }
+    assert!(!conn.motion_active());
+    conn.automatic_error_recovery(T).expect("recovery");
+    // A huge timeout saturates instead of overflowing `Instant` (no panic).
+    assert_eq!(conn.recv_state(Duration::MAX).expect("state").robot_mode, RobotMode::Idle);
+    robot.join().expect("robot thread");
+}
