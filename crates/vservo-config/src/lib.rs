@@ -88,6 +88,8 @@ pub struct Config {
     pub viewer: Viewer,
     /// `[ros2]`: the bridge to a ROS 2 graph.
     pub ros2: Ros2,
+    /// `[franka]`: the Franka driver's settings, with `robot.driver = "franka"` (none otherwise).
+    pub franka: Option<Franka>,
     /// `[camera.gstreamer]`: the GStreamer camera driver's settings, if the file has them.
     pub gstreamer: Option<GstreamerCamera>,
     /// `[calibration]`: the calibration board and poses, if the file has them.

@@ -33,6 +33,8 @@ pub struct RawConfig {
     #[serde(default)]
     pub ros2: RawRos2,
     #[serde(default)]
+    pub franka: Option<RawFranka>,
+    #[serde(default)]
     pub target: RawTarget,
     #[serde(default)]
     pub calibration: Option<RawCalibration>,
@@ -569,6 +571,33 @@ pub enum RawRobotDriver {
     Simulated,
     External,
     Ros2,
+    Franka,
+}
+
+/// `[franka]`: the Franka driver (`robot.driver = "franka"`).
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct RawFranka {
+    pub address: String,
+    pub port: i64,
+    pub simulator: bool,
+    pub limit_rate: bool,
+    pub answer_within_s: f64,
+    pub hold_after_s: f64,
+}
+
+/// config/vservo.toml's documented defaults.
+impl Default for RawFranka {
+    fn default() -> Self {
+        Self {
+            address: "172.16.0.2".to_string(),
+            port: 1337,
+            simulator: false,
+            limit_rate: true,
+            answer_within_s: 0.0005,
+            hold_after_s: 0.02,
+        }
+    }
 }
 
 /// `controller.law`.

@@ -214,6 +214,24 @@ impl Robot {
     }
 }
 
+/// `[franka]`: the Franka driver (`vservo-franka`, which vservod starts with `robot.driver = "franka"`): the
+/// robot's FCI address and how the driver guards the robot's limits.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Franka {
+    /// The robot's (or franka-sim's) FCI address.
+    pub address: std::net::SocketAddr,
+    /// A simulator (franka-sim), not a robot: the simulated camera may then render the board from the measured
+    /// joints (`camera.source = "simulated"`).
+    pub simulator: bool,
+    /// The driver's last guard (libfranka's `limit_rate`): each command's acceleration and jerk kept within the
+    /// arm's limits, whatever the rmrc's timing (a late answer repeats a sample).
+    pub limit_rate: bool,
+    /// How long after a robot state the driver waits for the rmrc's answer before sending (s).
+    pub answer_within_s: f64,
+    /// No valid command from the rmrc for this long: the driver brings the arm to rest and holds (s).
+    pub hold_after_s: f64,
+}
+
 /// Who drives the arm.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Deserialize)]
 #[serde(rename_all = "lowercase")]

@@ -1,7 +1,8 @@
 //! The helper processes vservod starts when the configuration asks for them, restarts if they end and stops
 //! with the cell: the live view (`[viewer] enabled = true`: `vservoctl view` on the configured address and
 //! port), the ROS 2 bridge (`[ros2] enabled = true`: `vservo-ros2`) and the ROS 2 driver (`[robot] driver` or
-//! `[camera] source` = `"ros2"`: `vservo-ros2 --driver`), all installed next to vservod. The viewer and the
+//! `[camera] source` = `"ros2"`: `vservo-ros2 --driver`) and the Franka driver (`[robot] driver = "franka"`:
+//! `vservo-franka`), all installed next to vservod. The viewer and the
 //! bridge are clients of the instance like any other: they read with iceoryx2's safe overflow, so a slow or
 //! absent helper never slows the loop, and its failure is a warning, never a fault of the cell.
 
@@ -77,6 +78,13 @@ impl Helper {
     pub fn ros2_driver(settings: &vservo_config::Ros2, launch: &Launch) -> Self {
         let args = ["--driver".to_string(), "--daemon-pid".to_string(), std::process::id().to_string()];
         Self::start("the ROS 2 driver", launch.command(settings.driver.runs(), "vservo-ros2", &args))
+    }
+
+    /// The Franka driver (`vservo-franka`), started with `[robot] driver = "franka"`; it ends with this daemon
+    /// (bringing the arm to rest and ending its motion). The cell's driver, as the ROS 2 driver is.
+    pub fn franka_driver(franka: Option<&vservo_config::Franka>, launch: &Launch) -> Self {
+        let args = ["--daemon-pid".to_string(), std::process::id().to_string()];
+        Self::start("the Franka driver", launch.command(franka.is_some(), "vservo-franka", &args))
     }
 
     fn start(what: &'static str, command: Option<Command>) -> Self {

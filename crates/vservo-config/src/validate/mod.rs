@@ -8,6 +8,7 @@ mod camera;
 mod checker;
 mod controller;
 mod desired;
+mod franka;
 mod motion;
 mod object;
 mod operation;
@@ -61,10 +62,12 @@ pub fn validate(raw: RawConfig, file: &str) -> Result<Config, ConfigError> {
         raw.robot.driver,
     )?;
     let joint_servo = simulation::joint_servo(&check, &raw.joint_servo)?;
+    let interpolator_jerk = (interpolator.jerk_limit, arm.joint_count());
     let scenario = scenario::scenario(&check, &raw.scenario)?;
     let robot = robot::robot(&check, &raw.robot, &plant, &timing)?;
     let reacquire = operation::reacquire(&check, &raw.reacquire, &robot, timing.vision_period_s)?;
-    robot::driver_and_camera_agree(&check, &raw.robot, &robot, &vision.source)?;
+    let franka_simulator = raw.franka.as_ref().is_some_and(|f| f.simulator);
+    robot::driver_and_camera_agree(&check, &raw.robot, &robot, (&vision.source, franka_simulator))?;
     Ok(Config {
         origin: file.to_string(),
         instance,
@@ -90,6 +93,7 @@ pub fn validate(raw: RawConfig, file: &str) -> Result<Config, ConfigError> {
         reacquire,
         viewer: operation::viewer(&check, &raw.viewer)?,
         ros2,
+        franka: franka::franka(&check, &raw.robot, raw.franka.as_ref(), &interpolator_jerk)?,
         gstreamer: raw.camera.gstreamer.as_ref().map(|g| camera::gstreamer(&check, g)).transpose()?,
         calibration,
     })

@@ -44,7 +44,7 @@ pub fn robot(
 fn driver(raw: RawRobotDriver) -> RobotDriver {
     match raw {
         RawRobotDriver::Simulated => RobotDriver::Simulated,
-        RawRobotDriver::External | RawRobotDriver::Ros2 => RobotDriver::External,
+        RawRobotDriver::External | RawRobotDriver::Ros2 | RawRobotDriver::Franka => RobotDriver::External,
     }
 }
 
@@ -88,6 +88,14 @@ fn command(check: &Checker, r: &RawRobot, plant: &PlantSettings) -> Result<Comma
             )),
             declared => Ok(declared.unwrap_or(CommandInterface::Velocity)),
         },
+        RawRobotDriver::Franka => match r.command {
+            None | Some(CommandInterface::Velocity) => Ok(CommandInterface::Velocity),
+            Some(declared) => Err(check.invalid(
+                "robot.command",
+                format!("{:?}", declared.name()),
+                "the Franka driver runs a joint-velocity motion: \"velocity\" (or leave it out)",
+            )),
+        },
         RawRobotDriver::External => r.command.ok_or_else(|| {
             check.invalid(
                 "robot.command",
@@ -99,6 +107,9 @@ fn command(check: &Checker, r: &RawRobot, plant: &PlantSettings) -> Result<Comma
 }
 
 /// `robot.period_s`: an external driver's, 10 kHz to 10 Hz; the simulated driver's is the control period.
+/// The Franka's FCI sends a robot state every millisecond.
+const FRANKA_PERIOD_S: f64 = 0.001;
+
 fn period_s(check: &Checker, r: &RawRobot, timing: &Timing) -> Result<f64, ConfigError> {
     match (r.driver, r.period_s) {
         (RawRobotDriver::Simulated, Some(p)) if p != timing.control_period_s => Err(check.invalid(
@@ -109,6 +120,12 @@ fn period_s(check: &Checker, r: &RawRobot, timing: &Timing) -> Result<f64, Confi
                 timing.control_period_s
             ),
         )),
+        (RawRobotDriver::Franka, Some(p)) if p != FRANKA_PERIOD_S => Err(check.invalid(
+            "robot.period_s",
+            p,
+            "the Franka's FCI runs at 1 kHz: 0.001 s (or leave it out)",
+        )),
+        (RawRobotDriver::Franka, _) => Ok(FRANKA_PERIOD_S),
         (_, Some(p)) => {
             let p = check.positive("robot.period_s", p)?;
             if !(1e-4..=0.1).contains(&p) {
@@ -125,13 +142,14 @@ fn period_s(check: &Checker, r: &RawRobot, timing: &Timing) -> Result<f64, Confi
 }
 
 /// What the simulated driver and camera can do: the PUMA 560's dynamics, any other arm's kinematics, and a
-/// simulated world the simulated camera sees, which an external driver has none of. An arm without a
-/// dynamics model cannot take torques.
+/// simulated world the simulated camera sees, which an external driver has none of (but for franka-sim:
+/// `simulator`, whose arm the simulated camera sees by its measured joints). An arm without a dynamics model
+/// cannot take torques.
 pub fn driver_and_camera_agree(
     check: &Checker,
     r: &RawRobot,
     robot: &Robot,
-    source: &VisionSource,
+    (source, simulator): (&VisionSource, bool),
 ) -> Result<(), ConfigError> {
     let preset = match r.arm.preset {
         RawArmPreset::Puma560 => "puma560",
@@ -157,7 +175,9 @@ pub fn driver_and_camera_agree(
             "an arm from a URDF has no dynamics model in vservo: its driver must take \"velocity\" or \"position\"",
         ));
     }
-    if *source == VisionSource::Simulated && robot.driver == RobotDriver::External {
+    // franka-sim, not a robot: vservo's simulated camera renders the board from the arm's measured joints
+    let simulated_franka = r.driver == RawRobotDriver::Franka && simulator;
+    if *source == VisionSource::Simulated && robot.driver == RobotDriver::External && !simulated_franka {
         return Err(check.invalid(
             "camera.source",
             "\"simulated\"",

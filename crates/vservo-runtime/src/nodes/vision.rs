@@ -9,6 +9,7 @@
 
 use iceoryx2::port::publisher::Publisher;
 use iceoryx2::prelude::ipc;
+use nalgebra::IsometryMatrix3;
 use vservo_arm::JointVector;
 use vservo_cell::{DeliveredFrame, VisionStage};
 use vservo_config::VisionSource;
@@ -372,24 +373,32 @@ fn run_simulated_camera(
     let ticks_per_frame = u64::from(context.cell.config().timing.control_ticks_per_frame);
     let mut capture = CaptureTicks { ticks_per_frame, next_tick: None };
     let (mut frame, mut previous_capture_ns) = (0u64, 0);
-    let mut world: Option<SimWorldMsg> = None;
+    // the simulated plant moves the board (sim_world); an external simulated arm (franka-sim) has none, and the
+    // board stands where the configuration places it
+    let config = context.cell.config();
+    let mut world: Option<IsometryMatrix3<f64>> = (config.robot.driver
+        == vservo_config::RobotDriver::External)
+        .then(|| config.base_from_board(context.cell.arm()));
     while !context.stopping() && !context.orphaned() {
         let _ = state_listener.timed_wait(|_| {}, IDLE_WAIT);
         let woke_at = monotonic_ns();
         if let Some(newest) = latest(&world_subscriber, counters) {
-            world = Some(newest);
+            world = pose_from_wire(&newest.base_from_board);
+            if world.is_none() {
+                counters.rejected();
+            }
         }
         // no plant yet (or a restart under way), or not yet the capture tick: no image to take
-        let (Some(state), Some(world)) = (capture.due(state_subscriber, counters), world) else { continue };
+        let (Some(state), Some(base_from_board)) = (capture.due(state_subscriber, counters), world) else {
+            continue;
+        };
         capture.taken(&state, counters);
         // the frame processed during the last period leaves the pipeline now, before the new image is taken
         if let Some(delivered) = stage.take_delivered() {
             out.publish(&delivered);
         }
         let q = joints_from_wire(&state.q_rad, crate::wire::wire_joint_count(context.cell.arm()));
-        let Some(base_from_board) =
-            pose_from_wire(&world.base_from_board).filter(|_| q.iter().all(|v| v.is_finite()))
-        else {
+        let Some(base_from_board) = Some(base_from_board).filter(|_| q.iter().all(|v| v.is_finite())) else {
             counters.rejected();
             continue;
         };

@@ -111,6 +111,7 @@ pub fn diff(old: &Config, new: &Config) -> ConfigDiff {
         reacquire,
         viewer,
         ros2,
+        franka,
         // read by the GStreamer camera driver at its start, not by the daemon
         gstreamer: _,
         // read by `vservoctl calibrate`; a board printed on the simulated object is in `board`
@@ -161,6 +162,7 @@ pub fn diff(old: &Config, new: &Config) -> ConfigDiff {
     let ros2_keys = fields!("ros2", ros2, new.ros2; enabled, domain_id, namespace, interface, publish,
         image_every, allow_motion);
     section(r, "ros2", ros2 != &new.ros2, &ros2_keys);
+    section(r, "franka", franka != &new.franka, &[]);
     ConfigDiff { live, restart_only: restart }
 }
 

@@ -121,6 +121,7 @@ struct Daemon {
     viewer: Helper,
     ros2_bridge: Helper,
     ros2_driver: Helper,
+    franka_driver: Helper,
     nodes: Vec<Supervised>,
     /// Who holds each stream's writer slot.
     streams: StreamWatch,
@@ -223,6 +224,7 @@ impl Daemon {
         let viewer = Helper::viewer(&config.viewer, &launch);
         let ros2_bridge = Helper::ros2_bridge(&config.ros2, &launch);
         let ros2_driver = Helper::ros2_driver(&config.ros2, &launch);
+        let franka_driver = Helper::franka_driver(config.franka.as_ref(), &launch);
         let now = Instant::now();
         Ok(Self {
             settings,
@@ -238,6 +240,7 @@ impl Daemon {
             viewer,
             ros2_bridge,
             ros2_driver,
+            franka_driver,
             nodes,
             streams,
             heard: LoopHeard::default(),
@@ -256,6 +259,7 @@ impl Daemon {
         self.viewer.poll();
         self.ros2_bridge.poll();
         self.ros2_driver.poll();
+        self.franka_driver.poll();
         if reload_requested {
             self.reload();
         }
@@ -487,8 +491,9 @@ impl Daemon {
             self.settings.stop_timeout,
             self.safety.monitor(),
         );
-        // the ROS 2 driver last: it carries the ramp to rest to the arm, then commands rest as it ends
+        // the arm's drivers last: they carry the ramp to rest to the arm, then command rest as they end
         self.ros2_driver.stop();
+        self.franka_driver.stop();
         let cleaned = vservo_protocol::cleanup_dead_nodes(&self.node);
         if cleaned > 0 {
             tracing::info!(cleaned, "removed the leftovers of nodes that did not stop cleanly");

@@ -1,0 +1,27 @@
+//! # vservo-driver — the robot driver's side of the contract
+//!
+//! docs/DRIVERS.md's rules for a robot driver, written once as a pure, clock-free state machine
+//! ([`DriverSide`]) that a driver process feeds with what it sees and the times it sees it at:
+//! - the driver's run: its `driver_epoch` (its start) and `period_ns`;
+//! - **command admission**, with one age window ([`MAX_COMMAND_AGE_TICKS`]): a `joint_command` is taken only if it
+//!   is of this schema, this run (epoch), the declared command mode and joint count, answers one of the last
+//!   [`MAX_COMMAND_AGE_TICKS`] + 1 joint states published, and is finite; each refusal is a [`CommandRefused`]
+//!   that names its cause;
+//! - **holding**: no command taken for `hold_after_ns` (vservo gone, stalled or refusing) and the driver holds
+//!   the arm at rest, saying so in `driver_status`;
+//! - **`applied_command_tick`**: each joint state reports the `answers_tick` of the command applied over the
+//!   period that ended with it (2⁶⁴−1 while holding);
+//! - **the period check**: the median of the last [`PERIOD_CHECK_GAPS`] gaps between the states' stamps must be
+//!   the configured period's (within −25 % and +50 %), else the driver reports a fault and holds;
+//! - the position- and velocity-limit bits of `faults`.
+//!
+//! What the arm is and how it is commanded (a robot's network protocol, a simulator) stays in the driver; no
+//! I/O, clock or allocation here. The Franka driver (`vservo-franka`) is its first user.
+
+mod period;
+mod side;
+
+pub use period::{PERIOD_CHECK_GAPS, PeriodCheck};
+pub use side::{
+    CommandRefused, DriverCounts, DriverSettings, DriverSide, InForce, MAX_COMMAND_AGE_TICKS, Measured,
+};

@@ -1,0 +1,429 @@
+//! [`DriverSide`]: what a robot driver does with the rmrc's commands and its own joint states.
+
+use vservo_protocol::messages::fault_bits;
+use vservo_protocol::{
+    CommandMode, DriverStatus, JointCommandMsg, JointStateMsg, MAX_JOINTS, SCHEMA_VERSION,
+};
+
+use crate::period::PeriodCheck;
+
+/// A command must answer the joint state last published or one of the two before it (docs/DRIVERS.md, "When to
+/// read the command"): the one age window, whatever the driver and however long it was silent.
+pub const MAX_COMMAND_AGE_TICKS: u64 = 2;
+
+/// What the driver is and what it declares.
+#[derive(Debug, Clone, PartialEq)]
+pub struct DriverSettings {
+    /// The command it takes (`command_mode`).
+    pub mode: CommandMode,
+    /// The arm's joints (6 or 7).
+    pub joint_count: usize,
+    /// Its period (ns): `[robot] period_s`.
+    pub period_ns: u64,
+    /// No command taken for this long: hold (ns).
+    pub hold_after_ns: u64,
+    /// Each joint's lowest angle (rad), for the position-limit bits.
+    pub position_min_rad: [f64; MAX_JOINTS],
+    /// Each joint's highest angle (rad).
+    pub position_max_rad: [f64; MAX_JOINTS],
+    /// Each joint's speed limit (rad/s), for the velocity-limit bits.
+    pub velocity_max_rad_s: [f64; MAX_JOINTS],
+}
+
+/// Why a `joint_command` is not taken.
+#[derive(Debug, Clone, Copy, PartialEq, thiserror::Error)]
+pub enum CommandRefused {
+    /// Another schema's message (docs/PROTOCOL.md's changelog).
+    #[error("schema {found}, not this driver's {SCHEMA_VERSION}")]
+    Schema {
+        /// Its schema.
+        found: u32,
+    },
+    /// It answers another run of the driver (`driver_epoch`): a restarted driver's old commands.
+    #[error("it answers another run of the driver (epoch {found}, this run's {expected})")]
+    Epoch {
+        /// Its epoch.
+        found: u64,
+        /// This run's.
+        expected: u64,
+    },
+    /// Another command mode than the one declared.
+    #[error("command mode {found}, not the declared {expected}")]
+    Mode {
+        /// Its mode code.
+        found: u32,
+        /// The declared one's.
+        expected: u32,
+    },
+    /// Another arm's number of joints.
+    #[error("{found} joints, not the arm's {expected}")]
+    JointCount {
+        /// Its joint count.
+        found: u32,
+        /// The arm's.
+        expected: usize,
+    },
+    /// It answers a joint state not published yet, or came before any was.
+    #[error("it answers tick {answers}, which was not published (the last: {last_tick:?})")]
+    NotPublished {
+        /// The tick it answers.
+        answers: u64,
+        /// The last tick published.
+        last_tick: Option<u64>,
+    },
+    /// It answers a state older than [`MAX_COMMAND_AGE_TICKS`] before the last published (also after the
+    /// driver's own silence: it is as old as its tick says).
+    #[error(
+        "it answers tick {answers}, more than {MAX_COMMAND_AGE_TICKS} before the last published, {last_tick}"
+    )]
+    TooOld {
+        /// The tick it answers.
+        answers: u64,
+        /// The last tick published.
+        last_tick: u64,
+    },
+    /// A value the driver would apply is not a finite number.
+    #[error("joint {} is not a finite number", .joint + 1)]
+    NotFinite {
+        /// The joint (zero-based).
+        joint: usize,
+    },
+}
+
+impl CommandRefused {
+    /// The kind of refusal, for a log that says each kind once and counts the rest.
+    pub fn kind(&self) -> &'static str {
+        match self {
+            CommandRefused::Schema { .. } => "schema",
+            CommandRefused::Epoch { .. } => "epoch",
+            CommandRefused::Mode { .. } => "mode",
+            CommandRefused::JointCount { .. } => "joint count",
+            CommandRefused::NotPublished { .. } => "not published",
+            CommandRefused::TooOld { .. } => "too old",
+            CommandRefused::NotFinite { .. } => "not finite",
+        }
+    }
+}
+
+/// A command taken: the values the driver applies and the state it answers.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct InForce {
+    /// The values of the declared mode (`qd_ref_rad_s`, `q_ref_rad` or `torque_nm`).
+    pub values: [f64; MAX_JOINTS],
+    /// The `tick` it answers.
+    pub answers_tick: u64,
+    /// When it was taken (ns).
+    pub taken_ns: u64,
+}
+
+/// What the driver saw so far.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct DriverCounts {
+    /// Joint states made.
+    pub states: u64,
+    /// Commands taken.
+    pub commands_taken: u64,
+    /// Commands refused.
+    pub commands_refused: u64,
+    /// Periods held (no command in force).
+    pub holds: u64,
+}
+
+/// The driver's side of the contract between its joint states.
+#[derive(Debug, Clone)]
+pub struct DriverSide {
+    settings: DriverSettings,
+    epoch: u64,
+    /// The last state made: its tick and stamp.
+    last: Option<(u64, u64)>,
+    in_force: Option<InForce>,
+    /// The `answers_tick` of the command applied over the period running (2⁶⁴−1: holding).
+    applying: u64,
+    period: PeriodCheck,
+    /// What happened so far.
+    pub counts: DriverCounts,
+}
+
+impl DriverSide {
+    /// A driver run that starts now: `epoch` is its start time (ns), as docs/DRIVERS.md asks.
+    pub fn new(settings: DriverSettings, epoch: u64) -> Self {
+        Self {
+            settings,
+            epoch,
+            last: None,
+            in_force: None,
+            applying: u64::MAX,
+            period: PeriodCheck::default(),
+            counts: DriverCounts::default(),
+        }
+    }
+
+    /// This run's `driver_epoch`.
+    pub fn epoch(&self) -> u64 {
+        self.epoch
+    }
+
+    /// What the driver declares.
+    pub fn settings(&self) -> &DriverSettings {
+        &self.settings
+    }
+
+    /// The tick of the last joint state made.
+    pub fn last_tick(&self) -> Option<u64> {
+        self.last.map(|(tick, _)| tick)
+    }
+
+    /// Takes one of the rmrc's commands, taken at `now_ns`, if the contract admits it.
+    pub fn take_command(&mut self, command: &JointCommandMsg, now_ns: u64) -> Result<(), CommandRefused> {
+        let admitted = self.admit(command);
+        match admitted {
+            Ok(values) => {
+                let answers_tick = command.answers_tick;
+                self.in_force = Some(InForce { values, answers_tick, taken_ns: now_ns });
+                self.counts.commands_taken += 1;
+                Ok(())
+            }
+            Err(refused) => {
+                self.counts.commands_refused += 1;
+                Err(refused)
+            }
+        }
+    }
+
+    fn admit(&self, command: &JointCommandMsg) -> Result<[f64; MAX_JOINTS], CommandRefused> {
+        let s = &self.settings;
+        if command.schema != SCHEMA_VERSION {
+            return Err(CommandRefused::Schema { found: command.schema });
+        }
+        if command.driver_epoch != self.epoch {
+            return Err(CommandRefused::Epoch { found: command.driver_epoch, expected: self.epoch });
+        }
+        if command.mode != s.mode.code() {
+            return Err(CommandRefused::Mode { found: command.mode, expected: s.mode.code() });
+        }
+        if command.joint_count as usize != s.joint_count {
+            return Err(CommandRefused::JointCount { found: command.joint_count, expected: s.joint_count });
+        }
+        let answers = command.answers_tick;
+        let last_tick = match self.last_tick() {
+            Some(last) if answers <= last => last,
+            last_tick => return Err(CommandRefused::NotPublished { answers, last_tick }),
+        };
+        if answers + MAX_COMMAND_AGE_TICKS < last_tick {
+            return Err(CommandRefused::TooOld { answers, last_tick });
+        }
+        let values = match s.mode {
+            CommandMode::Velocity => command.qd_ref_rad_s,
+            CommandMode::Position => command.q_ref_rad,
+            CommandMode::Torque => command.torque_nm,
+        };
+        match values[..s.joint_count].iter().position(|v| !v.is_finite()) {
+            Some(joint) => Err(CommandRefused::NotFinite { joint }),
+            None => Ok(values),
+        }
+    }
+
+    /// The command to apply over the period that starts at `now_ns`: the one in force, if it was taken within
+    /// `hold_after_ns`; `None`: hold the arm at rest. The next joint state reports it.
+    pub fn apply(&mut self, now_ns: u64) -> Option<InForce> {
+        let fresh =
+            self.in_force.filter(|c| now_ns.saturating_sub(c.taken_ns) <= self.settings.hold_after_ns);
+        if fresh.is_none() {
+            self.hold();
+        } else {
+            self.applying = fresh.map_or(u64::MAX, |c| c.answers_tick);
+        }
+        fresh
+    }
+
+    /// Holds the arm whatever came (a fault, the end, the period's mismatch): no command in force.
+    pub fn hold(&mut self) {
+        self.in_force = None;
+        self.applying = u64::MAX;
+        self.counts.holds += 1;
+    }
+
+    /// The median gap between the joint states (ns) when it is not the configured period's: the driver then
+    /// reports a fault and holds the arm.
+    pub fn period_mismatch_ns(&self) -> Option<u64> {
+        self.period.mismatch(self.settings.period_ns)
+    }
+
+    /// The joint state of `tick`, measured at `stamp_ns` (CLOCK_MONOTONIC): the command applied over the
+    /// period that ended with it, the status (a fault when `fault`, or when the period is not the configured
+    /// one; holding when no command was applied) and the limit bits. Ticks must grow.
+    pub fn joint_state(
+        &mut self,
+        tick: u64,
+        stamp_ns: u64,
+        measured: &Measured,
+        fault: bool,
+    ) -> JointStateMsg {
+        if let Some((_, last_ns)) = self.last {
+            self.period.add(stamp_ns.saturating_sub(last_ns));
+        }
+        let status = if fault || self.period_mismatch_ns().is_some() {
+            DriverStatus::Fault
+        } else if self.applying == u64::MAX {
+            DriverStatus::Holding
+        } else {
+            DriverStatus::Following
+        };
+        let s = &self.settings;
+        let state = JointStateMsg {
+            schema: SCHEMA_VERSION,
+            faults: self.limit_bits(&measured.q_rad, &measured.qd_rad_s),
+            tick,
+            stamp_ns,
+            driver_epoch: self.epoch,
+            period_ns: s.period_ns,
+            command_mode: s.mode.code(),
+            driver_status: status.code(),
+            joint_count: s.joint_count as u32,
+            q_rad: measured.q_rad,
+            qd_rad_s: measured.qd_rad_s,
+            torque_nm: measured.torque_nm,
+            applied_command_tick: self.applying,
+            ..JointStateMsg::default()
+        };
+        self.last = Some((tick, stamp_ns));
+        self.counts.states += 1;
+        state
+    }
+
+    /// The position- and velocity-limit bits of the configured arm (docs/DRIVERS.md, `faults`).
+    fn limit_bits(&self, q_rad: &[f64; MAX_JOINTS], qd_rad_s: &[f64; MAX_JOINTS]) -> u32 {
+        let s = &self.settings;
+        (0..s.joint_count).fold(0, |bits, j| {
+            let position = !(q_rad[j] > s.position_min_rad[j] && q_rad[j] < s.position_max_rad[j]);
+            let velocity = !(qd_rad_s[j].abs() <= s.velocity_max_rad_s[j]);
+            bits | (u32::from(position) << (fault_bits::POSITION_LIMIT_SHIFT + j as u32))
+                | (u32::from(velocity) << (fault_bits::VELOCITY_LIMIT_SHIFT + j as u32))
+        })
+    }
+}
+
+/// What the driver measured of the arm at a joint state.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Measured {
+    /// Joint angles (rad).
+    pub q_rad: [f64; MAX_JOINTS],
+    /// Joint speeds (rad/s).
+    pub qd_rad_s: [f64; MAX_JOINTS],
+    /// Joint torques (N·m; NaN where not measured).
+    pub torque_nm: [f64; MAX_JOINTS],
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const MS: u64 = 1_000_000;
+
+    fn side() -> DriverSide {
+        let settings = DriverSettings {
+            mode: CommandMode::Velocity,
+            joint_count: 7,
+            period_ns: MS,
+            hold_after_ns: 20 * MS,
+            position_min_rad: [-2.0; MAX_JOINTS],
+            position_max_rad: [2.0; MAX_JOINTS],
+            velocity_max_rad_s: [1.0; MAX_JOINTS],
+        };
+        DriverSide::new(settings, 42)
+    }
+
+    fn at_rest() -> Measured {
+        Measured { q_rad: [0.0; MAX_JOINTS], qd_rad_s: [0.0; MAX_JOINTS], torque_nm: [f64::NAN; MAX_JOINTS] }
+    }
+
+    fn command(answers_tick: u64, qd: f64) -> JointCommandMsg {
+        JointCommandMsg {
+            schema: SCHEMA_VERSION,
+            mode: CommandMode::Velocity.code(),
+            joint_count: 7,
+            answers_tick,
+            driver_epoch: 42,
+            qd_ref_rad_s: [qd; MAX_JOINTS],
+            ..JointCommandMsg::default()
+        }
+    }
+
+    #[test]
+    fn a_command_is_taken_only_within_the_one_age_window_and_of_this_run() {
+        let mut side = side();
+        assert_eq!(
+            side.take_command(&command(0, 0.1), 0),
+            Err(CommandRefused::NotPublished { answers: 0, last_tick: None })
+        );
+        for tick in 0..10 {
+            side.joint_state(tick, tick * MS, &at_rest(), false);
+        }
+        assert!(side.take_command(&command(9, 0.1), 10 * MS).is_ok());
+        assert!(side.take_command(&command(7, 0.1), 10 * MS).is_ok(), "two ticks old");
+        assert_eq!(
+            side.take_command(&command(6, 0.1), 0),
+            Err(CommandRefused::TooOld { answers: 6, last_tick: 9 })
+        );
+        assert!(matches!(side.take_command(&command(10, 0.1), 0), Err(CommandRefused::NotPublished { .. })));
+        let other_run = JointCommandMsg { driver_epoch: 41, ..command(9, 0.1) };
+        assert_eq!(side.take_command(&other_run, 0), Err(CommandRefused::Epoch { found: 41, expected: 42 }));
+        let position = JointCommandMsg { mode: CommandMode::Position.code(), ..command(9, 0.1) };
+        assert!(matches!(side.take_command(&position, 0), Err(CommandRefused::Mode { .. })));
+        let six = JointCommandMsg { joint_count: 6, ..command(9, 0.1) };
+        assert!(matches!(side.take_command(&six, 0), Err(CommandRefused::JointCount { found: 6, .. })));
+        let mut nan = command(9, 0.1);
+        nan.qd_ref_rad_s[3] = f64::NAN;
+        assert_eq!(side.take_command(&nan, 0), Err(CommandRefused::NotFinite { joint: 3 }));
+        let old = JointCommandMsg { schema: SCHEMA_VERSION - 1, ..command(9, 0.1) };
+        assert!(matches!(side.take_command(&old, 0), Err(CommandRefused::Schema { .. })));
+        assert_eq!(side.counts.commands_taken, 2);
+        assert_eq!(side.counts.commands_refused, 8);
+        // after the driver's own silence a command is as old as its tick says
+        side.joint_state(60, 60 * MS, &at_rest(), false);
+        assert!(matches!(side.take_command(&command(9, 0.1), 61 * MS), Err(CommandRefused::TooOld { .. })));
+    }
+
+    #[test]
+    fn the_applied_command_is_reported_with_the_next_state_and_a_silence_holds() {
+        let mut side = side();
+        let first = side.joint_state(0, 0, &at_rest(), false);
+        assert_eq!(first.applied_command_tick, u64::MAX);
+        assert_eq!(DriverStatus::try_from(first.driver_status), Ok(DriverStatus::Holding));
+        side.take_command(&command(0, 0.5), MS / 2).expect("taken");
+        let applied = side.apply(MS / 2).expect("in force");
+        assert_eq!(applied.values[0], 0.5);
+        let second = side.joint_state(1, MS, &at_rest(), false);
+        assert_eq!(second.applied_command_tick, 0);
+        assert_eq!(DriverStatus::try_from(second.driver_status), Ok(DriverStatus::Following));
+        // no command for longer than hold_after: hold
+        assert!(side.apply(MS / 2 + 21 * MS).is_none());
+        let held = side.joint_state(2, 22 * MS, &at_rest(), false);
+        assert_eq!(held.applied_command_tick, u64::MAX);
+        assert_eq!(DriverStatus::try_from(held.driver_status), Ok(DriverStatus::Holding));
+        let fault = side.joint_state(3, 23 * MS, &at_rest(), true);
+        assert_eq!(DriverStatus::try_from(fault.driver_status), Ok(DriverStatus::Fault));
+    }
+
+    #[test]
+    fn limits_give_their_bits_and_nan_counts_as_outside() {
+        let mut side = side();
+        let mut measured = at_rest();
+        measured.q_rad[1] = 2.5;
+        measured.qd_rad_s[6] = f64::NAN;
+        let state = side.joint_state(0, 0, &measured, false);
+        assert_eq!(fault_bits::joints(state.faults, fault_bits::POSITION_LIMIT_SHIFT), 0b10);
+        assert_eq!(fault_bits::joints(state.faults, fault_bits::VELOCITY_LIMIT_SHIFT), 0b100_0000);
+    }
+
+    #[test]
+    fn a_wrong_period_is_a_fault() {
+        let mut side = side();
+        for tick in 0..100 {
+            side.joint_state(tick, tick * 2 * MS, &at_rest(), false);
+        }
+        assert_eq!(side.period_mismatch_ns(), Some(2 * MS));
+        let state = side.joint_state(100, 200 * MS, &at_rest(), false);
+        assert_eq!(DriverStatus::try_from(state.driver_status), Ok(DriverStatus::Fault));
+    }
+}

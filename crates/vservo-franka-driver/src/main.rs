@@ -1,0 +1,93 @@
+//! # vservo-franka — a Franka arm as vservo's robot driver
+//!
+//! With `[robot] driver = "franka"` vservod starts this process (and restarts it if it ends; it ends with the
+//! daemon). It speaks the Franka's own network protocol, the FCI (server protocol version 10: the FR3, through the
+//! `vservo-franka` client), and is the instance's robot driver behind docs/DRIVERS.md's contract (the rules in
+//! `vservo-driver`):
+//! - it runs one joint-velocity motion under the robot's joint impedance controller; each robot state (1 kHz) is
+//!   published as a `joint_state` (`tick` is the robot's own millisecond counter, `message_id`, since the first)
+//!   and answered, within the robot's cycle, with the rmrc's answer to it — or, if that has not come within
+//!   `[franka] answer_within_s`, with the command in force;
+//! - the velocities sent pass the driver's last guard ([`shaper`], `[franka] limit_rate`): each joint's change of
+//!   velocity per period within the arm's acceleration limit, and the change of that within its jerk limit,
+//!   whatever the rmrc's timing; no command for `[franka] hold_after_s` brings the arm to rest within them;
+//! - a robot error (a reflex) is a driver fault, logged with the Franka's own error names (the cell's safe stop
+//!   `driver_fault`); once the cell is held, `vservoctl resume` runs the robot's automatic error recovery and a
+//!   new motion;
+//! - on SIGTERM or the daemon's death the arm is brought to rest within the limits and the motion finished
+//!   cleanly (`motion_generation_finished`).
+//!
+//! Exit codes: 0 after the motion ended on SIGINT/SIGTERM, 1 on an error, 2 on a configuration it cannot run.
+
+mod cell;
+mod run;
+mod shaper;
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use clap::Parser;
+
+/// A Franka arm (FCI, protocol version 10) as vservo's robot driver.
+#[derive(Parser, Debug)]
+#[command(name = "vservo-franka", version)]
+struct Cli {
+    /// The instance's configuration: `[instance] name`, `[robot]` (driver = "franka"), `[robot.arm]`, `[franka]`.
+    #[arg(long, value_name = "FILE", default_value = "config/vservo.toml")]
+    config: PathBuf,
+    /// Started by this vservod: end when it does, however it ends.
+    #[arg(long, value_name = "PID", hide = true)]
+    daemon_pid: Option<i32>,
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    log_to_stderr("info");
+    let config = match vservo_config::Config::load(&cli.config) {
+        Ok(config) => config,
+        Err(error) => {
+            tracing::error!("{error}");
+            return ExitCode::from(2);
+        }
+    };
+    let Some(franka) = config.franka.clone() else {
+        tracing::error!("{}: robot.driver is not \"franka\": there is no Franka to drive", config.origin);
+        return ExitCode::from(2);
+    };
+    let result = vservo_protocol::signals::stop_flag().map_err(anyhow::Error::from).and_then(|stop| {
+        if let Some(pid) = cli.daemon_pid {
+            end_with_daemon(pid, &stop)?;
+        }
+        run::run(&config, &franka, &stop)
+    });
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(error) => {
+            tracing::error!("{error:#}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+/// Logging to stderr, filtered by `VSERVO_LOG` (tracing's syntax) or else `default_filter`.
+fn log_to_stderr(default_filter: &str) {
+    use std::io::IsTerminal;
+    let filter = tracing_subscriber::EnvFilter::try_from_env("VSERVO_LOG")
+        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new(default_filter));
+    tracing_subscriber::fmt()
+        .with_env_filter(filter)
+        .with_writer(std::io::stderr)
+        .with_ansi(std::io::stderr().is_terminal())
+        .init();
+}
+
+/// However the daemon ends (SIGKILL included), the driver gets SIGTERM and brings the arm to rest; if it has
+/// already gone, the driver does so at once.
+fn end_with_daemon(daemon_pid: i32, stop: &std::sync::atomic::AtomicBool) -> anyhow::Result<()> {
+    use anyhow::Context;
+    nix::sys::prctl::set_pdeathsig(nix::sys::signal::Signal::SIGTERM).context("prctl(PR_SET_PDEATHSIG)")?;
+    if nix::unistd::getppid().as_raw() != daemon_pid {
+        stop.store(true, std::sync::atomic::Ordering::Relaxed);
+    }
+    Ok(())
+}

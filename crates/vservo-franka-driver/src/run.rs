@@ -1,0 +1,455 @@
+//! The driver's loop: one robot state in, one `joint_state` out, the rmrc's answer (or the command in force)
+//! through the guard, one command back to the robot within its cycle.
+
+use std::sync::atomic::AtomicBool;
+use std::time::Duration;
+
+use anyhow::Context as _;
+use vservo_config::{Config, Franka};
+use vservo_driver::{DriverSettings, DriverSide, Measured};
+use vservo_franka::{Connection, JointVelocityCommand, MotionPhase, RobotErrors, RobotState};
+use vservo_protocol::{CellMode, CommandMode, MAX_JOINTS};
+
+use crate::cell::CellPorts;
+use crate::shaper::{CommandShaper, ShaperLimits};
+
+/// How long a connection, a motion's start or a recovery may take.
+const ROBOT_TIMEOUT: Duration = Duration::from_secs(2);
+
+/// No robot state for this long: the robot (or the network) is gone.
+const STATE_TIMEOUT: Duration = Duration::from_millis(500);
+
+/// A fault is reported at least this long, so that the cell's fault monitor sees it (ns).
+const FAULT_SHOWN_NS: u64 = 200_000_000;
+
+/// How often the counts are logged (ns).
+const REPORT_EVERY_NS: u64 = 10_000_000_000;
+
+/// The state → command latencies are counted per microsecond up to this (µs); longer ones in the last bucket.
+const LATENCY_BUCKETS_US: usize = 5000;
+
+/// Runs until `stop` is set, then brings the arm to rest and ends the motion.
+pub fn run(config: &Config, franka: &Franka, stop: &AtomicBool) -> anyhow::Result<()> {
+    let stopped = || vservo_protocol::signals::stopped(stop);
+    let waiting = |why: &_| tracing::info!("instance {:?}: {why}; waiting for vservod", config.instance);
+    let Some(dir) = vservo_protocol::InstanceDir::locate_until(&config.instance, stopped, waiting)? else {
+        return Ok(());
+    };
+    let mut cell = CellPorts::connect(&config.instance, &dir)?;
+    let mut robot = Connection::connect(franka.address, ROBOT_TIMEOUT)
+        .with_context(|| format!("the Franka at {} ([franka] address)", franka.address))?;
+    tracing::info!(
+        robot = %franka.address,
+        protocol = robot.server_version(),
+        limit_rate = franka.limit_rate,
+        "driving the instance {:?} with the Franka",
+        config.instance
+    );
+    go_realtime(config);
+    let mut driver = Driver::new(config, franka, monotonic_ns());
+    driver.start_motion(&mut robot, None)?;
+    loop {
+        let state = robot.recv_state(STATE_TIMEOUT).context("the Franka's robot states stopped")?;
+        if driver.cycle(&mut robot, &mut cell, &state, vservo_protocol::signals::stopped(stop))? == Next::End
+        {
+            break;
+        }
+    }
+    driver.report.log("the motion ended; stopping");
+    driver.report.summary_line();
+    Ok(())
+}
+
+/// SCHED_FIFO at the rmrc's priority (`[runtime.rmrc] fifo_priority`), where permitted: the robot wants its
+/// answer within its millisecond.
+fn go_realtime(config: &Config) {
+    use thread_priority::{
+        RealtimeThreadSchedulePolicy, ThreadPriority, ThreadPriorityValue, ThreadSchedulePolicy,
+        set_thread_priority_and_policy, thread_native_id,
+    };
+    let priority = config.runtime.rmrc.fifo_priority;
+    if priority == 0 {
+        return;
+    }
+    let result = ThreadPriorityValue::try_from(priority).map_err(|e| e.to_string()).and_then(|value| {
+        let policy = ThreadSchedulePolicy::Realtime(RealtimeThreadSchedulePolicy::Fifo);
+        set_thread_priority_and_policy(thread_native_id(), ThreadPriority::Crossplatform(value), policy)
+            .map_err(|e| format!("{e:?}"))
+    });
+    if let Err(error) = result {
+        tracing::warn!(
+            "SCHED_FIFO {priority} not permitted ({error}): the normal scheduler answers the robot"
+        );
+    }
+}
+
+/// CLOCK_MONOTONIC (ns): the instance's clock.
+fn monotonic_ns() -> u64 {
+    nix::time::clock_gettime(nix::time::ClockId::CLOCK_MONOTONIC)
+        .map(|t| t.tv_sec() as u64 * 1_000_000_000 + t.tv_nsec() as u64)
+        .unwrap_or(0)
+}
+
+/// Whether the loop goes on.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Next {
+    Go,
+    End,
+}
+
+/// Where the robot's motion is.
+#[derive(Debug, Clone, Copy)]
+enum Phase {
+    /// A joint-velocity motion runs: every state is answered.
+    Moving,
+    /// The robot stopped the motion (a reflex): reported as a fault until the cell is held, then held until a
+    /// resume asks for the robot's recovery.
+    Faulted {
+        errors: RobotErrors,
+        since_ns: u64,
+        /// The cell's mode sequence when it happened; `held_at`: the sequence of the safe stop that holds it.
+        sequence: Option<u64>,
+        held_at: Option<u64>,
+    },
+}
+
+/// The driver's state between robot states.
+struct Driver {
+    side: DriverSide,
+    limits: ShaperLimits,
+    shaper: Option<CommandShaper>,
+    limit_rate: bool,
+    answer_within_ns: u64,
+    origin_id: Option<u64>,
+    phase: Phase,
+    report: Report,
+}
+
+impl Driver {
+    fn new(config: &Config, franka: &Franka, epoch: u64) -> Self {
+        let arm = &config.arm;
+        let joints = arm.joint_count();
+        let mut settings = DriverSettings {
+            mode: CommandMode::Velocity,
+            joint_count: joints,
+            period_ns: (config.robot.period_s * 1e9).round() as u64,
+            hold_after_ns: (franka.hold_after_s * 1e9).round() as u64,
+            position_min_rad: [f64::NEG_INFINITY; MAX_JOINTS],
+            position_max_rad: [f64::INFINITY; MAX_JOINTS],
+            velocity_max_rad_s: [f64::INFINITY; MAX_JOINTS],
+        };
+        for (j, limits) in arm.limits().enumerate().take(joints) {
+            settings.position_min_rad[j] = limits.position_min;
+            settings.position_max_rad[j] = limits.position_max;
+            settings.velocity_max_rad_s[j] = limits.velocity_max;
+        }
+        let interpolator = &config.interpolator;
+        // no jerk limits (the configuration then refuses limit_rate): the guard is off
+        let jerk =
+            interpolator.jerk_limit.map_or([f64::INFINITY; MAX_JOINTS], |j| std::array::from_fn(|i| j[i]));
+        let limits = ShaperLimits {
+            acceleration: std::array::from_fn(|j| interpolator.acceleration_limit[j]),
+            jerk: std::array::from_fn(|j| jerk[j]),
+            dt_s: config.robot.period_s,
+        };
+        Self {
+            side: DriverSide::new(settings, epoch),
+            limits,
+            shaper: None,
+            limit_rate: franka.limit_rate,
+            answer_within_ns: (franka.answer_within_s * 1e9).round() as u64,
+            origin_id: None,
+            phase: Phase::Moving,
+            report: Report::new(),
+        }
+    }
+
+    /// Starts a joint-velocity motion (at the start, and after a recovery): the guard starts from the robot's
+    /// own desired velocity.
+    fn start_motion(&mut self, robot: &mut Connection, sequence: Option<u64>) -> anyhow::Result<()> {
+        let first =
+            robot.start_joint_velocity_motion(ROBOT_TIMEOUT).context("starting a joint-velocity motion")?;
+        self.shaper = Some(CommandShaper::new(self.limits, self.side.settings().joint_count, first.dq_d));
+        self.phase = Phase::Moving;
+        tracing::info!(after = ?sequence, "the Franka's joint-velocity motion runs");
+        Ok(())
+    }
+
+    /// One robot state: published, then answered (moving), or the fault and its recovery looked after.
+    fn cycle(
+        &mut self,
+        robot: &mut Connection,
+        cell: &mut CellPorts,
+        state: &RobotState,
+        stopping: bool,
+    ) -> anyhow::Result<Next> {
+        let received_ns = monotonic_ns();
+        let tick = state.message_id - *self.origin_id.get_or_insert(state.message_id);
+        if matches!(self.phase, Phase::Moving)
+            && let MotionPhase::Aborted { errors } = MotionPhase::of(state)
+        {
+            self.motion_aborted(robot, cell, errors, received_ns);
+        }
+        let fault = matches!(self.phase, Phase::Faulted { held_at: None, .. });
+        let measured =
+            Measured { q_rad: widen(&state.q), qd_rad_s: widen(&state.dq), torque_nm: widen(&state.tau_J) };
+        let joint_state = self.side.joint_state(tick, received_ns, &measured, fault);
+        if !cell.publish(joint_state) {
+            self.report.publish_failed += 1;
+        }
+        self.report.cycle(state, received_ns);
+        match self.phase {
+            Phase::Moving => self.answer(robot, cell, state, tick, received_ns, stopping),
+            Phase::Faulted { .. } if stopping => Ok(Next::End),
+            Phase::Faulted { .. } => self.look_after_fault(robot, cell, received_ns),
+        }
+    }
+
+    /// The robot ended the motion itself: a fault, named with the robot's errors.
+    fn motion_aborted(
+        &mut self,
+        robot: &mut Connection,
+        cell: &mut CellPorts,
+        errors: RobotErrors,
+        now_ns: u64,
+    ) {
+        let outcome = robot.motion_result(Duration::from_millis(5));
+        tracing::error!(
+            errors = %errors,
+            outcome = ?outcome.ok(),
+            "the Franka stopped the motion (a reflex): {errors}; the cell is stopped safely (driver_fault), \
+             `vservoctl resume` runs the robot's error recovery"
+        );
+        self.report.reflexes.push(errors.to_string());
+        self.side.hold();
+        self.shaper = None;
+        let sequence = cell.mode().map(|(_, sequence)| sequence);
+        self.phase = Phase::Faulted { errors, since_ns: now_ns, sequence, held_at: None };
+    }
+
+    /// Moving: the rmrc's answer to `tick` (waited for until `answer_within_s` after the state came), or the
+    /// command in force, or rest; through the guard; sent within the cycle. Stopping: rest, then the motion
+    /// finished.
+    fn answer(
+        &mut self,
+        robot: &mut Connection,
+        cell: &mut CellPorts,
+        state: &RobotState,
+        tick: u64,
+        received_ns: u64,
+        stopping: bool,
+    ) -> anyhow::Result<Next> {
+        let answered = self.take_answer(cell, tick, received_ns + self.answer_within_ns);
+        if !answered {
+            self.report.late_answers += 1;
+        }
+        let in_force = self.side.apply(monotonic_ns());
+        let target = match in_force {
+            Some(command) if !stopping => command.values,
+            _ => [0.0; MAX_JOINTS],
+        };
+        let velocity = match (&mut self.shaper, self.limit_rate) {
+            (Some(shaper), true) => shaper.next(&target),
+            _ => target,
+        };
+        let at_rest = self.shaper.as_ref().map_or(true, |s| !self.limit_rate || s.at_rest());
+        if stopping && at_rest && velocity.iter().all(|v| *v == 0.0) {
+            robot.finish_motion(state, [0.0; 7], ROBOT_TIMEOUT).context("finishing the motion")?;
+            tracing::info!("the arm is at rest and the motion finished");
+            return Ok(Next::End);
+        }
+        let command = JointVelocityCommand::new(std::array::from_fn(|j| velocity[j]));
+        let latency = robot.send_command(state, &command).context("answering the robot")?;
+        self.report.latency(latency);
+        Ok(Next::Go)
+    }
+
+    /// Takes the rmrc's commands until one answers `tick` or `deadline_ns` passes; whether it came.
+    fn take_answer(&mut self, cell: &mut CellPorts, tick: u64, deadline_ns: u64) -> bool {
+        loop {
+            let mut answered = false;
+            let (side, report) = (&mut self.side, &mut self.report);
+            let now = monotonic_ns();
+            let mut other_schema = 0;
+            cell.each_command(&mut other_schema, |command| match side.take_command(&command, now) {
+                Ok(()) => answered |= command.answers_tick == tick,
+                Err(refused) => report.refused(refused),
+            });
+            report.commands_refused += other_schema;
+            if answered {
+                return true;
+            }
+            if monotonic_ns() >= deadline_ns {
+                return false;
+            }
+            std::thread::sleep(Duration::from_micros(20));
+        }
+    }
+
+    /// Faulted: once the fault has been shown and the cell holds, the driver holds too; a resume (the cell
+    /// servoing or moving again after that safe stop) runs the robot's recovery and a new motion.
+    fn look_after_fault(
+        &mut self,
+        robot: &mut Connection,
+        cell: &mut CellPorts,
+        now_ns: u64,
+    ) -> anyhow::Result<Next> {
+        let Phase::Faulted { errors, since_ns, sequence, held_at } = self.phase else { return Ok(Next::Go) };
+        let Some((mode, current)) = cell.mode() else { return Ok(Next::Go) };
+        match held_at {
+            None if mode == CellMode::SafeStop
+                && now_ns.saturating_sub(since_ns) >= FAULT_SHOWN_NS
+                && sequence.is_none_or(|at| current >= at) =>
+            {
+                self.phase = Phase::Faulted { errors, since_ns, sequence, held_at: Some(current) };
+            }
+            Some(held) if mode != CellMode::SafeStop && current > held => {
+                tracing::warn!("a resume: running the Franka's automatic error recovery after {errors}");
+                match robot.automatic_error_recovery(ROBOT_TIMEOUT) {
+                    Ok(()) => self.start_motion(robot, Some(current))?,
+                    Err(error) => {
+                        tracing::error!(
+                            "the Franka's error recovery failed: {error}; the cell stays stopped"
+                        );
+                        self.phase = Phase::Faulted {
+                            errors,
+                            since_ns: now_ns,
+                            sequence: Some(current),
+                            held_at: None,
+                        };
+                    }
+                }
+            }
+            _ => {}
+        }
+        Ok(Next::Go)
+    }
+}
+
+/// The robot's single-precision values as the contract's f64 arrays (the slots past seven none).
+fn widen(values: &[f64; 7]) -> [f64; MAX_JOINTS] {
+    std::array::from_fn(|j| values.get(j).copied().unwrap_or(0.0))
+}
+
+/// What the driver counts and logs.
+struct Report {
+    cycles: u64,
+    late_answers: u64,
+    commands_refused: u64,
+    publish_failed: u64,
+    said: std::collections::BTreeSet<&'static str>,
+    reflexes: Vec<String>,
+    /// The lowest `control_command_success_rate` the robot reported (after its first 100 cycles).
+    min_success_rate: f64,
+    last_success_rate: f64,
+    latencies: Latencies,
+    last_report_ns: u64,
+}
+
+/// State → command latencies, counted per microsecond (no allocation per cycle).
+struct Latencies {
+    counts: Vec<u64>,
+    total: u64,
+}
+
+impl Latencies {
+    fn new() -> Self {
+        Self { counts: vec![0; LATENCY_BUCKETS_US + 1], total: 0 }
+    }
+
+    fn push(&mut self, latency: Duration) {
+        let us = (latency.as_micros() as usize).min(LATENCY_BUCKETS_US);
+        self.counts[us] += 1;
+        self.total += 1;
+    }
+
+    /// The nearest-rank `pct`-th percentile (µs; 0 with none).
+    fn percentile_us(&self, pct: f64) -> usize {
+        let rank = ((pct / 100.0 * self.total as f64).ceil() as u64).max(1);
+        let mut seen = 0;
+        for (us, count) in self.counts.iter().enumerate() {
+            seen += count;
+            if seen >= rank {
+                return us;
+            }
+        }
+        0
+    }
+}
+
+impl std::fmt::Display for Latencies {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "p50 {} µs, p99 {} µs", self.percentile_us(50.0), self.percentile_us(99.0))
+    }
+}
+
+impl Report {
+    fn new() -> Self {
+        Self {
+            cycles: 0,
+            late_answers: 0,
+            commands_refused: 0,
+            publish_failed: 0,
+            said: Default::default(),
+            reflexes: Vec::new(),
+            min_success_rate: 1.0,
+            last_success_rate: 1.0,
+            latencies: Latencies::new(),
+            last_report_ns: monotonic_ns(),
+        }
+    }
+
+    fn cycle(&mut self, state: &RobotState, now_ns: u64) {
+        self.cycles += 1;
+        if MotionPhase::of(state) == MotionPhase::Running {
+            self.last_success_rate = state.control_command_success_rate;
+            if self.cycles > 100 {
+                self.min_success_rate = self.min_success_rate.min(state.control_command_success_rate);
+            }
+        }
+        if now_ns.saturating_sub(self.last_report_ns) >= REPORT_EVERY_NS {
+            self.last_report_ns = now_ns;
+            self.log("running");
+        }
+    }
+
+    fn latency(&mut self, latency: Duration) {
+        self.latencies.push(latency);
+    }
+
+    fn refused(&mut self, refused: vservo_driver::CommandRefused) {
+        self.commands_refused += 1;
+        if self.said.insert(refused.kind()) {
+            tracing::warn!("a joint command refused: {refused} (said once per kind; counted)");
+        }
+    }
+
+    fn log(&self, what: &str) {
+        tracing::info!(
+            cycles = self.cycles,
+            late_answers = self.late_answers,
+            commands_refused = self.commands_refused,
+            success_rate_min = self.min_success_rate,
+            success_rate = self.last_success_rate,
+            state_to_command = %self.latencies,
+            "franka: {what}"
+        );
+    }
+
+    /// One JSON line for scripts (scripts/run-franka-sim.sh): `franka-summary: {…}`.
+    fn summary_line(&self) {
+        let reflexes: Vec<String> = self.reflexes.iter().map(|r| format!("{r:?}")).collect();
+        eprintln!(
+            "franka-summary: {{\"cycles\": {}, \"late_answers\": {}, \"commands_refused\": {}, \
+             \"min_control_command_success_rate\": {}, \"reflex_errors\": [{}], \"state_to_command_p50_us\": {}, \
+             \"state_to_command_p99_us\": {}}}",
+            self.cycles,
+            self.late_answers,
+            self.commands_refused,
+            self.min_success_rate,
+            reflexes.join(", "),
+            self.latencies.percentile_us(50.0),
+            self.latencies.percentile_us(99.0),
+        );
+    }
+}

@@ -1,0 +1,157 @@
+//! The driver's last guard on what the robot is sent (libfranka's `limit_rate`, done per period): each joint's
+//! commanded velocity, seen as the robot sees it — its change over one period an acceleration, the change of
+//! that a jerk — kept within the arm's acceleration and jerk limits, whatever comes from the rmrc.
+//!
+//! The rmrc's reference already keeps those limits (vservo-sim's jerk-limited interpolator), and when its answers
+//! come one per period the guard passes them on unchanged. It acts when they do not: an answer that came too late
+//! repeats the last one (a step in acceleration), the arm held or brought to rest (the target drops to zero),
+//! a reference restarted at rest. Each period each joint speeds up towards its target at most as fast as it
+//! could still stop on it (a = √(2·j·|error|)), at most its acceleration limit, and changes its acceleration by at
+//! most its jerk limit times the period; near rest it lands on zero exactly.
+
+use vservo_protocol::MAX_JOINTS;
+
+/// Each joint's acceleration (rad/s²) and jerk (rad/s³) limits, and the period (s).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ShaperLimits {
+    /// Acceleration per joint.
+    pub acceleration: [f64; MAX_JOINTS],
+    /// Jerk per joint.
+    pub jerk: [f64; MAX_JOINTS],
+    /// The period.
+    pub dt_s: f64,
+}
+
+/// The velocities sent so far, as the robot measures them.
+#[derive(Debug, Clone)]
+pub struct CommandShaper {
+    limits: ShaperLimits,
+    joints: usize,
+    /// The last velocity sent (rad/s).
+    velocity: [f64; MAX_JOINTS],
+    /// Its change over the last period (rad/s²).
+    acceleration: [f64; MAX_JOINTS],
+}
+
+impl CommandShaper {
+    /// A guard for `joints` joints whose motion starts at `velocity` with no acceleration (a robot's motion
+    /// starts from its own desired velocity).
+    pub fn new(limits: ShaperLimits, joints: usize, velocity: [f64; MAX_JOINTS]) -> Self {
+        Self { limits, joints: joints.min(MAX_JOINTS), velocity, acceleration: [0.0; MAX_JOINTS] }
+    }
+
+    /// The velocity to send this period towards `target` (a non-finite target is taken as zero: rest).
+    pub fn next(&mut self, target: &[f64; MAX_JOINTS]) -> [f64; MAX_JOINTS] {
+        let dt = self.limits.dt_s;
+        for j in 0..self.joints {
+            let (v, a) = (self.velocity[j], self.acceleration[j]);
+            let (a_max, jerk) = (self.limits.acceleration[j], self.limits.jerk[j]);
+            let goal = if target[j].is_finite() { target[j] } else { 0.0 };
+            let error = goal - v;
+            let step = jerk * dt;
+            let next_a = if error.abs() <= 0.5 * step * dt && a.abs() <= 0.5 * step {
+                // on the target within what one period can settle: land on it
+                error / dt
+            } else {
+                let wanted =
+                    (error.abs() / dt).min((2.0 * jerk * error.abs()).sqrt()).min(a_max).copysign(error);
+                wanted.clamp(a - step, a + step).clamp(-a_max, a_max)
+            };
+            self.acceleration[j] = next_a;
+            self.velocity[j] = v + next_a * dt;
+        }
+        self.velocity
+    }
+
+    /// Whether the last velocity sent is zero with no acceleration left: the arm commanded to rest.
+    pub fn at_rest(&self) -> bool {
+        self.velocity[..self.joints].iter().all(|v| *v == 0.0)
+            && self.acceleration[..self.joints].iter().all(|a| *a == 0.0)
+    }
+
+    /// The last velocity sent.
+    #[cfg(test)]
+    pub fn velocity(&self) -> &[f64; MAX_JOINTS] {
+        &self.velocity
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    fn fr3() -> ShaperLimits {
+        ShaperLimits { acceleration: [10.0; MAX_JOINTS], jerk: [5000.0; MAX_JOINTS], dt_s: 0.001 }
+    }
+
+    /// The largest acceleration and jerk, per the robot's differences, of `sent` after `start`.
+    fn measured(start: [f64; MAX_JOINTS], sent: &[[f64; MAX_JOINTS]], dt: f64) -> (f64, f64) {
+        let (mut a_max, mut j_max) = (0.0f64, 0.0f64);
+        let (mut last_v, mut last_a) = (start, [0.0; MAX_JOINTS]);
+        for v in sent {
+            for j in 0..MAX_JOINTS {
+                let a = (v[j] - last_v[j]) / dt;
+                a_max = a_max.max(a.abs());
+                j_max = j_max.max(((a - last_a[j]) / dt).abs());
+                last_a[j] = a;
+            }
+            last_v = *v;
+        }
+        (a_max, j_max)
+    }
+
+    proptest! {
+        #[test]
+        fn whatever_the_targets_every_command_keeps_the_limits_and_rest_is_reached_exactly(
+            targets in prop::collection::vec((prop::array::uniform7(-2.0..2.0f64), 1usize..200), 1..20),
+        ) {
+            let limits = fr3();
+            let mut shaper = CommandShaper::new(limits, 7, [0.0; MAX_JOINTS]);
+            let mut sent = Vec::new();
+            for (target, periods) in &targets {
+                for _ in 0..*periods {
+                    sent.push(shaper.next(target));
+                }
+            }
+            for _ in 0..2000 {
+                sent.push(shaper.next(&[0.0; MAX_JOINTS]));
+            }
+            let (a, j) = measured([0.0; MAX_JOINTS], &sent, limits.dt_s);
+            prop_assert!(a <= 10.0 * (1.0 + 1e-9), "acceleration {}", a);
+            prop_assert!(j <= 5000.0 * (1.0 + 1e-9), "jerk {}", j);
+            prop_assert!(shaper.at_rest(), "{:?}", shaper.velocity());
+        }
+    }
+
+    #[test]
+    fn a_reference_within_the_limits_passes_unchanged() {
+        let limits = fr3();
+        let mut shaper = CommandShaper::new(limits, 7, [0.0; MAX_JOINTS]);
+        // a smooth rise to 0.5 rad/s and back (1 − cos), one sample per period: within the limits
+        for k in 1..=800 {
+            let v = 0.25 * (1.0 - (std::f64::consts::PI * k as f64 * 0.001 / 0.4).cos());
+            let sent = shaper.next(&[v; MAX_JOINTS]);
+            assert!((sent[0] - v).abs() < 1e-12, "period {k}: {} against {v}", sent[0]);
+        }
+    }
+
+    #[test]
+    fn a_repeated_sample_is_smoothed_and_a_non_finite_target_is_rest() {
+        let limits = fr3();
+        let mut shaper = CommandShaper::new(limits, 7, [0.0; MAX_JOINTS]);
+        let ramp: Vec<f64> = (1..=50).map(|k| 0.5 * 10.0 * (k as f64 * 0.001).powi(2) * 100.0).collect();
+        let mut sent = Vec::new();
+        for (k, v) in ramp.iter().enumerate() {
+            // every fifth answer late: the last one again
+            let target = if k % 5 == 4 { ramp[k - 1] } else { *v };
+            sent.push(shaper.next(&[target; MAX_JOINTS]));
+        }
+        let (a, j) = measured([0.0; MAX_JOINTS], &sent, 0.001);
+        assert!(a <= 10.0 + 1e-9 && j <= 5000.0 + 1e-6, "{a} {j}");
+        for _ in 0..1000 {
+            shaper.next(&[f64::NAN; MAX_JOINTS]);
+        }
+        assert!(shaper.at_rest());
+    }
+}
