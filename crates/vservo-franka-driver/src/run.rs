@@ -60,9 +60,15 @@ pub fn run(config: &Config, franka: &Franka, stop: &AtomicBool) -> anyhow::Resul
     Ok(())
 }
 
-/// SCHED_FIFO at the rmrc's priority (`[runtime.rmrc] fifo_priority`), where permitted: the robot wants its
-/// answer within its millisecond.
+/// Memory locked (`[runtime] lock_memory`) and SCHED_FIFO at the rmrc's priority (`[runtime.rmrc]
+/// fifo_priority`), where permitted: the robot wants its answer within its millisecond.
 fn go_realtime(config: &Config) {
+    use nix::sys::mman::{MlockAllFlags, mlockall};
+    if config.runtime.lock_memory
+        && let Err(error) = mlockall(MlockAllFlags::MCL_CURRENT | MlockAllFlags::MCL_FUTURE)
+    {
+        tracing::warn!("mlockall not permitted ({error}): a page fault may delay an answer to the robot");
+    }
     use thread_priority::{
         RealtimeThreadSchedulePolicy, ThreadPriority, ThreadPriorityValue, ThreadSchedulePolicy,
         set_thread_priority_and_policy, thread_native_id,
@@ -170,6 +176,7 @@ impl Driver {
         let first =
             robot.start_joint_velocity_motion(ROBOT_TIMEOUT).context("starting a joint-velocity motion")?;
         self.shaper = Some(CommandShaper::new(self.limits, self.side.settings().joint_count, first.dq_d));
+        self.report.motion_started();
         self.phase = Phase::Moving;
         tracing::info!(after = ?sequence, "the Franka's joint-velocity motion runs");
         Ok(())
@@ -261,6 +268,7 @@ impl Driver {
         let command = JointVelocityCommand::new(std::array::from_fn(|j| velocity[j]));
         let latency = robot.send_command(state, &command).context("answering the robot")?;
         self.report.latency(latency);
+        self.report.sent(&velocity, self.limits.dt_s);
         Ok(Next::Go)
     }
 
@@ -344,6 +352,10 @@ struct Report {
     last_success_rate: f64,
     latencies: Latencies,
     last_report_ns: u64,
+    /// The velocities sent in the last two periods of this motion, and the largest jerk they made (rad/s³).
+    last_sent: Option<([f64; MAX_JOINTS], Option<[f64; MAX_JOINTS]>)>,
+    max_jerk_rad_s3: f64,
+    said_loss_ns: u64,
 }
 
 /// State → command latencies, counted per microsecond (no allocation per cycle).
@@ -379,7 +391,13 @@ impl Latencies {
 
 impl std::fmt::Display for Latencies {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        write!(f, "p50 {} µs, p99 {} µs", self.percentile_us(50.0), self.percentile_us(99.0))
+        write!(
+            f,
+            "p50 {} µs, p99 {} µs, max {} µs",
+            self.percentile_us(50.0),
+            self.percentile_us(99.0),
+            self.percentile_us(100.0)
+        )
     }
 }
 
@@ -396,12 +414,43 @@ impl Report {
             last_success_rate: 1.0,
             latencies: Latencies::new(),
             last_report_ns: monotonic_ns(),
+            last_sent: None,
+            max_jerk_rad_s3: 0.0,
+            said_loss_ns: 0,
         }
+    }
+
+    /// A velocity sent: the jerk it makes with the two before (the robot's measure).
+    fn sent(&mut self, velocity: &[f64; MAX_JOINTS], dt: f64) {
+        let acceleration = self.last_sent.map(|(v, _)| std::array::from_fn(|j| (velocity[j] - v[j]) / dt));
+        if let (Some(a), Some((_, Some(before)))) = (acceleration, self.last_sent) {
+            let a: [f64; MAX_JOINTS] = a;
+            for j in 0..MAX_JOINTS {
+                self.max_jerk_rad_s3 = self.max_jerk_rad_s3.max(((a[j] - before[j]) / dt).abs());
+            }
+        }
+        self.last_sent = Some((*velocity, acceleration));
+    }
+
+    /// A new motion: its commands start afresh from the robot's state.
+    fn motion_started(&mut self) {
+        self.last_sent = None;
     }
 
     fn cycle(&mut self, state: &RobotState, now_ns: u64) {
         self.cycles += 1;
         if MotionPhase::of(state) == MotionPhase::Running {
+            // the first states of a motion report no commands yet
+            let lost = state.control_command_success_rate < self.last_success_rate && self.cycles > 100;
+            if lost && self.said_loss_ns + REPORT_EVERY_NS <= now_ns {
+                self.said_loss_ns = now_ns;
+                tracing::warn!(
+                    cycle = self.cycles,
+                    success_rate = state.control_command_success_rate,
+                    late_answers = self.late_answers,
+                    "the robot missed a command of this driver's (said at most every 10 s)"
+                );
+            }
             self.last_success_rate = state.control_command_success_rate;
             if self.cycles > 100 {
                 self.min_success_rate = self.min_success_rate.min(state.control_command_success_rate);
@@ -442,7 +491,7 @@ impl Report {
         eprintln!(
             "franka-summary: {{\"cycles\": {}, \"late_answers\": {}, \"commands_refused\": {}, \
              \"min_control_command_success_rate\": {}, \"reflex_errors\": [{}], \"state_to_command_p50_us\": {}, \
-             \"state_to_command_p99_us\": {}}}",
+             \"state_to_command_p99_us\": {}, \"state_to_command_max_us\": {}, \"max_joint_jerk_rad_s3\": {}}}",
             self.cycles,
             self.late_answers,
             self.commands_refused,
@@ -450,6 +499,8 @@ impl Report {
             reflexes.join(", "),
             self.latencies.percentile_us(50.0),
             self.latencies.percentile_us(99.0),
+            self.latencies.percentile_us(100.0),
+            self.max_jerk_rad_s3,
         );
     }
 }

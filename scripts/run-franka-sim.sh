@@ -1,0 +1,159 @@
+#!/usr/bin/env bash
+# vservo's loop closed on a simulated FR3 over the Franka's own protocol: franka-sim 1.1.7 (a third party's FCI
+# server, protocol version 10, on MuJoCo, with the FCI's motion-limit checker and communication-constraint
+# emulation both turned on: --enforce-motion-limits --enforce-comm-constraints) as the robot, vservod on
+# config/franka-sim.toml (or --config) with its Franka driver (vservo-franka) and vservo's simulated camera
+# rendering the board from the arm's measured joints.
+#
+#   scripts/run-franka-sim.sh [--config FILE] [--start default|medium] [--duration-s S] [--no-jerk-limit] [--json]
+#
+# The run as a user's first motion would go: the cell starts held; `vservoctl resume`; `vservoctl move-joints` to
+# the start (the configuration's scenario start, or with --start medium one 8–10 cm and 8–12° away in each axis);
+# `vservoctl servo`; DURATION seconds of features and joint commands recorded; vservod stopped (the driver brings
+# the arm to rest and finishes the motion). --no-jerk-limit turns vservo's jerk limiting off (the arm's jerk limits
+# raised to 1e6 rad/s³, the driver's guard off), to show what the robot's checker says of that.
+# With --json the last line is one JSON object: final_error_px, settling_time_s, reflex_errors (the Franka's errors
+# that stopped a motion, empty when none), min_control_command_success_rate, max_joint_jerk_rad_s3 (of the
+# velocities the driver sent), state_to_command_p50_us / _p99_us, and the feature summary's fields. Logs, the
+# scene and the recordings are left in target/franka-sim-run/.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+duration=10
+json=0
+config=config/franka-sim.toml
+start=default
+jerk_limit=1
+usage="expected [--config FILE] [--start default|medium] [--duration-s S] [--no-jerk-limit] [--json]"
+while [ $# -gt 0 ]; do
+    case "$1" in
+        --duration-s) duration="$2"; shift 2 ;;
+        --duration-s=*) duration="${1#*=}"; shift ;;
+        --config) config="$2"; shift 2 ;;
+        --config=*) config="${1#*=}"; shift ;;
+        --start) start="$2"; shift 2 ;;
+        --start=*) start="${1#*=}"; shift ;;
+        --no-jerk-limit) jerk_limit=0; shift ;;
+        --json) json=1; shift ;;
+        *) echo "run-franka-sim: unknown argument $1 ($usage)" >&2; exit 2 ;;
+    esac
+done
+case "$start" in default|medium) ;; *) echo "run-franka-sim: --start is default or medium" >&2; exit 2 ;; esac
+[ -f "$config" ] || { echo "run-franka-sim: $config: no such file" >&2; exit 2; }
+config="$(cd "$(dirname "$config")" && pwd)/$(basename "$config")"
+python=target/python-venv/bin/python
+source scripts/lib/cell-run.sh
+
+scripts/setup.sh >&2
+venv=target/franka-sim-venv
+cell_binaries vservo-franka-driver
+out=target/franka-sim-run
+rm -rf "$out"
+mkdir -p "$out"
+vservoctl="$bin/vservoctl"
+
+# franka-sim's FR3 from franky-sim: its fr3.xml wants its meshes in assets/ beside it, the wheel has them in meshes/
+site="$("$venv/bin/python" -c 'import franky_sim, os; print(os.path.dirname(franky_sim.__file__))')"
+mjcf="$out/fr3-mjcf"
+mkdir -p "$mjcf"
+ln -sf "$site/assets/fr3.xml" "$mjcf/fr3.xml"
+ln -sfn "$site/assets/meshes" "$mjcf/assets"
+port="$("$python" -c 'import socket; s = socket.socket(); s.bind(("127.0.0.1", 0)); print(s.getsockname()[1])')"
+
+instance="franka-sim-$$"
+case "$start" in
+    default) start_offsets="" ;;
+    medium) start_offsets=$'initial_camera_translation_m = [0.08, -0.1, 0.09]\ninitial_camera_rotation_deg = [10.0, -8.0, 12.0]' ;;
+esac
+jerk_overlay=""
+if [ "$jerk_limit" = 0 ]; then
+    jerk_overlay=$'[robot.arm]\njerk_limits_rad_s3 = [1e6, 1e6, 1e6, 1e6, 1e6, 1e6, 1e6]\n'
+fi
+root="$(pwd)"
+cat > "$out/franka-sim.toml" <<TOML
+extends = "$config"
+
+[instance]
+name = "$instance"
+
+[franka]
+address = "127.0.0.1"
+port = $port
+simulator = true
+limit_rate = $([ "$jerk_limit" = 1 ] && echo true || echo false)
+
+[scenario]
+$start_offsets
+
+$jerk_overlay
+TOML
+config="$root/$out/franka-sim.toml"
+"$vservoctl" scene --config "$config" > "$out/scene.json"
+start_q="$("$python" -c 'import json,sys; print(",".join(repr(v) for v in json.load(sys.stdin)["start_joints_rad"]))' < "$out/scene.json")"
+desired="$("$python" -c 'import json,sys; print(",".join(str(v) for v in json.load(sys.stdin)["desired_features_px"]))' < "$out/scene.json")"
+
+# this run's runtime directory (removed at the end, shared memory included); short: iceoryx2's socket paths must
+# fit in 107 bytes
+export VSERVO_RUNTIME_DIR="/tmp/vfs-$$"
+pids=()
+cleanup() {
+    stop_processes ${pids[@]+"${pids[@]}"}
+    pids=()
+    if [ -f "$VSERVO_RUNTIME_DIR/$instance/prefix" ]; then
+        prefix="$(cat "$VSERVO_RUNTIME_DIR/$instance/prefix")"
+        [ -n "$prefix" ] && rm -f /dev/shm/"$prefix"* 2>/dev/null || true
+    fi
+    rm -rf "$VSERVO_RUNTIME_DIR"
+}
+trap cleanup EXIT
+
+FR3_MJCF="$(pwd)/$mjcf/fr3.xml" "$venv/bin/run-franka-sim-server" --no-gripper --port "$port" \
+    --enforce-motion-limits --enforce-comm-constraints > "$out/franka-sim.log" 2>&1 &
+pids+=($!)
+"$venv/bin/franka-sim-check" --host 127.0.0.1 --port "$port" --timeout 30 > "$out/franka-sim-check.log" 2>&1 ||
+    { echo "run-franka-sim: franka-sim did not come up (see $out/franka-sim.log)" >&2; exit 1; }
+
+"$bin/vservod" --config "$config" > "$out/vservod.log" 2>&1 &
+vservod=$!
+pids+=("$vservod")
+say "run-franka-sim: franka-sim on port $port, vservod and its Franka driver run (logs in $out/)"
+wait_for_cell "$instance" "$out"
+
+# the cell starts held: resume once the driver's states arrive, then move to the start and servo from there
+for _ in $(seq 100); do
+    "$vservoctl" resume --instance "$instance" > "$out/resume.txt" 2>&1 && break
+    sleep 0.2
+done
+"$vservoctl" move-joints --instance "$instance" --q "$start_q" --speed-fraction 0.3 > "$out/move.txt" 2>&1
+# arrived: the rmrc's reference on the goal (the arm itself stops a few hundredths of a radian short in franka-sim,
+# its joint impedance against gravity; the servo then starts from where it is)
+for _ in $(seq 300); do
+    "$vservoctl" echo joint_command --instance "$instance" --duration-s 0.02 2>/dev/null | tail -1 > "$out/at.json" || true
+    "$python" - "$out/at.json" "$start_q" <<'PY' && break
+import json, sys
+try:
+    q = json.load(open(sys.argv[1]))["q_ref_rad"]
+except Exception:
+    sys.exit(1)
+goal = [float(v) for v in sys.argv[2].split(",")]
+sys.exit(0 if max(abs(a - b) for a, b in zip(q, goal)) < 1e-4 else 1)
+PY
+    sleep 0.1
+done
+"$vservoctl" servo --instance "$instance" > "$out/servo.txt" 2>&1 || true
+say "run-franka-sim: at the $start start; servoing, recording $duration s"
+record_run "$instance" "$duration" "$out" commands
+stop_processes "$vservod"
+wait "$vservod" 2>/dev/null || true
+cleanup
+trap - EXIT
+
+summary="$("$python" scripts/feature_summary.py "$out/features.jsonl" --desired "$desired")"
+limits="$("$python" scripts/command_limits.py "$out/commands.jsonl" "$out/scene.json" |
+    "$python" -c 'import json,sys; d=json.load(sys.stdin); print(json.dumps({"rmrc_max_jerk_ratio": d["max_jerk_ratio"], "rmrc_max_acceleration_ratio": d["max_acceleration_ratio"]}))')"
+driver="$(grep -h 'franka-summary: ' "$out/vservod.log" | tail -1 | sed 's/.*franka-summary: //')"
+[ -n "$driver" ] || driver='{"reflex_errors": ["the driver wrote no summary (see vservod.log)"]}'
+summary="$(merge_json "$(merge_json "$summary" "$limits")" "$driver")"
+say "$(grep -h 'franka' "$out/vservod.log" | grep -E 'ERROR|WARN' | head -5 || true)"
+say "run-franka-sim: $summary"
+[ "$json" = 1 ] && echo "$summary"
+exit 0
