@@ -19,6 +19,9 @@ const ROBOT_TIMEOUT: Duration = Duration::from_secs(2);
 /// No robot state for this long: the robot (or the network) is gone.
 const STATE_TIMEOUT: Duration = Duration::from_millis(500);
 
+/// With the motion stopped and no robot state for this long, the driver publishes the arm's last state again.
+const IDLE_PERIOD: Duration = Duration::from_millis(1);
+
 /// A fault is reported at least this long, so that the cell's fault monitor sees it (ns).
 const FAULT_SHOWN_NS: u64 = 200_000_000;
 
@@ -49,9 +52,17 @@ pub fn run(config: &Config, franka: &Franka, stop: &AtomicBool) -> anyhow::Resul
     let mut driver = Driver::new(config, franka, monotonic_ns());
     driver.start_motion(&mut robot, None)?;
     loop {
-        let state = robot.recv_state(STATE_TIMEOUT).context("the Franka's robot states stopped")?;
-        if driver.cycle(&mut robot, &mut cell, &state, vservo_protocol::signals::stopped(stop))? == Next::End
-        {
+        let stopping = vservo_protocol::signals::stopped(stop);
+        // a robot that stopped its motion may send no states (franka-sim does not): the driver goes on alone
+        let wait = if driver.moving() { STATE_TIMEOUT } else { IDLE_PERIOD };
+        let next = match robot.recv_state(wait) {
+            Ok(state) => driver.cycle(&mut robot, &mut cell, &state, stopping)?,
+            Err(vservo_franka::RecvStateError::Timeout { .. }) if !driver.moving() => {
+                driver.cycle_without_robot(&mut robot, &mut cell, stopping)?
+            }
+            Err(error) => return Err(error).context("the Franka's robot states stopped"),
+        };
+        if next == Next::End {
             break;
         }
     }
@@ -127,6 +138,10 @@ struct Driver {
     limit_rate: bool,
     answer_within_ns: u64,
     origin_id: Option<u64>,
+    /// The last joint state's tick and stamp, and what was measured then.
+    last: Option<(u64, u64, Measured)>,
+    /// Ticks counted by the driver alone (no robot states while the motion was stopped).
+    tick_offset: u64,
     phase: Phase,
     report: Report,
 }
@@ -165,6 +180,8 @@ impl Driver {
             limit_rate: franka.limit_rate,
             answer_within_ns: (franka.answer_within_s * 1e9).round() as u64,
             origin_id: None,
+            last: None,
+            tick_offset: 0,
             phase: Phase::Moving,
             report: Report::new(),
         }
@@ -191,25 +208,69 @@ impl Driver {
         stopping: bool,
     ) -> anyhow::Result<Next> {
         let received_ns = monotonic_ns();
-        let tick = state.message_id - *self.origin_id.get_or_insert(state.message_id);
+        let tick = self.tick_of(state);
         if matches!(self.phase, Phase::Moving)
             && let MotionPhase::Aborted { errors } = MotionPhase::of(state)
         {
             self.motion_aborted(robot, cell, errors, received_ns);
         }
-        let fault = matches!(self.phase, Phase::Faulted { held_at: None, .. });
         let measured =
             Measured { q_rad: widen(&state.q), qd_rad_s: widen(&state.dq), torque_nm: widen(&state.tau_J) };
-        let joint_state = self.side.joint_state(tick, received_ns, &measured, fault);
-        if !cell.publish(joint_state) {
-            self.report.publish_failed += 1;
-        }
+        self.publish(cell, tick, received_ns, measured);
         self.report.cycle(state, received_ns);
         match self.phase {
             Phase::Moving => self.answer(robot, cell, state, tick, received_ns, stopping),
             Phase::Faulted { .. } if stopping => Ok(Next::End),
             Phase::Faulted { .. } => self.look_after_fault(robot, cell, received_ns),
         }
+    }
+
+    /// A robot state's tick: the robot's own counter (`message_id`) since the first state, moved on past the
+    /// ticks the driver counted alone while the robot sent nothing, so that ticks always grow.
+    fn tick_of(&mut self, state: &RobotState) -> u64 {
+        let counted = state.message_id.saturating_sub(*self.origin_id.get_or_insert(state.message_id));
+        let tick = match self.last {
+            Some((last_tick, _, _)) => (counted + self.tick_offset).max(last_tick + 1),
+            None => counted,
+        };
+        self.tick_offset = tick - counted;
+        tick
+    }
+
+    /// Whether a motion runs (every robot state is answered).
+    fn moving(&self) -> bool {
+        matches!(self.phase, Phase::Moving)
+    }
+
+    /// Publishes the joint state of `tick`: a fault while one is shown, else following or holding.
+    fn publish(&mut self, cell: &CellPorts, tick: u64, stamp_ns: u64, measured: Measured) {
+        let fault = matches!(self.phase, Phase::Faulted { held_at: None, .. });
+        let joint_state = self.side.joint_state(tick, stamp_ns, &measured, fault);
+        if !cell.publish(joint_state) {
+            self.report.publish_failed += 1;
+        }
+        self.last = Some((tick, stamp_ns, measured));
+    }
+
+    /// No robot state came while the motion is stopped: the arm's last state again, at rest, its tick advanced by
+    /// the periods gone (the cell keeps hearing the driver, and the fault or the hold it reports).
+    fn cycle_without_robot(
+        &mut self,
+        robot: &mut Connection,
+        cell: &mut CellPorts,
+        stopping: bool,
+    ) -> anyhow::Result<Next> {
+        let now_ns = monotonic_ns();
+        if let Some((tick, stamp_ns, measured)) = self.last {
+            let period_ns = self.side.settings().period_ns.max(1);
+            let periods = (now_ns.saturating_sub(stamp_ns) / period_ns).max(1);
+            let at_rest = Measured { qd_rad_s: [0.0; MAX_JOINTS], ..measured };
+            self.publish(cell, tick + periods, stamp_ns + periods * period_ns, at_rest);
+        }
+        if stopping {
+            return Ok(Next::End);
+        }
+        self.look_after_fault(robot, cell, now_ns)
     }
 
     /// The robot ended the motion itself: a fault, named with the robot's errors.
@@ -227,7 +288,7 @@ impl Driver {
             "the Franka stopped the motion (a reflex): {errors}; the cell is stopped safely (driver_fault), \
              `vservoctl resume` runs the robot's error recovery"
         );
-        self.report.reflexes.push(errors.to_string());
+        self.report.reflexes.extend(errors.names().into_iter().map(str::to_string));
         self.side.hold();
         self.shaper = None;
         let sequence = cell.mode().map(|(_, sequence)| sequence);

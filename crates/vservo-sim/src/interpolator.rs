@@ -361,8 +361,11 @@ impl Interpolator {
         let scaled = self.motion_limits(jerk, share);
         let from = self.reference.state();
         let joints = self.arm.joint_count();
+        // (rounding aside: the generator's own output meets its limits up to it, and must not be taken for a
+        // motion the move did not start)
+        let inside = |value: f64, limit: f64| value.abs() <= limit * (1.0 + 1e-6);
         let within = (0..joints)
-            .all(|j| from.qd[j].abs() <= scaled.velocity[j] && from.qdd[j].abs() <= scaled.acceleration[j]);
+            .all(|j| inside(from.qd[j], scaled.velocity[j]) && inside(from.qdd[j], scaled.acceleration[j]));
         let Some(motion) = self.motion.as_mut() else {
             return &self.reference;
         };

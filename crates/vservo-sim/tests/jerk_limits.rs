@@ -190,3 +190,22 @@ fn a_step_uses_the_jerk_limit_and_the_tool_speed_is_capped() {
         (fr3.arm.base_from_tool(&q).translation.vector - before).norm() / (10.0 * settings.control_period_s);
     assert!(speed > 0.2 && speed <= 0.25 * 1.001, "the tool at {speed} m/s");
 }
+
+/// A joint move reaches its goal whatever the arm's jerk limit (a limit so high that the acceleration steps within
+/// a tick, rounding included, does not make the move take its own reference for a faster motion to brake).
+#[test]
+fn a_joint_move_arrives_with_any_jerk_limit() {
+    for jerk in [5000.0, 1e6] {
+        let mut fr3 = config("fr3");
+        fr3.interpolator.jerk_limit = Some(JointVector::repeat(jerk));
+        let settings = fr3.interpolator;
+        let start = JointVector::from([0.0, 0.0, 0.0, -1.57, 0.0, 1.57, 0.785]);
+        let mut interpolator = Interpolator::new(settings, fr3.arm.clone(), fr3.tool_from_camera, start);
+        interpolator.move_joints_to(fr3.desired.joints, 0.3);
+        let arrived = (1..=20_000).find(|tick| {
+            interpolator.step(*tick as f64 * settings.control_period_s);
+            interpolator.joint_move_arrived()
+        });
+        assert!(arrived.is_some_and(|tick| tick < 5000), "jerk {jerk}: arrived at {arrived:?}");
+    }
+}
