@@ -5,13 +5,18 @@
 # config/franka-sim.toml (or --config) with its Franka driver (vservo-franka) and vservo's simulated camera
 # rendering the board from the arm's measured joints.
 #
-#   scripts/run-franka-sim.sh [--config FILE] [--start default|medium] [--duration-s S] [--no-jerk-limit] [--json]
+#   scripts/run-franka-sim.sh [--config FILE] [--start default|medium] [--duration-s S] [--no-jerk-limit]
+#                             [--fault driver-stopped|daemon-killed] [--json]
 #
 # The run as a user's first motion would go: the cell starts held; `vservoctl resume`; `vservoctl move-joints` to
 # the start (the configuration's scenario start, or with --start medium one 8–10 cm and 8–12° away in each axis);
 # `vservoctl servo`; DURATION seconds of features and joint commands recorded; vservod stopped (the driver brings
 # the arm to rest and finishes the motion). --no-jerk-limit turns vservo's jerk limiting off (the arm's jerk limits
 # raised to 1e6 rad/s³, the driver's guard off), to show what the robot's checker says of that.
+# --fault, 1 s into servoing: driver-stopped SIGSTOPs the Franka driver for 100 ms (the robot stops itself, the cell
+# stops safely; the status then is `fault_status`), then `vservoctl resume` (the robot's error recovery, a new
+# motion) and the recording; daemon-killed SIGKILLs vservod while the arm moves (its driver brings the arm to rest
+# and finishes the motion; `driver_finished`), and nothing is recorded.
 # With --json the last line is one JSON object: final_error_px, settling_time_s, reflex_errors (the Franka's errors
 # that stopped a motion, empty when none), min_control_command_success_rate, max_joint_jerk_rad_s3 (of the
 # velocities the driver sent), state_to_command_p50_us / _p99_us, and the feature summary's fields. Logs, the
@@ -23,7 +28,8 @@ json=0
 config=config/franka-sim.toml
 start=default
 jerk_limit=1
-usage="expected [--config FILE] [--start default|medium] [--duration-s S] [--no-jerk-limit] [--json]"
+fault=""
+usage="expected [--config FILE] [--start default|medium] [--duration-s S] [--no-jerk-limit] [--fault KIND] [--json]"
 while [ $# -gt 0 ]; do
     case "$1" in
         --duration-s) duration="$2"; shift 2 ;;
@@ -33,11 +39,15 @@ while [ $# -gt 0 ]; do
         --start) start="$2"; shift 2 ;;
         --start=*) start="${1#*=}"; shift ;;
         --no-jerk-limit) jerk_limit=0; shift ;;
+        --fault) fault="$2"; shift 2 ;;
+        --fault=*) fault="${1#*=}"; shift ;;
         --json) json=1; shift ;;
         *) echo "run-franka-sim: unknown argument $1 ($usage)" >&2; exit 2 ;;
     esac
 done
 case "$start" in default|medium) ;; *) echo "run-franka-sim: --start is default or medium" >&2; exit 2 ;; esac
+case "$fault" in ""|driver-stopped|daemon-killed) ;;
+    *) echo "run-franka-sim: --fault is driver-stopped or daemon-killed" >&2; exit 2 ;; esac
 [ -f "$config" ] || { echo "run-franka-sim: $config: no such file" >&2; exit 2; }
 config="$(cd "$(dirname "$config")" && pwd)/$(basename "$config")"
 python=target/python-venv/bin/python
@@ -141,18 +151,58 @@ PY
 done
 "$vservoctl" servo --instance "$instance" > "$out/servo.txt" 2>&1 || true
 say "run-franka-sim: at the $start start; servoing, recording $duration s"
-record_run "$instance" "$duration" "$out" commands
+extra='{}'
+driver_pid="$(pgrep -P "$vservod" -x vservo-franka || true)"
+case "$fault" in
+    driver-stopped)
+        sleep 1
+        kill -STOP "$driver_pid"
+        sleep 0.1
+        kill -CONT "$driver_pid"
+        for _ in $(seq 50); do
+            "$vservoctl" status --instance "$instance" --json > "$out/status-fault.json" 2>/dev/null &&
+                grep -q '"active": true' "$out/status-fault.json" && break
+            sleep 0.1
+        done
+        sleep 1
+        resumed=false
+        for _ in $(seq 50); do
+            "$vservoctl" resume --instance "$instance" > "$out/resume-fault.txt" 2>&1 && { resumed=true; break; }
+            sleep 0.2
+        done
+        extra="$("$python" -c 'import json,sys; s=json.load(open(sys.argv[1])); print(json.dumps({"fault_status": s.get("fault"), "resumed_after_fault": sys.argv[2] == "true"}))' "$out/status-fault.json" "$resumed")"
+        ;;
+    daemon-killed)
+        sleep 1
+        kill -KILL "$vservod"
+        for _ in $(seq 100); do kill -0 "$driver_pid" 2>/dev/null || break; sleep 0.05; done
+        finished=false
+        grep -q "the arm is at rest and the motion finished" "$out/vservod.log" && finished=true
+        extra="{\"driver_finished\": $finished}"
+        ;;
+esac
+if [ "$fault" != daemon-killed ]; then
+    record_run "$instance" "$duration" "$out" commands
+else
+    : > "$out/features.jsonl"; : > "$out/commands.jsonl"
+fi
 stop_processes "$vservod"
 wait "$vservod" 2>/dev/null || true
 cleanup
 trap - EXIT
 
-summary="$("$python" scripts/feature_summary.py "$out/features.jsonl" --desired "$desired")"
-limits="$("$python" scripts/command_limits.py "$out/commands.jsonl" "$out/scene.json" |
-    "$python" -c 'import json,sys; d=json.load(sys.stdin); print(json.dumps({"rmrc_max_jerk_ratio": d["max_jerk_ratio"], "rmrc_max_acceleration_ratio": d["max_acceleration_ratio"]}))')"
+summary='{}'
+limits='{}'
+if [ "$fault" != daemon-killed ]; then
+    summary="$("$python" scripts/feature_summary.py "$out/features.jsonl" --desired "$desired")"
+    limits="$("$python" scripts/command_limits.py "$out/commands.jsonl" "$out/scene.json" |
+        "$python" -c 'import json,sys; d=json.load(sys.stdin); print(json.dumps({"rmrc_max_jerk_ratio": d["max_jerk_ratio"], "rmrc_max_acceleration_ratio": d["max_acceleration_ratio"]}))')"
+fi
 driver="$(grep -h 'franka-summary: ' "$out/vservod.log" | tail -1 | sed 's/.*franka-summary: //')"
 [ -n "$driver" ] || driver='{"reflex_errors": ["the driver wrote no summary (see vservod.log)"]}'
-summary="$(merge_json "$(merge_json "$summary" "$limits")" "$driver")"
+summary="$(merge_json "$(merge_json "$(merge_json "$summary" "$limits")" "$driver")" "$extra")"
+violations="$(grep -c 'communication_constraints_violation' "$out/franka-sim.log" || true)"
+summary="$(merge_json "$summary" "{\"sim_log_communication_violations\": ${violations:-0}}")"
 say "$(grep -h 'franka' "$out/vservod.log" | grep -E 'ERROR|WARN' | head -5 || true)"
 say "run-franka-sim: $summary"
 [ "$json" = 1 ] && echo "$summary"

@@ -60,6 +60,11 @@ pub fn run(config: &Config, franka: &Franka, stop: &AtomicBool) -> anyhow::Resul
             Err(vservo_franka::RecvStateError::Timeout { .. }) if !driver.moving() => {
                 driver.cycle_without_robot(&mut robot, &mut cell, stopping)?
             }
+            // the robot stopped streaming mid-motion: it ended the motion (the driver was away, or the network)
+            Err(vservo_franka::RecvStateError::Timeout { waited, .. }) => {
+                driver.motion_lost(&mut robot, &mut cell, waited);
+                Next::Go
+            }
             Err(error) => return Err(error).context("the Franka's robot states stopped"),
         };
         if next == Next::End {
@@ -127,6 +132,8 @@ enum Phase {
         /// The cell's mode sequence when it happened; `held_at`: the sequence of the safe stop that holds it.
         sequence: Option<u64>,
         held_at: Option<u64>,
+        /// The robot's recovery, asked for on a resume and not answered yet.
+        recovering: Option<vservo_franka::RecoveryUnderWay>,
     },
 }
 
@@ -168,9 +175,12 @@ impl Driver {
         // no jerk limits (the configuration then refuses limit_rate): the guard is off
         let jerk =
             interpolator.jerk_limit.map_or([f64::INFINITY; MAX_JOINTS], |j| std::array::from_fn(|i| j[i]));
+        // kept inside the arm's as the rmrc's reference is (vservo-sim's LIMIT_MARGIN): a reference that keeps
+        // them passes unchanged, and the robot's check of the discrete derivatives never meets a limit exactly
+        let margin = crate::shaper::LIMIT_MARGIN;
         let limits = ShaperLimits {
-            acceleration: std::array::from_fn(|j| interpolator.acceleration_limit[j]),
-            jerk: std::array::from_fn(|j| jerk[j]),
+            acceleration: std::array::from_fn(|j| interpolator.acceleration_limit[j] * margin * margin),
+            jerk: std::array::from_fn(|j| jerk[j] * margin * margin * margin),
             dt_s: config.robot.period_s,
         };
         Self {
@@ -273,6 +283,15 @@ impl Driver {
         self.look_after_fault(robot, cell, now_ns)
     }
 
+    /// No robot state for `waited` while moving: the motion is taken as ended by the robot, a fault.
+    fn motion_lost(&mut self, robot: &mut Connection, cell: &mut CellPorts, waited: Duration) {
+        tracing::error!(
+            "no robot state for {waited:?} while moving: the Franka ended the motion (the driver or the network \
+             was away); the cell is stopped safely (driver_fault)"
+        );
+        self.motion_aborted(robot, cell, RobotErrors::default(), monotonic_ns());
+    }
+
     /// The robot ended the motion itself: a fault, named with the robot's errors.
     fn motion_aborted(
         &mut self,
@@ -292,7 +311,7 @@ impl Driver {
         self.side.hold();
         self.shaper = None;
         let sequence = cell.mode().map(|(_, sequence)| sequence);
-        self.phase = Phase::Faulted { errors, since_ns: now_ns, sequence, held_at: None };
+        self.phase = Phase::Faulted { errors, since_ns: now_ns, sequence, held_at: None, recovering: None };
     }
 
     /// Moving: the rmrc's answer to `tick` (waited for until `answer_within_s` after the state came), or the
@@ -307,6 +326,10 @@ impl Driver {
         received_ns: u64,
         stopping: bool,
     ) -> anyhow::Result<Next> {
+        if stopping && self.report.speed_at_stop_rad_s.is_none() {
+            let last = self.report.last_sent.map_or([0.0; MAX_JOINTS], |(v, _)| v);
+            self.report.speed_at_stop_rad_s = Some(last.iter().fold(0.0, |m: f64, v| m.max(v.abs())));
+        }
         let answered = self.take_answer(cell, tick, received_ns + self.answer_within_ns);
         if !answered {
             self.report.late_answers += 1;
@@ -356,36 +379,56 @@ impl Driver {
     }
 
     /// Faulted: once the fault has been shown and the cell holds, the driver holds too; a resume (the cell
-    /// servoing or moving again after that safe stop) runs the robot's recovery and a new motion.
+    /// servoing or moving again after that safe stop) starts the robot's recovery, which the driver waits for
+    /// cycle by cycle (it can take most of a second), then a new motion.
     fn look_after_fault(
         &mut self,
         robot: &mut Connection,
         cell: &mut CellPorts,
         now_ns: u64,
     ) -> anyhow::Result<Next> {
-        let Phase::Faulted { errors, since_ns, sequence, held_at } = self.phase else { return Ok(Next::Go) };
+        let Phase::Faulted { errors, since_ns, sequence, held_at, recovering } = self.phase else {
+            return Ok(Next::Go);
+        };
+        if let Some(under_way) = recovering {
+            match robot.recovery_done(&under_way) {
+                None => {}
+                Some(Ok(())) => self.start_motion(robot, held_at)?,
+                Some(Err(error)) => {
+                    tracing::error!("the Franka's error recovery failed: {error}; the cell stays stopped");
+                    let sequence = cell.mode().map(|(_, at)| at);
+                    self.phase = Phase::Faulted {
+                        errors,
+                        since_ns: now_ns,
+                        sequence,
+                        held_at: None,
+                        recovering: None,
+                    };
+                }
+            }
+            return Ok(Next::Go);
+        }
         let Some((mode, current)) = cell.mode() else { return Ok(Next::Go) };
+        let shown = now_ns.saturating_sub(since_ns) >= FAULT_SHOWN_NS;
         match held_at {
-            None if mode == CellMode::SafeStop
-                && now_ns.saturating_sub(since_ns) >= FAULT_SHOWN_NS
-                && sequence.is_none_or(|at| current >= at) =>
-            {
-                self.phase = Phase::Faulted { errors, since_ns, sequence, held_at: Some(current) };
+            None if mode == CellMode::SafeStop && shown && sequence.is_none_or(|at| current >= at) => {
+                self.phase =
+                    Phase::Faulted { errors, since_ns, sequence, held_at: Some(current), recovering };
             }
             Some(held) if mode != CellMode::SafeStop && current > held => {
                 tracing::warn!("a resume: running the Franka's automatic error recovery after {errors}");
-                match robot.automatic_error_recovery(ROBOT_TIMEOUT) {
-                    Ok(()) => self.start_motion(robot, Some(current))?,
+                if robot.motion_active() {
+                    // the stopped motion's answer, if it has not been read yet
+                    let _ = robot.motion_result(Duration::from_millis(5));
+                }
+                match robot.begin_automatic_error_recovery() {
+                    Ok(under_way) => {
+                        let recovering = Some(under_way);
+                        self.phase =
+                            Phase::Faulted { errors, since_ns, sequence, held_at: Some(current), recovering };
+                    }
                     Err(error) => {
-                        tracing::error!(
-                            "the Franka's error recovery failed: {error}; the cell stays stopped"
-                        );
-                        self.phase = Phase::Faulted {
-                            errors,
-                            since_ns: now_ns,
-                            sequence: Some(current),
-                            held_at: None,
-                        };
+                        tracing::error!("the Franka's error recovery could not be asked for: {error}")
                     }
                 }
             }
@@ -417,6 +460,10 @@ struct Report {
     last_sent: Option<([f64; MAX_JOINTS], Option<[f64; MAX_JOINTS]>)>,
     max_jerk_rad_s3: f64,
     said_loss_ns: u64,
+    /// Robot states since the motion started (its first 100 report fewer commands than their window).
+    motion_cycles: u64,
+    /// The fastest joint's commanded speed when the stop came (rad/s).
+    speed_at_stop_rad_s: Option<f64>,
 }
 
 /// State → command latencies, counted per microsecond (no allocation per cycle).
@@ -478,6 +525,8 @@ impl Report {
             last_sent: None,
             max_jerk_rad_s3: 0.0,
             said_loss_ns: 0,
+            motion_cycles: 0,
+            speed_at_stop_rad_s: None,
         }
     }
 
@@ -496,13 +545,16 @@ impl Report {
     /// A new motion: its commands start afresh from the robot's state.
     fn motion_started(&mut self) {
         self.last_sent = None;
+        self.motion_cycles = 0;
     }
 
     fn cycle(&mut self, state: &RobotState, now_ns: u64) {
         self.cycles += 1;
+        self.motion_cycles += 1;
         if MotionPhase::of(state) == MotionPhase::Running {
             // the first states of a motion report no commands yet
-            let lost = state.control_command_success_rate < self.last_success_rate && self.cycles > 100;
+            let lost =
+                state.control_command_success_rate < self.last_success_rate && self.motion_cycles > 100;
             if lost && self.said_loss_ns + REPORT_EVERY_NS <= now_ns {
                 self.said_loss_ns = now_ns;
                 tracing::warn!(
@@ -513,7 +565,7 @@ impl Report {
                 );
             }
             self.last_success_rate = state.control_command_success_rate;
-            if self.cycles > 100 {
+            if self.motion_cycles > 100 {
                 self.min_success_rate = self.min_success_rate.min(state.control_command_success_rate);
             }
         }
@@ -552,7 +604,8 @@ impl Report {
         eprintln!(
             "franka-summary: {{\"cycles\": {}, \"late_answers\": {}, \"commands_refused\": {}, \
              \"min_control_command_success_rate\": {}, \"reflex_errors\": [{}], \"state_to_command_p50_us\": {}, \
-             \"state_to_command_p99_us\": {}, \"state_to_command_max_us\": {}, \"max_joint_jerk_rad_s3\": {}}}",
+             \"state_to_command_p99_us\": {}, \"state_to_command_max_us\": {}, \"max_joint_jerk_rad_s3\": {}, \
+             \"speed_at_stop_rad_s\": {}}}",
             self.cycles,
             self.late_answers,
             self.commands_refused,
@@ -562,6 +615,7 @@ impl Report {
             self.latencies.percentile_us(99.0),
             self.latencies.percentile_us(100.0),
             self.max_jerk_rad_s3,
+            self.speed_at_stop_rad_s.unwrap_or(0.0),
         );
     }
 }

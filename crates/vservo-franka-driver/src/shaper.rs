@@ -11,6 +11,11 @@
 
 use vservo_protocol::MAX_JOINTS;
 
+/// The share of the arm's limits the guard keeps (its acceleration limit times its square, its jerk limit times
+/// its cube), as the rmrc's reference does (vservo-sim's interpolator): libfranka checks each limit minus 1e-3,
+/// and franka-sim flags a jerk of 5000.000000000005 rad/s³ against 5000.
+pub const LIMIT_MARGIN: f64 = 0.995;
+
 /// Each joint's acceleration (rad/s²) and jerk (rad/s³) limits, and the period (s).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ShaperLimits {

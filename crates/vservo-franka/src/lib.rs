@@ -53,7 +53,9 @@ pub mod wire;
 
 pub use client::{ConnectError, Connection, FCI_PORT};
 pub use errors::{RobotError, RobotErrors};
-pub use motion::{FinishMotionError, MotionResultError, RecoveryError, StartMotionError, StopMotionError};
+pub use motion::{
+    FinishMotionError, MotionResultError, RecoveryError, RecoveryUnderWay, StartMotionError, StopMotionError,
+};
 pub use outcome::{MotionOutcome, MotionPhase};
 pub use profile::SmoothVelocityProfile;
 pub use stats::LatencySummary;

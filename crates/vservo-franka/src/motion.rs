@@ -305,4 +305,38 @@ impl Connection {
         }
         Ok(())
     }
+
+    /// Sends AutomaticErrorRecovery and returns at once: [`Connection::recovery_done`] then says when the robot
+    /// answered, so that a driver goes on with its own cycle (the recovery can take a good part of a second, with
+    /// no robot state meanwhile). Refused while a motion of this connection awaits its final response.
+    pub fn begin_automatic_error_recovery(&mut self) -> Result<RecoveryUnderWay, RecoveryError> {
+        if self.motion.is_some() {
+            return Err(RecoveryError::MotionActive);
+        }
+        let id = self.tcp.take_command_id();
+        self.tcp.send(&encode_empty_request(Command::AutomaticErrorRecovery, id))?;
+        Ok(RecoveryUnderWay { command_id: id })
+    }
+
+    /// Whether the recovery `under_way` has been answered: `None` not yet; `Some(Ok)` the robot recovered.
+    pub fn recovery_done(&mut self, under_way: &RecoveryUnderWay) -> Option<Result<(), RecoveryError>> {
+        let body = match self.tcp.poll(Command::AutomaticErrorRecovery, under_way.command_id) {
+            Ok(None) => return None,
+            Ok(Some(body)) => body,
+            Err(error) => return Some(Err(error.into())),
+        };
+        let status =
+            decode_status(&body, "AutomaticErrorRecovery response", AutomaticErrorRecoveryStatus::from_wire);
+        Some(match status {
+            Ok(AutomaticErrorRecoveryStatus::Success) => Ok(()),
+            Ok(status) => Err(RecoveryError::Rejected { status, errors: self.last.errors }),
+            Err(error) => Err(error.into()),
+        })
+    }
+}
+
+/// An AutomaticErrorRecovery sent and not yet answered ([`Connection::begin_automatic_error_recovery`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct RecoveryUnderWay {
+    command_id: u32,
 }
