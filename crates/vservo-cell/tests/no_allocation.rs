@@ -174,3 +174,43 @@ fn runs_without_allocating(config: vservo_config::Config) -> [LawFlags; COUNTED_
 
 /// Frames counted: three with four marks, one with three, one with one, one with four again.
 const COUNTED_FRAMES: usize = 6;
+
+/// The jerk-limited reference (an arm with jerk limits on an external driver: config/arms/fr3.toml, seven joints,
+/// and ur5e.toml, six): servoing, a joint move and the ramp to rest, tick by tick, allocate nothing.
+#[test]
+fn the_jerk_limited_reference_allocates_nothing_per_tick() {
+    use vservo_sim::interpolator::Interpolator;
+    for arm in ["fr3", "ur5e"] {
+        let file = format!("{}/../../config/arms/{arm}.toml", env!("CARGO_MANIFEST_DIR"));
+        let config = vservo_config::Config::load(&file).expect("the arm's config loads");
+        assert!(config.interpolator.jerk_limit.is_some(), "{arm} has jerk limits");
+        let settings = config.interpolator;
+        let dt = settings.control_period_s;
+        let mut interpolator =
+            Interpolator::new(settings, config.arm.clone(), config.tool_from_camera, config.desired.joints);
+        let twist = Twist::new(0.05, -0.02, 0.03, 0.1, 0.0, -0.2);
+        // warm up: every path once
+        interpolator.set_twist(twist, 0.0);
+        for tick in 1..=200 {
+            interpolator.step(tick as f64 * dt);
+        }
+        let mut tick = 200u64;
+        let mut run = |interpolator: &mut Interpolator, ticks: u64| {
+            for _ in 0..ticks {
+                tick += 1;
+                interpolator.step(tick as f64 * dt);
+            }
+        };
+        let allocations = allocations_in(|| {
+            interpolator.set_twist(twist * -1.0, 0.2);
+            run(&mut interpolator, 300);
+            interpolator.move_joints_to(config.desired.joints, 0.5);
+            run(&mut interpolator, 1000);
+            interpolator.end_joint_move();
+            interpolator.set_twist(Twist::zeros(), 1.5);
+            run(&mut interpolator, 1000);
+        });
+        assert_eq!(allocations, 0, "{arm}");
+        assert_eq!(interpolator.motion_refusals(), 0, "{arm}");
+    }
+}

@@ -37,15 +37,24 @@ fn tick(c: &mut Criterion) {
 /// The interpolator's tick alone (the rmrc's part that depends on the arm) for the PUMA 560 and for arms from
 /// a URDF (PyBullet's pybullet_data, linked by scripts/setup.sh): the xArm6 (six joints, the same 6×6 path
 /// as the PUMA) and the Panda (seven joints: the redundancy resolution with its null-space task), each on its
-/// configuration's interpolator settings.
+/// configuration's interpolator settings (their jerk limits among them: the jerk-limited reference); the UR5e and
+/// the FR3 with and without their jerk limits (the cost of the trajectory generator).
 fn interpolator_ticks(c: &mut Criterion) {
     for (name, file) in [
         ("interpolator_tick_puma560", "config/vservo.toml"),
         ("interpolator_tick_xarm6_urdf", "config/arms/xarm6.toml"),
         ("interpolator_tick_panda_urdf_7_joints", "config/arms/panda.toml"),
+        ("interpolator_tick_ur5e_6_joints_jerk_limited", "config/arms/ur5e.toml"),
+        ("interpolator_tick_fr3_7_joints_jerk_limited", "config/arms/fr3.toml"),
+        ("interpolator_tick_ur5e_6_joints_acceleration_only", "config/arms/ur5e.toml"),
+        ("interpolator_tick_fr3_7_joints_acceleration_only", "config/arms/fr3.toml"),
     ] {
-        let config = Config::load(format!("{}/../../{file}", env!("CARGO_MANIFEST_DIR")))
+        let mut config = Config::load(format!("{}/../../{file}", env!("CARGO_MANIFEST_DIR")))
             .expect("a valid configuration");
+        // the same arm without its jerk limits: the acceleration-limited reference, for comparison
+        if name.ends_with("acceleration_only") {
+            config.interpolator.jerk_limit = None;
+        }
         let mut interpolator = Interpolator::new(
             config.interpolator,
             config.arm.clone(),

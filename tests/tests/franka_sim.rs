@@ -1,0 +1,109 @@
+//! The first motion on a real arm, proven on the Franka's own protocol against a robot side someone else wrote:
+//! franka-sim 1.1.7 (an FCI server, protocol version 10, on MuJoCo) with the FCI's motion-limit checker and its
+//! communication constraints both on, vservod with its Franka driver (vservo-franka), through
+//! `scripts/run-franka-sim.sh` (which starts the cell held, resumes it, moves to the start and servos).
+
+use std::process::{Command, Stdio};
+
+use serde_json::Value;
+use vservo_system_tests::{binary, exclusive, repository_root, run_script_to_convergence};
+
+/// The FR3's joint jerk limit (rad/s³), which franka-sim's checker enforces.
+const FR3_JERK_RAD_S3: f64 = 5000.0;
+
+/// `scripts/run-franka-sim.sh --json ARGS`: its summary, whether or not the loop converged.
+fn run_franka_sim(args: &[&str]) -> Value {
+    let bin_dir = binary("vservod").parent().expect("target/<profile>").to_path_buf();
+    let out = Command::new(repository_root().join("scripts/run-franka-sim.sh"))
+        .args(["--json"])
+        .args(args)
+        .env("VSERVO_BIN_DIR", &bin_dir)
+        .stdin(Stdio::null())
+        .output()
+        .expect("run-franka-sim.sh runs");
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stdout}\n{stderr}");
+    let summary: Value = serde_json::from_str(stdout.lines().last().expect("a JSON line")).expect("JSON");
+    println!("{summary}");
+    summary
+}
+
+fn number(summary: &Value, key: &str) -> f64 {
+    summary[key].as_f64().unwrap_or_else(|| panic!("{key} in {summary}"))
+}
+
+fn reflexes(summary: &Value) -> Vec<String> {
+    summary["reflex_errors"]
+        .as_array()
+        .unwrap_or_else(|| panic!("reflex_errors in {summary}"))
+        .iter()
+        .map(|e| e.as_str().unwrap_or_default().to_string())
+        .collect()
+}
+
+/// What every run that ran without a fault must show: no reflex, every command the driver sent within the FR3's
+/// jerk limit as the robot measures it (and the limit used: the motion was not a crawl), no loss the robot counted
+/// as a violation, and its command success rate.
+fn assert_the_robot_accepted_every_command(summary: &Value) {
+    assert!(reflexes(summary).is_empty(), "{summary}");
+    let jerk = number(summary, "max_joint_jerk_rad_s3");
+    assert!(jerk <= FR3_JERK_RAD_S3 && jerk > 1000.0, "{summary}");
+    assert_eq!(number(summary, "sim_log_communication_violations"), 0.0, "{summary}");
+    // The FCI counts a command lost when it misses its millisecond; over its window of 100 commands the robot
+    // reports the share received. On these shared two-core machines the driver misses a single command now and
+    // then (0.98–1.0 measured, docs/BENCHMARKS.md): the bar here is that no run of them comes near the robot's
+    // limit of 20 in a row.
+    assert!(number(summary, "min_control_command_success_rate") >= 0.95, "{summary}");
+}
+
+/// From the default start and from a medium-class start, the loop converges below one pixel on the simulated FR3,
+/// and the robot accepted every command.
+#[test]
+fn the_loop_converges_on_franka_sim_with_its_motion_limits_and_communication_constraints_on() {
+    let _one = exclusive();
+    for start in ["default", "medium"] {
+        let summary = run_script_to_convergence("run-franka-sim.sh", &["--start", start]);
+        assert_the_robot_accepted_every_command(&summary);
+        // the rmrc's own reference kept the limits: the driver's guard had nothing to take off
+        assert!(number(&summary, "rmrc_max_jerk_ratio") <= 1.0, "{summary}");
+    }
+}
+
+/// The premise: the same run with vservo's jerk limiting off (the arm's jerk limit raised out of reach, the driver's
+/// guard off) is stopped by the robot's checker with the FCI's own discontinuity error.
+#[test]
+fn without_jerk_limiting_the_robot_stops_the_motion_with_its_discontinuity_error() {
+    let _one = exclusive();
+    let summary = run_franka_sim(&["--no-jerk-limit", "--duration-s", "4"]);
+    let reflexes = reflexes(&summary);
+    assert!(reflexes.iter().any(|r| r == "joint_motion_generator_acceleration_discontinuity"), "{summary}");
+    assert!(number(&summary, "max_joint_jerk_rad_s3") > FR3_JERK_RAD_S3, "{summary}");
+}
+
+/// The driver stopped (SIGSTOP) for 100 ms mid-motion: the robot stops itself, as its controller does
+/// (`communication_constraints_violation`), the cell stops safely naming the driver's fault, and `vservoctl resume`
+/// runs the robot's error recovery and a new motion, which converges.
+#[test]
+fn a_stopped_driver_is_a_named_safe_stop_and_resume_recovers_the_robot() {
+    let _one = exclusive();
+    let summary =
+        run_script_to_convergence("run-franka-sim.sh", &["--start", "medium", "--fault", "driver-stopped"]);
+    assert!(reflexes(&summary).iter().any(|r| r == "communication_constraints_violation"), "{summary}");
+    assert_eq!(summary["fault_status"]["name"], "driver_fault", "{summary}");
+    assert_eq!(summary["resumed_after_fault"], true, "{summary}");
+    assert!(number(&summary, "max_joint_jerk_rad_s3") <= FR3_JERK_RAD_S3, "{summary}");
+}
+
+/// vservod SIGKILLed while the arm moves: its Franka driver brings the arm to rest within the limits and finishes
+/// the motion; the robot saw no violation of any kind.
+#[test]
+fn the_daemon_killed_mid_motion_leaves_the_arm_at_rest_and_the_motion_finished() {
+    let _one = exclusive();
+    let summary = run_franka_sim(&["--start", "medium", "--fault", "daemon-killed"]);
+    assert!(number(&summary, "speed_at_stop_rad_s") > 0.01, "the arm moved when the daemon died: {summary}");
+    assert_eq!(summary["driver_finished"], true, "{summary}");
+    assert!(reflexes(&summary).is_empty(), "{summary}");
+    assert_eq!(number(&summary, "sim_log_communication_violations"), 0.0, "{summary}");
+    assert!(number(&summary, "max_joint_jerk_rad_s3") <= FR3_JERK_RAD_S3, "{summary}");
+}
