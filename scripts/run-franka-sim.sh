@@ -108,11 +108,7 @@ pids=()
 cleanup() {
     stop_processes ${pids[@]+"${pids[@]}"}
     pids=()
-    if [ -f "$VSERVO_RUNTIME_DIR/$instance/prefix" ]; then
-        prefix="$(cat "$VSERVO_RUNTIME_DIR/$instance/prefix")"
-        [ -n "$prefix" ] && rm -f /dev/shm/"$prefix"* 2>/dev/null || true
-    fi
-    rm -rf "$VSERVO_RUNTIME_DIR"
+    remove_runtime_dir "$instance"
 }
 trap cleanup EXIT
 

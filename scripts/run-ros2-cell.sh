@@ -99,11 +99,7 @@ cleanup() {
     pids=()
     for ns in ${hosts[@]+"${hosts[@]}"}; do ip netns del "$ns" 2>/dev/null || true; done
     hosts=()
-    if [ -f "$VSERVO_RUNTIME_DIR/$instance/prefix" ]; then
-        prefix="$(cat "$VSERVO_RUNTIME_DIR/$instance/prefix")"
-        [ -n "$prefix" ] && rm -f /dev/shm/"$prefix"* 2>/dev/null || true
-    fi
-    rm -rf "$VSERVO_RUNTIME_DIR"
+    remove_runtime_dir "$instance"
 }
 trap cleanup EXIT
 

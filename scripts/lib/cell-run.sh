@@ -87,6 +87,17 @@ stop_processes() {
     for pid in "$@"; do kill -KILL "$pid" 2>/dev/null || true; done
 }
 
+# remove_runtime_dir INSTANCE: removes the run's own runtime directory ($VSERVO_RUNTIME_DIR) and the instance's
+# shared memory (its prefix is in the directory).
+remove_runtime_dir() {
+    local instance="$1" prefix
+    if [ -f "$VSERVO_RUNTIME_DIR/$instance/prefix" ]; then
+        prefix="$(cat "$VSERVO_RUNTIME_DIR/$instance/prefix")"
+        [ -n "$prefix" ] && rm -f /dev/shm/"$prefix"* 2>/dev/null || true
+    fi
+    rm -rf "$VSERVO_RUNTIME_DIR"
+}
+
 # merge_json A B: the JSON object A with B's keys added.
 merge_json() {
     "$python" -c 'import json,sys; a=json.loads(sys.argv[1]); a.update(json.loads(sys.argv[2])); print(json.dumps(a))' "$1" "$2"

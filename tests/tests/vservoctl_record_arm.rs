@@ -68,7 +68,8 @@ fn a_recording_of_a_custom_dh_arm_draws_that_arm() {
     let custom_arm = format!(
         "preset = \"custom\"\ndh = {dh}\n\
          joint_limits_rad = [[-6.28, 6.28], [-6.28, 6.28], [-3.1, 3.1], [-6.28, 6.28], [-6.28, 6.28], [-6.28, 6.28]]\n\
-         velocity_limits_rad_s = [3.0, 3.0, 3.0, 3.0, 3.0, 3.2]"
+         velocity_limits_rad_s = [3.0, 3.0, 3.0, 3.0, 3.0, 3.2]\n\
+         acceleration_limits_rad_s2 = [5.0, 5.0, 5.0, 5.0, 5.0, 5.0]"
     );
     let start = format!("joints_rad = {}", serde_json::to_string(&START_RAD).expect("JSON"));
     let config = config_from(

@@ -150,7 +150,7 @@ fn cell_with_fake_driver(name: &str) -> (String, Daemon, FakeDriver, impl Sized)
         &[
             ("name = \"default\"", &format!("name = \"{instance}\"")),
             ("source = \"simulated\"", "source = \"external\""),
-            ("driver = \"simulated\"", "driver = \"external\"\ncommand = \"velocity\""),
+            ("driver = \"simulated\"", "driver = \"external\"\ncommand = \"velocity\"\nstart = \"servoing\""),
         ],
     );
     let daemon = Daemon::start(&config);

@@ -199,7 +199,8 @@ fn a_custom_arm_is_taken_from_its_dh_table() {
         dh = [[0.0, 1.5707963267948966, 0.089159, 0.0], [-0.425, 0.0, 0.0, 0.0], [-0.39225, 0.0, 0.0, 0.0], \
               [0.0, 1.5707963267948966, 0.10915, 0.0], [0.0, -1.5707963267948966, 0.09465, 0.0], [0.0, 0.0, 0.0823, 0.0]]\n\
         joint_limits_rad = [[-6.28, 6.28], [-6.28, 6.28], [-3.1, 3.1], [-6.28, 6.28], [-6.28, 6.28], [-6.28, 6.28]]\n\
-        velocity_limits_rad_s = [3.0, 3.0, 3.0, 3.0, 3.0, 3.2]";
+        velocity_limits_rad_s = [3.0, 3.0, 3.0, 3.0, 3.0, 3.2]\n\
+        acceleration_limits_rad_s2 = [5.0, 5.0, 5.0, 5.0, 5.0, 5.0]";
     let external = with("preset = \"puma560\"", custom)
         .replacen("source = \"simulated\"", "source = \"external\"", 1)
         .replacen("driver = \"simulated\"", "driver = \"external\"\ncommand = \"velocity\"", 1)

@@ -295,8 +295,11 @@ impl DriverSide {
     fn limit_bits(&self, q_rad: &[f64; MAX_JOINTS], qd_rad_s: &[f64; MAX_JOINTS]) -> u32 {
         let s = &self.settings;
         (0..s.joint_count).fold(0, |bits, j| {
-            let position = !(q_rad[j] > s.position_min_rad[j] && q_rad[j] < s.position_max_rad[j]);
-            let velocity = !(qd_rad_s[j].abs() <= s.velocity_max_rad_s[j]);
+            // NaN is outside: it lies in no range
+            let position = !(s.position_min_rad[j]..=s.position_max_rad[j]).contains(&q_rad[j])
+                || q_rad[j] == s.position_min_rad[j]
+                || q_rad[j] == s.position_max_rad[j];
+            let velocity = !(0.0..=s.velocity_max_rad_s[j]).contains(&qd_rad_s[j].abs());
             bits | (u32::from(position) << (fault_bits::POSITION_LIMIT_SHIFT + j as u32))
                 | (u32::from(velocity) << (fault_bits::VELOCITY_LIMIT_SHIFT + j as u32))
         })

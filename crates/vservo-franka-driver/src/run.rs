@@ -343,7 +343,7 @@ impl Driver {
             (Some(shaper), true) => shaper.next(&target),
             _ => target,
         };
-        let at_rest = self.shaper.as_ref().map_or(true, |s| !self.limit_rate || s.at_rest());
+        let at_rest = self.shaper.as_ref().is_none_or(|s| !self.limit_rate || s.at_rest());
         if stopping && at_rest && velocity.iter().all(|v| *v == 0.0) {
             robot.finish_motion(state, [0.0; 7], ROBOT_TIMEOUT).context("finishing the motion")?;
             tracing::info!("the arm is at rest and the motion finished");

@@ -48,10 +48,11 @@ impl CommandShaper {
     /// The velocity to send this period towards `target` (a non-finite target is taken as zero: rest).
     pub fn next(&mut self, target: &[f64; MAX_JOINTS]) -> [f64; MAX_JOINTS] {
         let dt = self.limits.dt_s;
-        for j in 0..self.joints {
+        let joints = self.joints;
+        for (j, goal) in target.iter().enumerate().take(joints) {
             let (v, a) = (self.velocity[j], self.acceleration[j]);
             let (a_max, jerk) = (self.limits.acceleration[j], self.limits.jerk[j]);
-            let goal = if target[j].is_finite() { target[j] } else { 0.0 };
+            let goal = if goal.is_finite() { *goal } else { 0.0 };
             let error = goal - v;
             let step = jerk * dt;
             let next_a = if error.abs() <= 0.5 * step * dt && a.abs() <= 0.5 * step {

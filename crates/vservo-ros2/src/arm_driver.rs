@@ -16,6 +16,10 @@ use vservo_protocol::{
     CommandMode, DriverStatus, JointCommandMsg, JointStateMsg, MAX_JOINTS, SCHEMA_VERSION,
 };
 
+#[cfg(test)]
+use vservo_driver::PERIOD_CHECK_GAPS;
+use vservo_driver::PeriodCheck;
+
 use crate::msg::JointState;
 
 /// A command must answer the joint state last published or one or two before it (docs/DRIVERS.md, "When to
@@ -137,42 +141,6 @@ pub struct Step {
     pub command: Vec<f64>,
 }
 
-/// How many gaps between joint states the arm's period is judged on (their median).
-pub const PERIOD_CHECK_GAPS: usize = 64;
-
-/// Whether the arm's joint states come at `[robot] period_s`: a wrong period would make every tick a period
-/// the arm did not live (the rmrc's reference would run ahead of time, or behind it). Judged on the median of
-/// the last [`PERIOD_CHECK_GAPS`] gaps between stamps, which a late state or a lost one does not move; the
-/// arm's own period is taken within −25 % and +50 %.
-#[derive(Debug, Clone)]
-struct PeriodCheck {
-    gaps_ns: [u64; PERIOD_CHECK_GAPS],
-    count: usize,
-}
-
-impl PeriodCheck {
-    fn new() -> Self {
-        Self { gaps_ns: [0; PERIOD_CHECK_GAPS], count: 0 }
-    }
-
-    fn add(&mut self, gap_ns: u64) {
-        self.gaps_ns[self.count % PERIOD_CHECK_GAPS] = gap_ns;
-        self.count += 1;
-    }
-
-    /// The median gap (ns) once enough were seen, if it is not the configured period's.
-    fn mismatch(&self, period_ns: u64) -> Option<u64> {
-        if self.count < PERIOD_CHECK_GAPS {
-            return None;
-        }
-        let mut sorted = self.gaps_ns;
-        sorted.sort_unstable();
-        let median_ns = sorted[PERIOD_CHECK_GAPS / 2];
-        let period = period_ns as f64;
-        (!(0.75 * period..=1.5 * period).contains(&(median_ns as f64))).then_some(median_ns)
-    }
-}
-
 /// The driver's state between joint states.
 #[derive(Debug, Clone)]
 pub struct ArmFollower {
@@ -205,7 +173,7 @@ impl ArmFollower {
             in_force: None,
             applying: u64::MAX,
             hold_at: None,
-            period_check: PeriodCheck::new(),
+            period_check: PeriodCheck::default(),
             counts: ArmCounts::default(),
         }
     }
