@@ -20,6 +20,7 @@
 //! Exit codes: 0 after the motion ended on SIGINT/SIGTERM, 1 on an error, 2 on a configuration it cannot run.
 
 mod cell;
+mod report;
 mod run;
 mod shaper;
 

@@ -11,6 +11,7 @@ use vservo_franka::{Connection, JointVelocityCommand, MotionPhase, RobotErrors, 
 use vservo_protocol::{CellMode, CommandMode, MAX_JOINTS};
 
 use crate::cell::CellPorts;
+use crate::report::Report;
 use crate::shaper::{CommandShaper, ShaperLimits};
 
 /// How long a connection, a motion's start or a recovery may take.
@@ -24,12 +25,6 @@ const IDLE_PERIOD: Duration = Duration::from_millis(1);
 
 /// A fault is reported at least this long, so that the cell's fault monitor sees it (ns).
 const FAULT_SHOWN_NS: u64 = 200_000_000;
-
-/// How often the counts are logged (ns).
-const REPORT_EVERY_NS: u64 = 10_000_000_000;
-
-/// The state → command latencies are counted per microsecond up to this (µs); longer ones in the last bucket.
-const LATENCY_BUCKETS_US: usize = 5000;
 
 /// Runs until `stop` is set, then brings the arm to rest and ends the motion.
 pub fn run(config: &Config, franka: &Franka, stop: &AtomicBool) -> anyhow::Result<()> {
@@ -106,7 +101,7 @@ fn go_realtime(config: &Config) {
 }
 
 /// CLOCK_MONOTONIC (ns): the instance's clock.
-fn monotonic_ns() -> u64 {
+pub(crate) fn monotonic_ns() -> u64 {
     nix::time::clock_gettime(nix::time::ClockId::CLOCK_MONOTONIC)
         .map(|t| t.tv_sec() as u64 * 1_000_000_000 + t.tv_nsec() as u64)
         .unwrap_or(0)
@@ -441,181 +436,4 @@ impl Driver {
 /// The robot's single-precision values as the contract's f64 arrays (the slots past seven none).
 fn widen(values: &[f64; 7]) -> [f64; MAX_JOINTS] {
     std::array::from_fn(|j| values.get(j).copied().unwrap_or(0.0))
-}
-
-/// What the driver counts and logs.
-struct Report {
-    cycles: u64,
-    late_answers: u64,
-    commands_refused: u64,
-    publish_failed: u64,
-    said: std::collections::BTreeSet<&'static str>,
-    reflexes: Vec<String>,
-    /// The lowest `control_command_success_rate` the robot reported (after its first 100 cycles).
-    min_success_rate: f64,
-    last_success_rate: f64,
-    latencies: Latencies,
-    last_report_ns: u64,
-    /// The velocities sent in the last two periods of this motion, and the largest jerk they made (rad/s³).
-    last_sent: Option<([f64; MAX_JOINTS], Option<[f64; MAX_JOINTS]>)>,
-    max_jerk_rad_s3: f64,
-    said_loss_ns: u64,
-    /// Robot states since the motion started (its first 100 report fewer commands than their window).
-    motion_cycles: u64,
-    /// The fastest joint's commanded speed when the stop came (rad/s).
-    speed_at_stop_rad_s: Option<f64>,
-}
-
-/// State → command latencies, counted per microsecond (no allocation per cycle).
-struct Latencies {
-    counts: Vec<u64>,
-    total: u64,
-}
-
-impl Latencies {
-    fn new() -> Self {
-        Self { counts: vec![0; LATENCY_BUCKETS_US + 1], total: 0 }
-    }
-
-    fn push(&mut self, latency: Duration) {
-        let us = (latency.as_micros() as usize).min(LATENCY_BUCKETS_US);
-        self.counts[us] += 1;
-        self.total += 1;
-    }
-
-    /// The nearest-rank `pct`-th percentile (µs; 0 with none).
-    fn percentile_us(&self, pct: f64) -> usize {
-        let rank = ((pct / 100.0 * self.total as f64).ceil() as u64).max(1);
-        let mut seen = 0;
-        for (us, count) in self.counts.iter().enumerate() {
-            seen += count;
-            if seen >= rank {
-                return us;
-            }
-        }
-        0
-    }
-}
-
-impl std::fmt::Display for Latencies {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        write!(
-            f,
-            "p50 {} µs, p99 {} µs, max {} µs",
-            self.percentile_us(50.0),
-            self.percentile_us(99.0),
-            self.percentile_us(100.0)
-        )
-    }
-}
-
-impl Report {
-    fn new() -> Self {
-        Self {
-            cycles: 0,
-            late_answers: 0,
-            commands_refused: 0,
-            publish_failed: 0,
-            said: Default::default(),
-            reflexes: Vec::new(),
-            min_success_rate: 1.0,
-            last_success_rate: 1.0,
-            latencies: Latencies::new(),
-            last_report_ns: monotonic_ns(),
-            last_sent: None,
-            max_jerk_rad_s3: 0.0,
-            said_loss_ns: 0,
-            motion_cycles: 0,
-            speed_at_stop_rad_s: None,
-        }
-    }
-
-    /// A velocity sent: the jerk it makes with the two before (the robot's measure).
-    fn sent(&mut self, velocity: &[f64; MAX_JOINTS], dt: f64) {
-        let acceleration = self.last_sent.map(|(v, _)| std::array::from_fn(|j| (velocity[j] - v[j]) / dt));
-        if let (Some(a), Some((_, Some(before)))) = (acceleration, self.last_sent) {
-            let a: [f64; MAX_JOINTS] = a;
-            for j in 0..MAX_JOINTS {
-                self.max_jerk_rad_s3 = self.max_jerk_rad_s3.max(((a[j] - before[j]) / dt).abs());
-            }
-        }
-        self.last_sent = Some((*velocity, acceleration));
-    }
-
-    /// A new motion: its commands start afresh from the robot's state.
-    fn motion_started(&mut self) {
-        self.last_sent = None;
-        self.motion_cycles = 0;
-    }
-
-    fn cycle(&mut self, state: &RobotState, now_ns: u64) {
-        self.cycles += 1;
-        self.motion_cycles += 1;
-        if MotionPhase::of(state) == MotionPhase::Running {
-            // the first states of a motion report no commands yet
-            let lost =
-                state.control_command_success_rate < self.last_success_rate && self.motion_cycles > 100;
-            if lost && self.said_loss_ns + REPORT_EVERY_NS <= now_ns {
-                self.said_loss_ns = now_ns;
-                tracing::warn!(
-                    cycle = self.cycles,
-                    success_rate = state.control_command_success_rate,
-                    late_answers = self.late_answers,
-                    "the robot missed a command of this driver's (said at most every 10 s)"
-                );
-            }
-            self.last_success_rate = state.control_command_success_rate;
-            if self.motion_cycles > 100 {
-                self.min_success_rate = self.min_success_rate.min(state.control_command_success_rate);
-            }
-        }
-        if now_ns.saturating_sub(self.last_report_ns) >= REPORT_EVERY_NS {
-            self.last_report_ns = now_ns;
-            self.log("running");
-        }
-    }
-
-    fn latency(&mut self, latency: Duration) {
-        self.latencies.push(latency);
-    }
-
-    fn refused(&mut self, refused: vservo_driver::CommandRefused) {
-        self.commands_refused += 1;
-        if self.said.insert(refused.kind()) {
-            tracing::warn!("a joint command refused: {refused} (said once per kind; counted)");
-        }
-    }
-
-    fn log(&self, what: &str) {
-        tracing::info!(
-            cycles = self.cycles,
-            late_answers = self.late_answers,
-            commands_refused = self.commands_refused,
-            success_rate_min = self.min_success_rate,
-            success_rate = self.last_success_rate,
-            state_to_command = %self.latencies,
-            "franka: {what}"
-        );
-    }
-
-    /// One JSON line for scripts (scripts/run-franka-sim.sh): `franka-summary: {…}`.
-    fn summary_line(&self) {
-        let reflexes: Vec<String> = self.reflexes.iter().map(|r| format!("{r:?}")).collect();
-        eprintln!(
-            "franka-summary: {{\"cycles\": {}, \"late_answers\": {}, \"commands_refused\": {}, \
-             \"min_control_command_success_rate\": {}, \"reflex_errors\": [{}], \"state_to_command_p50_us\": {}, \
-             \"state_to_command_p99_us\": {}, \"state_to_command_max_us\": {}, \"max_joint_jerk_rad_s3\": {}, \
-             \"speed_at_stop_rad_s\": {}}}",
-            self.cycles,
-            self.late_answers,
-            self.commands_refused,
-            self.min_success_rate,
-            reflexes.join(", "),
-            self.latencies.percentile_us(50.0),
-            self.latencies.percentile_us(99.0),
-            self.latencies.percentile_us(100.0),
-            self.max_jerk_rad_s3,
-            self.speed_at_stop_rad_s.unwrap_or(0.0),
-        );
-    }
 }
