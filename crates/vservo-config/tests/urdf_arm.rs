@@ -285,3 +285,46 @@ fn a_missing_or_broken_file_and_keys_of_another_preset_are_refused() {
     assert_eq!(key, "robot.arm.tip_link");
     assert!(message.contains("preset = \"urdf\""), "{message}");
 }
+
+/// `[robot] driver = "franka"`: the FR3 of config/arms/fr3.toml over its FCI; what the Franka driver cannot honour
+/// is refused naming the key: a section without the driver, an address that is not one, another command, another
+/// period, the simulated camera with a real robot, a port that is not one.
+#[test]
+fn a_franka_arm_is_taken_and_what_its_driver_cannot_honour_is_refused() {
+    let scratch = Scratch::new("franka");
+    let fr3 = concat!(env!("CARGO_MANIFEST_DIR"), "/../../config/arms/fr3.toml");
+    let load = |extra: &str| {
+        let path = scratch.0.join("franka.toml");
+        std::fs::write(&path, format!("extends = {fr3:?}\n{extra}")).expect("written");
+        Config::load(&path)
+    };
+    let robot = "[camera]\nsource = \"external\"\n[robot]\ndriver = \"franka\"\n";
+    let config = load(&format!("{robot}[franka]\naddress = \"10.0.0.2\"\n")).expect("an FR3 over its FCI");
+    let franka = config.franka.expect("the Franka driver's settings");
+    assert_eq!(franka.address.to_string(), "10.0.0.2:1337");
+    assert!(franka.limit_rate && !franka.simulator);
+    assert_eq!(config.robot.period_s, 0.001, "the FCI's period");
+    assert!(config.robot.start_held, "a real arm's cell starts held");
+    let cases: [(String, &str); 6] = [
+        ("[franka]\naddress = \"127.0.0.1\"\n".to_string(), "franka"),
+        (format!("{robot}[franka]\naddress = \"robot.local\"\n"), "franka.address"),
+        (format!("{robot}command = \"position\"\n"), "robot.command"),
+        (format!("{robot}period_s = 0.002\n"), "robot.period_s"),
+        (
+            format!("{robot}[franka]\nsimulator = false\n")
+                .replace("source = \"external\"", "source = \"simulated\""),
+            "camera.source",
+        ),
+        (format!("{robot}[franka]\nport = 70000\n"), "franka.port"),
+    ];
+    for (extra, key) in &cases {
+        let (found, message) = refusal(load(extra));
+        assert_eq!(&found, key, "{extra}: {message}");
+    }
+    // franka-sim: the simulated camera may render the arm it reports
+    load(
+        &format!("{robot}[franka]\nsimulator = true\n")
+            .replace("source = \"external\"", "source = \"simulated\""),
+    )
+    .expect("franka-sim with vservo's simulated camera");
+}
