@@ -413,3 +413,29 @@ print(sum(c.set_target([151, 168, 318, 178, 339, 75, 172, 70 + (i % 2)]).accepte
     assert!(summarised >= 30, "{summarised} commands summarised\n{log}");
     daemon.stop();
 }
+
+/// An external robot driver that never appears (not started, another instance, another schema) is said within
+/// 5 s: vservod would otherwise wait at "robot waiting" for good. And the cell it waits for starts held.
+#[test]
+fn a_robot_driver_that_never_appears_is_said_within_five_seconds() {
+    let _one = exclusive();
+    let instance = unique("no-driver");
+    let config = config_from(
+        "config/vservo.toml",
+        &[
+            ("name = \"default\"", &format!("name = \"{instance}\"")),
+            ("source = \"simulated\"", "source = \"external\""),
+            ("driver = \"simulated\"", "driver = \"external\"\ncommand = \"velocity\""),
+        ],
+    );
+    let daemon = Daemon::start(&config);
+    let started = Instant::now();
+    let said = || daemon.log().contains("no robot driver has appeared");
+    assert!(wait_until(Duration::from_secs(5), said), "{}", daemon.log());
+    assert!(
+        started.elapsed() >= Duration::from_secs(2),
+        "not before it could have appeared: {}",
+        daemon.log()
+    );
+    assert!(daemon.log().contains("the cell starts held"), "{}", daemon.log());
+}

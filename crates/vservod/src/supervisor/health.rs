@@ -19,6 +19,15 @@ pub fn robot_state(age: Option<Duration>, deadline: Duration) -> RobotState {
     }
 }
 
+/// How long vservod waits for an external robot driver's first joint state before it says none has appeared.
+pub const DRIVER_ABSENT_AFTER: Duration = Duration::from_secs(3);
+
+/// Whether to say now that no robot driver has appeared: an external driver (the simulated one is vservod's own
+/// node), no joint state yet `waited` after the start, longer than [`DRIVER_ABSENT_AFTER`], not said yet.
+pub fn driver_absent(external: bool, robot: RobotState, waited: Duration, said: bool) -> bool {
+    external && robot == RobotState::Waiting && waited >= DRIVER_ABSENT_AFTER && !said
+}
+
 /// A change of the robot driver's state worth a log line.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum RobotChange {
@@ -180,6 +189,15 @@ mod tests {
     fn the_robot_waits_runs_and_stalls_by_the_age_of_its_latest_state() {
         let deadline = 50 * MS;
         assert_eq!(robot_state(None, deadline), RobotState::Waiting);
+        let late = DRIVER_ABSENT_AFTER;
+        assert!(driver_absent(true, RobotState::Waiting, late, false));
+        assert!(!driver_absent(true, RobotState::Waiting, late, true), "said once");
+        assert!(!driver_absent(true, RobotState::Waiting, late / 2, false), "not yet");
+        assert!(
+            !driver_absent(false, RobotState::Waiting, late, false),
+            "the simulated driver is vservod's own"
+        );
+        assert!(!driver_absent(true, RobotState::Running, late, false));
         assert_eq!(robot_state(Some(50 * MS), deadline), RobotState::Running);
         assert_eq!(robot_state(Some(51 * MS), deadline), RobotState::Stalled);
         assert_eq!(robot_change(RobotState::Waiting, RobotState::Running), Some(RobotChange::Arriving));

@@ -132,6 +132,8 @@ struct Daemon {
     cleanup: CleanupClock,
     started_ns: u64,
     last_report: Instant,
+    /// Whether the absence of the robot driver has been said.
+    driver_absence_said: bool,
 }
 
 /// Reads and checks the configuration: the text the nodes are handed is the text validated here; the gains
@@ -250,6 +252,7 @@ impl Daemon {
             cleanup: CleanupClock::new(now),
             started_ns,
             last_report: now,
+            driver_absence_said: false,
         })
     }
 
@@ -392,6 +395,18 @@ impl Daemon {
         let robot = health::robot_state(age, self.settings.robot_deadline);
         log_robot_change(health::robot_change(self.robot, robot), self.settings.robot_deadline);
         self.robot = robot;
+        let waited = Duration::from_nanos(monotonic_ns().saturating_sub(self.started_ns));
+        if health::driver_absent(self.settings.external_robot, robot, waited, self.driver_absence_said) {
+            self.driver_absence_said = true;
+            tracing::warn!(
+                waited_s = waited.as_secs_f64(),
+                instance = %self.settings.instance,
+                schema = vservo_protocol::SCHEMA_VERSION,
+                "no robot driver has appeared: is it running, for this instance (and this user's runtime \
+                 directory), on the same schema (docs/PROTOCOL.md)? A driver vservod starts (ros2, franka) says \
+                 why above; `vservoctl status` shows the streams' writers"
+            );
+        }
         let vision = self.nodes.iter().find(|n| n.record.role == NodeRole::Vision);
         let seen = CameraSeen {
             frame_at: self.heard.features_at,
