@@ -28,6 +28,10 @@ pub const QS: JointVector = six_joints([0.0, 0.0, -FRAC_PI_2, 0.0, 0.0, 0.0]);
 /// Nominal table-top pose, well away from singularities; vservo's desired pose.
 pub const QN: JointVector = six_joints([0.0, FRAC_PI_4, -PI, 0.0, FRAC_PI_4, 0.0]);
 
+/// The PUMA 560's joint accelerations (rad/s²). None are published: about what its torque limits give over its
+/// inertia at the nominal pose, with margin. No jerk limit is published either.
+pub const ACCELERATION_LIMITS_RAD_S2: JointVector = six_joints([22.5, 22.5, 45.0, 90.0, 90.0, 90.0]);
+
 /// The named poses, for the command line and messages.
 pub const NAMED_POSES: [(&str, JointVector); 4] = [("qz", QZ), ("qr", QR), ("qs", QS), ("qn", QN)];
 

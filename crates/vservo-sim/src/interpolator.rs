@@ -60,6 +60,9 @@ pub struct InterpolatorSettings {
 impl InterpolatorSettings {
     /// The defaults for a vision period and a tick.
     pub fn new(vision_period_s: f64, control_period_s: f64) -> Self {
+        // the PUMA 560's; a seventh joint, a wrist's, as the PUMA's wrist
+        let mut acceleration_limit = vservo_arm::puma560::ACCELERATION_LIMITS_RAD_S2;
+        acceleration_limit[6] = acceleration_limit[5];
         Self {
             hold: TwistHold::ZeroOrder,
             vision_period_s,
@@ -68,9 +71,7 @@ impl InterpolatorSettings {
             max_damping: 0.05,
             stale_after_s: 2.0 * vision_period_s,
             stop_ramp_s: 0.2,
-            // about what the PUMA's torque limits allow over its inertia at the nominal pose, with margin (a
-            // seventh joint, a wrist's, as the PUMA's wrist)
-            acceleration_limit: JointVector::from([22.5, 22.5, 45.0, 90.0, 90.0, 90.0, 90.0]),
+            acceleration_limit,
             jerk_limit: None,
             tool_speed_limit_m_s: f64::INFINITY,
             tool_rotation_limit_rad_s: f64::INFINITY,

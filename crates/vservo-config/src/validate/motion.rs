@@ -13,10 +13,6 @@ use super::checker::Checker;
 use crate::ConfigError;
 use crate::raw::{RawArm, RawArmPreset, RawInterpolator, RawRobotDriver};
 
-/// The PUMA 560's joint accelerations (rad/s²): about what its torque limits give over its inertia at the
-/// nominal pose, with margin (config/vservo.toml's values before arms had limits of their own).
-pub const PUMA560_ACCELERATION_RAD_S2: [f64; 6] = [22.5, 22.5, 45.0, 90.0, 90.0, 90.0];
-
 /// The tool's speed (m/s) an arm on an external driver is held to when the configuration caps none: slow
 /// enough to stop by hand on a first motion.
 pub const EXTERNAL_TOOL_SPEED_M_S: f64 = 0.25;
@@ -102,9 +98,7 @@ fn arm_acceleration(check: &Checker, a: &RawArm, arm: &SerialArm) -> Result<Join
     let key = "robot.arm.acceleration_limits_rad_s2";
     match (&a.acceleration_limits_rad_s2, a.preset) {
         (Some(values), _) => check.per_joint(key, values, arm, (0.01, 1000.0), "rad/s²"),
-        (None, RawArmPreset::Puma560) => {
-            Ok(JointVector::from_fn(|j, _| PUMA560_ACCELERATION_RAD_S2.get(j).copied().unwrap_or(0.0)))
-        }
+        (None, RawArmPreset::Puma560) => Ok(vservo_arm::puma560::ACCELERATION_LIMITS_RAD_S2),
         (None, _) => Err(check.invalid(
             key,
             "(missing)",
