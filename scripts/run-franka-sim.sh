@@ -19,7 +19,7 @@
 # and finishes the motion; `driver_finished`), and nothing is recorded.
 # With --json the last line is one JSON object: final_error_px, settling_time_s, reflex_errors (the Franka's errors
 # that stopped a motion, empty when none), min_control_command_success_rate, max_joint_jerk_rad_s3 (of the
-# velocities the driver sent), state_to_command_p50_us / _p99_us, and the feature summary's fields. Logs, the
+# velocities the driver sent), state_to_command_p50_us / _p99_us, moved_to_start, and the feature summary's fields. Logs, the
 # scene and the recordings are left in target/franka-sim-run/.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -129,10 +129,21 @@ for _ in $(seq 100); do
     "$vservoctl" resume --instance "$instance" > "$out/resume.txt" 2>&1 && break
     sleep 0.2
 done
-"$vservoctl" move-joints --instance "$instance" --q "$start_q" --speed-fraction 0.3 > "$out/move.txt" 2>&1
+# the move refused: with vservo's limiting on, a failure that says why; with it off (--no-jerk-limit) the robot may
+# already have stopped the motion the resume began (its reflex then is in the summary) and the run records that
+moved=1
+if ! "$vservoctl" move-joints --instance "$instance" --q "$start_q" --speed-fraction 0.3 > "$out/move.txt" 2>&1; then
+    moved=0
+    if [ "$jerk_limit" = 1 ]; then
+        echo "run-franka-sim: the move to the start was refused: $(cat "$out/move.txt")" >&2
+        exit 1
+    fi
+    say "run-franka-sim: the move to the start was refused: $(cat "$out/move.txt")"
+fi
 # arrived: the rmrc's reference on the goal (the arm itself stops a few hundredths of a radian short in franka-sim,
 # its joint impedance against gravity; the servo then starts from where it is)
 for _ in $(seq 300); do
+    [ "$moved" = 1 ] || break
     "$vservoctl" echo joint_command --instance "$instance" --duration-s 0.02 2>/dev/null | tail -1 > "$out/at.json" || true
     "$python" - "$out/at.json" "$start_q" <<'PY' && break
 import json, sys
@@ -198,7 +209,7 @@ driver="$(grep -h 'franka-summary: ' "$out/vservod.log" | tail -1 | sed 's/.*fra
 [ -n "$driver" ] || driver='{"reflex_errors": ["the driver wrote no summary (see vservod.log)"]}'
 summary="$(merge_json "$(merge_json "$(merge_json "$summary" "$limits")" "$driver")" "$extra")"
 violations="$(grep -c 'communication_constraints_violation' "$out/franka-sim.log" || true)"
-summary="$(merge_json "$summary" "{\"sim_log_communication_violations\": ${violations:-0}}")"
+summary="$(merge_json "$summary" "{\"sim_log_communication_violations\": ${violations:-0}, \"moved_to_start\": $([ "$moved" = 1 ] && echo true || echo false)}")"
 say "$(grep -h 'franka' "$out/vservod.log" | grep -E 'ERROR|WARN' | head -5 || true)"
 say "run-franka-sim: $summary"
 [ "$json" = 1 ] && echo "$summary"
