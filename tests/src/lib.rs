@@ -57,8 +57,8 @@ pub struct TempConfig {
 }
 
 impl TempConfig {
-    /// `text` in a temporary file of its own.
-    fn written(text: &str) -> TempConfig {
+    /// `text` in a temporary file of its own (an `extends` in it must be an absolute path).
+    pub fn written(text: &str) -> TempConfig {
         let path = std::env::temp_dir().join(format!(
             "vservo-test-{}-{}.toml",
             std::process::id(),
@@ -515,4 +515,38 @@ impl Drop for TwoHosts {
             let _ = Command::new("ip").args(["netns", "del", name]).output();
         }
     }
+}
+
+/// The ROS 2 arm's node (clients/python/ros2_control_arm.py: a ros2_control arm and a ROS camera on MuJoCo) for
+/// `scene` in DDS domain `domain`, with `extra` arguments: `--duration-s` 120 at most, its summary written to
+/// `summary` when it ends, its log beside the scene.
+pub fn ros2_control_arm(scene: &Path, domain: u32, summary: &Path, extra: &[&str]) -> Killed {
+    let log = scene.with_extension("arm.log");
+    let child = Command::new(repository_root().join("target/python-venv/bin/python"))
+        .arg(repository_root().join("clients/python/ros2_control_arm.py"))
+        .args(["--scene", &scene.display().to_string(), "--domain", &domain.to_string()])
+        .args(["--summary", &summary.display().to_string(), "--duration-s", "120"])
+        .args(extra)
+        .stdin(Stdio::null())
+        .stdout(Stdio::null())
+        .stderr(std::fs::File::create(log).expect("the arm's log"))
+        .spawn()
+        .expect("the ROS 2 arm starts (scripts/setup.sh installs cyclonedds and mujoco)");
+    Killed(child)
+}
+
+/// The PyBullet driver (clients/python/pybullet_driver.py: the arm of `urdf` and its hand camera) for `scene`
+/// and `instance`, its log beside the scene.
+pub fn pybullet_driver(scene: &Path, urdf: &Path, instance: &str) -> Killed {
+    let log = scene.with_extension("driver.log");
+    let child = Command::new(repository_root().join("target/python-venv/bin/python"))
+        .arg(repository_root().join("clients/python/pybullet_driver.py"))
+        .args(["--scene", &scene.display().to_string(), "--urdf", &urdf.display().to_string()])
+        .args(["--instance", instance])
+        .stdin(Stdio::null())
+        .stdout(Stdio::null())
+        .stderr(std::fs::File::create(log).expect("the driver's log"))
+        .spawn()
+        .expect("the PyBullet driver starts (scripts/setup.sh installs pybullet)");
+    Killed(child)
 }

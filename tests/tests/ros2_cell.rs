@@ -5,13 +5,12 @@
 //! stall and stop behaviour through it.
 
 use std::path::PathBuf;
-use std::process::{Command, Stdio};
 use std::time::Duration;
 
 use nix::sys::signal::Signal;
 use serde_json::Value;
 use vservo_system_tests::{
-    Daemon, Killed, config_from, exclusive, repository_root, run, run_script_to_convergence, safe_stopped_by,
+    Daemon, config_from, exclusive, ros2_control_arm, run, run_script_to_convergence, safe_stopped_by,
     status, unique, vservoctl, wait_until,
 };
 
@@ -55,21 +54,6 @@ fn run_ros2_cell_with_a_position_controller_converges_below_one_pixel() {
     assert_latency_measured(&summary);
 }
 
-/// The arm's node: `--duration-s` long at most, its summary written where given when it ends.
-fn start_arm(scene: &std::path::Path, domain: u32, summary: &std::path::Path) -> Killed {
-    let log = scene.with_extension("arm.log");
-    let child = Command::new(repository_root().join("target/python-venv/bin/python"))
-        .arg(repository_root().join("clients/python/ros2_control_arm.py"))
-        .args(["--scene", &scene.display().to_string(), "--domain", &domain.to_string()])
-        .args(["--summary", &summary.display().to_string(), "--duration-s", "120"])
-        .stdin(Stdio::null())
-        .stdout(Stdio::null())
-        .stderr(std::fs::File::create(log).expect("the arm's log"))
-        .spawn()
-        .expect("the ROS 2 arm starts (scripts/setup.sh installs cyclonedds and mujoco)");
-    Killed(child)
-}
-
 fn converged(instance: &str) -> bool {
     status(instance)
         .is_some_and(|s| s["state"] == "running" && s["feature_error_px"].as_f64().is_some_and(|e| e < 1.0))
@@ -99,7 +83,7 @@ fn a_silent_ros2_arm_stops_the_cell_and_a_killed_vservod_leaves_it_at_rest() {
     let arm_summary = dir.join("arm.json");
 
     let mut daemon = Daemon::start(&config);
-    let arm = start_arm(&scene, domain, &arm_summary);
+    let arm = ros2_control_arm(&scene, domain, &arm_summary, &[]);
     assert!(
         wait_until(Duration::from_secs(30), || converged(&instance)),
         "{:?}\n{}",

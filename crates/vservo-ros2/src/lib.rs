@@ -10,16 +10,18 @@
 //!
 //! This library holds what can be checked without a network: the ROS 2 message types ([`msg`]), the
 //! conversions from vservo's messages ([`convert`]) and which are made when ([`translate`]), the QoS ROS 2
-//! users expect ([`qos`]), the topic and service names in a namespace ([`names`]); and the instance's side
+//! users expect ([`qos`]), joining the domain ([`domain`]), hearing an arm's joint names ([`probe`]), the topic and service names in a namespace ([`names`]); and the instance's side
 //! ([`cell`]: its services, read). `vservoctl record --ros2` writes the same messages to MCAP ([`schema`]:
 //! their ROS 2 message definitions and CDR).
 
 pub mod arm_driver;
 pub mod cell;
 pub mod convert;
+pub mod domain;
 pub mod image_in;
 pub mod msg;
 pub mod names;
+pub mod probe;
 pub mod qos;
 pub mod schema;
 pub mod target;

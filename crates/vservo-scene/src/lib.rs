@@ -24,6 +24,7 @@
 mod board;
 mod camera;
 pub mod lens;
+pub mod pose_rows;
 pub mod tag36h11;
 mod tag_grid;
 

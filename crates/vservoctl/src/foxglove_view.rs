@@ -151,13 +151,11 @@ pub fn arm_transforms(
 
 /// The board (`base` → `board`), which only a simulation knows; stamped with the joint state of its tick.
 pub fn board_transform(world: &SimWorldMsg, stamp_ns: u64) -> FrameTransforms {
-    let m = &world.base_from_board;
-    let rotation = nalgebra::Matrix3::new(m[0], m[1], m[2], m[4], m[5], m[6], m[8], m[9], m[10]);
-    let pose = IsometryMatrix3::from_parts(
-        nalgebra::Translation3::new(m[3], m[7], m[11]),
-        nalgebra::Rotation3::from_matrix(&rotation),
-    );
-    FrameTransforms { transforms: vec![transform(stamp_ns, "base", "board", &pose)] }
+    // a pose that is none (not finite, not a rotation) is not drawn
+    let pose = vservo_scene::pose_rows::pose_from_rows(&world.base_from_board);
+    FrameTransforms {
+        transforms: pose.iter().map(|pose| transform(stamp_ns, "base", "board", pose)).collect(),
+    }
 }
 
 #[cfg(test)]

@@ -8,6 +8,7 @@ mod basin;
 mod board;
 mod bridge;
 mod calibrate;
+mod check;
 mod commands;
 mod config_arg;
 mod echo;
@@ -96,6 +97,11 @@ enum Command {
     Scene(scene::SceneArgs),
     /// A calibration board (a grid of AprilTags) as an SVG to print at scale, and its layout as JSON.
     Board(board::BoardArgs),
+    /// The preflight before a first motion, on a held cell (nothing moves): joint states at their period, the
+    /// joints' count, names and limits, the kinematics against what the camera sees, the frames and the target,
+    /// the desired pose's reach, and the first twist's motion against the limits; PASS or FAIL with the value
+    /// each measured (exit code 1 when one fails).
+    Check(check::CheckArgs),
     /// Calibrate the camera (intrinsics, lens) and where it sits on the hand (`tool_from_camera`) from
     /// views of the calibration board at poses around it.
     Calibrate(calibrate::CalibrateArgs),
@@ -130,6 +136,7 @@ fn main() -> ExitCode {
         Command::Scene(args) => scene::run(&args),
         Command::Board(args) => board::run(&args),
         Command::Calibrate(args) => calibrate::run(&args),
+        Command::Check(args) => check::run(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
