@@ -6,7 +6,7 @@
 # rendering the board from the arm's measured joints.
 #
 #   scripts/run-franka-sim.sh [--config FILE] [--start default|medium] [--duration-s S] [--no-jerk-limit]
-#                             [--fault driver-stopped|daemon-killed] [--json]
+#                             [--fault driver-stopped|daemon-killed] [--reference] [--json]
 #
 # The run as a user's first motion would go: the cell starts held; `vservoctl resume`; `vservoctl move-joints` to
 # the start (the configuration's scenario start, or with --start medium one 8–10 cm and 8–12° away in each axis);
@@ -17,6 +17,10 @@
 # stops safely; the status then is `fault_status`), then `vservoctl resume` (the robot's error recovery, a new
 # motion) and the recording; daemon-killed SIGKILLs vservod while the arm moves (its driver brings the arm to rest
 # and finishes the motion; `driver_finished`), and nothing is recorded.
+# --reference runs no vservo at all: a bare FCI client (crates/vservo-franka/examples/fci_smoke.rs, SCHED_FIFO 50
+# where permitted: a slow 0.02 rad/s bump on joint 1 for DURATION seconds) against the same franka-sim, the
+# reference for what the simulator's own timing on this machine leaves of the success rate (its JSON:
+# min/mean_control_command_success_rate, state_to_command_p50/p99/max_us).
 # With --json the last line is one JSON object: final_error_px, settling_time_s, reflex_errors (the Franka's errors
 # that stopped a motion, empty when none), min_control_command_success_rate, max_joint_jerk_rad_s3 (of the
 # velocities the driver sent), state_to_command_p50_us / _p99_us, moved_to_start, and the feature summary's fields. Logs, the
@@ -29,7 +33,8 @@ config=config/franka-sim.toml
 start=default
 jerk_limit=1
 fault=""
-usage="expected [--config FILE] [--start default|medium] [--duration-s S] [--no-jerk-limit] [--fault KIND] [--json]"
+reference=0
+usage="expected [--config FILE] [--start default|medium] [--duration-s S] [--no-jerk-limit] [--fault KIND] [--reference] [--json]"
 while [ $# -gt 0 ]; do
     case "$1" in
         --duration-s) duration="$2"; shift 2 ;;
@@ -42,6 +47,7 @@ while [ $# -gt 0 ]; do
         --fault) fault="$2"; shift 2 ;;
         --fault=*) fault="${1#*=}"; shift ;;
         --json) json=1; shift ;;
+        --reference) reference=1; shift ;;
         *) echo "run-franka-sim: unknown argument $1 ($usage)" >&2; exit 2 ;;
     esac
 done
@@ -118,6 +124,37 @@ pids+=($!)
 "$venv/bin/franka-sim-check" --host 127.0.0.1 --port "$port" --timeout 30 > "$out/franka-sim-check.log" 2>&1 ||
     { echo "run-franka-sim: franka-sim did not come up (see $out/franka-sim.log)" >&2; exit 1; }
 
+if [ "$reference" = 1 ]; then
+    smoke="$bin/examples/fci_smoke"
+    if [ ! -x "$smoke" ]; then
+        cargo build --release --locked -q -p vservo-franka --example fci_smoke >&2
+        smoke=target/release/examples/fci_smoke
+    fi
+    fifo=(chrt -f 50)
+    chrt -f 50 true 2>/dev/null || fifo=()
+    ${fifo[@]+"${fifo[@]}"} "$smoke" "127.0.0.1:$port" --duration "$duration" --peak 0.02 --every 0 > "$out/reference.log" 2>&1 ||
+        { echo "run-franka-sim: the reference client failed (see $out/reference.log)" >&2; exit 1; }
+    summary="$("$python" - "$out/reference.log" <<'PY'
+import json, re, sys
+text = open(sys.argv[1]).read()
+rate = re.search(r"success_rate \(from 100 ms on\): min ([0-9.]+) mean ([0-9.]+)", text)
+latency = re.search(r"p50 ([0-9.]+)µs p99 ([0-9.]+)µs max ([0-9.]+)µs", text)
+errors = re.search(r"errors \[(.*?)\]", text)
+print(json.dumps({
+    "reference_client": True,
+    "min_control_command_success_rate": float(rate.group(1)),
+    "mean_control_command_success_rate": float(rate.group(2)),
+    "state_to_command_p50_us": float(latency.group(1)),
+    "state_to_command_p99_us": float(latency.group(2)),
+    "state_to_command_max_us": float(latency.group(3)),
+    "reflex_errors": [e.strip() for e in errors.group(1).split(",") if e.strip()] if errors else [],
+}))
+PY
+)"
+    say "run-franka-sim: $summary"
+    [ "$json" = 1 ] && echo "$summary"
+    exit 0
+fi
 "$bin/vservod" --config "$config" > "$out/vservod.log" 2>&1 &
 vservod=$!
 pids+=("$vservod")

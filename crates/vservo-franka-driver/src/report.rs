@@ -26,6 +26,9 @@ pub(crate) struct Report {
     /// The lowest `control_command_success_rate` the robot reported (after its first 100 cycles).
     min_success_rate: f64,
     last_success_rate: f64,
+    /// The rates reported after the first 100 cycles of each motion: their sum and count (for the mean).
+    success_rate_sum: f64,
+    success_rates: u64,
     latencies: Latencies,
     last_report_ns: u64,
     /// The velocities sent in the last two periods of this motion, and the largest jerk they made (rad/s³).
@@ -92,6 +95,8 @@ impl Report {
             reflexes: Vec::new(),
             min_success_rate: 1.0,
             last_success_rate: 1.0,
+            success_rate_sum: 0.0,
+            success_rates: 0,
             latencies: Latencies::new(),
             last_report_ns: monotonic_ns(),
             last_sent: None,
@@ -139,6 +144,8 @@ impl Report {
             self.last_success_rate = state.control_command_success_rate;
             if self.motion_cycles > 100 {
                 self.min_success_rate = self.min_success_rate.min(state.control_command_success_rate);
+                self.success_rate_sum += state.control_command_success_rate;
+                self.success_rates += 1;
             }
         }
         if now_ns.saturating_sub(self.last_report_ns) >= REPORT_EVERY_NS {
@@ -175,13 +182,15 @@ impl Report {
         let reflexes: Vec<String> = self.reflexes.iter().map(|r| format!("{r:?}")).collect();
         eprintln!(
             "franka-summary: {{\"cycles\": {}, \"late_answers\": {}, \"commands_refused\": {}, \
-             \"min_control_command_success_rate\": {}, \"reflex_errors\": [{}], \"state_to_command_p50_us\": {}, \
+             \"min_control_command_success_rate\": {}, \"mean_control_command_success_rate\": {}, \
+             \"reflex_errors\": [{}], \"state_to_command_p50_us\": {}, \
              \"state_to_command_p99_us\": {}, \"state_to_command_max_us\": {}, \"max_joint_jerk_rad_s3\": {}, \
              \"speed_at_stop_rad_s\": {}}}",
             self.cycles,
             self.late_answers,
             self.commands_refused,
             self.min_success_rate,
+            if self.success_rates > 0 { self.success_rate_sum / self.success_rates as f64 } else { 1.0 },
             reflexes.join(", "),
             self.latencies.percentile_us(50.0),
             self.latencies.percentile_us(99.0),
