@@ -67,8 +67,9 @@ def main():
     summary = {
         "frames": len(frames),
         "duration_s": times[-1],
-        "initial_error_px": errors[0],
-        "final_error_px": errors[-1],
+        # a mark missing in the first or last frame: null (JSON has no NaN)
+        "initial_error_px": None if math.isnan(errors[0]) else errors[0],
+        "final_error_px": None if math.isnan(errors[-1]) else errors[-1],
         "settling_time_s": settling,
     }
     if args.compare:

@@ -238,7 +238,8 @@ trap - EXIT
 summary='{}'
 limits='{}'
 if [ "$fault" != daemon-killed ]; then
-    summary="$("$python" scripts/feature_summary.py "$out/features.jsonl" --desired "$desired")"
+    # no features recorded (the robot stopped before the camera saw the board): the summary says so
+    summary="$("$python" scripts/feature_summary.py "$out/features.jsonl" --desired "$desired")" || true
     limits="$("$python" scripts/command_limits.py "$out/commands.jsonl" "$out/scene.json" |
         "$python" -c 'import json,sys; d=json.load(sys.stdin); print(json.dumps({"rmrc_max_jerk_ratio": d["max_jerk_ratio"], "rmrc_max_acceleration_ratio": d["max_acceleration_ratio"]}))')"
 fi

@@ -27,7 +27,7 @@ import time
 
 import iceoryx2 as iox2
 
-SCHEMA_VERSION = 8
+SCHEMA_VERSION = 9
 (TARGET_FEATURES, TARGET_POSE, TARGET_TEACH, OBJECT_HOLD, OBJECT_STEP, OBJECT_CIRCLE, RELOAD, RESUME,
  SAFE_STOP, MOVE_JOINTS, SERVO) = range(1, 12)
 STATES = ["starting", "running", "degraded", "stopping", "safe-stop", "moving"]
@@ -116,7 +116,7 @@ class NodeStatus(ctypes.Structure):
 
 
 class DaemonStatus(ctypes.Structure):
-    """vservo::DaemonStatus, 208 bytes."""
+    """vservo::DaemonStatus, 216 bytes."""
 
     _fields_ = [
         ("schema", ctypes.c_uint32),
@@ -133,6 +133,8 @@ class DaemonStatus(ctypes.Structure):
         ("fault_joints", ctypes.c_uint32),
         ("fault_since_ns", ctypes.c_uint64),
         ("safe_stops", ctypes.c_uint64),
+        ("driver_error", ctypes.c_uint32),
+        ("reserved", ctypes.c_uint32),
     ]
 
     @staticmethod

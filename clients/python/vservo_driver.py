@@ -1,4 +1,4 @@
-"""The driver side of vservo's contract (docs/DRIVERS.md, docs/PROTOCOL.md schema 8), shared by the reference
+"""The driver side of vservo's contract (docs/DRIVERS.md, docs/PROTOCOL.md schema 9), shared by the reference
 drivers (mujoco_driver.py, pybullet_driver.py): the payloads a robot and camera driver exchange with vservo as
 ctypes structures, their codes, deadlines on CLOCK_MONOTONIC, and the iceoryx2 node and services opened exactly
 as vservo creates them. A driver of your own may import it too (with vservo_client.py beside it).
@@ -12,7 +12,7 @@ import iceoryx2 as iox2
 
 import vservo_client  # finds the instance as every vservo client does (clients/python/vservo_client.py)
 
-SCHEMA = 8
+SCHEMA = 9
 MAX_JOINTS = 7  # joints joint_state and joint_command have room for; joint_count says how many are the arm's
 TORQUE, VELOCITY, POSITION = 0, 1, 2  # command modes
 FOLLOWING, HOLDING = 0, 1  # driver_status
@@ -27,7 +27,7 @@ class JointState(ctypes.Structure):
     _fields_ = [("schema", ctypes.c_uint32), ("faults", ctypes.c_uint32), ("tick", ctypes.c_uint64),
                 ("stamp_ns", ctypes.c_uint64), ("driver_epoch", ctypes.c_uint64), ("period_ns", ctypes.c_uint64),
                 ("command_mode", ctypes.c_uint32), ("driver_status", ctypes.c_uint32),
-                ("joint_count", ctypes.c_uint32), ("reserved", ctypes.c_uint32),
+                ("joint_count", ctypes.c_uint32), ("driver_error", ctypes.c_uint32),
                 ("q_rad", ctypes.c_double * MAX_JOINTS), ("qd_rad_s", ctypes.c_double * MAX_JOINTS),
                 ("torque_nm", ctypes.c_double * MAX_JOINTS), ("applied_command_tick", ctypes.c_uint64)]
 

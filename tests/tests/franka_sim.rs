@@ -82,7 +82,8 @@ fn without_jerk_limiting_the_robot_stops_the_motion_with_its_discontinuity_error
 }
 
 /// The driver stopped (SIGSTOP) for 100 ms mid-motion: the robot stops itself, as its controller does
-/// (`communication_constraints_violation`), the cell stops safely naming the driver's fault, and `vservoctl resume`
+/// (`communication_constraints_violation`), the cell stops safely naming the driver's fault and the robot's error,
+/// and `vservoctl resume`
 /// runs the robot's error recovery and a new motion, which converges.
 #[test]
 fn a_stopped_driver_is_a_named_safe_stop_and_resume_recovers_the_robot() {
@@ -91,6 +92,8 @@ fn a_stopped_driver_is_a_named_safe_stop_and_resume_recovers_the_robot() {
         run_script_to_convergence("run-franka-sim.sh", &["--start", "medium", "--fault", "driver-stopped"]);
     assert!(reflexes(&summary).iter().any(|r| r == "communication_constraints_violation"), "{summary}");
     assert_eq!(summary["fault_status"]["name"], "driver_fault", "{summary}");
+    // the status names the Franka's own error
+    assert_eq!(summary["fault_status"]["driver_error"], "communication_constraints_violation", "{summary}");
     assert_eq!(summary["resumed_after_fault"], true, "{summary}");
     assert!(number(&summary, "max_joint_jerk_rad_s3") <= FR3_JERK_RAD_S3, "{summary}");
 }

@@ -5,8 +5,8 @@ use std::collections::BTreeMap;
 
 use serde::Serialize;
 use vservo_protocol::{
-    DaemonState, DaemonStatusMsg, Fault, NodeRole, NodeState, RobotState, TelemetryMsg, TimingMsg,
-    UnknownCode,
+    DaemonState, DaemonStatusMsg, DriverError, Fault, NodeRole, NodeState, RobotState, TelemetryMsg,
+    TimingMsg, UnknownCode,
 };
 
 /// Percentiles in microseconds.
@@ -71,8 +71,12 @@ pub struct NodeView {
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct FaultView {
     /// "position_limit", "velocity_limit", "torque_saturated", "driver_fault", "target_lost",
-    /// "robot_stalled" or "requested".
+    /// "robot_stalled", "requested", … (`vservo_protocol::Fault`).
     pub name: &'static str,
+    /// A driver fault's reason as the robot gave it (e.g. the Franka's "communication_constraints_violation"),
+    /// if the driver gave one.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub driver_error: Option<&'static str>,
     /// The joints it concerns (1–7), if any.
     pub joints: Vec<u32>,
     /// Whether it holds the cell now (false: it was resumed).
@@ -155,6 +159,10 @@ impl StatusView {
         }
         let fault = (daemon.fault != u32::from(Fault::None)).then(|| FaultView {
             name: name_of(daemon.fault, Fault::name),
+            driver_error: DriverError::try_from(daemon.driver_error)
+                .ok()
+                .filter(|reason| *reason != DriverError::None)
+                .map(DriverError::name),
             joints: (0..vservo_protocol::MAX_JOINTS as u32)
                 .filter(|j| daemon.fault_joints & (1 << j) != 0)
                 .map(|j| j + 1)
@@ -202,7 +210,8 @@ impl StatusView {
                 } else {
                     format!(" joint {}", f.joints.iter().map(u32::to_string).collect::<Vec<_>>().join(","))
                 };
-                format!("{} ({}{joints} for {:.1} s)", self.state, f.name, f.since_s)
+                let reason = f.driver_error.map_or(String::new(), |reason| format!(": {reason}"));
+                format!("{} ({}{reason}{joints} for {:.1} s)", self.state, f.name, f.since_s)
             }
             _ => self.state.to_string(),
         };
@@ -244,6 +253,25 @@ mod tests {
         assert_eq!((fault.name, fault.joints, fault.active), ("robot_stalled", vec![3], true));
         daemon.state = 99;
         assert_eq!(StatusView::new("cell", &daemon, &[None; 4]).state, "unknown");
+    }
+
+    #[test]
+    fn a_driver_fault_names_the_robots_reason() {
+        let daemon = DaemonStatusMsg {
+            state: DaemonState::SafeStop.into(),
+            fault: Fault::DriverFault.into(),
+            driver_error: DriverError::FrankaJointMotionGeneratorAccelerationDiscontinuity.into(),
+            ..DaemonStatusMsg::default()
+        };
+        let view = StatusView::new("cell", &daemon, &[None; 4]);
+        let fault = view.fault.as_ref().expect("a fault");
+        assert_eq!(fault.driver_error, Some("joint_motion_generator_acceleration_discontinuity"));
+        assert!(
+            view.one_line()
+                .starts_with("safe-stop (driver_fault: joint_motion_generator_acceleration_discontinuity"),
+            "{}",
+            view.one_line()
+        );
     }
 
     #[test]

@@ -2,7 +2,7 @@
 
 use vservo_protocol::messages::fault_bits;
 use vservo_protocol::{
-    CommandMode, DriverStatus, JointCommandMsg, JointStateMsg, MAX_JOINTS, SCHEMA_VERSION,
+    CommandMode, DriverError, DriverStatus, JointCommandMsg, JointStateMsg, MAX_JOINTS, SCHEMA_VERSION,
 };
 
 use crate::period::PeriodCheck;
@@ -250,19 +250,20 @@ impl DriverSide {
     }
 
     /// The joint state of `tick`, measured at `stamp_ns` (CLOCK_MONOTONIC): the command applied over the
-    /// period that ended with it, the status (a fault when `fault`, or when the period is not the configured
-    /// one; holding when no command was applied) and the limit bits. Ticks must grow.
+    /// period that ended with it, the status (a fault when `fault` is given — with the robot's reason —, or when
+    /// the period is not the configured one; holding when no command was applied) and the limit bits. Ticks must
+    /// grow.
     pub fn joint_state(
         &mut self,
         tick: u64,
         stamp_ns: u64,
         measured: &Measured,
-        fault: bool,
+        fault: Option<DriverError>,
     ) -> JointStateMsg {
         if let Some((_, last_ns)) = self.last {
             self.period.add(stamp_ns.saturating_sub(last_ns));
         }
-        let status = if fault || self.period_mismatch_ns().is_some() {
+        let status = if fault.is_some() || self.period_mismatch_ns().is_some() {
             DriverStatus::Fault
         } else if self.applying == u64::MAX {
             DriverStatus::Holding
@@ -280,11 +281,11 @@ impl DriverSide {
             command_mode: s.mode.code(),
             driver_status: status.code(),
             joint_count: s.joint_count as u32,
+            driver_error: fault.unwrap_or(DriverError::None).code(),
             q_rad: measured.q_rad,
             qd_rad_s: measured.qd_rad_s,
             torque_nm: measured.torque_nm,
             applied_command_tick: self.applying,
-            ..JointStateMsg::default()
         };
         self.last = Some((tick, stamp_ns));
         self.counts.states += 1;
@@ -360,7 +361,7 @@ mod tests {
             Err(CommandRefused::NotPublished { answers: 0, last_tick: None })
         );
         for tick in 0..10 {
-            side.joint_state(tick, tick * MS, &at_rest(), false);
+            side.joint_state(tick, tick * MS, &at_rest(), None);
         }
         assert!(side.take_command(&command(9, 0.1), 10 * MS).is_ok());
         assert!(side.take_command(&command(7, 0.1), 10 * MS).is_ok(), "two ticks old");
@@ -383,29 +384,31 @@ mod tests {
         assert_eq!(side.counts.commands_taken, 2);
         assert_eq!(side.counts.commands_refused, 8);
         // after the driver's own silence a command is as old as its tick says
-        side.joint_state(60, 60 * MS, &at_rest(), false);
+        side.joint_state(60, 60 * MS, &at_rest(), None);
         assert!(matches!(side.take_command(&command(9, 0.1), 61 * MS), Err(CommandRefused::TooOld { .. })));
     }
 
     #[test]
     fn the_applied_command_is_reported_with_the_next_state_and_a_silence_holds() {
         let mut side = side();
-        let first = side.joint_state(0, 0, &at_rest(), false);
+        let first = side.joint_state(0, 0, &at_rest(), None);
         assert_eq!(first.applied_command_tick, u64::MAX);
         assert_eq!(DriverStatus::try_from(first.driver_status), Ok(DriverStatus::Holding));
         side.take_command(&command(0, 0.5), MS / 2).expect("taken");
         let applied = side.apply(MS / 2).expect("in force");
         assert_eq!(applied.values[0], 0.5);
-        let second = side.joint_state(1, MS, &at_rest(), false);
+        let second = side.joint_state(1, MS, &at_rest(), None);
         assert_eq!(second.applied_command_tick, 0);
         assert_eq!(DriverStatus::try_from(second.driver_status), Ok(DriverStatus::Following));
         // no command for longer than hold_after: hold
         assert!(side.apply(MS / 2 + 21 * MS).is_none());
-        let held = side.joint_state(2, 22 * MS, &at_rest(), false);
+        let held = side.joint_state(2, 22 * MS, &at_rest(), None);
         assert_eq!(held.applied_command_tick, u64::MAX);
         assert_eq!(DriverStatus::try_from(held.driver_status), Ok(DriverStatus::Holding));
-        let fault = side.joint_state(3, 23 * MS, &at_rest(), true);
+        let fault = side.joint_state(3, 23 * MS, &at_rest(), Some(DriverError::FrankaJointReflex));
         assert_eq!(DriverStatus::try_from(fault.driver_status), Ok(DriverStatus::Fault));
+        assert_eq!(DriverError::try_from(fault.driver_error), Ok(DriverError::FrankaJointReflex));
+        assert_eq!(held.driver_error, 0, "no fault, no reason");
     }
 
     #[test]
@@ -414,7 +417,7 @@ mod tests {
         let mut measured = at_rest();
         measured.q_rad[1] = 2.5;
         measured.qd_rad_s[6] = f64::NAN;
-        let state = side.joint_state(0, 0, &measured, false);
+        let state = side.joint_state(0, 0, &measured, None);
         assert_eq!(fault_bits::joints(state.faults, fault_bits::POSITION_LIMIT_SHIFT), 0b10);
         assert_eq!(fault_bits::joints(state.faults, fault_bits::VELOCITY_LIMIT_SHIFT), 0b100_0000);
     }
@@ -423,10 +426,10 @@ mod tests {
     fn a_wrong_period_is_a_fault() {
         let mut side = side();
         for tick in 0..100 {
-            side.joint_state(tick, tick * 2 * MS, &at_rest(), false);
+            side.joint_state(tick, tick * 2 * MS, &at_rest(), None);
         }
         assert_eq!(side.period_mismatch_ns(), Some(2 * MS));
-        let state = side.joint_state(100, 200 * MS, &at_rest(), false);
+        let state = side.joint_state(100, 200 * MS, &at_rest(), None);
         assert_eq!(DriverStatus::try_from(state.driver_status), Ok(DriverStatus::Fault));
     }
 }

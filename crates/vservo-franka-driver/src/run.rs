@@ -8,7 +8,7 @@ use anyhow::Context as _;
 use vservo_config::{Config, Franka};
 use vservo_driver::{DriverSettings, DriverSide, Measured};
 use vservo_franka::{Connection, JointVelocityCommand, MotionPhase, RobotErrors, RobotState};
-use vservo_protocol::{CellMode, CommandMode, MAX_JOINTS};
+use vservo_protocol::{CellMode, CommandMode, DriverError, MAX_JOINTS};
 
 use crate::cell::CellPorts;
 use crate::report::Report;
@@ -249,7 +249,10 @@ impl Driver {
 
     /// Publishes the joint state of `tick`: a fault while one is shown, else following or holding.
     fn publish(&mut self, cell: &CellPorts, tick: u64, stamp_ns: u64, measured: Measured) {
-        let fault = matches!(self.phase, Phase::Faulted { held_at: None, .. });
+        let fault = match self.phase {
+            Phase::Faulted { errors, held_at: None, .. } => Some(driver_error(errors)),
+            _ => None,
+        };
         let joint_state = self.side.joint_state(tick, stamp_ns, &measured, fault);
         if !cell.publish(joint_state) {
             self.report.publish_failed += 1;
@@ -436,4 +439,29 @@ impl Driver {
 /// The robot's single-precision values as the contract's f64 arrays (the slots past seven none).
 fn widen(values: &[f64; 7]) -> [f64; MAX_JOINTS] {
     std::array::from_fn(|j| values.get(j).copied().unwrap_or(0.0))
+}
+
+/// The cell's reason for the robot's errors: the first of them, as the protocol numbers the Franka's (1000 + its
+/// flag); none when the robot named none (a motion lost to silence).
+fn driver_error(errors: RobotErrors) -> DriverError {
+    errors
+        .iter()
+        .next()
+        .and_then(|error| DriverError::try_from(1000 + u32::from(error.to_wire())).ok())
+        .unwrap_or(DriverError::None)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Every error flag of the Franka's is a reason of the protocol's, under the same name.
+    #[test]
+    fn each_franka_error_is_the_protocols_driver_error_of_the_same_name() {
+        for error in vservo_franka::RobotError::ALL {
+            let reason = driver_error(RobotErrors::from_iter([*error]));
+            assert_eq!(reason.name(), error.name(), "{error:?}");
+        }
+        assert_eq!(driver_error(RobotErrors::default()), DriverError::None);
+    }
 }

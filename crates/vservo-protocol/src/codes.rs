@@ -240,6 +240,99 @@ wire_code! {
 }
 
 wire_code! {
+    /// Why a robot driver reports a fault (`joint_state.driver_error`, with `driver_status` fault;
+    /// `status.driver_error` for the fault that stopped the cell): the robot's own reason where the driver knows
+    /// it. 1000 + i: the Franka's error flag i (`research_interface::robot::Error`, libfranka's names), the
+    /// first of those that stopped its motion.
+    pub enum DriverError: u32, "driver error" {
+        /// None given (no fault, or a driver that names none).
+        None = 0, "none";
+        /// The Franka's `joint_position_limits_violation`.
+        FrankaJointPositionLimitsViolation = 1000, "joint_position_limits_violation";
+        /// The Franka's `cartesian_position_limits_violation`.
+        FrankaCartesianPositionLimitsViolation = 1001, "cartesian_position_limits_violation";
+        /// The Franka's `self_collision_avoidance_violation`.
+        FrankaSelfCollisionAvoidanceViolation = 1002, "self_collision_avoidance_violation";
+        /// The Franka's `joint_velocity_violation`.
+        FrankaJointVelocityViolation = 1003, "joint_velocity_violation";
+        /// The Franka's `cartesian_velocity_violation`.
+        FrankaCartesianVelocityViolation = 1004, "cartesian_velocity_violation";
+        /// The Franka's `force_control_safety_violation`.
+        FrankaForceControlSafetyViolation = 1005, "force_control_safety_violation";
+        /// The Franka's `joint_reflex`.
+        FrankaJointReflex = 1006, "joint_reflex";
+        /// The Franka's `cartesian_reflex`.
+        FrankaCartesianReflex = 1007, "cartesian_reflex";
+        /// The Franka's `max_goal_pose_deviation_violation`.
+        FrankaMaxGoalPoseDeviationViolation = 1008, "max_goal_pose_deviation_violation";
+        /// The Franka's `max_path_pose_deviation_violation`.
+        FrankaMaxPathPoseDeviationViolation = 1009, "max_path_pose_deviation_violation";
+        /// The Franka's `cartesian_velocity_profile_safety_violation`.
+        FrankaCartesianVelocityProfileSafetyViolation = 1010, "cartesian_velocity_profile_safety_violation";
+        /// The Franka's `joint_position_motion_generator_start_pose_invalid`.
+        FrankaJointPositionMotionGeneratorStartPoseInvalid = 1011, "joint_position_motion_generator_start_pose_invalid";
+        /// The Franka's `joint_motion_generator_position_limits_violation`.
+        FrankaJointMotionGeneratorPositionLimitsViolation = 1012, "joint_motion_generator_position_limits_violation";
+        /// The Franka's `joint_motion_generator_velocity_limits_violation`.
+        FrankaJointMotionGeneratorVelocityLimitsViolation = 1013, "joint_motion_generator_velocity_limits_violation";
+        /// The Franka's `joint_motion_generator_velocity_discontinuity`.
+        FrankaJointMotionGeneratorVelocityDiscontinuity = 1014, "joint_motion_generator_velocity_discontinuity";
+        /// The Franka's `joint_motion_generator_acceleration_discontinuity`.
+        FrankaJointMotionGeneratorAccelerationDiscontinuity = 1015, "joint_motion_generator_acceleration_discontinuity";
+        /// The Franka's `cartesian_position_motion_generator_start_pose_invalid`.
+        FrankaCartesianPositionMotionGeneratorStartPoseInvalid = 1016, "cartesian_position_motion_generator_start_pose_invalid";
+        /// The Franka's `cartesian_motion_generator_elbow_limit_violation`.
+        FrankaCartesianMotionGeneratorElbowLimitViolation = 1017, "cartesian_motion_generator_elbow_limit_violation";
+        /// The Franka's `cartesian_motion_generator_velocity_limits_violation`.
+        FrankaCartesianMotionGeneratorVelocityLimitsViolation = 1018, "cartesian_motion_generator_velocity_limits_violation";
+        /// The Franka's `cartesian_motion_generator_velocity_discontinuity`.
+        FrankaCartesianMotionGeneratorVelocityDiscontinuity = 1019, "cartesian_motion_generator_velocity_discontinuity";
+        /// The Franka's `cartesian_motion_generator_acceleration_discontinuity`.
+        FrankaCartesianMotionGeneratorAccelerationDiscontinuity = 1020, "cartesian_motion_generator_acceleration_discontinuity";
+        /// The Franka's `cartesian_motion_generator_elbow_sign_inconsistent`.
+        FrankaCartesianMotionGeneratorElbowSignInconsistent = 1021, "cartesian_motion_generator_elbow_sign_inconsistent";
+        /// The Franka's `cartesian_motion_generator_start_elbow_invalid`.
+        FrankaCartesianMotionGeneratorStartElbowInvalid = 1022, "cartesian_motion_generator_start_elbow_invalid";
+        /// The Franka's `force_controller_desired_force_tolerance_violation`.
+        FrankaForceControllerDesiredForceToleranceViolation = 1023, "force_controller_desired_force_tolerance_violation";
+        /// The Franka's `start_elbow_sign_inconsistent`.
+        FrankaStartElbowSignInconsistent = 1024, "start_elbow_sign_inconsistent";
+        /// The Franka's `communication_constraints_violation`.
+        FrankaCommunicationConstraintsViolation = 1025, "communication_constraints_violation";
+        /// The Franka's `power_limit_violation`.
+        FrankaPowerLimitViolation = 1026, "power_limit_violation";
+        /// The Franka's `cartesian_motion_generator_joint_position_limits_violation`.
+        FrankaCartesianMotionGeneratorJointPositionLimitsViolation = 1027, "cartesian_motion_generator_joint_position_limits_violation";
+        /// The Franka's `cartesian_motion_generator_joint_velocity_limits_violation`.
+        FrankaCartesianMotionGeneratorJointVelocityLimitsViolation = 1028, "cartesian_motion_generator_joint_velocity_limits_violation";
+        /// The Franka's `cartesian_motion_generator_joint_velocity_discontinuity`.
+        FrankaCartesianMotionGeneratorJointVelocityDiscontinuity = 1029, "cartesian_motion_generator_joint_velocity_discontinuity";
+        /// The Franka's `cartesian_motion_generator_joint_acceleration_discontinuity`.
+        FrankaCartesianMotionGeneratorJointAccelerationDiscontinuity = 1030, "cartesian_motion_generator_joint_acceleration_discontinuity";
+        /// The Franka's `cartesian_position_motion_generator_invalid_frame_flag`.
+        FrankaCartesianPositionMotionGeneratorInvalidFrameFlag = 1031, "cartesian_position_motion_generator_invalid_frame_flag";
+        /// The Franka's `controller_torque_discontinuity`.
+        FrankaControllerTorqueDiscontinuity = 1032, "controller_torque_discontinuity";
+        /// The Franka's `joint_p2p_insufficient_torque_for_planning`.
+        FrankaJointP2pInsufficientTorqueForPlanning = 1033, "joint_p2p_insufficient_torque_for_planning";
+        /// The Franka's `tau_J_range_violation`.
+        FrankaTauJRangeViolation = 1034, "tau_J_range_violation";
+        /// The Franka's `instability_detected`.
+        FrankaInstabilityDetected = 1035, "instability_detected";
+        /// The Franka's `joint_move_in_wrong_direction`.
+        FrankaJointMoveInWrongDirection = 1036, "joint_move_in_wrong_direction";
+        /// The Franka's `cartesian_spline_motion_generator_violation`.
+        FrankaCartesianSplineMotionGeneratorViolation = 1037, "cartesian_spline_motion_generator_violation";
+        /// The Franka's `joint_via_motion_generator_planning_joint_limit_violation`.
+        FrankaJointViaMotionGeneratorPlanningJointLimitViolation = 1038, "joint_via_motion_generator_planning_joint_limit_violation";
+        /// The Franka's `base_acceleration_initialization_timeout`.
+        FrankaBaseAccelerationInitializationTimeout = 1039, "base_acceleration_initialization_timeout";
+        /// The Franka's `base_acceleration_invalid_reading`.
+        FrankaBaseAccelerationInvalidReading = 1040, "base_acceleration_invalid_reading";
+    }
+}
+
+wire_code! {
     /// Whether the cell servos (`cell_mode.mode`).
     pub enum CellMode: u32, "cell mode" {
         /// The servo's twists move the arm.

@@ -80,5 +80,9 @@ mod tests {
             doc.contains(&tables),
             "docs/PROTOCOL.md is out of date: paste `cargo run -q -p vservo-protocol --example layout` into its Payloads section"
         );
+        assert!(
+            doc.contains(&crate::DriverError::legend()),
+            "docs/PROTOCOL.md's \"Driver errors\" lists another legend than `DriverError::legend()`"
+        );
     }
 }

@@ -18,8 +18,8 @@ pub mod stop_path;
 pub mod writers;
 
 pub use codes::{
-    CellMode, CommandKind, CommandMode, DaemonState, DriverStatus, Fault, Interaction, MarkStatus, NodeState,
-    PixelFormat, RobotState, UnknownCode, Verdict,
+    CellMode, CommandKind, CommandMode, DaemonState, DriverError, DriverStatus, Fault, Interaction,
+    MarkStatus, NodeState, PixelFormat, RobotState, UnknownCode, Verdict,
 };
 pub use declare::{FieldInfo, WireField, WireMessage};
 pub use inbox::{Payload, Refused, TakeMessages};

@@ -13,7 +13,8 @@ use iceoryx2::prelude::ZeroCopySend;
 /// command interface and period; `joint_torque` became `joint_command`; `camera_image` added.
 /// 6: `features` and `camera_twist` carry the seal of the node that made them; `gains` and `object` a stamp.
 /// 7: `joint_state` and `joint_command` carry up to seven joints and say how many (`joint_count`).
-pub const SCHEMA_VERSION: u32 = 8;
+/// 9: `joint_state.driver_error` (was reserved) and `status.driver_error`: the robot's own reason for a driver fault.
+pub const SCHEMA_VERSION: u32 = 9;
 
 /// Joints `joint_state` and `joint_command` have room for: the arm's joints come first, the slots past
 /// `joint_count` are zero.
@@ -46,8 +47,9 @@ wire_message! {
         /// the arm's joints (6 or 7): the first `joint_count` entries of the arrays below are theirs, from the base
         /// outwards; it must be the configured arm's
         joint_count: u32 = 6,
-        /// zero
-        reserved: u32,
+        /// with `driver_status` fault, why: the robot's own error where the driver knows it (`DriverError`: 0 none,
+        /// 1000 + i the Franka's error flag i; docs/PROTOCOL.md, "Driver errors")
+        driver_error: u32,
         /// joint angles (rad)
         q_rad: [f64; MAX_JOINTS],
         /// joint velocities (rad/s)
@@ -398,6 +400,10 @@ wire_message! {
         fault_since_ns: u64,
         /// safe stops since the daemon started
         safe_stops: u64,
+        /// with `fault` driver_fault: the driver's reason (`DriverError`, as in `joint_state.driver_error`)
+        driver_error: u32,
+        /// zero
+        reserved: u32,
     }
 }
 
@@ -620,7 +626,8 @@ mod tests {
         assert_eq!(size_of::<NodeStatusMsg>(), 32);
         assert_eq!(offset_of!(DaemonStatusMsg, nodes), 32);
         assert_eq!(offset_of!(DaemonStatusMsg, tick_rate_hz), 160);
-        assert_eq!(size_of::<DaemonStatusMsg>(), 32 + 4 * 32 + 16 + 8 + 24);
+        assert_eq!(size_of::<DaemonStatusMsg>(), 32 + 4 * 32 + 16 + 8 + 24 + 8);
+        assert_eq!(offset_of!(DaemonStatusMsg, driver_error), 208);
         assert_eq!(size_of::<CellModeMsg>(), 32 + 56 + 16);
         assert_eq!(offset_of!(CellModeMsg, goal_rad), 32);
         assert_eq!(size_of::<CommandMsg>(), 16 + 64 + 48 + 16 + 8 + 56 + 8);

@@ -13,7 +13,8 @@
 
 use vservo_config::{Faults, ResumePolicy};
 use vservo_protocol::{
-    CameraTwistMsg, DriverStatus, Fault, FeaturesMsg, JointStateMsg, RobotState, Verdict, fault_bits,
+    CameraTwistMsg, DriverError, DriverStatus, Fault, FeaturesMsg, JointStateMsg, RobotState, Verdict,
+    fault_bits,
 };
 
 /// Four bits, one per mark.
@@ -50,9 +51,9 @@ pub enum Cause {
     /// Joints over their velocity limit.
     #[error("joint {} is over its velocity limit", joint_list(*.0))]
     VelocityLimit(u32),
-    /// The driver reports a fault.
-    #[error("the robot driver reports a fault")]
-    DriverFault,
+    /// The driver reports a fault, and the robot's reason where the driver gives one.
+    #[error("the robot driver reports a fault{}", driver_reason(*.0))]
+    DriverFault(DriverError),
     /// The driver's joint states carry another number of joints than the configured arm has.
     #[error("the robot driver reports {reported} joints; the configured arm has {configured}")]
     JointCount {
@@ -94,7 +95,7 @@ impl Cause {
             Cause::MotionNodesDown | Cause::RobotWaiting => None,
             Cause::PositionLimit(_) => Some(Fault::PositionLimit),
             Cause::VelocityLimit(_) => Some(Fault::VelocityLimit),
-            Cause::DriverFault | Cause::JointCount { .. } => Some(Fault::DriverFault),
+            Cause::DriverFault(_) | Cause::JointCount { .. } => Some(Fault::DriverFault),
             Cause::RobotStalled => Some(Fault::RobotStalled),
             Cause::CameraStalled => Some(Fault::CameraStalled),
             Cause::TorqueSaturated(_) => Some(Fault::TorqueSaturated),
@@ -122,8 +123,8 @@ impl Cause {
 pub struct Evidence {
     /// `fault_bits` of the joint states.
     pub fault_bits: u32,
-    /// A joint state's driver status said FAULT.
-    pub driver_fault: bool,
+    /// A joint state's driver status said FAULT (or the driver-failed bit was set), with the driver's reason.
+    pub driver_fault: Option<DriverError>,
     /// A joint state's joint count and the configured arm's, where they differ.
     pub foreign_joint_count: Option<(u32, u32)>,
     /// The robot driver's state, as far as it counts.
@@ -150,7 +151,10 @@ pub const CONDITIONS: [Condition; 11] = [
     |e| (e.robot == RobotState::Waiting).then_some(Cause::RobotWaiting),
     |e| nonzero(fault_bits::joints(e.fault_bits, fault_bits::POSITION_LIMIT_SHIFT)).map(Cause::PositionLimit),
     |e| nonzero(fault_bits::joints(e.fault_bits, fault_bits::VELOCITY_LIMIT_SHIFT)).map(Cause::VelocityLimit),
-    |e| (e.driver_fault || e.fault_bits & fault_bits::DRIVER_FAILED != 0).then_some(Cause::DriverFault),
+    |e| {
+        let failed = e.fault_bits & fault_bits::DRIVER_FAILED != 0;
+        e.driver_fault.or(failed.then_some(DriverError::None)).map(Cause::DriverFault)
+    },
     |e| e.foreign_joint_count.map(|(reported, configured)| Cause::JointCount { reported, configured }),
     |e| (e.robot == RobotState::Stalled).then_some(Cause::RobotStalled),
     |e| e.camera_stalled.then_some(Cause::CameraStalled),
@@ -247,7 +251,8 @@ pub struct FaultMonitor {
     /// Position and velocity bits and driver faults seen in any state since the last cycle (a limit crossed
     /// for a tick between two cycles counts).
     seen_bits: u32,
-    driver_fault_seen: bool,
+    /// A driver fault seen since the last cycle, with the first reason given.
+    driver_fault_seen: Option<DriverError>,
     /// A joint count not the configured arm's, seen in a state since the last cycle.
     foreign_joint_count_seen: Option<u32>,
     /// The current run of saturated states.
@@ -262,6 +267,17 @@ pub struct FaultMonitor {
     /// Since when no cause has been present (automatic resume).
     clear_since_ns: Option<u64>,
     safe_stops: u64,
+}
+
+/// A state's driver fault and its reason (an unknown reason is none: the fault stands all the same).
+fn driver_fault(state: &JointStateMsg) -> Option<DriverError> {
+    (DriverStatus::try_from(state.driver_status) == Ok(DriverStatus::Fault))
+        .then(|| DriverError::try_from(state.driver_error).unwrap_or(DriverError::None))
+}
+
+/// The driver's reason as the fault's message gives it.
+fn driver_reason(reason: DriverError) -> String {
+    if reason == DriverError::None { String::new() } else { format!(": {reason}") }
 }
 
 fn nonzero(bits: u32) -> Option<u32> {
@@ -292,7 +308,7 @@ impl FaultMonitor {
             arm_joints,
             latest_state: None,
             seen_bits: 0,
-            driver_fault_seen: false,
+            driver_fault_seen: None,
             foreign_joint_count_seen: None,
             saturated: None,
             missing: None,
@@ -307,7 +323,13 @@ impl FaultMonitor {
     /// Takes one joint state (every one the supervisor drains, in order).
     pub fn on_joint_state(&mut self, state: &JointStateMsg) {
         self.seen_bits |= state.faults;
-        self.driver_fault_seen |= DriverStatus::try_from(state.driver_status) == Ok(DriverStatus::Fault);
+        if let Some(reason) = driver_fault(state) {
+            // the first reason given is kept: the one that stopped the robot
+            self.driver_fault_seen = match self.driver_fault_seen {
+                None | Some(DriverError::None) => Some(reason),
+                seen => seen,
+            };
+        }
         if state.joint_count != self.arm_joints {
             self.foreign_joint_count_seen = Some(state.joint_count);
         }
@@ -387,8 +409,7 @@ impl FaultMonitor {
             .map_or(0, |(marks, _)| marks);
         Evidence {
             fault_bits: bits,
-            driver_fault: state
-                .is_some_and(|s| DriverStatus::try_from(s.driver_status) == Ok(DriverStatus::Fault)),
+            driver_fault: state.and_then(driver_fault),
             foreign_joint_count: state
                 .map(|s| (s.joint_count, self.arm_joints))
                 .filter(|&(reported, configured)| reported != configured),
@@ -410,7 +431,7 @@ impl FaultMonitor {
     pub fn cycle(&mut self, c: &Conditions) -> Decision {
         let found = self.seen_since_last_cycle(c).first_fault();
         self.seen_bits = 0;
-        self.driver_fault_seen = false;
+        self.driver_fault_seen = None;
         self.foreign_joint_count_seen = None;
         if self.latched.is_none() {
             return match found {
@@ -657,6 +678,31 @@ mod tests {
         assert!(monitor.resume(&running(3 * MS)).is_ok());
     }
 
+    /// A driver's fault with the robot's reason (a Franka reflex) is latched with that reason, which the
+    /// fault's message names; the first reason given is the one kept.
+    #[test]
+    fn a_driver_fault_keeps_the_robots_reason() {
+        let mut monitor = FaultMonitor::new(settings(ResumePolicy::Command), 6);
+        let mut faulted = state(MS, 0);
+        faulted.driver_status = DriverStatus::Fault.into();
+        faulted.driver_error = DriverError::FrankaCommunicationConstraintsViolation.into();
+        monitor.on_joint_state(&faulted);
+        faulted.driver_error = DriverError::FrankaJointReflex.into();
+        monitor.on_joint_state(&faulted);
+        let Decision::SafeStop(latched) = monitor.cycle(&running(MS)) else { panic!("a safe stop") };
+        assert_eq!(latched.cause, Cause::DriverFault(DriverError::FrankaCommunicationConstraintsViolation));
+        assert_eq!(
+            latched.cause.to_string(),
+            "the robot driver reports a fault: communication_constraints_violation"
+        );
+        // a number that is no reason still faults
+        let mut monitor = FaultMonitor::new(settings(ResumePolicy::Command), 6);
+        faulted.driver_error = 7;
+        monitor.on_joint_state(&faulted);
+        let Decision::SafeStop(latched) = monitor.cycle(&running(MS)) else { panic!("a safe stop") };
+        assert_eq!(latched.cause, Cause::DriverFault(DriverError::None));
+    }
+
     #[test]
     fn the_automatic_policy_resumes_once_the_cause_has_been_gone_long_enough() {
         let mut monitor = FaultMonitor::new(settings(ResumePolicy::Automatic), 6);
@@ -688,7 +734,7 @@ mod tests {
     fn each_condition_finds_its_cause_and_only_faults_stop_the_cell() {
         let calm = Evidence {
             fault_bits: 0,
-            driver_fault: false,
+            driver_fault: None,
             foreign_joint_count: None,
             robot: RobotState::Running,
             saturated_joints: 0,
@@ -711,7 +757,11 @@ mod tests {
                 Cause::VelocityLimit(1),
                 Some(Fault::VelocityLimit),
             ),
-            (Evidence { driver_fault: true, ..calm }, Cause::DriverFault, Some(Fault::DriverFault)),
+            (
+                Evidence { driver_fault: Some(DriverError::None), ..calm },
+                Cause::DriverFault(DriverError::None),
+                Some(Fault::DriverFault),
+            ),
             (
                 Evidence { foreign_joint_count: Some((7, 6)), ..calm },
                 Cause::JointCount { reported: 7, configured: 6 },
@@ -719,7 +769,7 @@ mod tests {
             ),
             (
                 Evidence { fault_bits: fault_bits::DRIVER_FAILED, ..calm },
-                Cause::DriverFault,
+                Cause::DriverFault(DriverError::None),
                 Some(Fault::DriverFault),
             ),
             (Evidence { robot: RobotState::Stalled, ..calm }, Cause::RobotStalled, Some(Fault::RobotStalled)),

@@ -10,7 +10,7 @@ use vservo_protocol::{CellMode, CellModeMsg, DaemonStatusMsg, Fault, SCHEMA_VERS
 use vservo_runtime::clock::monotonic_ns;
 
 use crate::commands::JointMove;
-use crate::faults::{AlreadyHeld, Conditions, Decision, FaultMonitor, LatchedFault, ResumeRefused};
+use crate::faults::{AlreadyHeld, Cause, Conditions, Decision, FaultMonitor, LatchedFault, ResumeRefused};
 
 /// A resume carried out.
 #[derive(Debug, Clone, PartialEq)]
@@ -230,6 +230,9 @@ impl Safety {
             status.fault = fault.code.into();
             status.fault_joints = fault.joints;
             status.fault_since_ns = fault.since_ns;
+            if let Cause::DriverFault(reason) = fault.cause {
+                status.driver_error = reason.into();
+            }
         }
         status.safe_stops = self.monitor.safe_stops();
     }

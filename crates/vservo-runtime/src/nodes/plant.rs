@@ -66,7 +66,7 @@ fn state_message(
         command_mode: declared.command_mode.into(),
         driver_status: driver_status(stage, state).into(),
         joint_count: wire_joint_count(stage.arm()),
-        reserved: 0,
+        driver_error: 0,
         q_rad: joints_to_wire(&state.q),
         qd_rad_s: joints_to_wire(&state.qd),
         torque_nm: joints_to_wire(&state.applied_torque),

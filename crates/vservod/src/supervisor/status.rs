@@ -2,7 +2,9 @@
 
 use std::time::{Duration, Instant};
 
-use vservo_protocol::{DaemonState, DaemonStatusMsg, Fault, NodeStatusMsg, RobotState, SCHEMA_VERSION};
+use vservo_protocol::{
+    DaemonState, DaemonStatusMsg, DriverError, Fault, NodeStatusMsg, RobotState, SCHEMA_VERSION,
+};
 
 use super::node::NodeRecord;
 
@@ -111,6 +113,8 @@ pub fn status_message<'a>(
         fault_joints: 0,
         fault_since_ns: 0,
         safe_stops: 0,
+        driver_error: DriverError::None.into(),
+        reserved: 0,
     }
 }
 
