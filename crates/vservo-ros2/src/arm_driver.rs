@@ -51,7 +51,7 @@ impl ArmSettings {
         let arm: &SerialArm = &config.arm;
         let joint_count = arm.joint_count();
         let mut settings = Self {
-            joint_names: crate::convert::joint_names(&config.ros2.joint_names, joint_count),
+            joint_names: crate::convert::joint_names(&config.ros2.joint_names, &config.arm),
             mode: match config.command_interface() {
                 vservo_config::CommandInterface::Position => CommandMode::Position,
                 _ => CommandMode::Velocity,

@@ -106,12 +106,16 @@ fn header(stamp: Time, frame_id: &str) -> Header {
     Header { stamp, frame_id: frame_id.to_string() }
 }
 
-/// The joint names ROS sees: the configured ones, else `joint1` … `jointN`.
-pub fn joint_names(configured: &[String], joint_count: usize) -> Vec<String> {
+/// The joint names ROS sees: the configured ones (`[ros2] joint_names`), else the URDF's (an arm from a URDF: the
+/// names its robot description, robot_state_publisher and its controllers use), else `joint1` … `jointN`.
+pub fn joint_names(configured: &[String], arm: &vservo_arm::SerialArm) -> Vec<String> {
+    let joint_count = arm.joint_count();
     if configured.len() == joint_count {
-        configured.to_vec()
-    } else {
-        (1..=joint_count).map(|j| format!("joint{j}")).collect()
+        return configured.to_vec();
+    }
+    match &arm.geometry {
+        vservo_arm::Geometry::Chain(chain) => chain.joints.iter().map(|joint| joint.name.clone()).collect(),
+        vservo_arm::Geometry::Dh => (1..=joint_count).map(|j| format!("joint{j}")).collect(),
     }
 }
 
@@ -461,7 +465,7 @@ mod tests {
 
     #[test]
     fn joint_states_of_the_configured_arm_only() {
-        let names = joint_names(&[], 6);
+        let names = joint_names(&[], &vservo_arm::puma560::puma560());
         assert_eq!(names[0], "joint1");
         assert_eq!(names[5], "joint6");
         let q = [0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.0];
@@ -469,8 +473,19 @@ mod tests {
         assert_eq!(message.position, q[..6]);
         assert_eq!((message.velocity.len(), message.effort.len()), (6, 6));
         assert!(joint_state(&state(7, q), &names, Time::default()).is_none());
-        let urdf_names: Vec<String> = (0..6).map(|j| format!("shoulder_{j}")).collect();
-        assert_eq!(joint_names(&urdf_names, 6), urdf_names);
+        let configured: Vec<String> = (0..6).map(|j| format!("shoulder_{j}")).collect();
+        assert_eq!(joint_names(&configured, &vservo_arm::puma560::puma560()), configured);
+    }
+
+    /// An arm from a URDF is named in ROS as its URDF names it, unless `[ros2] joint_names` says otherwise.
+    #[test]
+    fn a_urdf_arms_joints_have_the_urdfs_names() {
+        let config =
+            vservo_config::Config::load(concat!(env!("CARGO_MANIFEST_DIR"), "/../../config/arms/ur5e.toml"))
+                .expect("ur5e.toml loads");
+        let names = joint_names(&[], &config.arm);
+        assert_eq!(names.len(), 6);
+        assert_eq!((names[0].as_str(), names[5].as_str()), ("shoulder_pan_joint", "wrist_3_joint"));
     }
 
     fn pose_of(t: &Transform) -> IsometryMatrix3<f64> {

@@ -161,7 +161,7 @@ impl Translator {
             joint_state_every_ns: (1e9 / selection.joint_state_rate_hz) as u64,
             selection,
             instance: config.instance.clone(),
-            joint_names: convert::joint_names(&config.ros2.joint_names, config.arm.joint_count()),
+            joint_names: convert::joint_names(&config.ros2.joint_names, &config.arm),
             arm: config.arm.clone(),
             tool_from_camera: config.tool_from_camera,
             camera: config.camera,

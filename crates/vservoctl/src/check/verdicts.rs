@@ -189,16 +189,16 @@ pub fn joint_states(observed: &Observed, config: &Config) -> Line {
 }
 
 /// The names the driver addresses the arm's joints by, and where they come from: for the ROS 2 driver
-/// `[ros2] joint_names` (else the URDF's, else joint1…), for others the URDF's chain (none for a DH arm).
+/// `[ros2] joint_names`, else the URDF's, else joint1… (`vservo_ros2::convert::joint_names`); for others the
+/// URDF's chain (none for a DH arm).
 pub fn driver_joint_names(config: &Config) -> (Vec<String>, &'static str) {
     let arm = &config.arm;
-    let urdf = urdf_joint_names(arm);
-    if config.ros2.driver.arm && !config.ros2.joint_names.is_empty() {
-        (config.ros2.joint_names.clone(), "ros2.joint_names")
-    } else if let Some(urdf) = urdf {
+    if config.ros2.driver.arm {
+        let from =
+            if config.ros2.joint_names.is_empty() { "the ROS 2 driver's names" } else { "ros2.joint_names" };
+        (vservo_ros2::convert::joint_names(&config.ros2.joint_names, arm), from)
+    } else if let Some(urdf) = urdf_joint_names(arm) {
         (urdf, "the URDF's chain")
-    } else if config.ros2.driver.arm {
-        ((1..=arm.joint_count()).map(|j| format!("joint{j}")).collect(), "the default joint1…")
     } else {
         (Vec::new(), "a DH arm: joints by number")
     }
