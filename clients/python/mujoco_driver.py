@@ -7,8 +7,8 @@ iceoryx2 0.10 shared memory:
 
 - every robot period (1 ms) it publishes `joint_state` and notifies the `joint_state` event;
 - it reads the newest `joint_command` each period and follows its JOINT VELOCITY command (`mode` 1,
-  `qd_ref_rad_s`) if it answers one of the last few joint states of this driver run; with no valid command
-  for 20 ms it brings the joints to rest (commanded velocity 0) and reports `driver_status` 1 (holding);
+  `qd_ref_rad_s`) if `vservo_driver.refusal` takes it (the Rust driver side's rule: this driver run, answering the
+  last joint state or one of the MAX_COMMAND_AGE_TICKS before it, finite); with no valid command for 20 ms it brings the joints to rest (commanded velocity 0) and reports `driver_status` 1 (holding);
 - every vision period it renders the hand camera and publishes it on `camera_image` as 8-bit grayscale,
   stamped with the time of the joint state it shows, and notifies the `camera_image` event.
 
@@ -43,8 +43,8 @@ import mujoco
 import numpy as np
 
 from vservo_driver import (COMMAND_TIMEOUT_NS, FOLLOWING, HOLDING, MAX_COMMAND_AGE_TICKS, SCHEMA, VELOCITY,  # noqa: F401
-                           CameraImageHeader, JointCommand, JointState, make_node, open_notifier, open_topic,
-                           sleep_until)
+                           CameraImageHeader, JointCommand, JointState, command_values, make_node, open_notifier,
+                           open_topic, refusal, sleep_until)
 
 JOINTS = 6  # the arm's (the PUMA 560's); the messages have room for 7 (joint_count says how many)
 VELOCITY_BANDWIDTH_RAD_S = 1000.0  # of the simulated joints' velocity loop
@@ -459,10 +459,11 @@ def main(argv=None) -> int:
         now = time.monotonic_ns()
         while (sample := commands.receive()) is not None:
             c = JointCommand.from_buffer_copy(sample.payload().contents)
-            qd = np.array(c.qd_ref_rad_s)[:JOINTS]
-            if (c.schema == SCHEMA and c.mode == VELOCITY and c.joint_count == JOINTS and c.driver_epoch == epoch
-                    and tick - MAX_COMMAND_AGE_TICKS <= c.answers_tick <= tick and np.all(np.isfinite(qd))):
-                qd_command, last_valid_ns, command_tick = qd, now, c.answers_tick
+            # the last state published is the one before this tick's
+            published = tick - 1 if tick > 0 else None
+            if refusal(c, epoch=epoch, mode=VELOCITY, joint_count=JOINTS, last_tick=published) is None:
+                qd_command = np.array(command_values(c, VELOCITY, JOINTS))
+                last_valid_ns, command_tick = now, c.answers_tick
         status = FOLLOWING if now - last_valid_ns <= COMMAND_TIMEOUT_NS else HOLDING
         if status == HOLDING:
             qd_command, command_tick = np.zeros(6), NONE  # bring the joints to rest

@@ -6,8 +6,9 @@ iceoryx2 0.10 shared memory), for any arm vservo models from a URDF (the scene's
 `tip_link`, `joint_names`): nothing in this file is specific to an arm.
 
 - every robot period it publishes `joint_state` and notifies the `joint_state` event;
-- it reads the newest `joint_command` at each deadline and follows it if it answers one of the last few joint
-  states of this driver run: JOINT VELOCITY (`mode` 1, `qd_ref_rad_s`) with the scene's robot.command
+- it reads the newest `joint_command` at each deadline and follows it if `vservo_driver.refusal` takes it (the
+  Rust driver side's rule: this driver run, answering the last joint state or one of the MAX_COMMAND_AGE_TICKS
+  before it, finite): JOINT VELOCITY (`mode` 1, `qd_ref_rad_s`) with the scene's robot.command
   "velocity", JOINT POSITION (`mode` 2, `q_ref_rad`) with "position"; with no valid command for 20 ms it brings
   the joints to rest (their reference stops where it is) and reports `driver_status` 1 (holding);
 - every vision period it renders the hand camera and publishes it on `camera_image` as 8-bit grayscale,
@@ -53,8 +54,8 @@ import pybullet_data
 
 
 from vservo_driver import (COMMAND_TIMEOUT_NS, FOLLOWING, HOLDING, MAX_COMMAND_AGE_TICKS, NONE, POSITION,  # noqa: F401
-                           SCHEMA, VELOCITY, CameraImageHeader, JointCommand, JointState, make_node,
-                           open_notifier, open_topic, sleep_until)
+                           SCHEMA, VELOCITY, CameraImageHeader, JointCommand, JointState, command_values, make_node,
+                           open_notifier, open_topic, refusal, sleep_until)
 from vservo_driver import MAX_JOINTS as PROTOCOL_JOINTS
 DEFAULT_EFFORT = 1000.0  # N·m (N) for a joint whose URDF gives no effort limit
 BOARD_GRAY, MARK_GRAY = 230, 20  # as vservo's simulated camera and the MuJoCo driver draw them
@@ -462,10 +463,9 @@ def main(argv=None) -> int:
         late.append(woke - deadline)
         while (sample := commands.receive()) is not None:
             c = JointCommand.from_buffer_copy(sample.payload().contents)
-            value = np.array(c.qd_ref_rad_s if mode == VELOCITY else c.q_ref_rad)[:n]
-            if (c.schema == SCHEMA and c.mode == mode and c.joint_count == n and c.driver_epoch == epoch
-                    and tick - MAX_COMMAND_AGE_TICKS <= c.answers_tick <= tick and np.all(np.isfinite(value))):
-                command, last_valid_ns, applied_tick = value, woke, c.answers_tick
+            if refusal(c, epoch=epoch, mode=mode, joint_count=n, last_tick=tick) is None:
+                command = np.array(command_values(c, mode, n))
+                last_valid_ns, applied_tick = woke, c.answers_tick
         if woke - last_valid_ns > COMMAND_TIMEOUT_NS:
             command, applied_tick = None, NONE  # bring the joints to rest
 

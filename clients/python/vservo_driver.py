@@ -5,6 +5,7 @@ as vservo creates them. A driver of your own may import it too (with vservo_clie
 """
 
 import ctypes
+import math
 import sys
 import time
 
@@ -17,7 +18,7 @@ MAX_JOINTS = 7  # joints joint_state and joint_command have room for; joint_coun
 TORQUE, VELOCITY, POSITION = 0, 1, 2  # command modes
 FOLLOWING, HOLDING = 0, 1  # driver_status
 COMMAND_TIMEOUT_NS = 20_000_000  # no valid command for this long: hold
-MAX_COMMAND_AGE_TICKS = 5  # a command must answer one of the last few joint states
+MAX_COMMAND_AGE_TICKS = 2  # a command answers the last joint state published or one of the 2 before it
 NONE = (1 << 64) - 1  # applied_command_tick with no command applied (holding)
 
 
@@ -63,6 +64,37 @@ class CameraImageHeader(ctypes.Structure):
     @staticmethod
     def type_name() -> str:
         return "vservo::CameraImageHeader"
+
+
+# --- taking a command: the rule of the Rust driver side (crates/vservo-driver, `DriverSide::take_command`),
+# tied to it by tests/tests/python_layout.rs, which hands both the same commands ---
+def refusal(command, *, epoch, mode, joint_count, last_tick):
+    """Why the driver refuses `command` (a JointCommand), as crates/vservo-driver's `CommandRefused::kind` names
+    it, or None when it takes it: of this schema, this run of the driver (`epoch`), the declared `mode` and
+    `joint_count`, answering the last joint state published (`last_tick`; None before the first) or one of the
+    MAX_COMMAND_AGE_TICKS before it — after the driver's own silence too: a command is as old as its tick says —,
+    and finite in the values of its mode."""
+    if command.schema != SCHEMA:
+        return "schema"
+    if command.driver_epoch != epoch:
+        return "epoch"
+    if command.mode != mode:
+        return "mode"
+    if command.joint_count != joint_count:
+        return "joint count"
+    if last_tick is None or command.answers_tick > last_tick:
+        return "not published"
+    if command.answers_tick + MAX_COMMAND_AGE_TICKS < last_tick:
+        return "too old"
+    if not all(math.isfinite(v) for v in command_values(command, mode, joint_count)):
+        return "not finite"
+    return None
+
+
+def command_values(command, mode, joint_count):
+    """The values of the command's mode, for the arm's joints: q̇ (velocity), q_ref (position) or τ (torque)."""
+    values = {VELOCITY: command.qd_ref_rad_s, POSITION: command.q_ref_rad, TORQUE: command.torque_nm}[mode]
+    return list(values)[:joint_count]
 
 
 # --- clock: absolute deadlines on CLOCK_MONOTONIC (time.sleep would drift by its own overhead every period) ---

@@ -75,3 +75,108 @@ fn the_python_clients_codes_are_the_rust_enums() {
         assert_eq!(codes["driver_status"][screaming(status.name())].as_u64(), Some(u64::from(status.code())));
     }
 }
+
+/// The Python reference drivers take a command by the Rust driver side's rule: clients/python/vservo_driver.py's
+/// `refusal` and `vservo_driver::DriverSide::take_command` are handed the same commands — one valid, and one
+/// broken in each way the contract names, at each edge of the age window — and refuse the same ones for the same
+/// cause.
+#[test]
+fn the_python_drivers_take_a_command_by_the_rust_driver_sides_rule() {
+    use vservo_driver::{DriverSettings, DriverSide, MAX_COMMAND_AGE_TICKS, Measured};
+    use vservo_protocol::{JointCommandMsg, MAX_JOINTS};
+
+    const EPOCH: u64 = 77;
+    let settings = DriverSettings {
+        mode: CommandMode::Velocity,
+        joint_count: 6,
+        period_ns: 1_000_000,
+        hold_after_ns: 20_000_000,
+        position_min_rad: [-10.0; MAX_JOINTS],
+        position_max_rad: [10.0; MAX_JOINTS],
+        velocity_max_rad_s: [10.0; MAX_JOINTS],
+    };
+    let published = |last: Option<u64>| {
+        let mut side = DriverSide::new(settings.clone(), EPOCH);
+        let at_rest = Measured {
+            q_rad: [0.0; MAX_JOINTS],
+            qd_rad_s: [0.0; MAX_JOINTS],
+            torque_nm: [f64::NAN; MAX_JOINTS],
+        };
+        if let Some(last) = last {
+            for tick in 0..=last {
+                side.joint_state(tick, tick * 1_000_000, &at_rest, None);
+            }
+        }
+        side
+    };
+    let valid = JointCommandMsg {
+        mode: CommandMode::Velocity.code(),
+        joint_count: 6,
+        answers_tick: 10,
+        driver_epoch: EPOCH,
+        qd_ref_rad_s: [0.1; MAX_JOINTS],
+        ..JointCommandMsg::default()
+    };
+    let mut nan_in_a_joint = valid;
+    nan_in_a_joint.qd_ref_rad_s[5] = f64::NAN;
+    let mut nan_past_the_arm = valid;
+    nan_past_the_arm.qd_ref_rad_s[6] = f64::NAN;
+    let mut nan_in_another_mode = valid;
+    nan_in_another_mode.q_ref_rad[0] = f64::NAN;
+    let cases: Vec<(JointCommandMsg, Option<u64>)> = vec![
+        (valid, Some(10)),
+        (valid, Some(10 + MAX_COMMAND_AGE_TICKS)),
+        (valid, Some(11 + MAX_COMMAND_AGE_TICKS)),
+        (valid, Some(9)),
+        (valid, None),
+        (JointCommandMsg { schema: SCHEMA_VERSION - 1, ..valid }, Some(10)),
+        (JointCommandMsg { driver_epoch: EPOCH + 1, ..valid }, Some(10)),
+        (JointCommandMsg { mode: CommandMode::Position.code(), ..valid }, Some(10)),
+        (JointCommandMsg { joint_count: 7, ..valid }, Some(10)),
+        (nan_in_a_joint, Some(10)),
+        (nan_past_the_arm, Some(10)),
+        (nan_in_another_mode, Some(10)),
+    ];
+    let number = |v: f64| if v.is_finite() { serde_json::json!(v) } else { Value::Null };
+    let input: String = cases
+        .iter()
+        .map(|(c, last)| {
+            let line = serde_json::json!({
+                "epoch": EPOCH, "mode": CommandMode::Velocity.code(), "joint_count": 6, "last_tick": last,
+                "command": {
+                    "schema": c.schema, "mode": c.mode, "joint_count": c.joint_count, "answers_tick": c.answers_tick,
+                    "driver_epoch": c.driver_epoch,
+                    "qd_ref_rad_s": c.qd_ref_rad_s.map(number), "q_ref_rad": c.q_ref_rad.map(number),
+                    "torque_nm": c.torque_nm.map(number),
+                },
+            });
+            format!("{line}\n")
+        })
+        .collect();
+    let python = repository_root().join("target/python-venv/bin/python");
+    let mut child = std::process::Command::new(&python)
+        .arg(repository_root().join("tests/python/admission.py"))
+        .arg(repository_root().join("clients/python"))
+        .stdin(std::process::Stdio::piped())
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("python runs");
+    use std::io::Write;
+    child.stdin.take().expect("stdin").write_all(input.as_bytes()).expect("the cases written");
+    let out = child.wait_with_output().expect("python ends");
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let python_verdicts: Vec<Value> = String::from_utf8_lossy(&out.stdout)
+        .lines()
+        .map(|l| serde_json::from_str(l).expect("a JSON line"))
+        .collect();
+    assert_eq!(python_verdicts.len(), cases.len());
+    let mut causes = std::collections::BTreeSet::new();
+    for ((command, last), python) in cases.iter().zip(&python_verdicts) {
+        let rust = published(*last).take_command(command, 0).err().map(|refused| refused.kind());
+        causes.insert(rust);
+        assert_eq!(python, &serde_json::json!(rust), "answers {} with last {last:?}", command.answers_tick);
+    }
+    // the premise: the cases took every branch of the rule
+    assert_eq!(causes.len(), 8, "{causes:?}");
+}
