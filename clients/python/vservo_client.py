@@ -158,6 +158,24 @@ class OtherUser(PermissionError):
     """The instance is another user's: run the client as that user."""
 
 
+class SchemaMismatch(Exception):
+    """The instance's daemon speaks another protocol schema than this module (its directory's `schema` file)."""
+
+
+def _check_schema(instance: str, path: str) -> None:
+    """The instance in `path` speaks this module's schema (a directory without a `schema` file, of a daemon from
+    before it, is taken as it is), as `InstanceDir::locate` checks it."""
+    try:
+        with open(os.path.join(path, "schema")) as f:
+            text = f.read().strip()
+    except FileNotFoundError:
+        return
+    if text != str(SCHEMA_VERSION):
+        raise SchemaMismatch(f"instance {instance!r} speaks protocol schema {text}, this program schema "
+                             f"{SCHEMA_VERSION}: update the older side (docs/PROTOCOL.md, \"Changelog\", says what "
+                             f"changed and how to migrate)")
+
+
 def _user_name(uid: int) -> str:
     try:
         import pwd
@@ -226,6 +244,7 @@ def locate_instance(instance: str):
             prefix = f.read().strip()
     except FileNotFoundError:
         raise NotRunning(f"no vservod of instance {instance!r} is running (no {path}/prefix)") from None
+    _check_schema(instance, path)
     random = prefix[len("vservo_"):-1]
     if not (prefix.startswith("vservo_") and prefix.endswith("_") and len(random) == 16
             and all(c in "0123456789abcdef" for c in random)):

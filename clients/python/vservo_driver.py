@@ -13,7 +13,7 @@ import iceoryx2 as iox2
 
 import vservo_client  # finds the instance as every vservo client does (clients/python/vservo_client.py)
 
-SCHEMA = 9
+SCHEMA = vservo_client.SCHEMA_VERSION  # one declaration (vservo_client.py), checked against the Rust one
 MAX_JOINTS = 7  # joints joint_state and joint_command have room for; joint_count says how many are the arm's
 TORQUE, VELOCITY, POSITION = 0, 1, 2  # command modes
 FOLLOWING, HOLDING = 0, 1  # driver_status
@@ -125,6 +125,9 @@ def make_node(instance: str, program: str, stop=lambda: False):
                 print(f"{program}: {why}; waiting for it", file=sys.stderr)
                 waited = True
             time.sleep(0.2)
+        except vservo_client.SchemaMismatch as why:
+            # one line, nothing opened: the driver cannot talk to this daemon
+            sys.exit(f"{program}: {why}")
     else:
         return None
     node = (iox2.NodeBuilder.new().config(config)

@@ -414,10 +414,11 @@ print(sum(c.set_target([151, 168, 318, 178, 339, 75, 172, 70 + (i % 2)]).accepte
     daemon.stop();
 }
 
-/// An external robot driver that never appears (not started, another instance, another schema) is said within
-/// 5 s: vservod would otherwise wait at "robot waiting" for good. And the cell it waits for starts held.
+/// An external robot driver and an external camera that never appear (not started, another instance, another
+/// schema) are said within 5 s: vservod would otherwise wait at "robot waiting" for good. And the cell it waits for
+/// starts held.
 #[test]
-fn a_robot_driver_that_never_appears_is_said_within_five_seconds() {
+fn a_robot_driver_and_a_camera_that_never_appear_are_said_within_five_seconds() {
     let _one = exclusive();
     let instance = unique("no-driver");
     let config = config_from(
@@ -430,7 +431,10 @@ fn a_robot_driver_that_never_appears_is_said_within_five_seconds() {
     );
     let daemon = Daemon::start(&config);
     let started = Instant::now();
-    let said = || daemon.log().contains("no robot driver has appeared");
+    let said = || {
+        let log = daemon.log();
+        log.contains("no robot driver has appeared") && log.contains("no camera driver has appeared")
+    };
     assert!(wait_until(Duration::from_secs(5), said), "{}", daemon.log());
     assert!(
         started.elapsed() >= Duration::from_secs(2),

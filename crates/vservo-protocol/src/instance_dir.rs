@@ -39,6 +39,9 @@ pub const SYSTEM_RUNTIME_DIR: &str = "/run/vservo";
 
 /// The file in an instance's directory that holds the configuration its daemon runs.
 pub const CONFIGURATION_FILE: &str = "config.toml";
+/// The file in an instance's directory that says which protocol schema its daemon speaks
+/// ([`crate::SCHEMA_VERSION`]); every client and driver checks it before it opens anything.
+pub const SCHEMA_FILE: &str = "schema";
 /// Where POSIX shared memory lives on Linux.
 const SHM_DIR: &str = "/dev/shm";
 /// The suffix iceoryx2 gives its node counter segment.
@@ -70,6 +73,19 @@ pub enum InstanceDirError {
         owner: String,
         /// The directory that told.
         path: PathBuf,
+    },
+    /// The instance's daemon speaks another protocol schema than this program.
+    #[error(
+        "instance {instance:?} speaks protocol schema {daemon}, this program schema {ours}: update the older side \
+         (docs/PROTOCOL.md, \"Changelog\", says what changed and how to migrate)"
+    )]
+    Schema {
+        /// The instance.
+        instance: String,
+        /// The daemon's schema (its directory's `schema` file).
+        daemon: u32,
+        /// This program's.
+        ours: u32,
     },
     /// Another vservod holds the instance.
     #[error(
@@ -243,12 +259,15 @@ impl InstanceDir {
         check_private_dir(path, &metadata)?;
         let prefix_path = path.join("prefix");
         match std::fs::read_to_string(&prefix_path) {
-            Ok(prefix) => Ok(Self {
-                instance: instance.to_string(),
-                path: path.to_path_buf(),
-                base: path.parent().unwrap_or(Path::new("/")).to_path_buf(),
-                prefix: valid_prefix(prefix.trim(), &prefix_path)?,
-            }),
+            Ok(prefix) => {
+                check_schema(instance, path)?;
+                Ok(Self {
+                    instance: instance.to_string(),
+                    path: path.to_path_buf(),
+                    base: path.parent().unwrap_or(Path::new("/")).to_path_buf(),
+                    prefix: valid_prefix(prefix.trim(), &prefix_path)?,
+                })
+            }
             Err(e) if e.kind() == ErrorKind::NotFound => Err(InstanceDirError::NotRunning {
                 instance: instance.to_string(),
                 looked_in: vec![prefix_path],
@@ -480,6 +499,8 @@ impl InstanceClaim {
                 ))
             }
         };
+        // the schema before the prefix: whoever finds the instance finds the schema it speaks
+        write_file_atomically(&path.join(SCHEMA_FILE), format!("{}\n", crate::SCHEMA_VERSION).as_bytes())?;
         write_file_atomically(&prefix_path, format!("{}\n", dir.prefix).as_bytes())?;
         Ok(Self { dir, _lock: lock, renewed_because })
     }
@@ -654,6 +675,29 @@ fn shm_names(prefix: &str) -> Vec<String> {
 }
 
 /// Writes `path` through a temporary file and a rename: a reader sees the old content or the new, whole.
+/// The schema the instance in `path` speaks is this program's: its `schema` file says so (a directory without one,
+/// of a daemon from before the file, is taken as it is: its messages' own schema field still refuses a mismatch).
+fn check_schema(instance: &str, path: &Path) -> Result<(), InstanceDirError> {
+    let schema_path = path.join(SCHEMA_FILE);
+    let text = match std::fs::read_to_string(&schema_path) {
+        Ok(text) => text,
+        Err(e) if e.kind() == ErrorKind::NotFound => return Ok(()),
+        Err(e) => return Err(io(&schema_path, "reading the instance's schema")(e)),
+    };
+    let daemon: u32 = text.trim().parse().map_err(|_| InstanceDirError::Unsafe {
+        path: schema_path.clone(),
+        reason: format!("{:?} is not a schema number", text.trim()),
+    })?;
+    if daemon != crate::SCHEMA_VERSION {
+        return Err(InstanceDirError::Schema {
+            instance: instance.to_string(),
+            daemon,
+            ours: crate::SCHEMA_VERSION,
+        });
+    }
+    Ok(())
+}
+
 fn write_file_atomically(path: &Path, content: &[u8]) -> Result<(), InstanceDirError> {
     let temporary = path.with_extension("new");
     let _ = std::fs::remove_file(&temporary);
@@ -717,6 +761,32 @@ mod tests {
         assert_eq!(again.dir().prefix, dir.prefix);
         assert!(again.renewed_because.is_none());
         remove_shm(&dir.prefix);
+        let _ = std::fs::remove_dir_all(&base);
+    }
+
+    /// The daemon says which schema it speaks; a client of another finds out in one sentence naming both.
+    #[test]
+    fn an_instance_of_another_schema_is_refused_naming_both() {
+        let base = scratch_base("schema");
+        let instance = format!("unit-schema-{}", std::process::id());
+        let claim = InstanceClaim::claim_in(&base, &instance).expect("claimed");
+        let path = claim.dir().path.clone();
+        let written = std::fs::read_to_string(path.join(SCHEMA_FILE)).expect("the schema file");
+        assert_eq!(written.trim(), crate::SCHEMA_VERSION.to_string());
+        InstanceDir::open_ours(&instance, &path).expect("the same schema is found");
+        write_file_atomically(&path.join(SCHEMA_FILE), format!("{}\n", crate::SCHEMA_VERSION - 1).as_bytes())
+            .expect("rewritten");
+        let refused = InstanceDir::open_ours(&instance, &path).expect_err("another schema");
+        let text = refused.to_string();
+        assert!(
+            text.contains(&format!("speaks protocol schema {}", crate::SCHEMA_VERSION - 1))
+                && text.contains(&format!("this program schema {}", crate::SCHEMA_VERSION))
+                && text.contains("Changelog"),
+            "{text}"
+        );
+        let prefix = claim.dir().prefix.clone();
+        drop(claim);
+        remove_shm(&prefix);
         let _ = std::fs::remove_dir_all(&base);
     }
 

@@ -70,6 +70,8 @@ pub fn run(
 struct Settings {
     instance: String,
     external_robot: bool,
+    /// The camera is a driver of its own (`[camera] source = "external"`, GStreamer, ROS 2).
+    external_camera: bool,
     robot_deadline: Duration,
     camera_timeout: Duration,
     hang_timeout: Duration,
@@ -87,6 +89,7 @@ impl Settings {
         Self {
             instance: config.instance.clone(),
             external_robot: config.robot.driver == vservo_config::RobotDriver::External,
+            external_camera: config.vision.source == vservo_config::VisionSource::External,
             robot_deadline: Duration::from_secs_f64(config.robot.state_timeout_s()),
             camera_timeout: config.faults.camera_timeout(config.timing.vision_period_s),
             hang_timeout: runtime.hang_timeout,
@@ -134,6 +137,8 @@ struct Daemon {
     last_report: Instant,
     /// Whether the absence of the robot driver has been said.
     driver_absence_said: bool,
+    /// Whether the absent camera driver was said.
+    camera_absence_said: bool,
 }
 
 /// Reads and checks the configuration: the text the nodes are handed is the text validated here; the gains
@@ -190,8 +195,8 @@ impl Daemon {
         // every service, created here with one writer slot per stream before any other process can
         let streams = vservo_protocol::writers::create_all(&node, &settings.instance)
             .context("creating the instance's services")?;
-        let external_camera = config.vision.source == vservo_config::VisionSource::External;
-        let streams = StreamWatch::new(streams, settings.external_robot, external_camera, Instant::now());
+        let streams =
+            StreamWatch::new(streams, settings.external_robot, settings.external_camera, Instant::now());
         let ports = Ports::open(&node, &settings.instance, launcher.seal_key.clone())?;
         let stop_path = SafeStopReader::create(claim.dir())?;
         // the cell mode first: every node finds it in the service's history
@@ -253,6 +258,7 @@ impl Daemon {
             started_ns,
             last_report: now,
             driver_absence_said: false,
+            camera_absence_said: false,
         })
     }
 
@@ -396,7 +402,9 @@ impl Daemon {
         log_robot_change(health::robot_change(self.robot, robot), self.settings.robot_deadline);
         self.robot = robot;
         let waited = Duration::from_nanos(monotonic_ns().saturating_sub(self.started_ns));
-        if health::driver_absent(self.settings.external_robot, robot, waited, self.driver_absence_said) {
+        let heard_robot = robot != RobotState::Waiting;
+        if health::driver_absent(self.settings.external_robot, heard_robot, waited, self.driver_absence_said)
+        {
             self.driver_absence_said = true;
             tracing::warn!(
                 waited_s = waited.as_secs_f64(),
@@ -405,6 +413,23 @@ impl Daemon {
                 "no robot driver has appeared: is it running, for this instance (and this user's runtime \
                  directory), on the same schema (docs/PROTOCOL.md)? A driver vservod starts (ros2, franka) says \
                  why above; `vservoctl status` shows the streams' writers"
+            );
+        }
+        let heard_camera = self.heard.features_at.is_some();
+        if health::driver_absent(
+            self.settings.external_camera,
+            heard_camera,
+            waited,
+            self.camera_absence_said,
+        ) {
+            self.camera_absence_said = true;
+            tracing::warn!(
+                waited_s = waited.as_secs_f64(),
+                instance = %self.settings.instance,
+                schema = vservo_protocol::SCHEMA_VERSION,
+                "no camera driver has appeared (no frame): is it running, for this instance (and this user's \
+                 runtime directory), on the same schema (docs/PROTOCOL.md)? A camera vservod starts (gstreamer, \
+                 ros2) says why above; `vservoctl status` shows the streams' writers"
             );
         }
         let vision = self.nodes.iter().find(|n| n.record.role == NodeRole::Vision);
