@@ -529,3 +529,47 @@ fn systemd_hears_ready_status_and_watchdog_only_while_the_cell_can_be_made_safe(
     assert_eq!(daemon.wait(Duration::from_secs(5)), Some(0), "{}", daemon.log());
     let _ = std::fs::remove_file(&socket_path);
 }
+
+/// The PUMA 560's cell keeps its own limits too: from its start, through the paper's whole transient, the commands
+/// the rmrc sends (`vservoctl echo joint_command`, measured as a controller would by scripts/command_limits.py)
+/// stay within the arm's speed and acceleration limits (it declares no jerk limit: its acceleration may step
+/// within a tick), and use them.
+#[test]
+fn the_puma_cells_commands_stay_within_its_speed_and_acceleration_limits() {
+    let _one = exclusive();
+    let instance = unique("puma-limits");
+    let config = instance_config(&instance);
+    let dir = std::env::temp_dir().join(format!("vservo-{instance}"));
+    std::fs::create_dir_all(&dir).expect("a directory for the run");
+    let scene = run("vservoctl", &["scene", "--config", &config.arg()]);
+    assert!(scene.status.success(), "{}", String::from_utf8_lossy(&scene.stderr));
+    std::fs::write(dir.join("scene.json"), &scene.stdout).expect("the scene");
+    // the recorder waits for the instance: it hears the commands from the first on
+    let recorder = Command::new(binary("vservoctl"))
+        .args(["echo", "joint_command", "--instance", &instance, "--duration-s", "4"])
+        .stdout(std::fs::File::create(dir.join("commands.jsonl")).expect("the recording"))
+        .stderr(Stdio::null())
+        .spawn()
+        .expect("vservoctl echo starts");
+    let daemon = Daemon::start(&config);
+    let recorded = recorder.wait_with_output().expect("the recording ends");
+    assert!(recorded.status.success(), "{}", daemon.log());
+    let out = Command::new(vservo_system_tests::repository_root().join("target/python-venv/bin/python"))
+        .arg(vservo_system_tests::repository_root().join("scripts/command_limits.py"))
+        .arg(dir.join("commands.jsonl"))
+        .arg(dir.join("scene.json"))
+        .output()
+        .expect("command_limits.py runs");
+    let _ = std::fs::remove_dir_all(&dir);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let summary: Value = serde_json::from_slice(&out.stdout).expect("JSON");
+    println!("{summary}");
+    let share = |key: &str| summary[key].as_f64().unwrap_or_else(|| panic!("{key} in {summary}"));
+    assert!(share("consecutive_triples") > 1000.0, "{summary}");
+    assert!(share("max_velocity_ratio") <= 1.0, "{summary}");
+    // the acceleration steps to its limit within a tick, rounded
+    assert!(share("max_acceleration_ratio") <= 1.0 + 1e-9, "{summary}");
+    assert!(share("max_acceleration_ratio") > 0.5, "the transient used the limits: {summary}");
+    assert!(summary["max_jerk_ratio"].is_null(), "the PUMA declares no jerk limit: {summary}");
+    daemon.stop();
+}

@@ -401,3 +401,39 @@ fn another_user_cannot_ask_on_the_safe_stop_path() {
     println!("nobody's write refused: {}", String::from_utf8_lossy(&refused.stderr).trim());
     daemon.stop();
 }
+
+/// The security review's swap: a process of the daemon's user replaced the safe-stop FIFO with a plain file, and
+/// every request written to it was swallowed. Now the daemon sees the path is no longer its FIFO within a cycle:
+/// a safe stop (`requested`), an ERROR line saying so, and the FIFO made again, which then takes requests as
+/// before.
+#[test]
+fn a_replaced_safe_stop_path_is_a_safe_stop_and_is_made_again() {
+    use std::os::unix::fs::FileTypeExt;
+    let _one = exclusive();
+    let instance = unique("stop-path-swap");
+    let (_config, daemon) = running_daemon(&instance);
+    let dir = vservo_protocol::InstanceDir::locate(&instance).expect("the instance's directory");
+    let path = dir.safe_stop_path();
+    std::fs::remove_file(&path).expect("the FIFO removed");
+    std::fs::write(&path, b"").expect("a plain file in its place");
+    assert!(
+        wait_until(Duration::from_secs(2), || safe_stopped_by(&instance, "requested")),
+        "{:?}\n{}",
+        status(&instance),
+        daemon.log()
+    );
+    assert!(daemon.log().contains("the safe-stop path was replaced"), "{}", daemon.log());
+    assert!(
+        wait_until(Duration::from_secs(1), || {
+            std::fs::symlink_metadata(&path).is_ok_and(|m| m.file_type().is_fifo())
+        }),
+        "the FIFO made again"
+    );
+    // it takes requests again: resume, then a safe stop on the path
+    assert_eq!(vservoctl(&["resume", "--instance", &instance]).0, Some(0));
+    assert!(wait_until(Duration::from_secs(2), || status(&instance).is_some_and(|s| running(&s))));
+    let (code, out) = vservoctl(&["safe-stop", "--instance", &instance]);
+    assert_eq!(code, Some(0), "{out}");
+    assert!(safe_stopped_by(&instance, "requested"), "{out}");
+    daemon.stop();
+}

@@ -18,7 +18,17 @@
 //!   torque, the Coriolis matrix, forward dynamics ([`dynamics`]);
 //! - motor armature inertia and friction as a separate term ([`Drive`]), in the toolbox convention
 //!   τ_full = τ_rigid + G²J_m q̈ + G²B q̇ + |G|·T_c;
-//! - joint position, velocity and torque limits ([`JointLimits`]).
+//! - joint position, velocity and torque limits ([`JointLimits`]), and how far inside them a joint move's
+//!   goal must be ([`GOAL_MARGIN_RAD`]).
+//!
+//! The arms it builds: [`SerialArm::dh`], six joints in standard DH with masses and drives (kinematics, the
+//! closed-form IK where the geometry has one, dynamics); [`SerialArm::kinematic`], a DH table of the user's
+//! with limits and no masses (kinematics, Jacobians and reach: what a velocity- or position-commanded arm
+//! needs); and [`SerialArm::from_chain`], a URDF's chain of six or seven joints, kinematics only. [`urdf`]
+//! reads the chain between two links with the `urdf-rs` parser, fixed joints folded in, and refuses what
+//! cannot be driven, naming the joint; [`chain`] gives its forward kinematics and Jacobian (checked against
+//! PyBullet, `tests/urdf_reference.rs`). The entries of a [`JointVector`] past the arm's
+//! [`SerialArm::joint_count`] are zero.
 //!
 //! Units are SI throughout (m, rad, s, kg, N·m). Gravity points along the base's −z.
 //!
@@ -43,6 +53,7 @@ pub mod link;
 pub mod puma560;
 pub mod reach;
 pub mod urdf;
+pub mod urdf_bounds;
 
 pub use chain::{Chain, ChainJoint};
 pub use drive::Drive;

@@ -1,6 +1,8 @@
 //! An arm from its URDF: the serial chain between a base link and a tool link, read with the `urdf-rs`
 //! parser, fixed joints folded into the moving joints' origins.
 //!
+//! A text beyond the bounds of [`crate::urdf_bounds`] (size, nesting, elements, a DOCTYPE) is refused before it is
+//! parsed; two links or two joints of one name, or a joint naming a link the file does not declare, after.
 //! What vservo cannot honour is refused with the joint (or link) and why: a prismatic, floating, planar or
 //! mimic joint on the chain, a tool link that is not below the base link, a tree that branches where the tool
 //! link was left to be found, a link with two parents, an axis of zero length, fewer than six or more than
@@ -27,6 +29,30 @@ pub enum UrdfError {
         path: String,
         /// The parser's message.
         message: String,
+    },
+    /// The text is beyond what a URDF is read up to (`crate::urdf_bounds`): refused before it is parsed.
+    #[error("{path}: {bound}")]
+    OutOfBounds {
+        /// The file.
+        path: String,
+        /// The bound it breaks.
+        bound: crate::urdf_bounds::Bound,
+    },
+    /// Two links, or two joints, have one name.
+    #[error("two {what} are named {name:?}")]
+    Duplicate {
+        /// "links" or "joints".
+        what: &'static str,
+        /// The name.
+        name: String,
+    },
+    /// A joint names a parent or child link the file does not declare.
+    #[error("joint {joint:?} names link {link:?}, which the file does not declare")]
+    UndeclaredLink {
+        /// The joint.
+        joint: String,
+        /// The link it names.
+        link: String,
     },
     /// A link named in the configuration is not in the file.
     #[error("no link named {link:?} (links: {known})")]
@@ -137,6 +163,8 @@ pub fn parse(
     base_link: Option<&str>,
     tip_link: Option<&str>,
 ) -> Result<UrdfArm, UrdfError> {
+    crate::urdf_bounds::check(text)
+        .map_err(|bound| UrdfError::OutOfBounds { path: path.to_string(), bound })?;
     let robot = urdf_rs::read_from_string(text)
         .map_err(|e| UrdfError::Read { path: path.to_string(), message: e.to_string() })?;
     arm_from_robot(&robot, base_link, tip_link)
@@ -161,6 +189,20 @@ pub fn arm_from_robot(
     chain_along(robot, &path, base, tip)
 }
 
+/// The names, each once; `Err` naming the first given twice.
+fn unique_names<'a>(
+    what: &'static str,
+    names: impl Iterator<Item = &'a str>,
+) -> Result<std::collections::HashSet<&'a str>, UrdfError> {
+    let mut seen = std::collections::HashSet::new();
+    for name in names {
+        if !seen.insert(name) {
+            return Err(UrdfError::Duplicate { what, name: name.to_string() });
+        }
+    }
+    Ok(seen)
+}
+
 /// The links and joints of a URDF, by name.
 struct Tree<'a> {
     robot: &'a urdf_rs::Robot,
@@ -170,6 +212,15 @@ struct Tree<'a> {
 
 impl<'a> Tree<'a> {
     fn of(robot: &'a urdf_rs::Robot) -> Result<Self, UrdfError> {
+        let links = unique_names("links", robot.links.iter().map(|l| l.name.as_str()))?;
+        unique_names("joints", robot.joints.iter().map(|j| j.name.as_str()))?;
+        for joint in &robot.joints {
+            for link in [&joint.parent.link, &joint.child.link] {
+                if !links.contains(link.as_str()) {
+                    return Err(UrdfError::UndeclaredLink { joint: joint.name.clone(), link: link.clone() });
+                }
+            }
+        }
         let mut parent_joint: HashMap<&str, usize> = HashMap::new();
         for (index, joint) in robot.joints.iter().enumerate() {
             if let Some(&first) = parent_joint.get(joint.child.link.as_str()) {
@@ -467,5 +518,20 @@ mod tests {
             six_joint_urdf("revolute", LIMIT).replace(r#"<child link="f2"/>"#, r#"<child link="f1"/>"#);
         let error = arm(&text, None, Some("flange")).expect_err("two parents");
         assert!(matches!(error, UrdfError::TwoParents { .. }), "{error}");
+    }
+
+    /// The security review's files: a link never declared, a link or a joint declared twice.
+    #[test]
+    fn undeclared_links_and_duplicate_links_or_joints_are_refused_by_name() {
+        let urdf = six_joint_urdf("revolute", LIMIT);
+        let undeclared = urdf.replace(r#"<child link="f2"/>"#, r#"<child link="ghost"/>"#);
+        let error = arm(&undeclared, None, Some("flange")).expect_err("undeclared");
+        assert_eq!(error, UrdfError::UndeclaredLink { joint: "finger2".into(), link: "ghost".into() });
+        let twice = urdf.replace(r#"<link name="f2"/>"#, r#"<link name="f2"/><link name="f1"/>"#);
+        let error = arm(&twice, None, Some("flange")).expect_err("a link twice");
+        assert_eq!(error, UrdfError::Duplicate { what: "links", name: "f1".into() });
+        let twice = urdf.replace(r#"<joint name="finger2""#, r#"<joint name="finger1""#);
+        let error = arm(&twice, None, Some("flange")).expect_err("a joint twice");
+        assert_eq!(error, UrdfError::Duplicate { what: "joints", name: "finger1".into() });
     }
 }

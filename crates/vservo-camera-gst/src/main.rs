@@ -1,6 +1,14 @@
 //! `vservo-gst-camera`: the GStreamer camera driver. Runs `[camera.gstreamer] pipeline` and publishes its
 //! 8-bit gray frames on `camera_image` (docs/DRIVERS.md, "A real camera through GStreamer").
 //!
+//! It is an external camera driver (`[camera] source = "external"`): vservod never starts it; run it yourself
+//! or as a unit of its own. The GStreamer (gstreamer-rs 0.25 on Debian's GStreamer 1.22) and iceoryx2 side is
+//! here: [`pipeline`] (the pipeline with its appsink on the monotonic system clock, exposure and gain on its
+//! sources, each frame taken with its caps, stamp and buffer offset), [`publish`] (each frame checked — GRAY8
+//! of the configured size —, counted and stamped — PTS → running time → CLOCK_MONOTONIC — onto `camera_image`,
+//! with the camera's frame counter; stalls logged, one writer per stream). The decisions are the library's,
+//! `vservo_camera_gst`.
+//!
 //! ```text
 //! vservo-gst-camera --config FILE [--stats-every-s S]
 //! ```
@@ -30,7 +38,7 @@ struct Cli {
 }
 
 fn main() -> ExitCode {
-    vservo_runtime::logging::to_stderr("info");
+    vservo_driver::logging::to_stderr("info");
     let cli = Cli::parse();
     let result = vservo_protocol::signals::stop_flag()
         .map_err(anyhow::Error::from)

@@ -263,9 +263,9 @@ fn use_monotonic_clock(pipeline: &gst::Pipeline) -> i64 {
         return 0;
     }
     // another clock: its reading bracketed by two CLOCK_MONOTONIC readings
-    let before = vservo_runtime::clock::monotonic_ns();
+    let before = vservo_protocol::clock::monotonic_ns();
     let clock_ns = clock.time().nseconds();
-    let after = vservo_runtime::clock::monotonic_ns();
+    let after = vservo_protocol::clock::monotonic_ns();
     (i128::from(clock_ns) - i128::from(before / 2 + after / 2)) as i64
 }
 

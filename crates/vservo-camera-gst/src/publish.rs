@@ -10,7 +10,7 @@ use iceoryx2::prelude::ipc;
 use vservo_camera_gst::frames::FrameCounter;
 use vservo_camera_gst::stamp::{self, StampSource};
 use vservo_protocol::CameraImageHeader;
-use vservo_runtime::clock::monotonic_ns;
+use vservo_protocol::clock::monotonic_ns;
 
 use crate::pipeline::{self, Camera, Frame, PipelineError};
 

@@ -1,9 +1,10 @@
 //! # vservo-cell — the four components of the cell, as step functions both shells run
 //!
-//! This crate owns the wiring of the pure components into the four stages of the loop (docs/ARCHITECTURE.md), each built from
-//! one [`Config`] by a [`Cell`]:
+//! This crate owns the wiring of the pure components into the four stages of the loop (docs/ARCHITECTURE.md),
+//! each built from one [`Config`] by a [`Cell`]:
 //!
-//! - [`PlantStage`]: the simulated arm and its world (the board's motion); one call per 1 ms tick;
+//! - [`PlantStage`]: the simulated arm and its world (the board's motion), and a holding brake when commands
+//!   stop; one call per 1 ms tick;
 //! - [`VisionStage`]: simulated camera, extractor, mark tracking and the pipeline delay; one call per frame;
 //! - [`ServoStage`]: the LQ law, its refusal of marks outside the image and what it does with fewer than four
 //!   marks; one call per frame;
@@ -11,8 +12,53 @@
 //!   rest after a stall or a new driver, the ticks it woke too late for); one call per tick.
 //!
 //! The lockstep shell calls them in one process on virtual time; the real-time shell runs each in its own
-//! process. Neither adds control logic of its own, so the same configuration behaves the same in both.
+//! process. Neither adds control logic of its own, so the same configuration behaves the same in both: the
+//! lockstep runs the same [`RmrcStage::follow`], [`RmrcStage::take_twist`] and servo refusal as the nodes.
 //! Nothing here does I/O, reads a clock or allocates per call.
+//!
+//! ## Vision
+//!
+//! Per frame, the image comes from the simulated camera (joint state → `camera_from_board`: forward kinematics
+//! × `tool_from_camera`, inverted, times the board's pose → `Renderer::render`) or from a driver
+//! ([`VisionStage::process_image`]; refused if its size or format is not the configured one) →
+//! `Extractor::extract` with the previous frame's features as the prediction (`Prediction::Tracking`;
+//! `Prediction::Layout` with ξ_d when there is none), or with an AprilTag target the tag's extractor fed the
+//! tracked corners → ξ in the board's mark order, NaN and a reason for each mark that is not valid. Tracking
+//! relocks on the observed positions; the features leave undistorted to pinhole pixels (`vision.undistort`).
+//! The simulated camera renders the camera as it really is (`Config::true_camera`, from `[camera.truth]`),
+//! while the pose delivered with the features is the believed one; the pipeline delay is modelled for the
+//! simulated camera only.
+//!
+//! ## Servo
+//!
+//! [`ServoStage`] gives the law's twist and a verdict ([`ServoVerdict`]: waiting, servoing, servoing on three
+//! marks, reacquiring, marks missing, held in a safe stop) and the RMS feature error ([`feature_error_px`]).
+//! A mark outside the image (`CameraIntrinsics::contains` at its observed, distorted position) is no
+//! measurement and taken as missing ([`ServoStep::outside`] says which). Reacquiring: with fewer than three
+//! marks, a proportional twist (`[reacquire]`: 1.5/s, at most 0.1 m/s and 0.5 rad/s) back to the camera pose
+//! of the last frame with all four; the daemon's fault monitor counts it as a lost target
+//! (`[faults] target_lost_s`).
+//!
+//! ## Rmrc
+//!
+//! [`RmrcStage`] turns the interpolator's reference into an [`ActuatorCommand`] (torques, or the joint
+//! reference for a velocity or position driver), stepped at the driver's period; velocity and acceleration
+//! limits are on for every driver but the simulated kinematic plant, the paper's ideal robot.
+//! [`RmrcStage::follow`] takes each joint state it answers ([`DriverTick`]: epoch, tick, stamp) and decides
+//! itself whether the driver carried on or stalled or restarted; then, and when the driver says it holds the
+//! arm (`DriverTick::holding`), the reference restarts at rest from the measured joints
+//! ([`Following::Resynced`], [`RmrcStage::since_tick`]); the ticks it was not asked to answer are stepped
+//! through. [`RmrcStage::take_twist`] zeroes a twist whose verdict does not move the arm and refuses one
+//! outside the robot's camera limits ([`TwistLimits`]); [`RmrcStage::move_joints_to`] takes the joints to a
+//! goal inside the limits instead of the twists, [`RmrcStage::end_joint_move`] ends it.
+//!
+//! ## Gains and targets
+//!
+//! [`gains::design`] is the one place gains are designed: [`Cell::new`] designs through it (the daemon's start
+//! check, every node, the lockstep), and so does the daemon's commander for each new version. [`target::place`]
+//! turns a client's target (features, a pose relative to the board, teach) into ξ_d and depths, or a
+//! [`target::TargetRefused`] naming why (outside the image or inside the barrier's margin, degenerate, out of
+//! reach). [`Cell::simulated`] is the wholly simulated cell, the only one the lockstep runs.
 
 pub mod gains;
 mod plant_stage;

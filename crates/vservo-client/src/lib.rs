@@ -1,9 +1,17 @@
 //! # vservo-client — talk to a running vservo instance from Rust
 //!
-//! This crate owns the client side of vservo's shared-memory protocol (docs/PROTOCOL.md): commands
-//! (targets, object motion, reload, safe stop and resume) over the `command` request-response service, each answered with
+//! This crate owns the client side of vservo's shared-memory protocol (docs/PROTOCOL.md): commands (targets,
+//! object motion, reload, safe stop and resume) over the `command` request-response service, each answered with
 //! whether it was accepted and why not, the safe stop on the instance's safe-stop path, which no client can
 //! crowd out ([`safe_stop`]), and reading the instance's status and loop messages.
+//!
+//! [`Client::connect`] finds the instance (`vservo_protocol::InstanceDir::locate`, its `schema` checked).
+//! A command port is held only for one request; when every slot is taken the command is
+//! [`ClientError::Busy`]. The commands: targets (features, a pose, teach), object motion, reload, safe stop,
+//! resume, a joint move (`move_joints`) and its end (`servo`). [`Client::subscribe`] reads any topic.
+//! [`status::StatusView`] is the user's view of an instance: the daemon's status joined with each node's
+//! telemetry, incl. the robot driver's state, used by `vservoctl status` and `top` and the daemon's one-line
+//! status.
 //!
 //! ```no_run
 //! let mut client = vservo_client::Client::connect("default")?;

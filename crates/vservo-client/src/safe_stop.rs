@@ -4,7 +4,8 @@
 
 use std::time::{Duration, Instant};
 
-use vservo_protocol::stop_path::{Asked, ask_for_safe_stop};
+use vservo_protocol::clock::monotonic_ns;
+use vservo_protocol::stop_path::{Asked, SafeStopPathError, ask_for_safe_stop};
 use vservo_protocol::{DaemonState, DaemonStatusMsg, Fault, InstanceDir};
 
 use crate::{Client, ClientError};
@@ -44,12 +45,6 @@ pub fn judge(status: &DaemonStatusMsg, asked_at_ns: u64) -> StopSeen {
     if status.fault_since_ns >= asked_at_ns { StopSeen::Stopped(fault) } else { StopSeen::HeldBefore(fault) }
 }
 
-fn monotonic_ns() -> u64 {
-    nix::time::clock_gettime(nix::time::ClockId::CLOCK_MONOTONIC)
-        .map(|t| t.tv_sec() as u64 * 1_000_000_000 + t.tv_nsec() as u64)
-        .unwrap_or(0)
-}
-
 /// Asks instance `instance` for a safe stop on its safe-stop path, then waits up to `confirm_within` for
 /// the status to show the cell in a safe stop. The stop itself needs no command slot and no iceoryx2 port;
 /// only the confirmation reads the status ([`ClientError::SafeStopNotConfirmed`] when it could not).
@@ -57,7 +52,16 @@ pub fn safe_stop(instance: &str, confirm_within: Duration) -> Result<SafeStopped
     let dir = InstanceDir::locate(instance).map_err(vservo_protocol::ProtocolError::from)?;
     let asked_at_ns = monotonic_ns();
     let started = Instant::now();
-    let asked = ask_for_safe_stop(&dir)?;
+    let asked = match ask_for_safe_stop(&dir) {
+        Ok(asked) => asked,
+        // something else at the path (replaced by a process of the daemon's user): the daemon stops the cell
+        // when it sees that and makes the FIFO again; ask over the command service too
+        Err(SafeStopPathError::NotAFifo { .. }) => {
+            Client::connect(instance)?.safe_stop_command()?;
+            Asked::Now
+        }
+        Err(error) => return Err(error.into()),
+    };
     let path = dir.safe_stop_path();
     let not_confirmed = |why: String| ClientError::SafeStopNotConfirmed {
         instance: instance.to_string(),

@@ -52,6 +52,52 @@ pub enum CalibrationError {
     },
 }
 
+/// The largest calibration text read (bytes): a camera_info or OpenCV file is a few hundred.
+pub const MAX_CALIBRATION_BYTES: usize = 1 << 20;
+/// The deepest nesting of maps and sequences in one (it has two levels).
+const MAX_CALIBRATION_DEPTH: usize = 16;
+/// The most YAML events (keys, values, collections) in one.
+const MAX_CALIBRATION_EVENTS: usize = 10_000;
+
+/// The text's YAML events within the bounds, read flat (the loader recurses and expands aliases: a file of
+/// nested aliases grows to gigabytes, one of deep nesting overflows the stack), and no alias: a calibration file
+/// has none.
+fn within_bounds(text: &str) -> Result<(), CalibrationError> {
+    use yaml_rust2::parser::{Event, Parser};
+    if text.len() > MAX_CALIBRATION_BYTES {
+        return Err(CalibrationError::NotYaml(format!(
+            "{} bytes, more than the {MAX_CALIBRATION_BYTES} a calibration file is read up to",
+            text.len()
+        )));
+    }
+    let mut parser = Parser::new_from_str(text);
+    let (mut depth, mut events) = (0usize, 0usize);
+    loop {
+        let (event, mark) = parser.next_token().map_err(|e| CalibrationError::NotYaml(e.to_string()))?;
+        events += 1;
+        let line = mark.line();
+        match event {
+            Event::StreamEnd => return Ok(()),
+            Event::Alias(_) => {
+                return Err(CalibrationError::NotYaml(format!(
+                    "an alias (*…) at line {line}: a calibration file has none, and they are not expanded"
+                )));
+            }
+            Event::MappingStart(..) | Event::SequenceStart(..) => depth += 1,
+            Event::MappingEnd | Event::SequenceEnd => depth = depth.saturating_sub(1),
+            _ => {}
+        }
+        if depth > MAX_CALIBRATION_DEPTH {
+            return Err(CalibrationError::NotYaml(format!(
+                "maps and sequences nest deeper than {MAX_CALIBRATION_DEPTH} at line {line}"
+            )));
+        }
+        if events > MAX_CALIBRATION_EVENTS {
+            return Err(CalibrationError::NotYaml(format!("more than {MAX_CALIBRATION_EVENTS} YAML events")));
+        }
+    }
+}
+
 fn refuse(key: &str, reason: impl Into<String>) -> CalibrationError {
     CalibrationError::Key { key: key.to_string(), reason: reason.into() }
 }
@@ -59,6 +105,7 @@ fn refuse(key: &str, reason: impl Into<String>) -> CalibrationError {
 /// The calibration a ROS `camera_info` or OpenCV FileStorage YAML text gives.
 pub fn parse(text: &str) -> Result<Calibration, CalibrationError> {
     let yaml_text = without_opencv_header(text);
+    within_bounds(&yaml_text)?;
     let documents =
         YamlLoader::load_from_str(&yaml_text).map_err(|e| CalibrationError::NotYaml(e.to_string()))?;
     let root = documents.first().ok_or_else(|| CalibrationError::NotYaml("no document".into()))?;

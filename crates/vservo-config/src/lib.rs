@@ -16,11 +16,42 @@
 //! [`Config::from_toml`] takes as it is (the text vservod hands its nodes). The scenario files in
 //! `config/scenarios/` are such overlays of `config/vservo.toml`.
 //!
+//! Besides the paper's cell it holds: `[faults]` (target-lost and saturation times, the resume policy); the
+//! arm (`[robot.arm]`: the PUMA 560, a DH table of the user's, or a URDF's chain of six or seven joints; a key
+//! with a value per joint takes the arm's count; `[interpolator.null_space]` for a seven-joint arm) and its
+//! motion limits; the robot driver and its command interface ([`Config::command_interface`]); `[camera.truth]`
+//! ([`Config::true_camera`]: the simulated camera as it really is, where written); `[calibration]`
+//! ([`CalibrationSettings`]: the calibration board and the poses; `printed_on_object` prints it on the
+//! simulated board, its target tag one of the board's). A calibration file's principal point is in OpenCV's
+//! pixels (+ ½ when read), and its `tool_from_camera`, where it has one, takes the place of
+//! `camera.tool_from_camera`. Every numeric key has a range that keeps the daemon working (the tests replace
+//! each by ±1e300 and NaN).
+//!
+//! Where things are: `lib.rs` has [`Config`] and how it is loaded; `sections.rs` one type per section;
+//! `layers.rs` a file and the bases it `extends` (tables merged key by key, other values replaced; cycles and
+//! missing bases refused; each error traced to the file that wrote its key; the lens — `focal_px` or
+//! `fx_px`/`fy_px`, `principal_point_px`, `distortion`, `width_px`, `height_px`, `calibration_file` — is one
+//! value, so a file writing any of it replaces its base's whole lens, and a relative `calibration_file` is
+//! made relative to the file that wrote it); `raw.rs` the file as written, every name a key takes a serde enum
+//! (an unknown name is a parser error naming the key and the accepted names); [`calibration`]
+//! `camera.calibration_file`, a ROS camera_info or OpenCV FileStorage YAML (yaml-rust2; OpenCV's `%YAML:1.0`
+//! line taken out), its errors naming the key in it; `validate/` one module per section (`timing`, `camera`,
+//! `object`, `desired`, `controller` with `weight`, `vision`, `simulation`, `scenario`, `robot`, `arm`,
+//! `motion`, `franka`, `runtime`, `operation` for faults, reacquire and viewer, `ros2` for the ROS 2 bridge,
+//! `calibration_board`) on a shared `checker`, called in the order the sections build on each other.
+//!
+//! The supervision and fault times (`runtime.*_s`, `faults.*_s`) are `std::time::Duration`s in [`Config`];
+//! the periods and times the control and simulation math uses stay `f64` seconds. Every `Config` type is
+//! `PartialEq`, so that a reload can compare values.
+//!
 //! ```
 //! let text = include_str!("../../../config/vservo.toml");
 //! let config = vservo_config::Config::from_toml(text, "vservo.toml").expect("the default config is valid");
 //! assert_eq!(config.timing.control_ticks_per_frame, 85);
 //! ```
+
+/// The longest `[camera.gstreamer] pipeline` taken (bytes).
+pub const MAX_PIPELINE_BYTES: usize = 4096;
 
 pub mod calibration;
 mod error;

@@ -208,3 +208,44 @@ fn bad_lenses_and_calibration_files_name_the_file_key_and_why() {
         }
     }
 }
+
+/// The security review's calibration file: 589 bytes of nested aliases grew to gigabytes in the loader. Aliases,
+/// deep nesting and huge files are refused before the loader sees them, at once and naming why.
+#[test]
+fn alias_bombs_deep_nesting_and_huge_calibration_files_are_refused_before_loading() {
+    let mut bomb =
+        String::from("a: &a [\"lol\",\"lol\",\"lol\",\"lol\",\"lol\",\"lol\",\"lol\",\"lol\",\"lol\"]\n");
+    for level in 0..9 {
+        let (name, previous) = (char::from(b'b' + level), char::from(b'a' + level));
+        bomb += &format!(
+            "{name}: &{name} [*{previous},*{previous},*{previous},*{previous},*{previous},*{previous}]\n"
+        );
+    }
+    let refused = vservo_config::calibration::parse(&bomb).expect_err("an alias bomb");
+    assert!(refused.to_string().contains("an alias (*…) at line"), "{refused}");
+    let deep = format!("image_width: 640\nnested: {}{}\n", "[".repeat(40), "]".repeat(40));
+    let refused = vservo_config::calibration::parse(&deep).expect_err("deep nesting");
+    assert!(refused.to_string().contains("nest deeper than 16"), "{refused}");
+    let huge = format!(
+        "image_width: 640\ncomment: \"{}\"\n",
+        "x".repeat(vservo_config::calibration::MAX_CALIBRATION_BYTES)
+    );
+    let refused = vservo_config::calibration::parse(&huge).expect_err("huge");
+    assert!(refused.to_string().contains("a calibration file is read up to"), "{refused}");
+}
+
+/// A GStreamer pipeline of thousands of elements kept the camera driver deaf to SIGTERM while GStreamer parsed
+/// it: a pipeline longer than a camera's is refused, naming the key.
+#[test]
+fn a_pipeline_longer_than_a_cameras_is_refused() {
+    let elements = vec!["identity"; 2000].join(" ! ");
+    let camera = format!(
+        "source = \"external\"\n[camera.gstreamer]\npipeline = \"videotestsrc ! {elements} ! appsink name=vservo\""
+    );
+    let refused = load_with_camera("long-pipeline", &camera, &[]).expect_err("refused");
+    let text = refused.to_string();
+    assert!(text.contains("camera.gstreamer.pipeline") && text.contains("4096 bytes"), "{text}");
+    let camera =
+        "source = \"external\"\n[camera.gstreamer]\npipeline = \"videotestsrc ! appsink name=vservo\"";
+    load_with_camera("short-pipeline", camera, &[]).expect("a camera's pipeline is taken");
+}

@@ -5,7 +5,7 @@
 //! - **Three marks.** With one mark missing the law runs the paper's design on the three seen (the rows of
 //!   the missing mark zeroed in B; with N = 3 there are no uncontrollable modes), the four gains designed
 //!   when the gains arrive, off the per-frame path. The delay-aware law is the paper's gain on the features
-//!   predicted through the pipeline (K_j = K B, docs/ARCHITECTURE.md), so it carries over to three marks
+//!   predicted through the pipeline (K_j = K B, the crate doc), so it carries over to three marks
 //!   as u = −K (ξ̄ + B Σ u(k − j)).
 //! - **Scheduled gain** ([`Interaction::Mean`], [`Interaction::Current`]): B at the current features and the
 //!   depths of the board pose they give, and the gain designed on every frame ([`crate::frame_design`]).

@@ -3,7 +3,8 @@
 //! This crate owns the control law of Hashimoto, Ebine & Kimura (1996), Sections II–III, and the analysis
 //! that tells a user what a choice of Q and R will do:
 //! - [`image_jacobian`]: the point image Jacobian (eq. 3), the extended image Jacobian J⁺ (eq. 5), and
-//!   the discrete model B = T·J⁺(ξ_d, Z_d) (eq. 12);
+//!   the discrete model B = T·J⁺(ξ_d, Z_d) (eq. 12); with fx ≠ fy
+//!   [`image_jacobian::point_image_jacobian_fx_fy`], the paper's formula when they are equal;
 //! - [`weights`]: the weights Q (8×8, ⪰ 0) and R (6×6, ≻ 0), validated, with R written for a stated input
 //!   unit (the paper's mm/s and mrad/s by default) and applied in SI;
 //! - [`dare`]: the discrete algebraic Riccati equation — the closed form for A = I with a non-singular B_c,
@@ -19,6 +20,33 @@
 //!
 //! Units: SI inside (m/s and rad/s for the camera twist u = [v; ω] in the camera frame), features in pixels,
 //! so K is in m/s and rad/s per pixel.
+//!
+//! Gain synthesis runs off the hot path: `vservo-config` turns the configuration into a [`GainsSpec`], and
+//! [`Gains::design`] makes the gains from it (at start, on a reload, for a new target); the servo then runs
+//! [`ServoLaw::step`] once per frame. With an [`Interaction`] other than `Desired` (B at the mean of ξ_d's
+//! and the current J⁺, or at the current) the servo designs the gain itself on every frame (the paper's
+//! design on static matrices, [`frame_design`], tens of µs); on each new design it also designs the four
+//! gains on three marks. [`LawOptions`] holds the options beyond the paper's law.
+//!
+//! ## The law beyond the paper
+//!
+//! All allocation-free, on the per-frame path ([`law`]):
+//! - **Delay-aware.** The delay-aware law is the paper's gain on the features predicted through the pipeline:
+//!   u(k) = −K (ξ̄(k−d) + B Σⱼ u(k−j)), i.e. K_ξ = K and K_j = K B (a test checks the general DARE's K_j
+//!   against this). So it carries over to three marks and to a scheduled B unchanged: u = −K(B) (ξ̄ + B Σ u).
+//! - **Three marks.** B with the missing mark's rows zeroed is 6 × 6 in effect; the paper's design on it has
+//!   no uncontrollable modes.
+//! - **Scheduled.** The depths come from the board pose the four features give
+//!   (`vservo_scene::CameraIntrinsics::board_pose_from_features`); with three marks the last depths serve.
+//! - **Feed-forward.** [`target_motion::TargetMotion`] takes the part of each mark's image motion that the
+//!   camera's measured motion (`features.base_from_camera`, from the joint state at capture; for an external
+//!   camera interpolated between the joint states around the exposure stamp) does not explain; the law adds
+//!   it to the prediction over the delay and cancels it over the coming frame with B⁺.
+//! - **Barrier.** [`border::Barrier`] changes a twist only when it would take a seen mark closer to the margin
+//!   than half the distance left ([`border::APPROACH_PER_FRAME`]), by the least R⁻¹-weighted correction.
+//!
+//! With fewer than three marks there is no law to run: the servo stage (`vservo-cell`) steers the camera back
+//! to where all four were last seen.
 
 pub mod analysis;
 pub mod border;

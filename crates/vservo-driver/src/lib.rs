@@ -15,9 +15,16 @@
 //!   the configured period's (within −25 % and +50 %), else the driver reports a fault and holds;
 //! - the position- and velocity-limit bits of `faults`.
 //!
-//! What the arm is and how it is commanded (a robot's network protocol, a simulator) stays in the driver; no
-//! I/O, clock or allocation here. The Franka driver (`vservo-franka`) is its first user.
+//! What the arm is and how it is commanded (a robot's network protocol, a simulator) stays in the driver; the
+//! state machine does no I/O, reads no clock and allocates nothing. Of the workspace this crate depends on
+//! `vservo-protocol` only; it also holds the driver and helper processes' logging to stderr ([`logging`]).
+//!
+//! Its users: the Franka driver (the binary `vservo-franka`, crate `vservo-franka-driver`) runs all of it; the
+//! ROS 2 driver its period check ([`PeriodCheck`]), with its own command admission; the Python reference
+//! drivers' `vservo_driver.refusal` is tied to [`DriverSide::take_command`] by a test that hands both the same
+//! commands (tests/tests/python_layout.rs); the simulated plant keeps its own rules.
 
+pub mod logging;
 mod period;
 mod side;
 

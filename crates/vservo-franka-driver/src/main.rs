@@ -17,6 +17,12 @@
 //! - on SIGTERM or the daemon's death the arm is brought to rest within the limits and the motion finished
 //!   cleanly (`motion_generation_finished`).
 //!
+//! Modules: [`run`] (the loop: one robot state in, one `joint_state` out, the rmrc's answer — or the command
+//! in force — through the guard, one command back within the robot's cycle; the robot's recovery on a resume,
+//! polled cycle by cycle), [`shaper`] (the guard), [`cell`] (the instance's side: the robot driver's streams and
+//! the cell's mode), [`report`] (what it counts and logs: the JSON line scripts/run-franka-sim.sh reads). It
+//! depends on `vservo-driver`, `vservo-franka`, `vservo-protocol` and `vservo-config`, not on the runtime.
+//!
 //! Exit codes: 0 after the motion ended on SIGINT/SIGTERM, 1 on an error, 2 on a configuration it cannot run.
 
 mod cell;
@@ -43,7 +49,7 @@ struct Cli {
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
-    log_to_stderr("info");
+    vservo_driver::logging::to_stderr("info");
     let config = match vservo_config::Config::load(&cli.config) {
         Ok(config) => config,
         Err(error) => {
@@ -68,18 +74,6 @@ fn main() -> ExitCode {
             ExitCode::FAILURE
         }
     }
-}
-
-/// Logging to stderr, filtered by `VSERVO_LOG` (tracing's syntax) or else `default_filter`.
-fn log_to_stderr(default_filter: &str) {
-    use std::io::IsTerminal;
-    let filter = tracing_subscriber::EnvFilter::try_from_env("VSERVO_LOG")
-        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new(default_filter));
-    tracing_subscriber::fmt()
-        .with_env_filter(filter)
-        .with_writer(std::io::stderr)
-        .with_ansi(std::io::stderr().is_terminal())
-        .init();
 }
 
 /// However the daemon ends (SIGKILL included), the driver gets SIGTERM and brings the arm to rest; if it has

@@ -100,12 +100,7 @@ fn go_realtime(config: &Config) {
     }
 }
 
-/// CLOCK_MONOTONIC (ns): the instance's clock.
-pub(crate) fn monotonic_ns() -> u64 {
-    nix::time::clock_gettime(nix::time::ClockId::CLOCK_MONOTONIC)
-        .map(|t| t.tv_sec() as u64 * 1_000_000_000 + t.tv_nsec() as u64)
-        .unwrap_or(0)
-}
+pub(crate) use vservo_protocol::clock::monotonic_ns;
 
 /// Whether the loop goes on.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

@@ -1,10 +1,59 @@
 //! # vservo-protocol — the wire format
 //!
 //! This crate owns what crosses process boundaries: the iceoryx2 services of one vservo instance
-//! (`vservo/<instance>/<service>`, docs/PROTOCOL.md), their fixed-size `#[repr(C)]` payloads with a schema version,
-//! and the one function every participant uses to open each service with the same settings. A client in
-//! another language follows docs/PROTOCOL.md, which documents the same names, type names and offsets.
+//! (`vservo/<instance>/<service>`, docs/PROTOCOL.md), their fixed-size `#[repr(C)]` payloads with a schema
+//! version, and the one function every participant uses to open each service with the same settings. A client
+//! in another language follows docs/PROTOCOL.md, which documents the same names, type names and offsets.
+//!
+//! The services ([`Topic`]): `joint_state` (the robot only: driver epoch, period, command interface, status,
+//! q, q̇, τ), `joint_command` (in the driver's interface: torque, velocity or position), `camera_image` (a `u8`
+//! slice with a [`CameraImageHeader`], 8-bit gray up to 1280 × 1024), `sim_world` (the simulated board's
+//! pose), `features`, `camera_twist`, `telemetry`, `status`, `gains`, `object`, `cell_mode` (servoing, a safe
+//! stop with its fault, or a joint move with its goal and share of the speed limits), and the `command`
+//! request-response service ([`COMMAND_SLOTS`] client slots, each held only while a request waits: targets,
+//! object commands, reload, safe stop, resume, `move_joints` and `servo`). Each port kind has one function
+//! that opens a service with its sizes ([`Opening`]: the daemon's processes open or create, clients only
+//! open), and [`cleanup_dead_nodes`] frees what dead processes left.
+//!
+//! Modules:
+//! - [`messages`]: the payloads, each declared once with `wire_message!` ([`declare`]): the struct,
+//!   `Default`, the schema check ([`inbox::Payload`]), the field table of docs/PROTOCOL.md, the JSON view of
+//!   `vservoctl echo` and the recordings ([`WireField::to_json`]) and the bytes a seal covers all come from that
+//!   declaration; adding a field touches the declaration, its producer and its consumer.
+//! - [`codes`]: the wire codes as `#[repr(u32)]` enums ([`Verdict`], [`Fault`], [`CommandKind`],
+//!   [`NodeState`], [`DriverError`], …), each declared once with its numbers, names and the legend
+//!   docs/PROTOCOL.md prints; a program turns a message's number into its enum once, where it takes the
+//!   message in, `TryFrom` refusing an unknown one.
+//! - [`inbox`]: [`TakeMessages`], the one place a message of another schema is refused.
+//! - [`layout`]: the tables of docs/PROTOCOL.md, and the same as data (a system test checks the Python
+//!   clients' ctypes structures and codes against them).
+//! - [`instance_dir`]: where an instance lives out of other users' reach: the runtime directory
+//!   `<base>/<instance>` with its lock, its random shared-memory prefix and the `schema` file the daemon
+//!   writes ([`instance_dir::SCHEMA_FILE`]: the schema it speaks, which every client and driver checks before it
+//!   opens anything, naming both schemas when they differ), iceoryx2's root path `<base>/iceoryx2`, the node
+//!   counter made owner-only, a prefix under which another user's file turned up replaced. [`InstanceClaim`]
+//!   is the daemon's, [`InstanceDir::locate`] the nodes' and clients': the user's own instance wherever it is,
+//!   another user's named only when none is ours; [`InstanceDir::configuration`] is where the daemon writes
+//!   the configuration it runs.
+//! - [`seal`]: SipHash-2-4 seals under a per-run key (on the stack, no allocation) on the daemon's `gains`,
+//!   `object` and `cell_mode`, the rmrc's `joint_command`, the vision node's `features` and the servo's
+//!   `camera_twist`, so that each consumer takes them from their one maker only; [`seal::Sealed`]
+//!   (`SealKey::sign`/`verifies`, `sign_with`/`sealed_by`) is the one way a message is sealed and checked;
+//!   [`seal::keep_memory_private`] (not dumpable, no core dump) comes first in `main` of every process that
+//!   holds the key; the key's text is wiped once parsed, the key on drop.
+//! - [`freshness`]: the one rule for which sealed `cell_mode`, `gains` or `object` is newer (the daemon's
+//!   stamp, then the counter modulo 2⁶⁴ within a window): no number locks the daemon out, a replay is refused.
+//! - [`writers`]: one writer per stream. The daemon creates every service with one writer slot (one
+//!   publisher, one notifier, one server; telemetry one per node), checks that a service that existed has
+//!   vservo's sizes, and lists who holds each writer slot by process id ([`writers::WatchedStream`]); a port
+//!   refused because its slots are held is [`ProtocolError::SlotTaken`] (a writer first cleans up dead
+//!   processes' leftovers and tries once more).
+//! - [`stop_path`]: the safe-stop FIFO in the instance's directory, which no client can exhaust (the daemon
+//!   reads it without blocking; `vservoctl safe-stop` and the Python client write it).
+//! - [`signals`]: SIGINT and SIGTERM as a flag, for the processes that run until stopped; [`clock`]: the clock
+//!   every stamp of the protocol is on (CLOCK_MONOTONIC, ns).
 
+pub mod clock;
 pub mod codes;
 pub mod declare;
 pub mod freshness;

@@ -56,8 +56,9 @@ wire_message! {
         qd_rad_s: [f64; MAX_JOINTS],
         /// joint torques, measured or applied (N·m); NaN where unknown
         torque_nm: [f64; MAX_JOINTS],
-        /// the `answers_tick` of the command applied over the period that ended here (`tick − 1` in time, older
-        /// if the driver kept an earlier one); 2⁶⁴−1 if none (holding)
+        /// the `answers_tick` of the command applied over the period that ended here (`tick − 1` for a driver
+        /// that applies each answer over the next period, older if it kept an earlier one or its arm answers
+        /// later); 2⁶⁴−1 if none (holding)
         applied_command_tick: u64 = u64::MAX,
     }
 }

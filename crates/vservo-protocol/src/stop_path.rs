@@ -35,6 +35,8 @@ impl InstanceDir {
 pub struct SafeStopReader {
     file: File,
     path: PathBuf,
+    /// The FIFO's device and inode: what is at the path must be it.
+    identity: (u64, u64),
 }
 
 impl SafeStopReader {
@@ -73,7 +75,21 @@ impl SafeStopReader {
                 reason: "is not the FIFO this daemon made".into(),
             });
         }
-        Ok(Self { file, path: path.to_path_buf() })
+        Ok(Self { file, path: path.to_path_buf(), identity: (metadata.dev(), metadata.ino()) })
+    }
+
+    /// Whether the path is still this reader's FIFO: a process of the daemon's user may replace it (with a
+    /// plain file, say, which swallows every request); the daemon then stops the cell and makes it again
+    /// ([`SafeStopReader::remake`]).
+    pub fn intact(&self) -> bool {
+        std::fs::symlink_metadata(&self.path)
+            .is_ok_and(|m| m.file_type().is_fifo() && (m.dev(), m.ino()) == self.identity)
+    }
+
+    /// Makes the FIFO again at its path, whatever is there now.
+    pub fn remake(&mut self) -> Result<(), InstanceDirError> {
+        *self = Self::create_at(&self.path)?;
+        Ok(())
     }
 
     /// The FIFO's path.

@@ -19,13 +19,13 @@ use iceoryx2::prelude::ipc;
 use ros2_client::{MessageTypeName, Name, Node, NodeName, NodeOptions, Publisher, QosProfile, Subscription};
 use rustdds::mio1::{Events, Interest, Poll, Token};
 use vservo_config::Config;
+use vservo_protocol::clock::monotonic_ns;
 use vservo_protocol::inbox::TakeMessages;
 use vservo_protocol::{CameraImageHeader, JointCommandMsg, JointStateMsg, Topic};
 use vservo_ros2::arm_driver::{ArmFollower, ArmSettings};
 use vservo_ros2::convert::StampClock;
 use vservo_ros2::msg::{Float64MultiArray, Image, JointState, RosType};
 use vservo_ros2::{image_in, qos};
-use vservo_runtime::clock::monotonic_ns;
 
 use crate::graph;
 

@@ -10,6 +10,18 @@
 //! `[camera] source = "ros2"`): it reads a ros2_control arm's joint states and commands its forward
 //! controller, and takes a ROS camera's images (vservod starts it so when they are configured).
 //!
+//! The binary's modules: [`graph`] (the participant, on one interface if configured, the node, a publisher per
+//! configured topic, `vservo/safe_stop` and `vservo/resume` as `std_srvs/Trigger` with ROS 2's Cyclone DDS
+//! request/reply mapping); [`bridge`] (the loop: a look at the instance, published over DDS, then the
+//! services); [`services`] (safe stop on the safe-stop path, always; resume and the targets —
+//! `vservo_msgs/SetTargetFeatures`, `SetTargetPose`, clients/ros2/vservo_msgs — only with `allow_motion`,
+//! checked by the daemon as any client's; each request counted); [`driver`] (`--driver`: the node
+//! `vservo_driver`, the arm's joint states and the camera's images woken on by mio, each passed on as it
+//! arrives through `vservo_ros2::arm_driver` and `vservo_ros2::image_in` onto the robot and camera streams' one
+//! writer slots, header stamps mapped to CLOCK_MONOTONIC (`vservo_ros2::convert::StampClock::arrival`: replaced
+//! when none or in the future beyond `[ros2.driver] clock_tolerance_s`, flagged when older), the arm's period
+//! checked, rest commanded while the arm is silent and at the end).
+//!
 //! Exit codes: 0 after SIGINT/SIGTERM, 1 on an error, 2 on a configuration it cannot run.
 
 mod bridge;
@@ -40,7 +52,7 @@ struct Cli {
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
-    vservo_runtime::logging::to_stderr("info,rustdds=error,ros2_client=error");
+    vservo_driver::logging::to_stderr("info,rustdds=error,ros2_client=error");
     let config = match vservo_config::Config::load(&cli.config) {
         Ok(config) => config,
         Err(error) => {

@@ -1,15 +1,9 @@
 //! CLOCK_MONOTONIC time and a periodic timer with absolute deadlines that skips (and counts) missed periods.
 
 use nix::sys::time::TimeSpec;
-use nix::time::{ClockId, ClockNanosleepFlags, clock_gettime, clock_nanosleep};
+use nix::time::{ClockId, ClockNanosleepFlags, clock_nanosleep};
 
-/// CLOCK_MONOTONIC now (ns).
-pub fn monotonic_ns() -> u64 {
-    // clock_gettime(CLOCK_MONOTONIC) cannot fail on Linux with a valid clock id
-    clock_gettime(ClockId::CLOCK_MONOTONIC)
-        .map(|t| t.tv_sec() as u64 * 1_000_000_000 + t.tv_nsec() as u64)
-        .unwrap_or(0)
-}
+pub use vservo_protocol::clock::monotonic_ns;
 
 /// Sleeps until CLOCK_MONOTONIC reaches `deadline_ns` (absolute, so a late wake-up never shifts the next).
 pub fn sleep_until_ns(deadline_ns: u64) {

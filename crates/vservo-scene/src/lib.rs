@@ -3,10 +3,26 @@
 //! This crate owns the geometry shared by the controller, the vision and the simulator:
 //! - [`CameraIntrinsics`]: the camera (focal lengths fx, fy in pixels, principal point, image size, the lens's
 //!   [`Distortion`] in [`lens`]) and the projection of points given in the camera frame (x right, y down, z
-//!   along the optical axis), to the pinhole pixel and to the observed (distorted) one;
-//! - [`Board`]: the object — a board with four disc marks, their centres in the board frame;
+//!   along the optical axis), to the pinhole pixel ([`CameraIntrinsics::project`]: what ξ, ξ_d and the image
+//!   Jacobian are in) and through the lens to the observed (distorted) one
+//!   ([`CameraIntrinsics::project_observed`], [`CameraIntrinsics::observed_of_pinhole`],
+//!   [`CameraIntrinsics::pinhole_of_observed`]); without distortion every mapping is the pinhole's;
+//! - [`lens`]: OpenCV's Brown–Conrady distortion ([`Distortion`]: k1, k2, p1, p2, k3): `distort` is
+//!   `cv::projectPoints`'s formula, `undistort` Newton's method to 1e-14 (normalised) in at most 20 steps,
+//!   refused outside the lens's valid radius; checked against OpenCV in `tests/opencv_lens.rs` (the fixture by
+//!   `scripts/lens-reference.py`);
+//! - [`Board`]: the object — a board with four disc marks, their centres in the board frame, or with one
+//!   AprilTag whose four corners are the marks ([`Target`], [`AprilTag`]: id, size, centre, corners in the C
+//!   library's order, which cell is black; [`AprilTag::with_corners_covered`]: a scenario's occlusion of a
+//!   corner); [`tag36h11`]: the family's codes and bit positions, from the C library's `tag36h11.c`;
+//! - [`TagGrid`]: a calibration board, a grid of tag36h11 tags with white gaps (ids row by row, corners in
+//!   the board frame, [`TagGrid::is_black_at`], [`TagGrid::tags_meeting`] a box), which a [`Board`] may carry
+//!   printed on it (`Board::calibration_grid`; the renderer judges a pixel against every tag that can reach
+//!   it, the target's tag deciding inside its own square);
+//! - [`pose_rows`]: a pose as vservo's messages carry it, the top three rows of the 4×4 transform
+//!   (3×4 [R | t], row-major);
 //! - the feature vector ξ = [x₁ y₁ x₂ y₂ x₃ y₃ x₄ y₄] (pixels, image origin top-left) in the board's mark
-//!   order, which never changes from frame to frame.
+//!   order, which never changes from frame to frame, and the marks' depths.
 //!
 //! Transforms are named `a_from_b` and map points given in `b` into `a`.
 //!

@@ -1,8 +1,58 @@
 //! # vservoctl — the vservo command-line tool
 //!
-//! Owns the user-facing commands that inspect vservo's models (and, as the project grows, its gains and a
-//! running instance). Each subcommand lives in its own module; input errors are reported as
-//! [`UsageError`] and end with exit code 2, other failures with exit code 1.
+//! Owns the user-facing commands: on a configuration (the models, the gains, the lockstep simulator, the cell,
+//! calibration) and on a running instance (found by `--instance` or `--config`, [`instance`]). Each subcommand
+//! lives in its own module; output is text or JSON. Input errors are reported as [`UsageError`] and end with
+//! exit code 2, a command the daemon refused with 3, a command with every slot taken with 75, other failures
+//! with exit code 1.
+//!
+//! On a configuration:
+//! - `model` ([`model`]): the arm model at one joint state; `gains` ([`gains`]): K, B's singular values,
+//!   closed-loop eigenvalues with and without the delay; `stability` ([`stability`]): the Corollary 1 margins;
+//! - `vision render`, `vision extract` ([`vision`]): the camera's view at a joint configuration, the features
+//!   of any image;
+//! - `sim` ([`sim`]): a scenario in the lockstep simulator (summary.json, CSVs, SVG figures by [`plots`]);
+//!   `basin` ([`basin`]): a Monte Carlo of starting poses in classes on all cores with rayon (the share
+//!   converged, settling times, why the others failed; JSON and an SVG);
+//! - `scene` ([`scene`]): the cell a configuration describes, as JSON for drivers; `board` ([`board`]): a
+//!   calibration board as an SVG to print at scale, and its layout as JSON;
+//! - `calibrate` ([`calibrate`], docs/CALIBRATION.md): `calibrate/plan` the poses on a half sphere around the
+//!   board, each reachable and with the board in view, or given with `--poses`; `spread` refuses poses whose
+//!   rotations turn about one axis; `live` the views through a running vservod (the arm held, the board located
+//!   by the solver's `--locate`, each pose a `move_joints` waited until at rest 0.5 s, the first frame exposed
+//!   after it with the joints stamped nearest it, a safe stop waited out, then back to the start and `servo`);
+//!   `capture` the views of the simulated cell in lockstep (`--lockstep`); `dataset` the images and arm poses
+//!   for the solver; `solver` runs clients/python/vservo_calibrate.py (OpenCV's detector, `calibrateCamera`,
+//!   `calibrateHandEye`, a SciPy joint refinement); `report` the residuals per view and overall, the errors
+//!   against `[camera.truth]`; `file` the OpenCV YAML with `tool_from_camera` that `camera.calibration_file`
+//!   takes.
+//!
+//! On a running instance:
+//! - `status` ([`status`]), `top` ([`top`]: a live terminal view with ratatui), `echo` ([`echo`]: a topic as
+//!   JSON lines);
+//! - `target`, `object`, `reload`, `safe-stop`, `resume`, `move-joints` and `servo` ([`commands`]);
+//! - `check` ([`check`]): the preflight on a held cell, reading only: `check/observe` watches joint states,
+//!   frames, status and gains for a while (a second by default), `check/ros_names` hears a ROS 2 arm's joint
+//!   names over DDS (`vservo_ros2::probe`), `check/verdicts` judges each — period, joints, kinematics against
+//!   the board seen, camera and marks, the desired pose's reach, the first twist through the cell's own rmrc
+//!   stage — as pure functions with unit tests; PASS or FAIL with the value measured;
+//! - `record` ([`record`]): MCAP with zstd chunks, files created with mode 0600; with `--ros2` the ROS 2
+//!   bridge's messages through `vservo_ros2::translate`, ROS 2's profile, `ros2msg` schemas and CDR
+//!   ([`record_ros2`]); `plot` ([`plot_recording`]): the figures of `sim` from a recording, turned back into a
+//!   lockstep `Trace`;
+//! - `view` ([`view`]): Foxglove's WebSocket protocol served by [`live_server`], tungstenite with a thread per
+//!   viewer: a token from [`view_token`] in the URL or HTTP 401/403, at most `--max-clients` or 503, a bounded
+//!   queue per viewer that drops its oldest data; `--url` prints the URL with the token. vservod starts it
+//!   with `[viewer] enabled`.
+//!
+//! `echo`, `record` and `view` started before the daemon wait for the instance. [`bridge`] takes an
+//! instance's services to a sink of channels (the MCAP file of `record`, the live server of `view`): every
+//! service as JSON, and through [`foxglove_view`] (pure conversions, unit-tested) the camera image
+//! (`foxglove.RawImage`), the marks the servo used, ξ_d, the errors and the missing marks
+//! (`foxglove.ImageAnnotations`, stamped with the image's capture time), and the arm's, camera's and board's
+//! frames (`foxglove.FrameTransforms`; the arm is the one configured, link by link, read from the
+//! configuration the daemon runs, which it writes to the instance's directory,
+//! `vservo_protocol::InstanceDir::configuration`; none is drawn when that cannot be read).
 
 mod basin;
 mod board;

@@ -1,10 +1,71 @@
 //! # vservod — the vservo daemon
 //!
 //! Owns the process side of the real-time shell: loads and validates the configuration, starts the four
-//! nodes (plant, rmrc, servo, vision) as child processes of its own executable (`vservod node <role>`),
-//! supervises them (restart with backoff, dead-node cleanup, the arm held while the plant or rmrc is
-//! down), speaks systemd's notify protocol (READY, STATUS, WATCHDOG, STOPPING) and on SIGTERM/SIGINT ramps
-//! the arm to rest before it stops the nodes. Logs go to stderr through `tracing` (journald-friendly).
+//! nodes (plant, rmrc, servo, vision) as child processes of its own executable (`vservod node <role>`; no
+//! plant unless `robot.driver = "simulated"`), supervises them (restart with backoff, dead-node cleanup, the
+//! arm held while the plant or rmrc is down), serves commands, speaks systemd's notify protocol (READY,
+//! STATUS, WATCHDOG, STOPPING) and on SIGTERM/SIGINT ramps the arm to rest before it stops the nodes in order.
+//! When the daemon dies the nodes hear it (parent-death signal SIGUSR1) and bring the arm to rest in order.
+//! Logs go to stderr through `tracing` (journald-friendly).
+//!
+//! Each decision is a pure module with unit tests (no processes, no iceoryx2, time passed in); the I/O
+//! around them is thin:
+//! - [`supervisor`] (`run`: a loop of named steps over a `Daemon`): `launch` starts a node (the configuration in
+//!   force and the run's seal key on its stdin; a restarted plant resumes at rest where the arm stopped, vision
+//!   tracks from the last features); `observe` drains what the loop published (every joint state, twist and
+//!   feature vector to the fault monitor, each telemetry to its node); `restart` is the restart policy (backoff
+//!   doubling up to `runtime.restart_backoff_max_s`, reset after 10 s stable); `node` a node's health (its own
+//!   telemetry fresher than 0.5 s) and hang (no telemetry, or a plant that stops ticking, for
+//!   `runtime.hang_timeout_s`, 5 s grace before the first: killed and restarted); `health` the robot driver's
+//!   state (waiting, running, stalled after `state_timeout_periods`: ERROR on the stall — for an external driver
+//!   a safe stop, `robot_stalled` —, WARN when it is back), the camera (`CameraWatch`: no frame for
+//!   `faults.camera_timeout_periods` while the vision node runs is `camera_stalled`), the daemon's state, the
+//!   resume conditions, readiness and the watchdog (kept alive while the rmrc and the simulated plant — the nodes
+//!   that bring the arm to rest — are healthy); `status` the status message and tick rate; `cleanup` when dead
+//!   nodes' and clients' shared memory is freed (at once after a loss, every 2 s); `shutdown` the stop order
+//!   (servo and vision, the arm at rest under the rmrc, then rmrc and plant); `streams` who holds each stream's
+//!   writer slot (four times a second: a live process that is not the stream's writer is the fault
+//!   `stream_taken`, named with its pid; a node that exits 76 because its slot was held is the same fault; an
+//!   external driver's or camera's writer is named when it changes).
+//! - [`faults`] decides when the cell must go to a safe stop and whether it may resume: each condition written
+//!   once (`CONDITIONS`, judged on `Evidence`: what was seen since the last cycle to find a fault, how things
+//!   stand now to name what keeps a resume back).
+//! - [`safety`] turns those decisions into sealed `cell_mode` messages (and a client's joint move into
+//!   `cell_mode` moving, which a safe stop holds and a resume takes on), one ERROR line per safe stop and one
+//!   WARN per resume, and the fault in the status.
+//! - [`commands`] answers the `command` service with typed outcomes (`Accepted`, `CommandRefused`; the reply
+//!   text made once): `reload` diffs validated `Config` values (comments and key order are no change; a
+//!   changed key outside `[controller]`/`[desired]` is a `ReloadRefused::RestartOnly` naming it); targets are
+//!   placed by `vservo_cell::target` (from the joints and the features, board-plane homography, never the
+//!   simulation); `object` checks object commands against named limits (refused with an external robot);
+//!   `joint_move` checks a `move_joints` goal (the arm's joint count, finite, `vservo_arm::GOAL_MARGIN_RAD`
+//!   inside each joint's limits, the share of the speed limits in [0.01, 1]; refused while the robot driver is
+//!   not running).
+//! - [`helpers`] starts the helper processes installed next to vservod and restarts them 5 s after they end:
+//!   `vservoctl view` (`[viewer] enabled`), `vservo-ros2` (`[ros2] enabled`), `vservo-ros2 --driver`
+//!   (`[robot] driver` or `[camera] source` = `"ros2"`) and `vservo-franka` (`[robot] driver = "franka"`).
+//!   They end with the daemon (parent-death signal); the drivers are stopped last, after the arm's ramp to
+//!   rest. A driver of `driver = "external"` or `source = "external"` (the user's, the Python reference
+//!   drivers, `vservo-gst-camera`) is never started by vservod.
+//! - [`stop_path`] reads the safe-stop FIFO every cycle (any byte a safe stop, `requested`, logged once per
+//!   burst); [`log_limit`] logs commands one line each up to 10 a second and a summary for floods;
+//!   [`systemd`] speaks sd_notify; [`node_process`] is `vservod node <role>`.
+//!
+//! Commands go client → `command` (request-response) → vservod, which validates them, designs gains
+//! (`vservo_cell::gains::design`, the one design: the start check, every node's `Cell`, and each version the
+//! commander publishes through `vservo_runtime::gains::gains_message`) and hands them on: `gains` → servo
+//! (swapped in before the next frame, history kept; the servo runs the version the message names), `object`
+//! → plant (simulated robot only). Wire codes are the protocol's enums inside the daemon, converted where a
+//! message is built or taken in.
+//!
+//! ## Safe stop
+//!
+//! The supervisor feeds every joint state, twist and feature vector it drains to the fault monitor
+//! (`faults::FaultMonitor`); on a fault `safety::Safety` publishes a sealed `cell_mode` "safe stop": the servo
+//! answers each frame with a zero twist (verdict held, the law remembering the zero) and the rmrc sets a zero
+//! twist every tick, which the interpolator ramps to at its acceleration limits and holds. A resume (a
+//! command, or `[faults] resume = "automatic"`) is granted only when no cause is left, and publishes
+//! "servoing" with the next sequence.
 
 mod commands;
 mod faults;

@@ -245,6 +245,15 @@ pub fn gstreamer(check: &Checker, g: &RawGstreamer) -> Result<GstreamerCamera, C
     if g.pipeline.trim().is_empty() {
         return Err(check.invalid("camera.gstreamer.pipeline", "\"\"", "must be a GStreamer pipeline"));
     }
+    // a camera's pipeline is a line or two; GStreamer's parser takes seconds over thousands of elements, deaf
+    // to SIGTERM meanwhile
+    if g.pipeline.len() > crate::MAX_PIPELINE_BYTES {
+        return Err(check.invalid(
+            "camera.gstreamer.pipeline",
+            format!("({} bytes)", g.pipeline.len()),
+            format!("longer than the {} bytes a camera's pipeline is taken up to", crate::MAX_PIPELINE_BYTES),
+        ));
+    }
     let appsink = g.appsink.clone().unwrap_or_else(|| "vservo".to_string());
     if appsink.is_empty() || !appsink.chars().all(|c| c.is_ascii_alphanumeric() || "_-".contains(c)) {
         return Err(check.invalid(

@@ -374,8 +374,27 @@ impl Daemon {
         }
     }
 
+    /// The safe-stop path replaced (by a process of the daemon's user: a plain file swallows every request): a
+    /// safe stop, as if asked for on it, and the FIFO made again.
+    fn keep_stop_path(&mut self) {
+        if self.stop_path.intact() {
+            return;
+        }
+        let path = self.stop_path.path().display().to_string();
+        let held = self.safety.request_safe_stop_by_path().err();
+        let remade = self.stop_path.remake();
+        tracing::error!(
+            path,
+            already_held = held.map(|h| h.to_string()),
+            remade = ?remade.as_ref().map(|_| "yes"),
+            "the safe-stop path was replaced by something that is not this daemon's FIFO: a safe stop (requested), \
+             and the FIFO made again"
+        );
+    }
+
     /// The safe-stop path: any byte asks for a safe stop (fault `requested`); logged once per burst.
     fn hear_stop_path(&mut self, now: Instant) {
+        self.keep_stop_path();
         let requests = self.stop_path.drain();
         let burst = self.stop_bursts.on_cycle(requests, now);
         let path = self.stop_path.path().display().to_string();
@@ -428,8 +447,8 @@ impl Daemon {
                 instance = %self.settings.instance,
                 schema = vservo_protocol::SCHEMA_VERSION,
                 "no camera driver has appeared (no frame): is it running, for this instance (and this user's \
-                 runtime directory), on the same schema (docs/PROTOCOL.md)? A camera vservod starts (gstreamer, \
-                 ros2) says why above; `vservoctl status` shows the streams' writers"
+                 runtime directory), on the same schema (docs/PROTOCOL.md)? A camera driver vservod starts \
+                 (ros2) says why above; `vservoctl status` shows the streams' writers"
             );
         }
         let vision = self.nodes.iter().find(|n| n.record.role == NodeRole::Vision);

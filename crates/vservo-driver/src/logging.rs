@@ -1,4 +1,5 @@
-//! Logging of the instance's helper and driver processes (the camera driver, the ROS 2 bridge): to stderr,
+//! Logging of the instance's driver and helper processes (the camera driver, the ROS 2 bridge and driver, the
+//! Franka driver): to stderr,
 //! filtered by `VSERVO_LOG` (tracing's filter syntax) or else `default_filter`, in colour on a terminal only.
 
 /// Sets up the process's logging; call once, first.

@@ -1,0 +1,94 @@
+//! docs/ARCHITECTURE.md's crate graph is the workspace's own, generated from the Cargo.toml files; and the
+//! processes that drive an arm or bridge to ROS keep out of the real-time shell and the core cell.
+
+use std::collections::{BTreeMap, BTreeSet};
+
+use vservo_system_tests::repository_root;
+
+/// Each workspace crate (by package name) and the workspace crates in its `[dependencies]` (not dev- or
+/// build-dependencies), read from `crates/*/Cargo.toml` and `tests/Cargo.toml`.
+fn crate_graph() -> BTreeMap<String, BTreeSet<String>> {
+    let root = repository_root();
+    let mut manifests: Vec<_> = std::fs::read_dir(root.join("crates"))
+        .expect("crates/")
+        .filter_map(|entry| Some(entry.ok()?.path().join("Cargo.toml")))
+        .filter(|path| path.exists())
+        .collect();
+    manifests.push(root.join("tests/Cargo.toml"));
+    let parsed: Vec<(String, BTreeSet<String>)> = manifests
+        .iter()
+        .map(|path| {
+            let text = std::fs::read_to_string(path).expect("a manifest");
+            let manifest: toml::Table = text.parse().unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+            let name = manifest["package"]["name"].as_str().expect("package.name").to_string();
+            let dependencies = manifest
+                .get("dependencies")
+                .and_then(|d| d.as_table())
+                .map(|d| d.keys().cloned().collect())
+                .unwrap_or_default();
+            (name, dependencies)
+        })
+        .collect();
+    let members: BTreeSet<String> = parsed.iter().map(|(name, _)| name.clone()).collect();
+    parsed
+        .into_iter()
+        .map(|(name, dependencies)| (name, dependencies.intersection(&members).cloned().collect()))
+        .collect()
+}
+
+/// The crate graph as ARCHITECTURE.md prints it: one line per crate, `name → its workspace dependencies`.
+fn graph_block(graph: &BTreeMap<String, BTreeSet<String>>) -> String {
+    graph
+        .iter()
+        .map(|(name, dependencies)| {
+            let listed = if dependencies.is_empty() {
+                "—".to_string()
+            } else {
+                dependencies.iter().cloned().collect::<Vec<_>>().join(", ")
+            };
+            format!("{name} → {listed}\n")
+        })
+        .collect()
+}
+
+/// Every crate `name` reaches through its dependencies.
+fn reached(graph: &BTreeMap<String, BTreeSet<String>>, name: &str) -> BTreeSet<String> {
+    let mut seen = BTreeSet::new();
+    let mut open = vec![name.to_string()];
+    while let Some(next) = open.pop() {
+        for dependency in graph.get(&next).into_iter().flatten() {
+            if seen.insert(dependency.clone()) {
+                open.push(dependency.clone());
+            }
+        }
+    }
+    seen
+}
+
+#[test]
+fn the_crate_graph_in_architecture_md_is_the_workspaces() {
+    let doc = std::fs::read_to_string(repository_root().join("docs/ARCHITECTURE.md")).expect("the doc");
+    let block = graph_block(&crate_graph());
+    assert!(
+        doc.contains(&format!("```text\n{block}```")),
+        "docs/ARCHITECTURE.md's crate graph is out of date; its block under \"Crate graph\" is:\n```text\n{block}```"
+    );
+}
+
+/// The drivers (robot, camera) and the ROS 2 binaries depend on the wire and the driver library, never on the
+/// real-time shell, the cell or the lockstep (they are processes behind the protocol, not stages of the loop).
+#[test]
+fn drivers_and_bridges_keep_out_of_the_real_time_shell_and_the_cell() {
+    let graph = crate_graph();
+    for driver in
+        ["vservo-camera-gst", "vservo-ros2", "vservo-franka-driver", "vservo-driver", "vservo-client"]
+    {
+        let reach = reached(&graph, driver);
+        assert!(graph.contains_key(driver), "{driver} is a workspace crate");
+        for shell in ["vservo-runtime", "vservo-cell", "vservo-lockstep", "vservod", "vservoctl"] {
+            assert!(!reach.contains(shell), "{driver} reaches {shell}: {reach:?}");
+        }
+    }
+    // the premise: the check sees the real graph (the daemon does reach the shell)
+    assert!(reached(&graph, "vservod").contains("vservo-runtime"));
+}
