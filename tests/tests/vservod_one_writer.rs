@@ -117,15 +117,22 @@ fn attack<T: std::fmt::Debug + iceoryx2::prelude::ZeroCopySend + Copy + 'static>
     name: &str,
     role: &str,
     topic: Topic,
-    mut forge: impl FnMut(&JointStateMsg, u64) -> T,
+    mut forge: impl FnMut(&JointStateMsg, u64, &[T]) -> T,
 ) -> (Attack, Daemon, String, TempConfig) {
     let instance = unique(name);
     let (config, daemon) = running_daemon(&instance);
+    // the attacker, of the daemon's user, records the stream from the start (its sealed samples of the transient)
+    let rogue: Node<ipc::Service> = vservo_protocol::create_node(&instance, "rogue").expect("a node");
+    let recorder = vservo_protocol::subscriber::<T>(&rogue, &instance, topic).expect("a recorder");
+    let mut recorded: Vec<T> = Vec::new();
     let converged = wait_until(Duration::from_secs(30), || {
+        while let Ok(Some(sample)) = recorder.receive() {
+            recorded.push(*sample);
+        }
         status(&instance).and_then(|s| s["feature_error_px"].as_f64()).is_some_and(|e| e < 1.0)
     });
     assert!(converged, "the cell alone converges: {:?}\n{}", status(&instance), daemon.log());
-    let rogue: Node<ipc::Service> = vservo_protocol::create_node(&instance, "rogue").expect("a node");
+    drop(recorder);
     let states =
         vservo_protocol::subscriber::<JointStateMsg>(&rogue, &instance, Topic::JointState).expect("a reader");
     while states.receive().ok().flatten().is_some() {}
@@ -160,7 +167,7 @@ fn attack<T: std::fmt::Debug + iceoryx2::prelude::ZeroCopySend + Copy + 'static>
             }
             latest = *state;
         }
-        if publisher.send_copy(forge(&latest, sent)).is_ok() {
+        if publisher.send_copy(forge(&latest, sent, &recorded)).is_ok() {
             sent += 1;
         }
         if named_after.is_none() && Instant::now() >= next_look {
@@ -269,7 +276,7 @@ fn judge(what: &str, attack: &Attack, daemon: Daemon, instance: &str, role: &str
 fn rogue_twists_in_the_servos_slot_move_nothing_and_are_named() {
     let _one = exclusive();
     let (attack, daemon, instance, _config) =
-        attack("rogue-twists", "servo", Topic::CameraTwist, |_, n| CameraTwistMsg {
+        attack("rogue-twists", "servo", Topic::CameraTwist, |_, n, _| CameraTwistMsg {
             verdict: Verdict::Servoing.into(),
             frame: 1_000_000 + n,
             gains_version: 1,
@@ -283,13 +290,48 @@ fn rogue_twists_in_the_servos_slot_move_nothing_and_are_named() {
     judge("rogue twists", &attack, daemon, &instance, "servo", expect);
 }
 
+/// The security review's replay: the servo's own sealed twists, recorded from the start of the run (the transient,
+/// when they moved the arm), played again into its slot while it restarts. Sealed, but stale: the rmrc refuses
+/// them (`vservo_protocol::freshness::stream_standing`) and the arm does not move.
+#[test]
+fn replayed_sealed_twists_in_the_servos_slot_move_nothing() {
+    let _one = exclusive();
+    let (attack, daemon, instance, _config) =
+        attack("replayed-twists", "servo", Topic::CameraTwist, |_, n, recorded: &[CameraTwistMsg]| {
+            let moving: Vec<&CameraTwistMsg> =
+                recorded.iter().filter(|t| t.twist.iter().any(|v| v.abs() > 0.01)).collect();
+            assert!(!moving.is_empty(), "the premise: twists that moved the arm were recorded");
+            *moving[n as usize % moving.len()]
+        });
+    let expect = Expect { refused_by: Some("rmrc"), arm: ArmJudged::NoFasterThanAlone };
+    judge("replayed sealed twists", &attack, daemon, &instance, "servo", expect);
+}
+
+/// The same with the vision node's sealed features of the transient, into its slot: the servo refuses them.
+#[test]
+fn replayed_sealed_features_in_the_vision_nodes_slot_move_nothing() {
+    let _one = exclusive();
+    let (attack, daemon, instance, _config) =
+        attack("replayed-features", "vision", Topic::Features, |_, n, recorded: &[FeaturesMsg]| {
+            assert!(
+                recorded.len() >= 3,
+                "the premise: the transient's features were recorded ({})",
+                recorded.len()
+            );
+            // the first frames: far from the target
+            recorded[n as usize % 3]
+        });
+    let expect = Expect { refused_by: Some("servo"), arm: ArmJudged::NoFasterThanAlone };
+    judge("replayed sealed features", &attack, daemon, &instance, "vision", expect);
+}
+
 #[test]
 fn rogue_features_in_the_vision_nodes_slot_move_nothing_and_are_named() {
     let _one = exclusive();
     // the real features the cell converged on, +40 px: what the attacker sent
     let target = [151.0, 168.0, 318.0, 178.0, 339.0, 75.0, 172.0, 70.0].map(|v: f64| v + 40.0);
     let (attack, daemon, instance, _config) =
-        attack("rogue-features", "vision", Topic::Features, |state, n| FeaturesMsg {
+        attack("rogue-features", "vision", Topic::Features, |state, n, _| FeaturesMsg {
             valid_mask: 0b1111,
             frame: 1_000_000 + n,
             capture_tick: state.tick,
@@ -309,7 +351,7 @@ fn a_torque_flood_in_the_rmrcs_slot_moves_nothing_and_is_named() {
     // inside every limit: only the seal refuses these
     let within_limits_nm = [87.8, 167.8, 80.5, 21.8, 18.1, 19.2, 0.0];
     let (attack, daemon, instance, _config) =
-        attack("torque-flood", "rmrc", Topic::JointCommand, |state, n| JointCommandMsg {
+        attack("torque-flood", "rmrc", Topic::JointCommand, |state, n, _| JointCommandMsg {
             mode: CommandMode::Torque.into(),
             answers_tick: state.tick,
             driver_epoch: state.driver_epoch,
@@ -331,7 +373,7 @@ fn a_second_driver_in_the_plants_slot_is_named_and_stops_the_cell() {
     // driver (which this process also hears: the ticks go on from its own)
     let mut real: Option<JointStateMsg> = None;
     let (attack, daemon, instance, _config) =
-        attack("second-driver", "plant", Topic::JointState, |state, _| {
+        attack("second-driver", "plant", Topic::JointState, |state, _, _| {
             let mut forged = *real.get_or_insert(*state);
             forged.tick = state.tick + 1;
             forged.q_rad[0] += 0.05;

@@ -1,5 +1,6 @@
 //! Which of the daemon's sealed messages is newer: the one rule the nodes follow for `cell_mode`, `gains` and
-//! `object` (docs/PROTOCOL.md, "Seals").
+//! `object` (docs/PROTOCOL.md, "Seals"); and which sealed sample of a stream that moves the arm (`features`,
+//! `camera_twist`) is fresh ([`stream_standing`]).
 //!
 //! A node takes the daemon's `cell_mode`, `gains` and `object` only when newer than the one in force, so that
 //! a replayed older message (sealed: anyone of the daemon's user can record one and publish it again) is
@@ -54,6 +55,8 @@ pub enum Standing {
     Older,
     /// Stamped after the node's own clock by more than the tolerance: refuse it.
     FromTheFuture,
+    /// A stream's sample stamped longer ago than the stream's bound (a recording played again): refuse it.
+    Stale,
 }
 
 impl Standing {
@@ -64,7 +67,25 @@ impl Standing {
 
     /// Whether the message is to be refused (and counted).
     pub fn is_refused(self) -> bool {
-        matches!(self, Standing::Older | Standing::FromTheFuture)
+        matches!(self, Standing::Older | Standing::FromTheFuture | Standing::Stale)
+    }
+}
+
+/// The standing of a sealed sample of a stream that moves the arm (a `features` or a `camera_twist`, stamped by
+/// its node as it publishes: `stamp_ns`) for the node that takes it: refused when stamped more than
+/// [`FUTURE_TOLERANCE_NS`] after `now_ns` or longer than `max_age_ns` before it (`Stale`: the seal proves who
+/// made a message, not when; a recording of sealed samples played again into a writer slot taken while the node
+/// restarts is stale), or not after the last one taken (`Older`: a sample again, or out of order); else newer.
+pub fn stream_standing(last_taken_ns: Option<u64>, stamp_ns: u64, now_ns: u64, max_age_ns: u64) -> Standing {
+    if stamp_ns > now_ns.saturating_add(FUTURE_TOLERANCE_NS) {
+        return Standing::FromTheFuture;
+    }
+    if now_ns.saturating_sub(stamp_ns) > max_age_ns {
+        return Standing::Stale;
+    }
+    match last_taken_ns {
+        Some(last) if stamp_ns <= last => Standing::Older,
+        _ => Standing::Newer,
     }
 }
 
@@ -155,5 +176,20 @@ mod tests {
         assert!(!standing(Some(issue(NOW, 1)), issue(NOW, 1), NOW).is_refused());
         // the node's clock near its end: no overflow
         assert_eq!(standing(None, issue(u64::MAX, 1), u64::MAX - 1), Standing::Newer);
+    }
+
+    /// The security review's replay: sealed twists recorded earlier and played again into a taken slot.
+    #[test]
+    fn a_streams_stale_repeated_or_future_sample_is_refused_and_a_fresh_one_taken() {
+        let frame = 85_000_000;
+        assert_eq!(stream_standing(None, NOW - 1_000, NOW, frame), Standing::Newer);
+        assert_eq!(stream_standing(Some(NOW - 90_000_000), NOW - 1_000, NOW, frame), Standing::Newer);
+        // recorded a second ago
+        assert_eq!(stream_standing(None, NOW - 1_000_000_000, NOW, frame), Standing::Stale);
+        // the one taken, again; or one before it
+        assert_eq!(stream_standing(Some(NOW - 1_000), NOW - 1_000, NOW, frame), Standing::Older);
+        assert_eq!(stream_standing(Some(NOW - 1_000), NOW - 2_000, NOW, frame), Standing::Older);
+        assert_eq!(stream_standing(None, NOW + 2 * FUTURE_TOLERANCE_NS, NOW, frame), Standing::FromTheFuture);
+        assert!(Standing::Stale.is_refused());
     }
 }

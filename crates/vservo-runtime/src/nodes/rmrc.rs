@@ -16,6 +16,7 @@ use vservo_arm::JointVector;
 use vservo_cell::{ActuatorCommand, DriverTick, Following, RmrcStage, TwistLimits};
 use vservo_control::Twist;
 use vservo_protocol::TakeMessages;
+use vservo_protocol::freshness;
 use vservo_protocol::seal::SealKey;
 use vservo_protocol::seal::{sealed_by, sign_with};
 use vservo_protocol::{
@@ -100,6 +101,10 @@ struct Rmrc {
     limits: TwistLimits,
     /// The twist in force: its frame's capture tick and the tick it was taken in (reported in each command).
     twist_in_force: (u64, u64),
+    /// The stamp of the last twist taken (a twist must be later, and fresh: within a vision period).
+    twist_taken_ns: Option<u64>,
+    /// A vision period (ns): how old a twist may be when it is taken.
+    twist_max_age_ns: u64,
     orphaned: Orphaned,
 }
 
@@ -114,6 +119,8 @@ impl Rmrc {
             joint_count: wire_joint_count(context.cell.arm()),
             limits: TwistLimits::of(config),
             twist_in_force: (u64::MAX, u64::MAX),
+            twist_taken_ns: None,
+            twist_max_age_ns: (config.timing.vision_period_s * 1e9).round() as u64,
             orphaned: Orphaned {
                 since_ns: None,
                 timeout_ns: (config.runtime.stop_timeout + std::time::Duration::from_secs(1)).as_nanos()
@@ -154,7 +161,20 @@ impl Rmrc {
             let taken = match taken {
                 // a twist without the servo's seal is not the servo's: refused, and the twist in force stays
                 Ok(sample) if !sealed_by(key, &sample) => None,
+                // sealed but not fresh (a recording played again, a repeat): refused, the twist in force stays
+                Ok(sample)
+                    if !freshness::stream_standing(
+                        self.twist_taken_ns,
+                        sample.stamp_ns,
+                        monotonic_ns(),
+                        self.twist_max_age_ns,
+                    )
+                    .is_newer() =>
+                {
+                    None
+                }
                 Ok(sample) => {
+                    self.twist_taken_ns = Some(sample.stamp_ns);
                     let moves = Verdict::try_from(sample.verdict).is_ok_and(Verdict::moves);
                     let twist = Twist::from(sample.twist);
                     let taken = self.stage.take_twist(&twist, moves, &self.limits, tick);

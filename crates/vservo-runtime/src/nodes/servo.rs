@@ -95,6 +95,8 @@ struct Servo {
     doing: (Verdict, u8),
     /// The cell moves its joints (`cell_mode` moving): held, and saying so.
     moving: bool,
+    /// The stamp of the last features taken (a sample must be later, and fresh).
+    features_taken_ns: Option<u64>,
 }
 
 impl Servo {
@@ -109,6 +111,7 @@ impl Servo {
             last: (0, 0),
             doing: (Verdict::Waiting, 0),
             moving: false,
+            features_taken_ns: None,
         }
     }
 
@@ -220,6 +223,18 @@ pub fn run(context: &NodeContext) -> Result<(), RuntimeError> {
                 counters.rejected();
                 continue;
             };
+            // sealed, and fresh: a recording of sealed features played again is not the vision node's now
+            let standing = freshness::stream_standing(
+                servo.features_taken_ns,
+                message.stamp_ns,
+                monotonic_ns(),
+                servo.period_ns,
+            );
+            if !standing.is_newer() {
+                counters.rejected();
+                continue;
+            }
+            servo.features_taken_ns = Some(message.stamp_ns);
             let mode = ports.cell_mode.mode(context.seal_key.as_ref(), counters);
             let step = servo.answer(&message, mode);
             // a mark outside the image is no measurement: taken as missing, the message counted refused
