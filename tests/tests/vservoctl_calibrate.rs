@@ -27,10 +27,11 @@ fn python() -> String {
     repository_root().join("target/python-venv/bin/python").display().to_string()
 }
 
+/// `vservoctl calibrate --lockstep` as docs/CALIBRATION.md writes it: without `--python`, the solver's Python found
+/// by vservoctl itself (the project's environment beside it).
 fn calibrate(config: &str, out: &Path, extra: &[&str]) -> std::process::Output {
-    let (out, python) = (out.display().to_string(), python());
-    let mut args =
-        vec!["calibrate", "--config", config, "--lockstep", "--json", "--out", &out, "--python", &python];
+    let out = out.display().to_string();
+    let mut args = vec!["calibrate", "--config", config, "--lockstep", "--json", "--out", &out];
     args.extend_from_slice(extra);
     run("vservoctl", &args)
 }

@@ -58,9 +58,11 @@ pub struct CalibrateArgs {
     /// calibration file).
     #[arg(long, value_name = "DIR")]
     views: Option<PathBuf>,
-    /// The Python interpreter that runs the solver (with OpenCV, SciPy and NumPy).
-    #[arg(long, value_name = "FILE", default_value = "python3")]
-    python: PathBuf,
+    /// The Python interpreter that runs the solver (with OpenCV, SciPy and NumPy) [default: the project's
+    /// environment (target/python-venv, made by scripts/setup.sh) beside this vservoctl, else $VIRTUAL_ENV's,
+    /// else python3].
+    #[arg(long, value_name = "FILE")]
+    python: Option<PathBuf>,
     /// The solver script (default: clients/python/vservo_calibrate.py of the source tree or the package).
     #[arg(long, value_name = "FILE")]
     solver: Option<PathBuf>,
@@ -75,6 +77,7 @@ pub fn run(args: &CalibrateArgs) -> Result<()> {
     let settings = settings_of(&config)?;
     let given = args.poses.as_deref().map(read_poses).transpose()?;
     let solver_path = solver::locate(args.solver.as_deref())?;
+    let python = solver::python(args.python.as_deref());
     let out = output_file(args, &settings);
     let views_dir = args.views.clone().unwrap_or_else(|| out.with_file_name("calibration-views"));
     let (views, truth) = if args.lockstep {
@@ -87,7 +90,7 @@ pub fn run(args: &CalibrateArgs) -> Result<()> {
         (cell.take_views(&planned), Some((config.true_camera(), board)))
     } else {
         let mut cell = live::Running::connect(&config, args.speed_fraction)?;
-        let solver = SolverRun { python: &args.python, script: &solver_path, views_dir: &views_dir };
+        let solver = SolverRun { python: &python, script: &solver_path, views_dir: &views_dir };
         if args.dry_run {
             // a dry run moves nothing: it waits for the arm to be at rest
             let settled_ns = cell.at_rest(LOCATE_REST_WAIT)?;
@@ -117,7 +120,7 @@ pub fn run(args: &CalibrateArgs) -> Result<()> {
         &settings.board,
         config.arm.joint_count(),
     )?;
-    let solved = solver::solve(&args.python, &solver_path, &views_dir)?;
+    let solved = solver::solve(&python, &solver_path, &views_dir)?;
     file::write(&out, &config, &solved)?;
     let truth = truth.as_ref().map(|(camera, board)| (camera, board));
     let text = report::solved(&config, &solved, truth, &out, &views_dir, args.json);

@@ -94,6 +94,25 @@ pub fn locate(given: Option<&Path>) -> Result<PathBuf, UsageError> {
     )))
 }
 
+/// The Python that runs the solver: `--python`, else the project's environment beside this executable in a source
+/// tree (target/<profile>/vservoctl → target/python-venv/bin/python, made by scripts/setup.sh with OpenCV,
+/// SciPy and NumPy), else the active virtual environment's (`$VIRTUAL_ENV`), else `python3` (the Debian
+/// package's dependencies).
+pub fn python(given: Option<&Path>) -> PathBuf {
+    if let Some(path) = given {
+        return path.to_path_buf();
+    }
+    let exe = std::env::current_exe().ok();
+    let project = exe
+        .iter()
+        .flat_map(|exe| exe.ancestors().skip(1).take(3).map(|dir| dir.join("python-venv/bin/python")))
+        .find(|candidate| candidate.is_file());
+    let active = std::env::var_os("VIRTUAL_ENV")
+        .map(|env| PathBuf::from(env).join("bin/python"))
+        .filter(|candidate| candidate.is_file());
+    project.or(active).unwrap_or_else(|| PathBuf::from("python3"))
+}
+
 /// Runs `python solver dataset_dir`; a refusal (exit 2) is the user's to act on.
 pub fn solve(python: &Path, solver: &Path, dataset_dir: &Path) -> Result<Solved> {
     let text = run(python, solver, &[dataset_dir.as_os_str()], "the views cannot be solved")?;
@@ -130,6 +149,14 @@ fn run(python: &Path, solver: &Path, args: &[&std::ffi::OsStr], refused: &str) -
         .output()
         .with_context(|| format!("starting {} {}", python.display(), solver.display()))?;
     let stderr = String::from_utf8_lossy(&output.stderr);
+    if let Some(module) = missing_module(&stderr) {
+        return Err(UsageError(format!(
+            "the solver's Python ({}) has no module {module:?}: run scripts/setup.sh (it makes target/python-venv \
+             with OpenCV, SciPy and NumPy), or give an interpreter that has them with --python",
+            python.display()
+        ))
+        .into());
+    }
     match output.status.code() {
         Some(0) => Ok(String::from_utf8_lossy(&output.stdout).into_owned()),
         Some(2) => Err(UsageError(format!("{refused}: {}", stderr.trim())).into()),
@@ -137,8 +164,32 @@ fn run(python: &Path, solver: &Path, args: &[&std::ffi::OsStr], refused: &str) -
     }
 }
 
+/// The module Python's `ModuleNotFoundError` names in `stderr`, if it says one.
+fn missing_module(stderr: &str) -> Option<&str> {
+    let after = stderr.split("ModuleNotFoundError: No module named ").nth(1)?;
+    after.lines().next().map(|name| name.trim().trim_matches('\''))
+}
+
 fn parse<T: serde::de::DeserializeOwned>(text: &str) -> Result<T> {
     serde_json::from_str(text.trim()).with_context(|| {
         format!("reading the solver's answer: {}", text.chars().take(200).collect::<String>())
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_missing_module_is_named_from_pythons_error() {
+        let stderr = "Traceback (most recent call last):\n  File \"x.py\", line 3, in <module>\n    import cv2\n\
+                      ModuleNotFoundError: No module named 'cv2'\n";
+        assert_eq!(missing_module(stderr), Some("cv2"));
+        assert_eq!(missing_module("the views cannot be solved: 2 views"), None);
+    }
+
+    #[test]
+    fn the_given_python_is_taken_as_it_is() {
+        assert_eq!(python(Some(Path::new("/opt/py/bin/python"))), PathBuf::from("/opt/py/bin/python"));
+    }
 }
