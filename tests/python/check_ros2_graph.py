@@ -165,10 +165,12 @@ def main():
     participant = DomainParticipant(args.domain)
     reliable = Qos(Policy.Reliability.Reliable(duration(milliseconds=100)), Policy.History.KeepLast(10))
     best_effort = Qos(Policy.Reliability.BestEffort, Policy.History.KeepLast(10))
-    readers = {}
+    readers, reliable_readers = {}, {}
     for name, kind in TOPICS.items():
-        qos = reliable if name in ("tf", "diagnostics") else best_effort
-        readers[name] = DataReader(participant, Topic(participant, ros.topic_name(args.namespace, name), kind), qos=qos)
+        topic = Topic(participant, ros.topic_name(args.namespace, name), kind)
+        # what ROS's sensor-data profile asks, and what its default profile asks: both must hear every topic
+        readers[name] = DataReader(participant, topic, qos=reliable if name in ("tf", "diagnostics") else best_effort)
+        reliable_readers[name] = DataReader(participant, topic, qos=reliable)
 
     # the ROS 2 nodes the graph announces (what `ros2 node list` shows), kept for late joiners
     discovery = DataReader(participant, Topic(participant, "ros_discovery_info", ros.ParticipantEntitiesInfo),
@@ -176,12 +178,17 @@ def main():
                                    Policy.Durability.TransientLocal, Policy.History.KeepLast(1)))
     nodes = set()
     counts = {name: 0 for name in TOPICS}
+    reliable_counts = {name: 0 for name in TOPICS}
     newest = {}
     frames = {}
     # receipt less the header's stamp (s): the measurement (or exposure) to this node, both on this machine's clock
     ages = {"joint_states": [], "camera/image_raw": []}
 
     def take(keep):
+        for name, reader in reliable_readers.items():
+            taken = len(reader.take(100))
+            if keep:
+                reliable_counts[name] += taken
         for name, reader in readers.items():
             for sample in reader.take(100):
                 if not keep:
@@ -216,6 +223,7 @@ def main():
     print(json.dumps({
         "wall_s": time.time(),
         "counts": counts,
+        "reliable_counts": reliable_counts,
         "newest": {name: summary(name, sample) for name, sample in newest.items() if name != "tf"},
         "tf": frames,
         "calls": calls,

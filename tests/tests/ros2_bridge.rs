@@ -185,6 +185,16 @@ fn a_ros2_node_hears_the_cell_and_its_safe_stop_is_taken() {
     for topic in ["vservo/camera_twist", "diagnostics"] {
         assert!(counts[topic].as_u64().unwrap_or(0) > 0, "nothing on {topic}: {counts}");
     }
+    // and a subscriber of ROS's default profile (reliable) hears every topic as well
+    let reliable = &heard["reliable_counts"];
+    for topic in
+        ["joint_states", "tf", "camera/image_raw", "camera/camera_info", "vservo/features", "diagnostics"]
+    {
+        assert!(
+            reliable[topic].as_u64().unwrap_or(0) > 0,
+            "a reliable reader heard nothing on {topic}: {reliable}"
+        );
+    }
     // the bridge is a ROS 2 node of the graph (`ros2 node list`: ros_discovery_info)
     assert!(
         heard["ros_nodes"].as_array().is_some_and(|n| n.contains(&Value::from("/vservo"))),

@@ -48,12 +48,12 @@ impl Graph {
             .map_err(|e| anyhow::anyhow!("creating the ROS 2 node: {e:?}"))?;
         let mut maker = Maker { node: &mut node, settings };
         let graph = Self {
-            joint_states: maker.publisher(Ros2Topic::JointStates, qos::SENSOR_DATA)?,
+            joint_states: maker.publisher(Ros2Topic::JointStates, qos::STREAMS)?,
             tf: maker.publisher(Ros2Topic::Tf, qos::TF)?,
-            image: maker.publisher(Ros2Topic::Image, qos::SENSOR_DATA)?,
-            camera_info: maker.publisher(Ros2Topic::CameraInfo, qos::SENSOR_DATA)?,
-            features: maker.publisher(Ros2Topic::Features, qos::SENSOR_DATA)?,
-            camera_twist: maker.publisher(Ros2Topic::CameraTwist, qos::SENSOR_DATA)?,
+            image: maker.publisher(Ros2Topic::Image, qos::STREAMS)?,
+            camera_info: maker.publisher(Ros2Topic::CameraInfo, qos::STREAMS)?,
+            features: maker.publisher(Ros2Topic::Features, qos::STREAMS)?,
+            camera_twist: maker.publisher(Ros2Topic::CameraTwist, qos::STREAMS)?,
             diagnostics: maker.publisher(Ros2Topic::Diagnostics, qos::RELIABLE)?,
             safe_stop: maker.server(names::SAFE_STOP, "std_srvs", "Trigger")?,
             resume: maker.server(names::RESUME, "std_srvs", "Trigger")?,

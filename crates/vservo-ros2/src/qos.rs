@@ -1,5 +1,9 @@
-//! The QoS of each kind of topic, as ROS 2's own profiles set them (rmw's `qos_profiles.h`): sensor data
-//! best effort, the rest reliable.
+//! The QoS of each kind of topic. What the bridge publishes is reliable (a reliable writer is heard by reliable
+//! and best-effort subscribers alike; a best-effort one by best-effort subscribers only, and a ROS node that
+//! subscribes with the default profile — `robot_state_publisher`, `image_transport`'s raw subscriber, most tools
+//! — asks for reliable) and never blocks: a sample a slow reader has not acknowledged is refused and counted.
+//! What the ROS 2 driver reads is best effort (`rmw_qos_profile_sensor_data`), which matches writers of either
+//! reliability.
 
 use ros2_client::QosProfile;
 use ros2_client::qos::{Durability, History, Reliability, WhenFull};
@@ -8,8 +12,15 @@ use ros2_client::qos::{Durability, History, Reliability, WhenFull};
 /// once (the bridge counts it) rather than block.
 const DONT_BLOCK: Reliability = Reliability::Reliable { when_full: WhenFull::Fail };
 
-/// `rmw_qos_profile_sensor_data`: images, camera info, joint states, features and twists: best effort,
-/// the last 5.
+/// The bridge's streams (joint states, the image and camera info, features, twists): reliable without blocking,
+/// volatile, the last 5.
+pub const STREAMS: QosProfile = QosProfile::publisher_default()
+    .reliability(DONT_BLOCK)
+    .durability(Durability::Volatile)
+    .history(History::KeepLast { depth: 5 });
+
+/// `rmw_qos_profile_sensor_data`: what the ROS 2 driver reads (the arm's joint states, the camera's images):
+/// best effort, the last 5.
 pub const SENSOR_DATA: QosProfile = QosProfile::publisher_default()
     .reliability(Reliability::BestEffort)
     .durability(Durability::Volatile)
