@@ -55,7 +55,7 @@ const PREFIX_HEX_DIGITS: usize = 16;
 #[derive(Debug, thiserror::Error)]
 pub enum InstanceDirError {
     /// No daemon has made the instance's directory (or it was removed).
-    #[error("no vservod of instance {instance:?} is running (looked for {}) — is it running, and as which user?", .looked_in.iter().map(|p| p.display().to_string()).collect::<Vec<_>>().join(" and "))]
+    #[error("no vservod of instance {instance:?} is running (looked for {}) — is it running, and as which user? Start one with `scripts/run.sh [--config FILE]` in the source tree, `vservod --config FILE`, or `systemctl start vservo` (the Debian package)", .looked_in.iter().map(|p| p.display().to_string()).collect::<Vec<_>>().join(" and "))]
     NotRunning {
         /// The instance.
         instance: String,
