@@ -517,36 +517,36 @@ impl Drop for TwoHosts {
     }
 }
 
+/// A Python script of the repository (`script`, relative to its root) run by the project's environment with
+/// `args`, its standard error into `log`; killed when the guard is dropped.
+pub fn python_process(script: &str, args: &[&str], log: &Path) -> Killed {
+    let child = Command::new(repository_root().join("target/python-venv/bin/python"))
+        .arg(repository_root().join(script))
+        .args(args)
+        .stdin(Stdio::null())
+        .stdout(Stdio::null())
+        .stderr(std::fs::File::create(log).expect("the script's log"))
+        .spawn()
+        .unwrap_or_else(|e| panic!("{script} starts (scripts/setup.sh makes the environment): {e}"));
+    Killed(child)
+}
+
 /// The ROS 2 arm's node (clients/python/ros2_control_arm.py: a ros2_control arm and a ROS camera on MuJoCo) for
 /// `scene` in DDS domain `domain`, with `extra` arguments: `--duration-s` 120 at most, its summary written to
 /// `summary` when it ends, its log beside the scene.
 pub fn ros2_control_arm(scene: &Path, domain: u32, summary: &Path, extra: &[&str]) -> Killed {
-    let log = scene.with_extension("arm.log");
-    let child = Command::new(repository_root().join("target/python-venv/bin/python"))
-        .arg(repository_root().join("clients/python/ros2_control_arm.py"))
-        .args(["--scene", &scene.display().to_string(), "--domain", &domain.to_string()])
-        .args(["--summary", &summary.display().to_string(), "--duration-s", "120"])
-        .args(extra)
-        .stdin(Stdio::null())
-        .stdout(Stdio::null())
-        .stderr(std::fs::File::create(log).expect("the arm's log"))
-        .spawn()
-        .expect("the ROS 2 arm starts (scripts/setup.sh installs cyclonedds and mujoco)");
-    Killed(child)
+    let (scene_arg, domain_arg, summary_arg) =
+        (scene.display().to_string(), domain.to_string(), summary.display().to_string());
+    let mut args = vec!["--scene", &scene_arg, "--domain", &domain_arg, "--summary", &summary_arg];
+    args.extend_from_slice(&["--duration-s", "120"]);
+    args.extend_from_slice(extra);
+    python_process("clients/python/ros2_control_arm.py", &args, &scene.with_extension("arm.log"))
 }
 
 /// The PyBullet driver (clients/python/pybullet_driver.py: the arm of `urdf` and its hand camera) for `scene`
 /// and `instance`, its log beside the scene.
 pub fn pybullet_driver(scene: &Path, urdf: &Path, instance: &str) -> Killed {
-    let log = scene.with_extension("driver.log");
-    let child = Command::new(repository_root().join("target/python-venv/bin/python"))
-        .arg(repository_root().join("clients/python/pybullet_driver.py"))
-        .args(["--scene", &scene.display().to_string(), "--urdf", &urdf.display().to_string()])
-        .args(["--instance", instance])
-        .stdin(Stdio::null())
-        .stdout(Stdio::null())
-        .stderr(std::fs::File::create(log).expect("the driver's log"))
-        .spawn()
-        .expect("the PyBullet driver starts (scripts/setup.sh installs pybullet)");
-    Killed(child)
+    let (scene_arg, urdf_arg) = (scene.display().to_string(), urdf.display().to_string());
+    let args = ["--scene", scene_arg.as_str(), "--urdf", urdf_arg.as_str(), "--instance", instance];
+    python_process("clients/python/pybullet_driver.py", &args, &scene.with_extension("driver.log"))
 }

@@ -2,21 +2,13 @@
 //! MuJoCo's physics and renderer behind clients/python/mujoco_driver.py, with vservod on
 //! config/mujoco.toml (robot.driver = "external", camera.source = "external").
 
-use std::path::PathBuf;
-use std::process::{Command, Stdio};
 use std::time::Duration;
 
 use nix::sys::signal::Signal;
 use vservo_system_tests::{
-    Daemon, Killed, config_from, exclusive, repository_root, run, run_script_to_convergence, status, unique,
-    wait_until,
+    Daemon, Killed, config_from, exclusive, python_process, repository_root, run, run_script_to_convergence,
+    status, unique, wait_until,
 };
-
-fn python() -> PathBuf {
-    let interpreter = repository_root().join("target/python-venv/bin/python");
-    assert!(interpreter.exists(), "{}: scripts/setup.sh makes it", interpreter.display());
-    interpreter
-}
 
 /// `scripts/run-mujoco.sh --json`, the README's way to try it.
 #[test]
@@ -57,15 +49,9 @@ fn run_mujoco_calibrates_the_cell_within_the_bars() {
 /// The driver started on its own, as a user runs it.
 fn start_driver(scene: &std::path::Path, instance: &str) -> Killed {
     let log = scene.with_extension(format!("driver-{}.log", std::process::id()));
-    let child = Command::new(python())
-        .arg(repository_root().join("clients/python/mujoco_driver.py"))
-        .args(["--scene", &scene.display().to_string(), "--instance", instance, "--fifo-priority", "50"])
-        .stdin(Stdio::null())
-        .stdout(Stdio::null())
-        .stderr(std::fs::File::create(log).expect("driver log"))
-        .spawn()
-        .expect("the MuJoCo driver starts");
-    Killed(child)
+    let scene = scene.display().to_string();
+    let args = ["--scene", scene.as_str(), "--instance", instance, "--fifo-priority", "50"];
+    python_process("clients/python/mujoco_driver.py", &args, &log)
 }
 
 /// Now, as seconds since midnight UTC (the daemon's log stamps are UTC).

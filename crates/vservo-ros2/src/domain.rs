@@ -1,4 +1,5 @@
-//! Joining the ROS 2 graph: the DDS participant in the configured domain, bound to one interface if asked.
+//! Joining the ROS 2 graph: the DDS participant in the configured domain, bound to one interface if asked, and a
+//! node of it in the configured namespace.
 
 use anyhow::Context as _;
 use vservo_config::Ros2;
@@ -26,4 +27,18 @@ fn check_local(address: std::net::IpAddr) -> anyhow::Result<()> {
         .any(|ip| ip == address);
     anyhow::ensure!(local, "ros2.interface = \"{address}\" is not an address of this machine's interfaces");
     Ok(())
+}
+
+/// A ROS 2 node named `name` in the configured namespace, on a participant of the configured domain ([`participant`]),
+/// without rosout; the context is returned with it (the node's entities live as long as it does).
+pub fn node(settings: &Ros2, name: &str) -> anyhow::Result<(ros2_client::Context, ros2_client::Node)> {
+    let context = ros2_client::Context::from_domain_participant(participant(settings)?)
+        .map_err(|e| anyhow::anyhow!("creating the ROS 2 context: {e:?}"))?;
+    let namespace = if settings.namespace.is_empty() { "/" } else { settings.namespace.as_str() };
+    let node_name = ros2_client::NodeName::new(namespace, name)
+        .map_err(|e| anyhow::anyhow!("ros2.namespace {namespace:?}: {e:?}"))?;
+    let node = context
+        .new_node(node_name, ros2_client::NodeOptions::new().enable_rosout(false))
+        .map_err(|e| anyhow::anyhow!("creating the ROS 2 node: {e:?}"))?;
+    Ok((context, node))
 }

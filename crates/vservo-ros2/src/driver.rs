@@ -16,7 +16,7 @@ use iceoryx2::port::notifier::Notifier;
 use iceoryx2::port::publisher::Publisher as IoxPublisher;
 use iceoryx2::port::subscriber::Subscriber as IoxSubscriber;
 use iceoryx2::prelude::ipc;
-use ros2_client::{MessageTypeName, Name, Node, NodeName, NodeOptions, Publisher, QosProfile, Subscription};
+use ros2_client::{MessageTypeName, Name, Node, Publisher, QosProfile, Subscription};
 use rustdds::mio1::{Events, Interest, Poll, Token};
 use vservo_config::Config;
 use vservo_protocol::clock::monotonic_ns;
@@ -26,8 +26,6 @@ use vservo_ros2::arm_driver::{ArmFollower, ArmSettings};
 use vservo_ros2::convert::StampClock;
 use vservo_ros2::msg::{Float64MultiArray, Image, JointState, RosType};
 use vservo_ros2::{image_in, qos};
-
-use crate::graph;
 
 const ARM: Token = Token(0);
 const CAMERA: Token = Token(1);
@@ -103,14 +101,7 @@ struct RosSide {
 impl RosSide {
     fn open(config: &Config) -> anyhow::Result<Self> {
         let settings = &config.ros2;
-        let context = ros2_client::Context::from_domain_participant(graph::participant(settings)?)
-            .map_err(|e| anyhow::anyhow!("creating the ROS 2 context: {e:?}"))?;
-        let namespace = if settings.namespace.is_empty() { "/" } else { settings.namespace.as_str() };
-        let node_name = NodeName::new(namespace, "vservo_driver")
-            .map_err(|e| anyhow::anyhow!("ros2.namespace {namespace:?}: {e:?}"))?;
-        let mut node = context
-            .new_node(node_name, NodeOptions::new().enable_rosout(false))
-            .map_err(|e| anyhow::anyhow!("creating the ROS 2 node: {e:?}"))?;
+        let (context, mut node) = vservo_ros2::domain::node(settings, "vservo_driver")?;
         let driver = &settings.driver;
         let arm = if driver.arm {
             Some(ArmTopics {

@@ -3,8 +3,7 @@
 //! (`crate::services` answers them).
 
 use ros2_client::{
-    Context, MessageTypeName, Name, Node, NodeName, NodeOptions, Publisher, QosProfile, Server,
-    ServiceMapping, ServiceTypeName,
+    Context, MessageTypeName, Name, Node, Publisher, QosProfile, Server, ServiceMapping, ServiceTypeName,
 };
 use vservo_config::{Ros2, Ros2Topic};
 use vservo_ros2::msg::{
@@ -38,14 +37,7 @@ pub struct Graph {
 impl Graph {
     /// Joins the domain and creates the node, its publishers and its services.
     pub fn open(settings: &Ros2) -> anyhow::Result<Self> {
-        let context = Context::from_domain_participant(participant(settings)?)
-            .map_err(|e| anyhow::anyhow!("creating the ROS 2 context: {e:?}"))?;
-        let namespace = if settings.namespace.is_empty() { "/" } else { settings.namespace.as_str() };
-        let node_name = NodeName::new(namespace, names::NODE)
-            .map_err(|e| anyhow::anyhow!("ros2.namespace {namespace:?}: {e:?}"))?;
-        let mut node = context
-            .new_node(node_name, NodeOptions::new().enable_rosout(false))
-            .map_err(|e| anyhow::anyhow!("creating the ROS 2 node: {e:?}"))?;
+        let (context, mut node) = vservo_ros2::domain::node(settings, names::NODE)?;
         let mut maker = Maker { node: &mut node, settings };
         let graph = Self {
             joint_states: maker.publisher(Ros2Topic::JointStates, qos::STREAMS)?,
@@ -89,8 +81,6 @@ impl Graph {
         }
     }
 }
-
-pub use vservo_ros2::domain::participant;
 
 struct Maker<'a> {
     node: &'a mut Node,

@@ -3,7 +3,7 @@
 
 use std::time::{Duration, Instant};
 
-use ros2_client::{MessageTypeName, Name, NodeName, NodeOptions};
+use ros2_client::{MessageTypeName, Name};
 use vservo_config::Ros2;
 
 use crate::msg::{JointState, RosType};
@@ -15,14 +15,7 @@ pub fn joint_state_names(
     topic: &str,
     window: Duration,
 ) -> anyhow::Result<Option<Vec<String>>> {
-    let context = ros2_client::Context::from_domain_participant(crate::domain::participant(settings)?)
-        .map_err(|e| anyhow::anyhow!("creating the ROS 2 context: {e:?}"))?;
-    let namespace = if settings.namespace.is_empty() { "/" } else { settings.namespace.as_str() };
-    let node_name = NodeName::new(namespace, "vservoctl_check")
-        .map_err(|e| anyhow::anyhow!("ros2.namespace {namespace:?}: {e:?}"))?;
-    let mut node = context
-        .new_node(node_name, NodeOptions::new().enable_rosout(false))
-        .map_err(|e| anyhow::anyhow!("creating the ROS 2 node: {e:?}"))?;
+    let (_context, mut node) = crate::domain::node(settings, "vservoctl_check")?;
     let name = Name::parse(topic).map_err(|e| anyhow::anyhow!("the ROS name {topic:?}: {e:?}"))?;
     let ros_topic = node
         .create_topic(&name, MessageTypeName::new(JointState::PACKAGE, JointState::NAME), &qos::SENSOR_DATA)
