@@ -33,9 +33,10 @@
 //! - `target`, `object`, `reload`, `safe-stop`, `resume`, `move-joints` and `servo` ([`commands`]);
 //! - `check` ([`check`]): the preflight on a held cell, reading only: `check/observe` watches joint states,
 //!   frames, status and gains for a while (a second by default), `check/ros_names` hears a ROS 2 arm's joint
-//!   names over DDS (`vservo_ros2::probe`), `check/verdicts` judges each — period, joints, kinematics against
-//!   the board seen, camera and marks, the desired pose's reach, the first twist through the cell's own rmrc
-//!   stage — as pure functions with unit tests; PASS or FAIL with the value measured;
+//!   names over DDS (`vservo_ros2::probe`); pure judgements with unit tests: `check/verdicts` (held, period,
+//!   joints), `check/view` (kinematics against the board seen, camera and marks, the desired pose's reach),
+//!   `check/first_twist` (the law's twist through the cell's own rmrc stage); PASS or FAIL with the value
+//!   measured;
 //! - `record` ([`record`]): MCAP with zstd chunks, files created with mode 0600; with `--ros2` the ROS 2
 //!   bridge's messages through `vservo_ros2::translate`, ROS 2's profile, `ros2msg` schemas and CDR
 //!   ([`record_ros2`]); `plot` ([`plot_recording`]): the figures of `sim` from a recording, turned back into a

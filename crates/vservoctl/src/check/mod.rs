@@ -15,9 +15,11 @@
 //! Each check prints a line, PASS or FAIL with what it measured; `--json` prints one object. Exit code 0 when
 //! every check passes, 1 when one fails.
 
+mod first_twist;
 mod observe;
 mod ros_names;
 pub mod verdicts;
+mod view;
 
 use std::time::Duration;
 
@@ -64,10 +66,10 @@ pub fn run(args: &CheckArgs) -> anyhow::Result<()> {
         verdicts::held(&observed),
         verdicts::joint_states(&observed, &config),
         verdicts::joints(&observed, &config),
-        verdicts::kinematics(&observed, &config),
-        verdicts::camera(&observed, &config),
-        verdicts::desired_pose(&observed, &config),
-        verdicts::first_twist(&observed, &cell),
+        view::kinematics(&observed, &config),
+        view::camera(&observed, &config),
+        view::desired_pose(&observed, &config),
+        first_twist::first_twist(&observed, &cell),
     ];
     if args.json {
         print_stdout(&format!("{}\n", as_json(&connection.instance, &config.origin, &lines)))?;

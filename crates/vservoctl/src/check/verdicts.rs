@@ -1,24 +1,16 @@
-//! The preflight's judgements: pure functions from what was observed of the cell (and the configuration in
-//! force) to one [`Line`] each. Nothing here reads a message or a clock, so each can be checked on its own.
+//! The preflight's judgements of the stream and the joints, and what every judgement shares: pure functions from
+//! what was observed of the cell (and the configuration in force) to one [`Line`] each. Nothing here reads a
+//! message or a clock, so each can be checked on its own. The camera's view: [`super::view`]; the first twist:
+//! [`super::first_twist`].
 
 use serde_json::{Value, json};
 use vservo_arm::{JointVector, SerialArm};
-use vservo_cell::{Cell, DriverTick, TwistLimits};
 use vservo_config::Config;
-use vservo_control::Twist;
 use vservo_protocol::{DaemonState, Fault};
 use vservo_scene::{FeatureVector, IsometryMatrix3, MARKS};
 
 /// A joint state period this far from the configured one (share of it, on the median) fails.
 pub const PERIOD_TOLERANCE: f64 = 0.05;
-/// The board seen farther than this from where the configuration places it (m) fails the kinematics check.
-pub const BOARD_POSITION_TOLERANCE_M: f64 = 0.025;
-/// … or turned more than this (rad, 5°).
-pub const BOARD_ROTATION_TOLERANCE_RAD: f64 = 5.0 * std::f64::consts::PI / 180.0;
-/// Frames this much slower than the configured vision period (median) fail the camera check.
-pub const FRAME_PERIOD_TOLERANCE: f64 = 0.5;
-/// A limit is kept when the ratio to it is at most this (floating-point rounding of the differences).
-const WITHIN: f64 = 1.0 + 1e-6;
 
 /// One check's verdict: whether it passed, the line that says what was measured, and the values.
 #[derive(Debug, Clone, PartialEq)]
@@ -34,7 +26,7 @@ pub struct Line {
 }
 
 impl Line {
-    fn new(name: &'static str, pass: bool, text: String, values: Value) -> Self {
+    pub(super) fn new(name: &'static str, pass: bool, text: String, values: Value) -> Self {
         Self { name, pass, text, values }
     }
 }
@@ -100,7 +92,7 @@ impl Observed {
 }
 
 /// The median of a non-empty slice (sorted in place).
-fn median(values: &mut [f64]) -> f64 {
+pub(super) fn median(values: &mut [f64]) -> f64 {
     values.sort_by(f64::total_cmp);
     values[values.len() / 2]
 }
@@ -284,326 +276,23 @@ pub fn joints(observed: &Observed, config: &Config) -> Line {
     )
 }
 
-/// The board as the camera sees it (features of a whole frame, the camera's pose from the measured joints),
-/// in the base frame; `None` when no whole frame came or the features fit no board pose.
-pub fn measured_board(observed: &Observed, config: &Config) -> Option<IsometryMatrix3<f64>> {
-    let (frame, base_from_camera) = observed.newest_whole_frame()?;
-    let features = pinhole_features(config, &frame.features)?;
-    let camera_from_board = config.camera.board_pose_from_features(&config.board, &features)?;
-    Some(base_from_camera * camera_from_board)
-}
-
-/// The features as the pinhole camera has them (undistorted when the vision node left them as seen).
-fn pinhole_features(config: &Config, features: &FeatureVector) -> Option<FeatureVector> {
-    if config.vision.undistort {
-        return Some(*features);
-    }
-    let mut pinhole = *features;
-    for mark in 0..MARKS {
-        let p = config
-            .camera
-            .pinhole_of_observed(&nalgebra::Point2::new(features[2 * mark], features[2 * mark + 1]))?;
-        pinhole[2 * mark] = p.x;
-        pinhole[2 * mark + 1] = p.y;
-    }
-    Some(pinhole)
-}
-
-/// The arm's measured pose agrees with the configured kinematics: the board the camera sees, placed in the
-/// base frame by the forward kinematics of the measured joints and `tool_from_camera`, is where the
-/// configuration places it (by `[desired]`), within [`BOARD_POSITION_TOLERANCE_M`] and
-/// [`BOARD_ROTATION_TOLERANCE_RAD`].
-pub fn kinematics(observed: &Observed, config: &Config) -> Line {
-    let name = "kinematics";
-    let Some(measured) = measured_board(observed, config) else {
-        return Line::new(
-            name,
-            false,
-            "no frame with all four marks and the camera's pose: nothing to compare the kinematics with (see \
-             camera)"
-                .to_string(),
-            Value::Null,
-        );
-    };
-    let configured = config.base_from_board(&config.arm);
-    let offset = configured.inverse() * measured;
-    let distance_m = offset.translation.vector.norm();
-    let angle_rad = offset.rotation.angle();
-    let pass = distance_m <= BOARD_POSITION_TOLERANCE_M && angle_rad <= BOARD_ROTATION_TOLERANCE_RAD;
-    let text = format!(
-        "the board seen from the measured joints is {:.1} mm and {:.2}° from where the configuration places it \
-         (at most {:.0} mm, {:.0}°){}",
-        distance_m * 1e3,
-        angle_rad.to_degrees(),
-        BOARD_POSITION_TOLERANCE_M * 1e3,
-        BOARD_ROTATION_TOLERANCE_RAD.to_degrees(),
-        if pass {
-            ""
-        } else {
-            ": the arm's kinematics, tool_from_camera, the camera's intrinsics or [desired] (which places the \
-             board) are not the cell's, or the board is not where it should stand"
-        }
-    );
-    Line::new(
-        name,
-        pass,
-        text,
-        json!({ "board_offset_mm": distance_m * 1e3, "board_offset_deg": angle_rad.to_degrees(),
-                "measured_base_from_board_m": measured.translation.vector.as_slice() }),
-    )
-}
-
-/// Frames arrive (at about the configured vision period) and the target is found: all four marks in the
-/// newest frame.
-pub fn camera(observed: &Observed, config: &Config) -> Line {
-    let name = "camera";
-    let configured_ms = config.timing.vision_period_s * 1e3;
-    let Some(newest) = observed.frames.last() else {
-        return Line::new(
-            name,
-            false,
-            format!(
-                "no frame in {:.1} s: is the camera (or its driver) running, and the vision node healthy \
-                 (`vservoctl status`)?",
-                observed.window_s
-            ),
-            json!({ "frames": 0 }),
-        );
-    };
-    let mut gaps: Vec<f64> = observed
-        .frames
-        .windows(2)
-        .map(|w| w[1].capture_stamp_ns.saturating_sub(w[0].capture_stamp_ns) as f64 / 1e6)
-        .collect();
-    let median_ms = if gaps.is_empty() { f64::NAN } else { median(&mut gaps) };
-    let slow = median_ms.is_finite() && median_ms > configured_ms * (1.0 + FRAME_PERIOD_TOLERANCE);
-    let found = newest.marks_found;
-    let whole = found as usize == MARKS;
-    let text = format!(
-        "{} frames in {:.2} s (every {:.1} ms, median; configured {:.1} ms); the newest found {found} of {MARKS} \
-         marks{}",
-        observed.frames.len(),
-        observed.window_s,
-        median_ms,
-        configured_ms,
-        if !whole {
-            ": the board is not (all) in view — move the arm or the board until the camera sees it"
-        } else if slow {
-            ": frames come slower than configured"
-        } else {
-            ""
-        }
-    );
-    Line::new(
-        name,
-        whole && !slow,
-        text,
-        json!({ "frames": observed.frames.len(), "median_frame_period_ms": finite(median_ms),
-                "configured_frame_period_ms": configured_ms, "marks_found": found }),
-    )
-}
-
-/// Where the camera is to end: the board (as seen, else as configured) with the target in force in front of
-/// it; `None` when the target's features fit no board pose.
-pub fn desired_camera(observed: &Observed, config: &Config) -> Option<IsometryMatrix3<f64>> {
-    let base_from_board =
-        measured_board(observed, config).unwrap_or_else(|| config.base_from_board(&config.arm));
-    let camera_from_board = match observed.desired_features {
-        Some(features) if features != config.desired.features => {
-            config.camera.board_pose_from_features(&config.board, &features)?
-        }
-        _ => config.desired.camera_from_board,
-    };
-    Some(base_from_board * camera_from_board.inverse())
-}
-
-/// The desired pose is reachable: joints inside the limits put the camera there (nearest the joints now),
-/// and the arm is not at a singularity there (manipulability above the interpolator's damping threshold).
-pub fn desired_pose(observed: &Observed, config: &Config) -> Line {
-    let name = "desired_pose";
-    let arm = &config.arm;
-    let q_now = observed.newest_state().map_or(config.desired.joints, |s| s.q);
-    let Some(base_from_camera) = desired_camera(observed, config) else {
-        return Line::new(name, false, "the target's features fit no board pose".to_string(), Value::Null);
-    };
-    let board_from =
-        if measured_board(observed, config).is_some() { "as seen" } else { "as configured: not seen" };
-    let base_from_tool = base_from_camera * config.tool_from_camera.inverse();
-    let position = base_from_camera.translation.vector;
-    let Some(q) = arm.reach(&base_from_tool, &q_now) else {
-        return Line::new(
-            name,
-            false,
-            format!(
-                "unreachable: no joints inside the limits put the camera at its desired pose ({:.3}, {:.3}, {:.3}) m \
-                 in the base frame, {:.3} m from the base (the target before the board {board_from})",
-                position.x,
-                position.y,
-                position.z,
-                position.norm(),
-            ),
-            json!({ "reachable": false, "desired_camera_position_m": position.as_slice() }),
-        );
-    };
-    let manipulability = arm.manipulability(&q);
-    let threshold = config.interpolator.manipulability_threshold;
-    let farthest_rad = (q - q_now).amax();
-    let pass = manipulability > threshold;
-    let text = format!(
-        "reachable (the target before the board {board_from}): joints [{}] rad, at most {farthest_rad:.3} rad from \
-         now; manipulability {manipulability:.4} (the interpolator damps below {threshold:.4}){}",
-        q.iter().take(arm.joint_count()).map(|v| format!("{v:.3}")).collect::<Vec<_>>().join(", "),
-        if pass { "" } else { ": the desired pose is at a singularity" }
-    );
-    Line::new(
-        name,
-        pass,
-        text,
-        json!({ "reachable": true, "joints_rad": &q.as_slice()[..arm.joint_count()],
-                "largest_joint_move_rad": farthest_rad, "manipulability": manipulability,
-                "manipulability_threshold": threshold }),
-    )
-}
-
-/// The motion the first twist makes over one frame, run through the cell's own interpolator from the joints
-/// now: the largest share of each limit it reaches.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct FirstMotion {
-    /// The twist (camera frame: m/s, rad/s).
-    pub twist: Twist,
-    /// Whether the rmrc would take it (within robot.max_camera_speed_m_s and _rotation_rad_s).
-    pub admitted: bool,
-    /// Largest |q̇| / velocity limit.
-    pub velocity_ratio: f64,
-    /// Largest |q̈| / acceleration limit.
-    pub acceleration_ratio: f64,
-    /// Largest |q⃛| / jerk limit (`None` without jerk limits).
-    pub jerk_ratio: Option<f64>,
-    /// Largest tool speed / its cap (0 without a cap).
-    pub tool_speed_ratio: f64,
-}
-
-/// Runs the first twist (the law's on the newest whole frame) through the rmrc for one frame.
-pub fn first_motion(observed: &Observed, cell: &Cell) -> Option<FirstMotion> {
-    let config = cell.config();
-    let (frame, base_from_camera) = observed.newest_whole_frame()?;
-    let q_now = observed.newest_state()?.q;
-    let mut servo = cell.servo();
-    let step = servo.step(Some(vservo_cell::ServoInput {
-        frame: 1,
-        features: &frame.features,
-        base_from_camera: Some(&base_from_camera),
-    }));
-    let twist = step.twist;
-    let period_s = config.robot.period_s;
-    let period_ns = (period_s * 1e9).round() as u64;
-    let ticks = (config.timing.vision_period_s / period_s).round().max(1.0) as u64;
-    let mut rmrc = cell.rmrc(&q_now);
-    let arm = cell.arm();
-    let n = arm.joint_count();
-    let limits: Vec<_> = arm.limits().collect();
-    let settings = &config.interpolator;
-    let (mut q, mut qd, mut qdd) = (q_now, JointVector::zeros(), JointVector::zeros());
-    let mut admitted = true;
-    let mut worst = FirstMotion {
-        twist,
-        admitted,
-        velocity_ratio: 0.0,
-        acceleration_ratio: 0.0,
-        jerk_ratio: settings.jerk_limit.map(|_| 0.0),
-        tool_speed_ratio: 0.0,
-    };
-    for tick in 0..=ticks {
-        let at = DriverTick { epoch: 1, tick, stamp_ns: tick * period_ns, holding: false };
-        rmrc.follow(at, &q, &qd);
-        if tick == 0 {
-            admitted = rmrc.take_twist(&twist, step.verdict.moves(), &TwistLimits::of(config), 0);
-        }
-        rmrc.step(tick, &q, &qd);
-        let reference = *rmrc.reference();
-        let qdd_now = (reference.qd - qd) / period_s;
-        for j in 0..n {
-            worst.velocity_ratio = worst.velocity_ratio.max(reference.qd[j].abs() / limits[j].velocity_max);
-            worst.acceleration_ratio =
-                worst.acceleration_ratio.max(qdd_now[j].abs() / settings.acceleration_limit[j]);
-            if let (Some(jerk), Some(limit)) = (worst.jerk_ratio.as_mut(), settings.jerk_limit) {
-                *jerk = jerk.max(((qdd_now[j] - qdd[j]) / period_s).abs() / limit[j]);
-            }
-        }
-        let tool_velocity = arm.jacobian_base(&reference.q) * reference.qd;
-        let tool_speed = tool_velocity.fixed_rows::<3>(0).norm();
-        if settings.tool_speed_limit_m_s.is_finite() {
-            worst.tool_speed_ratio = worst.tool_speed_ratio.max(tool_speed / settings.tool_speed_limit_m_s);
-        }
-        (q, qd, qdd) = (reference.q, reference.qd, qdd_now);
-    }
-    worst.admitted = admitted;
-    Some(worst)
-}
-
-/// The first twist's joint motion is within the limits: the rmrc takes the twist, and over the first frame
-/// the joint reference keeps every joint's speed, acceleration and jerk limit and the tool's speed cap.
-pub fn first_twist(observed: &Observed, cell: &Cell) -> Line {
-    let name = "first_twist";
-    let Some(motion) = first_motion(observed, cell) else {
-        return Line::new(
-            name,
-            false,
-            "no frame with all four marks, or no joint state: no first twist to check".to_string(),
-            Value::Null,
-        );
-    };
-    let v = motion.twist.fixed_rows::<3>(0).norm();
-    let w = motion.twist.fixed_rows::<3>(3).norm();
-    let within = motion.velocity_ratio <= WITHIN
-        && motion.acceleration_ratio <= WITHIN
-        && motion.jerk_ratio.is_none_or(|r| r <= WITHIN)
-        && motion.tool_speed_ratio <= WITHIN;
-    let pass = motion.admitted && within;
-    let config = cell.config();
-    let text = format!(
-        "the law's first twist |v| {v:.3} m/s, |ω| {w:.3} rad/s{}; over its frame the joints reach {:.2} of their \
-         speed, {:.2} of their acceleration and {} of their jerk limits, the tool {:.2} of its speed cap",
-        if motion.admitted {
-            String::new()
-        } else {
-            format!(
-                " is beyond robot.max_camera_speed_m_s {} / max_camera_rotation_rad_s {}: the rmrc would refuse it \
-                 and stop the arm",
-                config.robot.max_camera_speed_m_s, config.robot.max_camera_rotation_rad_s
-            )
-        },
-        motion.velocity_ratio,
-        motion.acceleration_ratio,
-        motion.jerk_ratio.map_or("(no jerk limit)".to_string(), |r| format!("{r:.2}")),
-        motion.tool_speed_ratio
-    );
-    Line::new(
-        name,
-        pass,
-        text,
-        json!({ "twist": motion.twist.as_slice(), "admitted": motion.admitted,
-                "velocity_ratio": motion.velocity_ratio, "acceleration_ratio": motion.acceleration_ratio,
-                "jerk_ratio": motion.jerk_ratio, "tool_speed_ratio": motion.tool_speed_ratio }),
-    )
-}
-
 /// A number for JSON: `null` when not finite.
-fn finite(value: f64) -> Value {
+pub(super) fn finite(value: f64) -> Value {
     if value.is_finite() { json!(value) } else { Value::Null }
 }
 
+/// The cells the checks' unit tests look at.
 #[cfg(test)]
-mod tests {
+pub(super) mod fixtures {
     use super::*;
 
-    fn ur5e() -> Config {
+    pub fn ur5e() -> Config {
         Config::load(concat!(env!("CARGO_MANIFEST_DIR"), "/../../config/arms/ur5e.toml"))
             .expect("ur5e.toml loads")
     }
 
     /// States every `gap_ns` declaring `period_ns`, at the desired joints.
-    fn states(config: &Config, count: u64, gap_ns: u64, period_ns: u64) -> Vec<StateSample> {
+    pub fn states(config: &Config, count: u64, gap_ns: u64, period_ns: u64) -> Vec<StateSample> {
         (0..count)
             .map(|tick| StateSample {
                 tick,
@@ -616,7 +305,7 @@ mod tests {
     }
 
     /// Frames of the board seen from the desired pose, `marks` of them valid.
-    fn frames(config: &Config, count: u64, marks: usize) -> Vec<FrameSample> {
+    pub fn frames(config: &Config, count: u64, marks: usize) -> Vec<FrameSample> {
         let base_from_camera = config.arm.base_from_tool(&config.desired.joints) * config.tool_from_camera;
         let mut features = config.desired.features;
         for mark in marks..MARKS {
@@ -633,7 +322,7 @@ mod tests {
             .collect()
     }
 
-    fn observed(config: &Config) -> Observed {
+    pub fn observed(config: &Config) -> Observed {
         Observed {
             window_s: 1.0,
             states: states(config, 500, 2_000_000, 2_000_000),
@@ -643,24 +332,12 @@ mod tests {
             ros_joint_names: None,
         }
     }
+}
 
-    #[test]
-    fn the_cell_as_configured_passes_every_pure_check() {
-        let config = ur5e();
-        let seen = observed(&config);
-        for line in [
-            held(&seen),
-            joint_states(&seen, &config),
-            joints(&seen, &config),
-            kinematics(&seen, &config),
-            camera(&seen, &config),
-            desired_pose(&seen, &config),
-        ] {
-            assert!(line.pass, "{line:?}");
-        }
-        // the board seen where the configuration places it, to rounding
-        assert!(kinematics(&seen, &config).values["board_offset_mm"].as_f64().expect("the offset") < 1e-6);
-    }
+#[cfg(test)]
+mod tests {
+    use super::fixtures::*;
+    use super::*;
 
     #[test]
     fn a_servoing_cell_is_not_held() {
@@ -706,60 +383,5 @@ mod tests {
         seen.states.iter_mut().for_each(|s| s.q[2] = 4.0);
         let line = joints(&seen, &config);
         assert!(!line.pass && line.text.contains("joint 3 is at 4.0000 rad"), "{line:?}");
-    }
-
-    #[test]
-    fn three_marks_or_no_frame_fail_the_camera_and_leave_nothing_to_compare() {
-        let config = ur5e();
-        let seen = Observed { frames: frames(&config, 12, 3), ..observed(&config) };
-        let line = camera(&seen, &config);
-        assert!(!line.pass && line.text.contains("3 of 4"), "{line:?}");
-        assert!(!kinematics(&seen, &config).pass);
-        assert!(!camera(&Observed { frames: Vec::new(), ..observed(&config) }, &config).pass);
-    }
-
-    #[test]
-    fn a_board_seen_away_from_where_it_is_configured_fails_the_kinematics() {
-        let config = ur5e();
-        let mut seen = observed(&config);
-        // the camera believed 3 cm higher than the joints put it: the board seems 3 cm off
-        for frame in &mut seen.frames {
-            let pose = frame.base_from_camera.expect("known");
-            frame.base_from_camera = Some(nalgebra::Translation3::new(0.0, 0.0, 0.03) * pose);
-        }
-        let line = kinematics(&seen, &config);
-        assert!(!line.pass, "{line:?}");
-        let offset = line.values["board_offset_mm"].as_f64().expect("the offset");
-        assert!((offset - 30.0).abs() < 1e-6, "{offset}");
-    }
-
-    #[test]
-    fn the_first_twist_from_the_scenario_start_keeps_every_limit_and_uses_the_jerk() {
-        // a real UR5e's cell (the file's own simulated plant is the ideal robot, which keeps no limit)
-        let mut config = ur5e();
-        config.robot.driver = vservo_config::RobotDriver::External;
-        let cell = Cell::new(&config).expect("the UR5e cell");
-        let start = *cell.start_joints();
-        let base_from_camera = config.arm.base_from_tool(&start) * config.tool_from_camera;
-        let features = config
-            .camera
-            .project_marks(&config.board, &config.camera_from_board_at(&config.arm, &start))
-            .expect("the board in front");
-        let mut seen = observed(&config);
-        seen.states.iter_mut().for_each(|s| s.q = start);
-        seen.frames.iter_mut().for_each(|f| {
-            f.features = features;
-            f.base_from_camera = Some(base_from_camera);
-        });
-        let line = first_twist(&seen, &cell);
-        assert!(line.pass, "{line:?}");
-        let jerk = line.values["jerk_ratio"].as_f64().expect("the UR5e has jerk limits");
-        assert!(jerk > 0.5 && jerk <= WITHIN, "{line:?}");
-        // the servo's own twist limit: a cell that allows only a crawl refuses this twist
-        let mut crawl = config.clone();
-        crawl.robot.max_camera_speed_m_s = 0.01;
-        let cell = Cell::new(&crawl).expect("the UR5e cell");
-        let line = first_twist(&seen, &cell);
-        assert!(!line.pass && line.text.contains("would refuse it"), "{line:?}");
     }
 }

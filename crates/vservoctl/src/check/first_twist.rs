@@ -1,0 +1,171 @@
+//! The preflight's judgement of the first twist: the law's twist on the frame now, run through the cell's own
+//! rmrc stage from the joints now, against every joint's speed, acceleration and jerk limit and the tool's cap.
+
+use serde_json::{Value, json};
+use vservo_arm::JointVector;
+use vservo_cell::{Cell, DriverTick, TwistLimits};
+use vservo_control::Twist;
+
+use super::verdicts::{Line, Observed};
+
+/// A limit is kept when the ratio to it is at most this (floating-point rounding of the differences).
+const WITHIN: f64 = 1.0 + 1e-6;
+
+/// The motion the first twist makes over one frame, run through the cell's own interpolator from the joints
+/// now: the largest share of each limit it reaches.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FirstMotion {
+    /// The twist (camera frame: m/s, rad/s).
+    pub twist: Twist,
+    /// Whether the rmrc would take it (within robot.max_camera_speed_m_s and _rotation_rad_s).
+    pub admitted: bool,
+    /// Largest |q̇| / velocity limit.
+    pub velocity_ratio: f64,
+    /// Largest |q̈| / acceleration limit.
+    pub acceleration_ratio: f64,
+    /// Largest |q⃛| / jerk limit (`None` without jerk limits).
+    pub jerk_ratio: Option<f64>,
+    /// Largest tool speed / its cap (0 without a cap).
+    pub tool_speed_ratio: f64,
+}
+
+/// Runs the first twist (the law's on the newest whole frame) through the rmrc for one frame.
+pub fn first_motion(observed: &Observed, cell: &Cell) -> Option<FirstMotion> {
+    let config = cell.config();
+    let (frame, base_from_camera) = observed.newest_whole_frame()?;
+    let q_now = observed.newest_state()?.q;
+    let mut servo = cell.servo();
+    let step = servo.step(Some(vservo_cell::ServoInput {
+        frame: 1,
+        features: &frame.features,
+        base_from_camera: Some(&base_from_camera),
+    }));
+    let twist = step.twist;
+    let period_s = config.robot.period_s;
+    let period_ns = (period_s * 1e9).round() as u64;
+    let ticks = (config.timing.vision_period_s / period_s).round().max(1.0) as u64;
+    let mut rmrc = cell.rmrc(&q_now);
+    let arm = cell.arm();
+    let n = arm.joint_count();
+    let limits: Vec<_> = arm.limits().collect();
+    let settings = &config.interpolator;
+    let (mut q, mut qd, mut qdd) = (q_now, JointVector::zeros(), JointVector::zeros());
+    let mut admitted = true;
+    let mut worst = FirstMotion {
+        twist,
+        admitted,
+        velocity_ratio: 0.0,
+        acceleration_ratio: 0.0,
+        jerk_ratio: settings.jerk_limit.map(|_| 0.0),
+        tool_speed_ratio: 0.0,
+    };
+    for tick in 0..=ticks {
+        let at = DriverTick { epoch: 1, tick, stamp_ns: tick * period_ns, holding: false };
+        rmrc.follow(at, &q, &qd);
+        if tick == 0 {
+            admitted = rmrc.take_twist(&twist, step.verdict.moves(), &TwistLimits::of(config), 0);
+        }
+        rmrc.step(tick, &q, &qd);
+        let reference = *rmrc.reference();
+        let qdd_now = (reference.qd - qd) / period_s;
+        for j in 0..n {
+            worst.velocity_ratio = worst.velocity_ratio.max(reference.qd[j].abs() / limits[j].velocity_max);
+            worst.acceleration_ratio =
+                worst.acceleration_ratio.max(qdd_now[j].abs() / settings.acceleration_limit[j]);
+            if let (Some(jerk), Some(limit)) = (worst.jerk_ratio.as_mut(), settings.jerk_limit) {
+                *jerk = jerk.max(((qdd_now[j] - qdd[j]) / period_s).abs() / limit[j]);
+            }
+        }
+        let tool_velocity = arm.jacobian_base(&reference.q) * reference.qd;
+        let tool_speed = tool_velocity.fixed_rows::<3>(0).norm();
+        if settings.tool_speed_limit_m_s.is_finite() {
+            worst.tool_speed_ratio = worst.tool_speed_ratio.max(tool_speed / settings.tool_speed_limit_m_s);
+        }
+        (q, qd, qdd) = (reference.q, reference.qd, qdd_now);
+    }
+    worst.admitted = admitted;
+    Some(worst)
+}
+
+/// The first twist's joint motion is within the limits: the rmrc takes the twist, and over the first frame
+/// the joint reference keeps every joint's speed, acceleration and jerk limit and the tool's speed cap.
+pub fn first_twist(observed: &Observed, cell: &Cell) -> Line {
+    let name = "first_twist";
+    let Some(motion) = first_motion(observed, cell) else {
+        return Line::new(
+            name,
+            false,
+            "no frame with all four marks, or no joint state: no first twist to check".to_string(),
+            Value::Null,
+        );
+    };
+    let v = motion.twist.fixed_rows::<3>(0).norm();
+    let w = motion.twist.fixed_rows::<3>(3).norm();
+    let within = motion.velocity_ratio <= WITHIN
+        && motion.acceleration_ratio <= WITHIN
+        && motion.jerk_ratio.is_none_or(|r| r <= WITHIN)
+        && motion.tool_speed_ratio <= WITHIN;
+    let pass = motion.admitted && within;
+    let config = cell.config();
+    let text = format!(
+        "the law's first twist |v| {v:.3} m/s, |ω| {w:.3} rad/s{}; over its frame the joints reach {:.2} of their \
+         speed, {:.2} of their acceleration and {} of their jerk limits, the tool {:.2} of its speed cap",
+        if motion.admitted {
+            String::new()
+        } else {
+            format!(
+                " is beyond robot.max_camera_speed_m_s {} / max_camera_rotation_rad_s {}: the rmrc would refuse it \
+                 and stop the arm",
+                config.robot.max_camera_speed_m_s, config.robot.max_camera_rotation_rad_s
+            )
+        },
+        motion.velocity_ratio,
+        motion.acceleration_ratio,
+        motion.jerk_ratio.map_or("(no jerk limit)".to_string(), |r| format!("{r:.2}")),
+        motion.tool_speed_ratio
+    );
+    Line::new(
+        name,
+        pass,
+        text,
+        json!({ "twist": motion.twist.as_slice(), "admitted": motion.admitted,
+                "velocity_ratio": motion.velocity_ratio, "acceleration_ratio": motion.acceleration_ratio,
+                "jerk_ratio": motion.jerk_ratio, "tool_speed_ratio": motion.tool_speed_ratio }),
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::verdicts::fixtures::*;
+    use super::*;
+
+    #[test]
+    fn the_first_twist_from_the_scenario_start_keeps_every_limit_and_uses_the_jerk() {
+        // a real UR5e's cell (the file's own simulated plant is the ideal robot, which keeps no limit)
+        let mut config = ur5e();
+        config.robot.driver = vservo_config::RobotDriver::External;
+        let cell = Cell::new(&config).expect("the UR5e cell");
+        let start = *cell.start_joints();
+        let base_from_camera = config.arm.base_from_tool(&start) * config.tool_from_camera;
+        let features = config
+            .camera
+            .project_marks(&config.board, &config.camera_from_board_at(&config.arm, &start))
+            .expect("the board in front");
+        let mut seen = observed(&config);
+        seen.states.iter_mut().for_each(|s| s.q = start);
+        seen.frames.iter_mut().for_each(|f| {
+            f.features = features;
+            f.base_from_camera = Some(base_from_camera);
+        });
+        let line = first_twist(&seen, &cell);
+        assert!(line.pass, "{line:?}");
+        let jerk = line.values["jerk_ratio"].as_f64().expect("the UR5e has jerk limits");
+        assert!(jerk > 0.5 && jerk <= WITHIN, "{line:?}");
+        // the servo's own twist limit: a cell that allows only a crawl refuses this twist
+        let mut crawl = config.clone();
+        crawl.robot.max_camera_speed_m_s = 0.01;
+        let cell = Cell::new(&crawl).expect("the UR5e cell");
+        let line = first_twist(&seen, &cell);
+        assert!(!line.pass && line.text.contains("would refuse it"), "{line:?}");
+    }
+}
