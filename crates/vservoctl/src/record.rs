@@ -68,21 +68,57 @@ impl Sink for McapSink {
     }
 }
 
-/// The MCAP file: created with mode 0600 (given at creation, no chmod after: no moment at which others could
-/// open it; a file that exists already is overwritten and keeps its mode), zstd-compressed chunks.
-pub fn create(path: &std::path::Path, profile: &str) -> anyhow::Result<mcap::Writer<BufWriter<File>>> {
+/// Where a recording goes: written to a file of its own beside the name asked for (made new, mode 0600, never
+/// through a symbolic link: `O_CREAT | O_EXCL | O_NOFOLLOW`), and moved to the name once finished
+/// ([`Output::publish`]): a symbolic link or a file another user planted at the name, in a shared folder, is
+/// replaced, never written through or into. A recording that does not finish leaves nothing behind.
+pub struct Output {
+    partial: PathBuf,
+    target: PathBuf,
+    published: bool,
+}
+
+impl Output {
+    /// Flushes the finished MCAP file to disk and moves it to its name.
+    pub fn publish(mut self, writer: mcap::Writer<BufWriter<File>>) -> anyhow::Result<()> {
+        let file = writer.into_inner().into_inner().map_err(|e| e.into_error())?;
+        file.sync_all().with_context(|| format!("writing {}", self.partial.display()))?;
+        std::fs::rename(&self.partial, &self.target)
+            .with_context(|| format!("moving the recording to {}", self.target.display()))?;
+        self.published = true;
+        Ok(())
+    }
+}
+
+impl Drop for Output {
+    fn drop(&mut self) {
+        if !self.published {
+            let _ = std::fs::remove_file(&self.partial);
+        }
+    }
+}
+
+/// The MCAP file (zstd-compressed chunks) and where it goes once finished ([`Output`]).
+pub fn create(
+    path: &std::path::Path,
+    profile: &str,
+) -> anyhow::Result<(mcap::Writer<BufWriter<File>>, Output)> {
+    let name = path.file_name().with_context(|| format!("{}: not a file name", path.display()))?;
+    let partial = path.with_file_name(format!(".{}.{}.partial", name.to_string_lossy(), std::process::id()));
     let file = OpenOptions::new()
         .write(true)
-        .create(true)
-        .truncate(true)
+        .create_new(true)
         .mode(0o600)
-        .open(path)
-        .with_context(|| format!("creating {}", path.display()))?;
-    Ok(mcap::WriteOptions::new()
+        .custom_flags(nix::libc::O_NOFOLLOW)
+        .open(&partial)
+        .with_context(|| format!("creating {}", partial.display()))?;
+    let output = Output { partial, target: path.to_path_buf(), published: false };
+    let writer = mcap::WriteOptions::new()
         .profile(profile)
         .library(concat!("vservoctl ", env!("CARGO_PKG_VERSION")))
         .compression(Some(mcap::Compression::Zstd))
-        .create(BufWriter::new(file))?)
+        .create(BufWriter::new(file))?;
+    Ok((writer, output))
 }
 
 pub fn run(args: &RecordArgs) -> anyhow::Result<()> {
@@ -95,11 +131,14 @@ pub fn run(args: &RecordArgs) -> anyhow::Result<()> {
     }
     // started before the daemon, it waits for the instance (within its duration)
     let connection = Connection::open_when_there(&args.instance, over)?;
-    let writer = create(&args.out, "")?;
+    let (writer, output) = create(&args.out, "")?;
     let sink = McapSink { writer, channels: BTreeMap::new() };
     let mut bridge = Bridge::new(sink, &connection, &args.instance, args.image_every)?;
     bridge.run(&connection, over)?;
-    bridge.sink.writer.finish()?;
-    eprintln!("vservoctl: recorded {} messages to {}", bridge.written, args.out.display());
+    let written = bridge.written;
+    let mut writer = bridge.sink.writer;
+    writer.finish()?;
+    output.publish(writer)?;
+    eprintln!("vservoctl: recorded {written} messages to {}", args.out.display());
     Ok(())
 }

@@ -36,6 +36,8 @@ pub fn run(args: &RecordArgs, mut over: impl FnMut() -> bool) -> anyhow::Result<
         std::thread::sleep(LOOK_EVERY);
     }
     recording.writer.finish()?;
+    let Recording { writer, output, .. } = recording;
+    output.publish(writer)?;
     eprintln!("vservoctl: recorded {} ROS 2 messages to {}", recording.written, &args.out.display());
     Ok(())
 }
@@ -43,6 +45,8 @@ pub fn run(args: &RecordArgs, mut over: impl FnMut() -> bool) -> anyhow::Result<
 /// The MCAP file and its channels.
 struct Recording {
     writer: mcap::Writer<std::io::BufWriter<std::fs::File>>,
+    /// Where it goes once finished.
+    output: crate::record::Output,
     /// channel id and last sequence number, by topic
     channels: BTreeMap<Ros2Topic, (u16, u32)>,
     written: u64,
@@ -52,7 +56,7 @@ struct Recording {
 
 impl Recording {
     fn create(args: &RecordArgs, namespace: &str, topics: &[Ros2Topic]) -> anyhow::Result<Self> {
-        let mut writer = crate::record::create(&args.out, "ros2")?;
+        let (mut writer, output) = crate::record::create(&args.out, "ros2")?;
         let mut channels = BTreeMap::new();
         for topic in topics {
             let (schema_name, schema_text) = vservo_ros2::schema::of_topic(*topic);
@@ -61,7 +65,7 @@ impl Recording {
             let id = writer.add_channel(schema_id, &name, "cdr", &BTreeMap::new())?;
             channels.insert(*topic, (id, 0));
         }
-        Ok(Self { writer, channels, written: 0, error: None })
+        Ok(Self { writer, output, channels, written: 0, error: None })
     }
 
     /// Writes a message, logged now and published at its stamp; keeps the first error.
