@@ -81,6 +81,10 @@ mod tests {
             "docs/PROTOCOL.md is out of date: paste `cargo run -q -p vservo-protocol --example layout` into its Payloads section"
         );
         assert!(
+            doc.contains(&format!("(`u32`, currently {};", crate::SCHEMA_VERSION)),
+            "docs/PROTOCOL.md's prose names another schema than SCHEMA_VERSION"
+        );
+        assert!(
             doc.contains(&crate::DriverError::legend()),
             "docs/PROTOCOL.md's \"Driver errors\" lists another legend than `DriverError::legend()`"
         );

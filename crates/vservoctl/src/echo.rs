@@ -9,7 +9,7 @@ use vservo_protocol::{
     ObjectMsg, SimWorldMsg, TelemetryMsg, Topic, WireField,
 };
 
-use crate::instance::{Connection, InstanceArg};
+use crate::instance::{Connection, InstanceArg, WAIT_FOR_SERVICE, when_there};
 use crate::output::print_stdout;
 
 /// Arguments of `vservoctl echo`.
@@ -28,22 +28,6 @@ pub struct EchoArgs {
     /// Stop after this long (s).
     #[arg(long, value_parser = crate::seconds_arg::seconds)]
     duration_s: Option<f64>,
-}
-
-/// How long `echo` without `--duration-s` waits for a service to appear (a daemon still starting).
-const WAIT_FOR_SERVICE: Duration = Duration::from_secs(2);
-
-/// Opens a service, waiting for it while a daemon may still be starting: until `until`, or
-/// [`WAIT_FOR_SERVICE`] without one. A client only opens, never creates: with no daemon this fails.
-fn when_there<S>(until: Option<Instant>, mut open: impl FnMut() -> anyhow::Result<S>) -> anyhow::Result<S> {
-    let give_up = until.unwrap_or_else(|| Instant::now() + WAIT_FOR_SERVICE);
-    loop {
-        match open() {
-            Ok(opened) => return Ok(opened),
-            Err(error) if Instant::now() >= give_up => return Err(error),
-            Err(_) => std::thread::sleep(Duration::from_millis(20)),
-        }
-    }
 }
 
 /// Prints a topic's messages as their declaration's JSON view.

@@ -108,6 +108,25 @@ impl Connection {
     }
 }
 
+/// How long a client without a deadline of its own waits for a service (a daemon still starting).
+pub const WAIT_FOR_SERVICE: Duration = Duration::from_secs(2);
+
+/// Opens a service, waiting for it while a daemon may still be starting: until `until`, or
+/// [`WAIT_FOR_SERVICE`] without one. A client only opens, never creates: with no daemon this fails.
+pub fn when_there<S>(
+    until: Option<Instant>,
+    mut open: impl FnMut() -> anyhow::Result<S>,
+) -> anyhow::Result<S> {
+    let give_up = until.unwrap_or_else(|| Instant::now() + WAIT_FOR_SERVICE);
+    loop {
+        match open() {
+            Ok(opened) => return Ok(opened),
+            Err(error) if Instant::now() >= give_up => return Err(error),
+            Err(_) => std::thread::sleep(Duration::from_millis(20)),
+        }
+    }
+}
+
 /// Polls `receive` every millisecond until it yields or `timeout` passes.
 pub fn wait_for<T>(timeout: Duration, mut receive: impl FnMut() -> Option<T>) -> Option<T> {
     let until = Instant::now() + timeout;

@@ -47,8 +47,9 @@
 //!   They end with the daemon (parent-death signal); the drivers are stopped last, after the arm's ramp to
 //!   rest. A driver of `driver = "external"` or `source = "external"` (the user's, the Python reference
 //!   drivers, `vservo-gst-camera`) is never started by vservod.
-//! - [`stop_path`] reads the safe-stop FIFO every cycle (any byte a safe stop, `requested`, logged once per
-//!   burst); [`log_limit`] logs commands one line each up to 10 a second and a summary for floods;
+//! - [`stop_path`] judges the safe-stop FIFO's bursts, and `supervisor/stop_path_watch` reads the FIFO every
+//!   cycle (any byte a safe stop, `requested`, logged once per burst; the path replaced by something else a safe
+//!   stop too, and the FIFO made again); [`log_limit`] logs commands one line each up to 10 a second and a summary for floods;
 //!   [`systemd`] speaks sd_notify; [`node_process`] is `vservod node <role>`.
 //!
 //! Commands go client → `command` (request-response) → vservod, which validates them, designs gains

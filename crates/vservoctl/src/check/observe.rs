@@ -10,7 +10,7 @@ use vservo_protocol::{
 use vservo_scene::FeatureVector;
 
 use super::verdicts::{FrameSample, Observed, StateSample};
-use crate::instance::Connection;
+use crate::instance::{Connection, when_there};
 
 /// How long the check waits for a service of a daemon that may still be starting.
 const WAIT_FOR_SERVICES: Duration = Duration::from_secs(3);
@@ -20,16 +20,8 @@ fn subscriber<T: std::fmt::Debug + iceoryx2::prelude::ZeroCopySend + 'static>(
     connection: &Connection,
     topic: Topic,
 ) -> anyhow::Result<iceoryx2::port::subscriber::Subscriber<iceoryx2::prelude::ipc::Service, T, ()>> {
-    let give_up = Instant::now() + WAIT_FOR_SERVICES;
-    loop {
-        match connection.subscriber::<T>(topic) {
-            Ok(subscriber) => return Ok(subscriber),
-            Err(error) if Instant::now() >= give_up => {
-                return Err(error.context(format!("no {} service: is vservod running?", topic.name())));
-            }
-            Err(_) => std::thread::sleep(Duration::from_millis(20)),
-        }
-    }
+    when_there(Some(Instant::now() + WAIT_FOR_SERVICES), || connection.subscriber::<T>(topic))
+        .map_err(|error| error.context(format!("no {} service: is vservod running?", topic.name())))
 }
 
 /// Watches the instance for `window`.

@@ -14,6 +14,7 @@ mod observe;
 mod restart;
 mod shutdown;
 mod status;
+mod stop_path_watch;
 pub mod streams;
 
 use std::path::Path;
@@ -35,7 +36,7 @@ use crate::commands::{Commander, LoopState};
 use crate::faults::Conditions;
 use crate::helpers::{Helper, Launch};
 use crate::safety::Safety;
-use crate::stop_path::{BurstEvent, Bursts};
+use crate::stop_path::Bursts;
 use crate::systemd::Systemd;
 use cleanup::{Cleanup, CleanupClock};
 use health::{CameraSeen, CameraWatch, Readiness, RobotChange};
@@ -64,6 +65,19 @@ pub fn run(
     }
     daemon.stop();
     Ok(())
+}
+
+/// Says that an external driver (`what`) has not appeared after `waited`, and what to check; the drivers vservod
+/// starts itself (`started`) say why in their own lines.
+fn say_absent(instance: &str, what: &str, started: &str, waited: Duration) {
+    tracing::warn!(
+        waited_s = waited.as_secs_f64(),
+        instance,
+        schema = vservo_protocol::SCHEMA_VERSION,
+        "no {what} has appeared: is it running, for this instance (and this user's runtime directory), on the same \
+         schema (docs/PROTOCOL.md)? One vservod starts ({started}) says why above; `vservoctl status` shows the \
+         streams' writers"
+    );
 }
 
 /// The configuration's settings the supervisor runs by.
@@ -374,45 +388,6 @@ impl Daemon {
         }
     }
 
-    /// The safe-stop path replaced (by a process of the daemon's user: a plain file swallows every request): a
-    /// safe stop, as if asked for on it, and the FIFO made again.
-    fn keep_stop_path(&mut self) {
-        if self.stop_path.intact() {
-            return;
-        }
-        let path = self.stop_path.path().display().to_string();
-        let held = self.safety.request_safe_stop_by_path().err();
-        let remade = self.stop_path.remake();
-        tracing::error!(
-            path,
-            already_held = held.map(|h| h.to_string()),
-            remade = ?remade.as_ref().map(|_| "yes"),
-            "the safe-stop path was replaced by something that is not this daemon's FIFO: a safe stop (requested), \
-             and the FIFO made again"
-        );
-    }
-
-    /// The safe-stop path: any byte asks for a safe stop (fault `requested`); logged once per burst.
-    fn hear_stop_path(&mut self, now: Instant) {
-        self.keep_stop_path();
-        let requests = self.stop_path.drain();
-        let burst = self.stop_bursts.on_cycle(requests, now);
-        let path = self.stop_path.path().display().to_string();
-        if requests > 0 {
-            let outcome = self.safety.request_safe_stop_by_path();
-            if let (Some(BurstEvent::Began), Err(held)) = (burst, outcome) {
-                tracing::warn!(path, "safe-stop path: a safe stop asked for, and {held}");
-            }
-        }
-        if let Some(BurstEvent::Ended { requests }) = burst {
-            tracing::info!(
-                path,
-                requests,
-                "safe-stop path: a burst of requests ended (each one a safe stop)"
-            );
-        }
-    }
-
     /// The robot driver's state from its latest joint state (a change logged), whether the camera sends
     /// frames, and what a resume depends on.
     fn judge_robot_and_conditions(&mut self, now: Instant) -> Conditions {
@@ -421,35 +396,20 @@ impl Daemon {
         log_robot_change(health::robot_change(self.robot, robot), self.settings.robot_deadline);
         self.robot = robot;
         let waited = Duration::from_nanos(monotonic_ns().saturating_sub(self.started_ns));
-        let heard_robot = robot != RobotState::Waiting;
-        if health::driver_absent(self.settings.external_robot, heard_robot, waited, self.driver_absence_said)
-        {
+        let (external_robot, external_camera) = (self.settings.external_robot, self.settings.external_camera);
+        if health::driver_absent(
+            external_robot,
+            robot != RobotState::Waiting,
+            waited,
+            self.driver_absence_said,
+        ) {
             self.driver_absence_said = true;
-            tracing::warn!(
-                waited_s = waited.as_secs_f64(),
-                instance = %self.settings.instance,
-                schema = vservo_protocol::SCHEMA_VERSION,
-                "no robot driver has appeared: is it running, for this instance (and this user's runtime \
-                 directory), on the same schema (docs/PROTOCOL.md)? A driver vservod starts (ros2, franka) says \
-                 why above; `vservoctl status` shows the streams' writers"
-            );
+            say_absent(&self.settings.instance, "robot driver", "ros2, franka", waited);
         }
         let heard_camera = self.heard.features_at.is_some();
-        if health::driver_absent(
-            self.settings.external_camera,
-            heard_camera,
-            waited,
-            self.camera_absence_said,
-        ) {
+        if health::driver_absent(external_camera, heard_camera, waited, self.camera_absence_said) {
             self.camera_absence_said = true;
-            tracing::warn!(
-                waited_s = waited.as_secs_f64(),
-                instance = %self.settings.instance,
-                schema = vservo_protocol::SCHEMA_VERSION,
-                "no camera driver has appeared (no frame): is it running, for this instance (and this user's \
-                 runtime directory), on the same schema (docs/PROTOCOL.md)? A camera driver vservod starts \
-                 (ros2) says why above; `vservoctl status` shows the streams' writers"
-            );
+            say_absent(&self.settings.instance, "camera driver", "ros2", waited);
         }
         let vision = self.nodes.iter().find(|n| n.record.role == NodeRole::Vision);
         let seen = CameraSeen {
