@@ -67,7 +67,7 @@ mod servo_stage;
 pub mod target;
 mod vision_stage;
 
-pub use plant_stage::PlantStage;
+pub use plant_stage::{CommandReference, PlantStage};
 pub use rmrc_stage::{ActuatorCommand, DriverTick, Following, RmrcStage, TwistLimits};
 pub use servo_stage::{ServoInput, ServoStage, ServoStep, ServoVerdict, feature_error_px};
 pub use vision_stage::{DeliveredFrame, VisionFrame, VisionStage};

@@ -11,6 +11,19 @@ use vservo_sim::world::ObjectMotion;
 
 use crate::ActuatorCommand;
 
+/// Below this speed (rad/s) on every joint, a braking drive locks where the arm is.
+const LOCKS_BELOW_RAD_S: f64 = 0.01;
+
+/// The reference a command was computed on, q_d at the end of its period and q̇_d over it (the joint command's
+/// `q_ref_rad` and `qd_ref_rad_s`): what the drive's own servo follows over a period whose answer came late.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CommandReference {
+    /// q_d (rad).
+    pub q: JointVector,
+    /// q̇_d (rad/s).
+    pub qd: JointVector,
+}
+
 /// The simulated PUMA 560 and its world, one tick at a time.
 #[derive(Debug, Clone)]
 pub struct PlantStage {
@@ -118,29 +131,53 @@ impl PlantStage {
         }
     }
 
-    /// Advances one tick with no command: the drives hold the arm where it was when commands stopped
-    /// coming, braking it to rest with the joint servo's gains (a real drive's controller watchdog).
+    /// Advances one tick on a command that answered the state of `late_ticks` periods ago (its answer to this
+    /// one came late): the drive's own servo follows that command's reference carried on at its speed. Never the
+    /// command's torque again: it was computed for a state the arm has left, and a braking torque held on turns
+    /// a joint back.
+    pub fn follow_late(&mut self, reference: &CommandReference, late_ticks: u64) -> &JointState {
+        self.held_at = None;
+        let ahead_s = late_ticks as f64 * self.control_period_s;
+        let q = reference.q + reference.qd * ahead_s;
+        match self.plant.mode() {
+            PlantMode::Kinematic => self.plant.step_kinematic(&q, &reference.qd, self.control_period_s),
+            PlantMode::Dynamic => {
+                let state = *self.plant.state();
+                let torque =
+                    self.holding_servo.torque(&state.q, &state.qd, &servo_reference(q, reference.qd));
+                self.plant.step_dynamic(&torque, self.control_period_s)
+            }
+        }
+    }
+
+    /// Advances one tick with no command: the drives brake the arm to rest with the joint servo's damping (no
+    /// pull back towards where commands stopped, which would turn a fast joint back), then hold it where it
+    /// came to rest (a real drive's controller watchdog).
     pub fn hold(&mut self) -> &JointState {
         let state = *self.plant.state();
-        let held_at = *self.held_at.get_or_insert(state.q);
+        let moving = state.qd.iter().any(|v| v.abs() >= LOCKS_BELOW_RAD_S);
+        let held_at = match self.held_at {
+            Some(_) if moving && self.plant.mode() == PlantMode::Dynamic => state.q,
+            Some(at) => at,
+            None => state.q,
+        };
+        self.held_at = Some(held_at);
         match self.plant.mode() {
             PlantMode::Kinematic => {
                 self.plant.step_kinematic(&held_at, &JointVector::zeros(), self.control_period_s)
             }
             PlantMode::Dynamic => {
-                let reference = Reference {
-                    q: held_at,
-                    qd: JointVector::zeros(),
-                    qdd: JointVector::zeros(),
-                    stopping: true,
-                    damped: false,
-                    velocity_limited: false,
-                };
+                let reference = servo_reference(held_at, JointVector::zeros());
                 let torque = self.holding_servo.torque(&state.q, &state.qd, &reference);
                 self.plant.step_dynamic(&torque, self.control_period_s)
             }
         }
     }
+}
+
+/// A reference for the drive's servo: at `q` with speed `qd`, not accelerating.
+fn servo_reference(q: JointVector, qd: JointVector) -> Reference {
+    Reference { q, qd, qdd: JointVector::zeros(), stopping: true, damped: false, velocity_limited: false }
 }
 
 #[cfg(test)]
@@ -171,5 +208,41 @@ mod tests {
         let expected = desired_rotation
             * ObjectMotion::Circle { radius_m: 0.1, rev_per_min: 5.0 }.offset_in_desired_camera(0.1);
         assert!((moved - expected).norm() < 1e-12, "{moved} vs {expected}");
+    }
+
+    #[test]
+    fn the_drive_follows_a_late_reference_with_its_own_servo_and_brakes_to_rest_without_turning_back() {
+        let config =
+            vservo_config::Config::load(concat!(env!("CARGO_MANIFEST_DIR"), "/../../config/vservo.toml"))
+                .expect("the default config loads");
+        assert_eq!(config.plant.mode, PlantMode::Dynamic);
+        let cell = Cell::new(&config).expect("the default cell");
+        let start = *cell.start_joints();
+        let mut plant = cell.plant_resumed(&start, 0);
+        // a reference sweeping the waist and the shoulder at 1 rad/s, followed by the drive's servo alone
+        let qd = JointVector::from_fn(|j, _| if j < 2 { 1.0 } else { 0.0 });
+        for late in 1..=300 {
+            let reference = CommandReference { q: start, qd };
+            plant.follow_late(&reference, late);
+            assert!(!plant.is_holding());
+        }
+        let moving = plant.state().qd;
+        assert!((moving[0] - 1.0).abs() < 0.02 && (moving[1] - 1.0).abs() < 0.02, "{moving}");
+        // then no command: braked to rest, never turned back, and held where it came to rest
+        let mut slowest = f64::INFINITY;
+        for _ in 0..300 {
+            let qd = plant.hold().qd;
+            assert!(plant.is_holding());
+            slowest = slowest.min(qd[0]).min(qd[1]);
+        }
+        assert!(slowest > -0.002, "a joint turned back at {slowest} rad/s");
+        let rest = *plant.state();
+        assert!(rest.qd.iter().all(|v| v.abs() < LOCKS_BELOW_RAD_S), "{}", rest.qd);
+        for _ in 0..100 {
+            plant.hold();
+        }
+        // (a creep of a few 0.1 mrad stays: the drive's friction against the servo, as before)
+        let moved = (plant.state().q - rest.q).norm();
+        assert!(moved < 1e-3, "held where it came to rest: moved {moved} rad");
     }
 }

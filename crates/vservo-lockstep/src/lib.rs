@@ -36,7 +36,8 @@ pub use vservo_cell::CellError as SimError;
 pub use vservo_cell::DriverTick;
 pub use vservo_cell::ServoVerdict;
 use vservo_cell::{
-    ActuatorCommand, Cell, Following, PlantStage, RmrcStage, ServoInput, ServoStage, TwistLimits, VisionStage,
+    ActuatorCommand, Cell, CommandReference, Following, PlantStage, RmrcStage, ServoInput, ServoStage,
+    TwistLimits, VisionStage,
 };
 use vservo_sim::plant::{Faults, JointState};
 
@@ -177,8 +178,9 @@ pub struct Lockstep {
     /// The ticks the rmrc started again at rest in the last run.
     resyncs: Vec<u64>,
     waiting: Option<Waiting>,
-    /// The commands of the latest ticks, by tick modulo their number (for a replayed late answer).
-    computed: Vec<Option<(u64, ActuatorCommand)>>,
+    /// The references of the latest ticks' commands, by tick modulo their number (what the drive follows when an
+    /// answer came late).
+    computed: Vec<Option<(u64, CommandReference)>>,
 }
 
 impl Lockstep {
@@ -299,7 +301,7 @@ impl Lockstep {
     }
 
     /// As the real-time rmrc: the joint state followed (a restart at rest first, if it does not carry on),
-    /// then the twist that came in, then the command for this tick (kept for a replayed late answer).
+    /// then the twist that came in, then the command for this tick (its reference kept for a late answer).
     fn rmrc_tick(&mut self, tick: u64, pace: &Pace<'_>) -> ActuatorCommand {
         let state = *self.plant.state();
         if let Some(answered) = pace.state_answered(tick)
@@ -314,8 +316,10 @@ impl Lockstep {
             self.waiting = None;
         }
         let command = self.rmrc.step(tick, &state.q, &state.qd);
+        let reference = self.rmrc.reference();
         let kept = self.computed.len() as u64;
-        self.computed[(tick % kept) as usize] = Some((tick, command));
+        self.computed[(tick % kept) as usize] =
+            Some((tick, CommandReference { q: reference.q, qd: reference.qd }));
         command
     }
 
@@ -324,7 +328,9 @@ impl Lockstep {
         match pace.command_applied(tick) {
             Some(answered) if answered == tick => *self.plant.apply(&command),
             Some(answered) => match self.computed[(answered % self.computed.len() as u64) as usize] {
-                Some((at, older)) if at == answered => *self.plant.apply(&older),
+                Some((at, older)) if at == answered => {
+                    *self.plant.follow_late(&older, tick.saturating_sub(answered))
+                }
                 _ => *self.plant.hold(),
             },
             None => *self.plant.hold(),

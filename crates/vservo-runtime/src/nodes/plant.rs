@@ -7,7 +7,7 @@ use iceoryx2::port::notifier::Notifier;
 use iceoryx2::port::publisher::Publisher;
 use iceoryx2::port::subscriber::Subscriber;
 use iceoryx2::prelude::{Node, ipc};
-use vservo_cell::{ActuatorCommand, PlantStage};
+use vservo_cell::{ActuatorCommand, CommandReference, PlantStage};
 use vservo_protocol::TakeMessages;
 use vservo_protocol::freshness::{self, Issue, Standing};
 use vservo_protocol::seal::sealed_by;
@@ -78,14 +78,14 @@ fn state_message(
 /// arm); up to it, the drives saturate at the limit, as real ones do.
 const TORQUE_REFUSED_ABOVE_LIMITS: f64 = 1.5;
 
-/// The command a joint command carries, if it is for an arm of as many joints as `torque_max_nm` has limits,
-/// in the interface this driver declared, finite and, for torques, within [`TORQUE_REFUSED_ABOVE_LIMITS`] of
-/// the limits.
+/// The command a joint command carries and the reference it was computed on, if it is for an arm of as many
+/// joints as `torque_max_nm` has limits, in the interface this driver declared, finite (its reference too) and,
+/// for torques, within [`TORQUE_REFUSED_ABOVE_LIMITS`] of the limits.
 fn command_of(
     message: &JointCommandMsg,
     declared: CommandMode,
     torque_max_nm: &[f64],
-) -> Option<ActuatorCommand> {
+) -> Option<(ActuatorCommand, CommandReference)> {
     // the arm's joints only: the slots past them are not read
     let all_finite = |v: &[f64; MAX_JOINTS]| v.iter().take(torque_max_nm.len()).all(|x| x.is_finite());
     let torque_in_range = message
@@ -94,20 +94,25 @@ fn command_of(
         .zip(torque_max_nm)
         .all(|(t, max)| t.abs() <= TORQUE_REFUSED_ABOVE_LIMITS * max);
     let joint_count = message.joint_count;
-    match CommandMode::try_from(message.mode) {
+    if joint_count as usize != torque_max_nm.len()
+        || !all_finite(&message.q_ref_rad)
+        || !all_finite(&message.qd_ref_rad_s)
+    {
+        return None;
+    }
+    let reference = CommandReference {
+        q: joints_from_wire(&message.q_ref_rad, joint_count),
+        qd: joints_from_wire(&message.qd_ref_rad_s, joint_count),
+    };
+    let command = match CommandMode::try_from(message.mode) {
         Ok(mode) if mode != declared => None,
-        _ if joint_count as usize != torque_max_nm.len() => None,
         Ok(CommandMode::Torque) if all_finite(&message.torque_nm) && torque_in_range => {
             Some(ActuatorCommand::Torque(joints_from_wire(&message.torque_nm, joint_count)))
         }
-        Ok(CommandMode::Position) if all_finite(&message.q_ref_rad) && all_finite(&message.qd_ref_rad_s) => {
-            Some(ActuatorCommand::Reference {
-                q: joints_from_wire(&message.q_ref_rad, joint_count),
-                qd: joints_from_wire(&message.qd_ref_rad_s, joint_count),
-            })
-        }
+        Ok(CommandMode::Position) => Some(ActuatorCommand::Reference { q: reference.q, qd: reference.qd }),
         _ => None,
-    }
+    };
+    command.map(|command| (command, reference))
 }
 
 fn object_motion(message: &ObjectMsg) -> Option<ObjectMotion> {
@@ -157,7 +162,7 @@ impl Ports {
 /// The rmrc's answer to the state of a tick, as the plant took it.
 #[derive(Debug, Clone, Copy, Default)]
 struct Answer {
-    command: Option<ActuatorCommand>,
+    command: Option<(ActuatorCommand, CommandReference)>,
     /// State published → answer in the plant's queue (the rmrc stamps it as it sends); 0 if none.
     round_trip_ns: u64,
 }
@@ -173,8 +178,9 @@ struct Plant {
     joint_count: usize,
     /// Ticks without an answer after which the previous command is no longer kept: the arm is held.
     hold_after: u64,
-    /// The command applied and the tick it answered (reported in the next joint state).
-    last_command: Option<(ActuatorCommand, u64)>,
+    /// The reference of the command applied and the tick it answered (reported in the next joint state): what
+    /// the drive's own servo follows while answers are late.
+    last_command: Option<(CommandReference, u64)>,
     applied_command_tick: u64,
     missed_in_a_row: u64,
     /// What the object command in force came with; none taken yet.
@@ -300,12 +306,17 @@ impl Plant {
         }
     }
 
-    /// Advances one tick (a late tick too) on the answer, else on the previous command for up to
-    /// `hold_after` ticks, else holding the arm.
-    fn advance(&mut self, tick: u64, answer: Option<ActuatorCommand>, counters: &Counters) {
-        if let Some(command) = answer {
+    /// Advances one tick (a late tick too) on the answer, else for up to `hold_after` ticks on the previous
+    /// command's reference, followed by the drive's own servo (never its torque again), else holding the arm.
+    fn advance(
+        &mut self,
+        tick: u64,
+        answer: Option<(ActuatorCommand, CommandReference)>,
+        counters: &Counters,
+    ) {
+        if let Some((command, reference)) = answer {
             self.missed_in_a_row = 0;
-            self.last_command = Some((command, tick));
+            self.last_command = Some((reference, tick));
             self.applied_command_tick = tick;
             self.stage.apply(&command);
             return;
@@ -313,9 +324,9 @@ impl Plant {
         counters.late_answer();
         self.missed_in_a_row += 1;
         match self.last_command {
-            Some((command, answered)) if self.missed_in_a_row <= self.hold_after => {
+            Some((reference, answered)) if self.missed_in_a_row <= self.hold_after => {
                 self.applied_command_tick = answered;
-                self.stage.apply(&command);
+                self.stage.follow_late(&reference, tick.saturating_sub(answered));
             }
             _ => {
                 self.applied_command_tick = u64::MAX;
@@ -414,31 +425,49 @@ mod tests {
         JointCommandMsg { schema: SCHEMA_VERSION, mode, ..JointCommandMsg::default() }
     }
 
+    /// The command `command_of` takes, without its reference.
+    fn taken(
+        message: &JointCommandMsg,
+        declared: CommandMode,
+        torque_max_nm: &[f64],
+    ) -> Option<ActuatorCommand> {
+        command_of(message, declared, torque_max_nm).map(|(command, _)| command)
+    }
+
     #[test]
     fn a_command_is_taken_only_in_the_declared_interface_finite_and_within_the_torque_bound() {
         let torque = JointCommandMsg { torque_nm: [150.0, 0.0, 0.0, 0.0, 0.0, -1.0, 0.0], ..command(0) };
         let expected = ActuatorCommand::Torque(six_joints([150.0, 0.0, 0.0, 0.0, 0.0, -1.0]));
-        assert_eq!(command_of(&torque, CommandMode::Torque, &LIMITS_NM), Some(expected));
+        assert_eq!(taken(&torque, CommandMode::Torque, &LIMITS_NM), Some(expected));
         // beyond 1.5 times a joint's limit, not finite, or another interface than declared: refused
         let beyond = JointCommandMsg { torque_nm: [150.1, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0], ..torque };
-        assert_eq!(command_of(&beyond, CommandMode::Torque, &LIMITS_NM), None);
+        assert_eq!(taken(&beyond, CommandMode::Torque, &LIMITS_NM), None);
         let nan = JointCommandMsg { torque_nm: [f64::NAN, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0], ..torque };
-        assert_eq!(command_of(&nan, CommandMode::Torque, &LIMITS_NM), None);
-        assert_eq!(command_of(&torque, CommandMode::Position, &LIMITS_NM), None);
+        assert_eq!(taken(&nan, CommandMode::Torque, &LIMITS_NM), None);
+        // the reference a torque was computed on comes with it (what the drive follows when answers are late),
+        // and must be finite too
+        let with_reference = JointCommandMsg { q_ref_rad: [0.3; 7], qd_ref_rad_s: [-0.1; 7], ..torque };
+        let (_, reference) =
+            command_of(&with_reference, CommandMode::Torque, &LIMITS_NM).expect("taken with its reference");
+        assert_eq!((reference.q, reference.qd), (six_joints([0.3; 6]), six_joints([-0.1; 6])));
+        let nan_reference =
+            JointCommandMsg { qd_ref_rad_s: [0.0, f64::NAN, 0.0, 0.0, 0.0, 0.0, 0.0], ..torque };
+        assert_eq!(taken(&nan_reference, CommandMode::Torque, &LIMITS_NM), None);
+        assert_eq!(taken(&torque, CommandMode::Position, &LIMITS_NM), None);
         let position = JointCommandMsg { q_ref_rad: [0.1; 7], qd_ref_rad_s: [0.2; 7], ..command(2) };
         // the slots past the arm's joints are not taken
         let reference = ActuatorCommand::Reference { q: six_joints([0.1; 6]), qd: six_joints([0.2; 6]) };
-        assert_eq!(command_of(&position, CommandMode::Position, &LIMITS_NM), Some(reference));
+        assert_eq!(taken(&position, CommandMode::Position, &LIMITS_NM), Some(reference));
         // a command for another arm's joint count is refused
         let seven = JointCommandMsg { joint_count: 7, ..position };
-        assert_eq!(command_of(&seven, CommandMode::Position, &LIMITS_NM), None);
+        assert_eq!(taken(&seven, CommandMode::Position, &LIMITS_NM), None);
         // and taken by a seven-joint arm's driver
         let reference =
             ActuatorCommand::Reference { q: JointVector::from([0.1; 7]), qd: JointVector::from([0.2; 7]) };
-        assert_eq!(command_of(&seven, CommandMode::Position, &[100.0; 7]), Some(reference));
+        assert_eq!(taken(&seven, CommandMode::Position, &[100.0; 7]), Some(reference));
         // the simulated driver takes torques or positions; an unknown code is no interface at all
-        assert_eq!(command_of(&command(1), CommandMode::Velocity, &LIMITS_NM), None);
-        assert_eq!(command_of(&command(9), CommandMode::Torque, &LIMITS_NM), None);
+        assert_eq!(taken(&command(1), CommandMode::Velocity, &LIMITS_NM), None);
+        assert_eq!(taken(&command(9), CommandMode::Torque, &LIMITS_NM), None);
     }
 
     #[test]
