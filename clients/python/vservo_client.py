@@ -27,13 +27,13 @@ import time
 
 import iceoryx2 as iox2
 
-SCHEMA_VERSION = 9
+SCHEMA_VERSION = 10
 (TARGET_FEATURES, TARGET_POSE, TARGET_TEACH, OBJECT_HOLD, OBJECT_STEP, OBJECT_CIRCLE, RELOAD, RESUME,
  SAFE_STOP, MOVE_JOINTS, SERVO) = range(1, 12)
 STATES = ["starting", "running", "degraded", "stopping", "safe-stop", "moving"]
 MAX_JOINTS = 7
 FAULTS = ["none", "position_limit", "velocity_limit", "torque_saturated", "driver_fault", "target_lost",
-          "robot_stalled", "requested", "stream_taken", "camera_stalled", "start_held"]
+          "robot_stalled", "requested", "stream_taken", "camera_stalled", "start_held", "supervision_stalled"]
 
 
 class Command(ctypes.Structure):

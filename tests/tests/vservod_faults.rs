@@ -7,7 +7,9 @@ use std::time::{Duration, Instant};
 use nix::sys::signal::{Signal, kill};
 use nix::unistd::Pid;
 use serde_json::Value;
-use vservo_system_tests::{exclusive, run, running, running_daemon, status, unique, wait_until};
+use vservo_system_tests::{
+    exclusive, fastest_joint_rad_s, run, running, running_daemon, safe_stopped_by, status, unique, wait_until,
+};
 
 fn node(status: &Value, role: &str) -> Value {
     status["nodes"][role].clone()
@@ -231,5 +233,58 @@ fn a_client_of_another_user_is_told_who_runs_the_instance() {
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert_eq!(out.status.code(), Some(1), "{stderr}");
     assert!(stderr.contains("is run by user \"root\"") && stderr.contains("sudo -u root"), "{stderr}");
+    daemon.stop();
+}
+
+/// Issue 37: vservod stopped (SIGSTOP) while the arm tracks a moving board: the nodes hear no word from it for a
+/// second and hold the arm on their own; woken, the daemon latches `supervision_stalled`, and a resume on command
+/// servos again.
+#[test]
+fn a_stopped_daemon_is_a_safe_stop_the_nodes_make_on_their_own() {
+    let _one = exclusive();
+    let instance = unique("stopped-daemon");
+    let (_config, daemon) = running_daemon(&instance);
+    let (code, out) = vservo_system_tests::vservoctl(&[
+        "object",
+        "circle",
+        "--radius-m",
+        "0.05",
+        "--rev-per-min",
+        "10",
+        "--instance",
+        &instance,
+    ]);
+    assert_eq!(code, Some(0), "{out}");
+    std::thread::sleep(Duration::from_millis(500));
+    let tracking = fastest_joint_rad_s(&instance, "0.3");
+    assert!(tracking > 0.02, "the arm follows the board: {tracking} rad/s");
+    daemon.signal(Signal::SIGSTOP);
+    let _continued = Reaper(vec![daemon.child.id() as i32]);
+    // a second of silence, the ramp to rest (tens of ms), then a look at the arm while vservod is still stopped
+    std::thread::sleep(Duration::from_millis(1300));
+    let held = fastest_joint_rad_s(&instance, "0.3");
+    assert!(held < 0.01, "the nodes hold the arm while vservod is stopped: {held} rad/s\n{}", daemon.log());
+    let log = daemon.log();
+    assert!(
+        log.lines().any(|l| l.contains("no word from vservod") && l.contains("node=\"rmrc\"")),
+        "the rmrc says why it holds: {log}"
+    );
+    daemon.signal(Signal::SIGCONT);
+    assert!(
+        wait_until(Duration::from_secs(5), || safe_stopped_by(&instance, "supervision_stalled")),
+        "{:?}\n{}",
+        status(&instance),
+        daemon.log()
+    );
+    // still held after the daemon's word is back, until a resume on command
+    std::thread::sleep(Duration::from_millis(500));
+    assert!(fastest_joint_rad_s(&instance, "0.3") < 0.01, "held until the resume");
+    let (code, out) = vservo_system_tests::vservoctl(&["resume", "--instance", &instance]);
+    assert_eq!(code, Some(0), "{out}");
+    assert!(
+        wait_until(Duration::from_secs(5), || fastest_joint_rad_s(&instance, "0.3") > 0.02),
+        "the arm follows the board again\n{}",
+        daemon.log()
+    );
     daemon.stop();
 }

@@ -8,8 +8,8 @@ use std::sync::atomic::{AtomicBool, AtomicU32, Ordering};
 use std::time::{Duration, Instant};
 
 use vservo_system_tests::{
-    Daemon, LoopThread, config_from, exclusive, fastest_joint_rad_s, running, running_daemon,
-    safe_stopped_by, status, unique, vservoctl, wait_until,
+    Daemon, LoopThread, config_from, echo_lines, exclusive, fastest_joint_rad_s, numbers, running,
+    running_daemon, safe_stopped_by, status, unique, vservoctl, wait_until,
 };
 
 /// The board jumps while the arm servos: two marks leave the image and the rest are no longer the board's
@@ -139,6 +139,67 @@ impl FakeDriver {
         });
         Self { faults, driver_status, joint_count, silent, _thread: thread }
     }
+}
+
+/// Issue 37: a joint move that takes the marks out of view, then `servo`: a `target_lost` stop. The resume is
+/// refused saying that a joint move needs no marks, `servo` says the cell is held, a joint move back ends the
+/// stop, and `servo` there converges again, with no restart. Another stop still refuses a joint move.
+#[test]
+fn a_target_lost_after_a_joint_move_is_left_by_a_joint_move_back() {
+    let _one = exclusive();
+    let instance = unique("lost-move");
+    let (_config, daemon) = running_daemon(&instance);
+    let states = echo_lines(&instance, "joint_state", "0.2");
+    let q = numbers(&states.last().expect("a joint state")["q_rad"])[..6].to_vec();
+    let csv = |q: &[f64]| q.iter().map(f64::to_string).collect::<Vec<_>>().join(",");
+    let ok = |args: &[&str]| {
+        let (code, out) = vservoctl(args);
+        assert_eq!(code, Some(0), "{args:?}: {out}");
+        out
+    };
+    // a turn of the waist by 1 rad: the board leaves the view
+    let mut away = q.clone();
+    away[0] += 1.0;
+    ok(&["move-joints", "--instance", &instance, "--q", &csv(&away), "--speed-fraction", "0.3"]);
+    assert!(
+        wait_until(Duration::from_secs(10), || status(&instance).is_some_and(|s| s["state"] == "moving")
+            && fastest_joint_rad_s(&instance, "0.3") < 0.01),
+        "{}",
+        daemon.log()
+    );
+    ok(&["servo", "--instance", &instance]);
+    assert!(
+        wait_until(Duration::from_secs(10), || safe_stopped_by(&instance, "target_lost")),
+        "{:?}\n{}",
+        status(&instance),
+        daemon.log()
+    );
+    let (code, out) = vservoctl(&["resume", "--instance", &instance]);
+    assert!(code != Some(0) && out.contains("four marks") && out.contains("move-joints"), "{code:?}: {out}");
+    let (code, out) = vservoctl(&["servo", "--instance", &instance]);
+    assert!(code != Some(0) && out.contains("safe stop (target_lost)"), "{code:?}: {out}");
+    // the way out: a joint move back, which ends the stop
+    let out = ok(&["move-joints", "--instance", &instance, "--q", &csv(&q), "--speed-fraction", "0.3"]);
+    assert!(out.contains("out of the safe stop (target_lost"), "{out}");
+    assert!(
+        wait_until(Duration::from_secs(10), || status(&instance).is_some_and(|s| s["state"] == "moving")
+            && fastest_joint_rad_s(&instance, "0.3") < 0.01),
+        "{}",
+        daemon.log()
+    );
+    ok(&["servo", "--instance", &instance]);
+    assert!(
+        wait_until(Duration::from_secs(20), || status(&instance)
+            .is_some_and(|s| running(&s) && s["feature_error_px"].as_f64().is_some_and(|e| e < 1.0))),
+        "{:?}\n{}",
+        status(&instance),
+        daemon.log()
+    );
+    // any other stop still needs a resume first
+    ok(&["safe-stop", "--instance", &instance]);
+    let (code, out) = vservoctl(&["move-joints", "--instance", &instance, "--q", &csv(&q)]);
+    assert!(code != Some(0) && out.contains("`vservoctl resume` first"), "{code:?}: {out}");
+    daemon.stop();
 }
 
 /// The default cell with an external camera (none sends frames) and the test's driver, running: its instance,

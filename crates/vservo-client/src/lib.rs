@@ -257,7 +257,7 @@ impl Client {
 
     /// Moves the arm's joints to `joints_rad` (the arm's joint count of values, at most
     /// [`vservo_protocol::MAX_JOINTS`]) at up to `speed_fraction` (0–1] of their speed limits, and holds them
-    /// there instead of servoing, until [`Client::servo`]; the daemon refuses it in a safe stop, outside the
+    /// there instead of servoing, until [`Client::servo`]; the daemon refuses it in a safe stop (a `target_lost` one it ends), outside the
     /// joint limits or with values for joints the arm does not have. The reply comes at once: the joint states
     /// say when the arm is there.
     pub fn move_joints(&mut self, joints_rad: &[f64], speed_fraction: f64) -> Result<Reply, ClientError> {

@@ -236,6 +236,10 @@ wire_code! {
         /// The cell came up held (`robot.start = "held"`, the default for an external driver): nothing moves
         /// until `vservoctl resume`; never resumed automatically.
         StartHeld = 10, "start_held";
+        /// vservod itself stopped supervising (SIGSTOP, a debugger, a frozen machine) for longer than the nodes
+        /// wait for its word (`vservo_protocol::supervision`): they held the arm on their own; never resumed
+        /// automatically.
+        SupervisionStalled = 11, "supervision_stalled";
     }
 }
 
@@ -383,7 +387,7 @@ wire_code! {
         /// Bring the arm to rest and hold it: a safe stop asked for by the client (fault `requested`).
         SafeStop = 9, "safe_stop";
         /// Move the arm's joints to `joints_rad` at up to `speed_fraction` (0–1] of their speed limits and hold
-        /// them there instead of servoing (`vservoctl calibrate`); refused in a safe stop, outside the joint
+        /// them there instead of servoing (`vservoctl calibrate`); refused in a safe stop (a `target_lost` one it ends), outside the joint
         /// limits, or with values for joints the arm does not have.
         MoveJoints = 10, "move_joints";
         /// End a joint move: servo again from where the arm is.

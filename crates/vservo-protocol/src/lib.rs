@@ -66,6 +66,7 @@ pub mod messages;
 pub mod seal;
 pub mod signals;
 pub mod stop_path;
+pub mod supervision;
 pub mod writers;
 
 pub use codes::{

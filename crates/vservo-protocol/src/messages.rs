@@ -14,7 +14,8 @@ use iceoryx2::prelude::ZeroCopySend;
 /// 6: `features` and `camera_twist` carry the seal of the node that made them; `gains` and `object` a stamp.
 /// 7: `joint_state` and `joint_command` carry up to seven joints and say how many (`joint_count`).
 /// 9: `joint_state.driver_error` (was reserved) and `status.driver_error`: the robot's own reason for a driver fault.
-pub const SCHEMA_VERSION: u32 = 9;
+/// 10: the fault `supervision_stalled` (11); `cell_mode` is also a heartbeat, at least every 100 ms.
+pub const SCHEMA_VERSION: u32 = 10;
 
 /// Joints `joint_state` and `joint_command` have room for: the arm's joints come first, the slots past
 /// `joint_count` are zero.

@@ -131,7 +131,7 @@ enum Command {
     /// Servo again after a safe stop (refused, with each cause, while a fault's cause is still there).
     Resume(commands::ReloadArgs),
     /// Move a running instance's arm to joint angles at a share of the speed limits, and hold it there instead
-    /// of servoing (refused in a safe stop or outside the joint limits) until `servo`.
+    /// of servoing (refused in a safe stop, but for a `target_lost` one, which it ends, or outside the joint limits) until `servo`.
     MoveJoints(commands::MoveJointsArgs),
     /// End a joint move: servo again from where the arm is.
     Servo(commands::ReloadArgs),

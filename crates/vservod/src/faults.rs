@@ -82,6 +82,11 @@ pub enum Cause {
         "the cell came up held (robot.start = \"held\"); `vservoctl check`, then `vservoctl resume` begins servoing"
     )]
     StartHeld,
+    /// The daemon itself stopped supervising for longer than the nodes wait for its word (ms).
+    #[error(
+        "vservod stopped supervising for {0} ms (SIGSTOP, a debugger, a frozen machine); the nodes held the arm"
+    )]
+    SupervisionStalled(u64),
     /// A process that is not a stream's writer holds its writer slot, or a node's port was refused because
     /// its slots are held (the log names the stream and the process).
     #[error("a stream's writer slot is held by a process that is not its writer")]
@@ -102,6 +107,7 @@ impl Cause {
             Cause::MarksMissing(_) => Some(Fault::TargetLost),
             Cause::Requested => Some(Fault::Requested),
             Cause::StartHeld => Some(Fault::StartHeld),
+            Cause::SupervisionStalled(_) => Some(Fault::SupervisionStalled),
             Cause::StreamTaken => Some(Fault::StreamTaken),
         }
     }
@@ -210,7 +216,7 @@ pub enum ResumeRefused {
     #[error("the cell is not in a safe stop")]
     NotHeld,
     /// Causes are still present.
-    #[error("cannot resume after {fault}: {}", cause_list(causes))]
+    #[error("cannot resume after {fault}: {}{}", cause_list(causes), after_lost_marks(*fault, causes))]
     CausesLeft {
         /// The latched fault.
         fault: Fault,
@@ -298,6 +304,21 @@ fn mark_list(marks: u32) -> String {
 
 fn cause_list(causes: &[Cause]) -> String {
     causes.iter().map(Cause::to_string).collect::<Vec<_>>().join("; ")
+}
+
+/// The way out of a `target_lost` stop that only the lost marks keep: a joint move needs no marks.
+fn after_lost_marks(fault: Fault, causes: &[Cause]) -> &'static str {
+    if only_marks_missing(fault, causes) {
+        "; a joint move needs no marks: `vservoctl move-joints --q …` to where the camera sees them, then \
+         `vservoctl servo`"
+    } else {
+        ""
+    }
+}
+
+/// A `target_lost` stop whose only causes left are the marks the camera does not see.
+fn only_marks_missing(fault: Fault, causes: &[Cause]) -> bool {
+    fault == Fault::TargetLost && causes.iter().all(|c| matches!(c, Cause::MarksMissing(_)))
 }
 
 impl FaultMonitor {
@@ -439,9 +460,12 @@ impl FaultMonitor {
                 None => Decision::Same,
             };
         }
-        // a held start waits for a resume on command, whatever the policy
-        let held_at_start = self.latched.as_ref().is_some_and(|f| f.code == Fault::StartHeld);
-        if self.settings.resume != ResumePolicy::Automatic || held_at_start {
+        // a held start and a stalled supervision wait for a resume on command, whatever the policy
+        let on_command_only = self
+            .latched
+            .as_ref()
+            .is_some_and(|f| matches!(f.code, Fault::StartHeld | Fault::SupervisionStalled));
+        if self.settings.resume != ResumePolicy::Automatic || on_command_only {
             return Decision::Same;
         }
         // held, the servo no longer reports the marks: whether they are back is the features' to say (causes)
@@ -480,6 +504,15 @@ impl FaultMonitor {
         Ok(self.latch(Cause::Requested, now_ns))
     }
 
+    /// The daemon slept `silent_ms` (its cycle came that late): the nodes held the arm on their own, and the
+    /// fault `supervision_stalled` latches unless the cell is held already (the fault in force stays).
+    pub fn supervision_stalled(&mut self, silent_ms: u64, now_ns: u64) -> Option<LatchedFault> {
+        if self.latched.is_some() {
+            return None;
+        }
+        Some(self.latch(Cause::SupervisionStalled(silent_ms), now_ns))
+    }
+
     /// Holds the cell from its start (`robot.start = "held"`): the fault `start_held`, which only a resume on
     /// command ends.
     pub fn hold_at_start(&mut self, now_ns: u64) -> LatchedFault {
@@ -493,13 +526,29 @@ impl FaultMonitor {
         if !causes.is_empty() {
             return Err(ResumeRefused::CausesLeft { fault: fault.code, causes });
         }
+        Ok(self.unlatch(fault))
+    }
+
+    /// Out of a `target_lost` stop into a joint move, which needs no marks (the daemon's `Safety` asks only
+    /// for that fault): refused, naming them, while any cause but the lost marks is present.
+    pub fn resume_into_joint_move(&mut self, c: &Conditions) -> Result<LatchedFault, ResumeRefused> {
+        let fault = self.latched.clone().ok_or(ResumeRefused::NotHeld)?;
+        let causes: Vec<Cause> =
+            self.causes(c).into_iter().filter(|k| !matches!(k, Cause::MarksMissing(_))).collect();
+        if fault.code != Fault::TargetLost || !causes.is_empty() {
+            return Err(ResumeRefused::CausesLeft { fault: fault.code, causes });
+        }
+        Ok(self.unlatch(fault))
+    }
+
+    fn unlatch(&mut self, fault: LatchedFault) -> LatchedFault {
         self.latched = None;
         self.last = Some(fault.clone());
         // the persistence of saturation and lost marks counts afresh
         self.saturated = None;
         self.missing = None;
         self.clear_since_ns = None;
-        Ok(fault)
+        fault
     }
 }
 
@@ -640,6 +689,8 @@ mod tests {
             ResumeRefused::CausesLeft { fault: Fault::TargetLost, causes: vec![Cause::MarksMissing(0b0100)] }
         );
         assert!(refused.to_string().contains("four marks"), "{refused}");
+        // the way out it names: a joint move, which needs no marks
+        assert!(refused.to_string().contains("vservoctl move-joints"), "{refused}");
         features.valid_mask = 0b1111;
         monitor.on_features(&features, 1200 * MS);
         assert!(monitor.resume(&running(1200 * MS)).is_ok());
@@ -647,6 +698,32 @@ mod tests {
         monitor.on_twist(&twist(1300 * MS, Verdict::Servoing, 0));
         monitor.on_twist(&twist(1400 * MS, Verdict::MarksMissing, 1));
         assert_eq!(monitor.cycle(&running(1400 * MS)), Decision::Same);
+    }
+
+    #[test]
+    fn a_joint_move_ends_a_target_lost_stop_that_only_the_lost_marks_keep() {
+        let mut monitor = FaultMonitor::new(settings(ResumePolicy::Command), 6);
+        monitor.on_twist(&twist(0, Verdict::MarksMissing, 0b1111));
+        monitor.on_twist(&twist(1000 * MS, Verdict::MarksMissing, 0b1111));
+        assert!(matches!(
+            monitor.cycle(&running(1000 * MS)),
+            Decision::SafeStop(LatchedFault { code: Fault::TargetLost, .. })
+        ));
+        // another cause present: refused, naming it (and not the marks, which a joint move does not need)
+        let camera_stalled = Conditions { camera_stalled: true, ..running(1100 * MS) };
+        assert_eq!(
+            monitor.resume_into_joint_move(&camera_stalled),
+            Err(ResumeRefused::CausesLeft { fault: Fault::TargetLost, causes: vec![Cause::CameraStalled] })
+        );
+        assert!(monitor.latched().is_some());
+        assert_eq!(
+            monitor.resume_into_joint_move(&running(1100 * MS)).map(|f| f.code),
+            Ok(Fault::TargetLost)
+        );
+        assert!(monitor.latched().is_none());
+        // another fault is not left this way
+        assert!(monitor.request_safe_stop(1200 * MS).is_ok());
+        assert!(monitor.resume_into_joint_move(&running(1200 * MS)).is_err());
     }
 
     #[test]
@@ -728,6 +805,25 @@ mod tests {
         assert!(manual.latched().is_some());
         assert_eq!(manual.resume(&running(0)).map(|f| f.code), Ok(Fault::Requested));
         assert_eq!(manual.resume(&running(0)), Err(ResumeRefused::NotHeld));
+    }
+
+    #[test]
+    fn a_stalled_supervision_latches_unless_held_and_only_a_resume_on_command_ends_it() {
+        let mut monitor = FaultMonitor::new(settings(ResumePolicy::Automatic), 6);
+        let latched = monitor.supervision_stalled(1200, MS).expect("latched");
+        assert_eq!(
+            (latched.code, latched.cause),
+            (Fault::SupervisionStalled, Cause::SupervisionStalled(1200))
+        );
+        assert!(latched.cause.to_string().contains("1200 ms"), "{}", latched.cause);
+        // the cause is gone at once, but even the automatic policy waits for a resume on command
+        monitor.on_joint_state(&state(2 * MS, 0));
+        assert_eq!(monitor.cycle(&running(100_000 * MS)), Decision::Same);
+        assert_eq!(monitor.resume(&running(0)).map(|f| f.code), Ok(Fault::SupervisionStalled));
+        // held already: the fault in force stays
+        assert!(monitor.request_safe_stop(0).is_ok());
+        assert_eq!(monitor.supervision_stalled(1500, MS), None);
+        assert_eq!(monitor.latched().map(|f| f.code), Some(Fault::Requested));
     }
 
     #[test]

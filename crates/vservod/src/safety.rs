@@ -48,11 +48,22 @@ pub enum SafetyRefused {
     #[error("publishing the cell mode: {0}")]
     Publish(String),
     /// A joint move asked for while the cell is held.
-    #[error("the cell is in a safe stop ({0}): `vservoctl resume` first")]
+    #[error("{}", held_text(*.0))]
     Held(Fault),
     /// The end of a joint move asked for while none is in force.
     #[error("the cell is not moving its joints: it servos already")]
     NotMoving,
+}
+
+/// What a client is told when its joint move or `servo` finds the cell held.
+fn held_text(fault: Fault) -> String {
+    if fault == Fault::TargetLost {
+        "the cell is in a safe stop (target_lost): `vservoctl move-joints --q …` takes the arm to where the camera \
+         sees the four marks (a joint move needs none), or `vservoctl resume` once it sees them"
+            .to_string()
+    } else {
+        format!("the cell is in a safe stop ({fault}): `vservoctl resume` first")
+    }
 }
 
 /// The monitor and the `cell_mode` publisher.
@@ -63,6 +74,8 @@ pub struct Safety {
     sequence: u64,
     /// A client's joint move in force (held by a safe stop, it goes on after the resume).
     joint_move: Option<JointMove>,
+    /// When the mode was last published (ns): again at least every `CELL_MODE_EVERY`, as a heartbeat.
+    published_ns: u64,
 }
 
 impl Safety {
@@ -81,6 +94,7 @@ impl Safety {
             seal_key,
             sequence: 0,
             joint_move: None,
+            published_ns: 0,
         };
         if start_held {
             let fault = safety.monitor.hold_at_start(monotonic_ns());
@@ -128,6 +142,7 @@ impl Safety {
         let sample = self.publisher.loan_uninit()?;
         sample.write_payload(message).send()?;
         self.sequence += 1;
+        self.published_ns = message.stamp_ns;
         Ok(())
     }
 
@@ -163,6 +178,7 @@ impl Safety {
         if let Err(e) = self.publisher.update_connections() {
             tracing::warn!("handing on the cell mode: {e}");
         }
+        self.notice_own_silence(conditions.now_ns);
         match self.monitor.cycle(conditions) {
             Decision::Same => {}
             Decision::SafeStop(fault) => self.enter(&fault, "fault"),
@@ -173,6 +189,33 @@ impl Safety {
                 }
             }
         }
+        self.heartbeat(conditions.now_ns);
+    }
+
+    /// The nodes heard no mode for `DAEMON_SILENT_AFTER` (the daemon was stopped between two cycles): they held
+    /// the arm on their own, and the cell stays held until a resume on command.
+    fn notice_own_silence(&mut self, now_ns: u64) {
+        let silent = std::time::Duration::from_nanos(now_ns.saturating_sub(self.published_ns));
+        if self.published_ns != 0 && silent > vservo_protocol::supervision::DAEMON_SILENT_AFTER {
+            self.supervision_stalled(silent);
+        }
+    }
+
+    /// The mode in force again when none was published for `CELL_MODE_EVERY`: the nodes hold the arm when
+    /// they hear nothing for `DAEMON_SILENT_AFTER` (docs/PROTOCOL.md, "Safe stop").
+    fn heartbeat(&mut self, now_ns: u64) {
+        let every = vservo_protocol::supervision::CELL_MODE_EVERY.as_nanos() as u64;
+        if now_ns.saturating_sub(self.published_ns) < every {
+            return;
+        }
+        let latched = self.monitor.latched().cloned();
+        let published = match &latched {
+            Some(fault) => self.publish(CellMode::SafeStop, Some(fault)),
+            None => self.publish(self.running_mode(), None),
+        };
+        if let Err(e) = published {
+            tracing::warn!("publishing the cell mode's heartbeat: {e}");
+        }
     }
 
     /// A client's `resume`.
@@ -181,24 +224,44 @@ impl Safety {
         self.leave(&fault, "on command")
     }
 
-    /// A client's joint move (refused while the cell is held): the rmrc takes the joints to the goal instead of
-    /// following the servo's twists.
-    pub fn move_joints(&mut self, joint_move: JointMove) -> Result<(), SafetyRefused> {
-        if let Some(fault) = self.monitor.latched() {
-            return Err(SafetyRefused::Held(fault.code));
-        }
+    /// A client's joint move: the rmrc takes the joints to the goal instead of following the servo's twists.
+    /// Refused while the cell is held, except in a `target_lost` stop that only the lost marks keep (a joint
+    /// move needs none): the move ends that stop, and the resume is returned.
+    pub fn move_joints(
+        &mut self,
+        joint_move: JointMove,
+        conditions: &Conditions,
+    ) -> Result<Option<Resumed>, SafetyRefused> {
         let before = self.joint_move.replace(joint_move);
-        self.publish(CellMode::Moving, None).map_err(|e| {
+        let moved = match self.monitor.latched().map(|f| f.code) {
+            None => self
+                .publish(CellMode::Moving, None)
+                .map(|()| None)
+                .map_err(|e| SafetyRefused::Publish(e.to_string())),
+            Some(Fault::TargetLost) => self
+                .monitor
+                .resume_into_joint_move(conditions)
+                .map_err(SafetyRefused::from)
+                .and_then(|fault| self.leave(&fault, "by a joint move (it needs no marks)").map(Some)),
+            Some(code) => Err(SafetyRefused::Held(code)),
+        };
+        if moved.is_err() {
             self.joint_move = before;
-            SafetyRefused::Publish(e.to_string())
-        })
+        }
+        moved
     }
 
     /// A client's end of a joint move (refused when none is in force): servoing again; held in a safe stop,
     /// the move is cancelled (nothing moves; the resume then servos instead of taking the move on). Whether the
     /// cell is still held is returned.
     pub fn servo(&mut self) -> Result<bool, SafetyRefused> {
-        let before = self.joint_move.take().ok_or(SafetyRefused::NotMoving)?;
+        let Some(before) = self.joint_move.take() else {
+            // held with no move: `servo` is not the way out, the resume is
+            return Err(self
+                .monitor
+                .latched()
+                .map_or(SafetyRefused::NotMoving, |f| SafetyRefused::Held(f.code)));
+        };
         if self.monitor.latched().is_some() {
             return Ok(true);
         }
@@ -214,6 +277,19 @@ impl Safety {
         let fault = self.monitor.request_safe_stop(monotonic_ns())?;
         self.enter(&fault, "on command");
         Ok(())
+    }
+
+    /// The daemon published nothing for `silent` (it was stopped): the nodes held the arm on their own; a safe
+    /// stop `supervision_stalled` unless the cell is held already.
+    fn supervision_stalled(&mut self, silent: std::time::Duration) {
+        let silent_ms = silent.as_millis() as u64;
+        match self.monitor.supervision_stalled(silent_ms, monotonic_ns()) {
+            Some(fault) => self.enter(&fault, "on waking"),
+            None => tracing::error!(
+                silent_ms,
+                "vservod stopped supervising for {silent_ms} ms; the nodes held the arm; the cell was held already"
+            ),
+        }
     }
 
     /// A safe stop asked for on the safe-stop path (docs/PROTOCOL.md): refused (nothing to do) when the cell

@@ -101,14 +101,28 @@ pub(crate) struct CellModeFollower {
     mode: ModeInForce,
     /// What the mode in force came with; none before the daemon's first word.
     issue: Option<Issue>,
+    /// When a sealed mode was last taken (or the follower opened): the daemon's word, a heartbeat at least
+    /// every `CELL_MODE_EVERY`.
+    heard_at_ns: u64,
+    /// The daemon silent for `DAEMON_SILENT_AFTER`: held as in a safe stop (said once per silence).
+    daemon_silent: bool,
+    /// The node, for its log.
+    role: NodeRole,
 }
 
 impl CellModeFollower {
-    pub(crate) fn open(node: &Node<ipc::Service>, instance: &str) -> Result<Self, RuntimeError> {
+    pub(crate) fn open(
+        node: &Node<ipc::Service>,
+        instance: &str,
+        role: NodeRole,
+    ) -> Result<Self, RuntimeError> {
         Ok(Self {
             subscriber: vservo_protocol::subscriber(node, instance, vservo_protocol::Topic::CellMode)?,
             mode: ModeInForce::Servoing,
             issue: None,
+            heard_at_ns: crate::clock::monotonic_ns(),
+            daemon_silent: false,
+            role,
         })
     }
 
@@ -129,11 +143,49 @@ impl CellModeFollower {
                 {
                     self.mode = mode;
                     self.issue = Some(issue);
+                    self.heard_at_ns = crate::clock::monotonic_ns();
                 }
                 _ if standing != Standing::Same || !sealed => counters.rejected(),
                 _ => {}
             }
         }
-        self.mode
+        let silent = daemon_silent(self.heard_at_ns, crate::clock::monotonic_ns());
+        if silent != self.daemon_silent {
+            self.daemon_silent = silent;
+            self.say_silence();
+        }
+        if silent { ModeInForce::SafeStop } else { self.mode }
+    }
+
+    /// Says when the daemon fell silent and when its word came back (rare: once each per silence).
+    fn say_silence(&self) {
+        let node = self.role.name();
+        if self.daemon_silent {
+            tracing::error!(
+                node,
+                "no word from vservod for {:?} (stopped? a debugger?): holding the arm as in a safe stop",
+                vservo_protocol::supervision::DAEMON_SILENT_AFTER
+            );
+        } else {
+            tracing::warn!(node, "vservod's word is back: following the mode it says");
+        }
+    }
+}
+
+/// Whether the daemon is silent: no sealed mode since `heard_at_ns` for `DAEMON_SILENT_AFTER`.
+fn daemon_silent(heard_at_ns: u64, now_ns: u64) -> bool {
+    now_ns.saturating_sub(heard_at_ns) > vservo_protocol::supervision::DAEMON_SILENT_AFTER.as_nanos() as u64
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_daemon_is_silent_only_after_a_second_without_its_word() {
+        let second = vservo_protocol::supervision::DAEMON_SILENT_AFTER.as_nanos() as u64;
+        assert!(!daemon_silent(1_000, 1_000 + second), "at the bound, not beyond it");
+        assert!(daemon_silent(1_000, 1_001 + second));
+        assert!(!daemon_silent(5_000, 1_000), "a clock read before the word: not silent");
     }
 }

@@ -48,7 +48,7 @@ impl Ports {
             state_listener: vservo_protocol::listener(node, instance, Topic::JointState)?,
             twists: vservo_protocol::subscriber(node, instance, Topic::CameraTwist)?,
             commands: vservo_protocol::publisher(node, instance, Topic::JointCommand)?,
-            cell_mode: CellModeFollower::open(node, instance)?,
+            cell_mode: CellModeFollower::open(node, instance, NodeRole::Rmrc)?,
         })
     }
 

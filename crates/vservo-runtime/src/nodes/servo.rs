@@ -69,7 +69,7 @@ impl Ports {
             features_listener: vservo_protocol::listener(node, instance, Topic::Features)?,
             twists: vservo_protocol::publisher(node, instance, Topic::CameraTwist)?,
             gains: vservo_protocol::subscriber(node, instance, Topic::Gains)?,
-            cell_mode: CellModeFollower::open(node, instance)?,
+            cell_mode: CellModeFollower::open(node, instance, NodeRole::Servo)?,
         })
     }
 

@@ -217,8 +217,10 @@ impl Commander {
                     )));
                 }
                 let joint_move = joint_move::check(command, &self.config.arm)?;
-                safety.move_joints(joint_move)?;
-                Ok(Accepted::Moving(joint_move))
+                Ok(match safety.move_joints(joint_move, &heard.conditions)? {
+                    None => Accepted::Moving(joint_move),
+                    Some(resumed) => Accepted::MovingOutOfStop { joint_move, resumed },
+                })
             }
             CommandKind::Servo => Ok(safety
                 .servo()

@@ -51,6 +51,13 @@ pub enum Accepted {
     Resumed(Resumed),
     /// The arm moves its joints to a goal.
     Moving(JointMove),
+    /// The arm moves its joints to a goal, out of the `target_lost` stop it ended.
+    MovingOutOfStop {
+        /// The move.
+        joint_move: JointMove,
+        /// The stop it ended.
+        resumed: crate::safety::Resumed,
+    },
     /// A joint move ended: the cell servos again.
     Servoing,
     /// A joint move cancelled while the cell is held in a safe stop.
@@ -75,6 +82,12 @@ impl std::fmt::Display for Accepted {
             Accepted::Moving(joint_move) => {
                 write!(f, "{joint_move}; it holds there until `servo` (a safe stop holds it on the way)")
             }
+            Accepted::MovingOutOfStop { joint_move, resumed } => write!(
+                f,
+                "{joint_move}, out of the safe stop ({}, held {:.1} s): a joint move needs no marks; it holds there \
+                 until `servo`, which servos once the camera sees the four marks",
+                resumed.fault, resumed.held_s
+            ),
             Accepted::Servoing => write!(f, "the joint move ended: servoing again"),
             Accepted::MoveCancelled => write!(
                 f,
