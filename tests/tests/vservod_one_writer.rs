@@ -141,17 +141,7 @@ fn attack<T: std::fmt::Debug + iceoryx2::prelude::ZeroCopySend + Copy + 'static>
 
     let pid = node_pid(&instance, role);
     kill(Pid::from_raw(pid), Signal::SIGKILL).expect("the node can be killed");
-    // the slot its death frees, taken before the daemon restarts the node
-    let until = Instant::now() + Duration::from_secs(2);
-    let publisher = loop {
-        match vservo_protocol::publisher::<T>(&rogue, &instance, topic) {
-            Ok(publisher) => break publisher,
-            Err(e) if e.is_slot_taken() && Instant::now() < until => {
-                std::thread::sleep(Duration::from_micros(200))
-            }
-            Err(e) => panic!("the premise: the attacker takes the {} slot: {e}", topic.name()),
-        }
-    };
+    let publisher = take_slot::<T>(&rogue, &instance, topic);
     let taken_at = Instant::now();
     let mut named_after = None;
     let mut latest = JointStateMsg::default();
@@ -182,6 +172,24 @@ fn attack<T: std::fmt::Debug + iceoryx2::prelude::ZeroCopySend + Copy + 'static>
     let attack =
         Attack { alone_rad_s, attacked_rad_s: fastest, braked_rad_s: fastest_after_brake, named_after, sent };
     (attack, daemon, instance, config)
+}
+
+/// The slot a killed node's death frees, taken before the daemon restarts the node.
+fn take_slot<T: std::fmt::Debug + iceoryx2::prelude::ZeroCopySend + Copy + 'static>(
+    rogue: &Node<ipc::Service>,
+    instance: &str,
+    topic: Topic,
+) -> iceoryx2::port::publisher::Publisher<ipc::Service, T, ()> {
+    let until = Instant::now() + Duration::from_secs(2);
+    loop {
+        match vservo_protocol::publisher::<T>(rogue, instance, topic) {
+            Ok(publisher) => return publisher,
+            Err(e) if e.is_slot_taken() && Instant::now() < until => {
+                std::thread::sleep(Duration::from_micros(200))
+            }
+            Err(e) => panic!("the premise: the attacker takes the {} slot: {e}", topic.name()),
+        }
+    }
 }
 
 /// The attacker gone, the node is back and a resume lets the cell servo again.
@@ -389,4 +397,67 @@ fn a_second_driver_in_the_plants_slot_is_named_and_stops_the_cell() {
         "plant",
         Expect { refused_by: None, arm: ArmJudged::NotMeasured },
     );
+}
+
+/// Issue 37: the plant killed, a forged joint state 0.2 rad away left in the stream (its slot taken while the
+/// plant restarts): the restarted plant starts where the plant it replaces was, from a state that plant sent,
+/// not from the forged one.
+#[test]
+fn a_restarted_plant_resumes_from_its_own_last_state_not_a_forged_one() {
+    let _one = exclusive();
+    let instance = unique("forged-resume");
+    let (_config, daemon) = running_daemon(&instance);
+    assert!(
+        wait_until(Duration::from_secs(30), || status(&instance)
+            .and_then(|s| s["feature_error_px"].as_f64())
+            .is_some_and(|e| e < 1.0)),
+        "{}",
+        daemon.log()
+    );
+    let rogue: Node<ipc::Service> = vservo_protocol::create_node(&instance, "rogue").expect("a node");
+    let states =
+        vservo_protocol::subscriber::<JointStateMsg>(&rogue, &instance, Topic::JointState).expect("a reader");
+    while states.receive().ok().flatten().is_some() {}
+    std::thread::sleep(Duration::from_millis(50));
+    kill(Pid::from_raw(node_pid(&instance, "plant")), Signal::SIGKILL).expect("the plant can be killed");
+    let publisher = take_slot::<JointStateMsg>(&rogue, &instance, Topic::JointState);
+    // every state the dead plant sent: the last is where the arm is
+    let mut own = None;
+    while let Ok(Some(state)) = states.receive() {
+        own = Some(*state);
+    }
+    let own = own.expect("the plant's states");
+    for n in 0..100 {
+        let mut forged = own;
+        forged.tick = own.tick + 1 + n;
+        forged.q_rad[0] += 0.2;
+        let _ = publisher.send_copy(forged);
+        std::thread::sleep(Duration::from_millis(2));
+    }
+    drop(publisher);
+    // the restarted plant's first state: the first of another driver epoch than the dead plant's (the forged
+    // states carry its epoch)
+    let mut first = None;
+    let restarted = wait_until(Duration::from_secs(15), || {
+        while let Ok(Some(state)) = states.receive() {
+            if state.driver_epoch != own.driver_epoch {
+                first = Some(*state);
+                return true;
+            }
+        }
+        false
+    });
+    assert!(restarted, "the plant restarts: {:?}\n{}", status(&instance), daemon.log());
+    let first = first.expect("its first state");
+    for j in 0..6 {
+        assert!(
+            (first.q_rad[j] - own.q_rad[j]).abs() < 1e-9,
+            "joint {}: the restarted plant starts at {} rad, the plant it replaces was at {} rad (forged: {})",
+            j + 1,
+            first.q_rad[j],
+            own.q_rad[j],
+            own.q_rad[j] + if j == 0 { 0.2 } else { 0.0 }
+        );
+    }
+    println!("the restarted plant starts where its predecessor was: {:?}", &first.q_rad[..6]);
 }

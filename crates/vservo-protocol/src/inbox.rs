@@ -38,6 +38,10 @@ pub trait TakeMessages<T: Payload> {
     /// message taken off the queue and refused.
     fn next_message(&self) -> Option<Result<T, Refused>>;
 
+    /// The next message waiting and the pid of the process that sent it (its iceoryx2 node's, from the sample's
+    /// header; `None` when it cannot be told).
+    fn next_sent(&self) -> Option<(Result<T, Refused>, Option<i32>)>;
+
     /// Takes every message waiting: `accepted` gets each acceptable one in order; returns how many were
     /// refused.
     fn each_message(&self, mut accepted: impl FnMut(T)) -> u64 {
@@ -63,6 +67,17 @@ impl<T: Payload> TakeMessages<T> for Subscriber<ipc::Service, T, ()> {
     fn next_message(&self) -> Option<Result<T, Refused>> {
         match self.receive() {
             Ok(Some(sample)) => Some(accept(*sample)),
+            Ok(None) | Err(_) => None,
+        }
+    }
+
+    fn next_sent(&self) -> Option<(Result<T, Refused>, Option<i32>)> {
+        use iceoryx2::prelude::PayloadHeader;
+        match self.receive() {
+            Ok(Some(sample)) => {
+                let sender = sample.header().node_id().pid::<ipc::Service>().ok().map(|pid| pid.value());
+                Some((accept(*sample), sender))
+            }
             Ok(None) | Err(_) => None,
         }
     }

@@ -429,7 +429,7 @@ impl Daemon {
     fn restart_due(&mut self, now: Instant) {
         let resume = Resume {
             // the arm's joints, from a driver of this arm
-            joints: self.heard.joint_state.and_then(|s| {
+            joints: self.heard.plant_state.and_then(|s| {
                 let q = s.arm_q_rad(self.settings.arm_joints)?;
                 Some((q[..self.settings.arm_joints].to_vec(), s.tick))
             }),

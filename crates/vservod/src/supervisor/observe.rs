@@ -73,6 +73,11 @@ pub struct LoopHeard {
     pub feature_error_px: f64,
     /// The robot driver's tick rate.
     pub tick_rate: TickRate,
+    /// The latest joint state the simulated plant this daemon started sent itself (by the sending process):
+    /// what a restarted plant resumes from, never a state another process left in the stream.
+    pub plant_state: Option<JointStateMsg>,
+    /// The pid of the plant process this daemon started last (kept after its death, for what it sent before).
+    plant_pid: Option<u32>,
 }
 
 impl Default for LoopHeard {
@@ -86,6 +91,8 @@ impl Default for LoopHeard {
             gains_version: 0,
             feature_error_px: f64::NAN,
             tick_rate: TickRate::default(),
+            plant_state: None,
+            plant_pid: None,
         }
     }
 }
@@ -95,13 +102,20 @@ impl LoopHeard {
     /// node's telemetry to its record.
     pub fn drain(&mut self, ports: &Ports, nodes: &mut [Supervised], monitor: &mut FaultMonitor) {
         let now = Instant::now();
+        let started_plant =
+            nodes.iter().find(|n| n.record.role == NodeRole::Plant).and_then(|n| n.record.pid);
+        self.plant_pid = started_plant.or(self.plant_pid);
         // a message of another schema is refused by `TakeMessages`, the protocol's one place for it
-        ports.joint_state.each_message(|state| {
+        while let Some((taken, sender)) = ports.joint_state.next_sent() {
+            let Ok(state) = taken else { continue };
+            if sent_by(sender, self.plant_pid) {
+                self.plant_state = Some(state);
+            }
             monitor.on_joint_state(&state);
             self.joint_state = Some(state);
             self.joint_state_at = Some(now);
             self.tick_rate.on_state();
-        });
+        }
         ports.command.each_message(|command| self.command = Some(command));
         // what does not carry the vision node's or the servo's seal is not theirs, and shows nothing
         let key = &ports.key;
@@ -133,6 +147,11 @@ impl LoopHeard {
     }
 }
 
+/// Whether the process that sent a message (`sender`, as its header tells) is `process`.
+fn sent_by(sender: Option<i32>, process: Option<u32>) -> bool {
+    matches!((sender, process), (Some(sender), Some(process)) if u32::try_from(sender) == Ok(process))
+}
+
 /// Hands a telemetry message to the record of the node it names (none: a role not supervised, or not one).
 pub fn route_telemetry<'a>(
     nodes: impl IntoIterator<Item = &'a mut NodeRecord>,
@@ -151,6 +170,15 @@ mod tests {
     use crate::supervisor::node::tests_support::telemetry;
     use crate::supervisor::restart::RestartPolicy;
     use std::time::Duration;
+
+    #[test]
+    fn a_state_is_the_plants_only_when_its_process_sent_it() {
+        assert!(sent_by(Some(41), Some(41)));
+        assert!(!sent_by(Some(42), Some(41)), "another process");
+        assert!(!sent_by(None, Some(41)), "a sender that cannot be told");
+        assert!(!sent_by(Some(41), None), "no plant started");
+        assert!(!sent_by(Some(-1), Some(u32::MAX)));
+    }
 
     #[test]
     fn telemetry_reaches_the_node_it_names_and_no_other() {
