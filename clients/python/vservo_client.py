@@ -196,8 +196,9 @@ def _candidate_paths(instance: str):
 
 
 def _sighting(path: str):
-    """What is at `path` (`<base>/<instance>`): ("absent", None, path), ("ours", uid, path), or ("other", owner
-    uid, the directory that told: the instance's, or a base this user may not search)."""
+    """What is at `path` (`<base>/<instance>`): ("absent", None, path), ("ours", uid, path), ("other", owner uid,
+    the instance's directory), or ("closed", the base's owner uid or None, a base this user may not search: the
+    instance may be there, of a user unknown)."""
     try:
         info = os.lstat(path)
     except PermissionError:
@@ -205,8 +206,8 @@ def _sighting(path: str):
         try:
             owner = os.stat(base).st_uid
         except OSError:
-            owner = 0
-        return ("other", owner, base)
+            owner = None
+        return ("closed", owner, base)
     except OSError:
         return ("absent", None, path)
     if info.st_uid == os.geteuid():
@@ -217,8 +218,9 @@ def _sighting(path: str):
 def decide_location(sightings):
     """Which sighting tells where the instance is: the first of this user's, wherever it is (the system's
     /run/vservo, root's and closed to this user, says nothing about this user's instance); else the first of
-    another user's (the instance really is that user's); else None."""
-    for kind in ("ours", "other"):
+    another user's (the instance really is that user's); else the first base closed to this user (the instance
+    may be there); else None."""
+    for kind in ("ours", "other", "closed"):
         for sighting in sightings:
             if sighting[0] == kind:
                 return sighting
@@ -235,6 +237,12 @@ def locate_instance(instance: str):
     if found is None:
         raise NotRunning(f"no vservod of instance {instance!r} is running (looked in {', '.join(paths)})")
     kind, uid, path = found
+    if kind == "closed":
+        owner = "whose it is cannot be told" if uid is None else f"the directory is user \"{_user_name(uid)}\"'s"
+        raise OtherUser(f"no vservod of instance {instance!r} of this user is running (looked in {', '.join(paths)}); "
+                        f"{path} is closed to this user ({owner}) and may hold another user's: if the instance runs "
+                        f"there, run the client as the user who started its daemon (for example "
+                        f"`sudo -u <that user> python3 …`)")
     if kind == "other":
         owner = _user_name(uid)
         raise OtherUser(f"instance {instance!r} is run by user {owner!r} ({path} is that user's): "
@@ -519,7 +527,7 @@ def main(argv=None) -> int:
     except (ValueError, IndexError) as error:
         print(f"vservo_client: {error}", file=sys.stderr)
         return 2
-    except (NoAnswer, NotRunning) as error:
+    except (NoAnswer, NotRunning, OtherUser, SchemaMismatch) as error:
         print(f"vservo_client: {error}", file=sys.stderr)
         return 1
     except Busy as error:

@@ -9,7 +9,7 @@ sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "..", "clients"
 
 from vservo_client import decide_location  # noqa: E402
 
-SYSTEM_CLOSED = ("other", 0, "/run/vservo")
+SYSTEM_CLOSED = ("closed", 0, "/run/vservo")
 OWN = ("ours", 65534, "/tmp/vservo-65534/x")
 OWN_SYSTEM = ("ours", 999, "/run/vservo/x")
 OTHERS = ("other", 999, "/run/vservo/x")
@@ -24,6 +24,8 @@ CASES = [
     # another user is named only when no place holds one of ours
     ([SYSTEM_CLOSED, ABSENT], SYSTEM_CLOSED),
     ([OTHERS, ABSENT], OTHERS),
+    # an instance seen to be another user's tells more than a closed base that may hold one
+    ([SYSTEM_CLOSED, OTHERS], OTHERS),
     ([ABSENT, ABSENT], None),
     ([], None),
 ]

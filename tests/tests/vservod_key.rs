@@ -342,6 +342,43 @@ fn an_ordinary_users_clients_find_its_instance_while_the_system_base_exists() {
     daemon.stop();
 }
 
+/// Issue 37: `nobody` runs an instance; a client of a third user (no name, no home), which can search neither
+/// `/run/vservo` (root's, 0750) nor nobody's base, is told that it found none of its own and that the closed base
+/// may hold another user's, and is never told that root runs the instance (vservoctl and the Python client).
+#[test]
+fn a_third_users_client_is_never_told_that_root_runs_another_users_instance() {
+    let Some(nobody) = nobody_if_root() else { return };
+    let _one = exclusive();
+    let _system_base = SystemBase::ensure();
+    let instance = unique("key-third-user");
+    let mut files = UserInstance::new(nobody, &instance);
+    let (_config, daemon, status) = running_as(nobody, &instance);
+    files.pids = pids(&status).into_iter().map(|(_, pid)| pid).collect();
+    let third = User { uid: 54321, gid: 54321 };
+    let out = as_user(binary("vservoctl"), third)
+        .args(["status", "--instance", &instance, "--timeout-s", "1"])
+        .output()
+        .expect("vservoctl runs");
+    println!("vservoctl as uid 54321: {}", show(&out).trim());
+    assert_eq!(out.status.code(), Some(1), "{}", show(&out));
+    let (python, env) = python_for(third);
+    let python_out = as_user(&python, third)
+        .envs(env.iter().map(|(k, v)| (*k, v)))
+        .arg(repository_root().join("clients/python/vservo_client.py"))
+        .args(["--instance", &instance, "status"])
+        .output()
+        .expect("the Python client runs");
+    println!("Python client as uid 54321: {}", show(&python_out).trim());
+    assert!(!python_out.status.success(), "{}", show(&python_out));
+    for said in [show(&out), show(&python_out)] {
+        assert!(!said.contains("is run by user"), "no owner is named for the instance: {said}");
+        assert!(said.contains("/run/vservo is closed to this user"), "{said}");
+        assert!(said.contains("the directory is user \"root\"'s"), "{said}");
+        assert!(!said.contains("Traceback"), "one line, no traceback: {said}");
+    }
+    daemon.stop();
+}
+
 /// The Python client's location rule, case by case (tests/python/check_locate.py), as vservoctl's unit tests
 /// (`instance_dir::tests`).
 #[test]

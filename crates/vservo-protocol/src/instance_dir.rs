@@ -74,6 +74,25 @@ pub enum InstanceDirError {
         /// The directory that told.
         path: PathBuf,
     },
+    /// None of this user's, and a base this user may not search may hold another user's: whose instance it
+    /// would be cannot be told (the base's owner is not the instance's).
+    #[error(
+        "no vservod of instance {instance:?} of this user is running (looked for {}); {base} is closed to this user \
+         ({}) and may hold another user's: if the instance runs there, run the client as the user who started its \
+         daemon (for example `sudo -u <that user> vservoctl …`)",
+        .looked_in.iter().map(|p| p.display().to_string()).collect::<Vec<_>>().join(" and "),
+        .base_owner.as_ref().map_or_else(|| "whose it is cannot be told".to_string(), |owner| format!("the directory is user {owner:?}'s"))
+    )]
+    Closed {
+        /// The instance.
+        instance: String,
+        /// The base this user may not search.
+        base: PathBuf,
+        /// Its owner's name (or `uid N`), if it can be told.
+        base_owner: Option<String>,
+        /// The directories looked for.
+        looked_in: Vec<PathBuf>,
+    },
     /// The instance's daemon speaks another protocol schema than this program.
     #[error(
         "instance {instance:?} speaks protocol schema {daemon}, this program schema {ours}: update the older side \
@@ -185,12 +204,19 @@ enum Sighting {
     Absent,
     /// The instance's directory, of this process's user.
     Ours(PathBuf),
-    /// Another user's: the instance's directory, or a base this user may not search (`path` says which).
+    /// Another user's: the instance's directory, whose owner is the instance's.
     OtherUsers {
         /// The owner of `path`.
         owner_uid: u32,
-        /// The directory that told.
+        /// The instance's directory.
         path: PathBuf,
+    },
+    /// A base this user may not search: whether the instance is there, and whose it would be, is unknown.
+    Closed {
+        /// The base.
+        base: PathBuf,
+        /// Its owner, if it can be told (never taken for the instance's).
+        base_owner: Option<u32>,
     },
 }
 
@@ -201,10 +227,10 @@ impl Sighting {
             Ok(metadata) if metadata.uid() == effective_uid() => Sighting::Ours(path.to_path_buf()),
             Ok(metadata) => Sighting::OtherUsers { owner_uid: metadata.uid(), path: path.to_path_buf() },
             Err(e) if e.kind() == ErrorKind::PermissionDenied => {
-                // the base directory is not ours to search: whose is it?
+                // the base directory is not ours to search: the instance may be there, of a user unknown
                 let base = path.parent().unwrap_or(Path::new("/"));
-                let owner_uid = std::fs::metadata(base).map(|m| m.uid()).unwrap_or(0);
-                Sighting::OtherUsers { owner_uid, path: base.to_path_buf() }
+                let base_owner = std::fs::metadata(base).map(|m| m.uid()).ok();
+                Sighting::Closed { base: base.to_path_buf(), base_owner }
             }
             Err(_) => Sighting::Absent,
         }
@@ -212,10 +238,13 @@ impl Sighting {
 
     /// Which place tells where the instance is: the first of this user's, wherever it is (the system's
     /// `/run/vservo` existing, another user's and closed to this one, says nothing about this user's
-    /// instance); else the first of another user's (the instance really is that user's); else none.
+    /// instance); else the first of another user's (the instance really is that user's); else the first base
+    /// closed to this user (the instance may be there); else none.
     fn decide(sightings: &[Sighting]) -> Option<&Sighting> {
-        let ours = sightings.iter().find(|s| matches!(s, Sighting::Ours(_)));
-        ours.or_else(|| sightings.iter().find(|s| matches!(s, Sighting::OtherUsers { .. })))
+        let first = |wanted: fn(&Sighting) -> bool| sightings.iter().find(|s| wanted(s));
+        first(|s| matches!(s, Sighting::Ours(_)))
+            .or_else(|| first(|s| matches!(s, Sighting::OtherUsers { .. })))
+            .or_else(|| first(|s| matches!(s, Sighting::Closed { .. })))
     }
 }
 
@@ -245,6 +274,12 @@ impl InstanceDir {
                 instance: instance.to_string(),
                 owner: user_name(*owner_uid),
                 path: path.clone(),
+            }),
+            Some(Sighting::Closed { base, base_owner }) => Err(InstanceDirError::Closed {
+                instance: instance.to_string(),
+                base: base.clone(),
+                base_owner: base_owner.map(user_name),
+                looked_in: candidates,
             }),
             Some(Sighting::Absent) | None => {
                 Err(InstanceDirError::NotRunning { instance: instance.to_string(), looked_in: candidates })
@@ -818,7 +853,7 @@ mod tests {
 
     #[test]
     fn a_client_takes_its_own_users_instance_wherever_it_is() {
-        let system_closed = Sighting::OtherUsers { owner_uid: 0, path: PathBuf::from(SYSTEM_RUNTIME_DIR) };
+        let system_closed = Sighting::Closed { base: PathBuf::from(SYSTEM_RUNTIME_DIR), base_owner: Some(0) };
         let own = Sighting::Ours(PathBuf::from("/tmp/vservo-65534/x"));
         // the system's /run/vservo exists (root's, closed to this user) and the user's daemon runs in /tmp
         assert_eq!(Sighting::decide(&[system_closed.clone(), own.clone()]), Some(&own));
@@ -830,12 +865,32 @@ mod tests {
 
     #[test]
     fn another_user_is_named_only_when_the_instance_is_none_of_ours() {
-        let system_closed = Sighting::OtherUsers { owner_uid: 0, path: PathBuf::from(SYSTEM_RUNTIME_DIR) };
+        let system_closed = Sighting::Closed { base: PathBuf::from(SYSTEM_RUNTIME_DIR), base_owner: Some(0) };
         assert_eq!(Sighting::decide(&[system_closed.clone(), Sighting::Absent]), Some(&system_closed));
         let others = Sighting::OtherUsers { owner_uid: 999, path: PathBuf::from("/run/vservo/x") };
         assert_eq!(Sighting::decide(&[others.clone(), Sighting::Absent]), Some(&others));
+        // an instance seen to be another user's tells more than a closed base that may hold one
+        assert_eq!(Sighting::decide(&[system_closed.clone(), others.clone()]), Some(&others));
         assert_eq!(Sighting::decide(&[Sighting::Absent, Sighting::Absent]), None);
         assert_eq!(Sighting::decide(&[]), None);
+    }
+
+    #[test]
+    fn a_closed_base_names_no_owner_for_the_instance() {
+        let closed = |base_owner: Option<&str>| InstanceDirError::Closed {
+            instance: "x".to_string(),
+            base: PathBuf::from(SYSTEM_RUNTIME_DIR),
+            base_owner: base_owner.map(str::to_string),
+            looked_in: vec![PathBuf::from("/run/vservo/x"), PathBuf::from("/tmp/vservo-1000/x")],
+        };
+        for text in [closed(Some("root")).to_string(), closed(None).to_string()] {
+            assert!(!text.contains("is run by user"), "{text}");
+            assert!(
+                text.contains("/run/vservo is closed to this user") && text.contains("/tmp/vservo-1000/x")
+            );
+        }
+        assert!(closed(Some("root")).to_string().contains("the directory is user \"root\"'s"));
+        assert!(closed(None).to_string().contains("whose it is cannot be told"));
     }
 
     #[test]
