@@ -75,6 +75,17 @@ pub struct RmrcStage {
     since_tick: u64,
     /// The next tick whose command the reference has not yet been stepped to.
     next_tick: u64,
+    /// The joint move in force as planned: its goal, the share asked for and the share it runs at.
+    planned_move: Option<PlannedMove>,
+}
+
+/// A joint move as planned, once, when it is asked for: at the share asked for or, for a torque-driven arm,
+/// less where the drives' torque requires it (`vservo_sim::joint_move_torque`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct PlannedMove {
+    goal: JointVector,
+    requested: f64,
+    share: f64,
 }
 
 /// How far apart two joint states may be and still be the same driver carrying on.
@@ -120,6 +131,7 @@ impl RmrcStage {
             followed: None,
             since_tick: 0,
             next_tick: 0,
+            planned_move: None,
         }
     }
 
@@ -145,6 +157,7 @@ impl RmrcStage {
         self.interpolator = Interpolator::new(self.settings, self.arm.clone(), self.tool_from_camera, *q);
         self.since_tick = tick;
         self.next_tick = tick;
+        self.planned_move = None;
     }
 
     /// The tick the reference runs from: the state it last started at rest from.
@@ -170,7 +183,8 @@ impl RmrcStage {
 
     /// Moves the joints to `goal` at up to `speed_fraction` of their speed limits instead of following twists,
     /// until [`RmrcStage::end_joint_move`] (the interpolator's joint move; a restart at rest drops it, so the
-    /// caller asks again while the move is in force). A goal the daemon would refuse (not inside the arm's
+    /// caller asks again while the move is in force). For a torque-driven arm the move is planned, once, within
+    /// the drives' torque: slower than asked where the torque requires it. A goal the daemon would refuse (not inside the arm's
     /// joint limits by `vservo_arm::GOAL_MARGIN_RAD`, or not finite) or a share outside
     /// `vservo_sim::joint_move::speed_fraction_ok` is refused (`false`): the move ends and a zero twist brings
     /// the arm to rest.
@@ -178,7 +192,8 @@ impl RmrcStage {
         let within = self.arm.limits().zip(goal.iter()).all(|(limits, q)| limits.holds_goal(*q))
             && vservo_sim::joint_move::speed_fraction_ok(speed_fraction);
         if within {
-            self.interpolator.move_joints_to(goal, speed_fraction);
+            let share = self.planned_share(goal, speed_fraction);
+            self.interpolator.move_joints_to(goal, share);
         } else {
             self.end_joint_move();
             self.set_twist(Twist::zeros(), tick);
@@ -186,10 +201,34 @@ impl RmrcStage {
         within
     }
 
+    /// The share the move to `goal` asked at `requested` runs at: planned when it is asked for (from where the
+    /// reference is), the same while it is asked again.
+    fn planned_share(&mut self, goal: JointVector, requested: f64) -> f64 {
+        match self.planned_move {
+            Some(planned) if planned.goal == goal && planned.requested == requested => planned.share,
+            _ => {
+                let share = match self.command {
+                    CommandInterface::Torque => vservo_sim::joint_move_torque::torque_limited_share(
+                        &self.arm,
+                        &self.interpolator.reference().q,
+                        &goal,
+                        &self.settings.acceleration_limit,
+                        requested,
+                        vservo_sim::joint_move_torque::TORQUE_MARGIN,
+                    ),
+                    _ => requested,
+                };
+                self.planned_move = Some(PlannedMove { goal, requested, share });
+                share
+            }
+        }
+    }
+
     /// Ends a joint move (none in progress: nothing happens): the reference follows twists again, a zero one
     /// ramping it to rest at the acceleration limits.
     pub fn end_joint_move(&mut self) {
         self.interpolator.end_joint_move();
+        self.planned_move = None;
     }
 
     /// The command interface of the driver.

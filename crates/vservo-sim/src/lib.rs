@@ -20,6 +20,8 @@
 //!   goal braking at its full limit, each joint limited on its own; [`joint_move::speed_fraction_ok`] is the
 //!   one rule for the share, which the daemon and the rmrc apply. [`interpolator::Interpolator::move_joints_to`]
 //!   follows it instead of the twists until `end_joint_move`;
+//! - [`joint_move_torque`]: for a torque-driven arm, the share a move may use within the drives' torque (0.8
+//!   of each limit by inverse dynamics along the move), planned once when the move is asked for;
 //! - [`redundancy::resolve`]: a tool twist into joint rates for a chain of six or seven joints, the spare
 //!   joint of a seven-joint arm moved in the null space away from its limits (and towards a posture); the
 //!   interpolator calls it every tick for a seven-joint arm.
@@ -35,6 +37,7 @@
 
 pub mod interpolator;
 pub mod joint_move;
+pub mod joint_move_torque;
 pub mod joint_servo;
 pub mod motion_limits;
 pub mod plant;

@@ -23,7 +23,8 @@ impl std::fmt::Display for JointMove {
         let goal: Vec<_> = self.goal_rad[..self.joints].iter().map(|q| format!("{q:.4}")).collect();
         write!(
             f,
-            "moving the joints to [{}] rad at {:.0} % of their speed limits",
+            "moving the joints to [{}] rad at up to {:.0} % of their speed limits (a torque-driven arm slower \
+             where its drives' torque requires)",
             goal.join(", "),
             self.speed_fraction * 100.0
         )
