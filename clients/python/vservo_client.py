@@ -81,7 +81,7 @@ class CommandReply(ctypes.Structure):
 
 
 class CameraTwist(ctypes.Structure):
-    """vservo::CameraTwist, 112 bytes."""
+    """vservo::CameraTwist, 120 bytes."""
 
     _fields_ = [
         ("schema", ctypes.c_uint32),
@@ -94,6 +94,8 @@ class CameraTwist(ctypes.Structure):
         ("feature_error_px", ctypes.c_double),
         ("missing_mask", ctypes.c_uint32),
         ("law_flags", ctypes.c_uint32),
+        ("writer_pid", ctypes.c_uint32),
+        ("reserved", ctypes.c_uint32),
         ("seal", ctypes.c_uint64),
     ]
 

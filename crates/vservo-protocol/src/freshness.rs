@@ -57,6 +57,9 @@ pub enum Standing {
     FromTheFuture,
     /// A stream's sample stamped longer ago than the stream's bound (a recording played again): refuse it.
     Stale,
+    /// A stream's sample not from the writer the daemon announces, of its run now (another process in the
+    /// writer's slot, or a sample of an earlier run): refuse it, and hold (the stream is taken).
+    Foreign,
 }
 
 impl Standing {
@@ -67,16 +70,46 @@ impl Standing {
 
     /// Whether the message is to be refused (and counted).
     pub fn is_refused(self) -> bool {
-        matches!(self, Standing::Older | Standing::FromTheFuture | Standing::Stale)
+        matches!(self, Standing::Older | Standing::FromTheFuture | Standing::Stale | Standing::Foreign)
+    }
+}
+
+/// Who a sealed sample of a stream that moves the arm comes from, as its consumer sees it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Origin {
+    /// The writer's process the daemon announces (`cell_mode.writers`; 0: none runs, or none announced yet).
+    pub announced: u32,
+    /// The writer's run the sample carries under its seal (`writer_pid`).
+    pub carried: u32,
+    /// The process that sent it, from the sample's header (`None`: it cannot be told).
+    pub sender: Option<i32>,
+}
+
+impl Origin {
+    /// Whether the sample is the announced writer's, of its run now: sent by that process and sealed in its run.
+    pub fn is_the_writers(&self) -> bool {
+        let sender = self.sender.and_then(|pid| u32::try_from(pid).ok());
+        self.announced != 0 && self.carried == self.announced && sender == Some(self.announced)
     }
 }
 
 /// The standing of a sealed sample of a stream that moves the arm (a `features` or a `camera_twist`, stamped by
-/// its node as it publishes: `stamp_ns`) for the node that takes it: refused when stamped more than
-/// [`FUTURE_TOLERANCE_NS`] after `now_ns` or longer than `max_age_ns` before it (`Stale`: the seal proves who
-/// made a message, not when; a recording of sealed samples played again into a writer slot taken while the node
-/// restarts is stale), or not after the last one taken (`Older`: a sample again, or out of order); else newer.
-pub fn stream_standing(last_taken_ns: Option<u64>, stamp_ns: u64, now_ns: u64, max_age_ns: u64) -> Standing {
+/// its node as it publishes: `stamp_ns`) for the node that takes it: refused when it is not the announced
+/// writer's of its run now (`Foreign`: another process in the writer's slot, or a sample of the writer's
+/// earlier run), stamped more than [`FUTURE_TOLERANCE_NS`] after `now_ns` or longer than `max_age_ns` before it
+/// (`Stale`: the seal proves who made a message, not when; a recording of sealed samples played again into a
+/// writer slot taken while the node restarts is stale), or not after the last one taken (`Older`: a sample
+/// again, or out of order); else newer.
+pub fn stream_standing(
+    origin: Origin,
+    last_taken_ns: Option<u64>,
+    stamp_ns: u64,
+    now_ns: u64,
+    max_age_ns: u64,
+) -> Standing {
+    if !origin.is_the_writers() {
+        return Standing::Foreign;
+    }
     if stamp_ns > now_ns.saturating_add(FUTURE_TOLERANCE_NS) {
         return Standing::FromTheFuture;
     }
@@ -182,14 +215,36 @@ mod tests {
     #[test]
     fn a_streams_stale_repeated_or_future_sample_is_refused_and_a_fresh_one_taken() {
         let frame = 85_000_000;
-        assert_eq!(stream_standing(None, NOW - 1_000, NOW, frame), Standing::Newer);
-        assert_eq!(stream_standing(Some(NOW - 90_000_000), NOW - 1_000, NOW, frame), Standing::Newer);
+        const WRITER: Origin = Origin { announced: 7, carried: 7, sender: Some(7) };
+        assert_eq!(stream_standing(WRITER, None, NOW - 1_000, NOW, frame), Standing::Newer);
+        assert_eq!(stream_standing(WRITER, Some(NOW - 90_000_000), NOW - 1_000, NOW, frame), Standing::Newer);
         // recorded a second ago
-        assert_eq!(stream_standing(None, NOW - 1_000_000_000, NOW, frame), Standing::Stale);
+        assert_eq!(stream_standing(WRITER, None, NOW - 1_000_000_000, NOW, frame), Standing::Stale);
         // the one taken, again; or one before it
-        assert_eq!(stream_standing(Some(NOW - 1_000), NOW - 1_000, NOW, frame), Standing::Older);
-        assert_eq!(stream_standing(Some(NOW - 1_000), NOW - 2_000, NOW, frame), Standing::Older);
-        assert_eq!(stream_standing(None, NOW + 2 * FUTURE_TOLERANCE_NS, NOW, frame), Standing::FromTheFuture);
+        assert_eq!(stream_standing(WRITER, Some(NOW - 1_000), NOW - 1_000, NOW, frame), Standing::Older);
+        assert_eq!(stream_standing(WRITER, Some(NOW - 1_000), NOW - 2_000, NOW, frame), Standing::Older);
+        assert_eq!(
+            stream_standing(WRITER, None, NOW + 2 * FUTURE_TOLERANCE_NS, NOW, frame),
+            Standing::FromTheFuture
+        );
         assert!(Standing::Stale.is_refused());
+    }
+
+    #[test]
+    fn a_streams_sample_is_taken_from_its_announced_writer_of_its_run_now_only() {
+        let writer = Origin { announced: 4242, carried: 4242, sender: Some(4242) };
+        let stream = |origin: Origin| stream_standing(origin, Some(NOW - 50), NOW - 10, NOW, 100);
+        assert_eq!(stream(writer), Standing::Newer);
+        // another process in the writer's slot, replaying the writer's own sealed samples
+        assert_eq!(stream(Origin { sender: Some(999), ..writer }), Standing::Foreign);
+        // the writer's earlier run (sealed with its old pid), however it is sent
+        assert_eq!(stream(Origin { carried: 4100, ..writer }), Standing::Foreign);
+        // no writer announced (none runs, or the daemon has not said yet), or a sender that cannot be told
+        assert_eq!(stream(Origin { announced: 0, carried: 0, sender: Some(0) }), Standing::Foreign);
+        assert_eq!(stream(Origin { sender: None, ..writer }), Standing::Foreign);
+        assert!(Standing::Foreign.is_refused());
+        // the writer's own: the other rules as before
+        assert_eq!(stream_standing(writer, Some(NOW - 10), NOW - 10, NOW, 100), Standing::Older);
+        assert_eq!(stream_standing(writer, None, NOW - 200, NOW, 100), Standing::Stale);
     }
 }

@@ -43,8 +43,10 @@
 //!   holds the key; the key's text is wiped once parsed, the key on drop.
 //! - [`freshness`]: the one rule for which sealed `cell_mode`, `gains` or `object` is newer (the daemon's
 //!   stamp, then the counter modulo 2⁶⁴ within a window): no number locks the daemon out, a replay is refused;
-//!   and [`freshness::stream_standing`], which sealed `features` or `camera_twist` is fresh (within a vision
-//!   period, later than the last taken): a recording of sealed samples played again is refused.
+//!   and [`freshness::stream_standing`], which sealed `features` or `camera_twist` is taken: from the writer's
+//!   process the daemon announces, of its run now ([`freshness::Origin`]), and fresh (within a vision period,
+//!   later than the last taken): a recording of sealed samples played again is refused. [`supervision`]: the
+//!   daemon's heartbeat on `cell_mode`, and how long the nodes wait for it before they hold the arm.
 //! - [`writers`]: one writer per stream. The daemon creates every service with one writer slot (one
 //!   publisher, one notifier, one server; telemetry one per node), checks that a service that existed has
 //!   vservo's sizes, and lists who holds each writer slot by process id ([`writers::WatchedStream`]); a port

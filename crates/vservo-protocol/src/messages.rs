@@ -14,7 +14,8 @@ use iceoryx2::prelude::ZeroCopySend;
 /// 6: `features` and `camera_twist` carry the seal of the node that made them; `gains` and `object` a stamp.
 /// 7: `joint_state` and `joint_command` carry up to seven joints and say how many (`joint_count`).
 /// 9: `joint_state.driver_error` (was reserved) and `status.driver_error`: the robot's own reason for a driver fault.
-/// 10: the fault `supervision_stalled` (11); `cell_mode` is also a heartbeat, at least every 100 ms.
+/// 10: the fault `supervision_stalled` (11); `cell_mode` is also a heartbeat, at least every 100 ms, and announces
+/// each node's process (`writers`), which `features` and `camera_twist` carry (`writer_pid`).
 pub const SCHEMA_VERSION: u32 = 10;
 
 /// Joints `joint_state` and `joint_command` have room for: the arm's joints come first, the slots past
@@ -191,8 +192,9 @@ wire_message! {
         features_px: [f64; FEATURES] = [f64::NAN; FEATURES],
         /// per mark
         mark_status: [u8; MARKS] as MarkStatus,
-        /// zero
-        reserved: [u8; 4],
+        /// the vision node's process id: its run, which the daemon announces in `cell_mode.writers` (sealed: a
+        /// feature vector of an earlier run of the node is refused)
+        writer_pid: u32,
         /// the camera's pose in the robot's base frame at capture (the joint state of `capture_tick`; for an
         /// external camera the joint states around `capture_stamp_ns`, interpolated): the top 3 rows of the
         /// 4×4 transform, row-major; NaN when not known
@@ -229,6 +231,11 @@ wire_message! {
         /// design failed and the fixed gain was used, 4 the target's motion was fed forward; 0 unless the
         /// law computed the twist
         law_flags: u32,
+        /// the servo's process id: its run, which the daemon announces in `cell_mode.writers` (sealed: a twist
+        /// of an earlier run of the servo is refused)
+        writer_pid: u32,
+        /// zero
+        reserved: u32,
         /// the servo's seal under the run's key: the rmrc (and the daemon) take sealed twists only
         seal: u64,
     }
@@ -427,6 +434,9 @@ wire_message! {
         speed_fraction: f64,
         /// moving: the joints' goal (rad; the slots past the arm's joints zero)
         goal_rad: [f64; MAX_JOINTS],
+        /// the process id of each node the daemon started, by role (plant, vision, servo, rmrc; 0 while none
+        /// runs): the writer whose sealed messages a consumer takes, and the run they must carry
+        writers: [u32; 4],
         /// CLOCK_MONOTONIC when decided (ns)
         stamp_ns: u64,
         /// the daemon's seal (SipHash-2-4 of the fields under the run's key): other modes are refused
@@ -617,8 +627,10 @@ mod tests {
         assert_eq!(offset_of!(FeaturesMsg, seal), 208);
         assert_eq!(offset_of!(FeaturesMsg, features_px), 40);
         assert_eq!(offset_of!(FeaturesMsg, mark_status), 104);
-        assert_eq!(size_of::<CameraTwistMsg>(), 40 + 48 + 8 + 8 + 8);
-        assert_eq!(offset_of!(CameraTwistMsg, seal), 104);
+        assert_eq!(size_of::<CameraTwistMsg>(), 40 + 48 + 8 + 8 + 8 + 8);
+        assert_eq!(offset_of!(CameraTwistMsg, writer_pid), 104);
+        assert_eq!(offset_of!(CameraTwistMsg, seal), 112);
+        assert_eq!(offset_of!(FeaturesMsg, writer_pid), 108);
         assert_eq!(offset_of!(CameraTwistMsg, twist), 40);
         assert_eq!(offset_of!(CameraTwistMsg, feature_error_px), 88);
         assert_eq!(size_of::<TimingMsg>(), 40);
@@ -630,7 +642,8 @@ mod tests {
         assert_eq!(offset_of!(DaemonStatusMsg, tick_rate_hz), 160);
         assert_eq!(size_of::<DaemonStatusMsg>(), 32 + 4 * 32 + 16 + 8 + 24 + 8);
         assert_eq!(offset_of!(DaemonStatusMsg, driver_error), 208);
-        assert_eq!(size_of::<CellModeMsg>(), 32 + 56 + 16);
+        assert_eq!(size_of::<CellModeMsg>(), 32 + 56 + 16 + 16);
+        assert_eq!(offset_of!(CellModeMsg, writers), 88);
         assert_eq!(offset_of!(CellModeMsg, goal_rad), 32);
         assert_eq!(size_of::<CommandMsg>(), 16 + 64 + 48 + 16 + 8 + 56 + 8);
         assert_eq!(offset_of!(CommandMsg, joints_rad), 152);

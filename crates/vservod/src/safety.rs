@@ -76,6 +76,8 @@ pub struct Safety {
     joint_move: Option<JointMove>,
     /// When the mode was last published (ns): again at least every `CELL_MODE_EVERY`, as a heartbeat.
     published_ns: u64,
+    /// The process of each node the daemon started, by role (0: none runs), announced with every mode.
+    writers: [u32; 4],
 }
 
 impl Safety {
@@ -95,6 +97,7 @@ impl Safety {
             sequence: 0,
             joint_move: None,
             published_ns: 0,
+            writers: [0; 4],
         };
         if start_held {
             let fault = safety.monitor.hold_at_start(monotonic_ns());
@@ -135,6 +138,7 @@ impl Safety {
             fault_joints: fault.map_or(0, |f| f.joints),
             speed_fraction: joint_move.map_or(0.0, |m| m.speed_fraction),
             goal_rad: joint_move.map_or([0.0; vservo_protocol::MAX_JOINTS], |m| m.goal_rad),
+            writers: self.writers,
             stamp_ns: monotonic_ns(),
             seal: 0,
         };
@@ -208,13 +212,29 @@ impl Safety {
         if now_ns.saturating_sub(self.published_ns) < every {
             return;
         }
-        let latched = self.monitor.latched().cloned();
-        let published = match &latched {
-            Some(fault) => self.publish(CellMode::SafeStop, Some(fault)),
-            None => self.publish(self.running_mode(), None),
-        };
-        if let Err(e) = published {
+        if let Err(e) = self.publish_in_force() {
             tracing::warn!("publishing the cell mode's heartbeat: {e}");
+        }
+    }
+
+    /// Announces the process of each node the daemon started (by role; 0 while none runs), with the mode in
+    /// force, when one changed: a consumer takes a sealed stream only from its writer's process, of its run
+    /// now (`vservo_protocol::freshness::Origin`).
+    pub fn announce_writers(&mut self, writers: [u32; 4]) {
+        if writers == self.writers {
+            return;
+        }
+        self.writers = writers;
+        if let Err(e) = self.publish_in_force() {
+            tracing::error!("announcing the nodes' processes: {e}");
+        }
+    }
+
+    /// Publishes the mode in force again.
+    fn publish_in_force(&mut self) -> anyhow::Result<()> {
+        match self.monitor.latched().cloned() {
+            Some(fault) => self.publish(CellMode::SafeStop, Some(&fault)),
+            None => self.publish(self.running_mode(), None),
         }
     }
 

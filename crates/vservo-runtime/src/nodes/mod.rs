@@ -101,6 +101,8 @@ pub(crate) struct CellModeFollower {
     mode: ModeInForce,
     /// What the mode in force came with; none before the daemon's first word.
     issue: Option<Issue>,
+    /// The process of each node the daemon started, by role, as its newest mode announces (none yet: zeros).
+    writers: [u32; 4],
     /// When a sealed mode was last taken (or the follower opened): the daemon's word, a heartbeat at least
     /// every `CELL_MODE_EVERY`.
     heard_at_ns: u64,
@@ -120,6 +122,7 @@ impl CellModeFollower {
             subscriber: vservo_protocol::subscriber(node, instance, vservo_protocol::Topic::CellMode)?,
             mode: ModeInForce::Servoing,
             issue: None,
+            writers: [0; 4],
             heard_at_ns: crate::clock::monotonic_ns(),
             daemon_silent: false,
             role,
@@ -143,6 +146,7 @@ impl CellModeFollower {
                 {
                     self.mode = mode;
                     self.issue = Some(issue);
+                    self.writers = message.writers;
                     self.heard_at_ns = crate::clock::monotonic_ns();
                 }
                 _ if standing != Standing::Same || !sealed => counters.rejected(),
@@ -155,6 +159,12 @@ impl CellModeFollower {
             self.say_silence();
         }
         if silent { ModeInForce::SafeStop } else { self.mode }
+    }
+
+    /// The process the daemon announces as `role`'s (0: none runs, or none announced yet): the only writer
+    /// whose sealed stream a consumer takes (`vservo_protocol::freshness::Origin`).
+    pub(crate) fn writer(&self, role: NodeRole) -> u32 {
+        self.writers[role as usize]
     }
 
     /// Says when the daemon fell silent and when its word came back (rare: once each per silence).

@@ -16,7 +16,7 @@ use vservo_arm::JointVector;
 use vservo_cell::{ActuatorCommand, DriverTick, Following, RmrcStage, TwistLimits};
 use vservo_control::Twist;
 use vservo_protocol::TakeMessages;
-use vservo_protocol::freshness;
+use vservo_protocol::freshness::{self, Origin, Standing};
 use vservo_protocol::seal::SealKey;
 use vservo_protocol::seal::{sealed_by, sign_with};
 use vservo_protocol::{
@@ -154,31 +154,36 @@ impl Rmrc {
         }
     }
 
-    /// Takes in the twists that came (refused ones counted; they bring the arm to rest).
+    /// Takes in the twists that came (refused ones counted). Only the servo's are taken: sealed, sent by the
+    /// servo process the daemon announces and sealed in its run now (`Origin`), and fresh. A twist of another
+    /// schema, or from another process in the servo's slot (the stream taken), brings the arm to rest at once;
+    /// an unsealed, stale or repeated one leaves the twist in force.
     fn take_twists(&mut self, ports: &mut Ports, tick: u64, context: &NodeContext, counters: &Counters) {
         let key = context.seal_key.as_ref();
-        while let Some(taken) = ports.twists.next_message() {
+        let servo = ports.cell_mode.writer(NodeRole::Servo);
+        while let Some((taken, sender)) = ports.twists.next_sent() {
             let taken = match taken {
                 // a twist without the servo's seal is not the servo's: refused, and the twist in force stays
                 Ok(sample) if !sealed_by(key, &sample) => None,
-                // sealed but not fresh (a recording played again, a repeat): refused, the twist in force stays
-                Ok(sample)
-                    if !freshness::stream_standing(
+                Ok(sample) => {
+                    let origin = Origin { announced: servo, carried: sample.writer_pid, sender };
+                    let standing = freshness::stream_standing(
+                        origin,
                         self.twist_taken_ns,
                         sample.stamp_ns,
                         monotonic_ns(),
                         self.twist_max_age_ns,
-                    )
-                    .is_newer() =>
-                {
-                    None
-                }
-                Ok(sample) => {
-                    self.twist_taken_ns = Some(sample.stamp_ns);
-                    let moves = Verdict::try_from(sample.verdict).is_ok_and(Verdict::moves);
-                    let twist = Twist::from(sample.twist);
-                    let taken = self.stage.take_twist(&twist, moves, &self.limits, tick);
-                    taken.then_some(sample.capture_tick)
+                    );
+                    match standing {
+                        Standing::Newer => self.take_fresh(&sample, tick),
+                        // not the servo's now: the stream is taken; the arm brought to rest, not left moving
+                        Standing::Foreign => {
+                            self.stage.set_twist(Twist::zeros(), tick);
+                            None
+                        }
+                        // a recording played again, a repeat: refused, the twist in force stays
+                        _ => None,
+                    }
                 }
                 Err(_) => {
                     // another schema is refused like a twist out of range: the arm brought to rest
@@ -193,11 +198,20 @@ impl Rmrc {
         }
     }
 
+    /// Takes a fresh twist of the servo's (a verdict that does not move the arm, or a twist out of range, brings
+    /// it to rest): its frame's capture tick, if the twist is taken.
+    fn take_fresh(&mut self, sample: &CameraTwistMsg, tick: u64) -> Option<u64> {
+        self.twist_taken_ns = Some(sample.stamp_ns);
+        let moves = Verdict::try_from(sample.verdict).is_ok_and(Verdict::moves);
+        let twist = Twist::from(sample.twist);
+        let taken = self.stage.take_twist(&twist, moves, &self.limits, tick);
+        taken.then_some(sample.capture_tick)
+    }
+
     /// Acts on the cell mode: a safe stop or the daemon gone gives a zero twist (and ends a joint move), a joint
     /// move takes the reference to its goal instead of the twists (a goal outside the limits refused and
     /// counted), servoing ends a joint move.
-    fn apply_mode(&mut self, ports: &mut Ports, tick: u64, context: &NodeContext, counters: &Counters) {
-        let mode = ports.cell_mode.mode(context.seal_key.as_ref(), counters);
+    fn apply_mode(&mut self, mode: ModeInForce, tick: u64, counters: &Counters) {
         // no daemon and so no servo to trust: as a safe stop
         let mode = if self.orphaned.is_orphaned() { ModeInForce::SafeStop } else { mode };
         match mode {
@@ -262,8 +276,10 @@ pub fn run(context: &NodeContext) -> Result<(), RuntimeError> {
             continue;
         };
         rmrc.follow(&state, &q, &qd, counters);
+        // the mode first: it announces the servo's process, whose twists alone are taken
+        let mode = ports.cell_mode.mode(context.seal_key.as_ref(), counters);
         rmrc.take_twists(&mut ports, state.tick, context, counters);
-        rmrc.apply_mode(&mut ports, state.tick, context, counters);
+        rmrc.apply_mode(mode, state.tick, counters);
         let message = rmrc.command(&state, &q, &qd);
         ports.send(message, context.seal_key.as_ref());
         let done = monotonic_ns();

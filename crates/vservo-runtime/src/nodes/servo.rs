@@ -11,7 +11,7 @@ use iceoryx2::prelude::{Node, ipc};
 use vservo_cell::{ServoInput, ServoStage, ServoStep, ServoVerdict};
 use vservo_control::{LawFlags, Twist};
 use vservo_protocol::TakeMessages;
-use vservo_protocol::freshness::{self, Issue, Standing};
+use vservo_protocol::freshness::{self, Issue, Origin, Standing};
 use vservo_protocol::seal::{sealed_by, sign_with};
 use vservo_protocol::{
     CameraTwistMsg, FeaturesMsg, GainsMsg, MarkStatus, NodeRole, SCHEMA_VERSION, Topic, Verdict, law_flag,
@@ -97,6 +97,8 @@ struct Servo {
     moving: bool,
     /// The stamp of the last features taken (a sample must be later, and fresh).
     features_taken_ns: Option<u64>,
+    /// A foreign feature vector held the arm (one zero twist sent) since the last one taken.
+    held_for_foreign: bool,
 }
 
 impl Servo {
@@ -112,6 +114,7 @@ impl Servo {
             doing: (Verdict::Waiting, 0),
             moving: false,
             features_taken_ns: None,
+            held_for_foreign: false,
         }
     }
 
@@ -170,6 +173,8 @@ impl Servo {
             feature_error_px: step.error_px,
             missing_mask: u32::from(step.verdict.missing_mask()),
             law_flags,
+            writer_pid: std::process::id(),
+            reserved: 0,
             seal: 0,
         }
     }
@@ -187,9 +192,14 @@ impl Servo {
     /// The zero twist marked STOPPING the servo leaves with (the rmrc ramps to rest on it at its
     /// acceleration limits).
     fn stopping_message(&self) -> CameraTwistMsg {
+        self.zero_twist(Verdict::Stopping)
+    }
+
+    /// A zero twist with `verdict` (one that does not move the arm), for the last frame answered.
+    fn zero_twist(&self, verdict: Verdict) -> CameraTwistMsg {
         CameraTwistMsg {
             schema: SCHEMA_VERSION,
-            verdict: Verdict::Stopping.into(),
+            verdict: verdict.into(),
             frame: self.last.0,
             capture_tick: self.last.1,
             gains_version: self.gains_version,
@@ -198,6 +208,8 @@ impl Servo {
             feature_error_px: f64::NAN,
             missing_mask: 0,
             law_flags: 0,
+            writer_pid: std::process::id(),
+            reserved: 0,
             seal: 0,
         }
     }
@@ -216,15 +228,24 @@ pub fn run(context: &NodeContext) -> Result<(), RuntimeError> {
         let _ = ports.features_listener.timed_wait(|_| {}, IDLE_WAIT);
         let woke_at = monotonic_ns();
         servo.take_gains(&ports, context, counters);
-        while let Some(taken) = ports.features.next_message() {
+        while let Some((taken, sender)) = ports.features.next_sent() {
             // features without the vision node's seal are not the vision node's: refused
             let key = context.seal_key.as_ref();
             let Some(message) = taken.ok().filter(|m| sealed_by(key, m)) else {
                 counters.rejected();
                 continue;
             };
-            // sealed, and fresh: a recording of sealed features played again is not the vision node's now
+            // the mode first: it announces the vision node's process, whose features alone are taken
+            let mode = ports.cell_mode.mode(key, counters);
+            let origin = Origin {
+                announced: ports.cell_mode.writer(NodeRole::Vision),
+                carried: message.writer_pid,
+                sender,
+            };
+            // sealed, the vision node's of its run now, and fresh: a recording of sealed features played again
+            // (from the vision node's slot taken while it restarts) is not the vision node's now
             let standing = freshness::stream_standing(
+                origin,
                 servo.features_taken_ns,
                 message.stamp_ns,
                 monotonic_ns(),
@@ -232,10 +253,15 @@ pub fn run(context: &NodeContext) -> Result<(), RuntimeError> {
             );
             if !standing.is_newer() {
                 counters.rejected();
+                // the stream taken: the arm held at once (a zero twist), before the daemon's safe stop
+                if standing == Standing::Foreign && !servo.held_for_foreign {
+                    servo.held_for_foreign = true;
+                    ports.send(servo.zero_twist(Verdict::SafeStop), key);
+                }
                 continue;
             }
+            servo.held_for_foreign = false;
             servo.features_taken_ns = Some(message.stamp_ns);
-            let mode = ports.cell_mode.mode(context.seal_key.as_ref(), counters);
             let step = servo.answer(&message, mode);
             // a mark outside the image is no measurement: taken as missing, the message counted refused
             if step.outside != 0 {

@@ -111,7 +111,7 @@ impl FeaturesOut {
             stamp_ns: monotonic_ns(),
             features_px: to_array(&delivered.features),
             mark_status: status.map(u8::from),
-            reserved: [0; 4],
+            writer_pid: std::process::id(),
             base_from_camera: delivered.base_from_camera.as_ref().map_or([f64::NAN; 12], pose_to_wire),
             seal: 0,
         };

@@ -80,6 +80,15 @@ fn say_absent(instance: &str, what: &str, started: &str, waited: Duration) {
     );
 }
 
+/// The process of each node running, by role (0 while none runs): the writers the daemon announces.
+fn writers_of(nodes: &[Supervised]) -> [u32; 4] {
+    let mut writers = [0; 4];
+    for node in nodes.iter().filter(|n| n.process.is_some()) {
+        writers[node.record.role as usize] = node.record.pid.unwrap_or(0);
+    }
+    writers
+}
+
 /// The configuration's settings the supervisor runs by.
 struct Settings {
     instance: String,
@@ -215,7 +224,7 @@ impl Daemon {
         let stop_path = SafeStopReader::create(claim.dir())?;
         // the cell mode first: every node finds it in the service's history
         let arm_joints = settings.arm_joints as u32;
-        let safety = Safety::new(
+        let mut safety = Safety::new(
             &node,
             &settings.instance,
             (config.faults, config.robot.start_held),
@@ -237,6 +246,7 @@ impl Daemon {
             );
         }
         let nodes = start_nodes(&settings, &launcher, commander.config_text())?;
+        safety.announce_writers(writers_of(&nodes));
         let launch = Launch {
             vservod: &launcher.executable,
             config_path: &launcher.config_path,
@@ -302,6 +312,7 @@ impl Daemon {
         };
         self.commander.serve(&loop_state, &mut self.systemd, &mut self.safety);
         self.restart_due(now);
+        self.safety.announce_writers(writers_of(&self.nodes));
         self.report(now, conditions.motion_nodes_healthy);
     }
 
