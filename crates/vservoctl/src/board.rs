@@ -5,7 +5,7 @@
 use std::fmt::Write as _;
 use std::path::PathBuf;
 
-use anyhow::{Context, Result};
+use anyhow::Result;
 use clap::Args;
 use serde_json::json;
 use vservo_scene::TagGrid;
@@ -31,9 +31,13 @@ pub struct BoardArgs {
     /// The first tag's id (tag36h11); the others follow row by row.
     #[arg(long, default_value_t = 0)]
     first_id: u32,
-    /// Where to write the SVG.
+    /// Where to write the SVG (a new name: a link or another user's file there is refused, one's own file too
+    /// unless --force).
     #[arg(long, value_name = "FILE.svg")]
     out: PathBuf,
+    /// Replace one's own file at --out.
+    #[arg(long)]
+    force: bool,
     /// Print the layout as one JSON object.
     #[arg(long)]
     json: bool,
@@ -47,7 +51,7 @@ pub fn run(args: &BoardArgs) -> Result<()> {
     if args.out.extension().and_then(|e| e.to_str()) != Some("svg") {
         return Err(UsageError(format!("--out {}: the file must end in .svg", args.out.display())).into());
     }
-    std::fs::write(&args.out, svg(&grid)).with_context(|| format!("writing {}", args.out.display()))?;
+    crate::new_file::write(&args.out, svg(&grid).as_bytes(), args.force, 0o644)?;
     if args.json {
         print_stdout(&format!("{}\n", layout(&grid)))?;
     }

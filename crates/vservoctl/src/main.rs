@@ -69,6 +69,7 @@ mod instance;
 mod joint_args;
 mod live_server;
 mod model;
+mod new_file;
 mod output;
 mod plot_recording;
 mod plots;

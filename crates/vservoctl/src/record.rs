@@ -5,9 +5,8 @@
 //! the daemon's user only.
 
 use std::collections::BTreeMap;
-use std::fs::{File, OpenOptions};
+use std::fs::File;
 use std::io::BufWriter;
-use std::os::unix::fs::OpenOptionsExt;
 use std::path::PathBuf;
 use std::sync::atomic::Ordering;
 use std::time::{Duration, Instant};
@@ -17,13 +16,18 @@ use clap::Args;
 
 use crate::bridge::{Bridge, ChannelSpec, Sink};
 use crate::instance::{Connection, InstanceArg};
+use crate::new_file::NewFile;
 
 /// Arguments of `vservoctl record`.
 #[derive(Args, Debug)]
 pub struct RecordArgs {
-    /// The MCAP file to write.
+    /// The MCAP file to write (a new name: a link or another user's file there is refused, one's own file
+    /// too unless --force).
     #[arg(long)]
     pub out: PathBuf,
+    /// Replace one's own file at --out.
+    #[arg(long)]
+    pub force: bool,
     /// Stop after this long (s); otherwise at Ctrl-C or SIGTERM.
     #[arg(long, value_parser = crate::seconds_arg::seconds)]
     duration_s: Option<f64>,
@@ -68,57 +72,31 @@ impl Sink for McapSink {
     }
 }
 
-/// Where a recording goes: written to a file of its own beside the name asked for (made new, mode 0600, never
-/// through a symbolic link: `O_CREAT | O_EXCL | O_NOFOLLOW`), and moved to the name once finished
-/// ([`Output::publish`]): a symbolic link or a file another user planted at the name, in a shared folder, is
-/// replaced, never written through or into. A recording that does not finish leaves nothing behind.
-pub struct Output {
-    partial: PathBuf,
-    target: PathBuf,
-    published: bool,
-}
+/// Where a recording goes once finished: its name (`crate::new_file`: a link, another user's file or, without
+/// `--force`, one's own file at the name is refused before anything is recorded).
+pub struct Output(NewFile);
 
 impl Output {
     /// Flushes the finished MCAP file to disk and moves it to its name.
-    pub fn publish(mut self, writer: mcap::Writer<BufWriter<File>>) -> anyhow::Result<()> {
+    pub fn publish(self, writer: mcap::Writer<BufWriter<File>>) -> anyhow::Result<()> {
         let file = writer.into_inner().into_inner().map_err(|e| e.into_error())?;
-        file.sync_all().with_context(|| format!("writing {}", self.partial.display()))?;
-        std::fs::rename(&self.partial, &self.target)
-            .with_context(|| format!("moving the recording to {}", self.target.display()))?;
-        self.published = true;
-        Ok(())
+        self.0.publish(file)
     }
 }
 
-impl Drop for Output {
-    fn drop(&mut self) {
-        if !self.published {
-            let _ = std::fs::remove_file(&self.partial);
-        }
-    }
-}
-
-/// The MCAP file (zstd-compressed chunks) and where it goes once finished ([`Output`]).
+/// The MCAP file (zstd-compressed chunks) and where it goes once finished ([`Output`]): mode 0600.
 pub fn create(
     path: &std::path::Path,
+    force: bool,
     profile: &str,
 ) -> anyhow::Result<(mcap::Writer<BufWriter<File>>, Output)> {
-    let name = path.file_name().with_context(|| format!("{}: not a file name", path.display()))?;
-    let partial = path.with_file_name(format!(".{}.{}.partial", name.to_string_lossy(), std::process::id()));
-    let file = OpenOptions::new()
-        .write(true)
-        .create_new(true)
-        .mode(0o600)
-        .custom_flags(nix::libc::O_NOFOLLOW)
-        .open(&partial)
-        .with_context(|| format!("creating {}", partial.display()))?;
-    let output = Output { partial, target: path.to_path_buf(), published: false };
+    let (file, new) = NewFile::create(path, force, 0o600)?;
     let writer = mcap::WriteOptions::new()
         .profile(profile)
         .library(concat!("vservoctl ", env!("CARGO_PKG_VERSION")))
         .compression(Some(mcap::Compression::Zstd))
         .create(BufWriter::new(file))?;
-    Ok((writer, output))
+    Ok((writer, Output(new)))
 }
 
 pub fn run(args: &RecordArgs) -> anyhow::Result<()> {
@@ -131,7 +109,7 @@ pub fn run(args: &RecordArgs) -> anyhow::Result<()> {
     }
     // started before the daemon, it waits for the instance (within its duration)
     let connection = Connection::open_when_there(&args.instance, over)?;
-    let (writer, output) = create(&args.out, "")?;
+    let (writer, output) = create(&args.out, args.force, "")?;
     let sink = McapSink { writer, channels: BTreeMap::new() };
     let mut bridge = Bridge::new(sink, &connection, &args.instance, args.image_every)?;
     bridge.run(&connection, over)?;

@@ -56,7 +56,7 @@ struct Recording {
 
 impl Recording {
     fn create(args: &RecordArgs, namespace: &str, topics: &[Ros2Topic]) -> anyhow::Result<Self> {
-        let (mut writer, output) = crate::record::create(&args.out, "ros2")?;
+        let (mut writer, output) = crate::record::create(&args.out, args.force, "ros2")?;
         let mut channels = BTreeMap::new();
         for topic in topics {
             let (schema_name, schema_text) = vservo_ros2::schema::of_topic(*topic);

@@ -5,14 +5,14 @@
 
 use std::path::Path;
 
-use anyhow::{Context, Result, bail};
+use anyhow::{Result, bail};
 use vservo_config::Config;
 use vservo_config::calibration::OPENCV_TO_VSERVO_PX;
 
 use super::solver::Solved;
 
-/// Writes the file, replacing one that is there.
-pub fn write(path: &Path, config: &Config, solved: &Solved) -> Result<()> {
+/// Writes the file as a new one (`crate::new_file`: one of the user's own at the name replaced with `force` only).
+pub fn write(path: &Path, force: bool, config: &Config, solved: &Solved) -> Result<()> {
     let views = solved.views.len();
     let number = |v: f64| format!("{v:.10e}");
     let matrix = |name: &str, rows: usize, cols: usize, data: &[f64]| {
@@ -44,5 +44,5 @@ pub fn write(path: &Path, config: &Config, solved: &Solved) -> Result<()> {
         matrix("distortion_coefficients", 1, 5, &solved.distortion),
         matrix("tool_from_camera", 4, 4, &tool),
     );
-    std::fs::write(path, text).with_context(|| format!("writing {}", path.display()))
+    crate::new_file::write(path, text.as_bytes(), force, 0o644)
 }

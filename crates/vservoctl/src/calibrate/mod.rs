@@ -54,6 +54,10 @@ pub struct CalibrateArgs {
     /// beside the configuration file).
     #[arg(long, value_name = "FILE")]
     out: Option<PathBuf>,
+    /// Replace one's own calibration file (a link or another user's file at its name is refused, one's own
+    /// file too unless --force; checked before anything moves).
+    #[arg(long)]
+    force: bool,
     /// Where the views are kept for the solver (default: a directory `calibration-views` beside the
     /// calibration file).
     #[arg(long, value_name = "DIR")]
@@ -79,6 +83,9 @@ pub fn run(args: &CalibrateArgs) -> Result<()> {
     let solver_path = solver::locate(args.solver.as_deref())?;
     let python = solver::python(args.python.as_deref());
     let out = output_file(args, &settings);
+    if !args.dry_run {
+        crate::new_file::check(&out, args.force)?;
+    }
     let views_dir = args.views.clone().unwrap_or_else(|| out.with_file_name("calibration-views"));
     let (views, truth) = if args.lockstep {
         let cell = capture::Simulated::new(&config)?;
@@ -121,7 +128,7 @@ pub fn run(args: &CalibrateArgs) -> Result<()> {
         config.arm.joint_count(),
     )?;
     let solved = solver::solve(&python, &solver_path, &views_dir)?;
-    file::write(&out, &config, &solved)?;
+    file::write(&out, args.force, &config, &solved)?;
     let truth = truth.as_ref().map(|(camera, board)| (camera, board));
     let text = report::solved(&config, &solved, truth, &out, &views_dir, args.json);
     print_stdout(&text)?;

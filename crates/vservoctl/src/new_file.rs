@@ -1,0 +1,166 @@
+//! Files vservoctl writes where others may plant one (a shared folder): recordings, calibration output and board
+//! drawings. What is at the name already is refused, naming it — a symbolic link (never followed, never
+//! replaced), another user's file, or anything but a regular file — and so is the user's own file unless
+//! `--force` is given. The file is made new beside the name (`O_CREAT | O_EXCL | O_NOFOLLOW`, mode 0600 unless
+//! said), written, flushed and then moved to the name: a file that does not finish leaves nothing behind, and
+//! what another user plants at the name meanwhile is replaced, never written through (in a sticky folder the
+//! system refuses the move over another user's file).
+
+use std::fs::{File, OpenOptions};
+use std::os::unix::fs::{MetadataExt, OpenOptionsExt};
+use std::path::{Path, PathBuf};
+
+/// Why a name cannot be written.
+#[derive(Debug, thiserror::Error)]
+pub enum NameRefused {
+    /// A symbolic link is at the name.
+    #[error(
+        "{0} is a symbolic link: vservoctl neither writes through one nor replaces it; choose another name"
+    )]
+    Link(PathBuf),
+    /// Another user's file is at the name.
+    #[error(
+        "{path} is user {owner}'s file: vservoctl does not replace another user's file; choose another name"
+    )]
+    OtherUsers {
+        /// The name.
+        path: PathBuf,
+        /// Its owner (a name, or `uid N`).
+        owner: String,
+    },
+    /// Something that is not a regular file is at the name.
+    #[error("{0} is not a regular file; choose another name")]
+    NotAFile(PathBuf),
+    /// The user's own file is at the name.
+    #[error("{0} exists: --force replaces it")]
+    Exists(PathBuf),
+}
+
+/// Checks, before any work, that `path` may be written: nothing there, or with `force` the user's own regular
+/// file.
+pub fn check(path: &Path, force: bool) -> anyhow::Result<()> {
+    let metadata = match std::fs::symlink_metadata(path) {
+        Ok(metadata) => metadata,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(()),
+        Err(e) => return Err(anyhow::Error::new(e).context(format!("looking at {}", path.display()))),
+    };
+    let refused = if metadata.file_type().is_symlink() {
+        NameRefused::Link(path.to_path_buf())
+    } else if metadata.uid() != nix::unistd::geteuid().as_raw() {
+        NameRefused::OtherUsers { path: path.to_path_buf(), owner: user_name(metadata.uid()) }
+    } else if !metadata.file_type().is_file() {
+        NameRefused::NotAFile(path.to_path_buf())
+    } else if force {
+        return Ok(());
+    } else {
+        NameRefused::Exists(path.to_path_buf())
+    };
+    Err(refused.into())
+}
+
+fn user_name(uid: u32) -> String {
+    match nix::unistd::User::from_uid(nix::unistd::Uid::from_raw(uid)) {
+        Ok(Some(user)) => format!("{:?}", user.name),
+        _ => format!("uid {uid}"),
+    }
+}
+
+/// A file being written beside its name, moved there by [`NewFile::publish`]; removed if never published.
+pub struct NewFile {
+    partial: PathBuf,
+    target: PathBuf,
+    force: bool,
+    published: bool,
+}
+
+impl NewFile {
+    /// Checks `path` ([`check`]) and makes the file beside it, mode `mode`.
+    pub fn create(path: &Path, force: bool, mode: u32) -> anyhow::Result<(File, NewFile)> {
+        check(path, force)?;
+        let name = path.file_name().ok_or_else(|| anyhow::anyhow!("{}: not a file name", path.display()))?;
+        let partial =
+            path.with_file_name(format!(".{}.{}.partial", name.to_string_lossy(), std::process::id()));
+        let file = OpenOptions::new()
+            .write(true)
+            .create_new(true)
+            .mode(mode)
+            .custom_flags(nix::libc::O_NOFOLLOW)
+            .open(&partial)
+            .map_err(|e| anyhow::Error::new(e).context(format!("creating {}", partial.display())))?;
+        Ok((file, NewFile { partial, target: path.to_path_buf(), force, published: false }))
+    }
+
+    /// Flushes `file` to disk and moves it to its name (checked again: what appeared there meanwhile is
+    /// refused as before).
+    pub fn publish(mut self, file: File) -> anyhow::Result<()> {
+        file.sync_all()
+            .map_err(|e| anyhow::Error::new(e).context(format!("writing {}", self.partial.display())))?;
+        check(&self.target, self.force)?;
+        std::fs::rename(&self.partial, &self.target).map_err(|e| {
+            anyhow::Error::new(e).context(format!("moving the file to {}", self.target.display()))
+        })?;
+        self.published = true;
+        Ok(())
+    }
+}
+
+impl Drop for NewFile {
+    fn drop(&mut self) {
+        if !self.published {
+            let _ = std::fs::remove_file(&self.partial);
+        }
+    }
+}
+
+/// Writes `bytes` to `path` as a new file of mode `mode` ([`NewFile`]).
+pub fn write(path: &Path, bytes: &[u8], force: bool, mode: u32) -> anyhow::Result<()> {
+    use std::io::Write;
+    let (mut file, new) = NewFile::create(path, force, mode)?;
+    file.write_all(bytes)
+        .map_err(|e| anyhow::Error::new(e).context(format!("writing {}", path.display())))?;
+    new.publish(file)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn folder(name: &str) -> PathBuf {
+        let dir = std::env::temp_dir().join(format!("vservoctl-new-file-{name}-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).expect("a folder");
+        dir
+    }
+
+    #[test]
+    fn a_new_name_is_written_and_an_own_file_replaced_only_with_force() {
+        let dir = folder("own");
+        let path = dir.join("out.txt");
+        write(&path, b"first", false, 0o600).expect("a new name");
+        assert_eq!(std::fs::read(&path).expect("read"), b"first");
+        assert_eq!(std::fs::metadata(&path).expect("metadata").mode() & 0o777, 0o600);
+        let refused = write(&path, b"second", false, 0o600).expect_err("exists");
+        assert!(refused.to_string().contains("--force"), "{refused}");
+        assert_eq!(std::fs::read(&path).expect("read"), b"first", "unchanged");
+        write(&path, b"second", true, 0o644).expect("replaced with --force");
+        assert_eq!(std::fs::read(&path).expect("read"), b"second");
+        assert_eq!(std::fs::read_dir(&dir).expect("the folder").count(), 1, "nothing left beside it");
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    #[test]
+    fn a_link_or_a_folder_at_the_name_is_refused_even_with_force() {
+        let dir = folder("link");
+        let victim = dir.join("victim.txt");
+        std::fs::write(&victim, b"precious").expect("the victim");
+        let link = dir.join("link.txt");
+        std::os::unix::fs::symlink(&victim, &link).expect("a link");
+        let refused = write(&link, b"bad", true, 0o600).expect_err("a link");
+        assert!(refused.to_string().contains("symbolic link"), "{refused}");
+        assert_eq!(std::fs::read(&victim).expect("read"), b"precious");
+        assert!(std::fs::symlink_metadata(&link).expect("still there").file_type().is_symlink());
+        let refused = write(&dir, b"bad", true, 0o600).expect_err("a folder");
+        assert!(refused.to_string().contains("not a regular file"), "{refused}");
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+}
