@@ -18,7 +18,7 @@ use vservo_protocol::{
 use vservo_sim::plant::JointState;
 use vservo_sim::world::ObjectMotion;
 
-use super::{NodeBase, go_realtime, latest, start};
+use super::{NodeBase, go_realtime, start};
 use crate::clock::{PeriodicTimer, monotonic_ns};
 use crate::telemetry::{Counters, CycleSample};
 use crate::wire::{joints_from_wire, joints_to_wire, pose_to_wire, wire_joint_count};
@@ -274,17 +274,23 @@ impl Plant {
         answer
     }
 
-    /// An object command (from vservod; rare) changes the board's motion from this tick on: the daemon's only
-    /// (sealed with the run's key; the daemon has checked its limits).
+    /// Object commands (from vservod; rare) change the board's motion from this tick on: the daemon's only
+    /// (sealed with the run's key; the daemon has checked its limits), each judged as it came.
     fn take_object_motion(&mut self, ports: &Ports, context: &NodeContext, counters: &Counters) {
-        let Some(message) = latest(&ports.objects, counters) else { return };
+        let refused =
+            ports.objects.each_message(|message| self.take_object_command(&message, context, counters));
+        (0..refused).for_each(|_| counters.rejected());
+    }
+
+    /// One object command: taken when sealed, newer than the one in force and a motion.
+    fn take_object_command(&mut self, message: &ObjectMsg, context: &NodeContext, counters: &Counters) {
         let issue = Issue { stamp_ns: message.stamp_ns, counter: message.sequence };
         let standing = freshness::standing(self.object_issue, issue, monotonic_ns());
         if standing == Standing::Same {
             return;
         }
-        let sealed = sealed_by(context.seal_key.as_ref(), &message);
-        match object_motion(&message).filter(|_| sealed && standing.is_newer()) {
+        let sealed = sealed_by(context.seal_key.as_ref(), message);
+        match object_motion(message).filter(|_| sealed && standing.is_newer()) {
             Some(motion) => {
                 self.stage.set_object_motion(motion);
                 self.object_issue = Some(issue);

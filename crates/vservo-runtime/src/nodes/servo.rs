@@ -18,7 +18,7 @@ use vservo_protocol::{
 };
 use vservo_scene::FeatureVector;
 
-use super::{CellModeFollower, IDLE_WAIT, ModeInForce, NodeBase, go_realtime, latest, start};
+use super::{CellModeFollower, IDLE_WAIT, ModeInForce, NodeBase, go_realtime, start};
 use crate::clock::monotonic_ns;
 use crate::telemetry::{Counters, CycleSample, LoopMonitor, Note};
 use crate::wire::to_array;
@@ -118,17 +118,23 @@ impl Servo {
         }
     }
 
-    /// Takes the daemon's newest design, if it is sealed with the run's key and newer than the one in use
-    /// (another is refused and counted); it takes effect at a frame boundary, before the next feature vector.
+    /// Takes the daemon's designs that came, each judged (a refused one after a good one does not hide it): one
+    /// sealed with the run's key and newer than the one in use is taken, another is refused and counted; it takes
+    /// effect at a frame boundary, before the next feature vector.
     fn take_gains(&mut self, ports: &Ports, context: &NodeContext, counters: &Counters) {
-        let Some(message) = latest(&ports.gains, counters) else { return };
+        let refused = ports.gains.each_message(|message| self.take_design(&message, context, counters));
+        (0..refused).for_each(|_| counters.rejected());
+    }
+
+    /// One design of the daemon's: taken when sealed and newer than the one in use.
+    fn take_design(&mut self, message: &GainsMsg, context: &NodeContext, counters: &Counters) {
         let issue = Issue { stamp_ns: message.stamp_ns, counter: message.version };
         let standing = freshness::standing(self.gains_issue, issue, monotonic_ns());
         if standing == Standing::Same {
             return;
         }
-        let sealed = sealed_by(context.seal_key.as_ref(), &message);
-        match law_gains(&message).filter(|_| sealed && standing.is_newer()) {
+        let sealed = sealed_by(context.seal_key.as_ref(), message);
+        match law_gains(message).filter(|_| sealed && standing.is_newer()) {
             Some(gains) => {
                 self.stage.set_gains(&gains);
                 self.gains_version = message.version;
