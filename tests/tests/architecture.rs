@@ -92,3 +92,56 @@ fn drivers_and_bridges_keep_out_of_the_real_time_shell_and_the_cell() {
     // the premise: the check sees the real graph (the daemon does reach the shell)
     assert!(reached(&graph, "vservod").contains("vservo-runtime"));
 }
+
+/// Every `.rs` file under `dir`, recursively.
+fn rust_files(dir: &std::path::Path) -> Vec<std::path::PathBuf> {
+    let mut files = Vec::new();
+    for entry in std::fs::read_dir(dir).expect("a folder").flatten() {
+        let path = entry.path();
+        if path.is_dir() {
+            files.extend(rust_files(&path));
+        } else if path.extension().is_some_and(|e| e == "rs") {
+            files.push(path);
+        }
+    }
+    files
+}
+
+/// Issue 36: the rule for taking a command (its age window and its checks) is written once in Rust, in
+/// `vservo-driver` (which the simulated plant, the ROS 2 driver and the Franka driver call), and once in Python,
+/// in `vservo_driver.py` (which tests/tests/python_layout.rs ties to the Rust); no other source writes it again.
+#[test]
+fn the_command_admission_rule_is_written_once_in_rust_and_once_in_python() {
+    let root = repository_root();
+    let rule =
+        ["MAX_COMMAND_AGE_TICKS: u64 =", "+ MAX_COMMAND_AGE_TICKS", "answers_tick +", "answers_tick <"];
+    let mut found: Vec<String> = Vec::new();
+    for file in rust_files(&root.join("crates")) {
+        let text = std::fs::read_to_string(&file).expect("a source file");
+        for pattern in rule.iter().chain([".driver_epoch !=", ".driver_epoch =="].iter()) {
+            if text.contains(pattern) {
+                found
+                    .push(format!("{}: {pattern}", file.strip_prefix(&root).expect("in the tree").display()));
+            }
+        }
+    }
+    let (driver_side, elsewhere): (Vec<&String>, Vec<&String>) =
+        found.iter().partition(|f| f.starts_with("crates/vservo-driver/src/side.rs"));
+    assert!(elsewhere.is_empty(), "the admission rule written again: {elsewhere:?}");
+    // the premise: the patterns find the rule where it is
+    assert!(driver_side.iter().any(|f| f.ends_with("MAX_COMMAND_AGE_TICKS: u64 =")), "{found:?}");
+    assert!(driver_side.iter().any(|f| f.ends_with("+ MAX_COMMAND_AGE_TICKS")), "{found:?}");
+    assert!(driver_side.iter().any(|f| f.ends_with(".driver_epoch !=")), "{found:?}");
+    let python: Vec<String> = std::fs::read_dir(root.join("clients/python"))
+        .expect("clients/python")
+        .flatten()
+        .map(|e| e.path())
+        .filter(|p| p.extension().is_some_and(|e| e == "py"))
+        .filter(|p| {
+            let text = std::fs::read_to_string(p).expect("a Python file");
+            text.contains("MAX_COMMAND_AGE_TICKS = ") || text.contains("+ MAX_COMMAND_AGE_TICKS")
+        })
+        .map(|p| p.file_name().expect("a name").to_string_lossy().to_string())
+        .collect();
+    assert_eq!(python, ["vservo_driver.py"], "the Python rule in one module");
+}

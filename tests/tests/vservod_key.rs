@@ -379,6 +379,44 @@ fn a_third_users_client_is_never_told_that_root_runs_another_users_instance() {
     daemon.stop();
 }
 
+/// Issue 37: the security review's replay against a daemon of a user other than root, by a process of that
+/// user (tests/python/replay_attack.py, as nobody): the servo's sealed twists recorded while they moved the arm,
+/// the servo SIGKILLed, its slot taken while it restarts and the twists played again for 2 s. The rmrc refuses
+/// them (not the announced servo's run) and the arm moves no faster than alone, under 0.1 rad/s.
+#[test]
+fn replayed_sealed_twists_move_nothing_on_a_non_root_users_own_daemon() {
+    let Some(nobody) = nobody_if_root() else { return };
+    let _one = exclusive();
+    let instance = unique("key-replay");
+    let mut files = UserInstance::new(nobody, &instance);
+    let (_config, daemon, status) = running_as(nobody, &instance);
+    files.pids = pids(&status).into_iter().map(|(_, pid)| pid).collect();
+    let refused_before = status["nodes"]["rmrc"]["rejected_messages"].as_i64().unwrap_or(0);
+    let (python, env) = python_for(nobody);
+    let out = as_user(&python, nobody)
+        .envs(env.iter().map(|(k, v)| (*k, v)))
+        .arg(repository_root().join("tests/python/replay_attack.py"))
+        .arg(&instance)
+        .output()
+        .expect("the attacker runs");
+    assert!(out.status.success(), "{}\n{}", show(&out), daemon.log());
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    let attack: Value = serde_json::from_str(stdout.lines().last().expect("a line")).expect("JSON");
+    println!("replay as nobody on nobody's daemon: {attack}");
+    let refused = status_as(nobody, &instance).expect("a status")["nodes"]["rmrc"]["rejected_messages"]
+        .as_i64()
+        .unwrap_or(0)
+        - refused_before;
+    let (alone, attacked) = (
+        attack["alone_rad_s"].as_f64().expect("alone"),
+        attack["attacked_rad_s"].as_f64().expect("attacked"),
+    );
+    assert!(attack["sent"].as_u64().expect("sent") > 100, "{attack}");
+    assert!(refused > 100, "the rmrc refused the replayed twists: {refused}");
+    assert!(attacked <= alone + 0.01 && attacked < 0.1, "the arm moved: {attack}");
+    daemon.stop();
+}
+
 /// The Python client's location rule, case by case (tests/python/check_locate.py), as vservoctl's unit tests
 /// (`instance_dir::tests`).
 #[test]

@@ -157,16 +157,20 @@ fn a_target_lost_after_a_joint_move_is_left_by_a_joint_move_back() {
         assert_eq!(code, Some(0), "{args:?}: {out}");
         out
     };
+    // the joint move at its goal, the arm at rest
+    let arrived = || {
+        assert!(
+            wait_until(Duration::from_secs(10), || status(&instance).is_some_and(|s| s["state"] == "moving")
+                && fastest_joint_rad_s(&instance, "0.3") < 0.01),
+            "{}",
+            daemon.log()
+        )
+    };
     // a turn of the waist by 1 rad: the board leaves the view
     let mut away = q.clone();
     away[0] += 1.0;
     ok(&["move-joints", "--instance", &instance, "--q", &csv(&away), "--speed-fraction", "0.3"]);
-    assert!(
-        wait_until(Duration::from_secs(10), || status(&instance).is_some_and(|s| s["state"] == "moving")
-            && fastest_joint_rad_s(&instance, "0.3") < 0.01),
-        "{}",
-        daemon.log()
-    );
+    arrived();
     ok(&["servo", "--instance", &instance]);
     assert!(
         wait_until(Duration::from_secs(10), || safe_stopped_by(&instance, "target_lost")),
@@ -181,12 +185,7 @@ fn a_target_lost_after_a_joint_move_is_left_by_a_joint_move_back() {
     // the way out: a joint move back, which ends the stop
     let out = ok(&["move-joints", "--instance", &instance, "--q", &csv(&q), "--speed-fraction", "0.3"]);
     assert!(out.contains("out of the safe stop (target_lost"), "{out}");
-    assert!(
-        wait_until(Duration::from_secs(10), || status(&instance).is_some_and(|s| s["state"] == "moving")
-            && fastest_joint_rad_s(&instance, "0.3") < 0.01),
-        "{}",
-        daemon.log()
-    );
+    arrived();
     ok(&["servo", "--instance", &instance]);
     assert!(
         wait_until(Duration::from_secs(20), || status(&instance)

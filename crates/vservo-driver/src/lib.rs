@@ -19,10 +19,13 @@
 //! state machine does no I/O, reads no clock and allocates nothing. Of the workspace this crate depends on
 //! `vservo-protocol` only; it also holds the driver and helper processes' logging to stderr ([`logging`]).
 //!
-//! Its users: the Franka driver (the binary `vservo-franka`, crate `vservo-franka-driver`) runs all of it; the
-//! ROS 2 driver its period check ([`PeriodCheck`]), with its own command admission; the Python reference
-//! drivers' `vservo_driver.refusal` is tied to [`DriverSide::take_command`] by a test that hands both the same
-//! commands (tests/tests/python_layout.rs); the simulated plant keeps its own rules.
+//! Its users: the Franka driver (the binary `vservo-franka`, crate `vservo-franka-driver`) and the ROS 2 driver
+//! (`vservo_ros2::arm_driver`) run all of it; the simulated plant (`vservo-runtime`'s plant node) its command
+//! admission ([`DriverSide::take_command`], after [`DriverSide::published`]), applying only the answer to the tick
+//! it just published (the lockstep replays a run tick for tick) with its own seal and torque checks; the Python
+//! reference drivers' `vservo_driver.refusal` is tied to [`DriverSide::take_command`] by a test that hands both
+//! the same commands (tests/tests/python_layout.rs). tests/tests/architecture.rs checks that no other source
+//! writes the rule again.
 
 pub mod logging;
 mod period;

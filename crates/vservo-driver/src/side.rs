@@ -260,9 +260,7 @@ impl DriverSide {
         measured: &Measured,
         fault: Option<DriverError>,
     ) -> JointStateMsg {
-        if let Some((_, last_ns)) = self.last {
-            self.period.add(stamp_ns.saturating_sub(last_ns));
-        }
+        self.published(tick, stamp_ns);
         let status = if fault.is_some() || self.period_mismatch_ns().is_some() {
             DriverStatus::Fault
         } else if self.applying == u64::MAX {
@@ -271,7 +269,7 @@ impl DriverSide {
             DriverStatus::Following
         };
         let s = &self.settings;
-        let state = JointStateMsg {
+        JointStateMsg {
             schema: SCHEMA_VERSION,
             faults: self.limit_bits(&measured.q_rad, &measured.qd_rad_s),
             tick,
@@ -286,10 +284,18 @@ impl DriverSide {
             qd_rad_s: measured.qd_rad_s,
             torque_nm: measured.torque_nm,
             applied_command_tick: self.applying,
-        };
+        }
+    }
+
+    /// A joint state of `tick` published at `stamp_ns` by a driver that writes its own message (the simulated
+    /// plant, whose status and faults are its simulation's): the commands answering it, and the two before it,
+    /// are admitted from now on. [`DriverSide::joint_state`] does this itself.
+    pub fn published(&mut self, tick: u64, stamp_ns: u64) {
+        if let Some((_, last_ns)) = self.last {
+            self.period.add(stamp_ns.saturating_sub(last_ns));
+        }
         self.last = Some((tick, stamp_ns));
         self.counts.states += 1;
-        state
     }
 
     /// The position- and velocity-limit bits of the configured arm (docs/DRIVERS.md, `faults`).

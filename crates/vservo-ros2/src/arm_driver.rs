@@ -7,24 +7,17 @@
 //! velocities, or the position where holding began) and the joint state says `holding`; the caller also sends
 //! that command when the arm's joint states stop, and when it ends.
 //!
+//! The contract's rules (command admission with its one age window, holding, `applied_command_tick`, the period
+//! check, the limit bits) are `vservo_driver::DriverSide`'s, as for every robot driver; ROS's own part is here.
+//!
 //! No I/O and no clock here: times come in as arguments (CLOCK_MONOTONIC ns), so the rules are tested as
 //! functions.
 
 use vservo_arm::SerialArm;
-use vservo_protocol::messages::fault_bits;
-use vservo_protocol::{
-    CommandMode, DriverStatus, JointCommandMsg, JointStateMsg, MAX_JOINTS, SCHEMA_VERSION,
-};
-
-#[cfg(test)]
-use vservo_driver::PERIOD_CHECK_GAPS;
-use vservo_driver::PeriodCheck;
+use vservo_driver::{DriverSettings, DriverSide};
+use vservo_protocol::{CommandMode, DriverStatus, JointCommandMsg, JointStateMsg, MAX_JOINTS};
 
 use crate::msg::JointState;
-
-/// A command must answer the joint state last published or one or two before it (docs/DRIVERS.md, "When to
-/// read the command").
-pub const MAX_COMMAND_AGE_TICKS: u64 = 2;
 
 /// What the driver knows of the arm and its controller.
 #[derive(Debug, Clone)]
@@ -72,6 +65,19 @@ impl ArmSettings {
 
     fn joint_count(&self) -> usize {
         self.joint_names.len()
+    }
+
+    /// What the driver side of the contract (`vservo_driver::DriverSide`) is told of this driver.
+    fn driver_settings(&self) -> DriverSettings {
+        DriverSettings {
+            mode: self.mode,
+            joint_count: self.joint_count(),
+            period_ns: self.period_ns,
+            hold_after_ns: self.hold_after_ns,
+            position_min_rad: self.position_min_rad,
+            position_max_rad: self.position_max_rad,
+            velocity_max_rad_s: self.velocity_max_rad_s,
+        }
     }
 }
 
@@ -124,14 +130,6 @@ pub struct ArmCounts {
     pub holds: u64,
 }
 
-/// The command in force: the controller's values and the joint state it answers.
-#[derive(Debug, Clone, Copy)]
-struct InForce {
-    values: [f64; MAX_JOINTS],
-    answers_tick: u64,
-    taken_ns: u64,
-}
-
 /// One joint state passed on: the vservo message, and the controller's command to send now.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Step {
@@ -141,22 +139,18 @@ pub struct Step {
     pub command: Vec<f64>,
 }
 
-/// The driver's state between joint states.
+/// The driver's state between joint states: the contract's side of it (command admission with its one age
+/// window, holding, `applied_command_tick`, the period check and the limit bits) is `vservo_driver::DriverSide`'s;
+/// what is ROS's (joints by name, ticks from stamps, speeds from positions, holding a position) is here.
 #[derive(Debug, Clone)]
 pub struct ArmFollower {
     settings: ArmSettings,
-    epoch: u64,
+    side: DriverSide,
     /// The stamp of the first joint state: tick 0.
     origin_ns: Option<u64>,
-    last_tick: u64,
     last: Option<(u64, [f64; MAX_JOINTS])>,
-    in_force: Option<InForce>,
-    /// The command applied over the period that is running (reported in the next state).
-    applying: u64,
     /// Where the arm is held (position mode), from when holding began.
     hold_at: Option<[f64; MAX_JOINTS]>,
-    /// The arm's period as its stamps say.
-    period_check: PeriodCheck,
     /// What happened so far.
     pub counts: ArmCounts,
 }
@@ -164,40 +158,16 @@ pub struct ArmFollower {
 impl ArmFollower {
     /// A driver run that starts now: `epoch` is its start time (ns), as docs/DRIVERS.md asks.
     pub fn new(settings: ArmSettings, epoch: u64) -> Self {
-        Self {
-            settings,
-            epoch,
-            origin_ns: None,
-            last_tick: 0,
-            last: None,
-            in_force: None,
-            applying: u64::MAX,
-            hold_at: None,
-            period_check: PeriodCheck::default(),
-            counts: ArmCounts::default(),
-        }
+        let side = DriverSide::new(settings.driver_settings(), epoch);
+        Self { settings, side, origin_ns: None, last: None, hold_at: None, counts: ArmCounts::default() }
     }
 
-    /// Takes one of vservo's commands if it is this run's, of the declared mode and arm, recent and finite.
+    /// Takes one of vservo's commands if the contract admits it (`DriverSide::take_command`: this run's, of the
+    /// declared mode and arm, answering one of the last states published, finite).
     pub fn take_command(&mut self, command: &JointCommandMsg, now_ns: u64) {
-        let n = self.settings.joint_count();
-        let values = match self.settings.mode {
-            CommandMode::Position => command.q_ref_rad,
-            _ => command.qd_ref_rad_s,
-        };
-        let recent = self.origin_ns.is_some()
-            && command.answers_tick <= self.last_tick
-            && command.answers_tick + MAX_COMMAND_AGE_TICKS >= self.last_tick;
-        let valid = command.mode == self.settings.mode.code()
-            && command.joint_count as usize == n
-            && command.driver_epoch == self.epoch
-            && recent
-            && values[..n].iter().all(|v| v.is_finite());
-        if valid {
-            self.in_force = Some(InForce { values, answers_tick: command.answers_tick, taken_ns: now_ns });
-            self.counts.commands_taken += 1;
-        } else {
-            self.counts.commands_refused += 1;
+        match self.side.take_command(command, now_ns) {
+            Ok(()) => self.counts.commands_taken += 1,
+            Err(_) => self.counts.commands_refused += 1,
         }
     }
 
@@ -213,40 +183,20 @@ impl ArmFollower {
         let tick = self.tick_of(stamp_ns).inspect_err(|_| self.counts.states_refused += 1)?;
         let qd_rad_s =
             measured.qd_rad_s.unwrap_or_else(|| self.velocity_from_positions(stamp_ns, &measured.q_rad));
-        if let Some((last_ns, _)) = self.last {
-            self.period_check.add(stamp_ns - last_ns);
-        }
-        let (status, command) = match self.period_mismatch_ns() {
+        let seen = vservo_driver::Measured { q_rad: measured.q_rad, qd_rad_s, torque_nm: measured.torque_nm };
+        let mut state = self.side.joint_state(tick, stamp_ns, &seen, None);
+        let (status, command) = match self.side.period_mismatch_ns() {
             // not the configured arm's period: a fault (the cell stops safely), the arm held
             Some(_) => {
-                self.in_force = None;
+                self.side.hold();
                 let at = self.hold_values(Some(measured.q_rad)).unwrap_or_default();
                 (DriverStatus::Fault, at)
             }
             None => self.command_for(now_ns, &measured.q_rad),
         };
-        let mut state = JointStateMsg {
-            schema: SCHEMA_VERSION,
-            faults: self.fault_bits(&measured.q_rad, &qd_rad_s),
-            tick,
-            stamp_ns,
-            driver_epoch: self.epoch,
-            period_ns: self.settings.period_ns,
-            command_mode: self.settings.mode.code(),
-            driver_status: status.code(),
-            joint_count: self.settings.joint_count() as u32,
-            q_rad: measured.q_rad,
-            qd_rad_s,
-            torque_nm: measured.torque_nm,
-            ..JointStateMsg::default()
-        };
-        state.applied_command_tick = self.applying;
-        self.applying = match status {
-            DriverStatus::Following => self.in_force.map_or(u64::MAX, |c| c.answers_tick),
-            _ => u64::MAX,
-        };
+        // the status of the command sent now, with this state (the controller takes it at once)
+        state.driver_status = status.code();
         self.origin_ns.get_or_insert(stamp_ns);
-        self.last_tick = tick;
         self.last = Some((stamp_ns, measured.q_rad));
         self.counts.states += 1;
         Ok(Step { state, command })
@@ -256,8 +206,7 @@ impl ArmFollower {
     /// (the last measured one). For when the joint states stop, and at the end. `None` in position mode
     /// before any joint state: there is no position to hold, and an empty command would only be refused.
     pub fn hold(&mut self) -> Option<Vec<f64>> {
-        self.in_force = None;
-        self.applying = u64::MAX;
+        self.side.hold();
         let q_rad = self.last.map(|(_, q)| q);
         let values = self.hold_values(q_rad);
         self.counts.holds += u64::from(values.is_some());
@@ -272,19 +221,19 @@ impl ArmFollower {
     /// The median gap between the arm's joint states (ns) when it is not `[robot] period_s`: the driver then
     /// reports a fault and holds the arm.
     pub fn period_mismatch_ns(&self) -> Option<u64> {
-        self.period_check.mismatch(self.settings.period_ns)
+        self.side.period_mismatch_ns()
     }
 
-    /// Whether a command has come in time: the status to report and the controller's command.
+    /// Whether a command has come in time (`DriverSide::apply`): the status to report and the controller's
+    /// command.
     fn command_for(&mut self, now_ns: u64, q_rad: &[f64; MAX_JOINTS]) -> (DriverStatus, Vec<f64>) {
         let n = self.settings.joint_count();
-        match self.in_force {
-            Some(c) if now_ns.saturating_sub(c.taken_ns) <= self.settings.hold_after_ns => {
+        match self.side.apply(now_ns) {
+            Some(in_force) => {
                 self.hold_at = None;
-                (DriverStatus::Following, c.values[..n].to_vec())
+                (DriverStatus::Following, in_force.values[..n].to_vec())
             }
-            _ => {
-                self.in_force = None;
+            None => {
                 self.counts.holds += 1;
                 let at = self.hold_values(Some(*q_rad)).unwrap_or_default();
                 (DriverStatus::Holding, at)
@@ -352,10 +301,11 @@ impl ArmFollower {
         let (Some(origin_ns), Some((last_ns, _))) = (self.origin_ns, self.last) else { return Ok(0) };
         let period = self.settings.period_ns.max(1);
         let periods = (stamp_ns.saturating_sub(origin_ns) + period / 2) / period;
+        let last_tick = self.side.last_tick().unwrap_or(0);
         if stamp_ns <= last_ns {
-            return Err(StateRefused::NotNewer { stamp_ns, tick: periods, last_tick: self.last_tick });
+            return Err(StateRefused::NotNewer { stamp_ns, tick: periods, last_tick });
         }
-        Ok(periods.max(self.last_tick + 1))
+        Ok(periods.max(last_tick + 1))
     }
 
     /// With no velocities in the message: the positions' change since the last state, or zero at the first.
@@ -367,17 +317,6 @@ impl ArmFollower {
             }
             _ => [0.0; MAX_JOINTS],
         }
-    }
-
-    /// The position- and velocity-limit bits of the configured arm (docs/DRIVERS.md, `faults`).
-    fn fault_bits(&self, q_rad: &[f64; MAX_JOINTS], qd_rad_s: &[f64; MAX_JOINTS]) -> u32 {
-        let s = &self.settings;
-        (0..s.joint_count()).fold(0, |bits, j| {
-            let position = q_rad[j] <= s.position_min_rad[j] || q_rad[j] >= s.position_max_rad[j];
-            let velocity = qd_rad_s[j].abs() > s.velocity_max_rad_s[j];
-            bits | (u32::from(position) << (fault_bits::POSITION_LIMIT_SHIFT + j as u32))
-                | (u32::from(velocity) << (fault_bits::VELOCITY_LIMIT_SHIFT + j as u32))
-        })
     }
 }
 
@@ -391,6 +330,9 @@ struct Measured {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use vservo_driver::PERIOD_CHECK_GAPS;
+    use vservo_protocol::SCHEMA_VERSION;
+    use vservo_protocol::messages::fault_bits;
 
     const PERIOD_NS: u64 = 2_000_000;
     const EPOCH: u64 = 77;

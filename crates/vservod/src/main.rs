@@ -31,8 +31,11 @@
 //!   once (`CONDITIONS`, judged on `Evidence`: what was seen since the last cycle to find a fault, how things
 //!   stand now to name what keeps a resume back).
 //! - [`safety`] turns those decisions into sealed `cell_mode` messages (and a client's joint move into
-//!   `cell_mode` moving, which a safe stop holds and a resume takes on), one ERROR line per safe stop and one
-//!   WARN per resume, and the fault in the status.
+//!   `cell_mode` moving, which a safe stop holds and a resume takes on; a joint move also ends a `target_lost`
+//!   stop that only the lost marks keep), one ERROR line per safe stop and one WARN per resume, and the fault in
+//!   the status. It publishes the mode in force again at least every 100 ms with the nodes' processes
+//!   (`writers`): the nodes' heartbeat (none for 1 s: they hold the arm) and the writers whose sealed streams they
+//!   take; a daemon that published nothing that long (it was stopped) latches `supervision_stalled`.
 //! - [`commands`] answers the `command` service with typed outcomes (`Accepted`, `CommandRefused`; the reply
 //!   text made once): `reload` diffs validated `Config` values (comments and key order are no change; a
 //!   changed key outside `[controller]`/`[desired]` is a `ReloadRefused::RestartOnly` naming it); targets are

@@ -8,6 +8,7 @@ use iceoryx2::port::publisher::Publisher;
 use iceoryx2::port::subscriber::Subscriber;
 use iceoryx2::prelude::{Node, ipc};
 use vservo_cell::{ActuatorCommand, CommandReference, PlantStage};
+use vservo_driver::{CommandRefused, DriverSettings, DriverSide};
 use vservo_protocol::TakeMessages;
 use vservo_protocol::freshness::{self, Issue, Standing};
 use vservo_protocol::seal::sealed_by;
@@ -159,6 +160,46 @@ impl Ports {
     }
 }
 
+/// What the plant makes of one of the rmrc's commands.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[expect(
+    clippy::large_enum_variant,
+    reason = "on the stack, once per command: a box would allocate on the 1 ms path"
+)]
+enum Reply {
+    /// The answer to the tick just published, to apply.
+    Answer((ActuatorCommand, CommandReference)),
+    /// Not the rmrc's (unsealed), not this run's, or not one the plant can apply: counted.
+    Refused,
+    /// An answer to another tick than the one just published: came too late (already counted as late).
+    Late,
+}
+
+/// Judges a command that came while the state of `tick` was the last published: admitted by the driver side of
+/// the contract (`vservo_driver::DriverSide::take_command`: schema, run, mode, joint count, age, finite) once it is
+/// the rmrc's (`sealed`), then applied only as the answer to `tick` itself (the lockstep's replay of a run is tick
+/// for tick) and when `command_of` takes it (its reference finite, its torque within the bound).
+fn judge(
+    side: &mut DriverSide,
+    (reply, sealed): (&JointCommandMsg, bool),
+    tick: u64,
+    torque_max_nm: &[f64],
+    now_ns: u64,
+) -> Reply {
+    if !sealed {
+        return Reply::Refused;
+    }
+    match side.take_command(reply, now_ns) {
+        // another run's (a restarted plant's predecessor's), whatever tick it answers
+        Err(CommandRefused::Epoch { .. }) => Reply::Refused,
+        _ if reply.answers_tick != tick => Reply::Late,
+        Ok(()) => {
+            command_of(reply, side.settings().mode, torque_max_nm).map_or(Reply::Refused, Reply::Answer)
+        }
+        Err(_) => Reply::Refused,
+    }
+}
+
 /// The rmrc's answer to the state of a tick, as the plant took it.
 #[derive(Debug, Clone, Copy, Default)]
 struct Answer {
@@ -171,6 +212,8 @@ struct Answer {
 struct Plant {
     stage: PlantStage,
     declared: Declared,
+    /// The driver side of the contract: which commands it admits.
+    side: DriverSide,
     /// The arm's torque limits, one per joint.
     torque_max_nm: [f64; MAX_JOINTS],
     /// The arm's speed limits, one per joint (zero past its joints, where the speed is zero).
@@ -195,21 +238,34 @@ impl Plant {
     fn new(context: &NodeContext) -> Self {
         let config = context.cell.config();
         let limits = |j: usize| context.cell.arm().links[j].limits;
+        let declared = Declared {
+            // an epoch no earlier plant of this host has used: consumers re-synchronise when it changes
+            epoch: monotonic_ns(),
+            period_ns: (config.timing.control_period_s * 1e9).round() as u64,
+            command_mode: crate::wire::command_mode(config.command_interface()),
+        };
+        let hold_after = u64::from(config.runtime.hold_after_missed_ticks);
+        let settings = DriverSettings {
+            mode: declared.command_mode,
+            joint_count: context.cell.arm().joint_count(),
+            period_ns: declared.period_ns,
+            // the plant counts missed ticks itself (`advance`); its simulated periods are not checked
+            hold_after_ns: hold_after * declared.period_ns,
+            position_min_rad: std::array::from_fn(|j| limits(j).position_min),
+            position_max_rad: std::array::from_fn(|j| limits(j).position_max),
+            velocity_max_rad_s: std::array::from_fn(|j| limits(j).velocity_max),
+        };
         Self {
             stage: match context.resume {
                 Some((q, tick)) => context.cell.plant_resumed(&q, tick),
                 None => context.cell.plant(),
             },
-            declared: Declared {
-                // an epoch no earlier plant of this host has used: consumers re-synchronise when it changes
-                epoch: monotonic_ns(),
-                period_ns: (config.timing.control_period_s * 1e9).round() as u64,
-                command_mode: crate::wire::command_mode(config.command_interface()),
-            },
+            declared,
+            side: DriverSide::new(settings, declared.epoch),
             torque_max_nm: std::array::from_fn(|j| limits(j).torque_max),
             speed_max_rad_s: std::array::from_fn(|j| limits(j).velocity_max),
             joint_count: context.cell.arm().joint_count(),
-            hold_after: u64::from(config.runtime.hold_after_missed_ticks),
+            hold_after,
             last_command: None,
             applied_command_tick: u64::MAX,
             missed_in_a_row: 0,
@@ -221,7 +277,7 @@ impl Plant {
     }
 
     /// Publishes where the board is and the state, and wakes the rmrc; the state's stamp.
-    fn publish(&self, ports: &Ports, counters: &Counters) -> u64 {
+    fn publish(&mut self, ports: &Ports, counters: &Counters) -> u64 {
         let state = *self.stage.state();
         let message = state_message(&self.stage, &state, &self.declared, self.applied_command_tick);
         if let Ok(sample) = ports.world.loan_uninit() {
@@ -234,17 +290,17 @@ impl Plant {
             let _ = sample.write_payload(world).send();
         }
         ports.send_state(message);
+        self.side.published(state.tick, message.stamp_ns);
         let _ = ports.state_notifier.notify();
         counters.set_progress(state.tick);
         counters.set_mode(u32::from(self.stage.is_holding()));
         message.stamp_ns
     }
 
-    /// The rmrc's answer to the state of `tick`, from the commands waiting: the rmrc's only (sealed with the
-    /// run's key, of this driver's epoch); a refused one counted; an answer to an older tick came too late
-    /// (already counted).
+    /// The rmrc's answer to the state of `tick`, from the commands waiting ([`judge`]): a refused one counted;
+    /// an answer to an older tick came too late (already counted).
     fn answer(
-        &self,
+        &mut self,
         ports: &Ports,
         tick: u64,
         published_at: u64,
@@ -252,23 +308,21 @@ impl Plant {
         counters: &Counters,
     ) -> Answer {
         let mut answer = Answer::default();
+        let torque_max_nm = &self.torque_max_nm[..self.joint_count];
+        let now_ns = monotonic_ns();
         while let Some(taken) = ports.commands.next_message() {
             let Ok(reply) = taken else {
                 counters.rejected();
                 continue;
             };
             let sealed = sealed_by(context.seal_key.as_ref(), &reply);
-            if reply.driver_epoch != self.declared.epoch || !sealed {
-                counters.rejected();
-            } else if reply.answers_tick == tick {
-                match command_of(&reply, self.declared.command_mode, &self.torque_max_nm[..self.joint_count])
-                {
-                    Some(command) => {
-                        answer.command = Some(command);
-                        answer.round_trip_ns = reply.stamp_ns.saturating_sub(published_at).max(1);
-                    }
-                    None => counters.rejected(),
+            match judge(&mut self.side, (&reply, sealed), tick, torque_max_nm, now_ns) {
+                Reply::Answer(command) => {
+                    answer.command = Some(command);
+                    answer.round_trip_ns = reply.stamp_ns.saturating_sub(published_at).max(1);
                 }
+                Reply::Refused => counters.rejected(),
+                Reply::Late => {}
             }
         }
         answer
@@ -474,6 +528,41 @@ mod tests {
         // the simulated driver takes torques or positions; an unknown code is no interface at all
         assert_eq!(taken(&command(1), CommandMode::Velocity, &LIMITS_NM), None);
         assert_eq!(taken(&command(9), CommandMode::Torque, &LIMITS_NM), None);
+    }
+
+    #[test]
+    fn a_command_is_applied_as_the_answer_to_the_tick_just_published_only() {
+        let settings = DriverSettings {
+            mode: CommandMode::Torque,
+            joint_count: 6,
+            period_ns: 1_000_000,
+            hold_after_ns: 20_000_000,
+            position_min_rad: [-3.0; MAX_JOINTS],
+            position_max_rad: [3.0; MAX_JOINTS],
+            velocity_max_rad_s: [2.0; MAX_JOINTS],
+        };
+        let mut side = DriverSide::new(settings, 5);
+        side.published(10, 1_000);
+        let answer = JointCommandMsg { answers_tick: 10, driver_epoch: 5, ..command(0) };
+        let mut judged =
+            |reply: &JointCommandMsg, sealed: bool| judge(&mut side, (reply, sealed), 10, &LIMITS_NM, 0);
+        assert!(matches!(judged(&answer, true), Reply::Answer(_)));
+        // not the rmrc's, another run's (whatever tick it answers), beyond the torque bound: refused
+        assert_eq!(judged(&answer, false), Reply::Refused);
+        assert_eq!(
+            judged(&JointCommandMsg { driver_epoch: 6, answers_tick: 9, ..answer }, true),
+            Reply::Refused
+        );
+        let beyond = JointCommandMsg { torque_nm: [150.1, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0], ..answer };
+        assert_eq!(judged(&beyond, true), Reply::Refused);
+        // an answer to an earlier tick (within the contract's window or not), or to one not published: late
+        for answers_tick in [9, 8, 6, 11] {
+            assert_eq!(
+                judged(&JointCommandMsg { answers_tick, ..answer }, true),
+                Reply::Late,
+                "{answers_tick}"
+            );
+        }
     }
 
     #[test]
