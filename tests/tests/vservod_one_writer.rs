@@ -217,8 +217,8 @@ fn report(what: &str, attack: &Attack, refused: i64) {
     );
 }
 
-/// When the rmrc is the node killed, its death alone hands the arm to the drives' brake (the last command
-/// held for `hold_after_missed_ticks`, then braked to rest), a transient no attacker causes or can change;
+/// When the rmrc is the node killed, its death alone hands the arm to the drives' brake (the last command's reference
+/// followed for `hold_after_missed_ticks`, then braked to rest), a transient no attacker causes or can change;
 /// by this time into the attack that brake has brought the arm to rest, so a command taken from the
 /// attacker would show as motion after it (a forged torque the plant took would be applied on every tick).
 const BRAKED_AFTER: Duration = Duration::from_millis(500);

@@ -51,7 +51,7 @@ pub struct NodeView {
     pub overruns: u64,
     /// Periods skipped after stalls.
     pub skipped_periods: u64,
-    /// plant: late answers from the rmrc (previous command held).
+    /// plant: late answers from the rmrc (previous command's reference followed).
     pub late_answers: u64,
     /// Input messages refused.
     pub rejected_messages: u64,

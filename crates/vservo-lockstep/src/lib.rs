@@ -89,8 +89,8 @@ pub struct Trace {
     pub desired_features: FeatureVector,
 }
 
-/// How many of the latest commands [`Lockstep::run_replaying`] keeps for a replayed late answer: as many as
-/// the simulated driver may keep applying one for (`runtime.hold_after_missed_ticks`), and the newest.
+/// How many of the latest commands' references [`Lockstep::run_replaying`] keeps for a late answer: as many as
+/// the simulated driver may keep following one for (`runtime.hold_after_missed_ticks`), and the newest.
 fn commands_kept(config: &Config) -> usize {
     config.runtime.hold_after_missed_ticks as usize + 1
 }

@@ -332,7 +332,7 @@ wire_message! {
         overruns: u64,
         /// periods skipped after stalls (not replayed)
         skipped_periods: u64,
-        /// plant: ticks whose rmrc answer came late (previous command held)
+        /// plant: ticks whose rmrc answer came late (previous command's reference followed)
         late_answers: u64,
         /// input messages refused (schema, epoch, tick, not finite; the vision node counts its images and the
         /// joint states it reads for the camera's pose)

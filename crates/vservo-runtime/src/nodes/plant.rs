@@ -1,5 +1,6 @@
 //! The plant node, the simulated robot driver: the 1 ms tick on absolute deadlines. Each tick: sleep until
-//! the deadline, take the rmrc's answer to the last state (or hold the previous command, counted late),
+//! the deadline, take the rmrc's answer to the last state (or, counted late, follow the previous command's
+//! reference with the drive's own servo),
 //! advance one tick, publish the new state (and, on the simulation-only `sim_world`, where the board is)
 //! and wake the rmrc. It follows the robot driver contract of docs/DRIVERS.md like any external driver.
 
