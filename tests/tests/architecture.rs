@@ -75,8 +75,10 @@ fn the_crate_graph_in_architecture_md_is_the_workspaces() {
     );
 }
 
-/// The drivers (robot, camera) and the ROS 2 binaries depend on the wire and the driver library, never on the
-/// real-time shell, the cell or the lockstep (they are processes behind the protocol, not stages of the loop).
+/// The drivers (robot, camera) and the ROS 2 binaries depend on the wire, the driver library and the
+/// configuration, never on the real-time shell, the cell, its stages (control, simulation, vision) or the lockstep:
+/// they are processes behind the protocol, not stages of the loop. The configuration takes the stages' settings
+/// from `vservo-settings`, below the stages.
 #[test]
 fn drivers_and_bridges_keep_out_of_the_real_time_shell_and_the_cell() {
     let graph = crate_graph();
@@ -85,7 +87,16 @@ fn drivers_and_bridges_keep_out_of_the_real_time_shell_and_the_cell() {
     {
         let reach = reached(&graph, driver);
         assert!(graph.contains_key(driver), "{driver} is a workspace crate");
-        for shell in ["vservo-runtime", "vservo-cell", "vservo-lockstep", "vservod", "vservoctl"] {
+        for shell in [
+            "vservo-runtime",
+            "vservo-cell",
+            "vservo-control",
+            "vservo-sim",
+            "vservo-vision",
+            "vservo-lockstep",
+            "vservod",
+            "vservoctl",
+        ] {
             assert!(!reach.contains(shell), "{driver} reaches {shell}: {reach:?}");
         }
     }

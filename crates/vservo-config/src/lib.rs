@@ -67,8 +67,8 @@ use layers::Layers;
 use nalgebra::Vector3;
 pub use sections::*;
 use vservo_arm::JointVector;
-use vservo_control::GainsSpec;
 use vservo_scene::{Board, CameraIntrinsics, IsometryMatrix3};
+use vservo_settings::control::GainsSpec;
 
 /// A validated configuration.
 #[derive(Debug, Clone, PartialEq)]
@@ -98,7 +98,7 @@ pub struct Config {
     /// The simulated arm.
     pub plant: PlantSettings,
     /// The resolved-motion-rate interpolator.
-    pub interpolator: vservo_sim::interpolator::InterpolatorSettings,
+    pub interpolator: vservo_settings::simulation::InterpolatorSettings,
     /// The joint servo.
     pub joint_servo: JointServoSettings,
     /// What the simulated cell does.
@@ -209,8 +209,8 @@ impl Config {
         match self.robot.driver {
             RobotDriver::External => self.robot.command,
             RobotDriver::Simulated => match self.plant.mode {
-                vservo_sim::plant::PlantMode::Dynamic => CommandInterface::Torque,
-                vservo_sim::plant::PlantMode::Kinematic => CommandInterface::Position,
+                vservo_settings::simulation::PlantMode::Dynamic => CommandInterface::Torque,
+                vservo_settings::simulation::PlantMode::Kinematic => CommandInterface::Position,
             },
         }
     }

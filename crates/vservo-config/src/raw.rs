@@ -498,7 +498,7 @@ pub struct RawNullSpace {
     pub posture_gain: f64,
 }
 
-/// config/vservo.toml's values (vservo_sim::redundancy::NullSpaceTask's defaults).
+/// config/vservo.toml's values (vservo_settings::simulation::NullSpaceTask's defaults).
 impl Default for RawNullSpace {
     fn default() -> Self {
         Self { limit_zone_rad: 0.3, limit_gain: 2.0, posture_rad: None, posture_gain: 0.5 }
@@ -608,7 +608,7 @@ pub enum RawLaw {
     DelayAware,
 }
 
-impl From<RawLaw> for vservo_control::ControlLaw {
+impl From<RawLaw> for vservo_settings::control::ControlLaw {
     fn from(law: RawLaw) -> Self {
         match law {
             RawLaw::Paper => Self::Paper,
@@ -626,7 +626,7 @@ pub enum RawInputUnits {
     Si,
 }
 
-impl From<RawInputUnits> for vservo_control::InputUnits {
+impl From<RawInputUnits> for vservo_settings::weights::InputUnits {
     fn from(units: RawInputUnits) -> Self {
         match units {
             RawInputUnits::MillimetreMilliradian => Self::MillimetreMilliradian,
@@ -644,7 +644,7 @@ pub enum RawInteraction {
     Current,
 }
 
-impl From<RawInteraction> for vservo_control::Interaction {
+impl From<RawInteraction> for vservo_settings::control::Interaction {
     fn from(interaction: RawInteraction) -> Self {
         match interaction {
             RawInteraction::Desired => Self::Desired,
@@ -662,7 +662,7 @@ pub enum RawPlantMode {
     Kinematic,
 }
 
-impl From<RawPlantMode> for vservo_sim::plant::PlantMode {
+impl From<RawPlantMode> for vservo_settings::simulation::PlantMode {
     fn from(mode: RawPlantMode) -> Self {
         match mode {
             RawPlantMode::Dynamic => Self::Dynamic,
@@ -679,7 +679,7 @@ pub enum RawTwistHold {
     Linear,
 }
 
-impl From<RawTwistHold> for vservo_sim::interpolator::TwistHold {
+impl From<RawTwistHold> for vservo_settings::simulation::TwistHold {
     fn from(hold: RawTwistHold) -> Self {
         match hold {
             RawTwistHold::ZeroOrder => Self::ZeroOrder,
@@ -696,7 +696,7 @@ pub enum RawJointServoLaw {
     PdGravity,
 }
 
-impl From<RawJointServoLaw> for vservo_sim::joint_servo::JointServoLaw {
+impl From<RawJointServoLaw> for vservo_settings::simulation::JointServoLaw {
     fn from(law: RawJointServoLaw) -> Self {
         match law {
             RawJointServoLaw::ComputedTorque => Self::ComputedTorque,

@@ -5,8 +5,11 @@ use std::time::Duration;
 
 use nalgebra::Vector3;
 use vservo_arm::JointVector;
-use vservo_control::{ControlLaw, InputWeight, StateWeight};
 use vservo_scene::{FeatureVector, IsometryMatrix3, MarkDepths};
+use vservo_settings::{
+    control::ControlLaw,
+    weights::{InputWeight, StateWeight},
+};
 
 /// `[viewer]`: vservod serves the running cell live to Foxglove over its WebSocket protocol (a
 /// `vservoctl view` process it starts and stops; a client of the instance like any other). Optional in the
@@ -312,18 +315,18 @@ pub struct NodeRealtime {
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct PlantSettings {
     /// Dynamic or kinematic.
-    pub mode: vservo_sim::plant::PlantMode,
+    pub mode: vservo_settings::simulation::PlantMode,
     /// RK4 steps per control period.
     pub rk4_substeps: u32,
     /// How the kinematic plant's joints follow the reference.
-    pub kinematic: vservo_sim::plant::KinematicResponse,
+    pub kinematic: vservo_settings::simulation::KinematicResponse,
 }
 
 /// The joint servo's law and gains.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct JointServoSettings {
     /// Computed torque or PD plus gravity.
-    pub law: vservo_sim::joint_servo::JointServoLaw,
+    pub law: vservo_settings::simulation::JointServoLaw,
     /// Position gains.
     pub kp: JointVector,
     /// Velocity gains.
@@ -340,7 +343,7 @@ pub struct Scenario {
     /// …and its starting rotation about its own axes (rotation vector, rad).
     pub initial_camera_rotation: Vector3<f64>,
     /// How the board moves.
-    pub object: vservo_sim::world::ObjectMotion,
+    pub object: vservo_settings::simulation::ObjectMotion,
     /// Marks the simulated camera does not see for a while (`scenario.occlusions`; none by default), at
     /// most [`MAX_OCCLUSIONS`].
     pub occlusions: [Option<Occlusion>; MAX_OCCLUSIONS],
@@ -380,9 +383,9 @@ pub struct Vision {
     /// to measure what the lens costs a law that ignores it).
     pub undistort: bool,
     /// The extractor's tuning.
-    pub extractor: vservo_vision::ExtractorSettings,
+    pub extractor: vservo_settings::vision::ExtractorSettings,
     /// The simulated camera's scene.
-    pub render: vservo_vision::RenderSettings,
+    pub render: vservo_settings::vision::RenderSettings,
 }
 
 /// `[calibration]`: the calibration board (`vservoctl board` prints it) and the poses `vservoctl calibrate`
@@ -476,5 +479,5 @@ pub struct Controller {
     /// R, with its unit.
     pub r: InputWeight,
     /// What the law does beyond the paper's (`interaction`, `border_margin_px`, `feedforward`).
-    pub options: vservo_control::LawOptions,
+    pub options: vservo_settings::control::LawOptions,
 }

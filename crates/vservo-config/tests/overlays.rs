@@ -55,10 +55,10 @@ fn the_scenarios_are_the_default_with_their_keys_changed() {
         expected.scenario.duration_s = 36.0;
         expected.scenario.initial_camera_translation_m = nalgebra::Vector3::zeros();
         expected.scenario.object =
-            vservo_sim::world::ObjectMotion::Circle { radius_m: 0.1, rev_per_min: 5.0 };
-        expected.controller.r = vservo_control::InputWeight::new(
+            vservo_settings::simulation::ObjectMotion::Circle { radius_m: 0.1, rev_per_min: 5.0 };
+        expected.controller.r = vservo_settings::weights::InputWeight::new(
             nalgebra::SMatrix::<f64, 6, 6>::from_diagonal(&nalgebra::SVector::<f64, 6>::from(r)),
-            vservo_control::InputUnits::MillimetreMilliradian,
+            vservo_settings::weights::InputUnits::MillimetreMilliradian,
         )
         .expect("R");
         assert!(tracking == expected, "{name}: {tracking:?}");

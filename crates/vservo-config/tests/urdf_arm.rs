@@ -265,7 +265,7 @@ fn a_configuration_without_the_null_space_section_loads_with_its_defaults() {
     let text = format!("{}{}", &DEFAULT[..start], &DEFAULT[end..]);
     assert!(!text.contains("limit_zone_rad"));
     let config = Config::from_toml(&text, "old.toml").expect("loads");
-    assert_eq!(config.interpolator.null_space, vservo_sim::redundancy::NullSpaceTask::default());
+    assert_eq!(config.interpolator.null_space, vservo_settings::simulation::NullSpaceTask::default());
     let full = Config::from_toml(DEFAULT, "vservo.toml").expect("loads");
     assert_eq!(full.interpolator.null_space, config.interpolator.null_space);
 }

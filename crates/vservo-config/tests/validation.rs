@@ -154,7 +154,7 @@ fn the_mujoco_cell_declares_an_external_velocity_driver_and_camera() {
     // the default cell: the simulated driver takes torques, or positions with the kinematic plant
     let mut default = Config::from_toml(DEFAULT, "default").expect("valid");
     assert_eq!(default.command_interface(), vservo_config::CommandInterface::Torque);
-    default.plant.mode = vservo_sim::plant::PlantMode::Kinematic;
+    default.plant.mode = vservo_settings::simulation::PlantMode::Kinematic;
     assert_eq!(default.command_interface(), vservo_config::CommandInterface::Position);
 }
 
@@ -318,10 +318,10 @@ fn the_viewer_is_off_on_localhost_by_default_and_takes_ip_addresses_only() {
 fn the_law_beyond_the_paper_is_off_by_default_and_its_keys_are_checked() {
     let config =
         Config::from_toml(&with("feedforward = false", "feedforward = false"), "vservo.toml").expect("valid");
-    assert_eq!(config.controller.options, vservo_control::LawOptions::default());
+    assert_eq!(config.controller.options, vservo_settings::control::LawOptions::default());
     let robust = Config::load(concat!(env!("CARGO_MANIFEST_DIR"), "/../../config/vservo-robust.toml"))
         .expect("config/vservo-robust.toml is valid");
-    assert_eq!(robust.controller.options.interaction, vservo_control::Interaction::Mean);
+    assert_eq!(robust.controller.options.interaction, vservo_settings::control::Interaction::Mean);
     assert!(robust.controller.options.feedforward && robust.controller.options.border_margin_px == 20.0);
 
     let error = refused(&with("interaction = \"desired\"", "interaction = \"nearest\""));

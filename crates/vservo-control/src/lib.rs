@@ -57,11 +57,11 @@ pub mod image_jacobian;
 pub mod law;
 pub mod lq;
 pub mod target_motion;
-pub mod weights;
 
 pub use design::{ControlLaw, Gains, GainsError, GainsSpec, Interaction, LawOptions};
 pub use law::{LawFlags, LawGains, LawGeometry, ServoLaw};
-pub use weights::{InputUnits, InputWeight, StateWeight, WeightError};
+pub use vservo_settings::control::MAX_DELAY_FRAMES;
+pub use vservo_settings::weights::{self, InputUnits, InputWeight, StateWeight, WeightError};
 
 /// The camera twist u = [v; ω] in the camera frame (m/s, rad/s).
 pub type Twist = nalgebra::Vector6<f64>;
@@ -69,5 +69,3 @@ pub type Twist = nalgebra::Vector6<f64>;
 pub type InteractionMatrix = nalgebra::SMatrix<f64, { vservo_scene::FEATURES }, 6>;
 /// A feedback gain from features to twist, 6 × 8 (m/s and rad/s per pixel).
 pub type FeatureGain = nalgebra::SMatrix<f64, 6, { vservo_scene::FEATURES }>;
-/// The longest image-pipeline delay the delay-aware law supports, in vision frames.
-pub const MAX_DELAY_FRAMES: usize = 4;

@@ -7,78 +7,12 @@ use vservo_control::Twist;
 
 use crate::motion_limits::{JointMotion, MotionLimits, MotionState, velocity_headroom};
 use crate::redundancy::{self, Damping, NullSpaceTask};
+pub use vservo_settings::simulation::{InterpolatorSettings, TwistHold};
 
 /// The share of an arm's speed, acceleration and jerk limits a jerk-limited reference uses at most: a controller
 /// that checks the discrete derivatives of the commands against the published numbers (libfranka checks each
 /// minus 1e-3) sees every command inside them, rounding included.
 pub const LIMIT_MARGIN: f64 = 0.995;
-
-/// How the twist is held between vision frames.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub enum TwistHold {
-    /// The latest twist, unchanged until the next (the paper's).
-    #[default]
-    ZeroOrder,
-    /// From the previous twist to the latest over one vision period, then held.
-    Linear,
-}
-
-/// The interpolator's tuning.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct InterpolatorSettings {
-    /// How the twist is held.
-    pub hold: TwistHold,
-    /// The vision period (s): the time over which `Linear` moves to a new twist.
-    pub vision_period_s: f64,
-    /// The tick (s).
-    pub control_period_s: f64,
-    /// Below this manipulability the Jacobian is inverted with damping (Nakamura's damped least squares).
-    pub manipulability_threshold: f64,
-    /// The damping λ at zero manipulability (rad/s per m/s, roughly); it falls to 0 at the threshold.
-    pub max_damping: f64,
-    /// A twist older than this is stale (two vision periods by default).
-    pub stale_after_s: f64,
-    /// Once the twist is stale, the joint velocity ramps to zero over this time (s).
-    pub stop_ramp_s: f64,
-    /// The most each joint's reference speed may change per second (rad/s²). A new twist is a step in
-    /// velocity; passed on raw, its acceleration (Δq̇/1 ms) would ask the joint servo for more torque than
-    /// the motors have. The change is scaled as a whole, so the direction of motion is kept.
-    pub acceleration_limit: JointVector,
-    /// The most each joint's reference acceleration may change per second (rad/s³), where the arm declares
-    /// it. With it, the reference is jerk-limited on every path ([`crate::motion_limits`]): its acceleration
-    /// ramps rather than steps. Without it (`None`, the PUMA 560's case: no jerk limit is published for it),
-    /// the acceleration may step to its limit within a tick, as before jerk limits.
-    pub jerk_limit: Option<JointVector>,
-    /// The tool's speed (m/s) the twist is scaled down to, whole, where it asks for more (infinite: none).
-    pub tool_speed_limit_m_s: f64,
-    /// The tool's angular speed (rad/s) the twist is scaled down to, whole, where it asks for more.
-    pub tool_rotation_limit_rad_s: f64,
-    /// What a seven-joint arm does with the joint it has to spare (a six-joint arm has none).
-    pub null_space: NullSpaceTask,
-}
-
-impl InterpolatorSettings {
-    /// The defaults for a vision period and a tick.
-    pub fn new(vision_period_s: f64, control_period_s: f64) -> Self {
-        // the PUMA 560's; a seventh joint, a wrist's, as the PUMA's wrist
-        let mut acceleration_limit = vservo_arm::puma560::ACCELERATION_LIMITS_RAD_S2;
-        acceleration_limit[6] = acceleration_limit[5];
-        Self {
-            hold: TwistHold::ZeroOrder,
-            vision_period_s,
-            control_period_s,
-            manipulability_threshold: 0.01,
-            max_damping: 0.05,
-            stale_after_s: 2.0 * vision_period_s,
-            stop_ramp_s: 0.2,
-            acceleration_limit,
-            jerk_limit: None,
-            tool_speed_limit_m_s: f64::INFINITY,
-            tool_rotation_limit_rad_s: f64::INFINITY,
-            null_space: NullSpaceTask::default(),
-        }
-    }
-}
 
 /// The joint reference for one tick.
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -3,27 +3,7 @@
 use vservo_arm::{JointVector, SerialArm};
 
 use crate::interpolator::Reference;
-
-/// The servo law.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub enum JointServoLaw {
-    /// τ = M(q)(q̈_d + K_v ė + K_p e) + C q̇ + g + friction(q̇_d), with the model's armature (gains in 1/s²,
-    /// 1/s).
-    #[default]
-    ComputedTorque,
-    /// τ = K_p e + K_v ė + g(q) (gains in N·m/rad and N·m·s/rad).
-    PdGravity,
-}
-
-impl JointServoLaw {
-    /// The name used in configuration files.
-    pub fn name(&self) -> &'static str {
-        match self {
-            JointServoLaw::ComputedTorque => "computed-torque",
-            JointServoLaw::PdGravity => "pd-gravity",
-        }
-    }
-}
+pub use vservo_settings::simulation::JointServoLaw;
 
 /// The joint servo and its gains.
 #[derive(Debug, Clone)]

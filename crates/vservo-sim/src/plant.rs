@@ -1,26 +1,7 @@
 //! The simulated PUMA 560: full dynamics, or joints that follow the reference exactly.
 
 use vservo_arm::{DH_JOINTS, DynamicsError, JointVector, SerialArm};
-
-/// How the plant moves.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub enum PlantMode {
-    /// Forward dynamics of the full model (armature and friction) under the commanded torques.
-    #[default]
-    Dynamic,
-    /// The joints take the interpolator's reference exactly: the control law without robot dynamics.
-    Kinematic,
-}
-
-impl PlantMode {
-    /// The name used in configuration files and on the command line.
-    pub fn name(&self) -> &'static str {
-        match self {
-            PlantMode::Dynamic => "dynamic",
-            PlantMode::Kinematic => "kinematic",
-        }
-    }
-}
+pub use vservo_settings::simulation::{KinematicFollows, KinematicResponse, PlantMode};
 
 /// Fault flags, one bit per joint in each mask.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -55,36 +36,6 @@ pub struct JointState {
     pub applied_torque: JointVector,
     /// Limits met.
     pub faults: Faults,
-}
-
-/// What the joints of the kinematic plant follow, and how fast.
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
-pub struct KinematicResponse {
-    /// The command the joints follow.
-    pub follows: KinematicFollows,
-    /// The time constant (s) of the first-order lag through which they follow it; 0: at once.
-    pub lag_s: f64,
-}
-
-/// The command a kinematic arm's joints follow.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub enum KinematicFollows {
-    /// The position reference q_d (a position-commanded arm; with no lag, the paper's ideal robot, whose
-    /// joints are the reference exactly).
-    #[default]
-    Position,
-    /// The velocity reference q̇_d (a velocity-commanded arm), the position integrated from the velocity.
-    Velocity,
-}
-
-impl KinematicFollows {
-    /// The name in the configuration.
-    pub fn name(&self) -> &'static str {
-        match self {
-            KinematicFollows::Position => "position",
-            KinematicFollows::Velocity => "velocity",
-        }
-    }
 }
 
 /// The plant.

@@ -13,25 +13,7 @@
 
 use nalgebra::{SMatrix, Vector6};
 use vservo_arm::{Jacobian, JointLimits, JointVector, MAX_JOINTS};
-
-/// The secondary task of a redundant arm.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct NullSpaceTask {
-    /// How far from a limit (rad) the push away from it starts.
-    pub limit_zone_rad: f64,
-    /// How hard a joint inside the zone is pushed away: rad/s per rad of depth into the zone.
-    pub limit_gain: f64,
-    /// A posture to stay near (rad), if any.
-    pub posture: Option<JointVector>,
-    /// How hard the joints are pulled towards the posture (1/s).
-    pub posture_gain: f64,
-}
-
-impl Default for NullSpaceTask {
-    fn default() -> Self {
-        Self { limit_zone_rad: 0.3, limit_gain: 2.0, posture: None, posture_gain: 0.5 }
-    }
-}
+pub use vservo_settings::simulation::NullSpaceTask;
 
 /// How the Jacobian is inverted.
 #[derive(Debug, Clone, Copy, PartialEq)]

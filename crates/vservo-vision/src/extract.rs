@@ -4,45 +4,7 @@ use image::GrayImage;
 use vservo_scene::{FeatureVector, MARKS};
 
 use crate::blobs::{Blob, BlobFinder};
-
-/// How the dark marks are separated from the board.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Threshold {
-    /// Otsu's threshold of the whole image's histogram.
-    Otsu,
-    /// A set gray level: pixels below it are dark.
-    Fixed(u8),
-}
-
-/// The extractor's tuning.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct ExtractorSettings {
-    /// The threshold rule.
-    pub threshold: Threshold,
-    /// Smallest blob taken for a mark (pixels); smaller ones are noise.
-    pub min_area_px: u32,
-    /// Largest blob taken for a mark; larger ones are background or clutter.
-    pub max_area_px: u32,
-    /// Largest ratio of the long to the short axis of a mark's moment ellipse (a disc seen at 75° is ~3.9).
-    pub max_elongation: f64,
-    /// Smallest area over the area of its moment ellipse (1 for an ellipse; two discs run together ~0.89).
-    pub min_ellipse_fill: f64,
-    /// How far (px) a mark may move from its predicted position between frames and still be found there.
-    pub gate_px: f64,
-}
-
-impl Default for ExtractorSettings {
-    fn default() -> Self {
-        Self {
-            threshold: Threshold::Otsu,
-            min_area_px: 12,
-            max_area_px: 6000,
-            max_elongation: 4.0,
-            min_ellipse_fill: 0.93,
-            gate_px: 40.0,
-        }
-    }
-}
+pub use vservo_settings::vision::{ExtractorSettings, Threshold};
 
 /// Where the marks are expected.
 #[derive(Debug, Clone, Copy, PartialEq)]

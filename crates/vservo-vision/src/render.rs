@@ -10,40 +10,7 @@ use nalgebra::{Matrix3, Point2, Point3, Vector3};
 use vservo_scene::{AprilTag, Board, CameraIntrinsics, IsometryMatrix3, MARKS, TagGrid};
 
 use crate::noise::{GaussianTable, Xorshift64};
-
-/// How the scene looks.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct RenderSettings {
-    /// Gray of whatever is not the board (0–255).
-    pub background_gray: f64,
-    /// Gray of the white board.
-    pub board_gray: f64,
-    /// Gray of the black marks.
-    pub mark_gray: f64,
-    /// Standard deviation of the pixel noise (gray levels); 0 for none.
-    pub noise_sigma_gray: f64,
-    /// Seed of the noise; each frame mixes in its number.
-    pub noise_seed: u64,
-    /// Brightness change across the image, left to right and top to bottom, as a fraction (0.1: the right
-    /// edge is 10 % brighter than the left).
-    pub lighting_gradient: [f64; 2],
-    /// Samples per axis in a pixel an edge may cross (8: 64 samples, coverage to 1/64).
-    pub supersampling: u32,
-}
-
-impl Default for RenderSettings {
-    fn default() -> Self {
-        Self {
-            background_gray: 110.0,
-            board_gray: 230.0,
-            mark_gray: 20.0,
-            noise_sigma_gray: 0.0,
-            noise_seed: 1,
-            lighting_gradient: [0.0, 0.0],
-            supersampling: 8,
-        }
-    }
-}
+pub use vservo_settings::vision::RenderSettings;
 
 /// The renderer and its image buffer, sized once for the camera.
 #[derive(Debug, Clone)]

@@ -1,7 +1,10 @@
 //! `[controller]`: the law, Q and R, and the options beyond the paper's law.
 
-use vservo_control::{InputWeight, Interaction, LawOptions, StateWeight};
 use vservo_scene::{CameraIntrinsics, FEATURES, FeatureVector, MARKS};
+use vservo_settings::{
+    control::{Interaction, LawOptions},
+    weights::{InputWeight, StateWeight},
+};
 
 use super::checker::Checker;
 use super::weight::weight;

@@ -1,7 +1,7 @@
 //! `[robot]`: which driver, the command it takes, its period and deadline, the camera's speed limits; and the
 //! checks that span the robot and the camera.
 
-use vservo_sim::plant::PlantMode;
+use vservo_settings::simulation::PlantMode;
 
 use super::checker::Checker;
 use crate::raw::{RawArmPreset, RawRobot, RawRobotDriver, RawStart};

@@ -3,7 +3,7 @@
 
 use nalgebra::Vector3;
 use vservo_scene::MARKS;
-use vservo_sim::world::ObjectMotion;
+use vservo_settings::simulation::ObjectMotion;
 
 use super::checker::Checker;
 use crate::raw::{RawObjectMotion, RawOcclusion, RawScenario};

@@ -2,11 +2,11 @@
 //! and the joint servo.
 
 use vservo_arm::{SerialArm, six_joints};
-use vservo_sim::interpolator::InterpolatorSettings;
-use vservo_sim::redundancy::NullSpaceTask;
+use vservo_settings::simulation::InterpolatorSettings;
+use vservo_settings::simulation::NullSpaceTask;
 
 use super::checker::Checker;
-use vservo_sim::plant::{KinematicFollows, KinematicResponse};
+use vservo_settings::simulation::{KinematicFollows, KinematicResponse};
 
 use crate::raw::{
     RawArm, RawInterpolator, RawJointServo, RawKinematicFollows, RawNullSpace, RawPlant, RawRobotDriver,

@@ -18,7 +18,7 @@ pub fn timing(check: &Checker, t: &RawTiming) -> Result<Timing, ConfigError> {
     let vision_period_s = check.within("timing.vision_period_s", t.vision_period_s, 0.001, 10.0, "s")?;
     let control_period_s = check.within("timing.control_period_s", t.control_period_s, 1e-4, 0.1, "s")?;
     let control_ticks_per_frame = ticks_per_frame(check, vision_period_s, control_period_s)?;
-    let most_frames = vservo_control::MAX_DELAY_FRAMES;
+    let most_frames = vservo_settings::control::MAX_DELAY_FRAMES;
     let pipeline_delay_frames = check.whole(
         "timing.pipeline_delay_frames",
         t.pipeline_delay_frames,

@@ -1,6 +1,6 @@
 //! `[vision]`: the feature extractor's tuning, and `[vision.render]`, the simulated camera's scene.
 
-use vservo_vision::{ExtractorSettings, RenderSettings, Threshold};
+use vservo_settings::vision::{ExtractorSettings, RenderSettings, Threshold};
 
 use super::checker::Checker;
 use crate::raw::{RawRender, RawVision};
