@@ -31,6 +31,12 @@ use std::path::{Path, PathBuf};
 
 use iceoryx2::prelude::{Config, FileName, NodeBuilder, SignalHandlingMode, ipc};
 use iceoryx2::prelude::{Path as IoxPath, SemanticString};
+use shared_memory::{CounterMade, SHM_DIR, foreign_or_exposed, forget_prefix, prepare_node_counter};
+
+mod error;
+mod shared_memory;
+
+pub use error::InstanceDirError;
 
 /// The environment variable naming the base directory of instances (the daemon passes it to its nodes).
 pub const RUNTIME_DIR_ENV: &str = "VSERVO_RUNTIME_DIR";
@@ -42,107 +48,10 @@ pub const CONFIGURATION_FILE: &str = "config.toml";
 /// The file in an instance's directory that says which protocol schema its daemon speaks
 /// ([`crate::SCHEMA_VERSION`]); every client and driver checks it before it opens anything.
 pub const SCHEMA_FILE: &str = "schema";
-/// Where POSIX shared memory lives on Linux.
-const SHM_DIR: &str = "/dev/shm";
-/// The suffix iceoryx2 gives its node counter segment.
-const NODE_COUNTER_SUFFIX: &str = ".global_mgmt";
 /// The longest path of a Unix socket (`sun_path` less its terminating zero).
 const SOCKET_PATH_MAX: usize = 107;
 /// The random hex digits of a prefix (64 bits).
 const PREFIX_HEX_DIGITS: usize = 16;
-
-/// Why an instance's directory could not be found, made or trusted.
-#[derive(Debug, thiserror::Error)]
-pub enum InstanceDirError {
-    /// No daemon has made the instance's directory (or it was removed).
-    #[error("no vservod of instance {instance:?} is running (looked for {}) — is it running, and as which user? Start one with `scripts/run.sh [--config FILE]` in the source tree, `vservod --config FILE`, or `systemctl start vservo` (the Debian package)", .looked_in.iter().map(|p| p.display().to_string()).collect::<Vec<_>>().join(" and "))]
-    NotRunning {
-        /// The instance.
-        instance: String,
-        /// The directories looked for.
-        looked_in: Vec<PathBuf>,
-    },
-    /// The instance belongs to another user: its resources are that user's only.
-    #[error(
-        "instance {instance:?} is run by user {owner:?} ({path} is that user's), and its shared memory is that user's only: run the client as that user (for example `sudo -u {owner} vservoctl …`)"
-    )]
-    OtherUser {
-        /// The instance.
-        instance: String,
-        /// The owning user's name (or `uid N`).
-        owner: String,
-        /// The directory that told.
-        path: PathBuf,
-    },
-    /// None of this user's, and a base this user may not search may hold another user's: whose instance it
-    /// would be cannot be told (the base's owner is not the instance's).
-    #[error(
-        "no vservod of instance {instance:?} of this user is running (looked for {}); {base} is closed to this user \
-         ({}) and may hold another user's: if the instance runs there, run the client as the user who started its \
-         daemon (for example `sudo -u <that user> vservoctl …`)",
-        .looked_in.iter().map(|p| p.display().to_string()).collect::<Vec<_>>().join(" and "),
-        .base_owner.as_ref().map_or_else(|| "whose it is cannot be told".to_string(), |owner| format!("the directory is user {owner:?}'s"))
-    )]
-    Closed {
-        /// The instance.
-        instance: String,
-        /// The base this user may not search.
-        base: PathBuf,
-        /// Its owner's name (or `uid N`), if it can be told.
-        base_owner: Option<String>,
-        /// The directories looked for.
-        looked_in: Vec<PathBuf>,
-    },
-    /// The instance's daemon speaks another protocol schema than this program.
-    #[error(
-        "instance {instance:?} speaks protocol schema {daemon}, this program schema {ours}: update the older side \
-         (docs/PROTOCOL.md, \"Changelog\", says what changed and how to migrate)"
-    )]
-    Schema {
-        /// The instance.
-        instance: String,
-        /// The daemon's schema (its directory's `schema` file).
-        daemon: u32,
-        /// This program's.
-        ours: u32,
-    },
-    /// Another vservod holds the instance.
-    #[error(
-        "instance {instance:?} is already run by vservod (pid {pid}); stop it first, or give this configuration another [instance] name"
-    )]
-    AlreadyRunning {
-        /// The instance.
-        instance: String,
-        /// The running daemon's pid, as it wrote it (empty if not yet written).
-        pid: String,
-    },
-    /// A directory or file is not safe to use: another user could change it.
-    #[error("{path}: {reason}")]
-    Unsafe {
-        /// The path.
-        path: PathBuf,
-        /// What is wrong with it.
-        reason: String,
-    },
-    /// A file operation failed.
-    #[error("{path}: {what}: {source}")]
-    Io {
-        /// The path.
-        path: PathBuf,
-        /// What was being done.
-        what: &'static str,
-        /// The error.
-        source: std::io::Error,
-    },
-    /// iceoryx2 refused the configuration or the node counter could not be prepared.
-    #[error("iceoryx2 for instance {instance:?}: {reason}")]
-    Iceoryx2 {
-        /// The instance.
-        instance: String,
-        /// What went wrong.
-        reason: String,
-    },
-}
 
 fn io(path: &Path, what: &'static str) -> impl FnOnce(std::io::Error) -> InstanceDirError + use<> {
     let path = path.to_path_buf();
@@ -576,26 +485,6 @@ fn new_prefix() -> Result<String, InstanceDirError> {
     Ok(format!("vservo_{hex}_"))
 }
 
-/// Removes what is ours of a prefix given up: iceoryx2's registrations of its dead nodes, and our own
-/// shared-memory objects under it (another user's stay where they are, unused).
-fn forget_prefix(dir: &InstanceDir) {
-    if let Ok(config) = dir.iceoryx2_config()
-        && let Ok(node) = NodeBuilder::new()
-            .config(&config)
-            .signal_handling_mode(SignalHandlingMode::Disabled)
-            .create::<ipc::Service>()
-    {
-        let _ = node.try_cleanup_dead_nodes();
-    }
-    let own = effective_uid();
-    for name in shm_names(&dir.prefix) {
-        let path = Path::new(SHM_DIR).join(name);
-        if std::fs::symlink_metadata(&path).is_ok_and(|m| m.uid() == own) {
-            let _ = std::fs::remove_file(path);
-        }
-    }
-}
-
 /// Refuses a base whose path leaves no room for iceoryx2's event sockets.
 fn check_socket_room(instance: &str, root: &Path) -> Result<(), InstanceDirError> {
     // `<root>/<prefix><40-character service hash><event suffix>`
@@ -614,102 +503,6 @@ fn check_socket_room(instance: &str, root: &Path) -> Result<(), InstanceDirError
     Ok(())
 }
 
-/// The first shared-memory object under `prefix` that another user owns or could open, described.
-fn foreign_or_exposed(prefix: &str) -> Option<String> {
-    let own = effective_uid();
-    let entries = std::fs::read_dir(SHM_DIR).ok()?;
-    entries.flatten().find_map(|entry| {
-        let name = entry.file_name().to_string_lossy().to_string();
-        if !name.starts_with(prefix) {
-            return None;
-        }
-        let metadata = entry.metadata().ok()?;
-        if metadata.uid() != own {
-            Some(format!("{SHM_DIR}/{name} belongs to user {}", user_name(metadata.uid())))
-        } else if metadata.mode() & 0o077 != 0 {
-            Some(format!("{SHM_DIR}/{name} has mode {:o}: other users can open it", metadata.mode() & 0o7777))
-        } else {
-            None
-        }
-    })
-}
-
-/// Who made iceoryx2's node counter of an instance's prefix.
-enum CounterMade {
-    /// The daemon, owner-only (or it was there, ours and private, from the last run).
-    Owner,
-    /// Another process, since the daemon looked (its name in /dev/shm).
-    ByAnother(String),
-}
-
-/// iceoryx2 creates its node counter segment for every user to write (mode 0666). The daemon makes it
-/// first, owner-only: the name is learnt from a throwaway node under a second random prefix (whose
-/// segment is removed at once), the content is iceoryx2's version word and a zero counter. A client that
-/// read the last run's prefix may make it first, between the daemon's look and its making:
-/// [`CounterMade::ByAnother`].
-fn prepare_node_counter(dir: &InstanceDir) -> Result<CounterMade, InstanceDirError> {
-    let refused = |reason: String| InstanceDirError::Iceoryx2 { instance: dir.instance.clone(), reason };
-    let existing = shm_names(&dir.prefix).into_iter().find(|n| n.ends_with(NODE_COUNTER_SUFFIX));
-    if existing.is_some() {
-        return Ok(CounterMade::Owner); // ours and private: foreign_or_exposed said so
-    }
-    let scratch = InstanceDir { prefix: new_prefix()?, ..dir.clone() };
-    let node = NodeBuilder::new()
-        .config(&scratch.iceoryx2_config()?)
-        .signal_handling_mode(SignalHandlingMode::Disabled)
-        .create::<ipc::Service>()
-        .map_err(|e| refused(format!("a throwaway node to learn the node counter's name: {e:?}")));
-    drop(node);
-    let made = shm_names(&scratch.prefix);
-    for name in &made {
-        let _ = std::fs::remove_file(Path::new(SHM_DIR).join(name));
-    }
-    let [counter] = made.as_slice() else {
-        return Err(refused(format!(
-            "a new node made {} shared-memory objects ({made:?}), where iceoryx2 0.10 makes one node counter",
-            made.len()
-        )));
-    };
-    let Some(rest) = counter.strip_prefix(&scratch.prefix).filter(|r| r.ends_with(NODE_COUNTER_SUFFIX))
-    else {
-        return Err(refused(format!("{counter:?} is not iceoryx2 0.10's node counter")));
-    };
-    let path = Path::new(SHM_DIR).join(format!("{}{rest}", dir.prefix));
-    // iceoryx2's dynamic storage: a u64 version word, then the data (a u32 counter), padded to 16 bytes
-    let mut content = [0u8; 16];
-    let version = iceoryx2_bb_elementary::package_version::PackageVersion::get().to_u64();
-    content[..8].copy_from_slice(&version.to_ne_bytes());
-    let opened = OpenOptions::new()
-        .write(true)
-        .create_new(true)
-        .mode(0o600)
-        .custom_flags(nix::libc::O_NOFOLLOW)
-        .open(&path);
-    let mut file = match opened {
-        Ok(file) => file,
-        Err(e) if e.kind() == ErrorKind::AlreadyExists => {
-            return Ok(CounterMade::ByAnother(format!("{}{rest}", dir.prefix)));
-        }
-        Err(e) => return Err(io(&path, "creating iceoryx2's node counter owner-only")(e)),
-    };
-    file.write_all(&content).map_err(io(&path, "writing iceoryx2's node counter"))?;
-    Ok(CounterMade::Owner)
-}
-
-/// The names in /dev/shm that start with `prefix`.
-fn shm_names(prefix: &str) -> Vec<String> {
-    std::fs::read_dir(SHM_DIR)
-        .map(|entries| {
-            entries
-                .flatten()
-                .map(|e| e.file_name().to_string_lossy().to_string())
-                .filter(|n| n.starts_with(prefix))
-                .collect()
-        })
-        .unwrap_or_default()
-}
-
-/// Writes `path` through a temporary file and a rename: a reader sees the old content or the new, whole.
 /// The schema the instance in `path` speaks is this program's: its `schema` file says so (a directory without one,
 /// of a daemon from before the file, is taken as it is: its messages' own schema field still refuses a mismatch).
 fn check_schema(instance: &str, path: &Path) -> Result<(), InstanceDirError> {
@@ -733,6 +526,7 @@ fn check_schema(instance: &str, path: &Path) -> Result<(), InstanceDirError> {
     Ok(())
 }
 
+/// Writes `path` through a temporary file and a rename: a reader sees the old content or the new, whole.
 fn write_file_atomically(path: &Path, content: &[u8]) -> Result<(), InstanceDirError> {
     let temporary = path.with_extension("new");
     let _ = std::fs::remove_file(&temporary);
@@ -748,159 +542,4 @@ fn write_file_atomically(path: &Path, content: &[u8]) -> Result<(), InstanceDirE
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-
-    fn scratch_base(name: &str) -> PathBuf {
-        // short: iceoryx2's sockets go below it
-        let base = std::env::temp_dir().join(format!("vsv-{name}-{}", std::process::id()));
-        let _ = std::fs::remove_dir_all(&base);
-        base
-    }
-
-    fn remove_shm(prefix: &str) {
-        for name in shm_names(prefix) {
-            let _ = std::fs::remove_file(Path::new(SHM_DIR).join(name));
-        }
-    }
-
-    #[test]
-    fn a_claim_makes_private_directories_a_secret_prefix_and_an_owner_only_node_counter() {
-        let base = scratch_base("claim");
-        let instance = format!("unit-claim-{}", std::process::id());
-        let claim = InstanceClaim::claim_in(&base, &instance).expect("claimed");
-        let dir = claim.dir().clone();
-        assert!(dir.prefix.starts_with("vservo_"), "{}", dir.prefix);
-        let mode = |p: &Path| std::fs::symlink_metadata(p).expect("exists").mode() & 0o777;
-        assert_eq!(mode(&base), 0o700);
-        assert_eq!(mode(&dir.path), 0o750);
-        assert_eq!(mode(&dir.iceoryx2_root()), 0o750);
-        // a node of the instance uses the counter made owner-only, and makes nothing reachable by others
-        let node = NodeBuilder::new()
-            .config(&dir.iceoryx2_config().expect("config"))
-            .create::<ipc::Service>()
-            .expect("a node");
-        let names = shm_names(&dir.prefix);
-        assert_eq!(names.iter().filter(|n| n.ends_with(NODE_COUNTER_SUFFIX)).count(), 1, "{names:?}");
-        for name in &names {
-            assert_eq!(mode(&Path::new(SHM_DIR).join(name)) & 0o077, 0, "{name}");
-        }
-        claim.check_private().expect("private");
-        // a second daemon is refused while the first holds the lock
-        let second = InstanceClaim::claim_in(&base, &instance).expect_err("locked");
-        assert!(matches!(second, InstanceDirError::AlreadyRunning { .. }), "{second}");
-        drop(node);
-        drop(claim);
-        // the next run keeps the prefix (drivers still running find the instance again)
-        let again = InstanceClaim::claim_in(&base, &instance).expect("claimed again");
-        assert_eq!(again.dir().prefix, dir.prefix);
-        assert!(again.renewed_because.is_none());
-        remove_shm(&dir.prefix);
-        let _ = std::fs::remove_dir_all(&base);
-    }
-
-    /// The daemon says which schema it speaks; a client of another finds out in one sentence naming both.
-    #[test]
-    fn an_instance_of_another_schema_is_refused_naming_both() {
-        let base = scratch_base("schema");
-        let instance = format!("unit-schema-{}", std::process::id());
-        let claim = InstanceClaim::claim_in(&base, &instance).expect("claimed");
-        let path = claim.dir().path.clone();
-        let written = std::fs::read_to_string(path.join(SCHEMA_FILE)).expect("the schema file");
-        assert_eq!(written.trim(), crate::SCHEMA_VERSION.to_string());
-        InstanceDir::open_ours(&instance, &path).expect("the same schema is found");
-        write_file_atomically(&path.join(SCHEMA_FILE), format!("{}\n", crate::SCHEMA_VERSION - 1).as_bytes())
-            .expect("rewritten");
-        let refused = InstanceDir::open_ours(&instance, &path).expect_err("another schema");
-        let text = refused.to_string();
-        assert!(
-            text.contains(&format!("speaks protocol schema {}", crate::SCHEMA_VERSION - 1))
-                && text.contains(&format!("this program schema {}", crate::SCHEMA_VERSION))
-                && text.contains("Changelog"),
-            "{text}"
-        );
-        let prefix = claim.dir().prefix.clone();
-        drop(claim);
-        remove_shm(&prefix);
-        let _ = std::fs::remove_dir_all(&base);
-    }
-
-    #[test]
-    fn a_prefix_under_which_a_file_is_exposed_is_replaced() {
-        let base = scratch_base("exposed");
-        let instance = format!("unit-exposed-{}", std::process::id());
-        let first = InstanceClaim::claim_in(&base, &instance).expect("claimed").dir().clone();
-        // as another user would: a name of the instance's prefix, open to all
-        let planted = Path::new(SHM_DIR).join(format!("{}planted.dynamic", first.prefix));
-        std::fs::write(&planted, b"garbage").expect("planted");
-        std::fs::set_permissions(&planted, std::fs::Permissions::from_mode(0o666)).expect("mode");
-        let second = InstanceClaim::claim_in(&base, &instance).expect("claimed with a new prefix");
-        assert_ne!(second.dir().prefix, first.prefix);
-        let reason = second.renewed_because.clone().expect("a reason");
-        assert!(reason.contains("planted.dynamic") && reason.contains("666"), "{reason}");
-        remove_shm(&first.prefix);
-        remove_shm(&second.dir().prefix);
-        let _ = std::fs::remove_dir_all(&base);
-    }
-
-    #[test]
-    fn a_base_too_long_for_unix_sockets_is_refused() {
-        let base = std::env::temp_dir().join("v".repeat(60));
-        let refused = InstanceClaim::claim_in(&base, "long").expect_err("refused");
-        assert!(refused.to_string().contains("too long"), "{refused}");
-        let _ = std::fs::remove_dir_all(&base);
-    }
-
-    #[test]
-    fn a_client_takes_its_own_users_instance_wherever_it_is() {
-        let system_closed = Sighting::Closed { base: PathBuf::from(SYSTEM_RUNTIME_DIR), base_owner: Some(0) };
-        let own = Sighting::Ours(PathBuf::from("/tmp/vservo-65534/x"));
-        // the system's /run/vservo exists (root's, closed to this user) and the user's daemon runs in /tmp
-        assert_eq!(Sighting::decide(&[system_closed.clone(), own.clone()]), Some(&own));
-        // the user's own instance under /run/vservo (the system service's user) comes first
-        let own_system = Sighting::Ours(PathBuf::from("/run/vservo/x"));
-        assert_eq!(Sighting::decide(&[own_system.clone(), own.clone()]), Some(&own_system));
-        assert_eq!(Sighting::decide(&[Sighting::Absent, own.clone()]), Some(&own));
-    }
-
-    #[test]
-    fn another_user_is_named_only_when_the_instance_is_none_of_ours() {
-        let system_closed = Sighting::Closed { base: PathBuf::from(SYSTEM_RUNTIME_DIR), base_owner: Some(0) };
-        assert_eq!(Sighting::decide(&[system_closed.clone(), Sighting::Absent]), Some(&system_closed));
-        let others = Sighting::OtherUsers { owner_uid: 999, path: PathBuf::from("/run/vservo/x") };
-        assert_eq!(Sighting::decide(&[others.clone(), Sighting::Absent]), Some(&others));
-        // an instance seen to be another user's tells more than a closed base that may hold one
-        assert_eq!(Sighting::decide(&[system_closed.clone(), others.clone()]), Some(&others));
-        assert_eq!(Sighting::decide(&[Sighting::Absent, Sighting::Absent]), None);
-        assert_eq!(Sighting::decide(&[]), None);
-    }
-
-    #[test]
-    fn a_closed_base_names_no_owner_for_the_instance() {
-        let closed = |base_owner: Option<&str>| InstanceDirError::Closed {
-            instance: "x".to_string(),
-            base: PathBuf::from(SYSTEM_RUNTIME_DIR),
-            base_owner: base_owner.map(str::to_string),
-            looked_in: vec![PathBuf::from("/run/vservo/x"), PathBuf::from("/tmp/vservo-1000/x")],
-        };
-        for text in [closed(Some("root")).to_string(), closed(None).to_string()] {
-            assert!(!text.contains("is run by user"), "{text}");
-            assert!(
-                text.contains("/run/vservo is closed to this user") && text.contains("/tmp/vservo-1000/x")
-            );
-        }
-        assert!(closed(Some("root")).to_string().contains("the directory is user \"root\"'s"));
-        assert!(closed(None).to_string().contains("whose it is cannot be told"));
-    }
-
-    #[test]
-    fn a_prefix_file_naming_other_files_is_refused() {
-        let path = Path::new("/x/prefix");
-        assert!(valid_prefix("vservo_0123456789abcdef_", path).is_ok());
-        for bad in
-            ["vservo_0123456789abcdeg_", "vservo_../../etc/passwd_", "", "vservo__", "iox2_0123456789abcdef_"]
-        {
-            assert!(valid_prefix(bad, path).is_err(), "{bad}");
-        }
-    }
-}
+mod tests;

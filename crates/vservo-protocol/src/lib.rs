@@ -20,6 +20,7 @@
 //!   `Default`, the schema check ([`inbox::Payload`]), the field table of docs/PROTOCOL.md, the JSON view of
 //!   `vservoctl echo` and the recordings ([`WireField::to_json`]) and the bytes a seal covers all come from that
 //!   declaration; adding a field touches the declaration, its producer and its consumer.
+//! - [`camera_image`]: the camera image stream (pixels under a header, one publisher) and its wake-up event.
 //! - [`codes`]: the wire codes as `#[repr(u32)]` enums ([`Verdict`], [`Fault`], [`CommandKind`],
 //!   [`NodeState`], [`DriverError`], …), each declared once with its numbers, names and the legend
 //!   docs/PROTOCOL.md prints; a program turns a message's number into its enum once, where it takes the
@@ -57,6 +58,7 @@
 //! - [`signals`]: SIGINT and SIGTERM as a flag, for the processes that run until stopped; [`clock`]: the clock
 //!   every stamp of the protocol is on (CLOCK_MONOTONIC, ns).
 
+pub mod camera_image;
 pub mod clock;
 pub mod codes;
 pub mod declare;
@@ -71,6 +73,10 @@ pub mod stop_path;
 pub mod supervision;
 pub mod writers;
 
+pub use camera_image::{
+    CAMERA_IMAGE_SERVICE, camera_image_listener, camera_image_notifier, camera_image_publisher,
+    camera_image_subscriber, open_camera_image_service, publish_mono8,
+};
 pub use codes::{
     CellMode, CommandKind, CommandMode, DaemonState, DriverError, DriverStatus, Fault, Interaction,
     MarkStatus, NodeState, PixelFormat, RobotState, UnknownCode, Verdict,
@@ -273,14 +279,14 @@ fn service_name(topic: Topic, instance: &str) -> Result<(String, ServiceName), P
 }
 
 /// A service name as iceoryx2 takes it, with the text for messages.
-fn named(name: &str) -> Result<(String, ServiceName), ProtocolError> {
+pub(crate) fn named(name: &str) -> Result<(String, ServiceName), ProtocolError> {
     let service = ServiceName::new(name)
         .map_err(|e| ProtocolError::Name { name: name.to_string(), reason: format!("{e:?}") })?;
     Ok((name.to_string(), service))
 }
 
 /// An iceoryx2 refusal on `service`, saying what was being done.
-fn port_error(what: &'static str, service: &str) -> impl FnOnce(String) -> ProtocolError {
+pub(crate) fn port_error(what: &'static str, service: &str) -> impl FnOnce(String) -> ProtocolError {
     let service = service.to_string();
     move |reason| ProtocolError::Port { what, service, reason }
 }
@@ -364,7 +370,7 @@ pub fn publisher<T: std::fmt::Debug + ZeroCopySend + 'static>(
 
 /// A stream's writer port: `create` it, and when its one slot is held, clean up dead processes' leftovers
 /// (a writer that died — a crashed node, a killed driver — holds its slot until then) and try once more.
-fn writer_slot<P, E: SlotsHeld>(
+pub(crate) fn writer_slot<P, E: SlotsHeld>(
     node: &Node<ipc::Service>,
     create: impl Fn() -> Result<P, E>,
 ) -> Result<P, E> {
@@ -408,7 +414,7 @@ pub fn subscriber<T: std::fmt::Debug + ZeroCopySend + 'static>(
         .map_err(|e| subscriber_error(e, &topic.service_name(instance)))
 }
 
-fn subscriber_error(error: SubscriberCreateError, service: &str) -> ProtocolError {
+pub(crate) fn subscriber_error(error: SubscriberCreateError, service: &str) -> ProtocolError {
     match error {
         SubscriberCreateError::ExceedsMaxSupportedSubscribers => {
             ProtocolError::SlotTaken { port: "subscriber", service: service.to_string() }
@@ -417,7 +423,7 @@ fn subscriber_error(error: SubscriberCreateError, service: &str) -> ProtocolErro
     }
 }
 
-fn notifier_error(error: NotifierCreateError, service: &str) -> ProtocolError {
+pub(crate) fn notifier_error(error: NotifierCreateError, service: &str) -> ProtocolError {
     match error {
         NotifierCreateError::ExceedsMaxSupportedNotifiers => {
             ProtocolError::SlotTaken { port: "notifier", service: service.to_string() }
@@ -426,7 +432,7 @@ fn notifier_error(error: NotifierCreateError, service: &str) -> ProtocolError {
     }
 }
 
-fn listener_error(error: ListenerCreateError, service: &str) -> ProtocolError {
+pub(crate) fn listener_error(error: ListenerCreateError, service: &str) -> ProtocolError {
     match error {
         ListenerCreateError::ExceedsMaxSupportedListeners => {
             ProtocolError::SlotTaken { port: "listener", service: service.to_string() }
@@ -443,7 +449,7 @@ fn open_event(
     open_event_named(node, &topic.service_name(instance))
 }
 
-fn open_event_named(
+pub(crate) fn open_event_named(
     node: &Node<ipc::Service>,
     name: &str,
 ) -> Result<(String, iceoryx2::service::port_factory::event::PortFactory<ipc::Service>), ProtocolError> {
@@ -482,112 +488,6 @@ pub fn listener(
 /// Returns how many dead nodes were cleaned up.
 pub fn cleanup_dead_nodes(node: &Node<ipc::Service>) -> u64 {
     node.try_cleanup_dead_nodes().cleanups
-}
-
-/// The publish-subscribe service `vservo/<instance>/camera_image`: a slice of `u8` (the image) with a
-/// [`CameraImageHeader`]; with an event of the same name that wakes the vision node.
-pub const CAMERA_IMAGE_SERVICE: &str = "camera_image";
-
-/// The camera image service, opened or created with vservo's sizes (1 publisher, 8 subscribers, no
-/// history, 2 samples buffered per subscriber); clients pass [`Opening::OpenOnly`].
-pub fn open_camera_image_service(
-    node: &Node<ipc::Service>,
-    instance: &str,
-    opening: Opening,
-) -> Result<
-    iceoryx2::service::port_factory::publish_subscribe::PortFactory<ipc::Service, [u8], CameraImageHeader>,
-    ProtocolError,
-> {
-    let (name, service) = named(&format!("vservo/{instance}/{CAMERA_IMAGE_SERVICE}"))?;
-    let builder = node
-        .service_builder(&service)
-        .publish_subscribe::<[u8]>()
-        .user_header::<CameraImageHeader>()
-        .max_publishers(1)
-        .max_subscribers(8)
-        .history_size(0)
-        .subscriber_max_buffer_size(2)
-        .enable_safe_overflow(true);
-    match opening {
-        Opening::OpenOrCreate => {
-            builder.open_or_create().map_err(|e| port_error("opening the service", &name)(e.to_string()))
-        }
-        Opening::OpenOnly => builder
-            .open()
-            .map_err(|e| port_error("opening the service (is a camera publishing?)", &name)(e.to_string())),
-    }
-}
-
-/// A publisher of camera images up to [`MAX_IMAGE_BYTES`].
-pub fn camera_image_publisher(
-    node: &Node<ipc::Service>,
-    instance: &str,
-) -> Result<Publisher<ipc::Service, [u8], CameraImageHeader>, ProtocolError> {
-    let service = open_camera_image_service(node, instance, Opening::OpenOrCreate)?;
-    writer_slot(node, || service.publisher_builder().initial_max_slice_len(MAX_IMAGE_BYTES).create()).map_err(
-        |e| match e {
-            PublisherCreateError::ExceedsMaxSupportedPublishers => {
-                ProtocolError::SlotTaken { port: "publisher", service: CAMERA_IMAGE_SERVICE.to_string() }
-            }
-            e => port_error("creating a publisher", CAMERA_IMAGE_SERVICE)(e.to_string()),
-        },
-    )
-}
-
-/// An 8-bit gray image of `width` × `height` (rows packed: `pixels.len()` is their product) published on
-/// `camera_image` as frame `frame`, exposed at `capture_stamp_ns`; `false` when no sample was free or the
-/// send failed (the caller counts it).
-pub fn publish_mono8(
-    publisher: &Publisher<ipc::Service, [u8], CameraImageHeader>,
-    (width, height): (u32, u32),
-    pixels: &[u8],
-    frame: u64,
-    capture_stamp_ns: u64,
-) -> bool {
-    let Ok(mut sample) = publisher.loan_slice_uninit(pixels.len()) else { return false };
-    *sample.user_header_mut() = CameraImageHeader {
-        schema: SCHEMA_VERSION,
-        format: PixelFormat::Mono8.into(),
-        width,
-        height,
-        stride_bytes: width,
-        reserved: 0,
-        frame,
-        capture_stamp_ns,
-    };
-    sample.write_from_slice(pixels).send().is_ok()
-}
-
-/// A subscriber of camera images (the vision node creates the service if no camera has yet; clients
-/// only open it).
-pub fn camera_image_subscriber(
-    node: &Node<ipc::Service>,
-    instance: &str,
-    opening: Opening,
-) -> Result<Subscriber<ipc::Service, [u8], CameraImageHeader>, ProtocolError> {
-    open_camera_image_service(node, instance, opening)?
-        .subscriber_builder()
-        .buffer_size(2)
-        .create()
-        .map_err(|e| subscriber_error(e, CAMERA_IMAGE_SERVICE))
-}
-
-/// The notifier of the camera image event.
-pub fn camera_image_notifier(
-    node: &Node<ipc::Service>,
-    instance: &str,
-) -> Result<Notifier<ipc::Service>, ProtocolError> {
-    let (name, factory) = open_event_named(node, &format!("vservo/{instance}/{CAMERA_IMAGE_SERVICE}"))?;
-    writer_slot(node, || factory.notifier_builder().create()).map_err(|e| notifier_error(e, &name))
-}
-
-/// The listener the vision node waits on for camera images.
-pub fn camera_image_listener(
-    node: &Node<ipc::Service>,
-    instance: &str,
-) -> Result<Listener<ipc::Service>, ProtocolError> {
-    let (name, factory) = open_event_named(node, &format!("vservo/{instance}/{CAMERA_IMAGE_SERVICE}"))?;
-    factory.listener_builder().create().map_err(|e| listener_error(e, &name))
 }
 
 /// The request-response service `vservo/<instance>/command` ([`CommandMsg`] → [`CommandReplyMsg`]).
