@@ -32,7 +32,7 @@ use vservo_config::Config;
 use vservo_control::{Gains, Twist};
 use vservo_scene::{FeatureVector, IsometryMatrix3};
 
-pub use vservo_cell::CellError as SimError;
+pub use vservo_cell::CellError;
 pub use vservo_cell::DriverTick;
 pub use vservo_cell::ServoVerdict;
 use vservo_cell::{
@@ -186,7 +186,7 @@ pub struct Lockstep {
 impl Lockstep {
     /// Sets the loop up from a configuration (its `[plant]`, `[interpolator]`, `[joint_servo]` and
     /// `[scenario]` sections say what to simulate): designs the gains, places the arm by inverse kinematics.
-    pub fn new(config: &Config) -> Result<Self, SimError> {
+    pub fn new(config: &Config) -> Result<Self, CellError> {
         let cell = Cell::simulated(config)?;
         Ok(Self {
             config: config.clone(),

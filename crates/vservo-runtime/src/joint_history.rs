@@ -19,7 +19,7 @@ pub const LARGEST_GAP_PERIODS: u64 = 4;
 
 /// One state heard: when it was measured, its tick and driver epoch, its joints.
 #[derive(Debug, Clone, Copy, PartialEq)]
-struct Heard {
+struct PastState {
     stamp_ns: u64,
     tick: u64,
     epoch: u64,
@@ -51,7 +51,7 @@ pub enum NoJoints {
 /// The last joint states, oldest overwritten first; the ring is sized once, at start.
 #[derive(Debug, Clone)]
 pub struct JointHistory {
-    ring: Box<[Heard]>,
+    ring: Box<[PastState]>,
     /// Index of the next slot to write.
     next: usize,
     len: usize,
@@ -65,7 +65,7 @@ impl JointHistory {
         let period_ns = ((period_s * 1e9).round() as u64).max(1);
         let states =
             ((span_s / period_s).ceil() as usize).saturating_add(2).clamp(LEAST_KEPT_STATES, 1 << 20);
-        let empty = Heard { stamp_ns: 0, tick: 0, epoch: 0, q: JointVector::zeros() };
+        let empty = PastState { stamp_ns: 0, tick: 0, epoch: 0, q: JointVector::zeros() };
         Self { ring: vec![empty; states].into_boxed_slice(), next: 0, len: 0, period_ns }
     }
 
@@ -76,7 +76,7 @@ impl JointHistory {
         if !q.iter().all(|v| v.is_finite()) {
             return;
         }
-        let heard = Heard { stamp_ns, tick, epoch, q: *q };
+        let heard = PastState { stamp_ns, tick, epoch, q: *q };
         match self.newest() {
             Some(newest) if newest.epoch != epoch || stamp_ns < newest.stamp_ns => self.len = 0,
             Some(newest) if stamp_ns == newest.stamp_ns => {
@@ -137,7 +137,7 @@ impl JointHistory {
         (self.next + 2 * self.ring.len() - 1 - back) % self.ring.len()
     }
 
-    fn newest(&self) -> Option<Heard> {
+    fn newest(&self) -> Option<PastState> {
         (self.len > 0).then(|| self.ring[self.slot_back(0)])
     }
 }

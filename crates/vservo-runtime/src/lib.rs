@@ -33,10 +33,11 @@
 //!
 //! ## Timing
 //!
-//! The plant's tick k: sleep to the deadline, take the rmrc's answer to state k−1 (or hold the last command,
-//! counted late), integrate, publish `sim_world` and state k and notify. The vision node with the simulated
-//! camera, at the start of each period, publishes the frame whose processing finished (so the processing time
-//! does not add to the d-frame delay), then captures the next. A late tick still advances 1 ms of simulated
+//! The plant's tick k: sleep to the deadline, take the rmrc's answer to state k−1 (late: the previous
+//! command's reference, followed by the drive's servo, counted), integrate, publish `sim_world` and state k
+//! and notify. The vision node with the simulated camera, at the start of each period, publishes the frame
+//! whose processing finished (so the processing time does not add to the d-frame delay), then captures the
+//! next. A late tick still advances 1 ms of simulated
 //! time; missed periods are skipped and counted, never replayed. A real-time run replayed in lockstep at its
 //! own answer ticks agrees with it to rounding (`vservo_lockstep::Lockstep::run_replaying`).
 //!

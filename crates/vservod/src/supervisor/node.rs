@@ -27,7 +27,7 @@ pub enum Hang {
 
 /// What the node's telemetry said, and when.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
-pub struct Heard {
+pub struct TelemetryHeard {
     /// The latest telemetry.
     pub telemetry: Option<TelemetryMsg>,
     /// When it arrived.
@@ -52,7 +52,7 @@ pub struct NodeRecord {
     /// How its last process ended (the exit code, or minus the signal).
     pub last_exit: i32,
     /// What its telemetry said.
-    pub heard: Heard,
+    pub heard: TelemetryHeard,
 }
 
 impl NodeRecord {
@@ -64,7 +64,7 @@ impl NodeRecord {
             state: NodeState::Running,
             restart,
             last_exit: 0,
-            heard: Heard::default(),
+            heard: TelemetryHeard::default(),
         }
     }
 
