@@ -279,6 +279,64 @@ fn bad_pipelines_and_wrong_caps_are_refused_naming_the_pipeline_and_why() {
     let _ = std::fs::remove_file(&log);
 }
 
+/// The pids of the running processes of `program` whose command line mentions `text`.
+fn processes_of(program: &str, text: &str) -> Vec<i32> {
+    let Ok(entries) = std::fs::read_dir("/proc") else { return Vec::new() };
+    entries
+        .flatten()
+        .filter_map(|e| e.file_name().to_str().and_then(|n| n.parse::<i32>().ok()))
+        .filter(|pid| {
+            let cmdline = std::fs::read(format!("/proc/{pid}/cmdline")).unwrap_or_default();
+            let cmdline = String::from_utf8_lossy(&cmdline);
+            let stat = std::fs::read_to_string(format!("/proc/{pid}/stat")).unwrap_or_default();
+            let zombie = stat.rsplit_once(") ").is_some_and(|(_, rest)| rest.starts_with('Z'));
+            cmdline.split('\0').next().is_some_and(|p| p.ends_with(program))
+                && cmdline.contains(text)
+                && !zombie
+        })
+        .collect()
+}
+
+/// `camera.source = "gstreamer"`: vservod starts the GStreamer camera itself, on the configuration in force (the
+/// copy in the instance's directory, not the user's file), its frames reach `camera_image`, and it ends with
+/// the daemon, even a daemon SIGKILLed.
+#[test]
+fn vservod_starts_the_gstreamer_camera_on_the_configuration_in_force_and_it_ends_with_the_daemon() {
+    let _one = exclusive();
+    let instance = unique("gst-started");
+    let config = camera_config(&instance, CHECKERS);
+    let text = std::fs::read_to_string(&config.path).expect("config");
+    std::fs::write(&config.path, text.replacen("source = \"external\"", "source = \"gstreamer\"", 1))
+        .expect("config written");
+    let daemon = Daemon::start(&config);
+    assert!(wait_until(Duration::from_secs(10), || status(&instance).is_some()), "{}", daemon.log());
+    assert!(
+        wait_until(Duration::from_secs(15), || !read_frames(&instance, 0.2).is_empty()),
+        "no frame from the camera vservod started\n{}",
+        daemon.log()
+    );
+    let frames = read_frames(&instance, 1.0);
+    assert!(frames.len() >= 12, "{} frames in 1 s at 25 frames/s\n{}", frames.len(), daemon.log());
+    assert!(daemon.log().contains("the GStreamer camera started"), "{}", daemon.log());
+    let cameras = processes_of("vservo-gst-camera", &instance);
+    assert_eq!(cameras.len(), 1, "one camera of the instance: {cameras:?}");
+    let cmdline =
+        String::from_utf8_lossy(&std::fs::read(format!("/proc/{}/cmdline", cameras[0])).unwrap_or_default())
+            .replace('\0', " ");
+    assert!(
+        cmdline.contains(&format!("{instance}/config.toml")) && !cmdline.contains(&config.arg()),
+        "the camera runs the configuration in force, not the user's file: {cmdline}"
+    );
+    // SIGKILL: the daemon cannot stop its helper; the helper ends by itself
+    daemon.signal(Signal::SIGKILL);
+    assert!(
+        wait_until(Duration::from_secs(5), || processes_of("vservo-gst-camera", &instance).is_empty()),
+        "the camera outlived its daemon: {:?}",
+        processes_of("vservo-gst-camera", &instance)
+    );
+    drop(daemon);
+}
+
 /// `scripts/run-rtp-camera.sh --json`: the MuJoCo driver's frames over RTP/UDP on loopback into the camera
 /// driver close the loop below 1 px.
 #[test]

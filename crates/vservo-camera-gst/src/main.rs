@@ -1,8 +1,8 @@
 //! `vservo-gst-camera`: the GStreamer camera driver. Runs `[camera.gstreamer] pipeline` and publishes its
 //! 8-bit gray frames on `camera_image` (docs/DRIVERS.md, "A real camera through GStreamer").
 //!
-//! It is an external camera driver (`[camera] source = "external"`): vservod never starts it; run it yourself
-//! or as a unit of its own. The GStreamer (gstreamer-rs 0.25 on Debian's GStreamer 1.22) and iceoryx2 side is
+//! vservod starts it with `[camera] source = "gstreamer"` (and ends it with itself); with `"external"` it is
+//! the user's to run, by hand or as a unit of its own. The GStreamer (gstreamer-rs 0.25 on Debian's GStreamer 1.22) and iceoryx2 side is
 //! here: [`pipeline`] (the pipeline with its appsink on the monotonic system clock, exposure and gain on its
 //! sources, each frame taken with its caps, stamp and buffer offset), [`publish`] (each frame checked — GRAY8
 //! of the configured size —, counted and stamped — PTS → running time → CLOCK_MONOTONIC — onto `camera_image`,
@@ -10,7 +10,7 @@
 //! `vservo_camera_gst`.
 //!
 //! ```text
-//! vservo-gst-camera --config FILE [--stats-every-s S]
+//! vservo-gst-camera --config FILE [--stats-every-s S] [--daemon-pid PID]
 //! ```
 //!
 //! Exit codes: 0 after SIGINT/SIGTERM, 1 on an error (a bad pipeline, frames of another format or size, a
@@ -35,14 +35,20 @@ struct Cli {
     /// Log the frame statistics every this many seconds (0: only at the end).
     #[arg(long, default_value_t = 10.0)]
     stats_every_s: f64,
+    /// Started by this vservod (`camera.source = "gstreamer"`): end when it does, however it ends.
+    #[arg(long, value_name = "PID", hide = true)]
+    daemon_pid: Option<i32>,
 }
 
 fn main() -> ExitCode {
     vservo_driver::logging::to_stderr("info");
     let cli = Cli::parse();
-    let result = vservo_protocol::signals::stop_flag()
-        .map_err(anyhow::Error::from)
-        .and_then(|stop| publish::run(&cli.config, cli.stats_every_s, &stop));
+    let result = vservo_protocol::signals::stop_flag().map_err(anyhow::Error::from).and_then(|stop| {
+        if let Some(pid) = cli.daemon_pid {
+            vservo_protocol::signals::end_with_daemon(pid, &stop)?;
+        }
+        publish::run(&cli.config, cli.stats_every_s, &stop)
+    });
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(error) => {

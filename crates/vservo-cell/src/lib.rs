@@ -115,14 +115,10 @@ pub struct Cell {
 impl Cell {
     /// A cell that is simulated whole (arm and camera), as the lockstep simulator needs.
     pub fn simulated(config: &Config) -> Result<Self, CellError> {
-        match &config.vision.source {
-            vservo_config::VisionSource::Simulated => {}
-            vservo_config::VisionSource::External => return Err(CellError::NotSimulatedCamera("external")),
-            vservo_config::VisionSource::Directory(_) => {
-                return Err(CellError::NotSimulatedCamera("directory"));
-            }
+        if config.vision.source != vservo_config::VisionSource::Simulated {
+            return Err(CellError::NotSimulatedCamera(config.vision.source.name()));
         }
-        if config.robot.driver != vservo_config::RobotDriver::Simulated {
+        if !config.robot.driver.is_simulated() {
             return Err(CellError::NotSimulatedRobot);
         }
         Self::new(config)

@@ -89,10 +89,8 @@ impl VisionStage {
         let truth = config.true_camera();
         // the simulated camera's pipeline delay is modelled here; a camera driver's is physical: its frames
         // are worked on as they arrive and published at once
-        let delay_frames = match config.vision.source {
-            vservo_config::VisionSource::External => 0,
-            _ => config.timing.pipeline_delay_frames,
-        };
+        let delay_frames =
+            if config.vision.source.from_camera_driver() { 0 } else { config.timing.pipeline_delay_frames };
         Self {
             arm,
             tool_from_camera: config.tool_from_camera,

@@ -335,11 +335,14 @@ fn anchor_urdf(table: &mut toml::Table, path: &Path) {
     anchor(file, path);
 }
 
-/// Makes `file`, if relative, relative to the directory of the file at `path`.
+/// Makes `file`, if relative, relative to the directory of the file at `path`, and absolute: the resolved text
+/// (the configuration in force, which vservod writes into the instance's directory for its helpers and
+/// clients) names the same file from any working directory.
 fn anchor(file: &mut String, path: &Path) {
     if !file.trim().is_empty() && Path::new(file.as_str()).is_relative() {
         let directory = path.parent().unwrap_or(Path::new(""));
-        *file = directory.join(file.as_str()).display().to_string();
+        let joined = directory.join(file.as_str());
+        *file = std::path::absolute(&joined).unwrap_or(joined).display().to_string();
     }
 }
 

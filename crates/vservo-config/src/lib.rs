@@ -207,12 +207,18 @@ impl Config {
     /// torque for the dynamic plant and position (the ideal robot) for the kinematic one.
     pub fn command_interface(&self) -> CommandInterface {
         match self.robot.driver {
-            RobotDriver::External => self.robot.command,
+            RobotDriver::External | RobotDriver::Ros2 | RobotDriver::Franka => self.robot.command,
             RobotDriver::Simulated => match self.plant.mode {
                 vservo_settings::simulation::PlantMode::Dynamic => CommandInterface::Torque,
                 vservo_settings::simulation::PlantMode::Kinematic => CommandInterface::Position,
             },
         }
+    }
+
+    /// Whether vservod starts the ROS 2 driver (`vservo-ros2 --driver`): for the arm (`robot.driver = "ros2"`),
+    /// the camera (`camera.source = "ros2"`) or both.
+    pub fn runs_ros2_driver(&self) -> bool {
+        self.robot.driver == RobotDriver::Ros2 || self.vision.source == VisionSource::Ros2
     }
 
     /// What the gain design needs.

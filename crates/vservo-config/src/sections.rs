@@ -62,10 +62,6 @@ pub struct Ros2 {
 /// `[ros2] namespace`).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Ros2Driver {
-    /// `[robot] driver = "ros2"`: the arm's joint states are read from ROS 2 and its controller commanded there.
-    pub arm: bool,
-    /// `[camera] source = "ros2"`: the images are read from ROS 2.
-    pub camera: bool,
     /// The arm's `sensor_msgs/JointState` (its `joint_state_broadcaster`'s).
     pub joint_states_topic: String,
     /// The `std_msgs/Float64MultiArray` a forward velocity or position controller takes, in `joint_names` order.
@@ -78,13 +74,6 @@ pub struct Ros2Driver {
     /// A header stamp more than this (s) in the future of its arrival on this machine's clock is replaced by
     /// the arrival; one older than this is kept and flagged (late data, or the hosts' clocks not in step).
     pub clock_tolerance_s: f64,
-}
-
-impl Ros2Driver {
-    /// Whether vservod starts the ROS 2 driver.
-    pub fn runs(&self) -> bool {
-        self.arm || self.camera
-    }
 }
 
 /// A topic the ROS 2 bridge can publish (`[ros2] publish`), by its name in the file.
@@ -241,8 +230,31 @@ pub struct Franka {
 pub enum RobotDriver {
     /// vservod's own plant node: the simulated PUMA 560 (`[plant]`).
     Simulated,
-    /// A process of the user's (a real arm's driver, or another simulator), behind docs/DRIVERS.md.
+    /// A process of the user's (a real arm's driver, or another simulator), behind docs/DRIVERS.md, which the
+    /// user starts: vservod never starts it.
     External,
+    /// The ROS 2 driver (`vservo-ros2 --driver`: a ros2_control arm, `[ros2.driver]`), which vservod starts.
+    Ros2,
+    /// The Franka driver (`vservo-franka`, `[franka]`), which vservod starts.
+    Franka,
+}
+
+impl RobotDriver {
+    /// Whether the arm is vservod's own simulated plant (else a driver process: the user's or one vservod
+    /// starts).
+    pub fn is_simulated(self) -> bool {
+        self == RobotDriver::Simulated
+    }
+
+    /// The name in `robot.driver`.
+    pub fn name(self) -> &'static str {
+        match self {
+            RobotDriver::Simulated => "simulated",
+            RobotDriver::External => "external",
+            RobotDriver::Ros2 => "ros2",
+            RobotDriver::Franka => "franka",
+        }
+    }
 }
 
 /// The command a robot driver takes.
@@ -437,10 +449,33 @@ pub struct GstreamerCamera {
 pub enum VisionSource {
     /// The simulated hand camera renders the board.
     Simulated,
-    /// Frames published on `camera_image` by another process (a camera driver).
+    /// Frames published on `camera_image` by a camera driver the user starts (vservod never starts it).
     External,
+    /// Frames of a ROS camera, through the ROS 2 driver (`vservo-ros2 --driver`), which vservod starts.
+    Ros2,
+    /// Frames of the GStreamer camera driver (`vservo-gst-camera`, `[camera.gstreamer]`), which vservod starts.
+    Gstreamer,
     /// Recorded images in a directory.
     Directory(std::path::PathBuf),
+}
+
+impl VisionSource {
+    /// Whether the frames come from a camera driver, a process publishing on `camera_image` (the user's or one
+    /// vservod starts).
+    pub fn from_camera_driver(&self) -> bool {
+        matches!(self, VisionSource::External | VisionSource::Ros2 | VisionSource::Gstreamer)
+    }
+
+    /// The name in `camera.source`.
+    pub fn name(&self) -> &'static str {
+        match self {
+            VisionSource::Simulated => "simulated",
+            VisionSource::External => "external",
+            VisionSource::Ros2 => "ros2",
+            VisionSource::Gstreamer => "gstreamer",
+            VisionSource::Directory(_) => "directory",
+        }
+    }
 }
 
 /// Periods and delays.

@@ -158,17 +158,19 @@ fn the_mujoco_cell_declares_an_external_velocity_driver_and_camera() {
     assert_eq!(default.command_interface(), vservo_config::CommandInterface::Position);
 }
 
-/// config/vservo-ros2-cell.toml: the arm and the camera from ROS 2, an external driver behind the contract to
-/// the rest of vservo; velocity by default, position taken, torques refused (a forward controller takes none).
+/// config/vservo-ros2-cell.toml: the arm and the camera from ROS 2, through the ROS 2 driver vservod starts (a
+/// driver behind the contract to the rest of vservo); velocity by default, position taken, torques refused (a
+/// forward controller takes none).
 #[test]
 fn the_ros2_cell_takes_its_arm_and_camera_from_ros2() {
     let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../config/vservo-ros2-cell.toml");
     let config = Config::load(path).expect("config/vservo-ros2-cell.toml is valid");
-    assert_eq!(config.robot.driver, vservo_config::RobotDriver::External);
-    assert_eq!(config.vision.source, vservo_config::VisionSource::External);
+    assert_eq!(config.robot.driver, vservo_config::RobotDriver::Ros2);
+    assert_eq!(config.vision.source, vservo_config::VisionSource::Ros2);
+    assert!(config.vision.source.from_camera_driver() && !config.robot.driver.is_simulated());
     assert_eq!(config.command_interface(), vservo_config::CommandInterface::Velocity);
     let driver = &config.ros2.driver;
-    assert!(driver.arm && driver.camera && driver.runs() && !config.ros2.enabled);
+    assert!(config.runs_ros2_driver() && !config.ros2.enabled);
     assert_eq!(driver.command_topic, "/forward_velocity_controller/commands");
     assert!((config.robot.period_s - 0.002).abs() < 1e-15);
 
@@ -555,4 +557,30 @@ fn only_regular_files_up_to_4_mib_are_read() {
     std::fs::write(&fine, DEFAULT).expect("written");
     assert!(Config::load(&fine).is_ok());
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// Who drives the arm and the camera is one typed choice: each name in the file is its own variant, and the
+/// drivers vservod starts are told apart from the user's own.
+#[test]
+fn the_drivers_are_typed_choices_and_the_gstreamer_camera_needs_its_pipeline() {
+    let with =
+        |robot: &str, camera: &str, extra: &str| {
+            let text = DEFAULT
+                .replacen("driver = \"simulated\"", &format!("driver = \"{robot}\""), 1)
+                .replacen("source = \"simulated\"", &format!("source = \"{camera}\""), 1);
+            Config::from_toml(&format!("{text}{extra}"), "t.toml")
+        };
+    let pipeline = "\n[camera.gstreamer]\npipeline = \"v4l2src ! videoconvert ! video/x-raw,format=GRAY8\"\n";
+    let ros2 = with("ros2", "gstreamer", pipeline).expect("a ROS 2 arm and a GStreamer camera");
+    assert_eq!(ros2.robot.driver, vservo_config::RobotDriver::Ros2);
+    assert_eq!(ros2.vision.source, vservo_config::VisionSource::Gstreamer);
+    assert!(
+        ros2.runs_ros2_driver()
+            && ros2.vision.source.from_camera_driver()
+            && !ros2.robot.driver.is_simulated()
+    );
+    let ros2_camera_only = with("ros2", "external", "").expect("the ROS 2 arm alone");
+    assert!(ros2_camera_only.runs_ros2_driver() && ros2_camera_only.vision.source.name() == "external");
+    let error = with("ros2", "gstreamer", "").expect_err("no pipeline").to_string();
+    assert!(error.contains("camera.source") && error.contains("[camera.gstreamer]"), "{error}");
 }

@@ -264,6 +264,12 @@ impl InstanceDir {
         self.path.join(CONFIGURATION_FILE)
     }
 
+    /// Writes the configuration the daemon runs, as [`InstanceClaim::write_configuration`] does; the daemon
+    /// writes it again after a reload (a reader sees the old text or the new, whole).
+    pub fn write_configuration(&self, text: &str) -> Result<(), InstanceDirError> {
+        write_file_atomically(&self.configuration(), text.as_bytes())
+    }
+
     /// iceoryx2's root path for the instances of this base.
     pub fn iceoryx2_root(&self) -> PathBuf {
         self.base.join("iceoryx2")
@@ -462,7 +468,7 @@ impl InstanceClaim {
     /// Writes the configuration the daemon runs into the instance's directory ([`InstanceDir::configuration`];
     /// readable by the instance's group only, as the directory is).
     pub fn write_configuration(&self, text: &str) -> Result<(), InstanceDirError> {
-        write_file_atomically(&self.dir.configuration(), text.as_bytes())
+        self.dir.write_configuration(text)
     }
 
     /// Refuses if any shared-memory object of the instance is another user's or reachable by another user.

@@ -14,6 +14,9 @@ pub enum SignalError {
     /// The thread that takes them could not be started.
     #[error("starting the signal thread: {0}")]
     Thread(#[from] std::io::Error),
+    /// The parent's death could not be made a SIGTERM.
+    #[error("prctl(PR_SET_PDEATHSIG): {0}")]
+    DeathSignal(nix::Error),
 }
 
 /// A flag set on the first SIGINT or SIGTERM. The signals are blocked in this thread and every thread
@@ -33,6 +36,17 @@ pub fn stop_flag() -> Result<Arc<AtomicBool>, SignalError> {
         }
     })?;
     Ok(stop)
+}
+
+/// For a process vservod started (a driver, the bridge, the viewer, with `--daemon-pid`): however the daemon
+/// `daemon_pid` ends (SIGKILL included), this process gets SIGTERM, which sets `stop`; if the daemon has already
+/// gone (this process's parent is another), `stop` is set at once. Call after [`stop_flag`].
+pub fn end_with_daemon(daemon_pid: i32, stop: &AtomicBool) -> Result<(), SignalError> {
+    nix::sys::prctl::set_pdeathsig(nix::sys::signal::Signal::SIGTERM).map_err(SignalError::DeathSignal)?;
+    if nix::unistd::getppid().as_raw() != daemon_pid {
+        stop.store(true, Ordering::Relaxed);
+    }
+    Ok(())
 }
 
 /// Whether the flag was set.

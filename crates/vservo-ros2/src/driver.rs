@@ -43,11 +43,21 @@ const REPORT_EVERY_NS: u64 = 10_000_000_000;
 /// How many times the hold command is sent at the end (the controller's reliable reader gets one of them).
 const HOLDS_AT_EXIT: usize = 3;
 
+/// Whether this driver is the arm's (`[robot] driver = "ros2"`).
+fn drives_arm(config: &Config) -> bool {
+    config.robot.driver == vservo_config::RobotDriver::Ros2
+}
+
+/// Whether this driver is the camera's (`[camera] source = "ros2"`).
+fn drives_camera(config: &Config) -> bool {
+    config.vision.source == vservo_config::VisionSource::Ros2
+}
+
 /// Runs until `stop` is set.
 pub fn run(config: &Config, stop: &AtomicBool) -> anyhow::Result<()> {
     let settings = &config.ros2;
     anyhow::ensure!(
-        settings.driver.runs(),
+        config.runs_ros2_driver(),
         "{}: neither [robot] driver nor [camera] source is \"ros2\": there is nothing for the ROS 2 driver to do",
         config.origin
     );
@@ -64,7 +74,7 @@ pub fn run(config: &Config, stop: &AtomicBool) -> anyhow::Result<()> {
     let mut events = Events::with_capacity(8);
     tracing::info!(
         arm = %ros.arm.as_ref().map_or("-", |a| a.topics.as_str()),
-        camera = %if config.ros2.driver.camera { config.ros2.driver.image_topic.as_str() } else { "-" },
+        camera = %if drives_camera(config) { config.ros2.driver.image_topic.as_str() } else { "-" },
         "driving the instance {:?} from ROS 2 (domain {})",
         config.instance,
         settings.domain_id
@@ -103,7 +113,7 @@ impl RosSide {
         let settings = &config.ros2;
         let (context, mut node) = vservo_ros2::domain::node(settings, "vservo_driver")?;
         let driver = &settings.driver;
-        let arm = if driver.arm {
+        let arm = if drives_arm(config) {
             Some(ArmTopics {
                 joint_states: subscription(&mut node, &driver.joint_states_topic, qos::SENSOR_DATA)?,
                 commands: publisher(&mut node, &driver.command_topic, qos::COMMANDS)?,
@@ -113,8 +123,7 @@ impl RosSide {
         } else {
             None
         };
-        let images = driver
-            .camera
+        let images = drives_camera(config)
             .then(|| subscription(&mut node, &driver.image_topic, qos::SENSOR_DATA))
             .transpose()?;
         Ok(Self { arm, images, _node: node, _context: context })
@@ -177,7 +186,7 @@ impl CellSide {
     fn connect(config: &Config, dir: &vservo_protocol::InstanceDir) -> anyhow::Result<Self> {
         let instance = config.instance.as_str();
         let node = vservo_protocol::create_node_in(dir, "ros2-driver")?;
-        let arm = if config.ros2.driver.arm {
+        let arm = if drives_arm(config) {
             Some(ArmPorts {
                 states: vservo_protocol::publisher(&node, instance, Topic::JointState)
                     .context("the joint_state stream (is another robot driver running?)")?,
@@ -187,7 +196,7 @@ impl CellSide {
         } else {
             None
         };
-        let camera = if config.ros2.driver.camera {
+        let camera = if drives_camera(config) {
             Some(CameraPorts {
                 images: vservo_protocol::camera_image_publisher(&node, instance)
                     .context("the camera_image stream (is another camera driver running?)")?,
@@ -311,7 +320,7 @@ impl Driver {
         let driver = &config.ros2.driver;
         let (width, height) = (config.camera.width_px(), config.camera.height_px());
         Self {
-            arm: driver.arm.then(|| ArmFollower::new(ArmSettings::of(config), now)),
+            arm: drives_arm(config).then(|| ArmFollower::new(ArmSettings::of(config), now)),
             last_state_ns: now,
             last_silent_hold_ns: 0,
             hold_after_ns: (driver.hold_after_s * 1e9) as u64,

@@ -62,7 +62,7 @@ fn main() -> ExitCode {
     };
     let result = vservo_protocol::signals::stop_flag().map_err(anyhow::Error::from).and_then(|stop| {
         if let Some(pid) = cli.daemon_pid {
-            end_with_daemon(pid, &stop)?;
+            vservo_protocol::signals::end_with_daemon(pid, &stop)?;
         }
         if cli.driver { driver::run(&config, &stop) } else { bridge::run(&config, &cli.config, &stop) }
     });
@@ -73,15 +73,4 @@ fn main() -> ExitCode {
             ExitCode::FAILURE
         }
     }
-}
-
-/// However the daemon ends (SIGKILL included), the bridge gets SIGTERM and stops; if it has already gone,
-/// the bridge stops at once.
-fn end_with_daemon(daemon_pid: i32, stop: &std::sync::atomic::AtomicBool) -> anyhow::Result<()> {
-    use anyhow::Context;
-    nix::sys::prctl::set_pdeathsig(nix::sys::signal::Signal::SIGTERM).context("prctl(PR_SET_PDEATHSIG)")?;
-    if nix::unistd::getppid().as_raw() != daemon_pid {
-        stop.store(true, std::sync::atomic::Ordering::Relaxed);
-    }
-    Ok(())
 }

@@ -103,10 +103,7 @@ pub fn run(args: &SceneArgs) -> Result<()> {
         },
         "timing": {"vision_period_s": config.timing.vision_period_s},
         "robot": {
-            "driver": match config.robot.driver {
-                vservo_config::RobotDriver::Simulated => "simulated",
-                vservo_config::RobotDriver::External => "external",
-            },
+            "driver": config.robot.driver.name(),
             "command": config.command_interface().name(),
             "period_s": config.robot.period_s,
             "state_timeout_periods": config.robot.state_timeout_periods,

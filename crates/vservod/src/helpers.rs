@@ -1,10 +1,13 @@
 //! The helper processes vservod starts when the configuration asks for them, restarts if they end and stops
 //! with the cell: the live view (`[viewer] enabled = true`: `vservoctl view` on the configured address and
-//! port), the ROS 2 bridge (`[ros2] enabled = true`: `vservo-ros2`) and the ROS 2 driver (`[robot] driver` or
-//! `[camera] source` = `"ros2"`: `vservo-ros2 --driver`) and the Franka driver (`[robot] driver = "franka"`:
-//! `vservo-franka`), all installed next to vservod. The viewer and the
-//! bridge are clients of the instance like any other: they read with iceoryx2's safe overflow, so a slow or
-//! absent helper never slows the loop, and its failure is a warning, never a fault of the cell.
+//! port), the ROS 2 bridge (`[ros2] enabled = true`: `vservo-ros2`), and the drivers the configuration names:
+//! the ROS 2 driver (`[robot] driver` or `[camera] source` = `"ros2"`: `vservo-ros2 --driver`), the Franka
+//! driver (`[robot] driver = "franka"`: `vservo-franka`) and the GStreamer camera (`[camera] source =
+//! "gstreamer"`: `vservo-gst-camera`), all installed next to vservod. An `"external"` driver is the user's to
+//! start: vservod never starts it. The viewer and the bridge are clients of the instance like any other: they
+//! read with iceoryx2's safe overflow, so a slow or absent helper never slows the loop, and its failure is a
+//! warning, never a fault of the cell. A driver is the cell's: while it is away the arm is found stalled (or
+//! the camera silent) and the cell stops safely, as with any driver.
 
 use std::path::Path;
 use std::process::{Child, Command, Stdio};
@@ -29,7 +32,8 @@ pub struct Helper {
 pub struct Launch<'a> {
     /// vservod's own executable: the helpers are installed next to it.
     pub vservod: &'a Path,
-    /// The configuration file vservod runs.
+    /// The configuration in force, as vservod wrote it into the instance's directory (every key resolved,
+    /// paths absolute; written again after a reload): a helper runs what the nodes run, not a file edited since.
     pub config_path: &'a Path,
     /// The instance's runtime base.
     pub runtime_base: &'a Path,
@@ -73,18 +77,26 @@ impl Helper {
     }
 
     /// The ROS 2 driver (`vservo-ros2 --driver`), started when `[robot] driver` or `[camera] source` is
-    /// `"ros2"`; it ends with this daemon. Unlike the other helpers it is the cell's driver: while it is away
-    /// the arm is found stalled (or the camera silent) and the cell stops safely, as with any driver.
-    pub fn ros2_driver(settings: &vservo_config::Ros2, launch: &Launch) -> Self {
+    /// `"ros2"`; it ends with this daemon.
+    pub fn ros2_driver(config: &vservo_config::Config, launch: &Launch) -> Self {
         let args = ["--driver".to_string(), "--daemon-pid".to_string(), std::process::id().to_string()];
-        Self::start("the ROS 2 driver", launch.command(settings.driver.runs(), "vservo-ros2", &args))
+        Self::start("the ROS 2 driver", launch.command(config.runs_ros2_driver(), "vservo-ros2", &args))
     }
 
     /// The Franka driver (`vservo-franka`), started with `[robot] driver = "franka"`; it ends with this daemon
-    /// (bringing the arm to rest and ending its motion). The cell's driver, as the ROS 2 driver is.
-    pub fn franka_driver(franka: Option<&vservo_config::Franka>, launch: &Launch) -> Self {
+    /// (bringing the arm to rest and ending its motion).
+    pub fn franka_driver(config: &vservo_config::Config, launch: &Launch) -> Self {
+        let runs = config.robot.driver == vservo_config::RobotDriver::Franka;
         let args = ["--daemon-pid".to_string(), std::process::id().to_string()];
-        Self::start("the Franka driver", launch.command(franka.is_some(), "vservo-franka", &args))
+        Self::start("the Franka driver", launch.command(runs, "vservo-franka", &args))
+    }
+
+    /// The GStreamer camera (`vservo-gst-camera`), started with `[camera] source = "gstreamer"` on the
+    /// pipeline of `[camera.gstreamer]`; it ends with this daemon.
+    pub fn gst_camera(config: &vservo_config::Config, launch: &Launch) -> Self {
+        let runs = config.vision.source == vservo_config::VisionSource::Gstreamer;
+        let args = ["--daemon-pid".to_string(), std::process::id().to_string()];
+        Self::start("the GStreamer camera", launch.command(runs, "vservo-gst-camera", &args))
     }
 
     fn start(what: &'static str, command: Option<Command>) -> Self {

@@ -44,6 +44,7 @@ pub enum RawCameraSource {
     External,
     Directory,
     Ros2,
+    Gstreamer,
 }
 
 /// `robot.start`.

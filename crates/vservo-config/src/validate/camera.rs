@@ -226,7 +226,19 @@ pub fn truth(
 pub fn source(check: &Checker, c: &RawCamera) -> Result<VisionSource, ConfigError> {
     Ok(match c.source {
         RawCameraSource::Simulated => VisionSource::Simulated,
-        RawCameraSource::External | RawCameraSource::Ros2 => VisionSource::External,
+        RawCameraSource::External => VisionSource::External,
+        RawCameraSource::Ros2 => VisionSource::Ros2,
+        RawCameraSource::Gstreamer => {
+            if c.gstreamer.is_none() {
+                return Err(check.invalid(
+                    "camera.source",
+                    "\"gstreamer\"",
+                    "needs the camera's pipeline: a [camera.gstreamer] table with pipeline = \"…\" \
+                     (docs/DRIVERS.md, \"A real camera\")",
+                ));
+            }
+            VisionSource::Gstreamer
+        }
         RawCameraSource::Directory => {
             if c.directory.trim().is_empty() {
                 return Err(check.invalid(

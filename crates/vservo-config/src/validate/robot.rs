@@ -39,12 +39,13 @@ pub fn robot(
     })
 }
 
-/// Who drives the arm: the ROS 2 driver (`vservo-ros2 --driver`) is an external driver behind the same
-/// contract.
+/// Who drives the arm.
 fn driver(raw: RawRobotDriver) -> RobotDriver {
     match raw {
         RawRobotDriver::Simulated => RobotDriver::Simulated,
-        RawRobotDriver::External | RawRobotDriver::Ros2 | RawRobotDriver::Franka => RobotDriver::External,
+        RawRobotDriver::External => RobotDriver::External,
+        RawRobotDriver::Ros2 => RobotDriver::Ros2,
+        RawRobotDriver::Franka => RobotDriver::Franka,
     }
 }
 
@@ -177,7 +178,7 @@ pub fn driver_and_camera_agree(
     }
     // franka-sim, not a robot: vservo's simulated camera renders the board from the arm's measured joints
     let simulated_franka = r.driver == RawRobotDriver::Franka && simulator;
-    if *source == VisionSource::Simulated && robot.driver == RobotDriver::External && !simulated_franka {
+    if *source == VisionSource::Simulated && !robot.driver.is_simulated() && !simulated_franka {
         return Err(check.invalid(
             "camera.source",
             "\"simulated\"",

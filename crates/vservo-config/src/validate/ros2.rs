@@ -63,8 +63,8 @@ pub fn ros2(check: &Checker, r: &RawRos2, joint_count: usize, from: FromRos2) ->
             ));
         }
     }
-    let driver = driver(check, &r.driver, &r.namespace, from)?;
-    bridge_apart_from_driver(check, r, &driver)?;
+    let driver = driver(check, &r.driver, &r.namespace)?;
+    bridge_apart_from_driver(check, r, &driver, from)?;
     Ok(Ros2 {
         enabled: r.enabled,
         domain_id,
@@ -80,20 +80,13 @@ pub fn ros2(check: &Checker, r: &RawRos2, joint_count: usize, from: FromRos2) ->
 }
 
 /// `[ros2.driver]`: its topics as absolute names, its hold and clock tolerance in range.
-fn driver(
-    check: &Checker,
-    d: &RawRos2Driver,
-    namespace: &str,
-    from: FromRos2,
-) -> Result<Ros2Driver, ConfigError> {
+fn driver(check: &Checker, d: &RawRos2Driver, namespace: &str) -> Result<Ros2Driver, ConfigError> {
     let topic = |key: &str, name: &str| {
         topic_ok(name)
             .map(|()| resolved(namespace, name))
             .map_err(|reason| check.invalid(key, format!("{name:?}"), reason))
     };
     Ok(Ros2Driver {
-        arm: from.arm,
-        camera: from.camera,
         joint_states_topic: topic("ros2.driver.joint_states_topic", &d.joint_states_topic)?,
         command_topic: topic("ros2.driver.command_topic", &d.command_topic)?,
         image_topic: topic("ros2.driver.image_topic", &d.image_topic)?,
@@ -110,18 +103,23 @@ fn driver(
 
 /// The bridge does not publish on a topic the driver reads: it would feed the arm's joint states (or the
 /// camera's images) back to where they come from.
-fn bridge_apart_from_driver(check: &Checker, r: &RawRos2, driver: &Ros2Driver) -> Result<(), ConfigError> {
+fn bridge_apart_from_driver(
+    check: &Checker,
+    r: &RawRos2,
+    driver: &Ros2Driver,
+    from: FromRos2,
+) -> Result<(), ConfigError> {
     let bridge_topic = |topic: Ros2Topic, relative: &str| {
         (r.enabled && r.publish.contains(&topic)).then(|| resolved(&r.namespace, relative))
     };
     let clashes = [
         (
-            driver.arm,
+            from.arm,
             bridge_topic(Ros2Topic::JointStates, "joint_states"),
             &driver.joint_states_topic,
             "joint_states",
         ),
-        (driver.camera, bridge_topic(Ros2Topic::Image, "camera/image_raw"), &driver.image_topic, "image"),
+        (from.camera, bridge_topic(Ros2Topic::Image, "camera/image_raw"), &driver.image_topic, "image"),
     ];
     for (read, published, topic, name) in clashes {
         if read && published.as_ref() == Some(topic) {
@@ -226,7 +224,6 @@ mod tests {
         let settings = checked(&r).expect("a relative and an absolute topic");
         assert_eq!(settings.driver.joint_states_topic, "/cell1/arm/joint_states");
         assert_eq!(settings.driver.command_topic, "/forward_velocity_controller/commands");
-        assert!(!settings.driver.runs());
         for bad in ["", "/", "joint states", "/a//b", "a/", "~/x"] {
             r.driver.joint_states_topic = bad.into();
             let error = checked(&r).expect_err(bad).to_string();

@@ -12,7 +12,6 @@ use iceoryx2::prelude::ipc;
 use nalgebra::IsometryMatrix3;
 use vservo_arm::JointVector;
 use vservo_cell::{DeliveredFrame, VisionStage};
-use vservo_config::VisionSource;
 use vservo_protocol::TakeMessages;
 use vservo_protocol::{
     CameraImageHeader, FeaturesMsg, JointStateMsg, MARKS, MarkStatus as WireMarkStatus, NodeRole,
@@ -147,14 +146,11 @@ pub fn run(context: &NodeContext) -> Result<(), RuntimeError> {
         stage.resume_tracking(features);
         tracing::info!(node = "vision", "tracking the marks from where they were last seen");
     }
-    match &context.cell.config().vision.source {
-        VisionSource::External => {
-            run_external_camera(context, &node, &monitor, &state_subscriber, &mut stage, &mut out)?;
-        }
-        // the daemon refuses recorded images (open-loop checks are `vservoctl vision extract`'s)
-        VisionSource::Simulated | VisionSource::Directory(_) => {
-            run_simulated_camera(context, &node, &monitor, &state_subscriber, &mut stage, &mut out)?;
-        }
+    // the daemon refuses recorded images (open-loop checks are `vservoctl vision extract`'s)
+    if context.cell.config().vision.source.from_camera_driver() {
+        run_external_camera(context, &node, &monitor, &state_subscriber, &mut stage, &mut out)?;
+    } else {
+        run_simulated_camera(context, &node, &monitor, &state_subscriber, &mut stage, &mut out)?;
     }
     tracing::info!(node = "vision", "stopped");
     Ok(())
@@ -376,9 +372,8 @@ fn run_simulated_camera(
     // the simulated plant moves the board (sim_world); an external simulated arm (franka-sim) has none, and the
     // board stands where the configuration places it
     let config = context.cell.config();
-    let mut world: Option<IsometryMatrix3<f64>> = (config.robot.driver
-        == vservo_config::RobotDriver::External)
-        .then(|| config.base_from_board(context.cell.arm()));
+    let mut world: Option<IsometryMatrix3<f64>> =
+        (!config.robot.driver.is_simulated()).then(|| config.base_from_board(context.cell.arm()));
     while !context.stopping() && !context.orphaned() {
         let _ = state_listener.timed_wait(|_| {}, IDLE_WAIT);
         let woke_at = monotonic_ns();

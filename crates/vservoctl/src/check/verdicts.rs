@@ -185,7 +185,7 @@ pub fn joint_states(observed: &Observed, config: &Config) -> Line {
 /// URDF's chain (none for a DH arm).
 pub fn driver_joint_names(config: &Config) -> (Vec<String>, &'static str) {
     let arm = &config.arm;
-    if config.ros2.driver.arm {
+    if config.robot.driver == vservo_config::RobotDriver::Ros2 {
         let from =
             if config.ros2.joint_names.is_empty() { "the ROS 2 driver's names" } else { "ros2.joint_names" };
         (vservo_ros2::convert::joint_names(&config.ros2.joint_names, arm), from)

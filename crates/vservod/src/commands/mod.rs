@@ -75,6 +75,8 @@ impl LoopState<'_> {
 /// The daemon's command side: the running configuration and design, and the ports to hand them on.
 pub struct Commander {
     config_path: PathBuf,
+    /// Where the configuration in force is written for the helpers and clients (the instance's directory).
+    instance_dir: vservo_protocol::InstanceDir,
     config: Config,
     config_text: String,
     /// The target a client set (none: the file's `[desired]`).
@@ -94,7 +96,7 @@ impl Commander {
     /// Publishes `gains`, the configuration's design the daemon's start check made, as version 1.
     pub fn new(
         node: &Node<ipc::Service>,
-        config_path: &Path,
+        (config_path, instance_dir): (&Path, &vservo_protocol::InstanceDir),
         config: Config,
         text: String,
         seal_key: SealKey,
@@ -108,6 +110,7 @@ impl Commander {
                 .map_err(|e| anyhow::anyhow!("creating the command server: {e}"))?;
         let mut commander = Self {
             config_path: config_path.to_path_buf(),
+            instance_dir: instance_dir.clone(),
             config,
             target: None,
             config_text: text,
@@ -265,6 +268,10 @@ impl Commander {
         self.config = config;
         self.config_text = text;
         self.target = target;
+        // the helpers vservod starts from here on, and clients that look, read the reloaded configuration
+        if let Err(error) = self.instance_dir.write_configuration(&self.config_text) {
+            tracing::warn!(%error, "the reloaded configuration could not be written for the helpers and clients");
+        }
         Ok(Accepted::Reloaded { path, changed, gains_version: self.version })
     }
 

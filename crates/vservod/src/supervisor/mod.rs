@@ -111,8 +111,8 @@ impl Settings {
         let runtime = &config.runtime;
         Self {
             instance: config.instance.clone(),
-            external_robot: config.robot.driver == vservo_config::RobotDriver::External,
-            external_camera: config.vision.source == vservo_config::VisionSource::External,
+            external_robot: !config.robot.driver.is_simulated(),
+            external_camera: config.vision.source.from_camera_driver(),
             robot_deadline: Duration::from_secs_f64(config.robot.state_timeout_s()),
             camera_timeout: config.faults.camera_timeout(config.timing.vision_period_s),
             hang_timeout: runtime.hang_timeout,
@@ -148,6 +148,7 @@ struct Daemon {
     ros2_bridge: Helper,
     ros2_driver: Helper,
     franka_driver: Helper,
+    gst_camera: Helper,
     nodes: Vec<Supervised>,
     /// Who holds each stream's writer slot.
     streams: StreamWatch,
@@ -232,8 +233,14 @@ impl Daemon {
             launcher.seal_key.clone(),
         )?;
         let path = &launcher.config_path;
-        let commander =
-            Commander::new(&node, path, config.clone(), config_text, launcher.seal_key.clone(), &gains)?;
+        let commander = Commander::new(
+            &node,
+            (path, claim.dir()),
+            config.clone(),
+            config_text,
+            launcher.seal_key.clone(),
+            &gains,
+        )?;
         // every shared-memory object of the instance made so far is ours and owner-only
         claim.check_private().context("the instance's shared memory is not private")?;
         let started_ns = monotonic_ns();
@@ -242,20 +249,23 @@ impl Daemon {
                 command = config.robot.command.name(),
                 period_s = config.robot.period_s,
                 deadline_s = settings.robot_deadline.as_secs_f64(),
-                "robot.driver = external: no plant; waiting for the driver's joint states"
+                driver = config.robot.driver.name(),
+                "no plant: waiting for the robot driver's joint states"
             );
         }
         let nodes = start_nodes(&settings, &launcher, commander.config_text())?;
         safety.announce_writers(writers_of(&nodes));
         let launch = Launch {
             vservod: &launcher.executable,
-            config_path: &launcher.config_path,
+            // the configuration in force, as the nodes get it (and again after a reload), not the user's file
+            config_path: &claim.dir().configuration(),
             runtime_base: claim.base(),
         };
         let viewer = Helper::viewer(&config.viewer, &launch);
         let ros2_bridge = Helper::ros2_bridge(&config.ros2, &launch);
-        let ros2_driver = Helper::ros2_driver(&config.ros2, &launch);
-        let franka_driver = Helper::franka_driver(config.franka.as_ref(), &launch);
+        let ros2_driver = Helper::ros2_driver(&config, &launch);
+        let franka_driver = Helper::franka_driver(&config, &launch);
+        let gst_camera = Helper::gst_camera(&config, &launch);
         let now = Instant::now();
         Ok(Self {
             settings,
@@ -272,6 +282,7 @@ impl Daemon {
             ros2_bridge,
             ros2_driver,
             franka_driver,
+            gst_camera,
             nodes,
             streams,
             heard: LoopHeard::default(),
@@ -293,6 +304,7 @@ impl Daemon {
         self.ros2_bridge.poll();
         self.ros2_driver.poll();
         self.franka_driver.poll();
+        self.gst_camera.poll();
         if reload_requested {
             self.reload();
         }
@@ -524,6 +536,7 @@ impl Daemon {
         // the arm's drivers last: they carry the ramp to rest to the arm, then command rest as they end
         self.ros2_driver.stop();
         self.franka_driver.stop();
+        self.gst_camera.stop();
         let cleaned = vservo_protocol::cleanup_dead_nodes(&self.node);
         if cleaned > 0 {
             tracing::info!(cleaned, "removed the leftovers of nodes that did not stop cleanly");
