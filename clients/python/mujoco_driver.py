@@ -26,7 +26,6 @@ The scene comes from `vservoctl scene --config FILE`. SIGINT/SIGTERM stop it (ex
 """
 
 import argparse
-import ctypes
 import json
 import math
 import os
@@ -38,13 +37,12 @@ import time
 
 os.environ.setdefault("MUJOCO_GL", "egl")  # before importing mujoco: headless OpenGL
 
-import iceoryx2 as iox2
 import mujoco
 import numpy as np
 
 from vservo_driver import (COMMAND_TIMEOUT_NS, FOLLOWING, HOLDING, MAX_COMMAND_AGE_TICKS, SCHEMA, VELOCITY,  # noqa: F401
-                           CameraImageHeader, JointCommand, JointState, command_values, make_node, open_notifier,
-                           open_topic, refusal, sleep_until)
+                           MOST_PERIODS_CAUGHT_UP, JointCommand, JointState, camera_image_publisher, command_values,
+                           make_node, open_notifier, open_topic, periods_passed, refusal, sleep_until, spread_ms)
 
 JOINTS = 6  # the arm's (the PUMA 560's); the messages have room for 7 (joint_count says how many)
 VELOCITY_BANDWIDTH_RAD_S = 1000.0  # of the simulated joints' velocity loop
@@ -364,21 +362,7 @@ class Camera(threading.Thread):
 
     def camera_image_publisher(self, width, height):
         """Publishes a frame on `camera_image`, stamped with the joint state it shows."""
-        node = make_node(self.instance, "mujoco_driver")
-        service = open_topic(node, self.instance, "camera_image", iox2.Slice[ctypes.c_uint8], 0, 2, CameraImageHeader)
-        publisher = service.publisher_builder().initial_max_slice_len(1280 * 1024).create()
-        notifier = open_notifier(node, self.instance, "camera_image")
-
-        def publish(image, frame, stamp_ns):
-            sample = publisher.loan_slice_uninit(width * height)
-            header = sample.user_header().contents
-            header.schema, header.format, header.width, header.height = SCHEMA, 0, width, height
-            header.stride_bytes, header.reserved, header.frame, header.capture_stamp_ns = width, 0, frame, stamp_ns
-            np.frombuffer(sample.payload().as_memory_view(), dtype=np.uint8)[:] = image.ravel()
-            sample.assume_init().send()
-            notifier.notify()
-
-        return publish
+        return camera_image_publisher(make_node(self.instance, "mujoco_driver"), self.instance, width, height)
 
     def rtp_sender(self, width, height, period_ns):
         """Streams each frame as RTP raw video to 127.0.0.1:rtp_port: gray → I420 (its luma, exactly) →
@@ -485,19 +469,17 @@ def main(argv=None) -> int:
 
         # 3. sleep to the next deadline, then advance the physics by the periods that passed (normally one)
         sleep_until(start + (tick + 1) * period_ns)
-        periods = max(1, (time.monotonic_ns() - start) // period_ns - tick)
-        for _ in range(min(periods, 100)):
+        periods = periods_passed(start, tick, period_ns, time.monotonic_ns())
+        for _ in range(min(periods, MOST_PERIODS_CAUGHT_UP)):
             arm.step(qd_command)
         tick += periods
 
     stop.set()
     camera.join()
     if gaps:
-        gaps_ms = np.array(gaps) / 1e6
         render = np.array(camera.render_ms[1:] or [math.nan])
         print(f"mujoco_driver: {tick} ticks, {len(camera.render_ms)} frames; joint state gap p50/p99/max "
-              f"{np.median(gaps_ms):.2f}/{np.percentile(gaps_ms, 99):.2f}/{gaps_ms.max():.2f} ms; render "
-              f"mean/max {render.mean():.1f}/{render.max():.1f} ms", file=sys.stderr)
+              f"{spread_ms(gaps)} ms; render mean/max {render.mean():.1f}/{render.max():.1f} ms", file=sys.stderr)
     return 0
 
 

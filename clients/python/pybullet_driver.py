@@ -47,15 +47,15 @@ import signal
 import sys
 import time
 
-import iceoryx2 as iox2
 import numpy as np
 import pybullet
 import pybullet_data
 
 
 from vservo_driver import (COMMAND_TIMEOUT_NS, FOLLOWING, HOLDING, MAX_COMMAND_AGE_TICKS, NONE, POSITION,  # noqa: F401
-                           SCHEMA, VELOCITY, CameraImageHeader, JointCommand, JointState, command_values, make_node,
-                           open_notifier, open_topic, refusal, sleep_until)
+                           SCHEMA, VELOCITY, JointCommand, JointState, command_values, make_node,
+                           open_notifier, open_topic, periods_passed, camera_image_publisher, refusal, sleep_until,
+                           spread_ms, MOST_PERIODS_CAUGHT_UP)
 from vservo_driver import MAX_JOINTS as PROTOCOL_JOINTS
 DEFAULT_EFFORT = 1000.0  # N·m (N) for a joint whose URDF gives no effort limit
 BOARD_GRAY, MARK_GRAY = 230, 20  # as vservo's simulated camera and the MuJoCo driver draw them
@@ -290,9 +290,7 @@ def camera_process(scene, urdf, instance, shared, stop, ready, save_image):
     node = make_node(instance, "pybullet_driver", stopped)
     if node is None:
         return
-    service = open_topic(node, instance, "camera_image", iox2.Slice[ctypes.c_uint8], 0, 2, CameraImageHeader)
-    publisher = service.publisher_builder().initial_max_slice_len(1280 * 1024).create()
-    notifier = open_notifier(node, instance, "camera_image")
+    publish = camera_image_publisher(node, instance, width, height)
     ready.set()
     period_ns = round(scene["timing"]["vision_period_s"] * 1e9)
     deadline, frame, render_ms = monotonic_ns(), 0, []
@@ -305,13 +303,7 @@ def camera_process(scene, urdf, instance, shared, stop, ready, save_image):
         started = time.perf_counter()
         image = renderer.image(q)
         render_ms.append(1e3 * (time.perf_counter() - started))
-        sample = publisher.loan_slice_uninit(width * height)
-        header = sample.user_header().contents
-        header.schema, header.format, header.width, header.height = SCHEMA, 0, width, height
-        header.stride_bytes, header.reserved, header.frame, header.capture_stamp_ns = width, 0, frame, stamp_ns
-        np.frombuffer(sample.payload().as_memory_view(), dtype=np.uint8)[:] = image.ravel()
-        sample.assume_init().send()
-        notifier.notify()
+        publish(image, frame, stamp_ns)
         if frame == 0 and save_image:
             write_pgm(save_image, image)
         frame += 1
@@ -470,8 +462,8 @@ def main(argv=None) -> int:
             command, applied_tick = None, NONE  # bring the joints to rest
 
         # 3. advance the physics by the periods that passed (normally one)
-        periods = max(1, (woke - start) // period_ns - tick)
-        for _ in range(min(periods, 100)):
+        periods = periods_passed(start, tick, period_ns, woke)
+        for _ in range(min(periods, MOST_PERIODS_CAUGHT_UP)):
             arm.step(mode, command)
         tick += periods
 
@@ -480,10 +472,8 @@ def main(argv=None) -> int:
     if camera.is_alive():
         camera.terminate()
     if gaps:
-        gaps_ms, late_ms = np.array(gaps) / 1e6, np.array(late) / 1e6
-        print(f"pybullet_driver: {tick} ticks; joint state gap p50/p99/max {np.median(gaps_ms):.2f}/"
-              f"{np.percentile(gaps_ms, 99):.2f}/{gaps_ms.max():.2f} ms; wake-up lateness p50/p99/max "
-              f"{np.median(late_ms):.3f}/{np.percentile(late_ms, 99):.3f}/{late_ms.max():.3f} ms", file=sys.stderr)
+        print(f"pybullet_driver: {tick} ticks; joint state gap p50/p99/max {spread_ms(gaps)} ms; wake-up lateness "
+              f"p50/p99/max {spread_ms(late)} ms", file=sys.stderr)
     return 0
 
 

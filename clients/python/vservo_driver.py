@@ -106,6 +106,23 @@ class _Timespec(ctypes.Structure):
     _fields_ = [("tv_sec", ctypes.c_long), ("tv_nsec", ctypes.c_long)]
 
 
+MOST_PERIODS_CAUGHT_UP = 100  # a wake-up later than this many periods advances the physics by this many
+
+
+def periods_passed(start_ns: int, tick: int, period_ns: int, now_ns: int) -> int:
+    """The driver periods from tick `tick` (counted from `start_ns`) to `now_ns`, at least one: a driver that woke
+    late advances its physics by them (at most MOST_PERIODS_CAUGHT_UP at a time)."""
+    return max(1, (now_ns - start_ns) // period_ns - tick)
+
+
+def spread_ms(values_ns) -> str:
+    """p50/p99/max of `values_ns` in milliseconds, as the drivers print their joint-state gaps at the end."""
+    import numpy as np
+
+    values_ms = np.array(values_ns) / 1e6
+    return f"{np.median(values_ms):.2f}/{np.percentile(values_ms, 99):.2f}/{values_ms.max():.2f}"
+
+
 def sleep_until(deadline_ns: int) -> None:
     """clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME): ctypes releases the GIL while it sleeps."""
     _libc.clock_nanosleep(1, 1, ctypes.byref(_Timespec(deadline_ns // 10**9, deadline_ns % 10**9)), None)
@@ -152,3 +169,27 @@ def open_notifier(node, instance, name):
     service = (node.service_builder(iox2.ServiceName.new(f"vservo/{instance}/{name}")).event()
                .max_notifiers(1).max_listeners(4).open_or_create())
     return service.notifier_builder().create()
+
+
+MAX_IMAGE_BYTES = 1280 * 1024  # the largest camera_image sample (vservo_protocol::MAX_IMAGE_BYTES)
+
+
+def camera_image_publisher(node, instance, width, height):
+    """The `camera_image` stream's publisher and its event: a function that publishes an 8-bit gray image of
+    `width` × `height` as frame `frame`, exposed at `stamp_ns` (as vservo_protocol::publish_mono8 does)."""
+    import numpy as np
+
+    service = open_topic(node, instance, "camera_image", iox2.Slice[ctypes.c_uint8], 0, 2, CameraImageHeader)
+    publisher = service.publisher_builder().initial_max_slice_len(MAX_IMAGE_BYTES).create()
+    notifier = open_notifier(node, instance, "camera_image")
+
+    def publish(image, frame, stamp_ns):
+        sample = publisher.loan_slice_uninit(width * height)
+        header = sample.user_header().contents
+        header.schema, header.format, header.width, header.height = SCHEMA, 0, width, height
+        header.stride_bytes, header.reserved, header.frame, header.capture_stamp_ns = width, 0, frame, stamp_ns
+        np.frombuffer(sample.payload().as_memory_view(), dtype=np.uint8)[:] = image.ravel()
+        sample.assume_init().send()
+        notifier.notify()
+
+    return publish
