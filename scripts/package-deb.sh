@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
-# Builds the Debian package of vservo into target/debian/: vservod, vservoctl, vservo-ros2 (the ROS 2 bridge) and
+# Builds the Debian package of vservo into target/debian/: vservod, vservoctl, vservo-ros2 (the ROS 2 bridge),
+# vservo-ros2-driver (the ROS 2 driver) and
 # vservo-franka (the Franka driver; the unit's network drop-in of docs/ROS2.md lets it reach the robot) in /usr/bin, the systemd unit,
 # the default configuration as a conffile in /etc/vservo/, the `vservo` system user (sysusers.d), the
 # documentation, the calibration solver in /usr/share/vservo/. Installing it is the whole installation:
@@ -17,6 +18,7 @@ rm -rf "${stage}"
 install -D -m 755 target/release/vservod "${stage}/usr/bin/vservod"
 install -D -m 755 target/release/vservoctl "${stage}/usr/bin/vservoctl"
 install -D -m 755 target/release/vservo-ros2 "${stage}/usr/bin/vservo-ros2"
+install -D -m 755 target/release/vservo-ros2-driver "${stage}/usr/bin/vservo-ros2-driver"
 install -D -m 755 target/release/vservo-franka "${stage}/usr/bin/vservo-franka"
 install -D -m 644 config/systemd/vservo.service "${stage}/lib/systemd/system/vservo.service"
 install -D -m 644 config/vservo.toml "${stage}/etc/vservo/vservo.toml"
@@ -29,11 +31,11 @@ install -D -m 644 README.md "${doc}/README.md"
 for file in docs/*.md; do install -D -m 644 "${file}" "${doc}/${file}"; done
 printf 'vservo\nLicense: Apache-2.0\n' >"${doc}/copyright"
 strip --strip-unneeded "${stage}/usr/bin/vservod" "${stage}/usr/bin/vservoctl" "${stage}/usr/bin/vservo-ros2" \
-    "${stage}/usr/bin/vservo-franka"
+    "${stage}/usr/bin/vservo-ros2-driver" "${stage}/usr/bin/vservo-franka"
 
 # the shared libraries the binaries need, as Debian packages (dpkg -S on each), for Depends:
 depends="$(
-    for binary in vservod vservoctl vservo-ros2 vservo-franka; do ldd "${stage}/usr/bin/${binary}"; done |
+    for binary in vservod vservoctl vservo-ros2 vservo-ros2-driver vservo-franka; do ldd "${stage}/usr/bin/${binary}"; done |
         awk '/=>/ {print $3}' | sort -u |
         while read -r library; do dpkg -S "$(readlink -f "${library}")" 2>/dev/null || dpkg -S "${library}" 2>/dev/null || true; done |
         cut -d: -f1 | sort -u | paste -sd, | sed 's/,/, /g'

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # The loop closed through ROS 2: vservod on config/vservo-ros2-cell.toml ([robot] driver = "ros2", [camera]
-# source = "ros2") starts `vservo-ros2 --driver`, which reads the arm's /joint_states and the camera's
+# source = "ros2") starts `vservo-ros2-driver`, which reads the arm's /joint_states and the camera's
 # /camera/image_raw and commands /forward_velocity_controller/commands over DDS; the arm and the camera are
 # clients/python/ros2_control_arm.py, a Cyclone DDS node that plays a ros2_control arm (joint_state_broadcaster
 # and a forward velocity controller around MuJoCo's PUMA 560) and a ROS camera (MuJoCo's render). Runs the

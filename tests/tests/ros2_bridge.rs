@@ -408,3 +408,16 @@ fn across_two_hosts_the_cell_is_heard_and_stopped_on_the_cells_network() {
     assert_eq!(now["fault"]["name"], "requested", "{now}");
     daemon.stop();
 }
+
+/// The bridge only observes: the ROS 2 driver, which owns the arm, is another program (`vservo-ros2-driver`), and
+/// the bridge's old `--driver` is refused with where the driver went (exit 2), before it opens anything.
+#[test]
+fn the_bridge_is_not_the_driver_and_says_where_the_driver_is() {
+    let out = vservo_system_tests::run("vservo-ros2", &["--driver", "--config", "/nonexistent.toml"]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{stderr}");
+    assert!(stderr.contains("vservo-ros2-driver --config FILE"), "{stderr}");
+    assert!(!stderr.contains("nonexistent"), "refused before the configuration is read: {stderr}");
+    let help = vservo_system_tests::run("vservo-ros2-driver", &["--help"]);
+    assert!(help.status.success() && String::from_utf8_lossy(&help.stdout).contains("driver"));
+}

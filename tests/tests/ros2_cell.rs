@@ -1,5 +1,5 @@
 //! The loop closed through ROS 2 (`[robot] driver = "ros2"`, `[camera] source = "ros2"`): vservod starts
-//! `vservo-ros2 --driver`, which takes the joint states and images of a Cyclone DDS node that plays a
+//! `vservo-ros2-driver`, which takes the joint states and images of a Cyclone DDS node that plays a
 //! ros2_control arm and a ROS camera (clients/python/ros2_control_arm.py, MuJoCo behind it) and commands its
 //! forward velocity controller, on one host and across two network namespaces; and the driver contract's
 //! stall and stop behaviour through it.

@@ -215,7 +215,7 @@ impl Config {
         }
     }
 
-    /// Whether vservod starts the ROS 2 driver (`vservo-ros2 --driver`): for the arm (`robot.driver = "ros2"`),
+    /// Whether vservod starts the ROS 2 driver (`vservo-ros2-driver`): for the arm (`robot.driver = "ros2"`),
     /// the camera (`camera.source = "ros2"`) or both.
     pub fn runs_ros2_driver(&self) -> bool {
         self.robot.driver == RobotDriver::Ros2 || self.vision.source == VisionSource::Ros2

@@ -53,7 +53,7 @@ pub struct Ros2 {
     /// Whether the ROS graph may move the arm (`resume`, targets); `safe_stop` is always taken.
     pub allow_motion: bool,
     /// The arm and the camera vservo takes from the ROS 2 graph (`[robot] driver = "ros2"`, `[camera] source =
-    /// "ros2"`): `vservo-ros2 --driver`, which vservod starts.
+    /// "ros2"`): `vservo-ros2-driver`, which vservod starts.
     pub driver: Ros2Driver,
 }
 
@@ -233,7 +233,7 @@ pub enum RobotDriver {
     /// A process of the user's (a real arm's driver, or another simulator), behind docs/DRIVERS.md, which the
     /// user starts: vservod never starts it.
     External,
-    /// The ROS 2 driver (`vservo-ros2 --driver`: a ros2_control arm, `[ros2.driver]`), which vservod starts.
+    /// The ROS 2 driver (`vservo-ros2-driver`: a ros2_control arm, `[ros2.driver]`), which vservod starts.
     Ros2,
     /// The Franka driver (`vservo-franka`, `[franka]`), which vservod starts.
     Franka,
@@ -451,7 +451,7 @@ pub enum VisionSource {
     Simulated,
     /// Frames published on `camera_image` by a camera driver the user starts (vservod never starts it).
     External,
-    /// Frames of a ROS camera, through the ROS 2 driver (`vservo-ros2 --driver`), which vservod starts.
+    /// Frames of a ROS camera, through the ROS 2 driver (`vservo-ros2-driver`), which vservod starts.
     Ros2,
     /// Frames of the GStreamer camera driver (`vservo-gst-camera`, `[camera.gstreamer]`), which vservod starts.
     Gstreamer,

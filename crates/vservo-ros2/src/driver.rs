@@ -1,4 +1,4 @@
-//! `vservo-ros2 --driver`: a ros2_control arm (`[robot] driver = "ros2"`) and a ROS camera (`[camera] source =
+//! `vservo-ros2-driver`: a ros2_control arm (`[robot] driver = "ros2"`) and a ROS camera (`[camera] source =
 //! "ros2"`) as the instance's robot and camera drivers (docs/ROS2.md, "ROS 2 as the driver"; the contract is
 //! docs/DRIVERS.md's). vservod starts it when either is configured and restarts it if it ends.
 //!

@@ -6,7 +6,8 @@
 //! Rust, no ROS installation): `joint_states`, `tf`, the camera's image and camera info, the features, the
 //! camera twist and `diagnostics`; it serves `vservo/safe_stop` (always) and `vservo/resume` (only with
 //! `allow_motion`) as `std_srvs/Trigger`. docs/ROS2.md has the topics, their types and QoS, and how to bind
-//! DDS to one interface. With `--driver` the same binary is the instance's robot and camera driver over ROS 2.
+//! DDS to one interface. The instance's robot and camera driver over ROS 2 is another binary of the crate,
+//! `vservo-ros2-driver`: the bridge observes, the driver owns the arm.
 //!
 //! This library holds what can be checked without a network, and the two pieces of DDS that `vservoctl`
 //! shares with the binary:

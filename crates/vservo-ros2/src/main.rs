@@ -6,26 +6,20 @@
 //! taken: the instance's safe-stop path, which no client can crowd out) and `vservo/resume` (refused unless
 //! `[ros2] allow_motion`). It never writes to the loop's services.
 //!
-//! With `--driver` it is instead the instance's robot and camera driver over ROS 2 (`[robot] driver = "ros2"`,
-//! `[camera] source = "ros2"`): it reads a ros2_control arm's joint states and commands its forward
-//! controller, and takes a ROS camera's images (vservod starts it so when they are configured).
+//! The instance's robot and camera driver over ROS 2 (`[robot] driver = "ros2"`, `[camera] source = "ros2"`),
+//! which owns the arm, is another program: `vservo-ros2-driver` (src/driver_main.rs), so that the bridge, which
+//! only observes, cannot command the arm.
 //!
 //! The binary's modules: [`graph`] (the participant, on one interface if configured, the node, a publisher per
 //! configured topic, `vservo/safe_stop` and `vservo/resume` as `std_srvs/Trigger` with ROS 2's Cyclone DDS
 //! request/reply mapping); [`bridge`] (the loop: a look at the instance, published over DDS, then the
 //! services); [`services`] (safe stop on the safe-stop path, always; resume and the targets —
 //! `vservo_msgs/SetTargetFeatures`, `SetTargetPose`, clients/ros2/vservo_msgs — only with `allow_motion`,
-//! checked by the daemon as any client's; each request counted); [`driver`] (`--driver`: the node
-//! `vservo_driver`, the arm's joint states and the camera's images woken on by mio, each passed on as it
-//! arrives through `vservo_ros2::arm_driver` and `vservo_ros2::image_in` onto the robot and camera streams' one
-//! writer slots, header stamps mapped to CLOCK_MONOTONIC (`vservo_ros2::convert::StampClock::arrival`: replaced
-//! when none or in the future beyond `[ros2.driver] clock_tolerance_s`, flagged when older), the arm's period
-//! checked, rest commanded while the arm is silent and at the end).
+//! checked by the daemon as any client's; each request counted).
 //!
 //! Exit codes: 0 after SIGINT/SIGTERM, 1 on an error, 2 on a configuration it cannot run.
 
 mod bridge;
-mod driver;
 mod graph;
 mod services;
 
@@ -41,9 +35,8 @@ struct Cli {
     /// The instance's configuration: its `[instance] name`, `[ros2]` and the cell's arm, camera and board.
     #[arg(long, value_name = "FILE", default_value = "config/vservo.toml")]
     config: PathBuf,
-    /// Be the instance's robot and camera driver over ROS 2 (`[robot] driver = "ros2"`, `[camera] source =
-    /// "ros2"`) instead of the bridge.
-    #[arg(long)]
+    /// Refused: the ROS 2 driver is its own program, `vservo-ros2-driver` (this one only observes).
+    #[arg(long, hide = true)]
     driver: bool,
     /// Started by this vservod: end when it does, however it ends.
     #[arg(long, value_name = "PID", hide = true)]
@@ -53,6 +46,13 @@ struct Cli {
 fn main() -> ExitCode {
     let cli = Cli::parse();
     vservo_driver::logging::to_stderr("info,rustdds=error,ros2_client=error");
+    if cli.driver {
+        tracing::error!(
+            "--driver: the ROS 2 driver is its own program now, `vservo-ros2-driver --config FILE`; `vservo-ros2` is \
+             the bridge, which only observes"
+        );
+        return ExitCode::from(2);
+    }
     let config = match vservo_config::Config::load(&cli.config) {
         Ok(config) => config,
         Err(error) => {
@@ -64,7 +64,7 @@ fn main() -> ExitCode {
         if let Some(pid) = cli.daemon_pid {
             vservo_protocol::signals::end_with_daemon(pid, &stop)?;
         }
-        if cli.driver { driver::run(&config, &stop) } else { bridge::run(&config, &cli.config, &stop) }
+        bridge::run(&config, &cli.config, &stop)
     });
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -1,7 +1,7 @@
 //! The helper processes vservod starts when the configuration asks for them, restarts if they end and stops
 //! with the cell: the live view (`[viewer] enabled = true`: `vservoctl view` on the configured address and
 //! port), the ROS 2 bridge (`[ros2] enabled = true`: `vservo-ros2`), and the drivers the configuration names:
-//! the ROS 2 driver (`[robot] driver` or `[camera] source` = `"ros2"`: `vservo-ros2 --driver`), the Franka
+//! the ROS 2 driver (`[robot] driver` or `[camera] source` = `"ros2"`: `vservo-ros2-driver`), the Franka
 //! driver (`[robot] driver = "franka"`: `vservo-franka`) and the GStreamer camera (`[camera] source =
 //! "gstreamer"`: `vservo-gst-camera`), all installed next to vservod. An `"external"` driver is the user's to
 //! start: vservod never starts it. The viewer and the bridge are clients of the instance like any other: they
@@ -76,11 +76,14 @@ impl Helper {
         Self::start("the ROS 2 bridge", launch.command(settings.enabled, "vservo-ros2", &args))
     }
 
-    /// The ROS 2 driver (`vservo-ros2 --driver`), started when `[robot] driver` or `[camera] source` is
+    /// The ROS 2 driver (`vservo-ros2-driver`), started when `[robot] driver` or `[camera] source` is
     /// `"ros2"`; it ends with this daemon.
     pub fn ros2_driver(config: &vservo_config::Config, launch: &Launch) -> Self {
-        let args = ["--driver".to_string(), "--daemon-pid".to_string(), std::process::id().to_string()];
-        Self::start("the ROS 2 driver", launch.command(config.runs_ros2_driver(), "vservo-ros2", &args))
+        let args = ["--daemon-pid".to_string(), std::process::id().to_string()];
+        Self::start(
+            "the ROS 2 driver",
+            launch.command(config.runs_ros2_driver(), "vservo-ros2-driver", &args),
+        )
     }
 
     /// The Franka driver (`vservo-franka`), started with `[robot] driver = "franka"`; it ends with this daemon

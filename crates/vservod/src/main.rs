@@ -45,7 +45,7 @@
 //!   inside each joint's limits, the share of the speed limits in [0.01, 1]; refused while the robot driver is
 //!   not running).
 //! - [`helpers`] starts the helper processes installed next to vservod and restarts them 5 s after they end:
-//!   `vservoctl view` (`[viewer] enabled`), `vservo-ros2` (`[ros2] enabled`), `vservo-ros2 --driver`
+//!   `vservoctl view` (`[viewer] enabled`), `vservo-ros2` (`[ros2] enabled`), `vservo-ros2-driver`
 //!   (`[robot] driver` or `[camera] source` = `"ros2"`) and `vservo-franka` (`[robot] driver = "franka"`).
 //!   They end with the daemon (parent-death signal); the drivers are stopped last, after the arm's ramp to
 //!   rest. A driver of `driver = "external"` or `source = "external"` (the user's, the Python reference
