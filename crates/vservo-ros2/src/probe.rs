@@ -6,7 +6,7 @@ use std::time::{Duration, Instant};
 use ros2_client::{MessageTypeName, Name};
 use vservo_config::Ros2;
 
-use crate::msg::{JointState, RosType};
+use crate::msg::{Definition, JointState};
 use crate::qos;
 
 /// The names in the first joint state heard on `topic` (absolute) within `window`; `None` when none came.

@@ -5,56 +5,43 @@
 
 use crate::msg::RosType;
 
-/// The `.msg` text of each type the bridge's messages use, as ROS 2 Jazzy's packages define them (comments
-/// left out; field types written with their package).
-const DEFINITIONS: &[(&str, &str)] = &[
-    ("builtin_interfaces/Time", "int32 sec\nuint32 nanosec\n"),
-    ("std_msgs/Header", "builtin_interfaces/Time stamp\nstring frame_id\n"),
-    (
-        "sensor_msgs/JointState",
-        "std_msgs/Header header\nstring[] name\nfloat64[] position\nfloat64[] velocity\nfloat64[] effort\n",
-    ),
-    ("geometry_msgs/Vector3", "float64 x\nfloat64 y\nfloat64 z\n"),
-    ("geometry_msgs/Quaternion", "float64 x\nfloat64 y\nfloat64 z\nfloat64 w\n"),
-    ("geometry_msgs/Transform", "geometry_msgs/Vector3 translation\ngeometry_msgs/Quaternion rotation\n"),
-    (
-        "geometry_msgs/TransformStamped",
-        "std_msgs/Header header\nstring child_frame_id\ngeometry_msgs/Transform transform\n",
-    ),
-    ("tf2_msgs/TFMessage", "geometry_msgs/TransformStamped[] transforms\n"),
-    (
-        "sensor_msgs/Image",
-        "std_msgs/Header header\nuint32 height\nuint32 width\nstring encoding\nuint8 is_bigendian\nuint32 step\n\
-         uint8[] data\n",
-    ),
-    (
-        "sensor_msgs/RegionOfInterest",
-        "uint32 x_offset\nuint32 y_offset\nuint32 height\nuint32 width\nbool do_rectify\n",
-    ),
-    (
-        "sensor_msgs/CameraInfo",
-        "std_msgs/Header header\nuint32 height\nuint32 width\nstring distortion_model\nfloat64[] d\nfloat64[9] k\n\
-         float64[9] r\nfloat64[12] p\nuint32 binning_x\nuint32 binning_y\nsensor_msgs/RegionOfInterest roi\n",
-    ),
-    ("geometry_msgs/Twist", "geometry_msgs/Vector3 linear\ngeometry_msgs/Vector3 angular\n"),
-    ("geometry_msgs/TwistStamped", "std_msgs/Header header\ngeometry_msgs/Twist twist\n"),
-    ("std_msgs/MultiArrayDimension", "string label\nuint32 size\nuint32 stride\n"),
-    ("std_msgs/MultiArrayLayout", "std_msgs/MultiArrayDimension[] dim\nuint32 data_offset\n"),
-    ("std_msgs/Float64MultiArray", "std_msgs/MultiArrayLayout layout\nfloat64[] data\n"),
-    ("diagnostic_msgs/KeyValue", "string key\nstring value\n"),
-    (
-        "diagnostic_msgs/DiagnosticStatus",
-        "byte OK=0\nbyte WARN=1\nbyte ERROR=2\nbyte STALE=3\nbyte level\nstring name\nstring message\n\
-         string hardware_id\ndiagnostic_msgs/KeyValue[] values\n",
-    ),
-    (
-        "diagnostic_msgs/DiagnosticArray",
-        "std_msgs/Header header\ndiagnostic_msgs/DiagnosticStatus[] status\n",
-    ),
-];
+/// Every type the bridge's messages use: its package, name and definition (as ROS 2 Jazzy's packages define it,
+/// comments left out), each from its declaration (`ros_message!` in msg.rs).
+macro_rules! declared {
+    ($($type:ty),* $(,)?) => {
+        [$((<$type as Definition>::PACKAGE, <$type as Definition>::NAME, <$type as Definition>::DEFINITION)),*]
+    };
+}
+const DECLARED: [(&str, &str, &str); 19] = {
+    use crate::msg::*;
+    declared![
+        Time,
+        Header,
+        JointState,
+        Vector3,
+        Quaternion,
+        Transform,
+        TransformStamped,
+        TfMessage,
+        Image,
+        RegionOfInterest,
+        CameraInfo,
+        Twist,
+        TwistStamped,
+        MultiArrayDimension,
+        MultiArrayLayout,
+        Float64MultiArray,
+        KeyValue,
+        DiagnosticStatus,
+        DiagnosticArray,
+    ]
+};
 
 fn definition(name: &str) -> Option<&'static str> {
-    DEFINITIONS.iter().find(|(n, _)| *n == name).map(|(_, text)| *text)
+    DECLARED
+        .iter()
+        .find(|(package, type_name, _)| name.split_once('/') == Some((*package, *type_name)))
+        .map(|(_, _, text)| *text)
 }
 
 /// The types a definition's fields name (`pkg/Type`), in order of appearance.
