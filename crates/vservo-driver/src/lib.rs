@@ -17,7 +17,7 @@
 //!
 //! What the arm is and how it is commanded (a robot's network protocol, a simulator) stays in the driver; the
 //! state machine does no I/O, reads no clock and allocates nothing. Of the workspace this crate depends on
-//! `vservo-protocol` only; it also holds the driver and helper processes' logging to stderr ([`logging`]).
+//! `vservo-wire` (the schema) only; it also holds the driver and helper processes' logging to stderr ([`logging`]).
 //!
 //! Its users: the Franka driver (the binary `vservo-franka`, crate `vservo-franka-driver`) and the ROS 2 driver
 //! (`vservo_ros2::arm_driver`) run all of it; the simulated plant (`vservo-runtime`'s plant node) its command

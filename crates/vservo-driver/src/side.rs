@@ -1,7 +1,7 @@
 //! [`DriverSide`]: what a robot driver does with the rmrc's commands and its own joint states.
 
-use vservo_protocol::messages::fault_bits;
-use vservo_protocol::{
+use vservo_wire::messages::fault_bits;
+use vservo_wire::{
     CommandMode, DriverError, DriverStatus, JointCommandMsg, JointStateMsg, MAX_JOINTS, SCHEMA_VERSION,
 };
 

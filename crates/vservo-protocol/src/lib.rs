@@ -1,6 +1,6 @@
-//! # vservo-protocol — the wire format
+//! # vservo-protocol — the instance and its services
 //!
-//! This crate owns what crosses process boundaries: the iceoryx2 services of one vservo instance
+//! This crate owns how vservo's processes reach each other: the iceoryx2 services of one vservo instance
 //! (`vservo/<instance>/<service>`, docs/PROTOCOL.md), their fixed-size `#[repr(C)]` payloads with a schema
 //! version, and the one function every participant uses to open each service with the same settings. A client
 //! in another language follows docs/PROTOCOL.md, which documents the same names, type names and offsets.
@@ -15,19 +15,10 @@
 //! that opens a service with its sizes ([`Opening`]: the daemon's processes open or create, clients only
 //! open), and [`cleanup_dead_nodes`] frees what dead processes left.
 //!
-//! Modules:
-//! - [`messages`]: the payloads, each declared once with `wire_message!` ([`declare`]): the struct,
-//!   `Default`, the schema check ([`inbox::Payload`]), the field table of docs/PROTOCOL.md, the JSON view of
-//!   `vservoctl echo` and the recordings ([`WireField::to_json`]) and the bytes a seal covers all come from that
-//!   declaration; adding a field touches the declaration, its producer and its consumer.
+//! Modules (the messages themselves, their codes, tables, seals and freshness rules are `vservo-wire`'s, the
+//! schema, re-exported here at the same paths: [`messages`], [`codes`], [`declare`], [`inbox`], [`layout`],
+//! [`seal`], [`freshness`], [`supervision`], [`clock`]):
 //! - [`camera_image`]: the camera image stream (pixels under a header, one publisher) and its wake-up event.
-//! - [`codes`]: the wire codes as `#[repr(u32)]` enums ([`Verdict`], [`Fault`], [`CommandKind`],
-//!   [`NodeState`], [`DriverError`], …), each declared once with its numbers, names and the legend
-//!   docs/PROTOCOL.md prints; a program turns a message's number into its enum once, where it takes the
-//!   message in, `TryFrom` refusing an unknown one.
-//! - [`inbox`]: [`TakeMessages`], the one place a message of another schema is refused.
-//! - [`layout`]: the tables of docs/PROTOCOL.md, and the same as data (a system test checks the Python
-//!   clients' ctypes structures and codes against them).
 //! - [`instance_dir`]: where an instance lives out of other users' reach: the runtime directory
 //!   `<base>/<instance>` with its lock, its random shared-memory prefix and the `schema` file the daemon
 //!   writes ([`instance_dir::SCHEMA_FILE`]: the schema it speaks, which every client and driver checks before it
@@ -36,18 +27,6 @@
 //!   is the daemon's, [`InstanceDir::locate`] the nodes' and clients': the user's own instance wherever it is,
 //!   another user's named only when none is ours; [`InstanceDir::configuration`] is where the daemon writes
 //!   the configuration it runs.
-//! - [`seal`]: SipHash-2-4 seals under a per-run key (on the stack, no allocation) on the daemon's `gains`,
-//!   `object` and `cell_mode`, the rmrc's `joint_command`, the vision node's `features` and the servo's
-//!   `camera_twist`, so that each consumer takes them from their one maker only; [`seal::Sealed`]
-//!   (`SealKey::sign`/`verifies`, `sign_with`/`sealed_by`) is the one way a message is sealed and checked;
-//!   [`seal::keep_memory_private`] (not dumpable, no core dump) comes first in `main` of every process that
-//!   holds the key; the key's text is wiped once parsed, the key on drop.
-//! - [`freshness`]: the one rule for which sealed `cell_mode`, `gains` or `object` is newer (the daemon's
-//!   stamp, then the counter modulo 2⁶⁴ within a window): no number locks the daemon out, a replay is refused;
-//!   and [`freshness::stream_standing`], which sealed `features` or `camera_twist` is taken: from the writer's
-//!   process the daemon announces, of its run now ([`freshness::Origin`]), and fresh (within a vision period,
-//!   later than the last taken): a recording of sealed samples played again is refused. [`supervision`]: the
-//!   daemon's heartbeat on `cell_mode`, and how long the nodes wait for it before they hold the arm.
 //! - [`writers`]: one writer per stream. The daemon creates every service with one writer slot (one
 //!   publisher, one notifier, one server; telemetry one per node), checks that a service that existed has
 //!   vservo's sizes, and lists who holds each writer slot by process id ([`writers::WatchedStream`]); a port
@@ -55,23 +34,16 @@
 //!   processes' leftovers and tries once more).
 //! - [`stop_path`]: the safe-stop FIFO in the instance's directory, which no client can exhaust (the daemon
 //!   reads it without blocking; `vservoctl safe-stop` and the Python client write it).
-//! - [`signals`]: SIGINT and SIGTERM as a flag, for the processes that run until stopped; [`clock`]: the clock
-//!   every stamp of the protocol is on (CLOCK_MONOTONIC, ns).
+//! - [`signals`]: SIGINT and SIGTERM as a flag, for the processes that run until stopped, and the end of a
+//!   helper with the daemon that started it.
 
 pub mod camera_image;
-pub mod clock;
-pub mod codes;
-pub mod declare;
-pub mod freshness;
-pub mod inbox;
 pub mod instance_dir;
-pub mod layout;
-pub mod messages;
-pub mod seal;
 pub mod signals;
 pub mod stop_path;
-pub mod supervision;
 pub mod writers;
+
+pub use vservo_wire::{clock, codes, declare, freshness, inbox, layout, messages, seal, supervision};
 
 pub use camera_image::{
     CAMERA_IMAGE_SERVICE, camera_image_listener, camera_image_notifier, camera_image_publisher,
