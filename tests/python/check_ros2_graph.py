@@ -172,6 +172,13 @@ def main():
         readers[name] = DataReader(participant, topic, qos=reliable if name in ("tf", "diagnostics") else best_effort)
         reliable_readers[name] = DataReader(participant, topic, qos=reliable)
 
+    # /tf_static as tf2's static listener reads it: reliable, transient local (what was sent before it joined)
+    static_reader = DataReader(participant, Topic(participant, ros.topic_name(args.namespace, "tf_static"),
+                                                  ros.TFMessage),
+                               qos=Qos(Policy.Reliability.Reliable(duration(milliseconds=100)),
+                                       Policy.Durability.TransientLocal, Policy.History.KeepLast(1)))
+    static_frames = {}
+
     # the ROS 2 nodes the graph announces (what `ros2 node list` shows), kept for late joiners
     discovery = DataReader(participant, Topic(participant, "ros_discovery_info", ros.ParticipantEntitiesInfo),
                            qos=Qos(Policy.Reliability.Reliable(duration(milliseconds=100)),
@@ -213,6 +220,9 @@ def main():
     listening = time.time()
     while time.time() - listening < args.seconds:
         take(keep=True)
+        for sample in static_reader.take(10):
+            for t in sample.transforms:
+                static_frames[f"{t.header.frame_id}->{t.child_frame_id}"] = transform_json(t)
         for info in discovery.take(10):
             for node in info.node_entities_info_seq:
                 nodes.add(f"{node.node_namespace.rstrip('/')}/{node.node_name}")
@@ -226,6 +236,7 @@ def main():
         "reliable_counts": reliable_counts,
         "newest": {name: summary(name, sample) for name, sample in newest.items() if name != "tf"},
         "tf": frames,
+        "tf_static": static_frames,
         "calls": calls,
         "age_ms": {name: percentiles(values) for name, values in ages.items() if values},
         "ros_nodes": sorted(nodes),

@@ -143,6 +143,11 @@ fn tf_pose(tf: &Value, parent: &str, child: &str) -> Isometry3<f64> {
     pose(&numbers(&t["translation"]), &numbers(&t["rotation_xyzw"]))
 }
 
+/// The pose of the last of `frames` in the first, composed along `tf`.
+fn chained(tf: &Value, frames: &[&str]) -> Isometry3<f64> {
+    frames.windows(2).fold(Isometry3::identity(), |pose, pair| pose * tf_pose(tf, pair[0], pair[1]))
+}
+
 fn close(a: &[f64], b: &[f64], tolerance: f64) -> bool {
     a.len() == b.len() && a.iter().zip(b).all(|(x, y)| (x - y).abs() <= tolerance)
 }
@@ -220,21 +225,20 @@ fn a_ros2_node_hears_the_cell_and_its_safe_stop_is_taken() {
         "joint_states stamped {stamp_s}, peer's clock {wall_s}"
     );
 
-    // tf: the chain base → link1 … link6 → camera is the camera's pose vservo's vision node reports, and
-    // the target seen from the camera is the simulated board, both from vservo's own messages
+    // tf: the chain base → link1 … link6 (the DH arm's names) and, on /tf_static, the camera's optical frame on
+    // the tool is the camera's pose vservo's vision node reports, and the target seen from the camera is the
+    // simulated board, both from vservo's own messages
     let tf = &heard["tf"];
-    let mut base_from_camera = Isometry3::identity();
-    let frames = ["base", "link1", "link2", "link3", "link4", "link5", "link6", "camera"];
-    for pair in frames.windows(2) {
-        base_from_camera *= tf_pose(tf, pair[0], pair[1]);
-    }
+    let frames = ["base", "link1", "link2", "link3", "link4", "link5", "link6"];
+    let base_from_camera =
+        chained(tf, &frames) * tf_pose(&heard["tf_static"], "link6", "camera_optical_frame");
     let features = echo_lines(&instance, "features", "0.3").pop().expect("features");
     let reported = pose_of_rows(&numbers(&features["base_from_camera"]));
     assert!((base_from_camera.translation.vector - reported.translation.vector).norm() < 1e-6);
     assert!(base_from_camera.rotation.angle_to(&reported.rotation) < 1e-6);
     let world = echo_lines(&instance, "sim_world", "0.3").pop().expect("sim_world");
     let camera_from_board = reported.inverse() * pose_of_rows(&numbers(&world["base_from_board"]));
-    let seen = tf_pose(tf, "camera", "target");
+    let seen = tf_pose(tf, "camera_optical_frame", "target");
     let error_m = (seen.translation.vector - camera_from_board.translation.vector).norm();
     assert!(error_m < 0.005, "the target seen {seen} vs the board {camera_from_board}: {error_m} m");
 
@@ -244,7 +248,7 @@ fn a_ros2_node_hears_the_cell_and_its_safe_stop_is_taken() {
     assert_eq!((image["encoding"].as_str(), image["step"].as_u64()), (Some("mono8"), Some(512)));
     assert_eq!(image["bytes"].as_u64(), Some(512 * 512));
     assert!(image["distinct_values"].as_u64().unwrap_or(0) > 16, "a blank image: {image}");
-    assert_eq!(image["frame_id"], "camera");
+    assert_eq!(image["frame_id"], "camera_optical_frame");
     let info = &newest["camera/camera_info"];
     assert_eq!(info["distortion_model"], "plumb_bob");
     assert_eq!(numbers(&info["k"]), [500.0, 0.0, 255.5, 0.0, 500.0, 255.5, 0.0, 0.0, 1.0]);
@@ -252,7 +256,7 @@ fn a_ros2_node_hears_the_cell_and_its_safe_stop_is_taken() {
 
     // the twist of a held cell is zero; the features are the four marks', in OpenCV's pixels
     let twist = &newest["vservo/camera_twist"];
-    assert_eq!(twist["frame_id"], "camera");
+    assert_eq!(twist["frame_id"], "camera_optical_frame");
     assert!(
         numbers(&twist["linear"]).iter().chain(&numbers(&twist["angular"])).all(|v| *v == 0.0),
         "{twist}"
@@ -420,4 +424,54 @@ fn the_bridge_is_not_the_driver_and_says_where_the_driver_is() {
     assert!(!stderr.contains("nonexistent"), "refused before the configuration is read: {stderr}");
     let help = vservo_system_tests::run("vservo-ros2-driver", &["--help"]);
     assert!(help.status.success() && String::from_utf8_lossy(&help.stdout).contains("driver"));
+}
+
+/// A URDF arm (the Panda of config/arms/panda.toml) in ROS's own names: `joint_states` under the URDF's joint names
+/// and `tf` the URDF's links (panda_link0 → … → panda_link7), `/tf_static` the flange on the last link and the
+/// camera's optical frame on the flange (read as tf2's static listener reads it, after it was sent); composed,
+/// the camera's pose vservo reports. A reliable and a best-effort reader each hear the joint states, the image and
+/// the camera info.
+#[test]
+fn a_urdf_arm_is_in_ros_under_its_urdfs_names() {
+    let _one = exclusive();
+    let domain_id = domain(1);
+    let instance = unique("ros2-panda");
+    let panda = repository_root().join("config/arms/panda.toml");
+    let config = vservo_system_tests::TempConfig::written(&format!(
+        "extends = \"{}\"\n\n[instance]\nname = \"{instance}\"\n\n[ros2]\nenabled = true\ndomain_id = {domain_id}\n",
+        panda.display()
+    ));
+    let daemon = Daemon::start(&config);
+    assert!(
+        wait_until(Duration::from_secs(20), || status(&instance).is_some_and(|s| running(&s))),
+        "{}",
+        daemon.log()
+    );
+    // held (a safe stop), so that what the peer hears and what vservo reports after are of an arm at rest
+    let heard = Peer { before: &["vservo/safe_stop"], ..Peer::default() }.run(domain_id);
+    for topic in ["joint_states", "camera/image_raw", "camera/camera_info"] {
+        assert!(
+            heard["counts"][topic].as_u64().unwrap_or(0) > 0,
+            "best effort heard nothing on {topic}: {heard}"
+        );
+        assert!(
+            heard["reliable_counts"][topic].as_u64().unwrap_or(0) > 0,
+            "reliable heard nothing on {topic}"
+        );
+    }
+    let joints = &heard["newest"]["joint_states"];
+    let names: Vec<&str> =
+        joints["name"].as_array().expect("names").iter().filter_map(Value::as_str).collect();
+    assert_eq!(names, (1..=7).map(|j| format!("panda_joint{j}")).collect::<Vec<_>>(), "{joints}");
+    let links: Vec<String> = (0..=7).map(|l| format!("panda_link{l}")).collect();
+    let links: Vec<&str> = links.iter().map(String::as_str).collect();
+    let fixed = &heard["tf_static"];
+    let base_from_camera = chained(&heard["tf"], &links)
+        * chained(fixed, &["panda_link7", "panda_link8", "camera_optical_frame"]);
+    let features = echo_lines(&instance, "features", "0.3").pop().expect("features");
+    let reported = pose_of_rows(&numbers(&features["base_from_camera"]));
+    assert!((base_from_camera.translation.vector - reported.translation.vector).norm() < 1e-6, "{heard}");
+    assert!(base_from_camera.rotation.angle_to(&reported.rotation) < 1e-6);
+    assert_eq!(heard["newest"]["camera/image_raw"]["frame_id"], "camera_optical_frame");
+    daemon.stop();
 }

@@ -20,6 +20,9 @@ pub const MIN_CHAIN_JOINTS: usize = crate::DH_JOINTS;
 pub struct ChainJoint {
     /// The joint's name in the robot description (for messages and for drivers that address joints by name).
     pub name: String,
+    /// The link it moves (its URDF `<child>`): the frame at `parent_from_joint` turned by the joint, which ROS
+    /// tools name so on `tf`.
+    pub child_link: String,
     /// The joint frame at q = 0 in the frame of the link before it (URDF `<origin>`, fixed joints before it
     /// folded in).
     pub parent_from_joint: Transform,
@@ -118,6 +121,7 @@ mod tests {
     fn joint(name: &str, xyz: [f64; 3], axis: Vector3<f64>) -> ChainJoint {
         ChainJoint {
             name: name.to_string(),
+            child_link: format!("{name}_link"),
             parent_from_joint: Transform::from_parts(
                 Translation3::new(xyz[0], xyz[1], xyz[2]),
                 Rotation3::identity(),

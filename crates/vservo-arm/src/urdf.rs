@@ -341,7 +341,12 @@ fn chain_along(
         let axis = Vector3::from(joint.axis.xyz.0);
         let axis =
             Unit::try_new(axis, 1e-9).ok_or_else(|| UrdfError::ZeroAxis { joint: joint.name.clone() })?;
-        joints.push(ChainJoint { name: joint.name.clone(), parent_from_joint: origin, axis });
+        joints.push(ChainJoint {
+            name: joint.name.clone(),
+            child_link: joint.child.link.clone(),
+            parent_from_joint: origin,
+            axis,
+        });
         let limit = &joint.limit;
         let range =
             bounded && limit.lower.is_finite() && limit.upper.is_finite() && limit.lower < limit.upper;
@@ -436,6 +441,8 @@ mod tests {
         assert_eq!(arm.chain.joint_count(), 6);
         assert_eq!(arm.chain.base_link, "l0");
         assert_eq!(arm.chain.joints[3].name, "j4");
+        assert_eq!(arm.chain.joints[3].child_link, "l4", "the link the joint moves, as the URDF names it");
+        assert_eq!(arm.chain.tip_link, "flange");
         assert_eq!(arm.chain.last_from_tip.translation.vector, Vector3::new(0.0, 0.0, 0.05));
         assert_eq!(arm.position_limits[0], Some([-2.0, 2.0]));
         assert_eq!(arm.velocity_limits[5], Some(3.0));

@@ -82,8 +82,11 @@ pub struct Ros2Driver {
 pub enum Ros2Topic {
     /// `joint_states` (`sensor_msgs/JointState`).
     JointStates,
-    /// `tf` (`tf2_msgs/TFMessage`): the arm's links, the camera and the target as seen.
+    /// `tf` (`tf2_msgs/TFMessage`): the arm's moving links and the target as seen.
     Tf,
+    /// `tf_static` (`tf2_msgs/TFMessage`, transient local): what does not move, the tool on the last link and
+    /// the camera's optical frame on the tool.
+    TfStatic,
     /// `camera/image_raw` (`sensor_msgs/Image`).
     Image,
     /// `camera/camera_info` (`sensor_msgs/CameraInfo`).
@@ -98,9 +101,10 @@ pub enum Ros2Topic {
 
 impl Ros2Topic {
     /// Every topic, the default.
-    pub const ALL: [Ros2Topic; 7] = [
+    pub const ALL: [Ros2Topic; 8] = [
         Ros2Topic::JointStates,
         Ros2Topic::Tf,
+        Ros2Topic::TfStatic,
         Ros2Topic::Image,
         Ros2Topic::CameraInfo,
         Ros2Topic::Features,

@@ -7,8 +7,8 @@
 //!   [`StampClock`] carries the offset between the two;
 //! - pixels are OpenCV's and ROS's (a pixel's centre at whole coordinates): vservo's pixel centre is at + ½
 //!   (docs/ARCHITECTURE.md), so the principal point and the features are ½ px less here;
-//! - frames: `base`, `link1` … `linkN` (each the parent of the next), `camera` (the optical frame: x right,
-//!   y down, z along the axis, as ROS's `*_optical_frame`), `target` (the board as the camera sees it).
+//! - frames: the arm's by its robot description's names (crate::frames), `camera_optical_frame` (x right, y
+//!   down, z along the axis, ROS's optical convention), `target` (the board as the camera sees it).
 
 use nalgebra::{IsometryMatrix3, UnitQuaternion};
 use vservo_client::StatusView;
@@ -22,10 +22,8 @@ use crate::msg::{
     Twist, TwistStamped, Vector3,
 };
 
-/// The robot's base frame.
-pub const BASE_FRAME: &str = "base";
-/// The camera's optical frame.
-pub const CAMERA_FRAME: &str = "camera";
+/// The camera's optical frame (x right, y down, z along the axis), as ROS names such a frame.
+pub const CAMERA_FRAME: &str = "camera_optical_frame";
 /// The board as the camera sees it.
 pub const TARGET_FRAME: &str = "target";
 
@@ -153,32 +151,7 @@ pub fn transform(
     }
 }
 
-/// The arm's links as a chain (`base` → `link1` → … → `linkN`) and the camera on the last (`linkN` →
-/// `camera`), at a joint state; none from a state of another arm's joint count.
-pub fn arm_transforms(
-    arm: &vservo_arm::SerialArm,
-    tool_from_camera: &IsometryMatrix3<f64>,
-    state: &JointStateMsg,
-    stamp: Time,
-) -> Vec<TransformStamped> {
-    let n = arm.joint_count();
-    let Some(q) = state.arm_q_rad(n).map(vservo_arm::JointVector::from) else { return Vec::new() };
-    let base_from_links = arm.link_frames(&q);
-    let mut parent = BASE_FRAME.to_string();
-    let mut base_from_parent = IsometryMatrix3::identity();
-    let mut transforms = Vec::with_capacity(n + 1);
-    for (i, base_from_link) in base_from_links.iter().take(n).enumerate() {
-        let child = format!("link{}", i + 1);
-        transforms.push(transform(stamp, &parent, &child, &(base_from_parent.inverse() * base_from_link)));
-        parent = child;
-        base_from_parent = *base_from_link;
-    }
-    // the camera rides on the last link, the tool
-    transforms.push(transform(stamp, &parent, CAMERA_FRAME, tool_from_camera));
-    transforms
-}
-
-/// The board as the camera sees it (`camera` → `target`) from a frame's features, at the capture; `None`
+/// The board as the camera sees it (`camera_optical_frame` → `target`) from a frame's features, at the capture; `None`
 /// unless all four marks are valid and a pose explains them.
 pub fn target_transform(
     camera: &CameraIntrinsics,

@@ -20,6 +20,7 @@ pub type TriggerServer = Server<TriggerRequest, TriggerResponse>;
 pub struct Graph {
     pub joint_states: Option<Publisher<JointState>>,
     pub tf: Option<Publisher<TfMessage>>,
+    pub tf_static: Option<Publisher<TfMessage>>,
     pub image: Option<Publisher<Image>>,
     pub camera_info: Option<Publisher<CameraInfo>>,
     pub features: Option<Publisher<Float64MultiArray>>,
@@ -42,6 +43,7 @@ impl Graph {
         let graph = Self {
             joint_states: maker.publisher(Ros2Topic::JointStates, qos::STREAMS)?,
             tf: maker.publisher(Ros2Topic::Tf, qos::TF)?,
+            tf_static: maker.publisher(Ros2Topic::TfStatic, qos::TF_STATIC)?,
             image: maker.publisher(Ros2Topic::Image, qos::STREAMS)?,
             camera_info: maker.publisher(Ros2Topic::CameraInfo, qos::STREAMS)?,
             features: maker.publisher(Ros2Topic::Features, qos::STREAMS)?,
@@ -73,6 +75,7 @@ impl Graph {
         match message {
             RosMessage::JointState(m) => on(&self.joint_states, m),
             RosMessage::Tf(m) => on(&self.tf, m),
+            RosMessage::TfStatic(m) => on(&self.tf_static, m),
             RosMessage::Image(m) => on(&self.image, m),
             RosMessage::CameraInfo(m) => on(&self.camera_info, *m),
             RosMessage::Features(m) => on(&self.features, m),

@@ -40,6 +40,7 @@ pub mod arm_driver;
 pub mod cell;
 pub mod convert;
 pub mod domain;
+pub mod frames;
 pub mod image_in;
 pub mod msg;
 pub mod names;

@@ -21,6 +21,7 @@ pub fn topic(topic: Ros2Topic) -> &'static str {
     match topic {
         Ros2Topic::JointStates => "joint_states",
         Ros2Topic::Tf => "tf",
+        Ros2Topic::TfStatic => "tf_static",
         Ros2Topic::Image => "camera/image_raw",
         Ros2Topic::CameraInfo => "camera/camera_info",
         Ros2Topic::Features => "vservo/features",

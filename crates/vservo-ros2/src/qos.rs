@@ -42,5 +42,11 @@ pub const TF: QosProfile = QosProfile::publisher_default()
     .durability(Durability::Volatile)
     .history(History::KeepLast { depth: 100 });
 
+/// tf2's static broadcaster: reliable, transient local (a reader that joins later gets the last), the last 1.
+pub const TF_STATIC: QosProfile = QosProfile::publisher_default()
+    .reliability(DONT_BLOCK)
+    .durability(Durability::TransientLocal)
+    .history(History::KeepLast { depth: 1 });
+
 /// `rmw_qos_profile_services_default`: reliable, volatile, the last 10.
 pub const SERVICES: QosProfile = RELIABLE;

@@ -86,7 +86,7 @@ pub fn of_topic(topic: vservo_config::Ros2Topic) -> (String, String) {
     }
     match topic {
         Ros2Topic::JointStates => both::<JointState>(),
-        Ros2Topic::Tf => both::<TfMessage>(),
+        Ros2Topic::Tf | Ros2Topic::TfStatic => both::<TfMessage>(),
         Ros2Topic::Image => both::<Image>(),
         Ros2Topic::CameraInfo => both::<CameraInfo>(),
         Ros2Topic::Features => both::<Float64MultiArray>(),

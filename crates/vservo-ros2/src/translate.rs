@@ -14,6 +14,7 @@ use vservo_client::ClientError;
 
 use crate::cell::{Arrived, Cell};
 use crate::convert::{self, StampClock};
+use crate::frames::ArmFrames;
 use crate::msg::{
     CameraInfo, DiagnosticArray, DiagnosticStatus, Float64MultiArray, Image, JointState, TfMessage, Time,
     TwistStamped,
@@ -26,6 +27,8 @@ pub enum RosMessage {
     JointState(JointState),
     /// `tf`.
     Tf(TfMessage),
+    /// `tf_static`.
+    TfStatic(TfMessage),
     /// `camera/image_raw`.
     Image(Image),
     /// `camera/camera_info`.
@@ -44,7 +47,7 @@ impl RosMessage {
         use crate::schema::cdr;
         match self {
             RosMessage::JointState(m) => cdr(m),
-            RosMessage::Tf(m) => cdr(m),
+            RosMessage::Tf(m) | RosMessage::TfStatic(m) => cdr(m),
             RosMessage::Image(m) => cdr(m),
             RosMessage::CameraInfo(m) => cdr(m.as_ref()),
             RosMessage::Features(m) => cdr(m),
@@ -57,7 +60,7 @@ impl RosMessage {
     pub fn stamp(&self) -> Option<Time> {
         match self {
             RosMessage::JointState(m) => Some(m.header.stamp),
-            RosMessage::Tf(m) => m.transforms.first().map(|t| t.header.stamp),
+            RosMessage::Tf(m) | RosMessage::TfStatic(m) => m.transforms.first().map(|t| t.header.stamp),
             RosMessage::Image(m) => Some(m.header.stamp),
             RosMessage::CameraInfo(m) => Some(m.header.stamp),
             RosMessage::Features(_) => None,
@@ -71,6 +74,7 @@ impl RosMessage {
         match self {
             RosMessage::JointState(_) => Ros2Topic::JointStates,
             RosMessage::Tf(_) => Ros2Topic::Tf,
+            RosMessage::TfStatic(_) => Ros2Topic::TfStatic,
             RosMessage::Image(_) => Ros2Topic::Image,
             RosMessage::CameraInfo(_) => Ros2Topic::CameraInfo,
             RosMessage::Features(_) => Ros2Topic::Features,
@@ -137,6 +141,10 @@ pub struct Translator {
     instance: String,
     joint_names: Vec<String>,
     arm: vservo_arm::SerialArm,
+    /// The arm's frames by its robot description's names.
+    frames: ArmFrames,
+    /// Whether `tf_static` was made (once: it is transient local).
+    fixed_made: bool,
     tool_from_camera: nalgebra::IsometryMatrix3<f64>,
     camera: vservo_scene::CameraIntrinsics,
     board: vservo_scene::Board,
@@ -163,6 +171,8 @@ impl Translator {
             instance: config.instance.clone(),
             joint_names: convert::joint_names(&config.ros2.joint_names, &config.arm),
             arm: config.arm.clone(),
+            frames: ArmFrames::of(&config.arm),
+            fixed_made: false,
             tool_from_camera: config.tool_from_camera,
             camera: config.camera,
             board: config.board,
@@ -187,6 +197,13 @@ impl Translator {
         if slow {
             self.clock = StampClock::now();
             cell.open();
+        }
+        if !self.fixed_made && self.wants(Ros2Topic::TfStatic) {
+            let stamp = self.clock.ros_time(vservo_protocol::clock::monotonic_ns());
+            out(RosMessage::TfStatic(TfMessage {
+                transforms: self.frames.fixed(&self.tool_from_camera, stamp),
+            }));
+            self.fixed_made = true;
         }
         let mut arrived = Arrived::default();
         cell.take(&mut arrived);
@@ -233,7 +250,7 @@ impl Translator {
             }
         }
         if self.wants(Ros2Topic::Tf) {
-            let transforms = convert::arm_transforms(&self.arm, &self.tool_from_camera, state, stamp);
+            let transforms = self.frames.moving(&self.arm, state, stamp);
             if !transforms.is_empty() {
                 out(RosMessage::Tf(TfMessage { transforms }));
             }

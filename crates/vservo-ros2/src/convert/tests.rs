@@ -78,6 +78,29 @@ fn pose_of(t: &Transform) -> IsometryMatrix3<f64> {
     )
 }
 
+/// The frames on `tf` and `/tf_static` from `base` to the camera, composed: each the parent of the next.
+fn composed(
+    frames: &crate::frames::ArmFrames,
+    arm: &vservo_arm::SerialArm,
+    q: [f64; 7],
+    tool_from_camera: &IsometryMatrix3<f64>,
+) -> (Vec<String>, IsometryMatrix3<f64>) {
+    let joint_count = arm.joint_count() as u32;
+    let chain: Vec<TransformStamped> = frames
+        .moving(arm, &state(joint_count, q), Time::default())
+        .into_iter()
+        .chain(frames.fixed(tool_from_camera, Time::default()))
+        .collect();
+    let mut names = vec![frames.base.clone()];
+    let mut base_from_child = IsometryMatrix3::identity();
+    for t in &chain {
+        assert_eq!(&t.header.frame_id, names.last().expect("a parent"), "each frame the parent of the next");
+        base_from_child *= pose_of(&t.transform);
+        names.push(t.child_frame_id.clone());
+    }
+    (names, base_from_child)
+}
+
 #[test]
 fn the_tf_chain_composes_to_the_camera_pose() {
     let arm = vservo_arm::puma560::puma560();
@@ -86,19 +109,45 @@ fn the_tf_chain_composes_to_the_camera_pose() {
         Rotation3::from_euler_angles(0.1, -0.2, 0.3),
     );
     let q = [0.3, -0.7, 0.9, 0.2, -0.4, 1.1, 0.0];
-    let transforms = arm_transforms(&arm, &tool_from_camera, &state(6, q), Time::default());
-    assert_eq!(transforms.len(), 7);
-    let mut parent = BASE_FRAME.to_string();
-    let mut base_from_child = IsometryMatrix3::identity();
-    for t in &transforms {
-        assert_eq!(t.header.frame_id, parent, "each frame the parent of the next");
-        base_from_child *= pose_of(&t.transform);
-        parent = t.child_frame_id.clone();
-    }
-    assert_eq!(parent, CAMERA_FRAME);
-    let expected = arm.link_frames(&vservo_arm::JointVector::from(q))[5] * tool_from_camera;
-    assert_relative_eq!(base_from_child.to_homogeneous(), expected.to_homogeneous(), epsilon = 1e-12);
-    assert!(arm_transforms(&arm, &tool_from_camera, &state(7, q), Time::default()).is_empty());
+    let frames = crate::frames::ArmFrames::of(&arm);
+    let (names, base_from_camera) = composed(&frames, &arm, q, &tool_from_camera);
+    assert_eq!(names, ["base", "link1", "link2", "link3", "link4", "link5", "link6", CAMERA_FRAME]);
+    let expected = arm.base_from_tool(&vservo_arm::JointVector::from(q)) * tool_from_camera;
+    assert_relative_eq!(base_from_camera.to_homogeneous(), expected.to_homogeneous(), epsilon = 1e-12);
+    assert!(frames.moving(&arm, &state(7, q), Time::default()).is_empty());
+}
+
+/// A URDF arm's frames are its links: the base link, the link each joint moves, the tip link on the last (on
+/// `/tf_static`, with the camera), composing to the same camera pose.
+#[test]
+fn a_urdf_arms_frames_have_the_urdfs_link_names() {
+    let config =
+        vservo_config::Config::load(concat!(env!("CARGO_MANIFEST_DIR"), "/../../config/arms/ur5e.toml"))
+            .expect("ur5e.toml loads");
+    let q = [0.3, -0.7, 0.9, 0.2, -0.4, 1.1, 0.0];
+    let frames = crate::frames::ArmFrames::of(&config.arm);
+    let (names, base_from_camera) = composed(&frames, &config.arm, q, &config.tool_from_camera);
+    assert_eq!(
+        names,
+        [
+            "base_link",
+            "shoulder_link",
+            "upper_arm_link",
+            "forearm_link",
+            "wrist_1_link",
+            "wrist_2_link",
+            "wrist_3_link",
+            "flange",
+            CAMERA_FRAME
+        ]
+    );
+    assert_eq!(
+        frames.fixed(&config.tool_from_camera, Time::default()).len(),
+        2,
+        "flange and camera are fixed"
+    );
+    let expected = config.arm.base_from_tool(&vservo_arm::JointVector::from(q)) * config.tool_from_camera;
+    assert_relative_eq!(base_from_camera.to_homogeneous(), expected.to_homogeneous(), epsilon = 1e-12);
 }
 
 #[test]
