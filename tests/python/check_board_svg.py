@@ -55,6 +55,9 @@ def main():
     if set(found) != set(expected):
         fail(f"ids found {sorted(found)}, the layout's {sorted(expected)}")
     worst_mm = 0.0
+    # each tag's sides as measured on the picture (mm at PX_PER_MM), apart from the layout
+    sides_mm = {tag_id: [float(np.linalg.norm(pixels[k] - pixels[(k + 1) % 4])) / PX_PER_MM for k in range(4)]
+                for tag_id, pixels in found.items()}
     for tag_id, pixels in found.items():
         # OpenCV's pixel centres are at integers: a pixel's corner is at −0.5
         board_m = np.stack([(pixels[:, 0] + 0.5) / PX_PER_MM / 1e3 + low_x,
@@ -63,7 +66,8 @@ def main():
             worst_mm = max(worst_mm, float(np.min(np.linalg.norm(board_m - corner, axis=1))) * 1e3)
     if worst_mm > 0.5 / PX_PER_MM:
         fail(f"a corner is {worst_mm:.3f} mm from the layout's (half a pixel is {0.5 / PX_PER_MM} mm)")
-    print(json.dumps({"tags_found": len(found), "worst_corner_mm": worst_mm, "size_mm": size_mm}))
+    print(json.dumps({"tags_found": len(found), "worst_corner_mm": worst_mm, "size_mm": size_mm,
+                      "ids": sorted(found), "sides_mm": {str(k): v for k, v in sides_mm.items()}}))
 
 
 if __name__ == "__main__":

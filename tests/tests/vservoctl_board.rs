@@ -5,10 +5,15 @@
 use vservo_system_tests::{repository_root, run};
 
 fn check(args: &[&str], tags: u64) -> serde_json::Value {
-    let dir = std::env::temp_dir().join(format!("vservo-board-{}-{tags}", std::process::id()));
+    check_of("board", args, tags)
+}
+
+/// `vservoctl <command> --out FILE.svg --json <args>`, checked by OpenCV's detector.
+fn check_of(command: &str, args: &[&str], tags: u64) -> serde_json::Value {
+    let dir = std::env::temp_dir().join(format!("vservo-{command}-{}-{tags}", std::process::id()));
     std::fs::create_dir_all(&dir).expect("a scratch directory");
     let (svg, layout) = (dir.join("board.svg"), dir.join("board.json"));
-    let mut all = vec!["board", "--out", svg.to_str().expect("utf-8"), "--json"];
+    let mut all = vec![command, "--out", svg.to_str().expect("utf-8"), "--json"];
     all.extend_from_slice(args);
     let output = run("vservoctl", &all);
     assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stderr));
@@ -61,4 +66,37 @@ fn a_board_it_cannot_make_is_refused_with_the_reason() {
     assert_eq!(output.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&output.stderr).contains(".svg"));
     assert!(!std::path::Path::new(out).exists(), "nothing written for a refused board");
+}
+
+/// `vservoctl tag`: one tag at its stated scale, read by OpenCV's detector as the id asked for with a black square
+/// of the size asked for (its sides measured on the rasterised print, 4 px/mm), with a margin it can be found in;
+/// the caption says the id, the size and which edge is up. A tag it cannot make is refused (exit 2).
+#[test]
+fn a_printed_tag_is_read_with_its_id_and_size() {
+    let figures = check_of("tag", &["--id", "3", "--size-mm", "80"], 1);
+    assert_eq!(figures["ids"], serde_json::json!([3]), "{figures}");
+    let sides: Vec<f64> =
+        figures["sides_mm"]["3"].as_array().expect("sides").iter().filter_map(|v| v.as_f64()).collect();
+    assert_eq!(sides.len(), 4);
+    assert!(sides.iter().all(|side| (side - 80.0).abs() < 0.25), "sides {sides:?} mm, 80 asked");
+    let out = std::env::temp_dir().join(format!("vservo-tag-{}.svg", std::process::id()));
+    let output =
+        run("vservoctl", &["tag", "--id", "586", "--size-mm", "30", "--out", out.to_str().expect("utf-8")]);
+    assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stderr));
+    let svg = std::fs::read_to_string(&out).expect("the SVG");
+    let _ = std::fs::remove_file(&out);
+    for caption in
+        ["tag36h11 id 586", "black square 30 mm", "top of the page is the tag's top", "20 mm</text>"]
+    {
+        assert!(svg.contains(caption), "{caption:?} missing");
+    }
+    for (args, reason) in
+        [(["--id", "587", "--size-mm", "80"], "586"), (["--id", "1", "--size-mm", "-5"], "tag")]
+    {
+        let mut all = vec!["tag", "--out", "/tmp/never-written-tag.svg"];
+        all.extend_from_slice(&args);
+        let output = run("vservoctl", &all);
+        assert_eq!(output.status.code(), Some(2), "{args:?}");
+        assert!(String::from_utf8_lossy(&output.stderr).contains(reason), "{args:?}");
+    }
 }

@@ -51,7 +51,16 @@ pub fn run(args: &BoardArgs) -> Result<()> {
     if args.out.extension().and_then(|e| e.to_str()) != Some("svg") {
         return Err(UsageError(format!("--out {}: the file must end in .svg", args.out.display())).into());
     }
-    crate::new_file::write(&args.out, svg(&grid).as_bytes(), args.force, 0o644)?;
+    let caption = format!(
+        "tag36h11, {} × {} tags of {} mm, {} mm apart, ids {}–{}; print at 100 %",
+        grid.rows(),
+        grid.columns(),
+        args.tag_size_mm,
+        args.gap_mm,
+        grid.tag(0).map_or(0, |t| t.id()),
+        grid.tag(grid.len() - 1).map_or(0, |t| t.id()),
+    );
+    crate::new_file::write(&args.out, svg(&grid, &[caption]).as_bytes(), args.force, 0o644)?;
     if args.json {
         print_stdout(&format!("{}\n", layout(&grid)))?;
     }
@@ -80,12 +89,14 @@ pub fn layout(grid: &TagGrid) -> serde_json::Value {
 }
 
 /// The board as an SVG in millimetres: the board's x to the right and its y down, as an upright camera facing it
-/// sees it; each row of black cells one rectangle per run; a 50 mm scale bar and a caption below.
-fn svg(grid: &TagGrid) -> String {
+/// sees it; each row of black cells one rectangle per run; below, a scale bar (50 mm, or 20 or 10 on a narrow
+/// print) and the caption's lines.
+pub fn svg(grid: &TagGrid, caption: &[String]) -> String {
     let [low, high] = grid.extent_in_board();
     let mm = |m: f64| m * 1e3;
     let (width, height) = (mm(high.x - low.x), mm(high.y - low.y));
-    let footer = 12.0;
+    let line_mm = 5.0;
+    let footer = 8.0 + line_mm * caption.len() as f64;
     let mut out = String::new();
     let _ = writeln!(
         out,
@@ -128,19 +139,23 @@ fn svg(grid: &TagGrid) -> String {
             }
         }
     }
-    let bar_y = height + 4.0;
-    let _ = writeln!(out, r#"<rect x="5" y="{bar_y:.3}" width="50" height="2" fill="black"/>"#);
+    let bar_y = height + 3.0;
+    let bar_mm = [50.0, 20.0, 10.0].into_iter().find(|bar| *bar + 10.0 <= width).unwrap_or(5.0);
+    let _ = writeln!(out, r#"<rect x="2" y="{bar_y:.3}" width="{bar_mm}" height="2" fill="black"/>"#);
     let _ = writeln!(
         out,
-        r#"<text x="60" y="{:.3}" font-family="sans-serif" font-size="4">50 mm — tag36h11, {} × {} tags of {} mm, {} mm apart, ids {}–{}; print at 100 %</text>"#,
-        bar_y + 2.0,
-        grid.rows(),
-        grid.columns(),
-        mm(grid.tag_size_m()),
-        mm(grid.gap_m()),
-        grid.tag(0).map_or(0, |t| t.id()),
-        grid.tag(grid.len() - 1).map_or(0, |t| t.id()),
+        r#"<text x="{:.3}" y="{:.3}" font-family="sans-serif" font-size="3.5">{bar_mm} mm</text>"#,
+        bar_mm + 4.0,
+        bar_y + 2.0
     );
+    for (i, line) in caption.iter().enumerate() {
+        let _ = writeln!(
+            out,
+            r#"<text x="2" y="{:.3}" font-family="sans-serif" font-size="3.5">{}</text>"#,
+            bar_y + 2.0 + line_mm * (i as f64 + 1.0),
+            line.replace('&', "&amp;").replace('<', "&lt;")
+        );
+    }
     out.push_str("</svg>\n");
     out
 }

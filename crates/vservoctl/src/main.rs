@@ -80,6 +80,7 @@ mod seconds_arg;
 mod sim;
 mod stability;
 mod status;
+mod tag;
 mod top;
 mod view;
 mod view_token;
@@ -149,6 +150,9 @@ enum Command {
     Scene(scene::SceneArgs),
     /// A calibration board (a grid of AprilTags) as an SVG to print at scale, and its layout as JSON.
     Board(board::BoardArgs),
+    /// One AprilTag (tag36h11) as an SVG to print at scale for a tag target: the id, the size of its black
+    /// square, a scale bar and which edge is up.
+    Tag(tag::TagArgs),
     /// The preflight before a first motion, on a held cell (nothing moves): joint states at their period, the
     /// joints' count, names and limits, the kinematics against what the camera sees, the frames and the target,
     /// the desired pose's reach, and the first twist's motion against the limits; PASS or FAIL with the value
@@ -187,6 +191,7 @@ fn main() -> ExitCode {
         Command::Plot(args) => plot_recording::run(&args),
         Command::Scene(args) => scene::run(&args),
         Command::Board(args) => board::run(&args),
+        Command::Tag(args) => tag::run(&args),
         Command::Calibrate(args) => calibrate::run(&args),
         Command::Check(args) => check::run(&args),
     };
