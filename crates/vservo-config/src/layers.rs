@@ -128,6 +128,13 @@ impl Layers {
             .unwrap_or(0);
         let layer = &self.layers[first_bad];
         let key = key_of(&error);
+        let slip = misspelt(&shown);
+        // an unknown key is found on its own line, not its table's
+        let written_key = match (&key, &slip) {
+            (Some(table), Some(slip)) if slip.is_key => Some(format!("{table}.{}", slip.written)),
+            (None, Some(slip)) if slip.is_key => Some(slip.written.clone()),
+            _ => key.clone(),
+        };
         let message = if first_bad == count - 1 {
             // the base of them all is a whole file: its own parser error shows the line
             match toml::from_str::<RawConfig>(&layer.text) {
@@ -135,12 +142,21 @@ impl Layers {
                 Ok(_) => error.to_string(),
             }
         } else {
-            match key.as_deref().and_then(|key| line_of(&layer.text, key)) {
+            match written_key.as_deref().and_then(|key| line_of(&layer.text, key)) {
                 Some(line) => format!("line {line}: {error}"),
                 None => error.to_string(),
             }
         };
-        ConfigError::Parse { file: layer.file.clone(), key, message: message.trim_end().to_string() }
+        let suggestion = slip
+            .as_ref()
+            .and_then(|slip| did_you_mean(&slip.written, slip.accepted.iter().map(String::as_str)))
+            .map(|nearest| format!("\ndid you mean `{nearest}`?"))
+            .unwrap_or_default();
+        ConfigError::Parse {
+            file: layer.file.clone(),
+            key,
+            message: format!("{}{suggestion}", message.trim_end()),
+        }
     }
 }
 
@@ -209,6 +225,45 @@ fn holds(table: &toml::Table, path: &[&str]) -> bool {
             None => false,
         },
     }
+}
+
+/// An unknown key or name as serde reports it: what was written, and what the table or key takes.
+struct Misspelt {
+    written: String,
+    accepted: Vec<String>,
+    /// A key (`unknown field`), or a name a key takes (`unknown variant`).
+    is_key: bool,
+}
+
+/// The unknown key or name a parser error reports (``unknown field `x`, expected one of `a`, `b` ``), if any.
+fn misspelt(shown: &str) -> Option<Misspelt> {
+    let (is_key, rest) = match (shown.split_once("unknown field `"), shown.split_once("unknown variant `")) {
+        (Some((_, rest)), _) => (true, rest),
+        (None, Some((_, rest))) => (false, rest),
+        (None, None) => return None,
+    };
+    let (written, rest) = rest.split_once('`')?;
+    let line = rest.lines().next().unwrap_or_default();
+    let accepted = line
+        .split_once("expected")
+        .map(|(_, list)| list.split('`').skip(1).step_by(2).map(str::to_string).collect())
+        .unwrap_or_default();
+    Some(Misspelt { written: written.to_string(), accepted, is_key })
+}
+
+/// The accepted key or name nearest `written`, when it is near enough to be a slip of the keyboard: at most a third
+/// of its letters (at least one) changed, added, left out or swapped.
+pub(crate) fn did_you_mean<'a>(
+    written: &str,
+    accepted: impl IntoIterator<Item = &'a str>,
+) -> Option<&'a str> {
+    let most = (written.chars().count() / 3).max(1);
+    accepted
+        .into_iter()
+        .map(|name| (strsim::osa_distance(written, name), name))
+        .filter(|(distance, _)| *distance <= most)
+        .min_by_key(|(distance, _)| *distance)
+        .map(|(_, name)| name)
 }
 
 /// The dotted key a parser error is about: toml writes it on the error's last line as ``in `a.b` `` when

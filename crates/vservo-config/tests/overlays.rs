@@ -142,8 +142,31 @@ fn errors_name_the_file_in_which_the_bad_key_was_written() {
     );
     // on its line in the overlay
     assert!(error.to_string().contains("line 3:"), "{error}");
+    assert!(!error.to_string().contains("did you mean"), "no accepted name is near `hydraulic`: {error}");
+    // a misspelt key on its own line (not its table's), with the key it was near
     let error = refused("unknown-key.toml");
-    assert!(error.to_string().contains("line 2:"), "the [scenario] table's line: {error}");
+    assert!(error.to_string().contains("line 3:"), "the key's line, not the [scenario] table's: {error}");
+    assert!(error.to_string().contains("did you mean `duration_s`?"), "{error}");
+}
+
+/// A misspelt key or name, in an overlay or in a whole file, gets the accepted one nearest it.
+#[test]
+fn a_misspelt_key_or_name_gets_a_did_you_mean() {
+    let directory = directory_with(
+        "did-you-mean",
+        &[
+            ("base.toml", &default_text()),
+            ("name.toml", "extends = \"base.toml\"\n\n[robot]\ndriver = \"simulted\"\n"),
+            ("whole.toml", &default_text().replacen("height_px = 512", "hieght_px = 512", 1)),
+        ],
+    );
+    let refused = |file: &str| Config::load(directory.join(file)).expect_err(file).to_string();
+    let error = refused("name.toml");
+    assert!(error.contains("line 4:") && error.contains("did you mean `simulated`?"), "{error}");
+    let error = refused("whole.toml");
+    assert!(error.contains("hieght_px") && error.contains("did you mean `height_px`?"), "{error}");
+    let line = 1 + default_text().lines().position(|l| l.starts_with("height_px")).expect("the key's line");
+    assert!(error.contains(&format!("line {line}")), "{error}");
 }
 
 /// A file that extends itself, directly or through another, and a base that is not there are refused,

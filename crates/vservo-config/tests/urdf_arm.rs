@@ -328,3 +328,25 @@ fn a_franka_arm_is_taken_and_what_its_driver_cannot_honour_is_refused() {
     )
     .expect("franka-sim with vservo's simulated camera");
 }
+
+/// A tool (or base) link the URDF does not have is the fault of the key that named it, in the file that wrote it
+/// (an overlay of config/arms/ur5e.toml here, not the base that named the URDF), with the link nearest it.
+#[test]
+fn a_link_the_urdf_lacks_is_blamed_on_the_key_and_file_that_named_it() {
+    let scratch = Scratch::new("tip-link");
+    let ur5e = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../config/arms/ur5e.toml");
+    let overlay = scratch.0.join("my-ur5e.toml");
+    std::fs::write(
+        &overlay,
+        format!("extends = {:?}\n\n[robot.arm]\ntip_link = \"flang\"\n", ur5e.display()),
+    )
+    .expect("written");
+    let error = Config::load(&overlay).expect_err("no link flang");
+    assert_eq!(
+        (error.file(), error.key()),
+        (overlay.display().to_string().as_str(), Some("robot.arm.tip_link"))
+    );
+    let message = error.to_string();
+    assert!(message.contains("\"flang\"") && message.contains("did you mean \"flange\"?"), "{message}");
+    assert!(message.contains("ur5e.urdf has no such link"), "{message}");
+}

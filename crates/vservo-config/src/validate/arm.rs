@@ -79,7 +79,7 @@ fn urdf(check: &Checker, a: &RawArm) -> Result<SerialArm, ConfigError> {
     let text = crate::layers::read_bounded(std::path::Path::new(file))
         .map_err(|reason| check.invalid(key, format!("{file:?}"), format!("cannot read: {reason}")))?;
     let arm = vservo_arm::urdf::parse(&text, file, a.base_link.as_deref(), a.tip_link.as_deref())
-        .map_err(|e| check.invalid(key, format!("{file:?}"), e.to_string()))?;
+        .map_err(|e| urdf_refused(check, a, file, e))?;
     let far = arm.chain.joints.iter().find(|j| j.parent_from_joint.translation.vector.amax() > 10.0);
     if let Some(joint) = far.map(|j| j.name.as_str()).or_else(|| {
         (arm.chain.last_from_tip.translation.vector.amax() > 10.0).then_some(arm.chain.tip_link.as_str())
@@ -93,6 +93,27 @@ fn urdf(check: &Checker, a: &RawArm) -> Result<SerialArm, ConfigError> {
     let limits = urdf_limits(check, a, &arm)?;
     SerialArm::from_chain("URDF arm", arm.chain, &limits)
         .ok_or_else(|| check.invalid(key, format!("{file:?}"), "not a chain of six or seven joints"))
+}
+
+/// A URDF refused, said of the key at fault: a link the file does not have is the fault of the key that named it
+/// (`robot.arm.tip_link` or `base_link`, in the file that wrote it), with the file's link nearest it.
+fn urdf_refused(check: &Checker, a: &RawArm, file: &str, error: vservo_arm::urdf::UrdfError) -> ConfigError {
+    if let vservo_arm::urdf::UrdfError::NoSuchLink { link, known } = &error {
+        let named_by = [("robot.arm.tip_link", &a.tip_link), ("robot.arm.base_link", &a.base_link)]
+            .into_iter()
+            .find(|(_, written)| written.as_deref() == Some(link.as_str()));
+        if let Some((key, _)) = named_by {
+            let nearest = crate::layers::did_you_mean(link, known.split(", "))
+                .map(|nearest| format!("; did you mean {nearest:?}?"))
+                .unwrap_or_default();
+            return check.invalid(
+                key,
+                format!("{link:?}"),
+                format!("{file} has no such link{nearest} (its links: {known})"),
+            );
+        }
+    }
+    check.invalid("robot.arm.urdf", format!("{file:?}"), error.to_string())
 }
 
 /// Each joint's limits: the configuration's where given (all joints), else the file's; a joint left with
