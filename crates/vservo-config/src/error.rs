@@ -75,6 +75,21 @@ impl ConfigError {
         }
     }
 
+    /// The same error, said of the overlay `culprit` whose keys made a key of `written_in` wrong.
+    pub(crate) fn caused_by(self, culprit: &str, written_in: &str) -> Self {
+        match self {
+            ConfigError::Invalid { key, value, reason, .. } => ConfigError::Invalid {
+                file: culprit.to_string(),
+                reason: format!(
+                    "{reason} ({key} is as {written_in} writes it, which is valid alone: this file's keys make it wrong)"
+                ),
+                key,
+                value,
+            },
+            other => other,
+        }
+    }
+
     /// The same error, said of another file (the one in which its key was written).
     pub(crate) fn in_file(self, written_in: &str) -> Self {
         match self {

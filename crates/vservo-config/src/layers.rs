@@ -96,6 +96,16 @@ impl Layers {
             .map_or(&self.layers[0].file, |layer| &layer.file)
     }
 
+    /// The file whose keys, over its bases', first make `fails` true: the lowest layer (the base of them all
+    /// first) from which the configuration parses and fails; none when no part of the stack does alone.
+    pub fn first_failing(&self, fails: impl Fn(RawConfig) -> bool) -> Option<&str> {
+        let count = self.layers.len();
+        (1..=count)
+            .map(|n| count - n)
+            .find(|&index| deserialize(merge_layers(&self.layers[index..])).is_ok_and(&fails))
+            .map(|index| self.layers[index].file.as_str())
+    }
+
     /// For a key of the camera's lens ([`LENS_KEYS`]): the file whose lens is in force (the first, file
     /// first, that writes any lens key), whether or not it wrote this one.
     fn lens_layer(&self, key: &str) -> Option<&Layer> {

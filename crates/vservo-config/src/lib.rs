@@ -175,15 +175,20 @@ impl Config {
         Self::from_layers(&Layers::from_text(text, origin)?, origin)
     }
 
-    /// Parses and validates the merged layers; an error names the file in which its key was written.
+    /// Parses and validates the merged layers; an error names the file in which its key was written, or, when
+    /// that file and its bases are valid alone, the overlay whose keys made the key wrong (saying where the key
+    /// itself was written).
     fn from_layers(layers: &Layers, origin: &str) -> Result<Config, ConfigError> {
         let raw = layers.raw_config()?;
-        validate::validate(raw, origin).map_err(|error| match error.key() {
-            Some(key) => {
-                let file = layers.file_of(key).to_string();
-                error.in_file(&file)
+        validate::validate(raw, origin).map_err(|error| {
+            let Some(key) = error.key().map(str::to_string) else { return error };
+            let written_in = layers.file_of(&key).to_string();
+            let same_fault =
+                |raw| validate::validate(raw, origin).err().is_some_and(|e| e.key() == Some(&key));
+            match layers.first_failing(same_fault) {
+                Some(culprit) if culprit != written_in => error.caused_by(culprit, &written_in),
+                _ => error.in_file(&written_in),
             }
-            None => error,
         })
     }
 

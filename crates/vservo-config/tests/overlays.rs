@@ -201,3 +201,27 @@ fn a_cycle_and_a_missing_base_are_refused_naming_them() {
     let error = refused("number.toml");
     assert_eq!((error.file(), error.key()), (named("number.toml").as_str(), Some("extends")));
 }
+
+/// A key of the base made wrong by an overlay's keys is the overlay's fault: the error names the overlay, and says
+/// the key is as the base writes it (config/vservo.toml's simulated camera, valid alone, under an overlay's
+/// external robot driver).
+#[test]
+fn a_base_key_an_overlay_made_wrong_is_the_overlays_fault() {
+    let directory = directory_with(
+        "culprit",
+        &[
+            ("base.toml", &default_text()),
+            (
+                "external.toml",
+                "extends = \"base.toml\"\n\n[robot]\ndriver = \"external\"\ncommand = \"velocity\"\n",
+            ),
+        ],
+    );
+    let error =
+        Config::load(directory.join("external.toml")).expect_err("a simulated camera, no simulated arm");
+    let named = |file: &str| directory.join(file).display().to_string();
+    assert_eq!((error.file(), error.key()), (named("external.toml").as_str(), Some("camera.source")));
+    let message = error.to_string();
+    assert!(message.contains(&format!("as {} writes it", named("base.toml"))), "{message}");
+    assert!(message.contains("this file's keys make it wrong"), "{message}");
+}
