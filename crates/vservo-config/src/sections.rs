@@ -432,7 +432,8 @@ pub struct CameraTruth {
 }
 
 /// `[camera.gstreamer]`: the GStreamer camera driver's pipeline and controls (docs/DRIVERS.md, "A real
-/// camera through GStreamer"). Read by `vservo-gst-camera` only, at its start; vservod ignores it.
+/// camera through GStreamer"). Read by `vservo-gst-camera` only, at its start (vservod starts it with
+/// `camera.source = "gstreamer"`).
 #[derive(Debug, Clone, PartialEq)]
 pub struct GstreamerCamera {
     /// `gst-launch-1.0` syntax, ending in 8-bit gray frames of the camera's size (the driver adds the

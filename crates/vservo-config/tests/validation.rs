@@ -584,3 +584,45 @@ fn the_drivers_are_typed_choices_and_the_gstreamer_camera_needs_its_pipeline() {
     let error = with("ros2", "gstreamer", "").expect_err("no pipeline").to_string();
     assert!(error.contains("camera.source") && error.contains("[camera.gstreamer]"), "{error}");
 }
+
+/// The sections config/vservo.toml documents commented out ([camera.truth], [camera.gstreamer], [target],
+/// [calibration]) are valid as written there: uncommented (each `# key = value` after its `# [section]` line, up
+/// to the next blank line), the file loads, with each section's values. ([franka] needs a Franka arm and driver:
+/// config/franka-sim.toml is that section in use.)
+#[test]
+fn the_commented_sections_of_the_default_are_valid_as_documented() {
+    const SECTIONS: [&str; 4] = ["[camera.truth]", "[camera.gstreamer]", "[target]", "[calibration]"];
+    let is_key_line = |line: &str| {
+        line.strip_prefix("# ").and_then(|rest| rest.split_once(" = ")).is_some_and(|(key, _)| {
+            !key.is_empty() && key.chars().all(|c| c.is_ascii_lowercase() || c.is_ascii_digit() || c == '_')
+        })
+    };
+    let mut text = String::new();
+    let mut in_section = false;
+    let mut uncommented = 0;
+    for line in DEFAULT.lines() {
+        if SECTIONS.iter().any(|section| line == format!("# {section}")) {
+            in_section = true;
+            uncommented += 1;
+            text.push_str(&line[2..]);
+        } else if line.trim().is_empty() {
+            in_section = false;
+            text.push_str(line);
+        } else if in_section && is_key_line(line) {
+            text.push_str(&line[2..]);
+        } else {
+            text.push_str(line);
+        }
+        text.push('\n');
+    }
+    assert_eq!(uncommented, SECTIONS.len(), "each section is in the file, commented out");
+    let config =
+        Config::from_toml(&text, "uncommented vservo.toml").expect("the documented sections are valid");
+    assert!(config.board.apriltag().is_some_and(|tag| tag.id() == 3), "[target]");
+    assert!(
+        config.gstreamer.as_ref().is_some_and(|g| g.pipeline.starts_with("v4l2src")),
+        "[camera.gstreamer]"
+    );
+    assert!(config.calibration.as_ref().is_some_and(|c| c.poses == 12), "[calibration]");
+    assert!(config.camera_truth.is_some(), "[camera.truth]");
+}
