@@ -254,6 +254,8 @@ fn bad_pipelines_and_wrong_caps_are_refused_naming_the_pipeline_and_why() {
             "320×240, not the configured camera's 512×512",
         ),
         ("videotestsrc is-live=true ! video/x-raw,width=512,height=512 ! jpegenc", "ends in image/jpeg"),
+        ("videotestsrc is-live=true ! video/x-raw,width=512,height=512 ! jpegenc", "jpegdec ! videoconvert"),
+        ("v4l2src device=/dev/no-such-video ! videoconvert", "v4l2-ctl --list-devices"),
         ("videotestsrc num-buffers=0 ! video/x-raw,format=GRAY8,width=512,height=512", "ended"),
         ("", "camera.gstreamer.pipeline"),
     ];

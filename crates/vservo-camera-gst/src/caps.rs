@@ -17,15 +17,16 @@ pub struct Negotiated {
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
 pub enum CapsError {
     /// Not raw video at all (encoded video, audio, …).
-    #[error("the pipeline ends in {caps}, not raw video: end it in video/x-raw,format=GRAY8")]
+    #[error(
+        "the pipeline ends in {caps}, not raw video: end it in video/x-raw,format=GRAY8{}",
+        decode_hint(caps)
+    )]
     NotRawVideo {
         /// The caps.
         caps: String,
     },
     /// Another pixel format.
-    #[error(
-        "the pipeline ends in {caps}: format {format}, not GRAY8 (add `videoconvert ! video/x-raw,format=GRAY8`)"
-    )]
+    #[error("the pipeline ends in {caps}: format {format}, not GRAY8 ({})", convert_hint(caps))]
     NotGray8 {
         /// The caps.
         caps: String,
@@ -49,6 +50,36 @@ pub enum CapsError {
         /// camera.height_px.
         expected_height_px: u32,
     },
+}
+
+/// For encoded frames, how to decode them (an MJPEG camera is the usual case).
+fn decode_hint(caps: &str) -> &'static str {
+    if caps.starts_with("image/jpeg") {
+        " (an MJPEG camera: decode its frames, `… ! image/jpeg,… ! jpegdec ! videoconvert ! video/x-raw,format=GRAY8`)"
+    } else {
+        ""
+    }
+}
+
+/// How to make GRAY8 of another format: convert raw video, decode an MJPEG camera's frames.
+fn convert_hint(caps: &str) -> &'static str {
+    if caps.starts_with("image/jpeg") {
+        "an MJPEG camera: decode its frames, `… ! image/jpeg,… ! jpegdec ! videoconvert ! video/x-raw,format=GRAY8`"
+    } else {
+        "add `videoconvert ! video/x-raw,format=GRAY8`"
+    }
+}
+
+/// What to check when an element of the pipeline refused to run, from its message; empty when nothing is known.
+pub fn element_hint(message: &str) -> &'static str {
+    if message.contains("Cannot identify device") || message.contains("Could not open device") {
+        "; no camera there: list the cameras with `v4l2-ctl --list-devices` (Debian's v4l-utils) and set v4l2src's \
+         device=, and check that this user may open it (the `video` group)"
+    } else if message.contains("Device") && message.contains("is busy") {
+        "; another program has the camera open (`fuser /dev/video*` names it)"
+    } else {
+        ""
+    }
 }
 
 /// Accepts GRAY8 frames of `width_px` × `height_px`, else says what is wrong.
@@ -92,5 +123,26 @@ mod tests {
         let size = refusal(negotiated(Some("GRAY8"), 320, 240));
         assert!(size.contains("320×240, not the configured camera's 512×512"), "{size}");
         assert!(refusal(negotiated(None, 0, 0)).contains("not raw video"));
+        let mjpeg = Negotiated {
+            caps: "image/jpeg, width=(int)640".into(),
+            format: None,
+            width_px: 640,
+            height_px: 480,
+        };
+        assert!(refusal(mjpeg).contains("jpegdec ! videoconvert"), "an MJPEG camera is told how to decode");
+        let encoded = Negotiated {
+            caps: "image/jpeg, width=(int)512".into(),
+            format: Some("ENCODED".into()),
+            width_px: 512,
+            height_px: 512,
+        };
+        assert!(refusal(encoded).contains("jpegdec ! videoconvert"), "as GStreamer names a JPEG's format");
+    }
+
+    #[test]
+    fn a_missing_or_busy_camera_is_told_what_to_check() {
+        assert!(element_hint("Cannot identify device '/dev/video0'.").contains("v4l2-ctl --list-devices"));
+        assert!(element_hint("Device '/dev/video0' is busy").contains("fuser"));
+        assert_eq!(element_hint("Internal data stream error."), "");
     }
 }

@@ -26,7 +26,10 @@ pub enum PipelineError {
         reason: String,
     },
     /// An element posted an error (negotiation failed, a device missing, …).
-    #[error("camera.gstreamer.pipeline {pipeline:?}: {element}: {message}{debug}")]
+    #[error(
+        "camera.gstreamer.pipeline {pipeline:?}: {element}: {message}{debug}{}",
+        vservo_camera_gst::caps::element_hint(message)
+    )]
     Element {
         /// The text.
         pipeline: String,
