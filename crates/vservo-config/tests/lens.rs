@@ -249,3 +249,23 @@ fn a_pipeline_longer_than_a_cameras_is_refused() {
         "source = \"external\"\n[camera.gstreamer]\npipeline = \"videotestsrc ! appsink name=vservo\"";
     load_with_camera("short-pipeline", camera, &[]).expect("a camera's pipeline is taken");
 }
+
+/// A size the calibration file gave is the file's fault: a camera larger than a camera_image sample carries is
+/// refused naming `camera.calibration_file` and the file, not `camera.width_px`, which the configuration left out.
+#[test]
+fn a_size_from_the_calibration_file_is_blamed_on_the_file() {
+    const ROS: &str = include_str!("data/ros_camera_info_usb_cam.yaml");
+    let huge = ROS.replacen("image_width: 640", "image_width: 4000", 1).replacen(
+        "image_height: 480",
+        "image_height: 3000",
+        1,
+    );
+    assert_ne!(huge, ROS, "the file's size written as the test expects");
+    let error = load_with_camera("huge", "calibration_file = \"big.yaml\"", &[("big.yaml", &huge)])
+        .expect_err("4000 × 3000 is more than a sample");
+    assert_eq!(error.key(), Some("camera.calibration_file"), "{error}");
+    let message = error.to_string();
+    assert!(message.contains("\"big.yaml\"") || message.contains("big.yaml\""), "{message}");
+    assert!(message.contains("4000 × 3000") && message.contains("calibrates a larger camera"), "{message}");
+    assert!(!message.contains("lower camera.width_px"), "{message}");
+}

@@ -26,14 +26,20 @@ pub fn intrinsics(
         (None, Some(v)) => Ok(i64::from(v)),
         (None, None) => Err(missing(check, key)),
     };
+    // a size the calibration file gave is its fault, not the keys' the file left out
+    let from_file = |key: &'static str, written: Option<i64>| match (written, calibration) {
+        (None, Some(_)) => "camera.calibration_file",
+        _ => key,
+    };
     let size = |key: &str, v: i64| {
         check.whole(key, v, 1u32, 16384, "must be a whole number of pixels between 1 and 16384")
     };
-    let width_px =
-        size("camera.width_px", given("camera.width_px", c.width_px, calibration.map(|k| k.width_px))?)?;
+    let width_key = from_file("camera.width_px", c.width_px);
+    let height_key = from_file("camera.height_px", c.height_px);
+    let width_px = size(width_key, given("camera.width_px", c.width_px, calibration.map(|k| k.width_px))?)?;
     let height_px =
-        size("camera.height_px", given("camera.height_px", c.height_px, calibration.map(|k| k.height_px))?)?;
-    fits_camera_image(check, width_px, height_px)?;
+        size(height_key, given("camera.height_px", c.height_px, calibration.map(|k| k.height_px))?)?;
+    fits_camera_image(check, (width_key, width_px), (height_key, height_px), c.calibration_file.as_deref())?;
     let key = "camera.principal_point_px";
     let principal = c
         .principal_point_px
@@ -131,23 +137,34 @@ fn calibration(check: &Checker, c: &RawCamera, file: &str) -> Result<Calibration
 
 /// An image of `width_px` × `height_px` 8-bit pixels must fit in one `camera_image` sample
 /// ([`crate::MAX_CAMERA_IMAGE_BYTES`]): a larger camera would never deliver a frame.
-fn fits_camera_image(check: &Checker, width_px: u32, height_px: u32) -> Result<(), ConfigError> {
+/// Each side is given with the key it came from (`camera.width_px`, or `camera.calibration_file` for a size the
+/// file gave).
+fn fits_camera_image(
+    check: &Checker,
+    (width_key, width_px): (&str, u32),
+    (height_key, height_px): (&str, u32),
+    calibration_file: Option<&str>,
+) -> Result<(), ConfigError> {
     let bytes = u64::from(width_px) * u64::from(height_px);
     if bytes <= crate::MAX_CAMERA_IMAGE_BYTES as u64 {
         return Ok(());
     }
     // name the side that is over 1280 (or the width when both are within and only their product is not)
-    let (key, value) = if height_px > 1024 && width_px <= 1280 {
-        ("camera.height_px", height_px)
-    } else {
-        ("camera.width_px", width_px)
+    let (key, value) =
+        if height_px > 1024 && width_px <= 1280 { (height_key, height_px) } else { (width_key, width_px) };
+    let (shown, lower) = match calibration_file {
+        Some(file) if key == "camera.calibration_file" => (
+            format!("{file:?}"),
+            "the file calibrates a larger camera than vservo takes (calibrate it at a lower resolution)",
+        ),
+        _ => (value.to_string(), "lower camera.width_px or camera.height_px"),
     };
     Err(check.invalid(
         key,
-        value,
+        shown,
         format!(
             "a {width_px} × {height_px} image is {bytes} bytes, more than a camera_image sample carries \
-             ({} bytes, e.g. 1280 × 1024): lower camera.width_px or camera.height_px",
+             ({} bytes, e.g. 1280 × 1024): {lower}",
             crate::MAX_CAMERA_IMAGE_BYTES
         ),
     ))
