@@ -339,6 +339,12 @@ fn the_law_beyond_the_paper_is_off_by_default_and_its_keys_are_checked() {
         error.to_string().contains("desired mark") && error.to_string().contains("inside the margin"),
         "{error}"
     );
+    // the target may be at fault as well as the margin: both ways out are named
+    assert!(
+        error.to_string().contains("place the target further in")
+            && error.to_string().contains("lower the margin"),
+        "{error}"
+    );
 }
 
 #[test]

@@ -70,7 +70,9 @@ fn desired_inside_the_margin(
                 "controller.border_margin_px",
                 margin_px,
                 format!(
-                    "desired mark {} images at ({x:.1}, {y:.1}) px, inside the margin: the barrier would keep the servo from its goal",
+                    "desired mark {} images at ({x:.1}, {y:.1}) px, inside the margin of {margin_px} px along the \
+                     {width}×{height} image's edge: the barrier would keep the servo from its goal; place the target \
+                     further in (desired.camera_from_board, the marks or [target]) or lower the margin",
                     mark + 1
                 ),
             ));
