@@ -7,19 +7,21 @@
 # settling time; with --json the last line is one JSON object (final_error_px, settling_time_s, …). Logs, the
 # scene, the first camera image (first.pgm) and the recorded features are left in target/pybullet-run/.
 #
-#   scripts/run-pybullet.sh --urdf FILE --config FILE [--duration-s S] [--held-s S] [--json]
+#   scripts/run-pybullet.sh --config FILE [--urdf FILE] [--instance NAME] [--duration-s S] [--held-s S] [--json]
 #
 # --held-s S: the cell starts held, as a real arm's does (robot.start = "held"): S seconds of its twists, joint
 # commands and joint states are recorded while held, then `vservoctl resume` begins servoing; the summary adds what
 # moved while held (held_max_twist, held_max_command_rad_s, held_joint_motion_rad) and whether the resume was taken.
 # The summary also says how the rmrc's commands stand against the arm's own limits (scripts/command_limits.py).
 #
-# --urdf is the URDF PyBullet simulates: the arm the configuration models (its meshes are found beside it and in
-# pybullet_data). --config is any configuration of a cell (the lockstep's, e.g. config/arms/xarm6.toml): the run
+# --urdf is the URDF PyBullet simulates: by default the configuration's own (robot.arm.urdf), the arm it models
+# (its meshes are found beside it and in pybullet_data); give it for a DH arm or another file of the same arm.
+# --instance names the run's instance (default "pybullet"), so that runs of several cells can be told apart.
+# --config is any configuration of a cell (the lockstep's, e.g. config/arms/xarm6.toml): the run
 # uses it through an overlay (target/pybullet-run/pybullet.toml) that only puts the driver in place of vservo's
 # simulated arm and camera: robot.driver and camera.source "external", the driver taking joint velocities every
 # --period-s seconds (the arm's own period; by default the configuration's robot.period_s, which for the lockstep's
-# simulated arm is its timing.control_period_s), instance "pybullet", and no frame of pipeline delay
+# simulated arm is its timing.control_period_s), the instance --instance, and no frame of pipeline delay
 # (PyBullet's frames reach the servo 20–25 ms after capture on average: within the frame).
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -29,7 +31,8 @@ json=0
 config=""
 urdf=""
 held=""
-usage="expected --urdf FILE --config FILE [--duration-s S] [--period-s S] [--held-s S] [--json]"
+instance_name="pybullet"
+usage="expected --config FILE [--urdf FILE] [--instance NAME] [--duration-s S] [--period-s S] [--held-s S] [--json]"
 while [ $# -gt 0 ]; do
     case "$1" in
         --duration-s) duration="$2"; shift 2 ;;
@@ -43,17 +46,16 @@ while [ $# -gt 0 ]; do
         --urdf=*) urdf="${1#*=}"; shift ;;
         --held-s) held="$2"; shift 2 ;;
         --held-s=*) held="${1#*=}"; shift ;;
+        --instance) instance_name="$2"; shift 2 ;;
+        --instance=*) instance_name="${1#*=}"; shift ;;
         *) echo "run-pybullet: unknown argument $1 ($usage)" >&2; exit 2 ;;
     esac
 done
-if [ -z "$config" ] || [ -z "$urdf" ]; then
+if [ -z "$config" ]; then
     echo "run-pybullet: $usage" >&2
     exit 2
 fi
-for file in "$config" "$urdf"; do
-    [ -f "$file" ] || { echo "run-pybullet: $file: no such file" >&2; exit 2; }
-done
-urdf="$(cd "$(dirname "$urdf")" && pwd)/$(basename "$urdf")"
+[ -f "$config" ] || { echo "run-pybullet: $config: no such file" >&2; exit 2; }
 config="$(cd "$(dirname "$config")" && pwd)/$(basename "$config")"
 python=target/python-venv/bin/python
 source scripts/lib/cell-run.sh
@@ -67,6 +69,14 @@ rm -rf "$out"
 mkdir -p "$out"
 vservoctl="$bin/vservoctl"
 
+if [ -z "$urdf" ]; then
+    # the arm the configuration models, from its own URDF
+    urdf="$("$vservoctl" scene --config "$config" | "$python" -c 'import json,sys; print(json.load(sys.stdin)["arm"]["urdf"] or "")')"
+    [ -n "$urdf" ] || { echo "run-pybullet: $config models its arm without a URDF (robot.arm.preset): give --urdf FILE" >&2; exit 2; }
+fi
+[ -f "$urdf" ] || { echo "run-pybullet: $urdf: no such file" >&2; exit 2; }
+urdf="$(cd "$(dirname "$urdf")" && pwd)/$(basename "$urdf")"
+
 if [ -z "$period" ]; then
     # the arm's own period as the configuration gives it
     period="$("$vservoctl" scene --config "$config" | "$python" -c 'import json,sys; print(json.load(sys.stdin)["robot"]["period_s"])')"
@@ -77,7 +87,7 @@ cat > "$out/pybullet.toml" <<TOML
 extends = "$config"
 
 [instance]
-name = "pybullet"
+name = "$instance_name"
 
 [timing]
 pipeline_delay_frames = 0

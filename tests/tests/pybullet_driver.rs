@@ -82,13 +82,19 @@ fn run_pybullet_with_every_arm_file_converges_below_one_pixel_within_the_arms_li
     let overlay = std::fs::read_to_string(repository_root().join("target/pybullet-run/pybullet.toml"))
         .expect("the run's overlay");
     assert!(overlay.contains("period_s = 0.004"), "{overlay}");
-    // seven joints: the Panda (FER) at its own rate, 1 kHz, within Franka's published limits
-    let panda = pybullet_data().join("franka_panda/panda.urdf").display().to_string();
+    // seven joints: the Panda (FER) at its own rate, 1 kHz, within Franka's published limits; its URDF the one its
+    // configuration reads (no --urdf), under an instance name of the run's
     let summary = run_script_to_convergence(
         "run-pybullet.sh",
-        &["--urdf", &panda, "--config", "config/arms/panda.toml"],
+        &["--config", "config/arms/panda.toml", "--instance", "my-panda"],
     );
     assert_commands_within_the_arms_limits("panda", &summary);
+    let overlay = std::fs::read_to_string(repository_root().join("target/pybullet-run/pybullet.toml"))
+        .expect("the run's overlay");
+    assert!(overlay.contains("name = \"my-panda\""), "{overlay}");
+    let driver_log = std::fs::read_to_string(repository_root().join("target/pybullet-run/driver.log"))
+        .unwrap_or_default();
+    assert!(!driver_log.contains("Traceback"), "{driver_log}");
     // the FR3, from its own files: jerk 5000 rad/s³ and acceleration 10 rad/s² per joint; its cell starts held, as
     // a real arm's: for 2 s nothing moves and no twist or command but zero is sent, then `vservoctl resume`
     let fr3 = ["--urdf", "config/arms/fr3.urdf", "--config", "config/arms/fr3.toml", "--held-s", "2"];
