@@ -92,8 +92,8 @@ fn run_pybullet_with_every_arm_file_converges_below_one_pixel_within_the_arms_li
     let overlay = std::fs::read_to_string(repository_root().join("target/pybullet-run/pybullet.toml"))
         .expect("the run's overlay");
     assert!(overlay.contains("name = \"my-panda\""), "{overlay}");
-    let driver_log = std::fs::read_to_string(repository_root().join("target/pybullet-run/driver.log"))
-        .unwrap_or_default();
+    let driver_log =
+        std::fs::read_to_string(repository_root().join("target/pybullet-run/driver.log")).unwrap_or_default();
     assert!(!driver_log.contains("Traceback"), "{driver_log}");
     // the FR3, from its own files: jerk 5000 rad/s³ and acceleration 10 rad/s² per joint; its cell starts held, as
     // a real arm's: for 2 s nothing moves and no twist or command but zero is sent, then `vservoctl resume`

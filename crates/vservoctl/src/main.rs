@@ -78,6 +78,7 @@ mod record_ros2;
 mod scene;
 mod seconds_arg;
 mod sim;
+mod snapshot;
 mod stability;
 mod status;
 mod tag;
@@ -148,6 +149,9 @@ enum Command {
     Plot(plot_recording::PlotArgs),
     /// The cell a configuration describes (arm, camera, board, start joints, periods) as JSON, for drivers.
     Scene(scene::SceneArgs),
+    /// What the camera of a running instance sees now, as a PNG: the newest image with the marks found, where
+    /// the servo wants them and the error between; the frame's numbers as JSON.
+    Snapshot(snapshot::SnapshotArgs),
     /// A calibration board (a grid of AprilTags) as an SVG to print at scale, and its layout as JSON.
     Board(board::BoardArgs),
     /// One AprilTag (tag36h11) as an SVG to print at scale for a tag target: the id, the size of its black
@@ -190,6 +194,7 @@ fn main() -> ExitCode {
             .and_then(|()| view::run(&args)),
         Command::Plot(args) => plot_recording::run(&args),
         Command::Scene(args) => scene::run(&args),
+        Command::Snapshot(args) => snapshot::run(&args),
         Command::Board(args) => board::run(&args),
         Command::Tag(args) => tag::run(&args),
         Command::Calibrate(args) => calibrate::run(&args),
