@@ -43,9 +43,11 @@ fn sim_writes_summary_csvs_and_plots() {
     assert_eq!(features.lines().count(), 1 + 36);
     let joints = std::fs::read_to_string(out.join("joints.csv")).expect("joints.csv");
     assert_eq!(joints.lines().count(), 1 + 300, "every 10 ms");
-    for plot in ["trajectory.svg", "error.svg"] {
+    // each plot with its axes' units and a legend of what it draws
+    for (plot, legend) in [("trajectory.svg", "point 1"), ("error.svg", "1 px")] {
         let svg = std::fs::read_to_string(out.join(plot)).expect("a plot");
         assert!(svg.starts_with("<svg") && svg.contains("polyline"), "{plot}");
+        assert!(svg.contains("[px]") && svg.contains(legend), "{plot}: units and legend");
     }
     let _ = std::fs::remove_dir_all(out);
     // overrides are checked
@@ -130,6 +132,8 @@ fn basin_reports_each_class_as_json_and_draws_the_starts() {
         "{} circles",
         svg.matches("<circle").count()
     );
+    // the legend says what each colour is, with the count of each outcome
+    assert!(svg.contains("converged (") && svg.contains("translation [cm]"), "basin.svg: legend and units");
     let _ = std::fs::remove_dir_all(&out);
 
     // a bad argument is the user's to fix

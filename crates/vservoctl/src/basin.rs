@@ -87,6 +87,16 @@ enum Outcome {
 }
 
 impl Outcome {
+    /// Every outcome, in the legend's order.
+    const ALL: [Outcome; 6] = [
+        Outcome::Converged,
+        Outcome::MarksLeftImage,
+        Outcome::Limits,
+        Outcome::NotConverged,
+        Outcome::NotAllSeenAtStart,
+        Outcome::Unreachable,
+    ];
+
     fn name(self) -> &'static str {
         match self {
             Outcome::Converged => "converged",
@@ -416,7 +426,8 @@ fn draw(runs: &[Run], path: &Path) -> Result<()> {
             .margin(8)
             .x_label_area_size(32)
             .y_label_area_size(40)
-            .build_cartesian_2d(0.0..max_t * 1.05, 0.0..max_r * 1.05)
+            // headroom above the starts for the legend
+            .build_cartesian_2d(0.0..max_t * 1.05, 0.0..max_r * 1.5)
             .map_err(|e| plot_error(&e))?;
         chart
             .configure_mesh()
@@ -424,16 +435,35 @@ fn draw(runs: &[Run], path: &Path) -> Result<()> {
             .y_desc("rotation [deg]")
             .draw()
             .map_err(|e| plot_error(&e))?;
+        // one series per outcome, each in the legend (filled: counted; a ring: not counted)
+        for outcome in Outcome::ALL {
+            let points: Vec<(f64, f64)> = mine
+                .iter()
+                .filter(|r| r.outcome == outcome)
+                .map(|r| (r.start.translation_m.norm() * 100.0, r.start.rotation.norm().to_degrees()))
+                .collect();
+            if points.is_empty() {
+                continue;
+            }
+            let style =
+                if outcome.counted() { outcome.colour().filled() } else { outcome.colour().stroke_width(1) };
+            chart
+                .draw_series(points.into_iter().map(|point| Circle::new(point, 3, style)))
+                .map_err(|e| plot_error(&e))?
+                .label(format!(
+                    "{} ({})",
+                    outcome.name(),
+                    mine.iter().filter(|r| r.outcome == outcome).count()
+                ))
+                .legend(move |(x, y)| Circle::new((x + 6, y), 3, style));
+        }
         chart
-            .draw_series(mine.iter().map(|r| {
-                let point = (r.start.translation_m.norm() * 100.0, r.start.rotation.norm().to_degrees());
-                let style = r.outcome.colour();
-                if r.outcome.counted() {
-                    Circle::new(point, 3, style.filled())
-                } else {
-                    Circle::new(point, 3, style.stroke_width(1))
-                }
-            }))
+            .configure_series_labels()
+            .position(SeriesLabelPosition::UpperRight)
+            .label_font(("sans-serif", 11))
+            .border_style(BLACK)
+            .background_style(WHITE.mix(0.85))
+            .draw()
             .map_err(|e| plot_error(&e))?;
     }
     root.present().map_err(|e| plot_error(&e))?;

@@ -99,10 +99,17 @@ fn error(trace: &Trace, path: &Path) -> Result<()> {
         .build_cartesian_2d(0.0..t_end, 0.0..top)
         .map_err(plot_error)?;
     chart.configure_mesh().x_desc("time [s]").y_desc("|ξ₁ − ξ₁d| [px]").draw().map_err(plot_error)?;
-    chart.draw_series(LineSeries::new(points, COLOURS[0].stroke_width(2))).map_err(plot_error)?;
+    chart
+        .draw_series(LineSeries::new(points, COLOURS[0].stroke_width(2)))
+        .map_err(plot_error)?
+        .label("point 1's distance from its desired place")
+        .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], COLOURS[0].stroke_width(2)));
     chart
         .draw_series(LineSeries::new([(0.0, 1.0), (t_end, 1.0)], BLACK.mix(0.4).stroke_width(1)))
-        .map_err(plot_error)?;
+        .map_err(plot_error)?
+        .label("1 px")
+        .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], BLACK.mix(0.4)));
+    chart.configure_series_labels().border_style(BLACK).background_style(WHITE).draw().map_err(plot_error)?;
     root.present().map_err(plot_error)?;
     Ok(())
 }
@@ -132,8 +139,17 @@ fn camera_position(trace: &Trace, radius_m: f64, path: &Path) -> Result<()> {
         .y_desc("z, desired camera frame [m]")
         .draw()
         .map_err(plot_error)?;
-    chart.draw_series(LineSeries::new(circle, BLACK.mix(0.3).stroke_width(1))).map_err(plot_error)?;
-    chart.draw_series(LineSeries::new(points, COLOURS[1].stroke_width(2))).map_err(plot_error)?;
+    chart
+        .draw_series(LineSeries::new(circle, BLACK.mix(0.3).stroke_width(1)))
+        .map_err(plot_error)?
+        .label("the object's circle")
+        .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], BLACK.mix(0.3)));
+    chart
+        .draw_series(LineSeries::new(points, COLOURS[1].stroke_width(2)))
+        .map_err(plot_error)?
+        .label("the camera")
+        .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], COLOURS[1].stroke_width(2)));
+    chart.configure_series_labels().border_style(BLACK).background_style(WHITE).draw().map_err(plot_error)?;
     root.present().map_err(plot_error)?;
     Ok(())
 }
