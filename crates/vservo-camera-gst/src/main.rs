@@ -43,11 +43,8 @@ struct Cli {
 fn main() -> ExitCode {
     vservo_driver::logging::to_stderr("info");
     let cli = Cli::parse();
-    let result = vservo_protocol::signals::stop_flag().map_err(anyhow::Error::from).and_then(|stop| {
-        if let Some(pid) = cli.daemon_pid {
-            vservo_protocol::signals::end_with_daemon(pid, &stop)?;
-        }
-        publish::run(&cli.config, cli.stats_every_s, &stop)
+    let result = vservo_protocol::signals::run_until_stopped(cli.daemon_pid, |stop| {
+        publish::run(&cli.config, cli.stats_every_s, stop)
     });
     match result {
         Ok(()) => ExitCode::SUCCESS,

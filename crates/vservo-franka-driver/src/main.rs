@@ -61,17 +61,7 @@ fn main() -> ExitCode {
         tracing::error!("{}: robot.driver is not \"franka\": there is no Franka to drive", config.origin);
         return ExitCode::from(2);
     };
-    let result = vservo_protocol::signals::stop_flag().map_err(anyhow::Error::from).and_then(|stop| {
-        if let Some(pid) = cli.daemon_pid {
-            vservo_protocol::signals::end_with_daemon(pid, &stop)?;
-        }
-        run::run(&config, &franka, &stop)
-    });
-    match result {
-        Ok(()) => ExitCode::SUCCESS,
-        Err(error) => {
-            tracing::error!("{error:#}");
-            ExitCode::FAILURE
-        }
-    }
+    vservo_driver::logging::exit_code(vservo_protocol::signals::run_until_stopped(cli.daemon_pid, |stop| {
+        run::run(&config, &franka, stop)
+    }))
 }

@@ -49,6 +49,19 @@ pub fn end_with_daemon(daemon_pid: i32, stop: &AtomicBool) -> Result<(), SignalE
     Ok(())
 }
 
+/// The shape of every driver's and helper's `main`: the stop flag set up first ([`stop_flag`]), a process vservod
+/// started (`daemon_pid`) ended with it ([`end_with_daemon`]), then `work` run with the flag until it returns.
+pub fn run_until_stopped<E: From<SignalError>>(
+    daemon_pid: Option<i32>,
+    work: impl FnOnce(&AtomicBool) -> Result<(), E>,
+) -> Result<(), E> {
+    let stop = stop_flag()?;
+    if let Some(pid) = daemon_pid {
+        end_with_daemon(pid, &stop)?;
+    }
+    work(&stop)
+}
+
 /// Whether the flag was set.
 pub fn stopped(flag: &AtomicBool) -> bool {
     flag.load(Ordering::Relaxed)

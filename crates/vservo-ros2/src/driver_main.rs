@@ -42,17 +42,7 @@ fn main() -> ExitCode {
             return ExitCode::from(2);
         }
     };
-    let result = vservo_protocol::signals::stop_flag().map_err(anyhow::Error::from).and_then(|stop| {
-        if let Some(pid) = cli.daemon_pid {
-            vservo_protocol::signals::end_with_daemon(pid, &stop)?;
-        }
-        driver::run(&config, &stop)
-    });
-    match result {
-        Ok(()) => ExitCode::SUCCESS,
-        Err(error) => {
-            tracing::error!("{error:#}");
-            ExitCode::FAILURE
-        }
-    }
+    vservo_driver::logging::exit_code(vservo_protocol::signals::run_until_stopped(cli.daemon_pid, |stop| {
+        driver::run(&config, stop)
+    }))
 }

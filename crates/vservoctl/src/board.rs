@@ -31,6 +31,13 @@ pub struct BoardArgs {
     /// The first tag's id (tag36h11); the others follow row by row.
     #[arg(long, default_value_t = 0)]
     first_id: u32,
+    #[command(flatten)]
+    print: PrintOut,
+}
+
+/// Where a print of tags goes (`vservoctl board`, `vservoctl tag`), and whether its layout is printed.
+#[derive(Args)]
+pub struct PrintOut {
     /// Where to write the SVG (a new name: a link or another user's file there is refused, one's own file too
     /// unless --force).
     #[arg(long, value_name = "FILE.svg")]
@@ -38,9 +45,23 @@ pub struct BoardArgs {
     /// Replace one's own file at --out.
     #[arg(long)]
     force: bool,
-    /// Print the layout as one JSON object.
+    /// Print the layout (each tag's id and corners) as one JSON object.
     #[arg(long)]
     json: bool,
+}
+
+impl PrintOut {
+    /// Writes `grid` as an SVG with `caption` below it, and its layout as JSON if asked.
+    pub fn write(&self, grid: &TagGrid, caption: &[String]) -> Result<()> {
+        if self.out.extension().and_then(|e| e.to_str()) != Some("svg") {
+            return Err(UsageError(format!("--out {}: the file must end in .svg", self.out.display())).into());
+        }
+        crate::new_file::write(&self.out, svg(grid, caption).as_bytes(), self.force, 0o644)?;
+        if self.json {
+            print_stdout(&format!("{}\n", layout(grid)))?;
+        }
+        Ok(())
+    }
 }
 
 /// Runs the command.
@@ -48,9 +69,6 @@ pub fn run(args: &BoardArgs) -> Result<()> {
     let grid =
         TagGrid::new(args.rows, args.columns, args.tag_size_mm / 1e3, args.gap_mm / 1e3, args.first_id)
             .map_err(|e| UsageError(format!("the board: {e}")))?;
-    if args.out.extension().and_then(|e| e.to_str()) != Some("svg") {
-        return Err(UsageError(format!("--out {}: the file must end in .svg", args.out.display())).into());
-    }
     let caption = format!(
         "tag36h11, {} × {} tags of {} mm, {} mm apart, ids {}–{}; print at 100 %",
         grid.rows(),
@@ -60,11 +78,7 @@ pub fn run(args: &BoardArgs) -> Result<()> {
         grid.tag(0).map_or(0, |t| t.id()),
         grid.tag(grid.len() - 1).map_or(0, |t| t.id()),
     );
-    crate::new_file::write(&args.out, svg(&grid, &[caption]).as_bytes(), args.force, 0o644)?;
-    if args.json {
-        print_stdout(&format!("{}\n", layout(&grid)))?;
-    }
-    Ok(())
+    args.print.write(&grid, &[caption])
 }
 
 /// The layout: the grid's parameters and each tag's corners in the board frame (m).
