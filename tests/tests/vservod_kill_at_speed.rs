@@ -20,6 +20,11 @@ use vservo_system_tests::{
 const KILLS: usize = 20;
 /// A joint at least this fast when vservod is killed (rad/s).
 const FAST_RAD_S: f64 = 0.9;
+/// The speed the test waits for before it kills (rad/s): above [`FAST_RAD_S`], since under load a joint's speed
+/// wobbles by a few hundredths between the state heard and the kill (one kill on the bar itself fell at 0.876).
+/// The move cruises at 1.16 rad/s (measured; at 0.16 of the limits it cruised at 0.93), so the kill lands while
+/// the joint still speeds up.
+const KILL_AT_RAD_S: f64 = 1.0;
 /// At rest: below this speed (rad/s), and a reversal is a joint turning back faster than it.
 const REST_RAD_S: f64 = 0.05;
 /// Within this long of the kill (ms).
@@ -119,7 +124,7 @@ fn one_kill(round: usize) -> Kill {
         "--q",
         &goal.join(","),
         "--speed-fraction",
-        "0.16",
+        "0.20",
     ]);
     assert_eq!(code, Some(0), "{out}");
     // kill as soon as a joint is fast
@@ -127,13 +132,13 @@ fn one_kill(round: usize) -> Kill {
     let mut before_kill = None;
     while Instant::now() < until {
         let Ok(state) = states.recv_timeout(Duration::from_millis(100)) else { continue };
-        if fastest(&state) >= FAST_RAD_S {
+        if fastest(&state) >= KILL_AT_RAD_S {
             before_kill = Some(state);
             break;
         }
     }
     let before_kill =
-        before_kill.unwrap_or_else(|| panic!("no joint reached {FAST_RAD_S} rad/s\n{}", daemon.log()));
+        before_kill.unwrap_or_else(|| panic!("no joint reached {KILL_AT_RAD_S} rad/s\n{}", daemon.log()));
     daemon.signal(Signal::SIGKILL);
     let killed_ns = monotonic_ns();
     let _ = daemon.wait(Duration::from_secs(2));
