@@ -1,7 +1,8 @@
 //! The bench's target through a real lens in real time (config/vservo-apriltag.toml: a tag36h11 tag, a
 //! 640 × 480 camera with k1 = −0.25, k2 = 0.08, the robust law): the simulated camera renders the tag through
 //! the lens on the camera's clock, the vision node finds its corners with the AprilTag detector and
-//! undistorts them, and the servo converges below 1 px.
+//! undistorts them, and the servo converges below 1 px. The calibration demo (a grid of 35 tags) does too, its
+//! camera rendering every frame within its period.
 
 use std::time::Duration;
 
@@ -34,5 +35,46 @@ fn an_apriltag_through_a_lens_converges_below_one_pixel_in_real_time() {
     println!("feature error: first {:?} px, last {last:.3} px", errors.first());
     assert!(last < 1.0, "feature error at the end {last} px: {errors:?}\n{}", daemon.log());
     assert!(running(&status(&instance).expect("status")), "{}", daemon.log());
+    daemon.stop();
+}
+
+/// The calibration demo (config/calibration-demo.toml: the 5 × 7 grid of tags through a lens, its centre tag
+/// the target) servos in real time: the simulated camera renders the whole grid within its period, so every
+/// frame of 4 s comes, numbered one after the other at the camera's rate, and the servo converges below 1 px.
+#[test]
+fn the_calibration_demo_renders_every_frame_and_converges_in_real_time() {
+    let _one = exclusive();
+    let instance = unique("calibration-demo");
+    let config = config_from(
+        "config/calibration-demo.toml",
+        &[("name = \"default\"", &format!("name = \"{instance}\""))],
+    );
+    let daemon = Daemon::start(&config);
+    assert!(
+        wait_until(Duration::from_secs(10), || status(&instance).is_some_and(|s| running(&s))),
+        "{}",
+        daemon.log()
+    );
+    let window_s = 4.0;
+    let frames: Vec<u64> = echo_lines(&instance, "camera_image", &window_s.to_string())
+        .iter()
+        .filter_map(|image| image["frame"].as_u64())
+        .collect();
+    let expected = window_s / 0.085;
+    println!("{} frames in {window_s} s (the period gives {expected:.0})", frames.len());
+    assert!(
+        frames.len() as f64 >= 0.9 * expected,
+        "{} frames in {window_s} s\n{}",
+        frames.len(),
+        daemon.log()
+    );
+    let gaps: Vec<_> = frames.windows(2).filter(|pair| pair[1] != pair[0] + 1).collect();
+    assert!(gaps.is_empty(), "frames skipped: {gaps:?}\n{}", daemon.log());
+    let errors: Vec<f64> = echo_lines(&instance, "camera_twist", "2")
+        .iter()
+        .filter_map(|twist| twist["feature_error_px"].as_f64())
+        .collect();
+    let last = errors.last().copied().unwrap_or(f64::NAN);
+    assert!(last < 1.0, "feature error at the end {last} px: {errors:?}\n{}", daemon.log());
     daemon.stop();
 }

@@ -120,6 +120,18 @@ impl AprilTag {
         tag
     }
 
+    /// Whether cell (`column`, `row`) of the black square is black (columns along +x, rows along +y, 0 to 7
+    /// each, as [`AprilTag::is_black_at`] counts them); `false` for a cell off the square (the white margin is
+    /// the board itself).
+    pub fn is_black_cell(&self, column: f64, row: f64) -> bool {
+        let cells = f64::from(tag36h11::WIDTH_AT_BORDER);
+        if !((0.0..cells).contains(&column) && (0.0..cells).contains(&row)) {
+            return false;
+        }
+        let (column, row) = (column as u32, row as u32);
+        self.black_cells >> (row * tag36h11::WIDTH_AT_BORDER + column) & 1 == 1
+    }
+
     /// Whether a point of the board plane is on a black cell of the tag (its border or a 0 bit); `None` off
     /// the black square (the white margin is the board itself).
     pub fn is_black_at(&self, x_m: f64, y_m: f64) -> Option<bool> {

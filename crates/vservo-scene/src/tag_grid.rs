@@ -111,6 +111,7 @@ impl TagGrid {
     }
 
     /// Tag `index` (row-major: `row · columns + column`), `None` past the last.
+    #[inline]
     pub fn tag(&self, index: usize) -> Option<AprilTag> {
         if index >= self.len() {
             return None;
@@ -133,6 +134,7 @@ impl TagGrid {
 
     /// The tags whose pitch cell (the tag and half the gap around it) meets the box from `low` to `high`
     /// (board frame, m): every tag that can have a black cell in it.
+    #[inline]
     pub fn tags_meeting(&self, low: Point2<f64>, high: Point2<f64>) -> impl Iterator<Item = AprilTag> + '_ {
         let range = |low: f64, high: f64, n: u32| {
             // a NaN bound meets nothing

@@ -1,8 +1,10 @@
 //! The simulated hand camera: renders the board with its marks as an 8-bit grayscale image.
 //!
-//! Geometry is exact: a pixel's gray is the area-weighted mean of what its footprint sees, found by
-//! supersampling (S × S samples mapped through the board's homography) wherever a board or mark edge may
-//! cross the pixel; pixels wholly on the background, the board or a mark take that gray directly. The
+//! Geometry is exact: a pixel's gray is the area-weighted mean of what its footprint sees. Where the edges
+//! between a tag's cells cross it, that is the exact share of its footprint the black cells cover
+//! ([`coverage`]); where a disc mark's edge or the board's outline may cross it, it is found by supersampling
+//! (S × S samples mapped through the board's homography); pixels wholly on the background, the board or a
+//! mark take that gray directly. The
 //! image is then lit by a linear gradient and gets Gaussian noise, both seeded and repeatable.
 
 use image::GrayImage;
@@ -13,6 +15,7 @@ use crate::noise::{GaussianTable, Xorshift64};
 use scene::{Scene, Surface};
 pub use vservo_settings::vision::RenderSettings;
 
+mod coverage;
 mod scene;
 
 /// The renderer and its image buffer, sized once for the camera.
@@ -26,6 +29,9 @@ pub struct Renderer {
     /// With a distorting lens: the pinhole pixel of every pixel corner ((width + 1) × (height + 1), row by
     /// row; NaN outside the lens's valid region), computed once. Empty for a pinhole camera.
     pinhole_corners: Vec<Point2<f64>>,
+    /// With a distorting lens: the board points of a row's pixel corners, above and below the row being
+    /// drawn (each corner is shared by four pixels, so each is mapped once).
+    board_corners: [Vec<Option<Point2<f64>>>; 2],
 }
 
 impl Renderer {
@@ -39,6 +45,7 @@ impl Renderer {
             image: GrayImage::new(w, h),
             albedo: vec![0.0; w as usize],
             pinhole_corners: pinhole_corners(&camera),
+            board_corners: [vec![None; w as usize + 1], vec![None; w as usize + 1]],
         }
     }
 
@@ -72,7 +79,9 @@ impl Renderer {
         let mut rng = Xorshift64::new(s.noise_seed ^ frame.wrapping_mul(0x9E37_79B9_7F4A_7C15));
         for v in 0..height {
             if scene.distorted {
-                distorted_row(&scene, &self.pinhole_corners, v, &mut self.albedo, &gray, samples);
+                let lens =
+                    Lens { pinhole_corners: &self.pinhole_corners, board_corners: &mut self.board_corners };
+                distorted_row(&scene, lens, v, &mut self.albedo, &gray, samples);
             } else {
                 pinhole_row(&scene, &s, &boxes, v, &mut self.albedo, &gray);
             }
@@ -236,18 +245,27 @@ enum Footprint {
     Whole(Surface),
     /// A mark's edge may cross it.
     NearMark,
+    /// Tags' cells of both colours meet it: this share of it is black (exact, from the clipped areas).
+    Covered(f64),
     /// The board's outline may cross it (or part of it misses the board plane or the lens).
     NearOutline,
 }
 
+/// What a distorting lens's rows need: the pinhole points of every pixel corner (per camera), and the board
+/// points of the corners above and below the row (per frame, the row above kept from the last row).
+struct Lens<'a> {
+    pinhole_corners: &'a [Point2<f64>],
+    board_corners: &'a mut [Vec<Option<Point2<f64>>>; 2],
+}
+
 /// Row `v` of the albedo through a distorting lens: each pixel is judged by where its corners' rays meet the
-/// board (the lens's map of the corners, computed once per camera, then this frame's homography) and
-/// supersampled where an edge may cross it. Within one pixel the lens's map is taken as bilinear between the
-/// corners' pinhole points (its bend over a pixel is below 1e-3 px for the lenses here), so a sample costs a
-/// homography, not an undistortion.
+/// board (the lens's map of the corners, computed once per camera, then this frame's homography, once per
+/// corner) and supersampled where an edge may cross it. Within one pixel the lens's map is taken as bilinear
+/// between the corners' pinhole points (its bend over a pixel is below 1e-3 px for the lenses here), so a
+/// sample costs a homography, not an undistortion.
 fn distorted_row(
     scene: &Scene,
-    pinhole_corners: &[Point2<f64>],
+    lens: Lens,
     v: i64,
     row: &mut [f32],
     gray: &impl Fn(Surface) -> f64,
@@ -255,14 +273,28 @@ fn distorted_row(
 ) {
     let stride = row.len() + 1;
     let top = v as usize * stride;
+    let pinhole_corners = lens.pinhole_corners;
+    let on_board = |i: usize| {
+        let p = pinhole_corners[i];
+        scene.on_board(p.x, p.y)
+    };
+    // the corners above this row are those below the last one, but on the first row
+    let [above, below] = lens.board_corners;
+    if v == 0 {
+        above.iter_mut().enumerate().for_each(|(u, corner)| *corner = on_board(u));
+    } else {
+        std::mem::swap(above, below);
+    }
+    below.iter_mut().enumerate().for_each(|(u, corner)| *corner = on_board(top + stride + u));
     // mark and tag edges get the full count (they carry the features); the outline half as many per axis
     let outline_samples = (samples / 2).max(2);
     for (u, albedo) in row.iter_mut().enumerate() {
         let pinhole =
             [top + u, top + u + 1, top + stride + u + 1, top + stride + u].map(|i| pinhole_corners[i]);
-        let corners = pinhole.map(|p| scene.on_board(p.x, p.y));
+        let corners = [above[u], above[u + 1], below[u + 1], below[u]];
         *albedo = match footprint(scene, corners) {
             Footprint::Whole(surface) => gray(surface) as f32,
+            Footprint::Covered(black) => mixed(gray(Surface::Board), gray(Surface::Mark), black),
             Footprint::NearMark => supersample_between(scene, (u as f64, v as f64), &pinhole, samples, gray),
             Footprint::NearOutline => {
                 supersample_between(scene, (u as f64, v as f64), &pinhole, outline_samples, gray)
@@ -338,6 +370,8 @@ fn footprint(scene: &Scene, corners: [Option<Point2<f64>>; 4]) -> Footprint {
         Printed::GridOverMarks(near @ (Footprint::Whole(Surface::Mark) | Footprint::NearMark)) => {
             return near;
         }
+        // a disc mark may be near too: sampled, as both are
+        Printed::GridOverMarks(Footprint::Covered(_)) => return Footprint::NearMark,
         Printed::GridOverMarks(_) | Printed::Marks => {}
     }
     let r = scene.mark_radius_m;
@@ -378,7 +412,9 @@ fn printed_footprint(board: &Board, points: &[Point2<f64>; 4], margin: f64) -> P
 }
 
 /// Judges a pixel's footprint on the calibration grid: every tag that can reach it judged alone. A footprint
-/// wholly in one tag's cell is beside every other tag (the gaps are a tag's border wide).
+/// wholly in one tag's cell is beside every other tag (the gaps are a tag's border wide); the tags' black
+/// cells are apart, so the shares of those it meets add up.
+#[inline]
 fn grid_footprint(grid: &TagGrid, points: &[Point2<f64>; 4], margin: f64) -> Footprint {
     let low = Point2::new(
         points.iter().map(|p| p.x).fold(f64::INFINITY, f64::min) - margin,
@@ -390,18 +426,25 @@ fn grid_footprint(grid: &TagGrid, points: &[Point2<f64>; 4], margin: f64) -> Foo
     );
     let mut judged = Footprint::Whole(Surface::Board);
     for tag in grid.tags_meeting(low, high) {
-        match tag_footprint(&tag, points, margin) {
-            None | Some(Footprint::Whole(Surface::Board)) => {}
-            Some(Footprint::Whole(_)) => judged = Footprint::Whole(Surface::Mark),
-            Some(Footprint::NearMark | Footprint::NearOutline) => return Footprint::NearMark,
-        }
+        judged = match (judged, tag_footprint(&tag, points, margin)) {
+            (judged, None | Some(Footprint::Whole(Surface::Board))) => judged,
+            (Footprint::Whole(Surface::Board), Some(other)) => other,
+            (Footprint::Covered(black), Some(Footprint::Covered(more))) => Footprint::Covered(black + more),
+            // wholly black in one tag and met by another, or near an edge to sample
+            _ => return Footprint::NearMark,
+        };
     }
-    judged
+    match judged {
+        Footprint::Covered(black) => Footprint::Covered(black.min(1.0)),
+        judged => judged,
+    }
 }
 
 /// Judges a pixel's footprint on a tag, from its corners' board points and the margin for the lens's bend:
-/// wholly in cells of one colour, or near an edge between colours; `None` wholly beside the tag's black
-/// square.
+/// wholly in cells of one colour, the share of it that is black where cells of both colours meet it (exact
+/// for the quadrilateral between its corners, which the lens bends by far less than a gray level's worth),
+/// or near an edge to sample; `None` wholly beside the tag's black square.
+#[inline]
 fn tag_footprint(tag: &AprilTag, points: &[Point2<f64>; 4], margin: f64) -> Option<Footprint> {
     let cells = f64::from(vservo_scene::tag36h11::WIDTH_AT_BORDER);
     let per_cell = tag.size_m() / cells;
@@ -409,39 +452,48 @@ fn tag_footprint(tag: &AprilTag, points: &[Point2<f64>; 4], margin: f64) -> Opti
     // in cell units, the square's corner at (0, 0)
     let local = points.map(|p| ((p.x - c.x) / per_cell + 0.5 * cells, (p.y - c.y) / per_cell + 0.5 * cells));
     let m = margin / per_cell;
-    let beside = local.iter().all(|l| l.0 < -m)
-        || local.iter().all(|l| l.0 > cells + m)
-        || local.iter().all(|l| l.1 < -m)
-        || local.iter().all(|l| l.1 > cells + m);
+    // the footprint's extent in cell units, lowest and highest along each axis
+    let extent = |axis: fn(&(f64, f64)) -> f64| {
+        local
+            .iter()
+            .map(axis)
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(low, high), v| (low.min(v), high.max(v)))
+    };
+    let (x, y) = (extent(|l| l.0), extent(|l| l.1));
+    let beside = x.1 < -m || x.0 > cells + m || y.1 < -m || y.0 > cells + m;
     if beside {
         return None;
     }
     // the cells the footprint (and the margin) can reach: all inside the square and of one colour, or near an
     // edge between colours
-    let reach = |axis: fn(&(f64, f64)) -> f64| {
-        let low = local.iter().map(|l| (axis(l) - m).floor()).fold(f64::INFINITY, f64::min);
-        let high = local.iter().map(|l| (axis(l) + m).floor()).fold(f64::NEG_INFINITY, f64::max);
-        (low, high)
-    };
-    let ((first_column, last_column), (first_row, last_row)) = (reach(|l| l.0), reach(|l| l.1));
-    let inside = first_column >= 0.0 && first_row >= 0.0 && last_column < cells && last_row < cells;
-    // at most 2 × 2 cells are looked at; a footprint over more is sampled
-    if !inside || last_column - first_column > 1.0 || last_row - first_row > 1.0 {
+    let reach = |(low, high): (f64, f64)| ((low - m).floor(), (high + m).floor());
+    let (columns, rows) = (reach(x), reach(y));
+    // a footprint over more than 3 × 3 cells, or reaching further than the cell beside the square, is
+    // sampled: the cells next to the square are the white around it (a grid's gaps are two cells or more,
+    // the board's outline was judged first), further ones may be another tag's
+    let within = |(first, last): (f64, f64)| first >= -1.0 && last <= cells && last - first <= 2.0;
+    if !(within(columns) && within(rows)) {
         return Some(Footprint::NearMark);
     }
-    let black_in = |column: f64, row: f64| {
-        let x = c.x + (column + 0.5 - 0.5 * cells) * per_cell;
-        let y = c.y + (row + 0.5 - 0.5 * cells) * per_cell;
-        tag.is_black_at(x, y) == Some(true)
-    };
-    let black = black_in(first_column, first_row);
-    let one_colour = [(first_column, last_row), (last_column, first_row), (last_column, last_row)]
-        .iter()
-        .all(|&(column, row)| black_in(column, row) == black);
-    if !one_colour {
-        return Some(Footprint::NearMark);
+    // a cell beside the square is the board's white
+    let black_in = |column: f64, row: f64| tag.is_black_cell(column, row);
+    let black = black_in(columns.0, rows.0);
+    let one_colour = (columns.1 - columns.0 <= 1.0 && rows.1 - rows.0 <= 1.0)
+        && [(columns.0, rows.1), (columns.1, rows.0), (columns.1, rows.1)]
+            .iter()
+            .all(|&(column, row)| black_in(column, row) == black);
+    if one_colour {
+        return Some(Footprint::Whole(if black { Surface::Mark } else { Surface::Board }));
     }
-    Some(Footprint::Whole(if black { Surface::Mark } else { Surface::Board }))
+    let quad = local.map(|(x, y)| [x, y]);
+    Some(
+        coverage::black_share(&quad, columns, rows, black_in).map_or(Footprint::NearMark, Footprint::Covered),
+    )
+}
+
+/// The gray of a footprint `black` of whose area is `mark_gray`, the rest `board_gray`.
+fn mixed(board_gray: f64, mark_gray: f64, black: f64) -> f32 {
+    (board_gray + (mark_gray - board_gray) * black) as f32
 }
 
 /// The gray of a pixel wholly on the board near a mark when it is wholly on or off the mark; `None` when a
@@ -485,6 +537,7 @@ fn tag_pixel(scene: &Scene, u: i64, v: i64, board_gray: f64, mark_gray: f64) -> 
     match printed_footprint(scene.board, &points, 0.0) {
         Printed::Tags(Footprint::Whole(Surface::Mark)) => Some(mark_gray as f32),
         Printed::Tags(Footprint::Whole(_)) => Some(board_gray as f32),
+        Printed::Tags(Footprint::Covered(black)) => Some(mixed(board_gray, mark_gray, black)),
         // disc marks under a grid are judged sample by sample
         Printed::Tags(Footprint::NearMark | Footprint::NearOutline)
         | Printed::GridOverMarks(_)

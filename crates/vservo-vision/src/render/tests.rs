@@ -53,41 +53,95 @@ fn grid_boards() -> [Board; 2] {
     [board, covered]
 }
 
-/// Through a pinhole, a pixel the tags' judgement gives one gray sees that surface at every point.
+/// Through a pinhole, a pixel the tags' judgement gives one gray sees that surface at every point, and the
+/// black share it gives a pixel where cells of both colours meet equals a 64 × 64 sampling of the pixel.
 #[test]
 fn through_a_pinhole_every_pixel_of_the_grid_not_sampled_sees_one_surface() {
     let camera =
         CameraIntrinsics::with_lens([600.0, 606.0], Point2::new(322.0, 237.0), 640, 480, Distortion::NONE)
             .expect("valid");
-    let s = RenderSettings::default();
     for board in grid_boards() {
         for (translation, rotation) in grid_views() {
             let pose = IsometryMatrix3::from_parts(translation, Rotation3::from_scaled_axis(rotation));
             let scene = Scene::new(&camera, &board, &pose);
-            let (mut whole, mut sampled) = (0usize, 0usize);
+            let (mut whole, mut covered, mut sampled) = (0usize, Shares::default(), 0usize);
             for v in (0..480i64).step_by(3) {
                 for u in 0..640i64 {
-                    let Some(gray) = tag_pixel(&scene, u, v, s.board_gray, s.mark_gray) else {
-                        sampled += 1;
-                        continue;
-                    };
-                    whole += 1;
-                    let surface = if gray == s.mark_gray as f32 { Surface::Mark } else { Surface::Board };
-                    for j in 0..=8 {
-                        for i in 0..=8 {
-                            let (x, y) = (u as f64 + f64::from(i) / 8.0, v as f64 + f64::from(j) / 8.0);
-                            let seen = scene.surface(x, y);
-                            // the board's outline is judged before the tags, on the whole row
-                            assert!(
-                                seen == surface || seen == Surface::Background,
-                                "pixel ({u}, {v}) taken as one surface, but ({x}, {y}) sees another"
-                            );
+                    let corners = [(0.0, 0.0), (1.0, 0.0), (1.0, 1.0), (0.0, 1.0)]
+                        .map(|(du, dv)| scene.on_board(u as f64 + du, v as f64 + dv));
+                    let Some(points) = corners.iter().copied().collect::<Option<Vec<_>>>() else { continue };
+                    let points: [Point2<f64>; 4] = points.try_into().expect("four");
+                    match printed_footprint(scene.board, &points, 0.0) {
+                        Printed::Tags(Footprint::Whole(surface)) => {
+                            whole += 1;
+                            for j in 0..=8 {
+                                for i in 0..=8 {
+                                    let (x, y) =
+                                        (u as f64 + f64::from(i) / 8.0, v as f64 + f64::from(j) / 8.0);
+                                    let seen = scene.surface(x, y);
+                                    // the board's outline is judged before the tags, on the whole row
+                                    assert!(
+                                        seen == surface || seen == Surface::Background,
+                                        "pixel ({u}, {v}) taken as one surface, but ({x}, {y}) sees another"
+                                    );
+                                }
+                            }
                         }
+                        Printed::Tags(Footprint::Covered(share)) => {
+                            let pixel = (u as f64, v as f64);
+                            if let Some(sampled) = sampled_black_share(|x, y| scene.surface(x, y), pixel) {
+                                covered.add(u, v, share, sampled);
+                            }
+                        }
+                        _ => sampled += 1,
                     }
                 }
             }
-            assert!(whole > 10 * sampled, "{whole} pixels judged whole, {sampled} sampled");
+            covered.check();
+            assert!(whole > 10 * (covered.count + sampled), "{whole} whole, {covered:?}, {sampled} sampled");
+            // the edges between cells are computed, not sampled
+            assert!(covered.count > 20 * sampled, "{covered:?}, {sampled} sampled");
         }
+    }
+}
+
+/// The black share of the pixel whose top left corner is `(u, v)`, from 64 × 64 points of it; `None` when one
+/// sees the background (the board's outline is judged before the tags).
+fn sampled_black_share(surface: impl Fn(f64, f64) -> Surface, (u, v): (f64, f64)) -> Option<f64> {
+    let mut black = 0usize;
+    for j in 0..64 {
+        for i in 0..64 {
+            match surface(u + (f64::from(i) + 0.5) / 64.0, v + (f64::from(j) + 0.5) / 64.0) {
+                Surface::Background => return None,
+                Surface::Mark => black += 1,
+                Surface::Board => {}
+            }
+        }
+    }
+    Some(black as f64 / 4096.0)
+}
+
+/// The black shares the tags' judgement computed against those sampled.
+#[derive(Debug, Default)]
+struct Shares {
+    count: usize,
+    sum_of_differences: f64,
+}
+
+impl Shares {
+    fn add(&mut self, u: i64, v: i64, computed: f64, sampled: f64) {
+        let difference = (computed - sampled).abs();
+        // a 64 × 64 sampling is off by a row or column of points per edge crossing the pixel, a corner two
+        assert!(difference <= 2.0 / 64.0 + 1e-9, "pixel ({u}, {v}): {computed} computed, {sampled} sampled");
+        self.count += 1;
+        self.sum_of_differences += difference;
+    }
+
+    fn check(&self) {
+        assert!(self.count > 100, "{self:?}");
+        // on average far below a sampling step: the computed share is not a coarser sampling
+        let mean = self.sum_of_differences / self.count as f64;
+        assert!(mean < 0.25 / 64.0, "mean difference {mean} ({self:?})");
     }
 }
 
@@ -101,7 +155,7 @@ fn every_pixel_not_sampled_sees_one_surface(
     for &(translation, rotation) in poses {
         let pose = IsometryMatrix3::from_parts(translation, Rotation3::from_scaled_axis(rotation));
         let scene = Scene::new(camera, board, &pose);
-        let (mut whole, mut sampled) = (0usize, 0usize);
+        let (mut whole, mut covered, mut sampled) = (0usize, Shares::default(), 0usize);
         for v in (0..480usize).step_by(2) {
             for u in 0..640usize {
                 let top = v * 641;
@@ -110,9 +164,25 @@ fn every_pixel_not_sampled_sees_one_surface(
                     &scene,
                     [top + u, top + u + 1, top + 641 + u + 1, top + 641 + u].map(corner_at),
                 );
-                let Footprint::Whole(surface) = judged else {
-                    sampled += 1;
-                    continue;
+                let surface = match judged {
+                    Footprint::Whole(surface) => surface,
+                    Footprint::Covered(share) => {
+                        let pinhole =
+                            [top + u, top + u + 1, top + 641 + u + 1, top + 641 + u].map(|i| corners[i]);
+                        let black = |surface| if surface == Surface::Mark { 1.0 } else { 0.0 };
+                        let pixel = (u as f64, v as f64);
+                        covered.add(
+                            u as i64,
+                            v as i64,
+                            share,
+                            supersample_between(&scene, pixel, &pinhole, 64, &black).into(),
+                        );
+                        continue;
+                    }
+                    Footprint::NearMark | Footprint::NearOutline => {
+                        sampled += 1;
+                        continue;
+                    }
                 };
                 whole += 1;
                 for j in 0..=8 {
@@ -126,8 +196,14 @@ fn every_pixel_not_sampled_sees_one_surface(
                 }
             }
         }
+        if board.apriltag().is_some() {
+            covered.check();
+        }
         // the judgement spares most pixels the sampling
-        assert!(whole > whole_per_sampled * sampled, "{whole} pixels judged whole, {sampled} sampled");
+        assert!(
+            whole > whole_per_sampled * (covered.count + sampled),
+            "{whole} pixels judged whole, {covered:?}, {sampled} sampled"
+        );
     }
 }
 
