@@ -10,8 +10,9 @@ use std::time::{Duration, Instant};
 
 use serde_json::Value;
 use vservo_system_tests::{
-    Daemon, Killed, assert_calibration_within_the_bars, binary, config_from, exclusive, fastest_joint_rad_s,
-    repository_root, run, running, safe_stopped_by, status, unique, vservoctl, wait_until,
+    Daemon, Killed, assert_calibration_within_the_bars, binary, config_from, echo_lines, exclusive,
+    fastest_joint_rad_s, repository_root, run, running, safe_stopped_by, status, unique, vservoctl,
+    wait_until,
 };
 
 const DEMO: &str = "config/calibration-demo.toml";
@@ -88,6 +89,46 @@ fn the_demo_cell_is_calibrated_within_the_bars_and_its_file_reads_back() {
         let solved = report["tool_from_camera"]["translation_m"][axis].as_f64().expect("a number");
         assert!((value - solved).abs() < 1e-9, "axis {axis}: {value} against {solved}");
     }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// `--apply` in lockstep: the configuration file reads the calibration file (its lens keys replaced, the file as
+/// it was kept beside it), loads with the solved camera, and a second calibration from it starts from a camera
+/// within the bars of the truth (the first started 5 mm and 2° off).
+#[test]
+fn apply_makes_the_configuration_read_the_calibration() {
+    let dir = scratch("apply");
+    let out = dir.join("calibration.yaml");
+    let config = config_from(DEMO, &[]);
+    let before = std::fs::read_to_string(&config.path).expect("the configuration");
+    let output = calibrate(&config.arg(), &out, &["--apply"]);
+    assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stderr));
+    let report = last_line_json(&output.stdout);
+    assert_eq!(report["applied"]["config"].as_str(), Some(config.arg().as_str()), "{report}");
+    let kept = PathBuf::from(report["applied"]["kept"].as_str().expect("where the old file is"));
+    assert_eq!(std::fs::read_to_string(&kept).expect("kept"), before);
+    // the report says what changed: the configuration's focal length before, the solution's after
+    assert_eq!(number(&report, &["changes", "fx_px", "before"]), 600.0, "{report}");
+    assert_eq!(number(&report, &["changes", "fx_px", "after"]), number(&report, &["fx"]));
+    assert!(number(&report, &["changes", "tool_from_camera", "moved_mm"]) > 4.0, "{report}");
+
+    let applied = vservo_config::Config::load(&config.path).expect("the applied configuration loads");
+    let close = |a: f64, b: f64| (a - b).abs() < 1e-6 * b.abs().max(1.0);
+    assert!(close(applied.camera.fx_px(), number(&report, &["fx"])), "{}", applied.camera.fx_px());
+    assert!(close(applied.camera.principal_point_px().y, number(&report, &["cy"])));
+
+    let again = calibrate(&config.arg(), &dir.join("again.yaml"), &[]);
+    assert!(again.status.success(), "{}", String::from_utf8_lossy(&again.stderr));
+    let again = last_line_json(&again.stdout);
+    let believed = |key: &str| number(&again, &["configured_error_against_truth", key]);
+    eprintln!(
+        "after --apply the configuration is off the truth by {}",
+        again["configured_error_against_truth"]
+    );
+    assert!(believed("tool_from_camera_translation_mm") < 1.0, "{again}");
+    assert!(believed("tool_from_camera_rotation_deg") < 0.2, "{again}");
+    assert!(believed("fx_percent").abs() < 0.3 && believed("fy_percent").abs() < 0.3, "{again}");
+    let _ = std::fs::remove_file(&kept);
     let _ = std::fs::remove_dir_all(&dir);
 }
 
@@ -190,7 +231,17 @@ fn a_running_cell_is_calibrated_through_vservod_within_the_bars_and_a_safe_stop_
     let started = Instant::now();
     let mut calibrating = Killed(
         std::process::Command::new(binary("vservoctl"))
-            .args(["calibrate", "--config", &config.arg(), "--json", "--out", &out_arg, "--python", &python])
+            .args([
+                "calibrate",
+                "--config",
+                &config.arg(),
+                "--json",
+                "--out",
+                &out_arg,
+                "--python",
+                &python,
+                "--apply",
+            ])
             .stdout(file(&stdout_file))
             .stderr(file(&stderr_file))
             .spawn()
@@ -231,6 +282,35 @@ fn a_running_cell_is_calibrated_through_vservod_within_the_bars_and_a_safe_stop_
         "{:?}",
         status(&instance)
     );
+    // --apply: the configuration reads the calibration; the running vservod keeps its camera until it restarts
+    let applied = &report["applied"];
+    assert_eq!(applied["reloaded"], Value::Bool(false), "{report}");
+    assert!(applied["reply"].as_str().is_some_and(|r| r.contains("restart vservod")), "{report}");
     daemon.stop();
+    let kept = PathBuf::from(applied["kept"].as_str().expect("where the old file is"));
+    let desired = |path: &Path| vservo_config::Config::load(path).expect("loads").desired.features;
+    let (before, after) = (desired(&kept), desired(&config.path));
+    // restarted, the instance runs the calibrated camera: its target is where that camera images the board
+    let daemon = Daemon::start(&config);
+    assert!(
+        wait_until(Duration::from_secs(10), || status(&instance).is_some_and(|s| running(&s))),
+        "{}",
+        daemon.log()
+    );
+    let gains = echo_lines(&instance, "gains", "1");
+    let in_force = gains.last().expect("the gains in force")["desired_features_px"].clone();
+    let in_force: Vec<f64> = in_force.as_array().expect("ξ_d").iter().filter_map(Value::as_f64).collect();
+    let moved = (0..8).map(|i| (after[i] - before[i]).abs()).fold(0.0, f64::max);
+    assert!(moved > 1.0, "the calibration moves ξ_d by {moved} px");
+    for i in 0..8 {
+        assert!(
+            (in_force[i] - after[i]).abs() < 1e-6,
+            "ξ_d[{i}]: {} in force, {} calibrated",
+            in_force[i],
+            after[i]
+        );
+    }
+    daemon.stop();
+    let _ = std::fs::remove_file(&kept);
     let _ = std::fs::remove_dir_all(&dir);
 }

@@ -63,6 +63,7 @@ mod validate;
 use std::path::Path;
 
 pub use error::ConfigError;
+pub use layers::LENS_KEYS;
 use layers::Layers;
 use nalgebra::Vector3;
 pub use sections::*;

@@ -8,8 +8,9 @@
 //! through the daemon and taking the camera's frames; `capture`: the simulated cell in lockstep, its camera as
 //! `[camera.truth]` says it is); hand them to the solver (`dataset`, `solver`: OpenCV and SciPy); report the
 //! residuals and, when the truth is known, the errors against it (`report`); write the calibration file
-//! (`file`).
+//! (`file`); with `--apply`, make the configuration read it and ask the running instance to take it (`apply`).
 
+mod apply;
 mod capture;
 mod dataset;
 mod file;
@@ -70,6 +71,11 @@ pub struct CalibrateArgs {
     /// The solver script (default: clients/python/vservo_calibrate.py of the source tree or the package).
     #[arg(long, value_name = "FILE")]
     solver: Option<PathBuf>,
+    /// Make the configuration read the result: `--config`'s file gets `[camera] calibration_file` in place of
+    /// its lens keys (the file as it was kept beside it, `<name>.before-calibration`; checked before anything
+    /// moves, and validated before it is written), and the running instance is asked to reload.
+    #[arg(long)]
+    apply: bool,
     /// JSON: the report as one object, the last line.
     #[arg(long)]
     json: bool,
@@ -86,6 +92,8 @@ pub fn run(args: &CalibrateArgs) -> Result<()> {
     if !args.dry_run {
         crate::new_file::check(&out, args.force)?;
     }
+    let edit =
+        if args.apply && !args.dry_run { Some(apply::Edit::check(&args.config.config)?) } else { None };
     let views_dir = args.views.clone().unwrap_or_else(|| out.with_file_name("calibration-views"));
     let (views, truth) = if args.lockstep {
         let cell = capture::Simulated::new(&config)?;
@@ -129,8 +137,18 @@ pub fn run(args: &CalibrateArgs) -> Result<()> {
     )?;
     let solved = solver::solve(&python, &solver_path, &views_dir)?;
     file::write(&out, args.force, &config, &solved)?;
+    let applied = edit
+        .map(|edit| -> Result<_> {
+            let mut applied = edit.apply(&out)?;
+            if !args.lockstep {
+                applied.reload = Some(apply::reload(&config.instance));
+            }
+            Ok(applied)
+        })
+        .transpose()?;
     let truth = truth.as_ref().map(|(camera, board)| (camera, board));
-    let text = report::solved(&config, &solved, truth, &out, &views_dir, args.json);
+    let report = report::Solution { solved: &solved, truth, out: &out, views_dir: &views_dir };
+    let text = report::solved(&config, &report, applied.as_ref(), args.json);
     print_stdout(&text)?;
     Ok(())
 }

@@ -1,5 +1,6 @@
 //! What `vservoctl calibrate` prints: the plan (`--dry-run`), or the solution with its residuals per view and
-//! overall and, when the truth is known (the simulated cell's `[camera.truth]`), its errors against it.
+//! overall, what it changes against the configuration (before → after), when the truth is known (the simulated
+//! cell's `[camera.truth]`) its errors against it, and what `--apply` did.
 
 use std::fmt::Write as _;
 use std::path::Path;
@@ -10,6 +11,7 @@ use serde_json::{Value, json};
 use vservo_config::{CameraTruth, Config};
 use vservo_scene::IsometryMatrix3;
 
+use super::apply::Applied;
 use super::plan::PlannedPose;
 use super::solver::Solved;
 use crate::output::print_stdout;
@@ -97,20 +99,85 @@ fn belief_errors(config: &Config, truth: &CameraTruth) -> Value {
     })
 }
 
+/// What the calibration changes, before (the configuration) against after (the solution): each value of the
+/// lens, and the mount's move.
+fn changes(config: &Config, solved: &Solved) -> Value {
+    let camera = &config.camera;
+    let before_lens = camera.distortion().coefficients();
+    let mount = isometry(&solved.tool_from_camera.matrix);
+    let (moved_mm, turned_deg) =
+        mount.map_or((f64::NAN, f64::NAN), |m| pose_error(&config.tool_from_camera, &m));
+    let pair = |before: f64, after: f64| json!({"before": before, "after": after});
+    json!({
+        "fx_px": pair(camera.fx_px(), solved.fx),
+        "fy_px": pair(camera.fy_px(), solved.fy),
+        "cx_px": pair(camera.principal_point_px().x, solved.cx),
+        "cy_px": pair(camera.principal_point_px().y, solved.cy),
+        "distortion": {"before": before_lens, "after": solved.distortion},
+        "tool_from_camera": {
+            "before_translation_m": config.tool_from_camera.translation.vector.as_slice(),
+            "after_translation_m": solved.tool_from_camera.translation_m,
+            "moved_mm": moved_mm,
+            "turned_deg": turned_deg,
+        },
+    })
+}
+
+/// The lines of [`changes`].
+fn changes_text(changes: &Value) -> String {
+    let number = |v: &Value| v.as_f64().unwrap_or(f64::NAN);
+    let mut text = String::from(
+        "  before → after (the configuration → the calibration):
+",
+    );
+    for (key, name) in [("fx_px", "fx"), ("fy_px", "fy"), ("cx_px", "cx"), ("cy_px", "cy")] {
+        let (before, after) = (number(&changes[key]["before"]), number(&changes[key]["after"]));
+        let _ = writeln!(text, "    {name}: {before:.3} → {after:.3} px ({:+.3} px)", after - before);
+    }
+    let lens = |side: &str| -> Vec<String> {
+        changes["distortion"][side]
+            .as_array()
+            .map_or(Vec::new(), |v| v.iter().map(|c| format!("{:.5}", number(c))).collect())
+    };
+    let _ = writeln!(
+        text,
+        "    distortion (k1, k2, p1, p2, k3): [{}] → [{}]",
+        lens("before").join(", "),
+        lens("after").join(", ")
+    );
+    let mount = &changes["tool_from_camera"];
+    let _ = writeln!(
+        text,
+        "    tool_from_camera: moved {:.2} mm and turned {:.3}°",
+        number(&mount["moved_mm"]),
+        number(&mount["turned_deg"])
+    );
+    text
+}
+
+/// A solved calibration and where it went.
+pub struct Solution<'a> {
+    /// The solver's result.
+    pub solved: &'a Solved,
+    /// The simulated cell's truth (the camera, and where the board is in the base), when known.
+    pub truth: Option<(&'a CameraTruth, &'a IsometryMatrix3<f64>)>,
+    /// The calibration file written.
+    pub out: &'a Path,
+    /// Where the views are.
+    pub views_dir: &'a Path,
+}
+
 /// The report of a solved calibration: text, or one JSON object on the last line.
-pub fn solved(
-    config: &Config,
-    solved: &Solved,
-    truth: Option<(&CameraTruth, &IsometryMatrix3<f64>)>,
-    out: &Path,
-    views_dir: &Path,
-    json: bool,
-) -> String {
+pub fn solved(config: &Config, solution: &Solution, applied: Option<&Applied>, json: bool) -> String {
+    let Solution { solved, truth, out, views_dir } = *solution;
     let against_truth = truth.map(|(t, _)| (errors(solved, t), belief_errors(config, t)));
+    let changes = changes(config, solved);
     if json {
         let mut object = serde_json::to_value(solved).unwrap_or(Value::Null);
         object["calibration_file"] = json!(out.display().to_string());
         object["views_dir"] = json!(views_dir.display().to_string());
+        object["changes"] = changes;
+        object["applied"] = applied.map_or(Value::Null, Applied::json);
         if let (Some((error, believed)), Some((t, base_from_board))) = (&against_truth, truth) {
             object["error_against_truth"] = error.clone();
             object["configured_error_against_truth"] = believed.clone();
@@ -187,6 +254,10 @@ pub fn solved(
             believed["k1"].as_f64().unwrap_or(f64::NAN),
         );
     }
+    text.push_str(&changes_text(&changes));
     let _ = writeln!(text, "wrote {} (the views are in {})", out.display(), views_dir.display());
+    if let Some(applied) = applied {
+        text.push_str(&applied.text());
+    }
     text
 }

@@ -1,0 +1,251 @@
+//! `vservoctl calibrate --apply`: the configuration made to read the calibration file just written, and the
+//! running instance asked to take it.
+//!
+//! The configuration file named by `--config` gets `[camera] calibration_file` (relative to the file where the
+//! calibration lies beside or below it) in place of its own lens keys: a file that gives a lens gives all of
+//! it (docs/CONFIG.md's layering), and the calibration file carries the image size, the lens and
+//! `tool_from_camera`. The edit keeps every other key, comment and layout (`toml_edit`); the configuration as it
+//! will be is loaded and validated before anything is written (a refusal names what and leaves the file as it
+//! was); the file as it was is kept beside it (`<name>.before-calibration`); the new text is written as a new
+//! file moved over the name (`crate::new_file`). Then the instance is asked to reload. The lens and the mount
+//! shape the running processes, so a running vservod refuses them until it restarts: the report says so.
+
+use std::path::{Path, PathBuf};
+
+use anyhow::{Context, Result};
+use serde_json::{Value, json};
+use vservo_config::{Config, LENS_KEYS};
+
+use crate::UsageError;
+
+/// The suffix of the configuration as it was before `--apply`.
+const BEFORE_SUFFIX: &str = "before-calibration";
+
+/// The configuration's new text, checked, ready to be written (made before anything moves, so that a
+/// configuration `--apply` cannot edit is refused first).
+pub struct Edit {
+    config_path: PathBuf,
+    before: String,
+}
+
+/// What `--apply` did.
+pub struct Applied {
+    /// The configuration file that now reads the calibration.
+    pub config_path: PathBuf,
+    /// Where the configuration as it was is kept.
+    pub kept: PathBuf,
+    /// The lens keys taken out of the file (the calibration file gives them now).
+    pub replaced_keys: Vec<String>,
+    /// The running instance's answer to the reload, if one was asked.
+    pub reload: Option<Reload>,
+}
+
+/// The running instance's answer.
+pub enum Reload {
+    /// It reloaded: the calibrated camera is in force.
+    Taken(String),
+    /// It refused (a restart applies it), or could not be asked: why.
+    NotTaken(String),
+}
+
+impl Edit {
+    /// Checks that the configuration file can be edited: a TOML file of the user's own, readable and
+    /// writable in its folder.
+    pub fn check(config_path: &Path) -> Result<Self> {
+        let before = std::fs::read_to_string(config_path)
+            .with_context(|| format!("--apply: reading {}", config_path.display()))?;
+        before.parse::<toml_edit::DocumentMut>().map_err(|e| {
+            UsageError(format!("--apply: {} cannot be edited as TOML: {e}", config_path.display()))
+        })?;
+        crate::new_file::check(&kept_path(config_path), true)?;
+        crate::new_file::check(config_path, true)?;
+        Ok(Self { config_path: config_path.to_path_buf(), before })
+    }
+
+    /// Points `[camera] calibration_file` at `calibration`, checks the configuration loads so and that it
+    /// reads the calibration, then writes it (the old text kept beside it).
+    pub fn apply(self, calibration: &Path) -> Result<Applied> {
+        let (text, replaced_keys) = edited(&self.before, &self.relative(calibration))?;
+        self.validate(&text, calibration)?;
+        let kept = kept_path(&self.config_path);
+        crate::new_file::write(&kept, self.before.as_bytes(), true, mode_of(&self.config_path))?;
+        crate::new_file::write(&self.config_path, text.as_bytes(), true, mode_of(&self.config_path))?;
+        Ok(Applied { config_path: self.config_path, kept, replaced_keys, reload: None })
+    }
+
+    /// `calibration` as the configuration writes it: relative to the configuration's folder where it lies
+    /// beside or below it, else absolute.
+    fn relative(&self, calibration: &Path) -> String {
+        let folder = self.config_path.parent().map(absolute).unwrap_or_default();
+        let calibration = absolute(calibration);
+        calibration.strip_prefix(&folder).unwrap_or(&calibration).display().to_string()
+    }
+
+    /// Loads the edited configuration from a file beside the real one (so that `extends` and relative
+    /// paths resolve as they will) and checks it reads the calibration.
+    fn validate(&self, text: &str, calibration: &Path) -> Result<()> {
+        let trial = self.config_path.with_extension("apply-check.toml");
+        crate::new_file::write(&trial, text.as_bytes(), true, 0o600)?;
+        let loaded = Config::load(&trial);
+        let _ = std::fs::remove_file(&trial);
+        let config = loaded.map_err(|e| {
+            UsageError(format!(
+                "--apply: {} with calibration_file = {} does not load, so it was left as it was: {e}",
+                self.config_path.display(),
+                calibration.display()
+            ))
+        })?;
+        if !reads(&config, calibration)? {
+            return Err(UsageError(format!(
+                "--apply: {} would not read {}: a file it extends or its [camera] sets the lens otherwise; \
+                 set calibration_file by hand",
+                self.config_path.display(),
+                calibration.display()
+            ))
+            .into());
+        }
+        Ok(())
+    }
+}
+
+/// Whether `config` runs the camera of the calibration file at `calibration`: its focal lengths, principal
+/// point, lens and mount.
+fn reads(config: &Config, calibration: &Path) -> Result<bool> {
+    let text = std::fs::read_to_string(calibration)
+        .with_context(|| format!("--apply: reading {} back", calibration.display()))?;
+    let file = vservo_config::calibration::parse(&text)
+        .map_err(|e| anyhow::anyhow!("--apply: {} does not read back: {e}", calibration.display()))?;
+    let camera = &config.camera;
+    let point = camera.principal_point_px();
+    let same_lens = [camera.fx_px(), camera.fy_px(), point.x, point.y]
+        == [file.focal_px[0], file.focal_px[1], file.principal_point_px[0], file.principal_point_px[1]]
+        && camera.distortion().coefficients() == file.distortion;
+    let same_mount = file.tool_from_camera.is_none_or(|mount| mount == config.tool_from_camera);
+    Ok(same_lens && same_mount)
+}
+
+/// The configuration's text with `[camera] calibration_file` set and the other lens keys of its `[camera]`
+/// removed (they are the file's now), and the keys removed.
+fn edited(before: &str, calibration: &str) -> Result<(String, Vec<String>)> {
+    let mut document: toml_edit::DocumentMut = before.parse().context("parsing the configuration as TOML")?;
+    let camera = document
+        .entry("camera")
+        .or_insert_with(|| toml_edit::Item::Table(toml_edit::Table::new()))
+        .as_table_like_mut()
+        .ok_or_else(|| UsageError("--apply: `camera` in the configuration is not a table".to_string()))?;
+    let mut replaced = Vec::new();
+    for key in LENS_KEYS {
+        if key != "calibration_file" && camera.remove(key).is_some() {
+            replaced.push(format!("camera.{key}"));
+        }
+    }
+    camera.insert("calibration_file", toml_edit::value(calibration));
+    Ok((document.to_string(), replaced))
+}
+
+fn kept_path(config_path: &Path) -> PathBuf {
+    let mut name = config_path.file_name().unwrap_or_default().to_os_string();
+    name.push(format!(".{BEFORE_SUFFIX}"));
+    config_path.with_file_name(name)
+}
+
+fn mode_of(path: &Path) -> u32 {
+    use std::os::unix::fs::PermissionsExt;
+    std::fs::metadata(path).map_or(0o644, |m| m.permissions().mode() & 0o777)
+}
+
+fn absolute(path: &Path) -> PathBuf {
+    std::path::absolute(path).unwrap_or_else(|_| path.to_path_buf())
+}
+
+/// Asks the instance to reload; its answer, or why it could not be asked.
+pub fn reload(instance: &str) -> Reload {
+    let asked = vservo_client::Client::connect(instance).and_then(|mut client| client.reload());
+    match asked {
+        Ok(reply) if reply.accepted => Reload::Taken(reply.reason),
+        Ok(reply) => Reload::NotTaken(reply.reason),
+        Err(e) => Reload::NotTaken(format!("the instance could not be asked to reload: {e}")),
+    }
+}
+
+impl Applied {
+    /// The lines of the report.
+    pub fn text(&self) -> String {
+        let replaced = if self.replaced_keys.is_empty() {
+            String::new()
+        } else {
+            format!(" in place of {}", self.replaced_keys.join(", "))
+        };
+        let mut text = format!(
+            "applied: {} now reads the calibration (camera.calibration_file{replaced}); as it was: {}\n",
+            self.config_path.display(),
+            self.kept.display()
+        );
+        match &self.reload {
+            None => text.push_str("  every run from this configuration takes the calibrated camera\n"),
+            Some(Reload::Taken(reply)) => text.push_str(&format!("  the running instance reloaded: {reply}\n")),
+            Some(Reload::NotTaken(why)) => text.push_str(&format!(
+                "  the running instance still runs the camera it started with: {why}\n  \
+                 restart vservod (systemctl restart, or stop it and start it again) to run the calibrated camera\n"
+            )),
+        }
+        text
+    }
+
+    /// The report's `applied` object.
+    pub fn json(&self) -> Value {
+        let (reloaded, reply) = match &self.reload {
+            None => (Value::Null, Value::Null),
+            Some(Reload::Taken(reply)) => (json!(true), json!(reply)),
+            Some(Reload::NotTaken(why)) => (json!(false), json!(why)),
+        };
+        json!({
+            "config": self.config_path.display().to_string(),
+            "kept": self.kept.display().to_string(),
+            "replaced_keys": self.replaced_keys,
+            "reloaded": reloaded,
+            "reply": reply,
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_lens_keys_give_way_to_the_calibration_file_and_the_rest_stays() {
+        let before = "# my cell\nextends = \"base.toml\"\n\n[camera]\n# the lens\nfx_px = 600.0 # measured\nfy_px = 600.0\n\
+                      principal_point_px = [320.0, 240.0]\nwidth_px = 640\nheight_px = 480\n\n[timing]\nvision_period_s = 0.085\n";
+        let (after, replaced) = edited(before, "calibration.yaml").expect("edits");
+        assert_eq!(
+            replaced,
+            [
+                "camera.fx_px",
+                "camera.fy_px",
+                "camera.principal_point_px",
+                "camera.width_px",
+                "camera.height_px"
+            ]
+        );
+        let table: toml::Table = after.parse().expect("TOML");
+        assert_eq!(table["camera"]["calibration_file"].as_str(), Some("calibration.yaml"));
+        assert!(table["camera"].get("fx_px").is_none());
+        assert_eq!(table["timing"]["vision_period_s"].as_float(), Some(0.085));
+        assert!(after.starts_with("# my cell\nextends = \"base.toml\"\n"), "{after}");
+    }
+
+    #[test]
+    fn a_configuration_without_a_camera_table_gets_one() {
+        let (after, replaced) =
+            edited("extends = \"vservo.toml\"\n", "/abs/calibration.yaml").expect("edits");
+        assert!(replaced.is_empty());
+        let table: toml::Table = after.parse().expect("TOML");
+        assert_eq!(table["camera"]["calibration_file"].as_str(), Some("/abs/calibration.yaml"));
+    }
+
+    #[test]
+    fn a_camera_that_is_not_a_table_is_refused() {
+        assert!(edited("camera = 3\n", "c.yaml").is_err());
+    }
+}
