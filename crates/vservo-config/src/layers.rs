@@ -176,7 +176,26 @@ fn merge_layers(layers: &[Layer]) -> toml::Table {
     for layer in layers.iter().rev() {
         merge(&mut merged, &layer.table);
     }
+    tag_board(&mut merged, layers);
     merged
+}
+
+/// A tag's board is its own: when `[target] kind = "apriltag"` is in force and neither the file that set it nor
+/// a file over it writes `object.board_extent_m`, the extent a base wrote (for its own board) gives way and the
+/// tag's sheet is derived from the tag (`validate/object.rs`).
+fn tag_board(merged: &mut toml::Table, layers: &[Layer]) {
+    let kind = merged.get("target").and_then(|t| t.get("kind")).and_then(toml::Value::as_str);
+    if kind != Some("apriltag") {
+        return;
+    }
+    let Some(kind_set_in) = layers.iter().position(|layer| holds(&layer.table, &["target", "kind"])) else {
+        return;
+    };
+    let written_for_the_tag =
+        layers[..=kind_set_in].iter().any(|layer| holds(&layer.table, &["object", "board_extent_m"]));
+    if !written_for_the_tag && let Some(toml::Value::Table(object)) = merged.get_mut("object") {
+        object.remove("board_extent_m");
+    }
 }
 
 /// The `[camera]` keys that describe the lens together: a file writing any of them replaces all its base's.

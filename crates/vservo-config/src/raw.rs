@@ -386,7 +386,9 @@ pub struct RawPose {
 pub struct RawObject {
     pub mark_diameter_m: f64,
     pub marks_in_board_m: Vec<[f64; 2]>,
-    pub board_extent_m: [[f64; 2]; 2],
+    /// Derived from the tag when none is written for it (`layers::tag_board`).
+    #[serde(default)]
+    pub board_extent_m: Option<[[f64; 2]; 2]>,
 }
 
 #[derive(Debug, Deserialize)]

@@ -68,3 +68,51 @@ fn bad_ids_sizes_and_placements_are_refused_naming_their_key() {
     default_with_target("kind = \"apriltag\"\nid = 1\ntag_size_m = 0.05\ncentre_in_board_m = [0.0, -0.135]")
         .expect("a small tag on the board is taken");
 }
+
+/// An overlay of `config/vservo.toml` (in a folder of its own) with `text`, loaded by its path.
+fn overlay_of_the_default(name: &str, text: &str) -> Result<Config, ConfigError> {
+    let dir = std::env::temp_dir().join(format!("vservo-target-{}-{name}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("a folder");
+    let base = concat!(env!("CARGO_MANIFEST_DIR"), "/../../config/vservo.toml");
+    let path = dir.join("cell.toml");
+    std::fs::write(&path, format!("extends = {base:?}\n{text}")).expect("written");
+    let loaded = Config::load(&path);
+    let _ = std::fs::remove_dir_all(&dir);
+    loaded
+}
+
+/// A newcomer's tag away from the paper's board: with no board written for it, the board is the tag's own sheet
+/// (the square and a quarter of its edge all round, as `vservoctl tag` prints it), not the base's board, which
+/// would not hold it.
+#[test]
+fn a_tag_without_a_board_of_its_own_is_on_its_own_sheet() {
+    let tag = "[desired.camera_from_board]\ntranslation_m = [-0.3, -0.3, 0.5]\nrotation_rpy_deg = [0.0, 0.0, 0.0]\n\
+               [target]\nkind = \"apriltag\"\nid = 3\ntag_size_m = 0.08\ncentre_in_board_m = [0.3, 0.3]\n";
+    let config = overlay_of_the_default("derived", tag).expect("the tag's own sheet holds it");
+    let [low, high] = config.board.extent_in_board;
+    for (got, want) in [(low.x, 0.24), (low.y, 0.24), (high.x, 0.36), (high.y, 0.36)] {
+        assert!((got - want).abs() < 1e-12, "{:?}", config.board.extent_in_board);
+    }
+    // a board written with the tag is taken as written, and refused when it does not hold the tag
+    let written = format!("{tag}[object]\nboard_extent_m = [[0.2, 0.2], [0.5, 0.45]]\n");
+    let config = overlay_of_the_default("written", &written).expect("valid");
+    assert_eq!((config.board.extent_in_board[1].x, config.board.extent_in_board[1].y), (0.5, 0.45));
+    let short = format!("{tag}[object]\nboard_extent_m = [[0.2, 0.2], [0.32, 0.45]]\n");
+    let error = overlay_of_the_default("short", &short).expect_err("refused").to_string();
+    assert!(error.contains("object.board_extent_m") && error.contains("white margin"), "{error}");
+}
+
+/// A file over the one that set the tag inherits the board written with it (config/vservo-apriltag.toml keeps
+/// the paper's board).
+#[test]
+fn a_board_written_with_the_tag_is_inherited() {
+    let dir = std::env::temp_dir().join(format!("vservo-target-{}-inherited", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("a folder");
+    let path = dir.join("cell.toml");
+    std::fs::write(&path, format!("extends = {APRILTAG:?}\n[target]\nid = 5\n")).expect("written");
+    let config = Config::load(&path).expect("valid");
+    let _ = std::fs::remove_dir_all(&dir);
+    let paper = Config::from_toml(DEFAULT, "vservo.toml").expect("valid");
+    assert_eq!(config.board.extent_in_board, paper.board.extent_in_board);
+    assert_eq!(config.board.apriltag().map(|t| t.id()), Some(5));
+}

@@ -54,7 +54,10 @@ pub fn printed(
     if outside {
         return Err(check.invalid(
             "object.board_extent_m",
-            format!("{:?}", o.board_extent_m),
+            o.board_extent_m.map_or_else(
+                || format!("{:?} (the tag's own sheet)", board.extent_in_board),
+                |e| format!("{e:?}"),
+            ),
             format!(
                 "must hold the calibration board printed on it, from [{:.4}, {:.4}] to [{:.4}, {:.4}] m",
                 low.x, low.y, high.x, high.y
