@@ -8,10 +8,15 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 scripts/setup.sh
-cargo build --release --locked -q -p vservod -p vservoctl
+# the binaries VSERVO_BIN_DIR names (already built: the README test passes its own), else a release build
+bin="${VSERVO_BIN_DIR:-}"
+if [ -z "$bin" ]; then
+    cargo build --release --locked -q -p vservod -p vservoctl
+    bin=./target/release
+fi
 # the default configuration unless the arguments name one
 config=(--config config/vservo.toml)
 for arg in "$@"; do
     case "$arg" in --config|--config=*) config=() ;; esac
 done
-exec ./target/release/vservod ${config[@]+"${config[@]}"} "$@"
+exec "$bin/vservod" ${config[@]+"${config[@]}"} "$@"
