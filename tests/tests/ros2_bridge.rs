@@ -475,3 +475,34 @@ fn a_urdf_arm_is_in_ros_under_its_urdfs_names() {
     assert_eq!(heard["newest"]["camera/image_raw"]["frame_id"], "camera_optical_frame");
     daemon.stop();
 }
+
+/// `[ros2.qos.<topic>]` is what the bridge offers: the image written best effort is heard by a best-effort reader
+/// and not by a reliable one (DDS does not match a reliable reader with a best-effort writer), while the camera
+/// info beside it keeps the default and is heard by both.
+#[test]
+fn a_topics_qos_as_written_is_what_readers_are_offered() {
+    let _one = exclusive();
+    let domain_id = domain(2);
+    let instance = unique("ros2-qos");
+    let config = vservo_system_tests::TempConfig::written(&format!(
+        "extends = \"{}\"\n\n[instance]\nname = \"{instance}\"\n\n[ros2]\nenabled = true\ndomain_id = {domain_id}\n\n\
+         [ros2.qos.image]\nreliability = \"best_effort\"\ndepth = 1\n",
+        repository_root().join("config/vservo.toml").display()
+    ));
+    let daemon = Daemon::start(&config);
+    assert!(
+        wait_until(Duration::from_secs(20), || status(&instance).is_some_and(|s| running(&s))),
+        "{}",
+        daemon.log()
+    );
+    let heard = Peer::default().run(domain_id);
+    let count = |reader: &str, topic: &str| heard[reader][topic].as_u64().unwrap_or(0);
+    assert!(count("counts", "camera/image_raw") > 0, "best effort heard no image: {heard}");
+    assert_eq!(
+        count("reliable_counts", "camera/image_raw"),
+        0,
+        "a reliable reader matched a best-effort image"
+    );
+    assert!(count("counts", "camera/camera_info") > 0 && count("reliable_counts", "camera/camera_info") > 0);
+    daemon.stop();
+}

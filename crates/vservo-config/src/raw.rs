@@ -125,6 +125,19 @@ pub struct RawRos2 {
     pub joint_names: Vec<String>,
     pub allow_motion: bool,
     pub driver: RawRos2Driver,
+    pub qos: std::collections::BTreeMap<crate::Ros2Topic, RawTopicQos>,
+}
+
+/// `[ros2.qos.<topic>]`: what of the topic's QoS is written (the rest stays the bridge's default).
+#[derive(Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawTopicQos {
+    #[serde(default)]
+    pub reliability: Option<crate::QosReliability>,
+    #[serde(default)]
+    pub durability: Option<crate::QosDurability>,
+    #[serde(default)]
+    pub depth: Option<i64>,
 }
 
 #[derive(Debug, Deserialize)]
@@ -162,6 +175,7 @@ impl Default for RawRos2 {
             joint_names: Vec::new(),
             allow_motion: false,
             driver: RawRos2Driver::default(),
+            qos: std::collections::BTreeMap::new(),
         }
     }
 }

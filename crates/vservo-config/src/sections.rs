@@ -55,6 +55,15 @@ pub struct Ros2 {
     /// The arm and the camera vservo takes from the ROS 2 graph (`[robot] driver = "ros2"`, `[camera] source =
     /// "ros2"`): `vservo-ros2-driver`, which vservod starts.
     pub driver: Ros2Driver,
+    /// The topics whose QoS is written (`[ros2.qos.<topic>]`), each once.
+    pub qos: Vec<(Ros2Topic, TopicQos)>,
+}
+
+impl Ros2 {
+    /// What is written of `topic`'s QoS (nothing: the bridge's default).
+    pub fn qos_of(&self, topic: Ros2Topic) -> TopicQos {
+        self.qos.iter().find(|(t, _)| *t == topic).map_or(TopicQos::default(), |(_, qos)| *qos)
+    }
 }
 
 /// `[ros2.driver]`: a ros2_control arm and a ROS camera as vservo's robot and camera drivers (docs/ROS2.md,
@@ -99,7 +108,53 @@ pub enum Ros2Topic {
     Diagnostics,
 }
 
+/// A topic's reliability (`[ros2.qos.<topic>] reliability`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum QosReliability {
+    /// Reliable: heard by reliable and best-effort subscribers (the bridge never blocks on a slow one).
+    Reliable,
+    /// Best effort: heard by best-effort subscribers only.
+    BestEffort,
+}
+
+/// A topic's durability (`[ros2.qos.<topic>] durability`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum QosDurability {
+    /// Only what is sent while a subscriber is there.
+    Volatile,
+    /// A subscriber that joins later gets the last `depth` samples.
+    TransientLocal,
+}
+
+/// `[ros2.qos.<topic>]`: a topic's QoS where it differs from the bridge's default (docs/ROS2.md); what is not
+/// written is the default's.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct TopicQos {
+    /// Reliable or best effort.
+    pub reliability: Option<QosReliability>,
+    /// Volatile or transient local.
+    pub durability: Option<QosDurability>,
+    /// The history kept (the last `depth` samples), 1–1000.
+    pub depth: Option<u32>,
+}
+
 impl Ros2Topic {
+    /// Its name in the file (`[ros2] publish`, `[ros2.qos.<name>]`).
+    pub fn name(self) -> &'static str {
+        match self {
+            Ros2Topic::JointStates => "joint_states",
+            Ros2Topic::Tf => "tf",
+            Ros2Topic::TfStatic => "tf_static",
+            Ros2Topic::Image => "image",
+            Ros2Topic::CameraInfo => "camera_info",
+            Ros2Topic::Features => "features",
+            Ros2Topic::CameraTwist => "camera_twist",
+            Ros2Topic::Diagnostics => "diagnostics",
+        }
+    }
+
     /// Every topic, the default.
     pub const ALL: [Ros2Topic; 8] = [
         Ros2Topic::JointStates,

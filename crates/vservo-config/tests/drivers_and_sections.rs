@@ -32,12 +32,13 @@ fn the_drivers_are_typed_choices_and_the_gstreamer_camera_needs_its_pipeline() {
 }
 
 /// The sections config/vservo.toml documents commented out ([camera.truth], [camera.gstreamer], [target],
-/// [calibration]) are valid as written there: uncommented (each `# key = value` after its `# [section]` line, up
+/// [calibration], [ros2.qos.image]) are valid as written there: uncommented (each `# key = value` after its `# [section]` line, up
 /// to the next blank line), the file loads, with each section's values. ([franka] needs a Franka arm and driver:
 /// config/franka-sim.toml is that section in use.)
 #[test]
 fn the_commented_sections_of_the_default_are_valid_as_documented() {
-    const SECTIONS: [&str; 4] = ["[camera.truth]", "[camera.gstreamer]", "[target]", "[calibration]"];
+    const SECTIONS: [&str; 5] =
+        ["[camera.truth]", "[camera.gstreamer]", "[target]", "[calibration]", "[ros2.qos.image]"];
     let is_key_line = |line: &str| {
         line.strip_prefix("# ").and_then(|rest| rest.split_once(" = ")).is_some_and(|(key, _)| {
             !key.is_empty() && key.chars().all(|c| c.is_ascii_lowercase() || c.is_ascii_digit() || c == '_')
@@ -71,4 +72,6 @@ fn the_commented_sections_of_the_default_are_valid_as_documented() {
     );
     assert!(config.calibration.as_ref().is_some_and(|c| c.poses == 12), "[calibration]");
     assert!(config.camera_truth.is_some(), "[camera.truth]");
+    let image = config.ros2.qos_of(vservo_config::Ros2Topic::Image);
+    assert_eq!(image.reliability, Some(vservo_config::QosReliability::BestEffort), "[ros2.qos.image]");
 }

@@ -100,6 +100,7 @@ impl Maker<'_> {
         if !self.settings.publish.contains(&topic) {
             return Ok(None);
         }
+        let qos = qos::as_written(qos, self.settings.qos_of(topic));
         let name = self.name(names::topic(topic))?;
         let ros_topic = self
             .node

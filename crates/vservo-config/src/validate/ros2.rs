@@ -2,7 +2,7 @@
 
 use super::checker::Checker;
 use crate::raw::{RawRos2, RawRos2Driver};
-use crate::{ConfigError, Ros2, Ros2Driver, Ros2Topic};
+use crate::{ConfigError, Ros2, Ros2Driver, Ros2Topic, TopicQos};
 
 /// The highest ROS_DOMAIN_ID: DDS's port formula (7400 + 250 · domain + …) leaves no valid port above it.
 pub const MAX_DOMAIN_ID: u16 = 232;
@@ -65,6 +65,7 @@ pub fn ros2(check: &Checker, r: &RawRos2, joint_count: usize, from: FromRos2) ->
     }
     let driver = driver(check, &r.driver, &r.namespace)?;
     bridge_apart_from_driver(check, r, &driver, from)?;
+    let qos = qos(check, r)?;
     Ok(Ros2 {
         enabled: r.enabled,
         domain_id,
@@ -76,7 +77,33 @@ pub fn ros2(check: &Checker, r: &RawRos2, joint_count: usize, from: FromRos2) ->
         joint_names: r.joint_names.clone(),
         allow_motion: r.allow_motion,
         driver,
+        qos,
     })
+}
+
+/// The most samples a topic's history keeps.
+const MAX_QOS_DEPTH: u32 = 1000;
+
+/// `[ros2.qos.<topic>]`: each topic's depth in range.
+fn qos(check: &Checker, r: &RawRos2) -> Result<Vec<(Ros2Topic, TopicQos)>, ConfigError> {
+    r.qos
+        .iter()
+        .map(|(&topic, written)| {
+            let depth = written
+                .depth
+                .map(|depth| {
+                    check.whole(
+                        &format!("ros2.qos.{}.depth", topic.name()),
+                        depth,
+                        1u32,
+                        MAX_QOS_DEPTH,
+                        &format!("must keep from 1 to {MAX_QOS_DEPTH} samples"),
+                    )
+                })
+                .transpose()?;
+            Ok((topic, TopicQos { reliability: written.reliability, durability: written.durability, depth }))
+        })
+        .collect()
 }
 
 /// `[ros2.driver]`: its topics as absolute names, its hold and clock tolerance in range.
