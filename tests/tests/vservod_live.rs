@@ -311,12 +311,49 @@ fn a_recording_holds_every_service_in_order_and_plots() {
             &out_dir.display().to_string(),
             "--config",
             &config.arg(),
+            "--frames",
+            "6",
         ],
     );
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     for figure in ["trajectory.svg", "error.svg"] {
         let svg = std::fs::read_to_string(out_dir.join(figure)).expect("a figure");
         assert!(svg.contains("<svg") && svg.contains("polyline"), "{figure}");
+    }
+    // the contact sheet: six recorded images, each with the marks crossed where the recording's features put
+    // them (scaled to the sheet)
+    let recorded_features: std::collections::BTreeMap<u64, Vec<f64>> = per_topic
+        [&format!("vservo/{instance}/features")]
+        .iter()
+        .filter_map(|(_, m)| Some((m["frame"].as_u64()?, vservo_system_tests::numbers(&m["features_px"]))))
+        .collect();
+    let sheet = std::fs::read_to_string(out_dir.join("frames.svg")).expect("frames.svg");
+    let pictures: Vec<&str> = sheet
+        .split("href=\"data:image/png;base64,")
+        .skip(1)
+        .filter_map(|rest| rest.split('"').next())
+        .collect();
+    let drawn: Value =
+        serde_json::from_str(&std::fs::read_to_string(out_dir.join("frames.json")).expect("frames.json"))
+            .expect("JSON");
+    let cells = drawn["frames"].as_array().expect("frames");
+    assert_eq!((pictures.len(), cells.len()), (6, 6), "{drawn}");
+    for (picture, cell) in pictures.iter().zip(cells) {
+        use base64::Engine as _;
+        let png = base64::engine::general_purpose::STANDARD.decode(picture).expect("base64");
+        let picture = image::load_from_memory(&png).expect("a PNG").to_rgb8();
+        let frame = cell["frame"].as_u64().expect("a frame");
+        let scale = cell["scale"].as_f64().expect("a scale");
+        assert!(sheet.contains(&format!(">frame {frame} ·")), "the caption names frame {frame}");
+        let xi = &recorded_features[&frame];
+        for mark in 0..4 {
+            let (u, v) = ((xi[2 * mark] * scale).floor() as u32, (xi[2 * mark + 1] * scale).floor() as u32);
+            assert_eq!(
+                picture.get_pixel(u, v).0,
+                [0, 220, 0],
+                "frame {frame}, mark {mark}: no cross at ({u}, {v})"
+            );
+        }
     }
     let _ = std::fs::remove_dir_all(&out_dir);
     let _ = std::fs::remove_file(&file);

@@ -55,6 +55,7 @@
 //! configuration the daemon runs, which it writes to the instance's directory,
 //! `vservo_protocol::InstanceDir::configuration`; none is drawn when that cannot be read).
 
+mod annotate;
 mod basin;
 mod board;
 mod bridge;
@@ -62,6 +63,7 @@ mod calibrate;
 mod check;
 mod commands;
 mod config_arg;
+mod contact_sheet;
 mod echo;
 mod foxglove_view;
 mod gains;

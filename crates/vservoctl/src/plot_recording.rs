@@ -27,6 +27,10 @@ pub struct PlotArgs {
     /// The configuration the recorded instance ran (for the camera and the desired pose).
     #[command(flatten)]
     config: ConfigArg,
+    /// Also a contact sheet of N of the recorded camera images (`vservoctl record --image-every`), spread over
+    /// the recording, each with its marks drawn: frames.svg (and frames.json).
+    #[arg(long, value_name = "N", default_value_t = 0)]
+    frames: usize,
 }
 
 fn numbers<const N: usize>(value: &Value) -> Option<[f64; N]> {
@@ -207,5 +211,10 @@ pub fn run(args: &PlotArgs) -> anyhow::Result<()> {
         trace.joints.len(),
         args.out.display()
     );
+    if args.frames > 0 {
+        let drawn = crate::contact_sheet::write(&bytes, &config, args.frames, &args.out)
+            .with_context(|| format!("{}: the contact sheet", args.file.display()))?;
+        println!("{drawn} camera images with their marks: {}", args.out.join("frames.svg").display());
+    }
     Ok(())
 }

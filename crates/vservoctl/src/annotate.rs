@@ -1,0 +1,95 @@
+//! The marks drawn on a camera image, as `vservoctl snapshot` and `vservoctl plot --frames` show them: each
+//! mark the vision node found (a green cross), where the servo wants it (a red ring: ξ_d) and the error between
+//! them (a yellow line). Features are drawn where they lie in the image: through the lens when the vision node
+//! undistorts them (`vision.undistort`).
+
+use image::{Rgb, RgbImage};
+use nalgebra::Point2;
+use vservo_protocol::MARKS;
+
+/// A found mark.
+pub const FOUND: Rgb<u8> = Rgb([0, 220, 0]);
+/// Where the servo wants a mark.
+pub const DESIRED: Rgb<u8> = Rgb([230, 0, 0]);
+/// From a mark to where it is wanted.
+pub const ERROR: Rgb<u8> = Rgb([240, 220, 0]);
+/// Half the cross's arm (px).
+const CROSS_PX: i64 = 7;
+/// The desired ring's radius (px): outside a mark's image at the paper's distance.
+const RING_PX: f64 = 11.0;
+
+/// One mark as drawn: where it was found (if it was), where it is wanted, in the image's pixels.
+pub struct MarkDrawn {
+    pub found: Option<Point2<f64>>,
+    pub wanted: Point2<f64>,
+}
+
+impl MarkDrawn {
+    /// From where it was found to where it is wanted (px).
+    pub fn error_px(&self) -> Option<f64> {
+        self.found.map(|found| (found - self.wanted).norm())
+    }
+}
+
+/// A gray image (`width` × `height`, rows of `stride` bytes) as RGB, to draw on.
+pub fn gray_to_rgb(width: u32, height: u32, stride: u32, pixels: &[u8]) -> RgbImage {
+    RgbImage::from_fn(width, height, |u, v| {
+        let gray = pixels.get((v * stride + u) as usize).copied().unwrap_or(0);
+        Rgb([gray, gray, gray])
+    })
+}
+
+/// Draws the four marks of one frame on `picture`: `features_px` (those of `valid_mask`) and `desired_px`
+/// in the law's pixels, `shown` mapping them into the image.
+pub fn draw_marks(
+    picture: &mut RgbImage,
+    features_px: &[f64; 2 * MARKS],
+    valid_mask: u32,
+    desired_px: &[f64; 2 * MARKS],
+    shown: impl Fn(f64, f64) -> Point2<f64>,
+) -> Vec<MarkDrawn> {
+    (0..MARKS)
+        .map(|mark| {
+            let wanted = shown(desired_px[2 * mark], desired_px[2 * mark + 1]);
+            ring(picture, wanted, DESIRED);
+            let seen = valid_mask & (1 << mark) != 0;
+            let found = seen.then(|| shown(features_px[2 * mark], features_px[2 * mark + 1]));
+            if let Some(found) = found {
+                line(picture, found, wanted, ERROR);
+                cross(picture, found, FOUND);
+            }
+            MarkDrawn { found, wanted }
+        })
+        .collect()
+}
+
+/// Sets the pixel holding `(x, y)` in vservo's pixels (a pixel's centre at + ½), if it is in the picture.
+fn put(picture: &mut RgbImage, x: f64, y: f64, colour: Rgb<u8>) {
+    let (u, v) = (x.floor(), y.floor());
+    if u >= 0.0 && v >= 0.0 && (u as u32) < picture.width() && (v as u32) < picture.height() {
+        picture.put_pixel(u as u32, v as u32, colour);
+    }
+}
+
+fn cross(picture: &mut RgbImage, at: Point2<f64>, colour: Rgb<u8>) {
+    for d in -CROSS_PX..=CROSS_PX {
+        put(picture, at.x + d as f64, at.y, colour);
+        put(picture, at.x, at.y + d as f64, colour);
+    }
+}
+
+fn ring(picture: &mut RgbImage, at: Point2<f64>, colour: Rgb<u8>) {
+    let steps = 128;
+    for k in 0..steps {
+        let angle = std::f64::consts::TAU * f64::from(k) / f64::from(steps);
+        put(picture, at.x + RING_PX * angle.cos(), at.y + RING_PX * angle.sin(), colour);
+    }
+}
+
+fn line(picture: &mut RgbImage, from: Point2<f64>, to: Point2<f64>, colour: Rgb<u8>) {
+    let steps = (to - from).norm().ceil().clamp(1.0, 4096.0) as u32;
+    for k in 0..=steps {
+        let p = from + (to - from) * (f64::from(k) / f64::from(steps));
+        put(picture, p.x, p.y, colour);
+    }
+}
