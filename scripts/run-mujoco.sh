@@ -6,8 +6,10 @@
 # final feature error and the settling time; with --json the last line is one JSON object
 # (final_error_px, settling_time_s, …). Logs and the recorded features are left in target/mujoco-run/.
 #
-#   scripts/run-mujoco.sh [--config FILE] [--duration-s S] [--json] [--compare] [--calibrate]
+#   scripts/run-mujoco.sh [--config FILE] [--instance NAME] [--duration-s S] [--json] [--compare] [--calibrate]
 #
+# --instance runs the cell under that instance name (default: the configuration's), its logs in
+# target/mujoco-run-NAME/, so that runs of several cells side by side can be told apart.
 # --config runs another external cell (default config/mujoco.toml; config/mujoco-apriltag.toml is the AprilTag
 # through a distorting lens): the driver renders what `vservoctl scene` says of it (lens and target included).
 # --compare also runs the built-in simulation of the same cell in the lockstep simulator (vservoctl sim on
@@ -23,6 +25,7 @@ json=0
 compare=0
 calibrate=0
 config=config/mujoco.toml
+instance_name=""
 while [ $# -gt 0 ]; do
     case "$1" in
         --duration-s) duration="$2"; shift 2 ;;
@@ -32,7 +35,9 @@ while [ $# -gt 0 ]; do
         --calibrate) calibrate=1; shift ;;
         --config) config="$2"; shift 2 ;;
         --config=*) config="${1#*=}"; shift ;;
-        *) echo "run-mujoco: unknown argument $1 (expected --config FILE, --duration-s S, --json, --compare, --calibrate)" >&2
+        --instance) instance_name="$2"; shift 2 ;;
+        --instance=*) instance_name="${1#*=}"; shift ;;
+        *) echo "run-mujoco: unknown argument $1 (expected --config FILE, --instance NAME, --duration-s S, --json, --compare, --calibrate)" >&2
            exit 2 ;;
     esac
 done
@@ -42,10 +47,13 @@ source scripts/lib/cell-run.sh
 scripts/setup.sh >&2
 scripts/setup-mujoco.sh >&2
 cell_binaries
-out=target/mujoco-run
+out=target/mujoco-run${instance_name:+-$instance_name}
 rm -rf "$out"
 mkdir -p "$out"
 vservoctl="$bin/vservoctl"
+# the file as given (its keys read below), and the file run: the same, or it under --instance
+given_config="$config"
+config="$(with_instance "$config" "$instance_name" "$out")"
 
 "$vservoctl" scene --config "$config" > "$out/scene.json"
 instance="$("$python" -c 'import json,sys; print(json.load(sys.stdin)["instance"])' < "$out/scene.json")"
@@ -86,7 +94,7 @@ trap - EXIT
 
 summary="$("$python" scripts/feature_summary.py "$out/features.jsonl" --desired "$desired")"
 if [ "$compare" = 1 ]; then
-    delay="$(sed -n 's/^pipeline_delay_frames = //p' "$config")"
+    delay="$(sed -n 's/^pipeline_delay_frames = //p' "$given_config")"
     sed "s/^pipeline_delay_frames = .*/pipeline_delay_frames = ${delay}/" config/vservo.toml > "$out/lockstep.toml"
     "$vservoctl" sim --config "$out/lockstep.toml" --duration "$duration" --out "$out/lockstep" >&2
     summary="$("$python" scripts/feature_summary.py "$out/features.jsonl" --desired "$desired" \

@@ -7,17 +7,23 @@
 # capture→twist latency; with --json the last line is one JSON object (final_error_px, settling_time_s,
 # capture_to_twist_ms, …). Logs and the recorded features are left in target/rtp-camera-run/.
 #
-#   scripts/run-rtp-camera.sh [--duration-s S] [--json]
+#   scripts/run-rtp-camera.sh [--instance NAME] [--duration-s S] [--json]
+#
+# --instance runs the cell under that instance name (default rtp-camera), its logs in target/rtp-camera-run-NAME/
+# (the RTP port stays the configuration's: two such runs at once need a copy of it with another port).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 duration=20
 json=0
+instance_name=""
 while [ $# -gt 0 ]; do
     case "$1" in
         --duration-s) duration="$2"; shift 2 ;;
         --duration-s=*) duration="${1#*=}"; shift ;;
         --json) json=1; shift ;;
-        *) echo "run-rtp-camera: unknown argument $1 (expected --duration-s S, --json)" >&2; exit 2 ;;
+        --instance) instance_name="$2"; shift 2 ;;
+        --instance=*) instance_name="${1#*=}"; shift ;;
+        *) echo "run-rtp-camera: unknown argument $1 (expected --instance NAME, --duration-s S, --json)" >&2; exit 2 ;;
     esac
 done
 python=target/python-venv/bin/python
@@ -27,12 +33,13 @@ scripts/setup.sh >&2
 scripts/setup-mujoco.sh >&2
 cell_binaries vservo-camera-gst
 config=config/rtp-camera.toml
-instance=rtp-camera
+instance="${instance_name:-rtp-camera}"
 port="$(sed -n 's/^pipeline = "udpsrc port=\([0-9]*\) .*/\1/p' "$config")"
-out=target/rtp-camera-run
+out=target/rtp-camera-run${instance_name:+-$instance_name}
 rm -rf "$out"
 mkdir -p "$out"
 vservoctl="$bin/vservoctl"
+config="$(with_instance "$config" "$instance_name" "$out")"
 
 "$vservoctl" scene --config "$config" > "$out/scene.json"
 desired="$("$python" -c 'import json,sys; print(",".join(str(v) for v in json.load(sys.stdin)["desired_features_px"]))' < "$out/scene.json")"

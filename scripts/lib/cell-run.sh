@@ -87,6 +87,19 @@ stop_processes() {
     for pid in "$@"; do kill -KILL "$pid" 2>/dev/null || true; done
 }
 
+# with_instance CONFIG NAME OUT: the file to run: CONFIG itself when NAME is empty, else OUT/instance.toml, which
+# extends CONFIG (by its absolute path) under instance NAME (--instance of the run scripts).
+with_instance() {
+    local config="$1" name="$2" out="$3"
+    if [ -z "$name" ]; then
+        echo "$config"
+        return
+    fi
+    printf '# written by %s: %s under instance %s\nextends = "%s"\n\n[instance]\nname = "%s"\n' \
+        "$0" "$config" "$name" "$(cd "$(dirname "$config")" && pwd)/$(basename "$config")" "$name" > "$out/instance.toml"
+    echo "$out/instance.toml"
+}
+
 # remove_runtime_dir INSTANCE: removes the run's own runtime directory ($VSERVO_RUNTIME_DIR) and the instance's
 # shared memory (its prefix is in the directory).
 remove_runtime_dir() {
