@@ -282,26 +282,19 @@ fn a_running_cell_is_calibrated_through_vservod_within_the_bars_and_a_safe_stop_
         "{:?}",
         status(&instance)
     );
-    // --apply: the configuration reads the calibration; the running vservod keeps its camera until it restarts
+    // --apply: the configuration reads the calibration, and the running instance took it (held, its camera's nodes
+    // restarted, resumed): its target is where the calibrated camera images the board
     let applied = &report["applied"];
-    assert_eq!(applied["reloaded"], Value::Bool(false), "{report}");
-    assert!(applied["reply"].as_str().is_some_and(|r| r.contains("restart vservod")), "{report}");
-    daemon.stop();
+    assert_eq!(applied["reloaded"], Value::Bool(true), "{report}\n{}", daemon.log());
+    assert!(applied["reply"].as_str().is_some_and(|r| r.contains("servos again")), "{report}");
     let kept = PathBuf::from(applied["kept"].as_str().expect("where the old file is"));
     let desired = |path: &Path| vservo_config::Config::load(path).expect("loads").desired.features;
     let (before, after) = (desired(&kept), desired(&config.path));
-    // restarted, the instance runs the calibrated camera: its target is where that camera images the board
-    let daemon = Daemon::start(&config);
-    assert!(
-        wait_until(Duration::from_secs(10), || status(&instance).is_some_and(|s| running(&s))),
-        "{}",
-        daemon.log()
-    );
+    let moved = (0..8).map(|i| (after[i] - before[i]).abs()).fold(0.0, f64::max);
+    assert!(moved > 1.0, "the calibration moves ξ_d by {moved} px");
     let gains = echo_lines(&instance, "gains", "1");
     let in_force = gains.last().expect("the gains in force")["desired_features_px"].clone();
     let in_force: Vec<f64> = in_force.as_array().expect("ξ_d").iter().filter_map(Value::as_f64).collect();
-    let moved = (0..8).map(|i| (after[i] - before[i]).abs()).fold(0.0, f64::max);
-    assert!(moved > 1.0, "the calibration moves ξ_d by {moved} px");
     for i in 0..8 {
         assert!(
             (in_force[i] - after[i]).abs() < 1e-6,
@@ -310,6 +303,19 @@ fn a_running_cell_is_calibrated_through_vservod_within_the_bars_and_a_safe_stop_
             after[i]
         );
     }
+    let restarted = status(&instance).expect("a status");
+    for node in ["vision", "servo", "rmrc"] {
+        assert_eq!(restarted["nodes"][node]["restarts"], 1, "{node} restarted once: {restarted}");
+    }
+    assert_eq!(restarted["nodes"]["plant"]["restarts"], 0, "{restarted}");
+    // and it servos again, with the calibrated camera, below 1 px
+    assert!(
+        wait_until(Duration::from_secs(10), || status(&instance)
+            .is_some_and(|s| running(&s) && s["feature_error_px"].as_f64().is_some_and(|e| e < 1.0))),
+        "{:?}\n{}",
+        status(&instance),
+        daemon.log()
+    );
     daemon.stop();
     let _ = std::fs::remove_file(&kept);
     let _ = std::fs::remove_dir_all(&dir);

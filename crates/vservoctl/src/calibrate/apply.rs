@@ -7,14 +7,17 @@
 //! `tool_from_camera`. The edit keeps every other key, comment and layout (`toml_edit`); the configuration as it
 //! will be is loaded and validated before anything is written (a refusal names what and leaves the file as it
 //! was); the file as it was is kept beside it (`<name>.before-calibration`); the new text is written as a new
-//! file moved over the name (`crate::new_file`). Then the instance is asked to reload. The lens and the mount
-//! shape the running processes, so a running vservod refuses them until it restarts: the report says so.
+//! file moved over the name (`crate::new_file`). Then the running instance takes it: vservod applies the lens and
+//! the mount while the cell is held, by restarting the nodes that read them, so a cell that servoed is held (a safe
+//! stop), reloaded, and resumed once those nodes run again.
 
 use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
 
 use anyhow::{Context, Result};
 use serde_json::{Value, json};
 use vservo_config::{Config, LENS_KEYS};
+use vservo_protocol::DaemonState;
 
 use crate::UsageError;
 
@@ -158,13 +161,78 @@ fn absolute(path: &Path) -> PathBuf {
     std::path::absolute(path).unwrap_or_else(|_| path.to_path_buf())
 }
 
-/// Asks the instance to reload; its answer, or why it could not be asked.
+/// How long the nodes that read the camera get to restart after the reload before the resume is given up.
+const RESTART_WAIT: Duration = Duration::from_secs(20);
+
+/// Has the running instance take the calibration: the camera's nodes restart with it while the cell is held,
+/// so a cell that servoed is held (a safe stop), reloaded, and resumed once those nodes run again; a cell that
+/// was held stays held. Its answer, or why it did not take it.
 pub fn reload(instance: &str) -> Reload {
-    let asked = vservo_client::Client::connect(instance).and_then(|mut client| client.reload());
-    match asked {
-        Ok(reply) if reply.accepted => Reload::Taken(reply.reason),
-        Ok(reply) => Reload::NotTaken(reply.reason),
-        Err(e) => Reload::NotTaken(format!("the instance could not be asked to reload: {e}")),
+    match reload_held(instance) {
+        Ok(said) => Reload::Taken(said),
+        Err(why) => Reload::NotTaken(format!("{why:#}")),
+    }
+}
+
+fn reload_held(instance: &str) -> Result<String> {
+    let mut client = vservo_client::Client::connect(instance)?;
+    let held_before = state_of(&client)? == Ok(DaemonState::SafeStop);
+    if !held_before {
+        let stop = client.safe_stop_command()?;
+        if !stop.accepted {
+            anyhow::bail!("the safe stop before the reload was refused: {}", stop.reason);
+        }
+    }
+    let restarts_before = camera_node_restarts(&client)?;
+    let reply = client.reload()?;
+    if !reply.accepted {
+        if !held_before {
+            resume_when_back(&mut client, restarts_before, false)?;
+        }
+        anyhow::bail!("{}", reply.reason);
+    }
+    if held_before {
+        return Ok(format!("{}; the cell stays held, as it was (`vservoctl resume` servos)", reply.reason));
+    }
+    resume_when_back(&mut client, restarts_before, true)?;
+    Ok(format!("{}; the cell servos again with the calibrated camera", reply.reason))
+}
+
+fn state_of(client: &vservo_client::Client) -> Result<Result<DaemonState, u32>> {
+    let status = client.status(Duration::from_secs(2))?;
+    Ok(DaemonState::try_from(status.state).map_err(|_| status.state))
+}
+
+/// The restarts of the nodes that read the camera (vision, servo, rmrc), as the status says.
+fn camera_node_restarts(client: &vservo_client::Client) -> Result<[u64; 3]> {
+    let status = client.status(Duration::from_secs(2))?;
+    Ok([1, 2, 3].map(|node| status.nodes[node].restarts))
+}
+
+/// Resumes once the camera's nodes run healthy again (restarted, when `restarted`), within [`RESTART_WAIT`].
+fn resume_when_back(client: &mut vservo_client::Client, before: [u64; 3], restarted: bool) -> Result<()> {
+    let until = Instant::now() + RESTART_WAIT;
+    loop {
+        let status = client.status(Duration::from_secs(2))?;
+        let back = [1, 2, 3].iter().zip(before).all(|(&node, restarts)| {
+            let node = &status.nodes[node];
+            node.healthy == 1 && (!restarted || node.restarts > restarts)
+        });
+        if back {
+            let reply = client.resume()?;
+            if reply.accepted {
+                return Ok(());
+            }
+            if Instant::now() >= until {
+                anyhow::bail!("the resume after the reload was refused: {}", reply.reason);
+            }
+        } else if Instant::now() >= until {
+            anyhow::bail!(
+                "the camera's nodes did not run again within {} s of the reload: the cell stays held",
+                RESTART_WAIT.as_secs()
+            );
+        }
+        std::thread::sleep(Duration::from_millis(100));
     }
 }
 
@@ -183,10 +251,12 @@ impl Applied {
         );
         match &self.reload {
             None => text.push_str("  every run from this configuration takes the calibrated camera\n"),
-            Some(Reload::Taken(reply)) => text.push_str(&format!("  the running instance reloaded: {reply}\n")),
+            Some(Reload::Taken(reply)) => {
+                text.push_str(&format!("  the running instance reloaded: {reply}\n"))
+            }
             Some(Reload::NotTaken(why)) => text.push_str(&format!(
-                "  the running instance still runs the camera it started with: {why}\n  \
-                 restart vservod (systemctl restart, or stop it and start it again) to run the calibrated camera\n"
+                "  the running instance did not take it: {why}\n  \
+                 `vservoctl reload` (the cell held) or a restart of vservod runs the calibrated camera\n"
             )),
         }
         text

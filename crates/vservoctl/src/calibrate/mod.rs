@@ -73,7 +73,8 @@ pub struct CalibrateArgs {
     solver: Option<PathBuf>,
     /// Make the configuration read the result: `--config`'s file gets `[camera] calibration_file` in place of
     /// its lens keys (the file as it was kept beside it, `<name>.before-calibration`; checked before anything
-    /// moves, and validated before it is written), and the running instance is asked to reload.
+    /// moves, and validated before it is written), and the running instance takes it: held (a safe stop),
+    /// reloaded (its camera's nodes restart), resumed.
     #[arg(long)]
     apply: bool,
     /// JSON: the report as one object, the last line.

@@ -90,6 +90,8 @@ pub struct Commander {
     server: Server<ipc::Service, CommandMsg, (), CommandReplyMsg, ()>,
     /// One log line per command, up to a rate journald keeps; a summary line for floods.
     log_limit: LogLimit,
+    /// A reload changed the camera: the nodes that read it are to restart (`take_node_restart`).
+    node_restart: bool,
 }
 
 impl Commander {
@@ -121,6 +123,7 @@ impl Commander {
             object_publisher: vservo_protocol::publisher(node, &instance, Topic::Object)?,
             server,
             log_limit: LogLimit::new(COMMAND_LOG_WINDOW, COMMAND_LOG_LINES),
+            node_restart: false,
         };
         commander.publish_gains(gains)?;
         Ok(commander)
@@ -203,7 +206,7 @@ impl Commander {
         let kind =
             CommandKind::try_from(command.kind).map_err(|_| CommandRefused::UnknownKind(command.kind))?;
         match kind {
-            CommandKind::Reload => self.reload(systemd),
+            CommandKind::Reload => self.reload(systemd, safety.holding()),
             CommandKind::Resume => Ok(Accepted::Resumed(safety.resume(&heard.conditions)?)),
             CommandKind::SafeStop => Ok(safety.request_safe_stop().map(|()| Accepted::SafeStop)?),
             CommandKind::TargetFeatures | CommandKind::TargetPose | CommandKind::TargetTeach => {
@@ -233,9 +236,9 @@ impl Commander {
 
     /// Re-reads the configuration file; applies the live keys (`[controller]`, `[desired]`) or refuses the
     /// whole file with the reason. systemd hears RELOADING=1 first and READY=1 after, either way.
-    pub fn reload(&mut self, systemd: &mut Systemd) -> Result<Accepted, CommandRefused> {
+    pub fn reload(&mut self, systemd: &mut Systemd, held: bool) -> Result<Accepted, CommandRefused> {
         systemd.reloading();
-        let outcome = self.try_reload().map_err(CommandRefused::Reload);
+        let outcome = self.try_reload(held).map_err(CommandRefused::Reload);
         let text = self.describe(&outcome);
         systemd.reloaded(&match &outcome {
             Ok(_) => format!("reloaded: {text}"),
@@ -249,7 +252,12 @@ impl Commander {
         outcome::reply_text(outcome, self.version)
     }
 
-    fn try_reload(&mut self) -> Result<Accepted, ReloadRefused> {
+    /// Whether a reload asked for the nodes that read the camera to restart (asked once).
+    pub fn take_node_restart(&mut self) -> bool {
+        std::mem::take(&mut self.node_restart)
+    }
+
+    fn try_reload(&mut self, held: bool) -> Result<Accepted, ReloadRefused> {
         let path = self.config_path.display().to_string();
         // the file with the bases it extends merged in, as at start
         let (config, text) = Config::load_with_text(&self.config_path).map_err(|e| match e {
@@ -258,10 +266,13 @@ impl Commander {
             }
             other => ReloadRefused::from(other),
         })?;
-        let (target, changed) = match reload::plan(&path, &self.config, self.target.as_ref(), &config)? {
-            ReloadPlan::Nothing => return Ok(Accepted::NothingChanged { path, gains_version: self.version }),
-            ReloadPlan::Design { target, changed } => (target, changed),
-        };
+        let (target, changed, restart_nodes) =
+            match reload::plan(&path, (&self.config, held), self.target.as_ref(), &config)? {
+                ReloadPlan::Nothing => {
+                    return Ok(Accepted::NothingChanged { path, gains_version: self.version });
+                }
+                ReloadPlan::Design { target, changed, restart_nodes } => (target, changed, restart_nodes),
+            };
         let refused = |why| ReloadRefused::Gains { path: path.clone(), why };
         let gains = vservo_cell::gains::design(&config, target.as_ref()).map_err(|e| refused(e.into()))?;
         self.publish_gains(&gains).map_err(refused)?;
@@ -272,7 +283,8 @@ impl Commander {
         if let Err(error) = self.instance_dir.write_configuration(&self.config_text) {
             tracing::warn!(%error, "the reloaded configuration could not be written for the helpers and clients");
         }
-        Ok(Accepted::Reloaded { path, changed, gains_version: self.version })
+        self.node_restart |= restart_nodes;
+        Ok(Accepted::Reloaded { path, changed, gains_version: self.version, restarting_nodes: restart_nodes })
     }
 
     /// Places the target a client asks for and designs gains for it.

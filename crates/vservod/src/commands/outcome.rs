@@ -30,6 +30,8 @@ pub enum Accepted {
         changed: Vec<&'static str>,
         /// The gains version in force.
         gains_version: u64,
+        /// Whether the nodes that read the camera restart with it (the cell held meanwhile).
+        restarting_nodes: bool,
     },
     /// The file holds what runs already.
     NothingChanged {
@@ -67,8 +69,12 @@ pub enum Accepted {
 impl std::fmt::Display for Accepted {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         match self {
-            Accepted::Reloaded { path, changed, gains_version } => {
-                write!(f, "{path}: {} changed; gains version {gains_version}", changed.join(", "))
+            Accepted::Reloaded { path, changed, gains_version, restarting_nodes } => {
+                write!(f, "{path}: {} changed; gains version {gains_version}", changed.join(", "))?;
+                if *restarting_nodes {
+                    write!(f, "; the servo, vision and rmrc nodes restart with it while the cell is held")?;
+                }
+                Ok(())
             }
             Accepted::NothingChanged { path, gains_version } => {
                 write!(f, "{path}: nothing changed; gains version {gains_version}")
@@ -172,8 +178,12 @@ mod tests {
             reply_text(&object, 2),
             "object: step: 1.000 m is more than the 0.2 m the simulated cell allows"
         );
-        let accepted =
-            Ok(Accepted::Reloaded { path: "f".into(), changed: vec!["controller.q"], gains_version: 3 });
+        let accepted = Ok(Accepted::Reloaded {
+            path: "f".into(),
+            changed: vec!["controller.q"],
+            gains_version: 3,
+            restarting_nodes: false,
+        });
         assert_eq!(reply_text(&accepted, 3), "f: controller.q changed; gains version 3");
     }
 }

@@ -1,6 +1,8 @@
 //! A reload as a diff of validated configurations: which keys changed, whether each may change while the
 //! arm runs (`[controller]` and `[desired]` may; every other key shapes the running processes), and the
-//! gains specification the reload designs. Pure: the commander reads the file and publishes the result.
+//! gains specification the reload designs. The camera's lens and mount ([`NODE_RESTART_KEYS`], what
+//! `vservoctl calibrate --apply` writes) are applied while the cell is held, by restarting the nodes that read
+//! them. Pure: the commander reads the file and publishes the result.
 
 use vservo_cell::target::{self, Target, TargetRefused};
 use vservo_config::{Config, ConfigError};
@@ -19,6 +21,17 @@ pub enum ReloadRefused {
     /// The file does not validate.
     #[error(transparent)]
     Invalid(#[from] ConfigError),
+    /// The camera changed while the cell is not held.
+    #[error(
+        "{path}: {} change the camera the servo, vision and rmrc nodes run: they are applied while the cell is held, by restarting those nodes (`vservoctl safe-stop`, then reload, then `vservoctl resume`); nothing was applied",
+        keys.join(", ")
+    )]
+    NotHeld {
+        /// The configuration file.
+        path: String,
+        /// The camera keys that changed.
+        keys: Vec<&'static str>,
+    },
     /// Keys changed that only a restart applies.
     #[error(
         "{path}: {} cannot change while the arm runs (they shape the running processes: arm, timing, camera, plant, nodes); restart vservod to apply them; nothing was applied",
@@ -187,6 +200,10 @@ fn runtime_keys(old: &vservo_config::Runtime, new: &vservo_config::Runtime) -> [
     ]
 }
 
+/// The restart-only keys a reload applies, while the cell is held, by restarting the servo, vision and rmrc
+/// nodes (they read them at their start): the camera's lens and its mount on the tool.
+pub const NODE_RESTART_KEYS: [&str; 2] = ["camera", "camera.tool_from_camera"];
+
 /// What a reload does, decided before anything is applied.
 #[derive(Debug, Clone, PartialEq)]
 pub enum ReloadPlan {
@@ -198,6 +215,8 @@ pub enum ReloadPlan {
         target: Option<Target>,
         /// The changed keys.
         changed: Vec<&'static str>,
+        /// Whether the nodes that read the camera restart with the new configuration.
+        restart_nodes: bool,
     },
 }
 
@@ -206,15 +225,20 @@ pub enum ReloadPlan {
 /// must then still be a target under the new `[controller]` (clear of a wider barrier margin).
 pub fn plan(
     path: &str,
-    old: &Config,
+    (old, held): (&Config, bool),
     client_target: Option<&Target>,
     new: &Config,
 ) -> Result<ReloadPlan, ReloadRefused> {
     let diff = diff(old, new);
-    if !diff.restart_only.is_empty() {
+    let (by_node_restart, by_daemon_restart): (Vec<&'static str>, Vec<&'static str>) =
+        diff.restart_only.iter().partition(|key| NODE_RESTART_KEYS.contains(key));
+    if !by_daemon_restart.is_empty() {
         return Err(ReloadRefused::RestartOnly { path: path.to_string(), keys: diff.restart_only });
     }
-    if diff.live.is_empty() {
+    if !by_node_restart.is_empty() && !held {
+        return Err(ReloadRefused::NotHeld { path: path.to_string(), keys: by_node_restart });
+    }
+    if diff.live.is_empty() && by_node_restart.is_empty() {
         return Ok(ReloadPlan::Nothing);
     }
     let target = client_target.filter(|_| !diff.desired_changed()).copied();
@@ -222,7 +246,8 @@ pub fn plan(
         target::check_features(new, new.controller.options.border_margin_px, &target.features)
             .map_err(|why| ReloadRefused::TargetInForce { path: path.to_string(), why })?;
     }
-    Ok(ReloadPlan::Design { target, changed: diff.live })
+    let restart_nodes = !by_node_restart.is_empty();
+    Ok(ReloadPlan::Design { target, changed: [diff.live, by_node_restart].concat(), restart_nodes })
 }
 
 #[cfg(test)]
@@ -246,7 +271,7 @@ mod tests {
         let old = default();
         let commented = Config::from_toml(&format!("# a comment\n{DEFAULT}"), "other.toml").expect("valid");
         assert_eq!(diff(&old, &commented), ConfigDiff::default(), "comments and the origin are no change");
-        assert_eq!(plan("f", &old, None, &commented), Ok(ReloadPlan::Nothing));
+        assert_eq!(plan("f", (&old, false), None, &commented), Ok(ReloadPlan::Nothing));
     }
 
     #[test]
@@ -255,7 +280,7 @@ mod tests {
         let new = with("mode = \"dynamic\"", "mode = \"kinematic\"");
         // the simulated driver's command interface follows from the plant's mode: both are named
         assert_eq!(diff(&old, &new).restart_only, ["plant.mode", "robot.command"]);
-        let refused = plan("f.toml", &old, None, &new).expect_err("restart only");
+        let refused = plan("f.toml", (&old, false), None, &new).expect_err("restart only");
         let keys = vec!["plant.mode", "robot.command"];
         assert_eq!(refused, ReloadRefused::RestartOnly { path: "f.toml".into(), keys });
         assert!(
@@ -271,7 +296,7 @@ mod tests {
             "f.toml",
         )
         .expect("valid");
-        assert!(matches!(plan("f", &old, None, &both), Err(ReloadRefused::RestartOnly { .. })));
+        assert!(matches!(plan("f", (&old, false), None, &both), Err(ReloadRefused::RestartOnly { .. })));
     }
 
     #[test]
@@ -279,8 +304,12 @@ mod tests {
         let old = default();
         let new = with("interaction = \"desired\"", "interaction = \"mean\"");
         assert_eq!(
-            plan("f", &old, None, &new),
-            Ok(ReloadPlan::Design { target: None, changed: vec!["controller.interaction"] })
+            plan("f", (&old, false), None, &new),
+            Ok(ReloadPlan::Design {
+                target: None,
+                changed: vec!["controller.interaction"],
+                restart_nodes: false
+            })
         );
         let weights = with("r = [1.0, 1.0, 1.0, 6.0, 6.0, 6.0]", "r = [4.0, 4.0, 4.0, 24.0, 24.0, 24.0]");
         assert_eq!(diff(&old, &weights).live, ["controller.r"]);
@@ -295,12 +324,16 @@ mod tests {
         let client = Target { features, depths: old.desired.depths };
         let feedforward = with("feedforward = false", "feedforward = true");
         assert_eq!(
-            plan("f", &old, Some(&client), &feedforward),
-            Ok(ReloadPlan::Design { target: Some(client), changed: vec!["controller.feedforward"] })
+            plan("f", (&old, false), Some(&client), &feedforward),
+            Ok(ReloadPlan::Design {
+                target: Some(client),
+                changed: vec!["controller.feedforward"],
+                restart_nodes: false
+            })
         );
         let margin = with("border_margin_px = 0.0", "border_margin_px = 20.0");
         assert!(matches!(
-            plan("f", &old, Some(&client), &margin),
+            plan("f", (&old, false), Some(&client), &margin),
             Err(ReloadRefused::TargetInForce { why: TargetRefused::OutsideImage { mark: 3, .. }, .. })
         ));
         // [desired] changed: the file's target replaces the client's
@@ -309,8 +342,12 @@ mod tests {
             "joints_rad = [0.0, 0.78, -3.141592653589793, 0.0, 0.7853981633974483, 0.0]",
         );
         assert_eq!(
-            plan("f", &old, Some(&client), &desired),
-            Ok(ReloadPlan::Design { target: None, changed: vec!["desired.joints_rad"] })
+            plan("f", (&old, false), Some(&client), &desired),
+            Ok(ReloadPlan::Design {
+                target: None,
+                changed: vec!["desired.joints_rad"],
+                restart_nodes: false
+            })
         );
     }
 
@@ -352,10 +389,51 @@ mod tests {
             // a value derived from it elsewhere (the camera's ξ_d in [desired]) may change too; the refusal
             // names what the file changed
             assert_eq!(diff(&old, &new).restart_only, [key], "{from} → {to}");
-            assert!(matches!(
-                plan("f", &old, None, &new),
-                Err(ReloadRefused::RestartOnly { keys, .. }) if keys == [key]
-            ));
+            let refused = plan("f", (&old, false), None, &new);
+            if NODE_RESTART_KEYS.contains(&key) {
+                assert!(
+                    matches!(refused, Err(ReloadRefused::NotHeld { keys, .. }) if keys == [key]),
+                    "{key}"
+                );
+            } else {
+                assert!(
+                    matches!(refused, Err(ReloadRefused::RestartOnly { keys, .. }) if keys == [key]),
+                    "{key}"
+                );
+            }
         }
+    }
+
+    /// The camera's lens and mount (a calibration) are applied while the cell is held, by restarting the nodes
+    /// that read them; with a key only a restart of vservod applies, the whole file is refused still.
+    #[test]
+    fn the_camera_is_applied_while_held_by_restarting_its_nodes() {
+        let old = default();
+        let lens = with("focal_px = 500.0", "focal_px = 520.0");
+        let refused = plan("f", (&old, false), None, &lens).expect_err("not held");
+        assert!(refused.to_string().contains("vservoctl safe-stop"), "{refused}");
+        let Ok(ReloadPlan::Design { target: None, changed, restart_nodes: true }) =
+            plan("f", (&old, true), None, &lens)
+        else {
+            panic!("held: designed, the nodes restarted");
+        };
+        // ξ_d follows the lens: [desired] is named with the camera
+        assert_eq!(changed, ["desired", "camera"]);
+        let mount = with("translation_m = [0.0, 0.0, 0.08]", "translation_m = [0.0, 0.0, 0.09]");
+        assert!(matches!(
+            plan("f", (&old, true), None, &mount),
+            Ok(ReloadPlan::Design { restart_nodes: true, .. })
+        ));
+        let both = Config::from_toml(
+            &DEFAULT
+                .replace("focal_px = 500.0", "focal_px = 520.0")
+                .replace("rk4_substeps = 1", "rk4_substeps = 2"),
+            "f.toml",
+        )
+        .expect("valid");
+        assert!(matches!(
+            plan("f", (&old, true), None, &both),
+            Err(ReloadRefused::RestartOnly { keys, .. }) if keys == ["camera", "plant.rk4_substeps"]
+        ));
     }
 }

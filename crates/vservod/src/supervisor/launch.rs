@@ -94,6 +94,38 @@ pub struct Supervised {
     pub record: NodeRecord,
     /// Its process while it runs.
     pub process: Option<Child>,
+    /// Ended on purpose to restart with a reloaded configuration (not lost).
+    pub planned_restart: bool,
+}
+
+/// The nodes that read the camera's lens and mount at their start: a reload that changes them (the cell held)
+/// restarts these.
+pub const CAMERA_READERS: [NodeRole; 3] = [NodeRole::Vision, NodeRole::Servo, NodeRole::Rmrc];
+
+/// Ends the nodes that read the camera (SIGTERM), each to restart with the configuration in force.
+pub fn end_camera_readers(nodes: &mut [Supervised]) {
+    for node in nodes.iter_mut().filter(|n| CAMERA_READERS.contains(&n.record.role) && n.process.is_some()) {
+        node.planned_restart = true;
+        node.signal(Signal::SIGTERM);
+    }
+}
+
+/// The process of each node running, by role (0 while none runs): the writers the daemon announces.
+pub fn writers_of(nodes: &[Supervised]) -> [u32; 4] {
+    let mut writers = [0; 4];
+    for node in nodes.iter().filter(|n| n.process.is_some()) {
+        writers[node.record.role as usize] = node.record.pid.unwrap_or(0);
+    }
+    writers
+}
+
+/// Each node's latest telemetry from its running process, in role order.
+pub fn telemetry_of(nodes: &[Supervised]) -> [Option<vservo_protocol::TelemetryMsg>; 4] {
+    let mut out = [None; 4];
+    for node in nodes {
+        out[node.record.role as usize] = node.record.own_telemetry();
+    }
+    out
 }
 
 impl Supervised {

@@ -40,7 +40,7 @@ use crate::stop_path::Bursts;
 use crate::systemd::Systemd;
 use cleanup::{Cleanup, CleanupClock};
 use health::{CameraSeen, CameraWatch, Readiness, RobotChange};
-use launch::{Launcher, Resume, Supervised};
+use launch::{Launcher, Resume, Supervised, telemetry_of, writers_of};
 use node::NodeRecord;
 use observe::{LoopHeard, Ports};
 use restart::RestartPolicy;
@@ -78,15 +78,6 @@ fn say_absent(instance: &str, what: &str, started: &str, waited: Duration) {
          schema (docs/PROTOCOL.md)? One vservod starts ({started}) says why above; `vservoctl status` shows the \
          streams' writers"
     );
-}
-
-/// The process of each node running, by role (0 while none runs): the writers the daemon announces.
-fn writers_of(nodes: &[Supervised]) -> [u32; 4] {
-    let mut writers = [0; 4];
-    for node in nodes.iter().filter(|n| n.process.is_some()) {
-        writers[node.record.role as usize] = node.record.pid.unwrap_or(0);
-    }
-    writers
 }
 
 /// The configuration's settings the supervisor runs by.
@@ -323,6 +314,9 @@ impl Daemon {
             conditions,
         };
         self.commander.serve(&loop_state, &mut self.systemd, &mut self.safety);
+        if self.commander.take_node_restart() {
+            launch::end_camera_readers(&mut self.nodes);
+        }
         self.restart_due(now);
         self.safety.announce_writers(writers_of(&self.nodes));
         self.report(now, conditions.motion_nodes_healthy);
@@ -330,7 +324,7 @@ impl Daemon {
 
     /// SIGHUP: re-reads the configuration.
     fn reload(&mut self) {
-        let outcome = self.commander.reload(&mut self.systemd);
+        let outcome = self.commander.reload(&mut self.systemd, self.safety.holding());
         let text = self.commander.describe(&outcome);
         match outcome {
             Ok(_) => tracing::info!("SIGHUP: reloaded: {text}"),
@@ -344,6 +338,16 @@ impl Daemon {
         for node in &mut self.nodes {
             let Some(exit) = node.reap() else { continue };
             let wait = node.record.ended(exit, now);
+            if std::mem::take(&mut node.planned_restart) {
+                let role = node.record.role.name();
+                tracing::info!(
+                    node = role,
+                    restart_in_s = wait.as_secs_f64(),
+                    "ended to restart with the reload"
+                );
+                lost = true;
+                continue;
+            }
             if exit == i32::from(SLOT_TAKEN_EXIT) {
                 tracing::error!(
                     node = node.record.role.name(),
@@ -559,18 +563,13 @@ fn start_nodes(
                 .spawn(role, &Resume::default(), config_text)
                 .with_context(|| format!("starting the {} node", role.name()))?;
             let policy = RestartPolicy::new(settings.initial_backoff, settings.max_backoff, Instant::now());
-            Ok(Supervised { record: NodeRecord::started(role, child.id(), policy), process: Some(child) })
+            Ok(Supervised {
+                record: NodeRecord::started(role, child.id(), policy),
+                process: Some(child),
+                planned_restart: false,
+            })
         })
         .collect()
-}
-
-/// Each node's latest telemetry from its running process, in role order.
-fn telemetry_of(nodes: &[Supervised]) -> [Option<vservo_protocol::TelemetryMsg>; 4] {
-    let mut out = [None; 4];
-    for node in nodes {
-        out[node.record.role as usize] = node.record.own_telemetry();
-    }
-    out
 }
 
 /// One line per change of the robot driver's state. Stalled: the rmrc commands nothing (it answers joint
