@@ -282,10 +282,7 @@ fn misspelt(shown: &str) -> Option<Misspelt> {
 
 /// The accepted key or name nearest `written`, when it is near enough to be a slip of the keyboard: at most a third
 /// of its letters (at least one) changed, added, left out or swapped.
-pub(crate) fn did_you_mean<'a>(
-    written: &str,
-    accepted: impl IntoIterator<Item = &'a str>,
-) -> Option<&'a str> {
+pub fn did_you_mean<'a>(written: &str, accepted: impl IntoIterator<Item = &'a str>) -> Option<&'a str> {
     let most = (written.chars().count() / 3).max(1);
     accepted
         .into_iter()

@@ -63,8 +63,8 @@ mod validate;
 use std::path::Path;
 
 pub use error::ConfigError;
-pub use layers::LENS_KEYS;
 use layers::Layers;
+pub use layers::{LENS_KEYS, did_you_mean};
 use nalgebra::Vector3;
 pub use sections::*;
 use vservo_arm::JointVector;

@@ -81,12 +81,18 @@ impl ArmSettings {
     }
 }
 
+/// `; did you mean "name"?` for a name a slip of the keyboard away, else nothing.
+fn meant(nearest: &Option<String>) -> String {
+    nearest.as_ref().map_or(String::new(), |name| format!("; did you mean {name:?}?"))
+}
+
 /// A joint state of the arm's that is not passed on.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum StateRefused {
-    /// A configured joint is not in it (another arm's, or `[ros2] joint_names` do not match the URDF's).
-    #[error("has no joint {0:?} (ros2.joint_names)")]
-    MissingJoint(String),
+    /// A configured joint is not in it (another arm's, or `[ros2] joint_names` do not match the URDF's), and the
+    /// name of its nearest a slip of the keyboard away, if one is.
+    #[error("has no joint {0:?} (ros2.joint_names){meant}", meant = meant(.1))]
+    MissingJoint(String, Option<String>),
     /// Its positions, velocities or efforts do not match its names, or a position is not finite.
     #[error("is malformed: {0}")]
     Malformed(&'static str),
@@ -108,7 +114,7 @@ impl StateRefused {
     /// The kind of refusal, for a log that says each kind once.
     pub fn kind(&self) -> &'static str {
         match self {
-            StateRefused::MissingJoint(_) => "joint state without a configured joint",
+            StateRefused::MissingJoint(..) => "joint state without a configured joint",
             StateRefused::Malformed(_) => "malformed joint state",
             StateRefused::NotNewer { .. } => "joint state not newer",
         }
@@ -272,11 +278,12 @@ impl ArmFollower {
             torque_nm: [f64::NAN; MAX_JOINTS],
         };
         for (j, name) in self.settings.joint_names.iter().enumerate() {
-            let i = ros
-                .name
-                .iter()
-                .position(|n| n == name)
-                .ok_or_else(|| StateRefused::MissingJoint(name.clone()))?;
+            let i = ros.name.iter().position(|n| n == name).ok_or_else(|| {
+                // the nearest of the names it has that are not the arm's other joints
+                let others = ros.name.iter().filter(|n| !self.settings.joint_names.contains(n));
+                let nearest = vservo_config::did_you_mean(name, others.map(String::as_str));
+                StateRefused::MissingJoint(name.clone(), nearest.map(str::to_string))
+            })?;
             measured.q_rad[j] = ros.position[i];
             if let Some(qd) = &mut measured.qd_rad_s {
                 qd[j] = ros.velocity[i];
@@ -397,14 +404,19 @@ mod tests {
         let mut other_arm = ros_state(q);
         other_arm.name[0] = "elbow".into();
         let refused = arm.on_joint_state(&other_arm, 1_000_000_000 + 8 * PERIOD_NS, 0);
-        assert_eq!(refused, Err(StateRefused::MissingJoint("j6".into())));
+        assert_eq!(refused, Err(StateRefused::MissingJoint("j6".into(), None)));
+        // a slip in a name: said, with the name meant
+        let mut slip = ros_state(q);
+        slip.name[0] = "j_6".into();
+        let refused = arm.on_joint_state(&slip, 1_000_000_000 + 8 * PERIOD_NS, 0).expect_err("refused");
+        assert_eq!(refused.to_string(), "has no joint \"j6\" (ros2.joint_names); did you mean \"j_6\"?");
         let mut nan = ros_state(q);
         nan.position[2] = f64::NAN;
         assert!(matches!(
             arm.on_joint_state(&nan, 1_000_000_000 + 9 * PERIOD_NS, 0),
             Err(StateRefused::Malformed(_))
         ));
-        assert_eq!((arm.counts.states, arm.counts.states_refused), (4, 3));
+        assert_eq!((arm.counts.states, arm.counts.states_refused), (4, 4));
     }
 
     #[test]

@@ -235,8 +235,12 @@ pub fn joints(observed: &Observed, config: &Config) -> Line {
     if let Some(published) = &observed.ros_joint_names {
         for (j, name) in names.iter().enumerate() {
             if !published.contains(name) {
+                // the nearest of the published names that are not the arm's other joints
+                let others = published.iter().filter(|p| !names.contains(p)).map(String::as_str);
+                let nearest = vservo_config::did_you_mean(name, others)
+                    .map_or(String::new(), |nearest| format!("; did you mean {nearest:?}?"));
                 problems.push(format!(
-                    "the arm's joint states have no joint {name:?} ({names_from}[{}]); they name {}",
+                    "the arm's joint states have no joint {name:?} ({names_from}[{}]); they name {}{nearest}",
                     j + 1,
                     published.join(", ")
                 ));
@@ -379,6 +383,14 @@ mod tests {
         seen.ros_joint_names = Some(vec!["a".into(), "b".into()]);
         let line = joints(&seen, &config);
         assert!(!line.pass && line.text.contains("no joint \"shoulder_pan_joint\""), "{line:?}");
+        assert!(!line.text.contains("did you mean"), "{line:?}");
+        // a slip in one name: the name meant is said
+        let (names, _) = driver_joint_names(&config);
+        let mut published = names.clone();
+        published[1] = "shoulder_lift_joint_".into();
+        let seen = Observed { ros_joint_names: Some(published), ..observed(&config) };
+        let line = joints(&seen, &config);
+        assert!(line.text.contains("did you mean \"shoulder_lift_joint_\"?"), "{line:?}");
         let mut seen = observed(&config);
         seen.states.iter_mut().for_each(|s| s.q[2] = 4.0);
         let line = joints(&seen, &config);
