@@ -24,8 +24,10 @@
 //!   `capture` the views of the simulated cell in lockstep (`--lockstep`); `dataset` the images and arm poses
 //!   for the solver; `solver` runs clients/python/vservo_calibrate.py (OpenCV's detector, `calibrateCamera`,
 //!   `calibrateHandEye`, a SciPy joint refinement); `report` the residuals per view and overall, the errors
-//!   against `[camera.truth]`; `file` the OpenCV YAML with `tool_from_camera` that `camera.calibration_file`
-//!   takes.
+//!   against `[camera.truth]` and what changed (before → after); `file` the OpenCV YAML with
+//!   `tool_from_camera` that `camera.calibration_file` takes; `apply` (`--apply`) the configuration edited to
+//!   read it (toml_edit, validated first, the old file kept) and the running instance held, reloaded (its
+//!   camera's nodes restart) and resumed.
 //!
 //! On a running instance:
 //! - `status` ([`status`]), `top` ([`top`]: a live terminal view with ratatui), `echo` ([`echo`]: a topic as
@@ -40,7 +42,9 @@
 //! - `record` ([`record`]): MCAP with zstd chunks, files created with mode 0600; with `--ros2` the ROS 2
 //!   bridge's messages through `vservo_ros2::translate`, ROS 2's profile, `ros2msg` schemas and CDR
 //!   ([`record_ros2`]); `plot` ([`plot_recording`]): the figures of `sim` from a recording, turned back into a
-//!   lockstep `Trace`;
+//!   lockstep `Trace`, and with `--frames N` a contact sheet of its camera images ([`contact_sheet`]);
+//! - `snapshot` ([`snapshot`]): the newest camera image with its marks as a PNG; the drawing, shared with the
+//!   contact sheet, in [`annotate`];
 //! - `view` ([`view`]): Foxglove's WebSocket protocol served by [`live_server`], tungstenite with a thread per
 //!   viewer: a token from [`view_token`] in the URL or HTTP 401/403, at most `--max-clients` or 503, a bounded
 //!   queue per viewer that drops its oldest data; `--url` prints the URL with the token. vservod starts it

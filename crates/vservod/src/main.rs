@@ -38,7 +38,9 @@
 //!   take; a daemon that published nothing that long (it was stopped) latches `supervision_stalled`.
 //! - [`commands`] answers the `command` service with typed outcomes (`Accepted`, `CommandRefused`; the reply
 //!   text made once): `reload` diffs validated `Config` values (comments and key order are no change; a
-//!   changed key outside `[controller]`/`[desired]` is a `ReloadRefused::RestartOnly` naming it); targets are
+//!   changed key outside `[controller]`/`[desired]` is a `ReloadRefused::RestartOnly` naming it, but the
+//!   camera's lens and mount, applied while the cell is held by restarting the vision, servo and rmrc nodes,
+//!   `reload::NODE_RESTART_KEYS`); targets are
 //!   placed by `vservo_cell::target` (from the joints and the features, board-plane homography, never the
 //!   simulation); `object` checks object commands against named limits (refused with an external robot);
 //!   `joint_move` checks a `move_joints` goal (the arm's joint count, finite, `vservo_arm::GOAL_MARGIN_RAD`
