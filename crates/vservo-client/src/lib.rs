@@ -30,6 +30,12 @@ pub mod status;
 pub use safe_stop::{SafeStopped, safe_stop};
 pub use status::{FaultView, NodeView, StatusView, TimingUs};
 
+/// The words an accepted reload's reply ends with when the nodes that read the camera (its lens and mount)
+/// restart with it, the cell held meanwhile (vservod writes them; `vservoctl calibrate --apply` waits for those
+/// nodes when it reads them).
+pub const RELOAD_RESTARTS_NODES: &str =
+    "the servo, vision and rmrc nodes restart with it while the cell is held";
+
 use std::time::{Duration, Instant};
 
 use iceoryx2::port::client::Client as IceoryxClient;

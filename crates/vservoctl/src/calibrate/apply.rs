@@ -194,7 +194,9 @@ fn reload_held(instance: &str) -> Result<String> {
     if held_before {
         return Ok(format!("{}; the cell stays held, as it was (`vservoctl resume` servos)", reply.reason));
     }
-    resume_when_back(&mut client, restarts_before, true)?;
+    // an unchanged camera (the same calibration again) restarts nothing: the cell resumes at once
+    let restarting = reply.reason.contains(vservo_client::RELOAD_RESTARTS_NODES);
+    resume_when_back(&mut client, restarts_before, restarting)?;
     Ok(format!("{}; the cell servos again with the calibrated camera", reply.reason))
 }
 

@@ -72,7 +72,7 @@ impl std::fmt::Display for Accepted {
             Accepted::Reloaded { path, changed, gains_version, restarting_nodes } => {
                 write!(f, "{path}: {} changed; gains version {gains_version}", changed.join(", "))?;
                 if *restarting_nodes {
-                    write!(f, "; the servo, vision and rmrc nodes restart with it while the cell is held")?;
+                    write!(f, "; {}", vservo_client::RELOAD_RESTARTS_NODES)?;
                 }
                 Ok(())
             }
