@@ -304,6 +304,18 @@ pub fn running_daemon(instance: &str) -> (TempConfig, Daemon) {
     (config, daemon)
 }
 
+/// [`running_daemon`] of the repository's configuration `file` (`config/…`, its bases merged in).
+pub fn running_daemon_of(file: &str, instance: &str) -> (TempConfig, Daemon) {
+    let config = config_from(file, &[("name = \"default\"", &format!("name = \"{instance}\""))]);
+    let daemon = Daemon::start(&config);
+    assert!(
+        wait_until(Duration::from_secs(10), || status(instance).is_some_and(|s| running(&s))),
+        "{}",
+        daemon.log()
+    );
+    (config, daemon)
+}
+
 impl Daemon {
     /// SIGTERM, and the daemon exits 0.
     pub fn stop(mut self) {

@@ -7,27 +7,13 @@
 use std::time::Duration;
 
 use vservo_protocol::Verdict;
-use vservo_system_tests::{
-    Daemon, TempConfig, config_from, echo_lines, exclusive, running, status, unique, wait_until,
-};
-
-/// The cell of `file` (under config/) running under an instance of its own named after `name`.
-fn running_cell(file: &str, name: &str) -> (String, TempConfig, Daemon) {
-    let instance = unique(name);
-    let config = config_from(file, &[("name = \"default\"", &format!("name = \"{instance}\""))]);
-    let daemon = Daemon::start(&config);
-    assert!(
-        wait_until(Duration::from_secs(10), || status(&instance).is_some_and(|s| running(&s))),
-        "{}",
-        daemon.log()
-    );
-    (instance, config, daemon)
-}
+use vservo_system_tests::{echo_lines, exclusive, running, running_daemon_of, status, unique, wait_until};
 
 #[test]
 fn an_apriltag_through_a_lens_converges_below_one_pixel_in_real_time() {
     let _one = exclusive();
-    let (instance, _config, daemon) = running_cell("config/vservo-apriltag.toml", "apriltag");
+    let instance = unique("apriltag");
+    let (_config, daemon) = running_daemon_of("config/vservo-apriltag.toml", &instance);
     let twists = echo_lines(&instance, "camera_twist", "8");
     let errors: Vec<f64> = twists.iter().filter_map(|t| t["feature_error_px"].as_f64()).collect();
     // the tag was found in every frame: no corner was ever missing
@@ -49,7 +35,8 @@ fn an_apriltag_through_a_lens_converges_below_one_pixel_in_real_time() {
 #[test]
 fn the_calibration_demo_renders_every_frame_and_converges_in_real_time() {
     let _one = exclusive();
-    let (instance, _config, daemon) = running_cell("config/calibration-demo.toml", "calibration-demo");
+    let instance = unique("calibration-demo");
+    let (_config, daemon) = running_daemon_of("config/calibration-demo.toml", &instance);
     let window_s = 4.0;
     let frames: Vec<u64> = echo_lines(&instance, "camera_image", &window_s.to_string())
         .iter()

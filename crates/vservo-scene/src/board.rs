@@ -139,13 +139,24 @@ impl AprilTag {
         // cell coordinates: 0..8 across the black square, the columns along +x and the rows along +y
         let u = ((x_m - self.centre_in_board.x) / self.size_m + 0.5) * cells;
         let v = ((y_m - self.centre_in_board.y) / self.size_m + 0.5) * cells;
-        if !(0.0..cells).contains(&u) || !(0.0..cells).contains(&v) {
-            return None;
-        }
-        let (column, row) = (u as u32, v as u32);
-        Some(self.black_cells >> (row * tag36h11::WIDTH_AT_BORDER + column) & 1 == 1)
+        ((0.0..cells).contains(&u) && (0.0..cells).contains(&v))
+            .then(|| self.is_black_cell(u.floor(), v.floor()))
+    }
+
+    /// The white sheet the tag is printed on alone (`vservoctl tag`): the black square and
+    /// [`SHEET_MARGIN_CELLS`] cells of white all round (a quarter of its side): lowest and highest (x, y) in the
+    /// board frame (m).
+    pub fn sheet_extent_in_board(&self) -> [Point2<f64>; 2] {
+        let cells = f64::from(tag36h11::WIDTH_AT_BORDER);
+        let half = self.size_m * (0.5 + SHEET_MARGIN_CELLS / cells);
+        let c = self.centre_in_board;
+        [Point2::new(c.x - half, c.y - half), Point2::new(c.x + half, c.y + half)]
     }
 }
+
+/// The white round a printed tag's (or a calibration grid's) black squares, in tag cells: one cell more than
+/// the white ring the detector needs.
+pub const SHEET_MARGIN_CELLS: f64 = 2.0;
 
 /// The black cells of tag `id`: all, but those of the code's 1 bits.
 const fn black_cells(id: usize) -> u64 {

@@ -44,7 +44,7 @@ pub mod pose_rows;
 pub mod tag36h11;
 mod tag_grid;
 
-pub use board::{AprilTag, Board, MARKS, Target, UnknownTagId};
+pub use board::{AprilTag, Board, MARKS, SHEET_MARGIN_CELLS, Target, UnknownTagId};
 pub use camera::{CameraIntrinsics, IntrinsicsError, ProjectionError, image_contains};
 pub use lens::{Distortion, DistortionError};
 pub use nalgebra::IsometryMatrix3;

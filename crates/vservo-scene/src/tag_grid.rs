@@ -8,7 +8,7 @@
 
 use nalgebra::Point2;
 
-use crate::board::{AprilTag, UnknownTagId};
+use crate::board::{AprilTag, SHEET_MARGIN_CELLS, UnknownTagId};
 use crate::tag36h11;
 
 /// The grid's layout.
@@ -163,8 +163,9 @@ impl TagGrid {
     /// rings: lowest and highest (x, y) in the board frame (m).
     pub fn extent_in_board(&self) -> [Point2<f64>; 2] {
         let cell = self.tag_size_m / f64::from(tag36h11::WIDTH_AT_BORDER);
-        let half =
-            |n: u32| 0.5 * (f64::from(n) * self.tag_size_m + f64::from(n - 1) * self.gap_m) + 2.0 * cell;
+        let half = |n: u32| {
+            0.5 * (f64::from(n) * self.tag_size_m + f64::from(n - 1) * self.gap_m) + SHEET_MARGIN_CELLS * cell
+        };
         let (hx, hy) = (half(self.columns), half(self.rows));
         [Point2::new(-hx, -hy), Point2::new(hx, hy)]
     }

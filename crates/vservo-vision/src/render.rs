@@ -2,10 +2,10 @@
 //!
 //! Geometry is exact: a pixel's gray is the area-weighted mean of what its footprint sees. Where the edges
 //! between a tag's cells cross it, that is the exact share of its footprint the black cells cover
-//! (`render/coverage.rs`); where a disc mark's edge or the board's outline may cross it, it is found by supersampling
-//! (S × S samples mapped through the board's homography); pixels wholly on the background, the board or a
-//! mark take that gray directly. The
-//! image is then lit by a linear gradient and gets Gaussian noise, both seeded and repeatable.
+//! (`render/coverage.rs`); where a disc mark's edge or the board's outline may cross it, it is found by
+//! supersampling (S × S samples mapped through the board's homography); pixels wholly on the background, the
+//! board or a mark take that gray directly. The image is then lit by a linear gradient and gets Gaussian
+//! noise, both seeded and repeatable.
 
 use image::GrayImage;
 use nalgebra::Point2;

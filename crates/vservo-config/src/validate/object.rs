@@ -42,17 +42,12 @@ fn apriltag(check: &Checker, target: &RawTarget) -> Result<AprilTag, ConfigError
         .map_err(|e| check.invalid("target.id", target.id, e.to_string()))
 }
 
-/// The white margin of a tag's own sheet, in the black square's edges: a quarter of it on every side, as
-/// `vservoctl tag` prints it.
-pub const TAG_SHEET_MARGIN: f64 = 0.25;
-
 /// `object.board_extent_m` with a tag: within ±5 m, min < max, holding the tag and its white margin (one
 /// cell, an eighth of the black square, on every side: the detector needs it). Where none is written for the
-/// tag (`layers::tag_board`), the tag's own sheet: the black square and [`TAG_SHEET_MARGIN`] round it.
+/// tag (`layers::tag_board`), the tag's own sheet (`AprilTag::sheet_extent_in_board`, what `vservoctl tag` prints).
 fn tag_extent(check: &Checker, o: &RawObject, tag: &AprilTag) -> Result<[Point2<f64>; 2], ConfigError> {
     let Some([[x0, y0], [x1, y1]]) = o.board_extent_m else {
-        let (c, half) = (tag.centre_in_board(), tag.size_m() * (0.5 + TAG_SHEET_MARGIN));
-        return Ok([Point2::new(c.x - half, c.y - half), Point2::new(c.x + half, c.y + half)]);
+        return Ok(tag.sheet_extent_in_board());
     };
     let extent_ok = [x0, y0, x1, y1].iter().all(|v| v.is_finite() && v.abs() <= 5.0) && x0 < x1 && y0 < y1;
     let reach = tag.size_m() * 0.5 * f64::from(tag36h11::TOTAL_WIDTH) / f64::from(tag36h11::WIDTH_AT_BORDER);

@@ -3,7 +3,7 @@
 //!
 //! The configuration file named by `--config` gets `[camera] calibration_file` (relative to the file where the
 //! calibration lies beside or below it) in place of its own lens keys: a file that gives a lens gives all of
-//! it (docs/CONFIG.md's layering), and the calibration file carries the image size, the lens and
+//! it (config/vservo.toml's `[camera]`), and the calibration file carries the image size, the lens and
 //! `tool_from_camera`. The edit keeps every other key, comment and layout (`toml_edit`); the configuration as it
 //! will be is loaded and validated before anything is written (a refusal names what and leaves the file as it
 //! was); the file as it was is kept beside it (`<name>.before-calibration`); the new text is written as a new
@@ -24,8 +24,8 @@ use crate::UsageError;
 /// The suffix of the configuration as it was before `--apply`.
 const BEFORE_SUFFIX: &str = "before-calibration";
 
-/// The configuration's new text, checked, ready to be written (made before anything moves, so that a
-/// configuration `--apply` cannot edit is refused first).
+/// The configuration file as it was, checked to be editable (before anything moves, so that a configuration
+/// `--apply` cannot edit is refused first).
 pub struct Edit {
     config_path: PathBuf,
     before: String,
@@ -47,7 +47,7 @@ pub struct Applied {
 pub enum Reload {
     /// It reloaded: the calibrated camera is in force.
     Taken(String),
-    /// It refused (a restart applies it), or could not be asked: why.
+    /// It refused (the reply says why), or could not be asked: why.
     NotTaken(String),
 }
 
