@@ -163,7 +163,7 @@ fn run_guarded(name: &str, args: &[&str], guard: Duration) -> (Option<i32>, Stri
 }
 
 /// A 16384² camera is refused at start naming the key; `/dev/zero`, a FIFO, a directory and a file over
-/// 4 MiB given as the configuration are refused at once, naming the file, by vservod and vservoctl.
+/// 1 MiB given as the configuration are refused at once, naming the file, by vservod and vservoctl.
 #[test]
 fn what_the_configuration_accepts_the_cell_can_do() {
     let _one = exclusive();
@@ -436,4 +436,71 @@ fn a_replaced_safe_stop_path_is_a_safe_stop_and_is_made_again() {
     assert_eq!(code, Some(0), "{out}");
     assert!(safe_stopped_by(&instance, "requested"), "{out}");
     daemon.stop();
+}
+
+/// A file removed when the test ends, passed or failed.
+struct Removed(std::path::PathBuf);
+
+impl Drop for Removed {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_file(&self.0);
+    }
+}
+
+/// Issue 37: vservod answers SIGTERM within a second during any parse. The longest the bounds allow: a
+/// configuration of a megabyte with its bases (an overlay of config/arms/ur5e.toml padded with comments)
+/// reading a URDF of nearly the most elements (the UR5e with 4,900 more links on fixed joints: 19,634), a
+/// valid arm. SIGTERM at 5, 30 and 100 ms into the start: vservod ends within the bar with 0, having started
+/// nothing when the stop came while it read.
+#[test]
+fn vservod_answers_sigterm_within_a_second_while_it_parses_the_longest_files_the_bounds_allow() {
+    let _one = exclusive();
+    let root = repository_root();
+    let ur5e = std::fs::read_to_string(root.join("config/arms/ur5e.urdf")).expect("the UR5e");
+    let extra: String = (0..4_900)
+        .map(|i| {
+            format!(
+                "<link name=\"x{i}\"/><joint name=\"xj{i}\" type=\"fixed\"><parent link=\"base_link\"/>\
+                 <child link=\"x{i}\"/></joint>\n"
+            )
+        })
+        .collect();
+    let urdf = Removed(std::env::temp_dir().join(format!("{}.urdf", unique("longest-parse"))));
+    std::fs::write(&urdf.0, ur5e.replace("</robot>", &format!("{extra}</robot>"))).expect("written");
+    let mut text = format!(
+        "extends = \"{}\"\n[instance]\nname = \"{}\"\n[robot.arm]\nurdf = \"{}\"\n",
+        root.join("config/arms/ur5e.toml").display(),
+        unique("longest-parse"),
+        urdf.0.display()
+    );
+    let bases: u64 = ["config/arms/ur5e.toml", "config/vservo-robust.toml", "config/vservo.toml"]
+        .iter()
+        .map(|base| std::fs::metadata(root.join(base)).map_or(0, |m| m.len()))
+        .sum();
+    let line = "# padding padding padding padding padding padding padding padding padding padding\n";
+    while (text.len() + line.len()) as u64 + bases <= vservo_config::MAX_CONFIG_FILE_BYTES {
+        text.push_str(line);
+    }
+    let config = vservo_system_tests::TempConfig::written(&text);
+    // the premise: the files are within the bounds, a configuration that runs
+    let started = Instant::now();
+    let loaded = vservo_config::Config::load(&config.path);
+    println!("the longest files, read in this process in {:.3} s", started.elapsed().as_secs_f64());
+    assert!(loaded.is_ok(), "{:?}", loaded.err());
+    for delay_ms in [5u64, 30, 100] {
+        let mut daemon = Daemon::start(&config);
+        std::thread::sleep(Duration::from_millis(delay_ms));
+        let signalled = Instant::now();
+        daemon.signal(Signal::SIGTERM);
+        let code = daemon.wait(Duration::from_secs(10));
+        let answered = signalled.elapsed();
+        let log = daemon.log();
+        println!(
+            "SIGTERM {delay_ms} ms into the start: exit {code:?} {:.3} s after it{}",
+            answered.as_secs_f64(),
+            if log.contains("nothing was started") { ", nothing started" } else { "" }
+        );
+        assert_eq!(code, Some(0), "{log}");
+        assert!(answered < Duration::from_secs(1), "answered after {answered:?}\n{log}");
+    }
 }

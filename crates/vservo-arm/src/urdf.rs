@@ -239,7 +239,7 @@ impl<'a> Tree<'a> {
         let found = self.robot.links.iter().find(|link| link.name == name);
         found.map(|link| link.name.as_str()).ok_or_else(|| UrdfError::NoSuchLink {
             link: name.to_string(),
-            known: self.robot.links.iter().map(|l| l.name.as_str()).collect::<Vec<_>>().join(", "),
+            known: listed(self.robot.links.iter().map(|l| l.name.as_str())),
         })
     }
 
@@ -253,7 +253,7 @@ impl<'a> Tree<'a> {
             .collect();
         match roots.as_slice() {
             [one] => Ok((*one).to_string()),
-            _ => Err(UrdfError::SeveralRoots { roots: roots.join(", ") }),
+            _ => Err(UrdfError::SeveralRoots { roots: listed(roots.into_iter()) }),
         }
     }
 
@@ -398,9 +398,30 @@ fn origin_of(pose: &urdf_rs::Pose) -> Transform {
     Transform::from_parts(Translation3::new(x, y, z), Rotation3::from_euler_angles(roll, pitch, yaw))
 }
 
+/// The most names an error lists: a file of thousands of links names the first few and how many more.
+const NAMES_LISTED: usize = 12;
+
+/// `names` comma-separated, the first [`NAMES_LISTED`] of them and a count of the rest.
+fn listed<'n>(names: impl Iterator<Item = &'n str>) -> String {
+    let names: Vec<&str> = names.collect();
+    let shown = names[..names.len().min(NAMES_LISTED)].join(", ");
+    match names.len().saturating_sub(NAMES_LISTED) {
+        0 => shown,
+        more => format!("{shown} and {more} more"),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn an_error_lists_a_few_names_and_counts_the_rest() {
+        assert_eq!(listed(["a", "b"].into_iter()), "a, b");
+        let many: Vec<String> = (0..1000).map(|i| format!("l{i}")).collect();
+        let text = listed(many.iter().map(String::as_str));
+        assert!(text.starts_with("l0, l1, ") && text.ends_with("l11 and 988 more"), "{text}");
+    }
 
     /// A six-joint arm in URDF, with a fixed flange and a branch (two fingers) after it.
     pub(crate) fn six_joint_urdf(joint_5_kind: &str, limit_5: &str) -> String {

@@ -41,11 +41,14 @@ impl Layers {
         let mut layers: Vec<Layer> = Vec::new();
         let mut seen: Vec<PathBuf> = Vec::new();
         let mut next = Some(path.to_path_buf());
+        let mut read_bytes = 0u64;
         while let Some(path) = next.take() {
             let file = path.display().to_string();
             let extended_by = layers.last().map(|layer| layer.file.clone());
             let text = read_text(&path, &file, extended_by.as_deref())?;
             refuse_a_cycle(&path, &file, &mut seen, &layers)?;
+            read_bytes += text.len() as u64;
+            refuse_a_long_chain(read_bytes, &file, &layers)?;
             let mut table = parse_table(&text, &file)?;
             next = take_extends(&mut table, &path, &file)?;
             anchor_calibration_file(&mut table, &path);
@@ -363,8 +366,12 @@ pub fn read_bounded(path: &Path) -> Result<String, String> {
         return Err(format!("not a regular file ({what}): a configuration must be a regular file"));
     }
     let limit = crate::MAX_CONFIG_FILE_BYTES;
-    let too_long =
-        || format!("longer than {} MiB: a configuration is read up to that", limit / (1024 * 1024));
+    let too_long = || {
+        format!(
+            "longer than {} MiB, the most vservo reads of a configuration, URDF or calibration file",
+            limit / (1024 * 1024)
+        )
+    };
     if metadata.len() > limit {
         return Err(too_long());
     }
@@ -375,6 +382,24 @@ pub fn read_bounded(path: &Path) -> Result<String, String> {
         return Err(too_long());
     }
     String::from_utf8(bytes).map_err(|e| format!("not UTF-8 text: {e}"))
+}
+
+/// Refuses a chain of files longer together than one file may be ([`crate::MAX_CONFIG_FILE_BYTES`]), naming
+/// the file that went over and the chain.
+fn refuse_a_long_chain(read_bytes: u64, file: &str, layers: &[Layer]) -> Result<(), ConfigError> {
+    let limit = crate::MAX_CONFIG_FILE_BYTES;
+    if read_bytes <= limit {
+        return Ok(());
+    }
+    let chain: Vec<&str> = layers.iter().map(|layer| layer.file.as_str()).chain([file]).collect();
+    Err(ConfigError::Read {
+        file: file.to_string(),
+        reason: format!(
+            "the files {} hold {read_bytes} bytes together, more than the {} MiB a configuration is read up to",
+            chain.join(" → "),
+            limit / (1024 * 1024)
+        ),
+    })
 }
 
 /// Refuses a file met before in the chain, naming the chain.

@@ -529,7 +529,7 @@ fn the_camera_timeout_is_in_vision_periods_with_a_range() {
 }
 
 #[test]
-fn only_regular_files_up_to_4_mib_are_read() {
+fn only_regular_files_up_to_1_mib_together_are_read() {
     let dir = std::env::temp_dir().join(format!("vservo-config-files-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).expect("scratch");
@@ -552,12 +552,29 @@ fn only_regular_files_up_to_4_mib_are_read() {
         text.push_str("# padding padding padding padding padding padding padding padding\n");
     }
     std::fs::write(&long, &text).expect("written");
-    refused_read(&long, "longer than 4 MiB");
+    refused_read(&long, "longer than 1 MiB");
     // a base that is not a regular file is refused, naming the overlay and the base
     let overlay = dir.join("overlay.toml");
     std::fs::write(&overlay, "extends = \"fifo.toml\"\n").expect("written");
     let error = Config::load(&overlay).expect_err("refused");
     assert!(matches!(error, ConfigError::Base { .. }) && error.to_string().contains("a FIFO"), "{error}");
+    // a chain of files each within the bound, but over it together: refused naming the chain
+    let padding = |mut text: String| {
+        while (text.len() as u64) < vservo_config::MAX_CONFIG_FILE_BYTES * 6 / 10 {
+            text.push_str("# padding padding padding padding padding padding padding padding\n");
+        }
+        text
+    };
+    std::fs::write(dir.join("half_base.toml"), padding(DEFAULT.to_string())).expect("written");
+    let half_overlay = dir.join("half_overlay.toml");
+    std::fs::write(&half_overlay, padding("extends = \"half_base.toml\"\n".to_string())).expect("written");
+    let error = Config::load(&half_overlay).expect_err("refused");
+    assert!(
+        matches!(error, ConfigError::Read { .. })
+            && error.to_string().contains("half_overlay.toml → ")
+            && error.to_string().contains("together, more than the 1 MiB"),
+        "{error}"
+    );
     // within the bound, read as ever
     let fine = dir.join("fine.toml");
     std::fs::write(&fine, DEFAULT).expect("written");

@@ -57,7 +57,10 @@ pub fn run(
     stop: Arc<AtomicBool>,
     reload: Arc<AtomicBool>,
 ) -> anyhow::Result<()> {
-    let mut daemon = Daemon::start(config_path, status_every_s)?;
+    let Some(mut daemon) = Daemon::start(config_path, status_every_s, &stop)? else {
+        tracing::info!("stopped while reading the configuration: nothing was started");
+        return Ok(());
+    };
     let mut timer = PeriodicTimer::start(CYCLE.as_nanos() as u64);
     while !stop.load(Ordering::Relaxed) {
         timer.wait();
@@ -194,8 +197,12 @@ fn claim_instance(instance: &str, config_text: &str) -> anyhow::Result<(Instance
 impl Daemon {
     /// Checks the configuration, claims the instance, publishes the cell mode and the gains, then starts
     /// the nodes and the viewer.
-    fn start(config_path: &Path, status_every_s: f64) -> anyhow::Result<Self> {
+    /// `None` when `stop` came while the configuration was read (nothing is started then).
+    fn start(config_path: &Path, status_every_s: f64, stop: &AtomicBool) -> anyhow::Result<Option<Self>> {
         let (config, config_text, gains) = load_config(config_path)?;
+        if stop.load(Ordering::Relaxed) {
+            return Ok(None);
+        }
         let settings = Settings::of(&config, status_every_s);
         let (claim, node) = claim_instance(&settings.instance, &config_text)?;
         let launcher = Launcher {
@@ -258,7 +265,7 @@ impl Daemon {
         let franka_driver = Helper::franka_driver(&config, &launch);
         let gst_camera = Helper::gst_camera(&config, &launch);
         let now = Instant::now();
-        Ok(Self {
+        Ok(Some(Self {
             settings,
             _claim: claim,
             node,
@@ -285,7 +292,7 @@ impl Daemon {
             last_report: now,
             driver_absence_said: false,
             camera_absence_said: false,
-        })
+        }))
     }
 
     /// One supervisor cycle.
@@ -299,9 +306,10 @@ impl Daemon {
         if reload_requested {
             self.reload();
         }
+        // heard before a dead node's leftovers are removed: what it sent last (a plant's last state) is lost with them
+        self.heard.drain(&self.ports, &mut self.nodes, self.safety.monitor());
         let lost = self.reap(now);
         self.clean_up(now, lost);
-        self.heard.drain(&self.ports, &mut self.nodes, self.safety.monitor());
         self.end_hung(now);
         self.hear_stop_path(now);
         let mut conditions = self.judge_robot_and_conditions(now);
