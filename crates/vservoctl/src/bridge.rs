@@ -1,6 +1,6 @@
 //! From an instance's services to a sink of channels (an MCAP file for `vservoctl record`, the live
 //! view's WebSocket server for `vservoctl view`): every service as JSON with a JSON schema, and the cell as
-//! Foxglove shows it (`crate::foxglove_view`): the camera's images, the marks on them, the frames of the arm,
+//! Foxglove shows it ([`vservo_view::drawing`]): the camera's images, the marks on them, the frames of the arm,
 //! the camera and the board. A bridge only opens services (it never creates them) and reads them with
 //! iceoryx2's safe overflow: a slow bridge loses its oldest samples, it never slows the loop.
 
@@ -17,18 +17,9 @@ use vservo_protocol::{
     JointStateMsg, ObjectMsg, SimWorldMsg, TelemetryMsg, Topic, WireField,
 };
 
-use crate::foxglove_view;
 use crate::instance::{Connection, InstanceArg};
-
-/// A channel's schema and encoding.
-pub struct ChannelSpec<'a> {
-    pub topic: &'a str,
-    pub schema_name: &'a str,
-    pub schema_encoding: &'a str,
-    pub schema: &'a [u8],
-    pub message_encoding: &'a str,
-    pub metadata: BTreeMap<String, String>,
-}
+pub use vservo_view::ChannelSpec;
+use vservo_view::drawing;
 
 /// Where the bridge's messages go.
 pub trait Sink {
@@ -97,11 +88,9 @@ impl<S: Sink> Bridge<S> {
             last_state_stamp_ns: 0,
             image_every,
         };
-        bridge.add_foxglove_channel::<foxglove::messages::RawImage>(foxglove_view::IMAGE_TOPIC)?;
-        bridge
-            .add_foxglove_channel::<foxglove::messages::ImageAnnotations>(foxglove_view::ANNOTATIONS_TOPIC)?;
-        bridge
-            .add_foxglove_channel::<foxglove::messages::FrameTransforms>(foxglove_view::TRANSFORMS_TOPIC)?;
+        bridge.add_foxglove_channel::<foxglove::messages::RawImage>(drawing::IMAGE_TOPIC)?;
+        bridge.add_foxglove_channel::<foxglove::messages::ImageAnnotations>(drawing::ANNOTATIONS_TOPIC)?;
+        bridge.add_foxglove_channel::<foxglove::messages::FrameTransforms>(drawing::TRANSFORMS_TOPIC)?;
         Ok(bridge)
     }
 
@@ -186,15 +175,15 @@ impl Viewed for JointStateMsg {
         }
         bridge.last_transforms_ns = self.stamp_ns;
         let Some(drawing) = &bridge.drawing else { return Ok(()) };
-        let transforms = foxglove_view::arm_transforms(&drawing.arm, &drawing.tool_from_camera, self);
-        bridge.write_foxglove(foxglove_view::TRANSFORMS_TOPIC, &transforms, self.stamp_ns)
+        let transforms = drawing::arm_transforms(&drawing.arm, &drawing.tool_from_camera, self);
+        bridge.write_foxglove(drawing::TRANSFORMS_TOPIC, &transforms, self.stamp_ns)
     }
 }
 
 impl Viewed for FeaturesMsg {
     fn view<S: Sink>(&self, bridge: &mut Bridge<S>) -> anyhow::Result<()> {
-        let drawn = foxglove_view::annotations(self, bridge.desired_px.as_ref());
-        bridge.write_foxglove(foxglove_view::ANNOTATIONS_TOPIC, &drawn, self.stamp_ns)
+        let drawn = drawing::annotations(self, bridge.desired_px.as_ref());
+        bridge.write_foxglove(drawing::ANNOTATIONS_TOPIC, &drawn, self.stamp_ns)
     }
 }
 
@@ -211,8 +200,8 @@ impl Viewed for SimWorldMsg {
         if bridge.last_transforms_ns != bridge.last_state_stamp_ns {
             return Ok(());
         }
-        let board = foxglove_view::board_transform(self, bridge.last_state_stamp_ns);
-        bridge.write_foxglove(foxglove_view::TRANSFORMS_TOPIC, &board, bridge.last_state_stamp_ns)
+        let board = drawing::board_transform(self, bridge.last_state_stamp_ns);
+        bridge.write_foxglove(drawing::TRANSFORMS_TOPIC, &board, bridge.last_state_stamp_ns)
     }
 }
 
@@ -316,8 +305,8 @@ impl<S: Sink> Tapped<S> for ImageTap {
         while let Some(sample) = subscriber.receive()? {
             let header = *sample.user_header();
             if header.frame % self.every == 0 {
-                let image = foxglove_view::raw_image(&header, sample.payload());
-                bridge.write_foxglove(foxglove_view::IMAGE_TOPIC, &image, header.capture_stamp_ns)?;
+                let image = drawing::raw_image(&header, sample.payload());
+                bridge.write_foxglove(drawing::IMAGE_TOPIC, &image, header.capture_stamp_ns)?;
             }
         }
         Ok(())

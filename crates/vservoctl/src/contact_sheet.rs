@@ -88,7 +88,7 @@ fn read(bytes: &[u8], config: &Config) -> Result<Read> {
     let mut desired: [f64; 2 * MARKS] = std::array::from_fn(|i| config.desired.features[i]);
     for message in mcap::MessageStream::new(bytes)? {
         let message = message?;
-        if message.channel.topic == crate::foxglove_view::IMAGE_TOPIC {
+        if message.channel.topic == vservo_view::drawing::IMAGE_TOPIC {
             let image =
                 RawImage::decode(&message.data[..]).context("a camera image that is not a RawImage")?;
             let stamp =

@@ -45,14 +45,14 @@
 //!   lockstep `Trace`, and with `--frames N` a contact sheet of its camera images ([`contact_sheet`]);
 //! - `snapshot` ([`snapshot`]): the newest camera image with its marks as a PNG; the drawing, shared with the
 //!   contact sheet, in [`annotate`];
-//! - `view` ([`view`]): Foxglove's WebSocket protocol served by [`live_server`], tungstenite with a thread per
-//!   viewer: a token from [`view_token`] in the URL or HTTP 401/403, at most `--max-clients` or 503, a bounded
-//!   queue per viewer that drops its oldest data; `--url` prints the URL with the token. vservod starts it
+//! - `view` ([`view`]): the instance's streams served to Foxglove by the live view's crate (`vservo_view`: its
+//!   server, a thread per viewer, a token in the URL or HTTP 401/403, at most `--max-clients` or 503, a bounded
+//!   queue per viewer that drops its oldest data); `--url` prints the URL with the token. vservod starts it
 //!   with `[viewer] enabled`.
 //!
 //! `echo`, `record` and `view` started before the daemon wait for the instance. [`bridge`] takes an
 //! instance's services to a sink of channels (the MCAP file of `record`, the live server of `view`): every
-//! service as JSON, and through [`foxglove_view`] (pure conversions, unit-tested) the camera image
+//! service as JSON, and through `vservo_view::drawing` (pure conversions, unit-tested) the camera image
 //! (`foxglove.RawImage`), the marks the servo used, ξ_d, the errors and the missing marks
 //! (`foxglove.ImageAnnotations`, stamped with the image's capture time), and the arm's, camera's and board's
 //! frames (`foxglove.FrameTransforms`; the arm is the one configured, link by link, read from the
@@ -69,11 +69,9 @@ mod commands;
 mod config_arg;
 mod contact_sheet;
 mod echo;
-mod foxglove_view;
 mod gains;
 mod instance;
 mod joint_args;
-mod live_server;
 mod model;
 mod new_file;
 mod output;
@@ -90,7 +88,6 @@ mod status;
 mod tag;
 mod top;
 mod view;
-mod view_token;
 mod vision;
 
 use std::process::ExitCode;

@@ -1,7 +1,7 @@
 //! `vservoctl view`: the running cell live in Foxglove. Serves Foxglove's WebSocket protocol
-//! (`crate::live_server`) with what `vservoctl record` writes (`crate::bridge`): the camera's images with the
+//! ([`vservo_view::server`]) with what `vservoctl record` writes (`crate::bridge`): the camera's images with the
 //! marks on them, the arm's, camera's and board's frames, and every service as plottable JSON. Only a viewer
-//! that gives the view's token (`crate::view_token`, readable by the daemon's user only) is served, and at
+//! that gives the view's token ([`vservo_view::token`], readable by the daemon's user only) is served, and at
 //! most `--max-clients` at once. It is a client of the instance like any other, reading with iceoryx2's
 //! safe overflow: a slow or absent viewer never slows the loop. vservod starts it when
 //! `[viewer] enabled = true`.
@@ -16,8 +16,8 @@ use clap::Args;
 
 use crate::bridge::{Bridge, ChannelSpec, Sink};
 use crate::instance::{Connection, InstanceArg};
-use crate::live_server::{self, Hub};
-use crate::view_token::{self, UrlFile, ViewToken};
+use vservo_view::server::{self, Hub};
+use vservo_view::token::{UrlFile, ViewToken, read_url, url_file};
 
 /// Arguments of `vservoctl view`.
 #[derive(Args, Debug)]
@@ -78,9 +78,9 @@ pub fn run(args: &ViewArgs) -> anyhow::Result<()> {
     })?;
     let bound = listener.local_addr().context("the address served")?;
     let token = ViewToken::draw()?;
-    let _url_file = UrlFile::write(view_token::url_file(&instance_dir.path), token.url(bound))?;
+    let _url_file = UrlFile::write(url_file(&instance_dir.path), token.url(bound))?;
     let hub = Hub::new(&format!("vservo {}", connection.instance), token, args.max_clients as usize);
-    live_server::serve(listener, hub.clone());
+    server::serve(listener, hub.clone());
     // one line a script (or a test) can wait for; without the token, since this output goes to the
     // daemon's log (the journal), which other users may be allowed to read
     println!(
@@ -96,6 +96,6 @@ pub fn run(args: &ViewArgs) -> anyhow::Result<()> {
 fn print_url(instance: &InstanceArg) -> anyhow::Result<()> {
     let name = instance.name()?;
     let dir = vservo_protocol::InstanceDir::locate(&name)?;
-    println!("{}", view_token::read_url(&dir.path, &name)?);
+    println!("{}", read_url(&dir.path, &name)?);
     Ok(())
 }

@@ -9,7 +9,7 @@ use std::net::SocketAddr;
 use std::os::unix::fs::OpenOptionsExt;
 use std::path::{Path, PathBuf};
 
-use anyhow::Context as _;
+use crate::ViewError;
 
 /// The file in an instance's directory that holds the live view's URL with its token.
 pub const URL_FILE: &str = "viewer-url";
@@ -29,11 +29,11 @@ impl std::fmt::Debug for ViewToken {
 
 impl ViewToken {
     /// A fresh token from `/dev/urandom`.
-    pub fn draw() -> anyhow::Result<Self> {
+    pub fn draw() -> Result<Self, ViewError> {
         let mut bytes = [0u8; TOKEN_BYTES];
         std::fs::File::open("/dev/urandom")
             .and_then(|mut random| random.read_exact(&mut bytes))
-            .context("drawing the live view's token from /dev/urandom")?;
+            .map_err(ViewError::Token)?;
         Ok(Self(bytes.iter().map(|b| format!("{b:02x}")).collect()))
     }
 
@@ -77,7 +77,7 @@ pub struct UrlFile {
 impl UrlFile {
     /// Writes `url` to `path`, created with mode 0600 (never chmod after: no moment at which another
     /// user could open it) and put in place by a rename, so a reader sees a whole URL or none.
-    pub fn write(path: PathBuf, url: String) -> anyhow::Result<Self> {
+    pub fn write(path: PathBuf, url: String) -> Result<Self, ViewError> {
         let partial = path.with_extension(format!("{}.partial", std::process::id()));
         let _ = std::fs::remove_file(&partial);
         let written = OpenOptions::new()
@@ -90,7 +90,7 @@ impl UrlFile {
             .and_then(|()| std::fs::rename(&partial, &path));
         if let Err(error) = written {
             let _ = std::fs::remove_file(&partial);
-            return Err(error).with_context(|| format!("writing the live view's URL to {}", path.display()));
+            return Err(ViewError::WriteUrl { path, source: error });
         }
         Ok(Self { path, url })
     }
@@ -105,16 +105,14 @@ impl Drop for UrlFile {
 }
 
 /// The URL a running viewer of the instance in `instance_dir` serves, with its token.
-pub fn read_url(instance_dir: &Path, instance: &str) -> anyhow::Result<String> {
+pub fn read_url(instance_dir: &Path, instance: &str) -> Result<String, ViewError> {
     let path = url_file(instance_dir);
     match std::fs::read_to_string(&path) {
         Ok(text) => Ok(text.trim().to_string()),
-        Err(error) if error.kind() == ErrorKind::NotFound => anyhow::bail!(
-            "no live view of instance \"{instance}\" is serving (no {}): vservod starts one with [viewer] \
-             enabled = true, or run `vservoctl view`",
-            path.display()
-        ),
-        Err(error) => Err(error).with_context(|| format!("reading {}", path.display())),
+        Err(error) if error.kind() == ErrorKind::NotFound => {
+            Err(ViewError::NotServing { instance: instance.to_string(), path })
+        }
+        Err(source) => Err(ViewError::ReadUrl { path, source }),
     }
 }
 

@@ -1,7 +1,7 @@
 //! The live view's server: Foxglove's WebSocket protocol (subprotocol `foxglove.sdk.v1`, the SDK's name of
-//! `foxglove.websocket.v1`, which is accepted as well; spec: https://github.com/foxglove/ws-protocol,
+//! `foxglove.websocket.v1`, which is accepted as well; spec: <https://github.com/foxglove/ws-protocol>,
 //! docs/spec.md) with a gate the SDK's server has no hook for. A connection must give the view's token in
-//! its URL ([`crate::view_token`]) or it gets an HTTP error and nothing else: 401 without a token, 403 with
+//! its URL ([`crate::token`]) or it gets an HTTP error and nothing else: 401 without a token, 403 with
 //! a wrong one, 503 when `max_viewers` are already connected. What a viewer is told is the protocol's
 //! minimum: `serverInfo`, `advertise` (each channel with its schema), and the messages of the channels it
 //! subscribed to (`0x01 | u32 subscription id | u64 log time ns | payload`, little-endian).
@@ -24,8 +24,9 @@ use tungstenite::http::{HeaderValue, StatusCode};
 use tungstenite::protocol::WebSocketConfig;
 use tungstenite::{Message, WebSocket};
 
-use crate::bridge::ChannelSpec;
-use crate::view_token::{ViewToken, token_in_query};
+use crate::ChannelSpec;
+use crate::ViewError;
+use crate::token::{ViewToken, token_in_query};
 
 /// The subprotocols a viewer may ask for, the one preferred first (both are the same protocol).
 pub const SUBPROTOCOLS: [&str; 2] = ["foxglove.sdk.v1", "foxglove.websocket.v1"];
@@ -130,7 +131,7 @@ impl Hub {
     }
 
     /// Adds a channel and advertises it to the viewers connected; returns its id.
-    pub fn add_channel(&self, spec: &ChannelSpec<'_>) -> anyhow::Result<u64> {
+    pub fn add_channel(&self, spec: &ChannelSpec<'_>) -> Result<u64, ViewError> {
         let mut channels = lock(&self.channels);
         let id = channels.len() as u64 + 1;
         let advertised = advertised_channel(id, spec)?;
@@ -233,12 +234,12 @@ fn chosen_subprotocol(request: &Request) -> Option<&'static str> {
 
 /// A channel as the `advertise` message lists it (as the SDK does: a binary schema in base64, a text
 /// schema as it is; metadata only when there is some).
-fn advertised_channel(id: u64, spec: &ChannelSpec<'_>) -> anyhow::Result<serde_json::Value> {
+fn advertised_channel(id: u64, spec: &ChannelSpec<'_>) -> Result<serde_json::Value, ViewError> {
     let schema = if matches!(spec.schema_encoding, "protobuf" | "flatbuffer") {
         base64::engine::general_purpose::STANDARD.encode(spec.schema)
     } else {
         String::from_utf8(spec.schema.to_vec())
-            .map_err(|_| anyhow::anyhow!("{}: the schema is not UTF-8 text", spec.topic))?
+            .map_err(|_| ViewError::SchemaNotText { topic: spec.topic.to_string() })?
     };
     let mut entry = serde_json::json!({
         "id": id,

@@ -10,8 +10,7 @@ use foxglove::messages::{
     Quaternion, RawImage, TextAnnotation, Timestamp, Vector3,
 };
 use nalgebra::{IsometryMatrix3, UnitQuaternion};
-use vservo_protocol::MarkStatus;
-use vservo_protocol::{CameraImageHeader, FeaturesMsg, JointStateMsg, SimWorldMsg};
+use vservo_wire::{CameraImageHeader, FeaturesMsg, JointStateMsg, MarkStatus, SimWorldMsg};
 
 /// Foxglove's topics of a recording.
 pub const IMAGE_TOPIC: &str = "/camera/image";
