@@ -68,6 +68,8 @@ fn reached(graph: &BTreeMap<String, BTreeSet<String>>, name: &str) -> BTreeSet<S
 #[test]
 fn the_crate_graph_in_architecture_md_is_the_workspaces() {
     let doc = std::fs::read_to_string(repository_root().join("docs/ARCHITECTURE.md")).expect("the doc");
+    // a map, not a manual (issue 36: crate detail goes into the crates' docs)
+    assert!(doc.len() < 15_000, "docs/ARCHITECTURE.md is {} bytes: keep it a map, under 15 kB", doc.len());
     let block = graph_block(&crate_graph());
     assert!(
         doc.contains(&format!("```text\n{block}```")),
@@ -102,6 +104,35 @@ fn drivers_and_bridges_keep_out_of_the_real_time_shell_and_the_cell() {
     }
     // the premise: the check sees the real graph (the daemon does reach the shell)
     assert!(reached(&graph, "vservod").contains("vservo-runtime"));
+}
+
+/// Issue 36: the core cell takes only its own part of the configuration (`vservo_config::CellConfig`), never the
+/// whole `Config` with the shells' settings (runtime, faults, viewer, ROS 2, drivers); its tests may load a file.
+#[test]
+fn the_core_cell_takes_only_its_part_of_the_configuration() {
+    let mut whole = Vec::new();
+    for file in rust_files(&repository_root().join("crates/vservo-cell/src")) {
+        let text = std::fs::read_to_string(&file).expect("a source file");
+        let code = text.split("#[cfg(test)]").next().unwrap_or_default();
+        for (number, line) in code.lines().enumerate() {
+            let line = line.split("//").next().unwrap_or_default();
+            let bytes = line.as_bytes();
+            let named = line.match_indices("Config").any(|(at, _)| {
+                let before = at.checked_sub(1).map(|i| bytes[i]);
+                let after = bytes.get(at + "Config".len()).copied();
+                !before.is_some_and(|b| b.is_ascii_alphanumeric() || b == b'_')
+                    && !after.is_some_and(|b| b.is_ascii_alphanumeric() || b == b'_')
+            });
+            if named {
+                whole.push(format!("{}:{}: {}", file.display(), number + 1, line.trim()));
+            }
+        }
+    }
+    assert!(whole.is_empty(), "the cell names the whole configuration:\n{}", whole.join("\n"));
+    // the premise: the scan sees the cell's part where it is taken
+    let lib =
+        std::fs::read_to_string(repository_root().join("crates/vservo-cell/src/lib.rs")).expect("lib.rs");
+    assert!(lib.contains("pub fn new(config: &CellConfig)"));
 }
 
 /// Every `.rs` file under `dir`, recursively.

@@ -3,14 +3,14 @@
 //! (the daemon's start check, every node, the lockstep), and so does the daemon's commander for each
 //! version it hands the servo; the servo runs the version the daemon's `gains` message names.
 
-use vservo_config::Config;
+use vservo_config::CellConfig;
 use vservo_control::{Gains, GainsError, GainsSpec};
 
 use crate::target::Target;
 
 /// What the gains are designed for: the configuration's specification, with `target` (if a client set
 /// one) in place of `[desired]`'s features and depths.
-pub fn spec(config: &Config, target: Option<&Target>) -> GainsSpec {
+pub fn spec(config: &CellConfig, target: Option<&Target>) -> GainsSpec {
     let mut spec = config.gains_spec();
     if let Some(target) = target {
         spec.desired_features = target.features;
@@ -20,7 +20,7 @@ pub fn spec(config: &Config, target: Option<&Target>) -> GainsSpec {
 }
 
 /// The servo's gains for `config` and the target in force.
-pub fn design(config: &Config, target: Option<&Target>) -> Result<Gains, GainsError> {
+pub fn design(config: &CellConfig, target: Option<&Target>) -> Result<Gains, GainsError> {
     Gains::design(&spec(config, target))
 }
 
@@ -29,8 +29,10 @@ mod tests {
     use super::*;
     use crate::target::{CellNow, TargetRequest, place};
 
-    fn config() -> Config {
-        Config::from_toml(include_str!("../../../config/vservo.toml"), "vservo.toml").expect("the default")
+    fn config() -> CellConfig {
+        vservo_config::Config::from_toml(include_str!("../../../config/vservo.toml"), "vservo.toml")
+            .expect("the default")
+            .cell()
     }
 
     #[test]

@@ -1,7 +1,7 @@
 //! # vservo-cell — the four components of the cell, as step functions both shells run
 //!
 //! This crate owns the wiring of the pure components into the four stages of the loop (docs/ARCHITECTURE.md),
-//! each built from one [`Config`] by a [`Cell`]:
+//! each built from the configuration's part for the cell ([`CellConfig`], never the shells' settings) by a [`Cell`]:
 //!
 //! - [`PlantStage`]: the simulated arm and its world (the board's motion), and a holding brake when commands
 //!   stop; one call per 1 ms tick;
@@ -25,7 +25,7 @@
 //! `Prediction::Layout` with ξ_d when there is none), or with an AprilTag target the tag's extractor fed the
 //! tracked corners → ξ in the board's mark order, NaN and a reason for each mark that is not valid. Tracking
 //! relocks on the observed positions; the features leave undistorted to pinhole pixels (`vision.undistort`).
-//! The simulated camera renders the camera as it really is (`Config::true_camera`, from `[camera.truth]`),
+//! The simulated camera renders the camera as it really is (`CellConfig::true_camera`, from `[camera.truth]`),
 //! while the pose delivered with the features is the believed one; the pipeline delay is modelled for the
 //! simulated camera only.
 //!
@@ -75,7 +75,7 @@ pub use vservo_config::CommandInterface;
 
 use nalgebra::{Rotation3, Translation3};
 use vservo_arm::{JointVector, SerialArm};
-use vservo_config::{Config, RobotDriver};
+use vservo_config::{CellConfig, RobotDriver};
 use vservo_control::Gains;
 use vservo_scene::IsometryMatrix3;
 use vservo_sim::plant::PlantMode;
@@ -104,7 +104,7 @@ pub enum CellError {
 /// A configuration made ready to build the stages: the arm, the gains, the desired and starting poses.
 #[derive(Debug, Clone)]
 pub struct Cell {
-    config: Config,
+    config: CellConfig,
     arm: SerialArm,
     gains: Gains,
     start_joints: JointVector,
@@ -114,7 +114,7 @@ pub struct Cell {
 
 impl Cell {
     /// A cell that is simulated whole (arm and camera), as the lockstep simulator needs.
-    pub fn simulated(config: &Config) -> Result<Self, CellError> {
+    pub fn simulated(config: &CellConfig) -> Result<Self, CellError> {
         if config.vision.source != vservo_config::VisionSource::Simulated {
             return Err(CellError::NotSimulatedCamera(config.vision.source.name()));
         }
@@ -126,7 +126,7 @@ impl Cell {
 
     /// Designs the gains and places the arm at the scenario's starting camera pose by inverse kinematics
     /// (the solution nearest the desired joints; the simulated driver starts there).
-    pub fn new(config: &Config) -> Result<Self, CellError> {
+    pub fn new(config: &CellConfig) -> Result<Self, CellError> {
         let arm = config.arm.clone();
         let gains = gains::design(config, None)?;
         let base_from_desired_camera = arm.base_from_tool(&config.desired.joints) * config.tool_from_camera;
@@ -151,7 +151,7 @@ impl Cell {
     }
 
     /// The configuration.
-    pub fn config(&self) -> &Config {
+    pub fn config(&self) -> &CellConfig {
         &self.config
     }
 

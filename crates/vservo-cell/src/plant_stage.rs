@@ -2,7 +2,7 @@
 
 use nalgebra::Vector3;
 use vservo_arm::{JointVector, SerialArm};
-use vservo_config::Config;
+use vservo_config::CellConfig;
 use vservo_scene::IsometryMatrix3;
 use vservo_sim::interpolator::Reference;
 use vservo_sim::joint_servo::JointServo;
@@ -42,7 +42,7 @@ pub struct PlantStage {
 
 impl PlantStage {
     pub(crate) fn new(
-        config: &Config,
+        config: &CellConfig,
         arm: SerialArm,
         q: JointVector,
         tick: u64,
@@ -189,7 +189,8 @@ mod tests {
     fn a_new_object_motion_starts_where_the_board_is_and_when_it_is_set() {
         let config =
             vservo_config::Config::load(concat!(env!("CARGO_MANIFEST_DIR"), "/../../config/vservo.toml"))
-                .expect("the default config loads");
+                .expect("the default config loads")
+                .cell();
         let cell = Cell::new(&config).expect("the default cell");
         let mut plant = cell.plant_resumed(cell.start_joints(), 1000);
         let desired_rotation = cell.base_from_desired_camera().rotation;
@@ -214,7 +215,8 @@ mod tests {
     fn the_drive_follows_a_late_reference_with_its_own_servo_and_brakes_to_rest_without_turning_back() {
         let config =
             vservo_config::Config::load(concat!(env!("CARGO_MANIFEST_DIR"), "/../../config/vservo.toml"))
-                .expect("the default config loads");
+                .expect("the default config loads")
+                .cell();
         assert_eq!(config.plant.mode, PlantMode::Dynamic);
         let cell = Cell::new(&config).expect("the default cell");
         let start = *cell.start_joints();

@@ -10,7 +10,7 @@
 //! tick (or, replaying a real-time run, on the states that run answered).
 
 use vservo_arm::{JointVector, SerialArm, Transform};
-use vservo_config::{CommandInterface, Config};
+use vservo_config::{CellConfig, CommandInterface};
 use vservo_control::Twist;
 use vservo_sim::interpolator::{Interpolator, InterpolatorSettings, Reference};
 use vservo_sim::joint_servo::JointServo;
@@ -108,7 +108,7 @@ impl Gap {
 
 impl RmrcStage {
     pub(crate) fn new(
-        config: &Config,
+        config: &CellConfig,
         settings: InterpolatorSettings,
         arm: SerialArm,
         q: JointVector,
@@ -267,7 +267,7 @@ pub struct TwistLimits {
 impl TwistLimits {
     /// The robot's camera limits of the configuration (`robot.max_camera_speed_m_s`,
     /// `robot.max_camera_rotation_rad_s`).
-    pub fn of(config: &Config) -> Self {
+    pub fn of(config: &CellConfig) -> Self {
         Self {
             linear_m_s: config.robot.max_camera_speed_m_s,
             angular_rad_s: config.robot.max_camera_rotation_rad_s,
@@ -290,7 +290,8 @@ mod tests {
     fn stage() -> (RmrcStage, JointVector, u64) {
         let config =
             vservo_config::Config::load(concat!(env!("CARGO_MANIFEST_DIR"), "/../../config/vservo.toml"))
-                .expect("the default config loads");
+                .expect("the default config loads")
+                .cell();
         let cell = Cell::new(&config).expect("the default cell");
         let q = *cell.start_joints();
         let period_ns = (config.robot.period_s * 1e9).round() as u64;

@@ -226,7 +226,8 @@ mod tests {
     fn servo() -> ServoStage {
         let config =
             vservo_config::Config::load(concat!(env!("CARGO_MANIFEST_DIR"), "/../../config/vservo.toml"))
-                .expect("the default config loads");
+                .expect("the default config loads")
+                .cell();
         crate::Cell::new(&config).expect("the default cell").servo()
     }
 

@@ -7,7 +7,7 @@
 
 use nalgebra::Vector3;
 use vservo_arm::JointVector;
-use vservo_config::Config;
+use vservo_config::CellConfig;
 use vservo_scene::{FeatureVector, IsometryMatrix3, MARKS, MarkDepths, ProjectionError};
 
 /// Features closer than this to the image border are refused as targets (px): a mark there is cut by the
@@ -131,7 +131,7 @@ pub enum TargetRefused {
 
 /// Places the target `request` asks for, with the barrier's margin `border_margin_px` in force.
 pub fn place(
-    config: &Config,
+    config: &CellConfig,
     border_margin_px: f64,
     request: &TargetRequest,
     now: &CellNow,
@@ -166,7 +166,7 @@ pub fn place(
 /// Features as a target: checked, then the camera pose that sees the board so gives the depths, and must
 /// be reachable.
 fn place_features(
-    config: &Config,
+    config: &CellConfig,
     border_margin_px: f64,
     features: FeatureVector,
     now: &CellNow,
@@ -188,7 +188,7 @@ fn place_features(
 /// Finite, inside the image clear of the margin, marks apart, in the layout's orientation: what every target
 /// must be, and what the target in force must still be after a reload changes the barrier's margin.
 pub fn check_features(
-    config: &Config,
+    config: &CellConfig,
     border_margin_px: f64,
     features: &FeatureVector,
 ) -> Result<(), TargetRefused> {
@@ -257,7 +257,7 @@ fn quad_area(features: &FeatureVector) -> f64 {
 
 /// The arm can put the camera at `camera_from_board` with the board where it is now.
 fn check_reachable(
-    config: &Config,
+    config: &CellConfig,
     camera_from_board: &IsometryMatrix3<f64>,
     now: &CellNow,
 ) -> Result<(), TargetRefused> {
@@ -268,7 +268,7 @@ fn check_reachable(
 
 /// Where the board is, in the base frame, and the joints now: the camera's pose from forward kinematics
 /// times the board's pose the features give. Before both are heard, the configuration's desired arrangement.
-fn board_and_joints_now(config: &Config, now: &CellNow) -> (IsometryMatrix3<f64>, JointVector) {
+fn board_and_joints_now(config: &CellConfig, now: &CellNow) -> (IsometryMatrix3<f64>, JointVector) {
     let seen = now.features_seen.and_then(|f| config.camera.board_pose_from_features(&config.board, &f));
     match (now.joints, seen) {
         (Some(joints), Some(camera_from_board)) => {
@@ -283,8 +283,10 @@ fn board_and_joints_now(config: &Config, now: &CellNow) -> (IsometryMatrix3<f64>
 mod tests {
     use super::*;
 
-    fn config() -> Config {
-        Config::from_toml(include_str!("../../../config/vservo.toml"), "vservo.toml").expect("the default")
+    fn config() -> CellConfig {
+        vservo_config::Config::from_toml(include_str!("../../../config/vservo.toml"), "vservo.toml")
+            .expect("the default")
+            .cell()
     }
 
     /// A target the default cell reaches (the integration test's).

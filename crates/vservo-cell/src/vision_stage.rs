@@ -3,7 +3,7 @@
 use std::collections::VecDeque;
 
 use vservo_arm::{JointVector, SerialArm};
-use vservo_config::Config;
+use vservo_config::CellConfig;
 use vservo_scene::{Board, CameraIntrinsics, FeatureVector, IsometryMatrix3, MARKS};
 use vservo_vision::GrayImage;
 use vservo_vision::source::SimulatedCamera;
@@ -85,7 +85,7 @@ pub struct VisionStage {
 }
 
 impl VisionStage {
-    pub(crate) fn new(config: &Config, arm: SerialArm) -> Self {
+    pub(crate) fn new(config: &CellConfig, arm: SerialArm) -> Self {
         let truth = config.true_camera();
         // the simulated camera's pipeline delay is modelled here; a camera driver's is physical: its frames
         // are worked on as they arrive and published at once
@@ -305,7 +305,8 @@ mod tests {
     fn stage_and_poses() -> (VisionStage, Vec<(u64, JointVector)>, IsometryMatrix3<f64>) {
         let config =
             vservo_config::Config::load(concat!(env!("CARGO_MANIFEST_DIR"), "/../../config/vservo.toml"))
-                .expect("the default config loads");
+                .expect("the default config loads")
+                .cell();
         let cell = Cell::new(&config).expect("the default cell");
         let q0 = *cell.start_joints();
         let poses = (0..6u64).map(|k| (85 * k, q0 + JointVector::from_element(0.002 * k as f64))).collect();

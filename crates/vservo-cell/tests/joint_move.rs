@@ -13,7 +13,7 @@ fn the_dynamic_arm_follows_a_joint_move_to_its_goal_within_its_speed_limits() {
         "/../../config/vservo-apriltag.toml"
     ))
     .expect("the AprilTag cell loads");
-    let cell = Cell::simulated(&config).expect("the cell");
+    let cell = Cell::simulated(&config.cell()).expect("the cell");
     let mut plant = cell.plant();
     let start = plant.state().q;
     let mut rmrc = cell.rmrc(&start);
@@ -66,7 +66,7 @@ fn a_far_joint_move_at_full_speed_stays_within_the_drives_torque() {
     let config =
         vservo_config::Config::load(concat!(env!("CARGO_MANIFEST_DIR"), "/../../config/vservo.toml"))
             .expect("the default cell loads");
-    let cell = Cell::simulated(&config).expect("the cell");
+    let cell = Cell::simulated(&config.cell()).expect("the cell");
     let mut plant = cell.plant();
     let start = plant.state().q;
     let mut rmrc = cell.rmrc(&start);

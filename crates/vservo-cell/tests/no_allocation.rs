@@ -84,12 +84,12 @@ fn an_arm_from_a_urdf_allocates_nothing_per_tick_or_frame() {
 
 /// Runs frames and ticks of the cell, counting allocations; the law's flags of the frames counted.
 fn runs_without_allocating(config: vservo_config::Config) -> [LawFlags; COUNTED_FRAMES] {
-    let cell = Cell::new(&config).expect("the default cell");
+    let cell = Cell::new(&config.cell()).expect("the default cell");
     let mut plant = cell.plant();
     let mut vision = cell.vision();
     let mut servo = cell.servo();
     let mut rmrc = cell.rmrc(cell.start_joints());
-    let limits = TwistLimits::of(&config);
+    let limits = TwistLimits::of(cell.config());
     let ticks_per_frame = u64::from(config.timing.control_ticks_per_frame);
     let mut frame = |plant: &vservo_cell::PlantStage, vision: &mut vservo_cell::VisionStage, k: u64| {
         let state = *plant.state();

@@ -54,6 +54,7 @@
 pub const MAX_PIPELINE_BYTES: usize = 4096;
 
 pub mod calibration;
+mod cell;
 mod error;
 mod layers;
 mod raw;
@@ -62,14 +63,13 @@ mod validate;
 
 use std::path::Path;
 
+pub use cell::CellConfig;
 pub use error::ConfigError;
 use layers::Layers;
 pub use layers::{LENS_KEYS, did_you_mean};
 use nalgebra::Vector3;
 pub use sections::*;
-use vservo_arm::JointVector;
 use vservo_scene::{Board, CameraIntrinsics, IsometryMatrix3};
-use vservo_settings::control::GainsSpec;
 
 /// A validated configuration.
 #[derive(Debug, Clone, PartialEq)]
@@ -129,12 +129,6 @@ pub struct Config {
 }
 
 impl Config {
-    /// The simulated camera as it really is: `[camera.truth]` where written, else what the cell believes.
-    pub fn true_camera(&self) -> CameraTruth {
-        self.camera_truth
-            .unwrap_or(CameraTruth { intrinsics: self.camera, tool_from_camera: self.tool_from_camera })
-    }
-
     /// Reads and validates a configuration file, merged over the bases it `extends`.
     pub fn load(path: impl AsRef<Path>) -> Result<Config, ConfigError> {
         Self::load_with_text(path).map(|(config, _)| config)
@@ -193,53 +187,10 @@ impl Config {
         })
     }
 
-    /// The world (= arm base) pose of the board, placed so that the camera at q_d sees it as desired.
-    pub fn base_from_board(&self, arm: &vservo_arm::SerialArm) -> IsometryMatrix3<f64> {
-        arm.base_from_tool(&self.desired.joints) * self.tool_from_camera * self.desired.camera_from_board
-    }
-
-    /// The board as the camera sees it with the arm at `joints` and the board where the desired pose puts
-    /// it: `camera_from_board = (base_from_tool(q) · tool_from_camera)⁻¹ · base_from_board`.
-    pub fn camera_from_board_at(
-        &self,
-        arm: &vservo_arm::SerialArm,
-        joints: &JointVector,
-    ) -> IsometryMatrix3<f64> {
-        let base_from_camera = arm.base_from_tool(joints) * self.tool_from_camera;
-        base_from_camera.inverse() * self.base_from_board(arm)
-    }
-
-    /// The command the robot driver takes: an external driver's declaration; for the simulated driver,
-    /// torque for the dynamic plant and position (the ideal robot) for the kinematic one.
-    pub fn command_interface(&self) -> CommandInterface {
-        match self.robot.driver {
-            RobotDriver::External | RobotDriver::Ros2 | RobotDriver::Franka => self.robot.command,
-            RobotDriver::Simulated => match self.plant.mode {
-                vservo_settings::simulation::PlantMode::Dynamic => CommandInterface::Torque,
-                vservo_settings::simulation::PlantMode::Kinematic => CommandInterface::Position,
-            },
-        }
-    }
-
     /// Whether vservod starts the ROS 2 driver (`vservo-ros2-driver`): for the arm (`robot.driver = "ros2"`),
     /// the camera (`camera.source = "ros2"`) or both.
     pub fn runs_ros2_driver(&self) -> bool {
         self.robot.driver == RobotDriver::Ros2 || self.vision.source == VisionSource::Ros2
-    }
-
-    /// What the gain design needs.
-    pub fn gains_spec(&self) -> GainsSpec {
-        GainsSpec {
-            camera: self.camera,
-            desired_features: self.desired.features,
-            desired_depths: self.desired.depths,
-            period_s: self.timing.vision_period_s,
-            delay_frames: self.timing.pipeline_delay_frames,
-            q: self.controller.q,
-            r: self.controller.r,
-            law: self.controller.law,
-            options: self.controller.options,
-        }
     }
 }
 

@@ -187,7 +187,7 @@ impl Lockstep {
     /// Sets the loop up from a configuration (its `[plant]`, `[interpolator]`, `[joint_servo]` and
     /// `[scenario]` sections say what to simulate): designs the gains, places the arm by inverse kinematics.
     pub fn new(config: &Config) -> Result<Self, CellError> {
-        let cell = Cell::simulated(config)?;
+        let cell = Cell::simulated(&config.cell())?;
         Ok(Self {
             config: config.clone(),
             gains: cell.gains().clone(),
@@ -195,7 +195,7 @@ impl Lockstep {
             vision: cell.vision(),
             servo: cell.servo(),
             rmrc: cell.rmrc(cell.start_joints()),
-            limits: TwistLimits::of(config),
+            limits: TwistLimits::of(cell.config()),
             desired_camera_from_base: cell.base_from_desired_camera().inverse(),
             resyncs: Vec::new(),
             waiting: None,

@@ -83,6 +83,9 @@ pub struct NodeContext {
     pub cell: Cell,
     /// The instance name (service prefix).
     pub instance: String,
+    /// `[runtime]`: how this shell runs the node (thread settings, telemetry, holding and stop times); the
+    /// cell's own part of the configuration is in `cell`.
+    pub runtime: vservo_config::Runtime,
     /// Set by SIGTERM/SIGINT: the loop finishes its cycle and returns.
     pub stop: Arc<AtomicBool>,
     /// Set when the daemon is gone: servo and vision stop; the rmrc brings the reference to rest and stops;

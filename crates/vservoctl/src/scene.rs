@@ -33,7 +33,7 @@ fn matrix4(pose: &IsometryMatrix3<f64>) -> Value {
 /// Runs the command.
 pub fn run(args: &SceneArgs) -> Result<()> {
     let config = args.config.load()?;
-    let cell = Cell::new(&config).map_err(|e| UsageError(format!("{}: {e}", config.origin)))?;
+    let cell = Cell::new(&config.cell()).map_err(|e| UsageError(format!("{}: {e}", config.origin)))?;
     let arm = cell.arm();
     let chain = match &arm.geometry {
         vservo_arm::Geometry::Chain(chain) => Some(chain),

@@ -62,7 +62,8 @@ pub fn run(
     } else {
         (vservo_config::Config::load(config_path)?, None)
     };
-    let cell = vservo_cell::Cell::new(&config).with_context(|| format!("{}", config_path.display()))?;
+    let cell =
+        vservo_cell::Cell::new(&config.cell()).with_context(|| format!("{}", config_path.display()))?;
     let joint_count = config.arm.joint_count();
     let resume = match &args.resume_q {
         Some(q) if q.len() == joint_count && q.iter().all(|v| v.is_finite()) => {
@@ -83,6 +84,7 @@ pub fn run(
     let context = NodeContext {
         cell,
         instance: config.instance.clone(),
+        runtime: config.runtime.clone(),
         stop,
         orphaned,
         seal_key,

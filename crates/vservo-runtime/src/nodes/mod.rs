@@ -27,7 +27,7 @@ struct NodeBase {
 }
 
 fn start(context: &NodeContext, role: NodeRole) -> Result<NodeBase, RuntimeError> {
-    let period_s = context.cell.config().runtime.telemetry_period.as_secs_f64();
+    let period_s = context.runtime.telemetry_period.as_secs_f64();
     let (telemetry, monitor) = TelemetryThread::spawn(&context.instance, role, period_s)?;
     let node = vservo_protocol::create_node(&context.instance, role.name())?;
     Ok(NodeBase { _telemetry: telemetry, monitor, node })
@@ -36,7 +36,7 @@ fn start(context: &NodeContext, role: NodeRole) -> Result<NodeBase, RuntimeError
 /// Applies the role's `[runtime]` settings to the calling thread, once its ports exist; what the system
 /// refuses is a warning.
 fn go_realtime(context: &NodeContext, role: NodeRole) {
-    let runtime = &context.cell.config().runtime;
+    let runtime = &context.runtime;
     let settings = match role {
         NodeRole::Plant => &runtime.plant,
         NodeRole::Rmrc => &runtime.rmrc,

@@ -245,7 +245,7 @@ impl Plant {
             period_ns: (config.timing.control_period_s * 1e9).round() as u64,
             command_mode: crate::wire::command_mode(config.command_interface()),
         };
-        let hold_after = u64::from(config.runtime.hold_after_missed_ticks);
+        let hold_after = u64::from(context.runtime.hold_after_missed_ticks);
         let settings = DriverSettings {
             mode: declared.command_mode,
             joint_count: context.cell.arm().joint_count(),
@@ -272,7 +272,7 @@ impl Plant {
             missed_in_a_row: 0,
             object_issue: None,
             orphaned_since_ns: None,
-            orphan_timeout_ns: (config.runtime.stop_timeout + std::time::Duration::from_secs(2)).as_nanos()
+            orphan_timeout_ns: (context.runtime.stop_timeout + std::time::Duration::from_secs(2)).as_nanos()
                 as u64,
         }
     }

@@ -123,7 +123,7 @@ impl Rmrc {
             twist_max_age_ns: (config.timing.vision_period_s * 1e9).round() as u64,
             orphaned: Orphaned {
                 since_ns: None,
-                timeout_ns: (config.runtime.stop_timeout + std::time::Duration::from_secs(1)).as_nanos()
+                timeout_ns: (context.runtime.stop_timeout + std::time::Duration::from_secs(1)).as_nanos()
                     as u64,
             },
         }

@@ -26,7 +26,8 @@ impl Simulated {
                 config.origin
             )));
         }
-        let cell = Cell::simulated(config).map_err(|e| UsageError(format!("{}: {e}", config.origin)))?;
+        let cell =
+            Cell::simulated(&config.cell()).map_err(|e| UsageError(format!("{}: {e}", config.origin)))?;
         let base_from_board = config.base_from_board(cell.arm());
         Ok(Self { cell, base_from_board })
     }

@@ -144,7 +144,7 @@ mod tests {
         // a real UR5e's cell (the file's own simulated plant is the ideal robot, which keeps no limit)
         let mut config = ur5e();
         config.robot.driver = vservo_config::RobotDriver::External;
-        let cell = Cell::new(&config).expect("the UR5e cell");
+        let cell = Cell::new(&config.cell()).expect("the UR5e cell");
         let start = *cell.start_joints();
         let base_from_camera = config.arm.base_from_tool(&start) * config.tool_from_camera;
         let features = config
@@ -164,7 +164,7 @@ mod tests {
         // the servo's own twist limit: a cell that allows only a crawl refuses this twist
         let mut crawl = config.clone();
         crawl.robot.max_camera_speed_m_s = 0.01;
-        let cell = Cell::new(&crawl).expect("the UR5e cell");
+        let cell = Cell::new(&crawl.cell()).expect("the UR5e cell");
         let line = first_twist(&seen, &cell);
         assert!(!line.pass && line.text.contains("would refuse it"), "{line:?}");
     }

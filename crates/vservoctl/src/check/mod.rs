@@ -56,7 +56,8 @@ pub struct ChecksFailed {
 pub fn run(args: &CheckArgs) -> anyhow::Result<()> {
     let connection = Connection::open_when_there(&args.instance, || true)?;
     let config = args.instance.configuration_in_force(&connection.instance)?;
-    let cell = vservo_cell::Cell::new(&config).map_err(|e| UsageError(format!("{}: {e}", config.origin)))?;
+    let cell =
+        vservo_cell::Cell::new(&config.cell()).map_err(|e| UsageError(format!("{}: {e}", config.origin)))?;
     let window = Duration::from_secs_f64(args.duration_s.max(0.2));
     // the ROS 2 arm's own joint names, heard beside the instance's services
     let names = ros_names::listen(&config, window);

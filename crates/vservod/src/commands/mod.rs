@@ -274,7 +274,8 @@ impl Commander {
                 ReloadPlan::Design { target, changed, restart_nodes } => (target, changed, restart_nodes),
             };
         let refused = |why| ReloadRefused::Gains { path: path.clone(), why };
-        let gains = vservo_cell::gains::design(&config, target.as_ref()).map_err(|e| refused(e.into()))?;
+        let gains =
+            vservo_cell::gains::design(&config.cell(), target.as_ref()).map_err(|e| refused(e.into()))?;
         self.publish_gains(&gains).map_err(refused)?;
         self.config = config;
         self.config_text = text;
@@ -290,9 +291,9 @@ impl Commander {
     /// Places the target a client asks for and designs gains for it.
     fn retarget(&mut self, request: &TargetRequest, heard: &LoopState) -> Result<Accepted, CommandRefused> {
         let margin_px = self.config.controller.options.border_margin_px;
-        let target = vservo_cell::target::place(&self.config, margin_px, request, &heard.cell_now())
+        let target = vservo_cell::target::place(&self.config.cell(), margin_px, request, &heard.cell_now())
             .map_err(|why| CommandRefused::Target { request: request.name(), why })?;
-        let gains = vservo_cell::gains::design(&self.config, Some(&target))
+        let gains = vservo_cell::gains::design(&self.config.cell(), Some(&target))
             .map_err(|e| CommandRefused::TargetGains(e.into()))?;
         self.publish_gains(&gains).map_err(CommandRefused::TargetGains)?;
         self.target = Some(target);

@@ -243,7 +243,7 @@ pub fn plan(
     }
     let target = client_target.filter(|_| !diff.desired_changed()).copied();
     if let Some(target) = &target {
-        target::check_features(new, new.controller.options.border_margin_px, &target.features)
+        target::check_features(&new.cell(), new.controller.options.border_margin_px, &target.features)
             .map_err(|why| ReloadRefused::TargetInForce { path: path.to_string(), why })?;
     }
     let restart_nodes = !by_node_restart.is_empty();

@@ -165,7 +165,8 @@ struct Daemon {
 fn load_config(config_path: &Path) -> anyhow::Result<(Config, String, Gains)> {
     // the file with the bases it extends merged in: the nodes are handed that text
     let (config, config_text) = Config::load_with_text(config_path)?;
-    let cell = vservo_cell::Cell::new(&config).with_context(|| format!("{}", config_path.display()))?;
+    let cell =
+        vservo_cell::Cell::new(&config.cell()).with_context(|| format!("{}", config_path.display()))?;
     if let vservo_config::VisionSource::Directory(directory) = &config.vision.source {
         anyhow::bail!(
             "{}: camera.source = \"directory\" ({}): recorded images cannot close the loop; check them open-loop with `vservoctl vision extract`, or set camera.source = \"simulated\" or \"external\"",
