@@ -57,6 +57,7 @@ pub mod calibration;
 mod cell;
 mod error;
 mod layers;
+pub mod new_file;
 mod raw;
 mod sections;
 mod validate;

@@ -7,7 +7,6 @@ use std::path::PathBuf;
 
 use anyhow::Result;
 use clap::Args;
-use serde_json::json;
 use vservo_scene::TagGrid;
 
 use crate::UsageError;
@@ -56,9 +55,9 @@ impl PrintOut {
         if self.out.extension().and_then(|e| e.to_str()) != Some("svg") {
             return Err(UsageError(format!("--out {}: the file must end in .svg", self.out.display())).into());
         }
-        crate::new_file::write(&self.out, svg(grid, caption).as_bytes(), self.force, 0o644)?;
+        vservo_config::new_file::write(&self.out, svg(grid, caption).as_bytes(), self.force, 0o644)?;
         if self.json {
-            print_stdout(&format!("{}\n", layout(grid)))?;
+            print_stdout(&format!("{}\n", vservo_calibrate::dataset::board_layout(grid)))?;
         }
         Ok(())
     }
@@ -79,27 +78,6 @@ pub fn run(args: &BoardArgs) -> Result<()> {
         grid.tag(grid.len() - 1).map_or(0, |t| t.id()),
     );
     args.print.write(&grid, &[caption])
-}
-
-/// The layout: the grid's parameters and each tag's corners in the board frame (m).
-pub fn layout(grid: &TagGrid) -> serde_json::Value {
-    let tags: Vec<_> = grid
-        .tags()
-        .map(|tag| {
-            let corners: Vec<[f64; 3]> = tag.corners_in_board().iter().map(|p| [p.x, p.y, p.z]).collect();
-            json!({"id": tag.id(), "corners_in_board_m": corners})
-        })
-        .collect();
-    let [low, high] = grid.extent_in_board();
-    json!({
-        "family": "tag36h11",
-        "rows": grid.rows(),
-        "columns": grid.columns(),
-        "tag_size_m": grid.tag_size_m(),
-        "gap_m": grid.gap_m(),
-        "extent_in_board_m": [[low.x, low.y], [high.x, high.y]],
-        "tags": tags,
-    })
 }
 
 /// The board as an SVG in millimetres: the board's x to the right and its y down, as an upright camera facing it

@@ -16,18 +16,11 @@
 //!   converged, settling times, why the others failed; JSON and an SVG);
 //! - `scene` ([`scene`]): the cell a configuration describes, as JSON for drivers; `board` ([`board`]): a
 //!   calibration board as an SVG to print at scale, and its layout as JSON;
-//! - `calibrate` ([`calibrate`], docs/CALIBRATION.md): `calibrate/plan` the poses on a half sphere around the
-//!   board, each reachable and with the board in view, or given with `--poses`; `spread` refuses poses whose
-//!   rotations turn about one axis; `live` the views through a running vservod (the arm held, the board located
-//!   by the solver's `--locate`, each pose a `move_joints` waited until at rest 0.5 s, the first frame exposed
-//!   after it with the joints stamped nearest it, a safe stop waited out, then back to the start and `servo`);
-//!   `capture` the views of the simulated cell in lockstep (`--lockstep`); `dataset` the images and arm poses
-//!   for the solver; `solver` runs clients/python/vservo_calibrate.py (OpenCV's detector, `calibrateCamera`,
-//!   `calibrateHandEye`, a SciPy joint refinement); `report` the residuals per view and overall, the errors
-//!   against `[camera.truth]` and what changed (before → after); `file` the OpenCV YAML with
-//!   `tool_from_camera` that `camera.calibration_file` takes; `apply` (`--apply`) the configuration edited to
-//!   read it (toml_edit, validated first, the old file kept) and the running instance held, reloaded (its
-//!   camera's nodes restart) and resumed.
+//! - `calibrate` ([`calibrate`], docs/CALIBRATION.md): the command line of the `vservo_calibrate` crate (the
+//!   poses planned on a half sphere around the board or given with `--poses`, their spread checked, the views
+//!   taken in lockstep or through a running vservod, the OpenCV solver, the report, the calibration file, and
+//!   with `--apply` the configuration edited to read it and the running instance reloaded); its crate doc has
+//!   the steps.
 //!
 //! On a running instance:
 //! - `status` ([`status`]), `top` ([`top`]: a live terminal view with ratatui), `echo` ([`echo`]: a topic as
@@ -73,7 +66,6 @@ mod gains;
 mod instance;
 mod joint_args;
 mod model;
-mod new_file;
 mod output;
 mod plot_recording;
 mod plots;
@@ -207,7 +199,9 @@ fn main() -> ExitCode {
         Ok(()) => ExitCode::SUCCESS,
         Err(error) => {
             eprintln!("vservoctl: {error:#}");
-            if error.is::<UsageError>() {
+            let refused =
+                error.downcast_ref::<vservo_calibrate::CalibrateError>().is_some_and(|e| e.is_refusal());
+            if error.is::<UsageError>() || refused {
                 ExitCode::from(2)
             } else if error.is::<commands::Refused>() {
                 ExitCode::from(3)

@@ -16,7 +16,7 @@ use clap::Args;
 
 use crate::bridge::{Bridge, ChannelSpec, Sink};
 use crate::instance::{Connection, InstanceArg};
-use crate::new_file::NewFile;
+use vservo_config::new_file::NewFile;
 
 /// Arguments of `vservoctl record`.
 #[derive(Args, Debug)]
@@ -72,7 +72,7 @@ impl Sink for McapSink {
     }
 }
 
-/// Where a recording goes once finished: its name (`crate::new_file`: a link, another user's file or, without
+/// Where a recording goes once finished: its name (`vservo_config::new_file`: a link, another user's file or, without
 /// `--force`, one's own file at the name is refused before anything is recorded).
 pub struct Output(NewFile);
 
@@ -80,7 +80,7 @@ impl Output {
     /// Flushes the finished MCAP file to disk and moves it to its name.
     pub fn publish(self, writer: mcap::Writer<BufWriter<File>>) -> anyhow::Result<()> {
         let file = writer.into_inner().into_inner().map_err(|e| e.into_error())?;
-        self.0.publish(file)
+        Ok(self.0.publish(file)?)
     }
 }
 

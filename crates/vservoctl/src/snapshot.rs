@@ -84,7 +84,7 @@ pub fn run(args: &SnapshotArgs) -> anyhow::Result<()> {
         .collect();
     let mut png = std::io::Cursor::new(Vec::new());
     picture.write_to(&mut png, image::ImageFormat::Png).context("encoding the PNG")?;
-    crate::new_file::write(&args.out, png.get_ref(), args.force, 0o644)?;
+    vservo_config::new_file::write(&args.out, png.get_ref(), args.force, 0o644)?;
     let summary = json!({
         "instance": connection.instance,
         "frame": frame.features.frame,

@@ -15,7 +15,6 @@ use std::sync::Arc;
 use std::sync::atomic::AtomicBool;
 use std::time::{Duration, Instant};
 
-use anyhow::{Context, Result, bail};
 use iceoryx2::port::subscriber::Subscriber;
 use iceoryx2::prelude::ipc;
 use image::GrayImage;
@@ -24,9 +23,9 @@ use vservo_client::Client;
 use vservo_config::Config;
 use vservo_protocol::{AT_REST_RAD_S, CameraImageHeader, DaemonState, JointStateMsg, PixelFormat, Topic};
 
-use super::dataset::View;
-use super::plan::PlannedPose;
-use crate::UsageError;
+use crate::dataset::View;
+use crate::plan::PlannedPose;
+use crate::{CalibrateError, Result};
 
 /// How long the arm must be at rest on its goal before a view is taken.
 pub const SETTLE: Duration = Duration::from_millis(500);
@@ -60,25 +59,32 @@ impl Running {
     /// Connects to the configuration's instance; refused while it is in a safe stop or not running.
     pub fn connect(config: &Config, speed_fraction: f64) -> Result<Self> {
         if !(speed_fraction > 0.0 && speed_fraction <= 1.0) {
-            return Err(UsageError(format!("--speed-fraction {speed_fraction}: must be in (0, 1]")).into());
+            return Err(CalibrateError::Refused(format!(
+                "--speed-fraction {speed_fraction}: must be in (0, 1]"
+            )));
         }
         // before any other thread: the signals are taken by the flag's thread only
-        let interrupted = vservo_protocol::signals::stop_flag()?;
-        let client = Client::connect(&config.instance).with_context(|| {
-            format!("{}: no running vservod of instance {:?}", config.origin, config.instance)
+        let interrupted = vservo_protocol::signals::stop_flag()
+            .map_err(|e| CalibrateError::Cell(format!("taking SIGINT and SIGTERM: {e}")))?;
+        let client = Client::connect(&config.instance).map_err(|e| {
+            CalibrateError::Cell(format!(
+                "{}: no running vservod of instance {:?}: {e}",
+                config.origin, config.instance
+            ))
         })?;
         let status = client.status(Duration::from_secs(2))?;
         match DaemonState::try_from(status.state) {
             Ok(DaemonState::Running | DaemonState::Moving) => {}
             Ok(DaemonState::SafeStop) => {
-                return Err(UsageError(
+                return Err(CalibrateError::Refused(
                     "the cell is in a safe stop: `vservoctl resume` first, then calibrate".into(),
-                )
-                .into());
+                ));
             }
             other => {
                 let state = other.map_or("unknown", DaemonState::name);
-                return Err(UsageError(format!("the cell is {state}, not running: nothing was moved")).into());
+                return Err(CalibrateError::Refused(format!(
+                    "the cell is {state}, not running: nothing was moved"
+                )));
             }
         }
         let joint_states = client.subscribe::<JointStateMsg>(Topic::JointState)?;
@@ -99,38 +105,37 @@ impl Running {
     /// An error when SIGINT or SIGTERM came.
     fn go_on(&self, what: &str) -> Result<()> {
         if vservo_protocol::signals::stopped(&self.interrupted) {
-            bail!("{what}: interrupted (SIGINT or SIGTERM)");
+            return Err(CalibrateError::Cell(format!("{what}: interrupted (SIGINT or SIGTERM)")));
         }
         Ok(())
     }
 
     /// After an error before the first pose: the servo gets the cell back (the arm is where it was).
-    pub fn give_back(&mut self, error: anyhow::Error) -> anyhow::Error {
+    pub fn give_back(&mut self, error: CalibrateError) -> CalibrateError {
         match self.client.servo() {
-            Ok(reply) if reply.accepted => error.context("nothing was moved; the cell servos again"),
+            Ok(reply) if reply.accepted => error.left("nothing was moved; the cell servos again"),
             Ok(reply) => {
-                error.context(format!("the cell could not be given back to the servo: {}", reply.reason))
+                error.left(format!("the cell could not be given back to the servo: {}", reply.reason))
             }
-            Err(e) => error.context(format!("the cell could not be given back to the servo: {e}")),
+            Err(e) => error.left(format!("the cell could not be given back to the servo: {e}")),
         }
     }
 
     /// After an error on the way: the arm held where it is (in a safe stop: the move cancelled).
-    pub fn stop_here(&mut self, error: anyhow::Error) -> anyhow::Error {
+    pub fn stop_here(&mut self, error: CalibrateError) -> CalibrateError {
         let held_here = self.joints_now().and_then(|here| {
             let joints = self.arm.joint_count();
             Ok(self.client.move_joints(&here.as_slice()[..joints], self.speed_fraction)?)
         });
         match held_here {
             Ok(reply) if reply.accepted => error
-                .context("calibration stopped; the arm is held where it is (`vservoctl servo` servos again)"),
+                .left("calibration stopped; the arm is held where it is (`vservoctl servo` servos again)"),
             _ => match self.client.servo() {
-                Ok(reply) if reply.accepted => {
-                    error.context(format!("calibration stopped; {}", reply.reason))
+                Ok(reply) if reply.accepted => error.left(format!("calibration stopped; {}", reply.reason)),
+                Ok(reply) => {
+                    error.left(format!("calibration stopped; the move could not be ended: {}", reply.reason))
                 }
-                Ok(reply) => error
-                    .context(format!("calibration stopped; the move could not be ended: {}", reply.reason)),
-                Err(e) => error.context(format!("calibration stopped; the move could not be ended: {e}")),
+                Err(e) => error.left(format!("calibration stopped; the move could not be ended: {e}")),
             },
         }
     }
@@ -138,7 +143,11 @@ impl Running {
     /// Keeps the joint states that came (this build's schema, the arm's joint count).
     fn drain_states(&mut self) -> Result<()> {
         let joints = self.arm.joint_count();
-        while let Some(sample) = self.joint_states.receive().context("reading the joint states")? {
+        while let Some(sample) = self
+            .joint_states
+            .receive()
+            .map_err(|e| CalibrateError::Cell(format!("reading the joint states: {e}")))?
+        {
             let Ok(state) = vservo_protocol::inbox::accept(*sample) else { continue };
             if state.arm_q_rad(joints).is_none() {
                 continue;
@@ -160,7 +169,7 @@ impl Running {
                 return Ok(JointVector::from(q));
             }
             if started.elapsed() > Duration::from_secs(2) {
-                bail!("no joint state from the robot driver within 2 s");
+                return Err(CalibrateError::Cell("no joint state from the robot driver within 2 s".into()));
             }
             std::thread::sleep(POLL);
         }
@@ -178,12 +187,11 @@ impl Running {
             }
             self.go_on("waiting for the arm to come to rest")?;
             if started.elapsed() > wait {
-                return Err(UsageError(format!(
+                return Err(CalibrateError::Refused(format!(
                     "the arm did not come to rest within {} s (is the cell still servoing towards its target?); \
                      nothing was moved",
                     wait.as_secs()
-                ))
-                .into());
+                )));
             }
             std::thread::sleep(POLL);
         }
@@ -228,19 +236,19 @@ impl Running {
             if held {
                 held_for += step;
                 if held_for > HELD_WAIT {
-                    bail!(
+                    return Err(CalibrateError::Cell(format!(
                         "{what}: the cell stayed in a safe stop for {} s; calibration stopped",
                         HELD_WAIT.as_secs()
-                    );
+                    )));
                 }
             } else {
                 moving_for += step;
                 if moving_for > allowed {
-                    bail!(
+                    return Err(CalibrateError::Cell(format!(
                         "{what}: the arm did not settle on its goal within {:.1} s (the move should take {:.1} s)",
                         allowed.as_secs_f64(),
                         expected.as_secs_f64()
-                    );
+                    )));
                 }
             }
         }
@@ -262,9 +270,10 @@ impl Running {
             let status = self.client.status(Duration::from_secs(2))?;
             let held = DaemonState::try_from(status.state) == Ok(DaemonState::SafeStop);
             if !held && asked_again {
-                return Err(
-                    UsageError(format!("{what}: the daemon refused the move: {}", reply.reason)).into()
-                );
+                return Err(CalibrateError::Refused(format!(
+                    "{what}: the daemon refused the move: {}",
+                    reply.reason
+                )));
             }
             asked_again = !held;
             if held {
@@ -272,10 +281,10 @@ impl Running {
             }
             self.go_on(what)?;
             if started.elapsed() > HELD_WAIT {
-                bail!(
+                return Err(CalibrateError::Cell(format!(
                     "{what}: the cell stayed in a safe stop for {} s; calibration stopped",
                     HELD_WAIT.as_secs()
-                );
+                )));
             }
             std::thread::sleep(2 * STATUS_EVERY);
         }
@@ -298,9 +307,9 @@ impl Running {
                 *told = true;
                 Ok(true)
             }
-            Ok(DaemonState::Running) => bail!(
+            Ok(DaemonState::Running) => Err(CalibrateError::Cell(format!(
                 "{what}: the joint move was ended (by `vservoctl servo` or another client): calibration stopped"
-            ),
+            ))),
             _ => {
                 if *told {
                     eprintln!("{what}: resumed");
@@ -342,7 +351,11 @@ impl Running {
         loop {
             // kept meanwhile: the frame's joints are looked up among them
             self.drain_states()?;
-            while let Some(sample) = self.images.receive().context("reading the camera images")? {
+            while let Some(sample) = self
+                .images
+                .receive()
+                .map_err(|e| CalibrateError::Cell(format!("reading the camera images: {e}")))?
+            {
                 let header = *sample.user_header();
                 if header.capture_stamp_ns <= after_ns {
                     continue;
@@ -351,7 +364,10 @@ impl Running {
                 return self.view_at(what, image, header.capture_stamp_ns);
             }
             if started.elapsed() > FRAME_WAIT {
-                bail!("{what}: no camera frame within {} s of the arm settling", FRAME_WAIT.as_secs());
+                return Err(CalibrateError::Cell(format!(
+                    "{what}: no camera frame within {} s of the arm settling",
+                    FRAME_WAIT.as_secs()
+                )));
             }
             self.go_on(what)?;
             std::thread::sleep(POLL);
@@ -366,7 +382,7 @@ impl Running {
             || header.stride_bytes < width
             || pixels.len() < (header.stride_bytes as usize) * (height as usize)
         {
-            bail!(
+            return Err(CalibrateError::Cell(format!(
                 "a camera frame of {width} × {height} (stride {}, format {}, {} bytes) is not the configured \
                  {} × {} 8-bit gray camera's",
                 header.stride_bytes,
@@ -374,13 +390,14 @@ impl Running {
                 pixels.len(),
                 self.image_size.0,
                 self.image_size.1
-            );
+            )));
         }
         let mut raw = Vec::with_capacity((width * height) as usize);
         for row in pixels.chunks(header.stride_bytes as usize).take(height as usize) {
             raw.extend_from_slice(&row[..width as usize]);
         }
-        GrayImage::from_raw(width, height, raw).context("the frame's pixels")
+        GrayImage::from_raw(width, height, raw)
+            .ok_or_else(|| CalibrateError::Cell("the frame's pixels do not fill its size".into()))
     }
 
     /// The view of `image`, exposed at `stamp_ns`: the joints of the nearest joint state, which must be at rest.
@@ -395,16 +412,24 @@ impl Running {
             .recent
             .iter()
             .min_by_key(|s| s.stamp_ns.abs_diff(stamp_ns))
-            .context("no joint state kept")?;
+            .ok_or_else(|| CalibrateError::Cell(format!("{what}: no joint state kept")))?;
         let gap_ms = nearest.stamp_ns.abs_diff(stamp_ns) as f64 / 1e6;
         let joints = self.arm.joint_count();
         if gap_ms > 20.0 {
-            bail!("{what}: no joint state within 20 ms of the frame's exposure (nearest {gap_ms:.1} ms)");
+            return Err(CalibrateError::Cell(format!(
+                "{what}: no joint state within 20 ms of the frame's exposure (nearest {gap_ms:.1} ms)"
+            )));
         }
         if nearest.qd_rad_s[..joints].iter().any(|v| v.abs() >= AT_REST_RAD_S) {
-            bail!("{what}: the arm was moving when the frame was exposed");
+            return Err(CalibrateError::Cell(format!(
+                "{what}: the arm was moving when the frame was exposed"
+            )));
         }
-        let q = JointVector::from(nearest.arm_q_rad(joints).context("the arm's joints")?);
+        let q = JointVector::from(
+            nearest
+                .arm_q_rad(joints)
+                .ok_or_else(|| CalibrateError::Cell(format!("{what}: the arm's joints")))?,
+        );
         Ok(View { image, q, base_from_tool: self.arm.base_from_tool(&q) })
     }
 
@@ -425,7 +450,7 @@ impl Running {
         self.move_to("back to the start", start)?;
         let reply = self.client.servo()?;
         if !reply.accepted {
-            bail!("ending the joint move: {}", reply.reason);
+            return Err(CalibrateError::Cell(format!("ending the joint move: {}", reply.reason)));
         }
         Ok(())
     }

@@ -4,13 +4,14 @@
 
 use std::path::{Path, PathBuf};
 
-use anyhow::{Context, Result};
 use image::ExtendedColorType;
 use image::GrayImage;
 use image::codecs::pnm::{PnmEncoder, PnmSubtype, SampleEncoding};
 use serde_json::{Value, json};
 use vservo_arm::JointVector;
 use vservo_scene::{CameraIntrinsics, IsometryMatrix3, TagGrid};
+
+use crate::{CalibrateError, Result};
 
 /// One view: its image and the arm's joints and tool pose when it was taken.
 pub struct View {
@@ -37,7 +38,7 @@ pub fn write(
     grid: &TagGrid,
     joints: usize,
 ) -> Result<PathBuf> {
-    std::fs::create_dir_all(dir).with_context(|| format!("making {}", dir.display()))?;
+    std::fs::create_dir_all(dir).map_err(CalibrateError::file("making", dir))?;
     let mut listed = Vec::with_capacity(views.len());
     for (k, view) in views.iter().enumerate() {
         let name = format!("view_{:02}.pgm", k + 1);
@@ -48,7 +49,7 @@ pub fn write(
             "base_from_tool": rows(&view.base_from_tool),
         }));
     }
-    let mut board = crate::board::layout(grid);
+    let mut board = board_layout(grid);
     board["tag_size_m"] = json!(grid.tag_size_m());
     let dataset = json!({
         "image_size": [camera.width_px(), camera.height_px()],
@@ -58,7 +59,7 @@ pub fn write(
         "views": listed,
     });
     let path = dir.join("dataset.json");
-    std::fs::write(&path, format!("{dataset}\n")).with_context(|| format!("writing {}", path.display()))?;
+    std::fs::write(&path, format!("{dataset}\n")).map_err(CalibrateError::file("writing", &path))?;
     Ok(path)
 }
 
@@ -75,11 +76,31 @@ pub fn camera_json(camera: &CameraIntrinsics) -> Value {
 
 /// A binary PGM (P5).
 fn write_pgm(path: &Path, image: &GrayImage) -> Result<()> {
-    let file = std::io::BufWriter::new(
-        std::fs::File::create(path).with_context(|| format!("creating {}", path.display()))?,
-    );
+    let file =
+        std::io::BufWriter::new(std::fs::File::create(path).map_err(CalibrateError::file("creating", path))?);
     PnmEncoder::new(file)
         .with_subtype(PnmSubtype::Graymap(SampleEncoding::Binary))
         .encode(image.as_raw().as_slice(), image.width(), image.height(), ExtendedColorType::L8)
-        .with_context(|| format!("writing {}", path.display()))
+        .map_err(|source| CalibrateError::Image { path: path.to_path_buf(), source })
+}
+
+/// The layout: the grid's parameters and each tag's corners in the board frame (m).
+pub fn board_layout(grid: &TagGrid) -> serde_json::Value {
+    let tags: Vec<_> = grid
+        .tags()
+        .map(|tag| {
+            let corners: Vec<[f64; 3]> = tag.corners_in_board().iter().map(|p| [p.x, p.y, p.z]).collect();
+            json!({"id": tag.id(), "corners_in_board_m": corners})
+        })
+        .collect();
+    let [low, high] = grid.extent_in_board();
+    json!({
+        "family": "tag36h11",
+        "rows": grid.rows(),
+        "columns": grid.columns(),
+        "tag_size_m": grid.tag_size_m(),
+        "gap_m": grid.gap_m(),
+        "extent_in_board_m": [[low.x, low.y], [high.x, high.y]],
+        "tags": tags,
+    })
 }

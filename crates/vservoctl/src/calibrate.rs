@@ -1,6 +1,6 @@
 //! `vservoctl calibrate`: the camera's intrinsics and lens and the hand-eye transform (`tool_from_camera`),
 //! from views of the calibration board (`[calibration]`) at poses spread over a half sphere around it
-//! (docs/CALIBRATION.md).
+//! (docs/CALIBRATION.md). The command line of the `vservo_calibrate` crate, whose modules are named below.
 //!
 //! The steps: find the board (`live`: through a running vservod, from a view where the arm is now; in lockstep
 //! where the configuration's world puts it); plan the poses (`plan`: each reachable and with the board in view,
@@ -10,20 +10,11 @@
 //! residuals and, when the truth is known, the errors against it (`report`); write the calibration file
 //! (`file`); with `--apply`, make the configuration read it and ask the running instance to take it (`apply`).
 
-mod apply;
-mod capture;
-mod dataset;
-mod file;
-mod live;
-mod plan;
-mod report;
-mod solver;
-mod spread;
-
 use std::path::PathBuf;
 
 use anyhow::Result;
 use clap::Args;
+use vservo_calibrate::{CalibrateError, apply, capture, dataset, file, live, plan, report, solver, spread};
 use vservo_config::{CalibrationSettings, Config};
 
 use crate::UsageError;
@@ -91,7 +82,7 @@ pub fn run(args: &CalibrateArgs) -> Result<()> {
     let python = solver::python(args.python.as_deref());
     let out = output_file(args, &settings);
     if !args.dry_run {
-        crate::new_file::check(&out, args.force)?;
+        vservo_config::new_file::check(&out, args.force)?;
     }
     let edit =
         if args.apply && !args.dry_run { Some(apply::Edit::check(&args.config.config)?) } else { None };
@@ -101,7 +92,7 @@ pub fn run(args: &CalibrateArgs) -> Result<()> {
         let board = cell.base_from_board();
         let planned = plan_poses(&config, &settings, config.desired.joints, board, given.as_deref())?;
         if args.dry_run {
-            return report::print_plan(&config, &planned, args.json);
+            return Ok(print_stdout(&report::plan(&config, &planned, args.json))?);
         }
         (cell.take_views(&planned), Some((config.true_camera(), board)))
     } else {
@@ -113,14 +104,14 @@ pub fn run(args: &CalibrateArgs) -> Result<()> {
             let located = Located { start: cell.joints_now()?, settled_ns };
             let planned =
                 locate_and_plan(&config, &settings, &mut cell, &located, &solver, given.as_deref())?;
-            return report::print_plan(&config, &planned, args.json);
+            return Ok(print_stdout(&report::plan(&config, &planned, args.json))?);
         }
         let (start, settled_ns) = cell.hold_here().map_err(|e| cell.stop_here(e))?;
         let located = Located { start, settled_ns };
         let planned =
             match locate_and_plan(&config, &settings, &mut cell, &located, &solver, given.as_deref()) {
                 Ok(planned) => planned,
-                Err(e) => return Err(cell.give_back(e)),
+                Err(e) => return Err(cell.give_back(e).into()),
             };
         let views = cell.take_views(&planned).map_err(|e| cell.stop_here(e))?;
         cell.finish(&located.start).map_err(|e| cell.stop_here(e))?;
@@ -172,9 +163,9 @@ fn locate_and_plan(
     at: &Located,
     solver: &SolverRun,
     given: Option<&[Vec<f64>]>,
-) -> Result<Vec<plan::PlannedPose>> {
+) -> vservo_calibrate::Result<Vec<plan::PlannedPose>> {
     let board = locate_board(config, settings, cell, at, solver)?;
-    Ok(plan_poses(config, settings, at.start, board, given)?)
+    plan_poses(config, settings, at.start, board, given)
 }
 
 /// How the solver is run, and where the views go.
@@ -193,7 +184,7 @@ fn locate_board(
     cell: &mut live::Running,
     at: &Located,
     solver: &SolverRun,
-) -> Result<vservo_scene::IsometryMatrix3<f64>> {
+) -> vservo_calibrate::Result<vservo_scene::IsometryMatrix3<f64>> {
     let view = cell.take_view("locating the board", at.settled_ns)?;
     let dir = solver.views_dir.join("locate");
     dataset::write(
@@ -206,7 +197,7 @@ fn locate_board(
     )?;
     let located = solver::locate_board(solver.python, solver.script, &dir)?;
     let camera_from_board = report::isometry(&located.camera_from_board.matrix)
-        .ok_or_else(|| anyhow::anyhow!("the solver's board pose is not a 4 × 4 matrix"))?;
+        .ok_or_else(|| CalibrateError::Solver("the solver's board pose is not a 4 × 4 matrix".into()))?;
     eprintln!(
         "the board: {} tags found, {:.3} m from the camera ({:.2} px RMS through the configured camera)",
         located.tags_found,
@@ -243,7 +234,7 @@ fn plan_poses(
     start: vservo_arm::JointVector,
     base_from_board: vservo_scene::IsometryMatrix3<f64>,
     given: Option<&[Vec<f64>]>,
-) -> Result<Vec<plan::PlannedPose>, UsageError> {
+) -> vservo_calibrate::Result<Vec<plan::PlannedPose>> {
     let distance_m =
         settings.distance_m.unwrap_or_else(|| config.desired.camera_from_board.translation.vector.norm());
     let planner_cell = plan::Cell {
@@ -257,10 +248,12 @@ fn plan_poses(
         Some(joints) => plan::given(&planner_cell, &settings.board, joints),
         None => plan::plan(&planner_cell, settings, distance_m),
     }
-    .map_err(|e| UsageError(format!("{}: the plan is refused before anything moves: {e}", config.origin)))?;
+    .map_err(|e| {
+        CalibrateError::Refused(format!("{}: the plan is refused before anything moves: {e}", config.origin))
+    })?;
     let tools: Vec<_> = planned.iter().map(|p| p.base_from_tool).collect();
     spread::check(&tools).map_err(|e| {
-        UsageError(format!("{}: the plan is refused before anything moves: {e}", config.origin))
+        CalibrateError::Refused(format!("{}: the plan is refused before anything moves: {e}", config.origin))
     })?;
     Ok(planned)
 }

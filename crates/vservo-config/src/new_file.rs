@@ -1,5 +1,5 @@
-//! Files vservoctl writes where others may plant one (a shared folder): recordings, calibration output and board
-//! drawings. What is at the name already is refused, naming it — a symbolic link (never followed, never
+//! Files vservo writes where others may plant one (a shared folder): recordings, calibration output and board
+//! drawings, and a configuration the calibration edits. What is at the name already is refused, naming it — a symbolic link (never followed, never
 //! replaced), another user's file, or anything but a regular file — and so is the user's own file unless
 //! `--force` is given. The file is made new beside the name (`O_CREAT | O_EXCL | O_NOFOLLOW`, mode 0600 unless
 //! said), written, flushed and then moved to the name: a file that does not finish leaves nothing behind, and
@@ -14,13 +14,11 @@ use std::path::{Path, PathBuf};
 #[derive(Debug, thiserror::Error)]
 pub enum NameRefused {
     /// A symbolic link is at the name.
-    #[error(
-        "{0} is a symbolic link: vservoctl neither writes through one nor replaces it; choose another name"
-    )]
+    #[error("{0} is a symbolic link: vservo neither writes through one nor replaces it; choose another name")]
     Link(PathBuf),
     /// Another user's file is at the name.
     #[error(
-        "{path} is user {owner}'s file: vservoctl does not replace another user's file; choose another name"
+        "{path} is user {owner}'s file: vservo does not replace another user's file; choose another name"
     )]
     OtherUsers {
         /// The name.
@@ -36,13 +34,38 @@ pub enum NameRefused {
     Exists(PathBuf),
 }
 
+/// Why a new file could not be written: its name refused, or the system's error doing it.
+#[derive(Debug, thiserror::Error)]
+pub enum NewFileError {
+    /// What is at the name may not be replaced.
+    #[error(transparent)]
+    Refused(#[from] NameRefused),
+    /// Looking at, making, writing or moving the file failed.
+    #[error("{what} {}: {source}", path.display())]
+    Io {
+        /// What was being done (`looking at`, `creating`, `writing`, `moving the file to`).
+        what: &'static str,
+        /// The file.
+        path: PathBuf,
+        /// The system's reason.
+        source: std::io::Error,
+    },
+}
+
+impl NewFileError {
+    fn io(what: &'static str, path: &Path) -> impl FnOnce(std::io::Error) -> Self {
+        let path = path.to_path_buf();
+        move |source| Self::Io { what, path, source }
+    }
+}
+
 /// Checks, before any work, that `path` may be written: nothing there, or with `force` the user's own regular
 /// file.
-pub fn check(path: &Path, force: bool) -> anyhow::Result<()> {
+pub fn check(path: &Path, force: bool) -> Result<(), NewFileError> {
     let metadata = match std::fs::symlink_metadata(path) {
         Ok(metadata) => metadata,
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(()),
-        Err(e) => return Err(anyhow::Error::new(e).context(format!("looking at {}", path.display()))),
+        Err(e) => return Err(NewFileError::io("looking at", path)(e)),
     };
     let refused = if metadata.file_type().is_symlink() {
         NameRefused::Link(path.to_path_buf())
@@ -75,9 +98,9 @@ pub struct NewFile {
 
 impl NewFile {
     /// Checks `path` ([`check`]) and makes the file beside it, mode `mode`.
-    pub fn create(path: &Path, force: bool, mode: u32) -> anyhow::Result<(File, NewFile)> {
+    pub fn create(path: &Path, force: bool, mode: u32) -> Result<(File, NewFile), NewFileError> {
         check(path, force)?;
-        let name = path.file_name().ok_or_else(|| anyhow::anyhow!("{}: not a file name", path.display()))?;
+        let name = path.file_name().ok_or_else(|| NameRefused::NotAFile(path.to_path_buf()))?;
         let partial =
             path.with_file_name(format!(".{}.{}.partial", name.to_string_lossy(), std::process::id()));
         let file = OpenOptions::new()
@@ -86,19 +109,17 @@ impl NewFile {
             .mode(mode)
             .custom_flags(nix::libc::O_NOFOLLOW)
             .open(&partial)
-            .map_err(|e| anyhow::Error::new(e).context(format!("creating {}", partial.display())))?;
+            .map_err(NewFileError::io("creating", &partial))?;
         Ok((file, NewFile { partial, target: path.to_path_buf(), force, published: false }))
     }
 
     /// Flushes `file` to disk and moves it to its name (checked again: what appeared there meanwhile is
     /// refused as before).
-    pub fn publish(mut self, file: File) -> anyhow::Result<()> {
-        file.sync_all()
-            .map_err(|e| anyhow::Error::new(e).context(format!("writing {}", self.partial.display())))?;
+    pub fn publish(mut self, file: File) -> Result<(), NewFileError> {
+        file.sync_all().map_err(NewFileError::io("writing", &self.partial))?;
         check(&self.target, self.force)?;
-        std::fs::rename(&self.partial, &self.target).map_err(|e| {
-            anyhow::Error::new(e).context(format!("moving the file to {}", self.target.display()))
-        })?;
+        std::fs::rename(&self.partial, &self.target)
+            .map_err(NewFileError::io("moving the file to", &self.target))?;
         self.published = true;
         Ok(())
     }
@@ -113,11 +134,10 @@ impl Drop for NewFile {
 }
 
 /// Writes `bytes` to `path` as a new file of mode `mode` ([`NewFile`]).
-pub fn write(path: &Path, bytes: &[u8], force: bool, mode: u32) -> anyhow::Result<()> {
+pub fn write(path: &Path, bytes: &[u8], force: bool, mode: u32) -> Result<(), NewFileError> {
     use std::io::Write;
     let (mut file, new) = NewFile::create(path, force, mode)?;
-    file.write_all(bytes)
-        .map_err(|e| anyhow::Error::new(e).context(format!("writing {}", path.display())))?;
+    file.write_all(bytes).map_err(NewFileError::io("writing", path))?;
     new.publish(file)
 }
 

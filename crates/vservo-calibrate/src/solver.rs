@@ -4,10 +4,9 @@
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-use anyhow::{Context, Result, bail};
 use serde::Deserialize;
 
-use crate::UsageError;
+use crate::{CalibrateError, Result};
 
 /// A transform as the solver gives it.
 #[derive(Debug, Clone, Deserialize, serde::Serialize)]
@@ -68,9 +67,9 @@ pub struct Solved {
     pub solver: String,
 }
 
-/// The solver script: `--solver`, else beside the executable in a source tree (target/<profile>/ →
+/// The solver script: `--solver`, else beside the executable in a source tree (`target/<profile>/` →
 /// clients/python/), else where the Debian package puts it.
-pub fn locate(given: Option<&Path>) -> Result<PathBuf, UsageError> {
+pub fn locate(given: Option<&Path>) -> Result<PathBuf> {
     if let Some(path) = given {
         return Ok(path.to_path_buf());
     }
@@ -88,14 +87,14 @@ pub fn locate(given: Option<&Path>) -> Result<PathBuf, UsageError> {
         }
         looked.push(candidate.display().to_string());
     }
-    Err(UsageError(format!(
+    Err(CalibrateError::Refused(format!(
         "the solver vservo_calibrate.py is not found (looked at {}); give it with --solver",
         looked.join(", ")
     )))
 }
 
 /// The Python that runs the solver: `--python`, else the project's environment beside this executable in a source
-/// tree (target/<profile>/vservoctl → target/python-venv/bin/python, made by scripts/setup.sh with OpenCV,
+/// tree (`target/<profile>/vservoctl` → `target/python-venv/bin/python`, made by scripts/setup.sh with OpenCV,
 /// SciPy and NumPy), else the active virtual environment's (`$VIRTUAL_ENV`), else `python3` (the Debian
 /// package's dependencies).
 pub fn python(given: Option<&Path>) -> PathBuf {
@@ -143,24 +142,26 @@ pub fn locate_board(python: &Path, solver: &Path, dataset_dir: &Path) -> Result<
 
 /// Runs the solver with `args`; its standard output, or its refusal (exit 2) prefixed by `refused`.
 fn run(python: &Path, solver: &Path, args: &[&std::ffi::OsStr], refused: &str) -> Result<String> {
-    let output = Command::new(python)
-        .arg(solver)
-        .args(args)
-        .output()
-        .with_context(|| format!("starting {} {}", python.display(), solver.display()))?;
+    let output = Command::new(python).arg(solver).args(args).output().map_err(|e| {
+        CalibrateError::Solver(format!("starting {} {}: {e}", python.display(), solver.display()))
+    })?;
     let stderr = String::from_utf8_lossy(&output.stderr);
     if let Some(module) = missing_module(&stderr) {
-        return Err(UsageError(format!(
+        return Err(CalibrateError::Refused(format!(
             "the solver's Python ({}) has no module {module:?}: run scripts/setup.sh (it makes target/python-venv \
              with OpenCV, SciPy and NumPy), or give an interpreter that has them with --python",
             python.display()
-        ))
-        .into());
+        )));
     }
     match output.status.code() {
         Some(0) => Ok(String::from_utf8_lossy(&output.stdout).into_owned()),
-        Some(2) => Err(UsageError(format!("{refused}: {}", stderr.trim())).into()),
-        _ => bail!("the solver {} failed ({}): {}", solver.display(), output.status, stderr.trim()),
+        Some(2) => Err(CalibrateError::Refused(format!("{refused}: {}", stderr.trim()))),
+        _ => Err(CalibrateError::Solver(format!(
+            "the solver {} failed ({}): {}",
+            solver.display(),
+            output.status,
+            stderr.trim()
+        ))),
     }
 }
 
@@ -171,8 +172,11 @@ fn missing_module(stderr: &str) -> Option<&str> {
 }
 
 fn parse<T: serde::de::DeserializeOwned>(text: &str) -> Result<T> {
-    serde_json::from_str(text.trim()).with_context(|| {
-        format!("reading the solver's answer: {}", text.chars().take(200).collect::<String>())
+    serde_json::from_str(text.trim()).map_err(|e| {
+        CalibrateError::Solver(format!(
+            "reading the solver's answer: {e}: {}",
+            text.chars().take(200).collect::<String>()
+        ))
     })
 }
 

@@ -2,14 +2,13 @@
 //! configuration's world puts it, and the cell's own vision stage rendering what the camera sees, the camera as
 //! `[camera.truth]` says it really is (with the configured noise).
 
-use anyhow::Result;
 use vservo_cell::{Cell, VisionStage};
 use vservo_config::Config;
 use vservo_scene::IsometryMatrix3;
 
-use super::dataset::View;
-use super::plan::PlannedPose;
-use crate::UsageError;
+use crate::dataset::View;
+use crate::plan::PlannedPose;
+use crate::{CalibrateError, Result};
 
 /// The simulated cell's camera and world.
 pub struct Simulated {
@@ -19,15 +18,15 @@ pub struct Simulated {
 
 impl Simulated {
     /// The cell the configuration describes; refused unless its camera is the simulated one.
-    pub fn new(config: &Config) -> Result<Self, UsageError> {
+    pub fn new(config: &Config) -> Result<Self> {
         if config.vision.source != vservo_config::VisionSource::Simulated {
-            return Err(UsageError(format!(
+            return Err(CalibrateError::Refused(format!(
                 "{}: --lockstep calibrates the simulated camera; camera.source is not \"simulated\"",
                 config.origin
             )));
         }
-        let cell =
-            Cell::simulated(&config.cell()).map_err(|e| UsageError(format!("{}: {e}", config.origin)))?;
+        let cell = Cell::simulated(&config.cell())
+            .map_err(|e| CalibrateError::Refused(format!("{}: {e}", config.origin)))?;
         let base_from_board = config.base_from_board(cell.arm());
         Ok(Self { cell, base_from_board })
     }

@@ -5,19 +5,17 @@
 use std::fmt::Write as _;
 use std::path::Path;
 
-use anyhow::Result;
 use nalgebra::{Matrix4, Quaternion, UnitQuaternion};
 use serde_json::{Value, json};
 use vservo_config::{CameraTruth, Config};
 use vservo_scene::IsometryMatrix3;
 
-use super::apply::Applied;
-use super::plan::PlannedPose;
-use super::solver::Solved;
-use crate::output::print_stdout;
+use crate::apply::Applied;
+use crate::plan::PlannedPose;
+use crate::solver::Solved;
 
-/// The plan: each pose's joints and how much of the board it sees.
-pub fn print_plan(config: &Config, planned: &[PlannedPose], json: bool) -> Result<()> {
+/// The plan: each pose's joints and how much of the board it sees (the text `--dry-run` prints).
+pub fn plan(config: &Config, planned: &[PlannedPose], json: bool) -> String {
     let joints = config.arm.joint_count();
     if json {
         let poses: Vec<Value> = planned
@@ -30,8 +28,7 @@ pub fn print_plan(config: &Config, planned: &[PlannedPose], json: bool) -> Resul
                 })
             })
             .collect();
-        print_stdout(&format!("{}\n", json!({"poses": poses, "moved": false})))?;
-        return Ok(());
+        return format!("{}\n", json!({"poses": poses, "moved": false}));
     }
     let mut text = format!(
         "{} poses planned, each reachable and with the board in view (nothing moved):\n",
@@ -48,8 +45,7 @@ pub fn print_plan(config: &Config, planned: &[PlannedPose], json: bool) -> Resul
             p.tags_in_view
         );
     }
-    print_stdout(&text)?;
-    Ok(())
+    text
 }
 
 /// The solved transform as an isometry.

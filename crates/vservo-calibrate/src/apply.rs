@@ -7,19 +7,18 @@
 //! `tool_from_camera`. The edit keeps every other key, comment and layout (`toml_edit`); the configuration as it
 //! will be is loaded and validated before anything is written (a refusal names what and leaves the file as it
 //! was); the file as it was is kept beside it (`<name>.before-calibration`); the new text is written as a new
-//! file moved over the name (`crate::new_file`). Then the running instance takes it: vservod applies the lens and
+//! file moved over the name (`vservo_config::new_file`). Then the running instance takes it: vservod applies the lens and
 //! the mount while the cell is held, by restarting the nodes that read them, so a cell that servoed is held (a safe
 //! stop), reloaded, and resumed once those nodes run again.
 
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
-use anyhow::{Context, Result};
 use serde_json::{Value, json};
 use vservo_config::{Config, LENS_KEYS};
 use vservo_protocol::DaemonState;
 
-use crate::UsageError;
+use crate::{CalibrateError, Result};
 
 /// The suffix of the configuration as it was before `--apply`.
 const BEFORE_SUFFIX: &str = "before-calibration";
@@ -56,12 +55,15 @@ impl Edit {
     /// writable in its folder.
     pub fn check(config_path: &Path) -> Result<Self> {
         let before = std::fs::read_to_string(config_path)
-            .with_context(|| format!("--apply: reading {}", config_path.display()))?;
+            .map_err(CalibrateError::file("--apply: reading", config_path))?;
         before.parse::<toml_edit::DocumentMut>().map_err(|e| {
-            UsageError(format!("--apply: {} cannot be edited as TOML: {e}", config_path.display()))
+            CalibrateError::Refused(format!(
+                "--apply: {} cannot be edited as TOML: {e}",
+                config_path.display()
+            ))
         })?;
-        crate::new_file::check(&kept_path(config_path), true)?;
-        crate::new_file::check(config_path, true)?;
+        vservo_config::new_file::check(&kept_path(config_path), true)?;
+        vservo_config::new_file::check(config_path, true)?;
         Ok(Self { config_path: config_path.to_path_buf(), before })
     }
 
@@ -71,8 +73,8 @@ impl Edit {
         let (text, replaced_keys) = edited(&self.before, &self.relative(calibration))?;
         self.validate(&text, calibration)?;
         let kept = kept_path(&self.config_path);
-        crate::new_file::write(&kept, self.before.as_bytes(), true, mode_of(&self.config_path))?;
-        crate::new_file::write(&self.config_path, text.as_bytes(), true, mode_of(&self.config_path))?;
+        vservo_config::new_file::write(&kept, self.before.as_bytes(), true, mode_of(&self.config_path))?;
+        vservo_config::new_file::write(&self.config_path, text.as_bytes(), true, mode_of(&self.config_path))?;
         Ok(Applied { config_path: self.config_path, kept, replaced_keys, reload: None })
     }
 
@@ -88,24 +90,23 @@ impl Edit {
     /// paths resolve as they will) and checks it reads the calibration.
     fn validate(&self, text: &str, calibration: &Path) -> Result<()> {
         let trial = self.config_path.with_extension("apply-check.toml");
-        crate::new_file::write(&trial, text.as_bytes(), true, 0o600)?;
+        vservo_config::new_file::write(&trial, text.as_bytes(), true, 0o600)?;
         let loaded = Config::load(&trial);
         let _ = std::fs::remove_file(&trial);
         let config = loaded.map_err(|e| {
-            UsageError(format!(
+            CalibrateError::Refused(format!(
                 "--apply: {} with calibration_file = {} does not load, so it was left as it was: {e}",
                 self.config_path.display(),
                 calibration.display()
             ))
         })?;
         if !reads(&config, calibration)? {
-            return Err(UsageError(format!(
+            return Err(CalibrateError::Refused(format!(
                 "--apply: {} would not read {}: a file it extends or its [camera] sets the lens otherwise; \
                  set calibration_file by hand",
                 self.config_path.display(),
                 calibration.display()
-            ))
-            .into());
+            )));
         }
         Ok(())
     }
@@ -115,9 +116,10 @@ impl Edit {
 /// point, lens and mount.
 fn reads(config: &Config, calibration: &Path) -> Result<bool> {
     let text = std::fs::read_to_string(calibration)
-        .with_context(|| format!("--apply: reading {} back", calibration.display()))?;
-    let file = vservo_config::calibration::parse(&text)
-        .map_err(|e| anyhow::anyhow!("--apply: {} does not read back: {e}", calibration.display()))?;
+        .map_err(CalibrateError::file("--apply: reading back", calibration))?;
+    let file = vservo_config::calibration::parse(&text).map_err(|e| {
+        CalibrateError::Refused(format!("--apply: {} does not read back: {e}", calibration.display()))
+    })?;
     let camera = &config.camera;
     let point = camera.principal_point_px();
     let same_lens = [camera.fx_px(), camera.fy_px(), point.x, point.y]
@@ -130,12 +132,16 @@ fn reads(config: &Config, calibration: &Path) -> Result<bool> {
 /// The configuration's text with `[camera] calibration_file` set and the other lens keys of its `[camera]`
 /// removed (they are the file's now), and the keys removed.
 fn edited(before: &str, calibration: &str) -> Result<(String, Vec<String>)> {
-    let mut document: toml_edit::DocumentMut = before.parse().context("parsing the configuration as TOML")?;
+    let mut document: toml_edit::DocumentMut = before
+        .parse()
+        .map_err(|e| CalibrateError::Refused(format!("--apply: parsing the configuration as TOML: {e}")))?;
     let camera = document
         .entry("camera")
         .or_insert_with(|| toml_edit::Item::Table(toml_edit::Table::new()))
         .as_table_like_mut()
-        .ok_or_else(|| UsageError("--apply: `camera` in the configuration is not a table".to_string()))?;
+        .ok_or_else(|| {
+            CalibrateError::Refused("--apply: `camera` in the configuration is not a table".to_string())
+        })?;
     let mut replaced = Vec::new();
     for key in LENS_KEYS {
         if key != "calibration_file" && camera.remove(key).is_some() {
@@ -170,7 +176,7 @@ const RESTART_WAIT: Duration = Duration::from_secs(20);
 pub fn reload(instance: &str) -> Reload {
     match reload_held(instance) {
         Ok(said) => Reload::Taken(said),
-        Err(why) => Reload::NotTaken(format!("{why:#}")),
+        Err(why) => Reload::NotTaken(why.to_string()),
     }
 }
 
@@ -180,7 +186,10 @@ fn reload_held(instance: &str) -> Result<String> {
     if !held_before {
         let stop = client.safe_stop_command()?;
         if !stop.accepted {
-            anyhow::bail!("the safe stop before the reload was refused: {}", stop.reason);
+            return Err(CalibrateError::Cell(format!(
+                "the safe stop before the reload was refused: {}",
+                stop.reason
+            )));
         }
     }
     let restarts_before = camera_node_restarts(&client)?;
@@ -189,7 +198,7 @@ fn reload_held(instance: &str) -> Result<String> {
         if !held_before {
             resume_when_back(&mut client, restarts_before, false)?;
         }
-        anyhow::bail!("{}", reply.reason);
+        return Err(CalibrateError::Cell(reply.reason));
     }
     if held_before {
         return Ok(format!("{}; the cell stays held, as it was (`vservoctl resume` servos)", reply.reason));
@@ -226,13 +235,16 @@ fn resume_when_back(client: &mut vservo_client::Client, before: [u64; 3], restar
                 return Ok(());
             }
             if Instant::now() >= until {
-                anyhow::bail!("the resume after the reload was refused: {}", reply.reason);
+                return Err(CalibrateError::Cell(format!(
+                    "the resume after the reload was refused: {}",
+                    reply.reason
+                )));
             }
         } else if Instant::now() >= until {
-            anyhow::bail!(
+            return Err(CalibrateError::Cell(format!(
                 "the camera's nodes did not run again within {} s of the reload: the cell stays held",
                 RESTART_WAIT.as_secs()
-            );
+            )));
         }
         std::thread::sleep(Duration::from_millis(100));
     }

@@ -5,13 +5,13 @@
 
 use std::path::Path;
 
-use anyhow::{Result, bail};
 use vservo_config::Config;
 use vservo_config::calibration::OPENCV_TO_VSERVO_PX;
 
-use super::solver::Solved;
+use crate::solver::Solved;
+use crate::{CalibrateError, Result};
 
-/// Writes the file as a new one (`crate::new_file`: one of the user's own at the name replaced with `force` only).
+/// Writes the file as a new one (`vservo_config::new_file`: one of the user's own at the name replaced with `force` only).
 pub fn write(path: &Path, force: bool, config: &Config, solved: &Solved) -> Result<()> {
     let views = solved.views.len();
     let number = |v: f64| format!("{v:.10e}");
@@ -26,10 +26,10 @@ pub fn write(path: &Path, force: bool, config: &Config, solved: &Solved) -> Resu
     let camera_matrix = [solved.fx, 0.0, cx, 0.0, solved.fy, cy, 0.0, 0.0, 1.0];
     let tool: Vec<f64> = solved.tool_from_camera.matrix.iter().flatten().copied().collect();
     if tool.len() != 16 || !tool.iter().all(|v| v.is_finite()) {
-        bail!(
+        return Err(CalibrateError::Solver(format!(
             "the solver's tool_from_camera is not a 4 × 4 matrix of numbers: {:?}",
             solved.tool_from_camera.matrix
-        );
+        )));
     }
     let text = format!(
         "%YAML:1.0\n---\n# vservoctl calibrate, {views} views of the board of {}: reprojection {:.3} px RMS, AX = XB {:.4}° / {:.3} mm RMS\n# ({})\nimage_width: {}\nimage_height: {}\n{}{}{}",
@@ -44,5 +44,5 @@ pub fn write(path: &Path, force: bool, config: &Config, solved: &Solved) -> Resu
         matrix("distortion_coefficients", 1, 5, &solved.distortion),
         matrix("tool_from_camera", 4, 4, &tool),
     );
-    crate::new_file::write(path, text.as_bytes(), force, 0o644)
+    Ok(vservo_config::new_file::write(path, text.as_bytes(), force, 0o644)?)
 }
