@@ -79,12 +79,12 @@ fn the_demo_cell_is_calibrated_within_the_bars_and_its_file_reads_back() {
     .expect("written");
     let config = vservo_config::Config::load(&extended).expect("the calibrated configuration loads");
     let close = |a: f64, b: f64| (a - b).abs() < 1e-6 * b.abs().max(1.0);
-    assert!(close(config.camera.fx_px(), number(&report, &["fx"])), "{}", config.camera.fx_px());
-    assert!(close(config.camera.fy_px(), number(&report, &["fy"])));
-    assert!(close(config.camera.principal_point_px().x, number(&report, &["cx"])));
-    assert!(close(config.camera.principal_point_px().y, number(&report, &["cy"])));
-    assert!(close(config.camera.distortion().coefficients()[0], number(&report, &["k1"])));
-    let translation = config.tool_from_camera.translation.vector;
+    assert!(close(config.cell.camera.fx_px(), number(&report, &["fx"])), "{}", config.cell.camera.fx_px());
+    assert!(close(config.cell.camera.fy_px(), number(&report, &["fy"])));
+    assert!(close(config.cell.camera.principal_point_px().x, number(&report, &["cx"])));
+    assert!(close(config.cell.camera.principal_point_px().y, number(&report, &["cy"])));
+    assert!(close(config.cell.camera.distortion().coefficients()[0], number(&report, &["k1"])));
+    let translation = config.cell.tool_from_camera.translation.vector;
     for (axis, value) in translation.iter().enumerate() {
         let solved = report["tool_from_camera"]["translation_m"][axis].as_f64().expect("a number");
         assert!((value - solved).abs() < 1e-9, "axis {axis}: {value} against {solved}");
@@ -114,8 +114,8 @@ fn apply_makes_the_configuration_read_the_calibration() {
 
     let applied = vservo_config::Config::load(&config.path).expect("the applied configuration loads");
     let close = |a: f64, b: f64| (a - b).abs() < 1e-6 * b.abs().max(1.0);
-    assert!(close(applied.camera.fx_px(), number(&report, &["fx"])), "{}", applied.camera.fx_px());
-    assert!(close(applied.camera.principal_point_px().y, number(&report, &["cy"])));
+    assert!(close(applied.cell.camera.fx_px(), number(&report, &["fx"])), "{}", applied.cell.camera.fx_px());
+    assert!(close(applied.cell.camera.principal_point_px().y, number(&report, &["cy"])));
 
     let again = calibrate(&config.arg(), &dir.join("again.yaml"), &[]);
     assert!(again.status.success(), "{}", String::from_utf8_lossy(&again.stderr));
@@ -279,7 +279,7 @@ fn a_running_cell_is_calibrated_through_vservod_within_the_bars_and_a_safe_stop_
     assert_eq!(applied["reloaded"], Value::Bool(true), "{report}\n{}", daemon.log());
     assert!(applied["reply"].as_str().is_some_and(|r| r.contains("servos again")), "{report}");
     let kept = PathBuf::from(applied["kept"].as_str().expect("where the old file is"));
-    let desired = |path: &Path| vservo_config::Config::load(path).expect("loads").desired.features;
+    let desired = |path: &Path| vservo_config::Config::load(path).expect("loads").cell.desired.features;
     let (before, after) = (desired(&kept), desired(&config.path));
     let moved = (0..8).map(|i| (after[i] - before[i]).abs()).fold(0.0, f64::max);
     assert!(moved > 1.0, "the calibration moves ξ_d by {moved} px");

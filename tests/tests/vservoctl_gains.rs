@@ -18,7 +18,7 @@ fn gains_json_matches_the_library_design() {
     let path = default_config();
     let json = json_of("gains", path.to_str().expect("utf-8 path"));
     let config = vservo_config::Config::load(&path).expect("valid");
-    let gains = vservo_control::Gains::design(&config.gains_spec()).expect("designable");
+    let gains = vservo_control::Gains::design(&config.cell.gains_spec()).expect("designable");
     let k = json["K"].as_array().expect("K rows");
     assert_eq!(k.len(), 6);
     for (r, row) in k.iter().enumerate() {

@@ -234,7 +234,7 @@ fn lockstep_replaying(
             .collect(),
     };
     let trace = simulator.run_replaying(|_| {}, &replay);
-    let dt = config.timing.control_period_s;
+    let dt = config.cell.timing.control_period_s;
     let frames = trace
         .frames
         .iter()

@@ -29,10 +29,10 @@ fn start_camera(
         let node = vservo_protocol::create_node_in(&dir, "test-camera").expect("a node");
         let publisher = vservo_protocol::camera_image_publisher(&node, &instance).expect("camera_image");
         let notifier = vservo_protocol::camera_image_notifier(&node, &instance).expect("camera_image event");
-        let aside = nalgebra::Translation3::new(0.02, 0.0, 0.0) * config.desired.camera_from_board;
-        let mut renderer = vservo_vision::Renderer::new(config.camera, config.vision.render);
-        let image = renderer.render(&config.board, &aside, 0).clone();
-        let period = Duration::from_secs_f64(config.timing.vision_period_s);
+        let aside = nalgebra::Translation3::new(0.02, 0.0, 0.0) * config.cell.desired.camera_from_board;
+        let mut renderer = vservo_vision::Renderer::new(config.cell.camera, config.cell.vision.render);
+        let image = renderer.render(&config.cell.board, &aside, 0).clone();
+        let period = Duration::from_secs_f64(config.cell.timing.vision_period_s);
         let mut frame = 0;
         while !stop.load(Ordering::Relaxed) {
             let exposed_ns = vservo_runtime::clock::monotonic_ns().saturating_sub(LATENCY_NS);
@@ -67,10 +67,10 @@ fn an_external_cameras_features_carry_the_camera_pose_at_exposure() {
             ("source = \"simulated\"", "source = \"external\""),
         ],
     );
-    let cell = vservo_config::Config::load(&config.path).expect("config");
+    let loaded = vservo_config::Config::load(&config.path).expect("config");
     let daemon = vservo_system_tests::Daemon::start(&config);
     let stop = Arc::new(AtomicBool::new(false));
-    let camera = start_camera(&instance, &cell, stop.clone());
+    let camera = start_camera(&instance, &loaded, stop.clone());
     assert!(
         wait_until(Duration::from_secs(10), || status(&instance).is_some_and(|s| running(&s))),
         "{:?}\n{}",
@@ -98,7 +98,7 @@ fn an_external_cameras_features_carry_the_camera_pose_at_exposure() {
     stop.store(true, Ordering::Relaxed);
     let _ = camera.join();
 
-    let camera_at = |q: &JointVector| cell.arm.base_from_tool(q) * cell.tool_from_camera;
+    let camera_at = |q: &JointVector| loaded.cell.arm.base_from_tool(q) * loaded.cell.tool_from_camera;
     let position = |pose: &IsometryMatrix3<f64>| pose.translation.vector;
     let (mut compared, mut worst_m, mut moved_m) = (0, 0.0_f64, f64::INFINITY);
     for f in &features {

@@ -35,7 +35,7 @@ fn lines(child: Child) -> Vec<Value> {
 
 /// −K(ξ − ξ_d) for the paper's law of a configuration.
 fn paper_twist(config: &vservo_config::Config, features: &[f64]) -> [f64; 6] {
-    let gains = vservo_control::Gains::design(&config.gains_spec()).expect("design");
+    let gains = vservo_control::Gains::design(&config.cell.gains_spec()).expect("design");
     let error = vservo_scene::FeatureVector::from_column_slice(features) - gains.desired_features;
     let twist = -(gains.feature_gain * error);
     std::array::from_fn(|i| twist[i])

@@ -237,9 +237,9 @@ fn start_camera(
         let node = vservo_protocol::create_node_in(&dir, "test-camera").expect("a node");
         let publisher = vservo_protocol::camera_image_publisher(&node, &instance).expect("camera_image");
         let notifier = vservo_protocol::camera_image_notifier(&node, &instance).expect("camera_image event");
-        let mut renderer = vservo_vision::Renderer::new(config.camera, config.vision.render);
-        let image = renderer.render(&config.board, &config.desired.camera_from_board, 0).clone();
-        let period = Duration::from_secs_f64(config.timing.vision_period_s);
+        let mut renderer = vservo_vision::Renderer::new(config.cell.camera, config.cell.vision.render);
+        let image = renderer.render(&config.cell.board, &config.cell.desired.camera_from_board, 0).clone();
+        let period = Duration::from_secs_f64(config.cell.timing.vision_period_s);
         let mut frame = 0;
         while !stop.load(Ordering::Relaxed) {
             if sending.load(Ordering::Relaxed) {
@@ -268,12 +268,12 @@ fn an_external_camera_that_stops_sending_is_a_named_fault_and_frames_again_allow
             ("source = \"simulated\"", "source = \"external\""),
         ],
     );
-    let cell = vservo_config::Config::load(&config.path).expect("config");
-    let timeout = cell.faults.camera_timeout(cell.timing.vision_period_s);
+    let loaded = vservo_config::Config::load(&config.path).expect("config");
+    let timeout = loaded.faults.camera_timeout(loaded.cell.timing.vision_period_s);
     let daemon = Daemon::start(&config);
     let (sending, stop) = (Arc::new(AtomicBool::new(true)), Arc::new(AtomicBool::new(false)));
     let last_sent = Arc::new(std::sync::Mutex::new(None));
-    let camera = start_camera(&instance, &cell, sending.clone(), stop.clone(), last_sent.clone());
+    let camera = start_camera(&instance, &loaded, sending.clone(), stop.clone(), last_sent.clone());
     assert!(
         wait_until(Duration::from_secs(15), || status(&instance).is_some_and(|s| running(&s))),
         "{:?}\n{}",

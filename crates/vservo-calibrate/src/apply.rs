@@ -120,12 +120,12 @@ fn reads(config: &Config, calibration: &Path) -> Result<bool> {
     let file = vservo_config::calibration::parse(&text).map_err(|e| {
         CalibrateError::Refused(format!("--apply: {} does not read back: {e}", calibration.display()))
     })?;
-    let camera = &config.camera;
+    let camera = &config.cell.camera;
     let point = camera.principal_point_px();
     let same_lens = [camera.fx_px(), camera.fy_px(), point.x, point.y]
         == [file.focal_px[0], file.focal_px[1], file.principal_point_px[0], file.principal_point_px[1]]
         && camera.distortion().coefficients() == file.distortion;
-    let same_mount = file.tool_from_camera.is_none_or(|mount| mount == config.tool_from_camera);
+    let same_mount = file.tool_from_camera.is_none_or(|mount| mount == config.cell.tool_from_camera);
     Ok(same_lens && same_mount)
 }
 

@@ -19,15 +19,15 @@ pub struct Simulated {
 impl Simulated {
     /// The cell the configuration describes; refused unless its camera is the simulated one.
     pub fn new(config: &Config) -> Result<Self> {
-        if config.vision.source != vservo_config::VisionSource::Simulated {
+        if config.cell.vision.source != vservo_config::VisionSource::Simulated {
             return Err(CalibrateError::Refused(format!(
                 "{}: --lockstep calibrates the simulated camera; camera.source is not \"simulated\"",
                 config.origin
             )));
         }
-        let cell = Cell::simulated(&config.cell())
+        let cell = Cell::simulated(&config.cell)
             .map_err(|e| CalibrateError::Refused(format!("{}: {e}", config.origin)))?;
-        let base_from_board = config.base_from_board(cell.arm());
+        let base_from_board = config.cell.base_from_board(cell.arm());
         Ok(Self { cell, base_from_board })
     }
 

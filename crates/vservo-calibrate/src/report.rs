@@ -16,7 +16,7 @@ use crate::solver::Solved;
 
 /// The plan: each pose's joints and how much of the board it sees (the text `--dry-run` prints).
 pub fn plan(config: &Config, planned: &[PlannedPose], json: bool) -> String {
-    let joints = config.arm.joint_count();
+    let joints = config.cell.arm.joint_count();
     if json {
         let poses: Vec<Value> = planned
             .iter()
@@ -85,24 +85,24 @@ fn errors(solved: &Solved, truth: &CameraTruth) -> Value {
 
 /// The configuration's belief against the truth, for scale.
 fn belief_errors(config: &Config, truth: &CameraTruth) -> Value {
-    let (translation_mm, rotation_deg) = pose_error(&truth.tool_from_camera, &config.tool_from_camera);
+    let (translation_mm, rotation_deg) = pose_error(&truth.tool_from_camera, &config.cell.tool_from_camera);
     json!({
         "tool_from_camera_translation_mm": translation_mm,
         "tool_from_camera_rotation_deg": rotation_deg,
-        "fx_percent": 100.0 * (config.camera.fx_px() - truth.intrinsics.fx_px()) / truth.intrinsics.fx_px(),
-        "fy_percent": 100.0 * (config.camera.fy_px() - truth.intrinsics.fy_px()) / truth.intrinsics.fy_px(),
-        "k1": config.camera.distortion().coefficients()[0] - truth.intrinsics.distortion().coefficients()[0],
+        "fx_percent": 100.0 * (config.cell.camera.fx_px() - truth.intrinsics.fx_px()) / truth.intrinsics.fx_px(),
+        "fy_percent": 100.0 * (config.cell.camera.fy_px() - truth.intrinsics.fy_px()) / truth.intrinsics.fy_px(),
+        "k1": config.cell.camera.distortion().coefficients()[0] - truth.intrinsics.distortion().coefficients()[0],
     })
 }
 
 /// What the calibration changes, before (the configuration) against after (the solution): each value of the
 /// lens, and the mount's move.
 fn changes(config: &Config, solved: &Solved) -> Value {
-    let camera = &config.camera;
+    let camera = &config.cell.camera;
     let before_lens = camera.distortion().coefficients();
     let mount = isometry(&solved.tool_from_camera.matrix);
     let (moved_mm, turned_deg) =
-        mount.map_or((f64::NAN, f64::NAN), |m| pose_error(&config.tool_from_camera, &m));
+        mount.map_or((f64::NAN, f64::NAN), |m| pose_error(&config.cell.tool_from_camera, &m));
     let pair = |before: f64, after: f64| json!({"before": before, "after": after});
     json!({
         "fx_px": pair(camera.fx_px(), solved.fx),
@@ -111,7 +111,7 @@ fn changes(config: &Config, solved: &Solved) -> Value {
         "cy_px": pair(camera.principal_point_px().y, solved.cy),
         "distortion": {"before": before_lens, "after": solved.distortion},
         "tool_from_camera": {
-            "before_translation_m": config.tool_from_camera.translation.vector.as_slice(),
+            "before_translation_m": config.cell.tool_from_camera.translation.vector.as_slice(),
             "after_translation_m": solved.tool_from_camera.translation_m,
             "moved_mm": moved_mm,
             "turned_deg": turned_deg,

@@ -23,7 +23,7 @@ pub fn run(config_path: &Path, stats_every_s: f64, stop: &AtomicBool) -> anyhow:
     let settings = config.gstreamer.clone().with_context(|| {
         format!("{}: no [camera.gstreamer] section (its pipeline is what this driver runs)", config.origin)
     })?;
-    let (width, height) = (config.camera.width_px(), config.camera.height_px());
+    let (width, height) = (config.cell.camera.width_px(), config.cell.camera.height_px());
     let camera = Camera::build(&settings)?;
     camera.play()?;
     tracing::info!(
@@ -31,7 +31,7 @@ pub fn run(config_path: &Path, stats_every_s: f64, stop: &AtomicBool) -> anyhow:
         camera.text,
         camera.clock_minus_monotonic_ns()
     );
-    let mut watch = Watch::new(config.timing.vision_period_s, settings.stall_periods, stats_every_s);
+    let mut watch = Watch::new(config.cell.timing.vision_period_s, settings.stall_periods, stats_every_s);
     let Some(first) = first_frame(&camera, &mut watch, stop)? else { return Ok(()) };
     let negotiated = pipeline::negotiated(&first.sample);
     vservo_camera_gst::caps::check(&negotiated, width, height)
@@ -39,7 +39,7 @@ pub fn run(config_path: &Path, stats_every_s: f64, stop: &AtomicBool) -> anyhow:
     tracing::info!("frames: {}", negotiated.caps);
     let Some(out) = Output::connect(&config.instance, stop)? else { return Ok(()) };
     let period_ns = match pipeline::caps_frame_period_ns(&first.sample) {
-        0 => (config.timing.vision_period_s * 1e9) as u64,
+        0 => (config.cell.timing.vision_period_s * 1e9) as u64,
         caps_period => caps_period,
     };
     let mut publishing = Publishing {

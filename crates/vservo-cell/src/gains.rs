@@ -32,7 +32,7 @@ mod tests {
     fn config() -> CellConfig {
         vservo_config::Config::from_toml(include_str!("../../../config/vservo.toml"), "vservo.toml")
             .expect("the default")
-            .cell()
+            .cell
     }
 
     #[test]

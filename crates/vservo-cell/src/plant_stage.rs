@@ -190,7 +190,7 @@ mod tests {
         let config =
             vservo_config::Config::load(concat!(env!("CARGO_MANIFEST_DIR"), "/../../config/vservo.toml"))
                 .expect("the default config loads")
-                .cell();
+                .cell;
         let cell = Cell::new(&config).expect("the default cell");
         let mut plant = cell.plant_resumed(cell.start_joints(), 1000);
         let desired_rotation = cell.base_from_desired_camera().rotation;
@@ -216,7 +216,7 @@ mod tests {
         let config =
             vservo_config::Config::load(concat!(env!("CARGO_MANIFEST_DIR"), "/../../config/vservo.toml"))
                 .expect("the default config loads")
-                .cell();
+                .cell;
         assert_eq!(config.plant.mode, PlantMode::Dynamic);
         let cell = Cell::new(&config).expect("the default cell");
         let start = *cell.start_joints();

@@ -291,7 +291,7 @@ mod tests {
         let config =
             vservo_config::Config::load(concat!(env!("CARGO_MANIFEST_DIR"), "/../../config/vservo.toml"))
                 .expect("the default config loads")
-                .cell();
+                .cell;
         let cell = Cell::new(&config).expect("the default cell");
         let q = *cell.start_joints();
         let period_ns = (config.robot.period_s * 1e9).round() as u64;

@@ -227,7 +227,7 @@ mod tests {
         let config =
             vservo_config::Config::load(concat!(env!("CARGO_MANIFEST_DIR"), "/../../config/vservo.toml"))
                 .expect("the default config loads")
-                .cell();
+                .cell;
         crate::Cell::new(&config).expect("the default cell").servo()
     }
 

@@ -286,7 +286,7 @@ mod tests {
     fn config() -> CellConfig {
         vservo_config::Config::from_toml(include_str!("../../../config/vservo.toml"), "vservo.toml")
             .expect("the default")
-            .cell()
+            .cell
     }
 
     /// A target the default cell reaches (the integration test's).

@@ -306,7 +306,7 @@ mod tests {
         let config =
             vservo_config::Config::load(concat!(env!("CARGO_MANIFEST_DIR"), "/../../config/vservo.toml"))
                 .expect("the default config loads")
-                .cell();
+                .cell;
         let cell = Cell::new(&config).expect("the default cell");
         let q0 = *cell.start_joints();
         let poses = (0..6u64).map(|k| (85 * k, q0 + JointVector::from_element(0.002 * k as f64))).collect();

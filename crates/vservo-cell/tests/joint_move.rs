@@ -13,7 +13,7 @@ fn the_dynamic_arm_follows_a_joint_move_to_its_goal_within_its_speed_limits() {
         "/../../config/vservo-apriltag.toml"
     ))
     .expect("the AprilTag cell loads");
-    let cell = Cell::simulated(&config.cell()).expect("the cell");
+    let cell = Cell::simulated(&config.cell).expect("the cell");
     let mut plant = cell.plant();
     let start = plant.state().q;
     let mut rmrc = cell.rmrc(&start);
@@ -21,7 +21,7 @@ fn the_dynamic_arm_follows_a_joint_move_to_its_goal_within_its_speed_limits() {
     for (j, step) in [-0.2, 0.07, 0.04, 0.1, -0.08, 0.2].iter().enumerate() {
         goal[j] += step;
     }
-    let period_ns = (config.robot.period_s * 1e9).round() as u64;
+    let period_ns = (config.cell.robot.period_s * 1e9).round() as u64;
     let arm = cell.arm().clone();
     let mut worst_speed_share: f64 = 0.0;
     let mut worst_torque_share: f64 = 0.0;
@@ -66,12 +66,12 @@ fn a_far_joint_move_at_full_speed_stays_within_the_drives_torque() {
     let config =
         vservo_config::Config::load(concat!(env!("CARGO_MANIFEST_DIR"), "/../../config/vservo.toml"))
             .expect("the default cell loads");
-    let cell = Cell::simulated(&config.cell()).expect("the cell");
+    let cell = Cell::simulated(&config.cell).expect("the cell");
     let mut plant = cell.plant();
     let start = plant.state().q;
     let mut rmrc = cell.rmrc(&start);
     let goal = vservo_arm::six_joints([2.6, -0.6, 0.6, -1.8, -1.6, 4.5]);
-    let period_ns = (config.robot.period_s * 1e9).round() as u64;
+    let period_ns = (config.cell.robot.period_s * 1e9).round() as u64;
     let arm = cell.arm().clone();
     let mut worst_torque_share: f64 = 0.0;
     for tick in 0..8000 {

@@ -60,10 +60,10 @@ fn the_robust_law_allocates_nothing_per_frame_either() {
     let mut config =
         vservo_config::Config::load(concat!(env!("CARGO_MANIFEST_DIR"), "/../../config/vservo.toml"))
             .expect("the default config loads");
-    config.controller.law = vservo_control::ControlLaw::DelayAware;
+    config.cell.controller.law = vservo_control::ControlLaw::DelayAware;
     // a margin just clear of the marks nearest the top edge (70 px at ξ_d), which the translation step
     // moves up: the barrier acts
-    config.controller.options =
+    config.cell.controller.options =
         LawOptions { interaction: Interaction::Mean, border_margin_px: 65.0, feedforward: true };
     let flags = runs_without_allocating(config);
     assert!(flags.iter().any(|f| f.feedforward), "{flags:?}");
@@ -84,13 +84,13 @@ fn an_arm_from_a_urdf_allocates_nothing_per_tick_or_frame() {
 
 /// Runs frames and ticks of the cell, counting allocations; the law's flags of the frames counted.
 fn runs_without_allocating(config: vservo_config::Config) -> [LawFlags; COUNTED_FRAMES] {
-    let cell = Cell::new(&config.cell()).expect("the default cell");
+    let cell = Cell::new(&config.cell).expect("the default cell");
     let mut plant = cell.plant();
     let mut vision = cell.vision();
     let mut servo = cell.servo();
     let mut rmrc = cell.rmrc(cell.start_joints());
     let limits = TwistLimits::of(cell.config());
-    let ticks_per_frame = u64::from(config.timing.control_ticks_per_frame);
+    let ticks_per_frame = u64::from(config.cell.timing.control_ticks_per_frame);
     let mut frame = |plant: &vservo_cell::PlantStage, vision: &mut vservo_cell::VisionStage, k: u64| {
         let state = *plant.state();
         let taken = vision.capture(k, state.tick, &state.q, &plant.base_from_board());
@@ -134,7 +134,7 @@ fn runs_without_allocating(config: vservo_config::Config) -> [LawFlags; COUNTED_
     // catches up), one at tick 400 saying the driver holds the arm (the rmrc starts again at rest), a joint move
     // from tick 500 to 649, and a new driver epoch from tick 700 (the rmrc starts again at rest); the rmrc's
     // first state is a start at rest too
-    let period_ns = (config.robot.period_s * 1e9).round() as u64;
+    let period_ns = (config.cell.robot.period_s * 1e9).round() as u64;
     let mut followed = [0u32; 3];
     let goal = plant.state().q + vservo_arm::JointVector::from_element(0.05);
     let per_tick = allocations_in(|| {
@@ -183,11 +183,15 @@ fn the_jerk_limited_reference_allocates_nothing_per_tick() {
     for arm in ["fr3", "ur5e"] {
         let file = format!("{}/../../config/arms/{arm}.toml", env!("CARGO_MANIFEST_DIR"));
         let config = vservo_config::Config::load(&file).expect("the arm's config loads");
-        assert!(config.interpolator.jerk_limit.is_some(), "{arm} has jerk limits");
-        let settings = config.interpolator;
+        assert!(config.cell.interpolator.jerk_limit.is_some(), "{arm} has jerk limits");
+        let settings = config.cell.interpolator;
         let dt = settings.control_period_s;
-        let mut interpolator =
-            Interpolator::new(settings, config.arm.clone(), config.tool_from_camera, config.desired.joints);
+        let mut interpolator = Interpolator::new(
+            settings,
+            config.cell.arm.clone(),
+            config.cell.tool_from_camera,
+            config.cell.desired.joints,
+        );
         let twist = Twist::new(0.05, -0.02, 0.03, 0.1, 0.0, -0.2);
         // warm up: every path once
         interpolator.set_twist(twist, 0.0);
@@ -204,7 +208,7 @@ fn the_jerk_limited_reference_allocates_nothing_per_tick() {
         let allocations = allocations_in(|| {
             interpolator.set_twist(twist * -1.0, 0.2);
             run(&mut interpolator, 300);
-            interpolator.move_joints_to(config.desired.joints, 0.5);
+            interpolator.move_joints_to(config.cell.desired.joints, 0.5);
             run(&mut interpolator, 1000);
             interpolator.end_joint_move();
             interpolator.set_twist(Twist::zeros(), 1.5);

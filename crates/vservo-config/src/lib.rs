@@ -19,8 +19,8 @@
 //! Besides the paper's cell it holds: `[faults]` (target-lost and saturation times, the resume policy); the
 //! arm (`[robot.arm]`: the PUMA 560, a DH table of the user's, or a URDF's chain of six or seven joints; a key
 //! with a value per joint takes the arm's count; `[interpolator.null_space]` for a seven-joint arm) and its
-//! motion limits; the robot driver and its command interface ([`Config::command_interface`]); `[camera.truth]`
-//! ([`Config::true_camera`]: the simulated camera as it really is, where written); `[calibration]`
+//! motion limits; the robot driver and its command interface ([`CellConfig::command_interface`]); `[camera.truth]`
+//! ([`CellConfig::true_camera`]: the simulated camera as it really is, where written); `[calibration]`
 //! ([`CalibrationSettings`]: the calibration board and the poses; `printed_on_object` prints it on the
 //! simulated board, its target tag one of the board's). A calibration file's principal point is in OpenCV's
 //! pixels (+ ½ when read), and its `tool_from_camera`, where it has one, takes the place of
@@ -38,7 +38,10 @@
 //! line taken out), its errors naming the key in it; `validate/` one module per section (`timing`, `camera`,
 //! `object`, `desired`, `controller` with `weight`, `vision`, `simulation`, `scenario`, `robot`, `arm`,
 //! `motion`, `franka`, `runtime`, `operation` for faults, reacquire and viewer, `ros2` for the ROS 2 bridge,
-//! `calibration_board`) on a shared `checker`, called in the order the sections build on each other.
+//! `calibration_board`) on a shared `checker`, called in the order the sections build on each other;
+//! `cell.rs` the core cell's part ([`CellConfig`], `Config::cell`: what the cell's stages run by, never the
+//! shells' sections) with the rules computed from it; [`new_file`] how vservo writes a file where others may
+//! plant one.
 //!
 //! The supervision and fault times (`runtime.*_s`, `faults.*_s`) are `std::time::Duration`s in [`Config`];
 //! the periods and times the control and simulation math uses stay `f64` seconds. Every `Config` type is
@@ -47,7 +50,7 @@
 //! ```
 //! let text = include_str!("../../../config/vservo.toml");
 //! let config = vservo_config::Config::from_toml(text, "vservo.toml").expect("the default config is valid");
-//! assert_eq!(config.timing.control_ticks_per_frame, 85);
+//! assert_eq!(config.cell.timing.control_ticks_per_frame, 85);
 //! ```
 
 /// The longest `[camera.gstreamer] pipeline` taken (bytes).
@@ -70,7 +73,7 @@ use layers::Layers;
 pub use layers::{LENS_KEYS, did_you_mean};
 use nalgebra::Vector3;
 pub use sections::*;
-use vservo_scene::{Board, CameraIntrinsics, IsometryMatrix3};
+use vservo_scene::IsometryMatrix3;
 
 /// A validated configuration.
 #[derive(Debug, Clone, PartialEq)]
@@ -79,44 +82,15 @@ pub struct Config {
     pub origin: String,
     /// The instance name: shared-memory services live under `vservo/<name>/`.
     pub instance: String,
-    /// Periods and delays.
-    pub timing: Timing,
-    /// The camera's intrinsics.
-    pub camera: CameraIntrinsics,
-    /// Where the camera sits on the hand: camera = tool · `tool_from_camera`.
-    pub tool_from_camera: IsometryMatrix3<f64>,
-    /// The simulated camera as it really is, where `[camera.truth]` says it differs from `camera` and
-    /// `tool_from_camera` (see [`Config::true_camera`]). Only the simulated camera's rendering uses it;
-    /// everything else works with what the cell believes.
-    pub camera_truth: Option<CameraTruth>,
-    /// The object.
-    pub board: Board,
-    /// The desired pose and what the camera sees there.
-    pub desired: Desired,
-    /// The controller's law and weights.
-    pub controller: Controller,
-    /// The image source and the feature extractor.
-    pub vision: Vision,
-    /// The simulated arm.
-    pub plant: PlantSettings,
-    /// The resolved-motion-rate interpolator.
-    pub interpolator: vservo_settings::simulation::InterpolatorSettings,
-    /// The joint servo.
-    pub joint_servo: JointServoSettings,
-    /// What the simulated cell does.
-    pub scenario: Scenario,
+    /// The core cell's part: timing, camera and mount, board and desired pose, law, vision, plant, interpolator,
+    /// joint servo, scenario, robot and arm, reacquisition ([`CellConfig`]).
+    pub cell: CellConfig,
     /// `[runtime]`: how the real-time shell runs the nodes.
     pub runtime: Runtime,
-    /// `[robot]`: the robot driver and the command it takes.
-    pub robot: Robot,
-    /// `[robot.arm]`: the arm's model (the PUMA 560 by default; a custom arm's DH table and limits).
-    pub arm: vservo_arm::SerialArm,
     /// `robot.arm.urdf`: the file an arm from a URDF was read from (for drivers that load it themselves).
     pub arm_urdf_file: Option<String>,
     /// `[faults]`: when a fault stops the cell, and how it resumes.
     pub faults: Faults,
-    /// `[reacquire]`: how the servo steers back to lost marks.
-    pub reacquire: Reacquire,
     /// `[viewer]`: the live view in Foxglove.
     pub viewer: Viewer,
     /// `[ros2]`: the bridge to a ROS 2 graph.
@@ -191,7 +165,7 @@ impl Config {
     /// Whether vservod starts the ROS 2 driver (`vservo-ros2-driver`): for the arm (`robot.driver = "ros2"`),
     /// the camera (`camera.source = "ros2"`) or both.
     pub fn runs_ros2_driver(&self) -> bool {
-        self.robot.driver == RobotDriver::Ros2 || self.vision.source == VisionSource::Ros2
+        self.cell.robot.driver == RobotDriver::Ros2 || self.cell.vision.source == VisionSource::Ros2
     }
 }
 

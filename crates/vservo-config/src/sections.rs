@@ -245,7 +245,7 @@ pub struct Robot {
     /// Whether the cell comes up held (a safe stop `start_held`, ended by `vservoctl resume`) rather than
     /// servoing at once: `robot.start`, "held" by default for an external driver, a real arm's first motion.
     pub start_held: bool,
-    /// The command an external driver takes ([`crate::Config::command_interface`] gives the one in force: the
+    /// The command an external driver takes ([`crate::CellConfig::command_interface`] gives the one in force: the
     /// simulated driver's follows from `plant.mode`).
     pub command: CommandInterface,
     /// The driver's period (s): a joint state comes this often, and the interpolator steps by it.

@@ -17,17 +17,17 @@ fn refused_key(result: Result<Config, ConfigError>) -> String {
 #[test]
 fn left_out_keys_are_the_believed_values_and_given_ones_are_taken() {
     let believed = Config::from_toml(DEFAULT, "vservo.toml").expect("the default");
-    assert_eq!(believed.camera_truth, None);
-    assert_eq!(believed.true_camera().intrinsics, believed.camera);
-    assert_eq!(believed.true_camera().tool_from_camera, believed.tool_from_camera);
+    assert_eq!(believed.cell.camera_truth, None);
+    assert_eq!(believed.cell.true_camera().intrinsics, believed.cell.camera);
+    assert_eq!(believed.cell.true_camera().tool_from_camera, believed.cell.tool_from_camera);
     let config = with("fx_px = 1000.0\ntool_from_camera = { translation_m = [0.005, 0.0, 0.0], rotation_rpy_deg = [0.0, 0.0, 2.0] }")
         .expect("a truth");
-    let truth = config.true_camera();
+    let truth = config.cell.true_camera();
     assert_eq!(truth.intrinsics.fx_px(), 1000.0);
-    assert_eq!(truth.intrinsics.fy_px(), believed.camera.fy_px());
-    assert_eq!(config.camera, believed.camera, "what the cell believes is unchanged");
+    assert_eq!(truth.intrinsics.fy_px(), believed.cell.camera.fy_px());
+    assert_eq!(config.cell.camera, believed.cell.camera, "what the cell believes is unchanged");
     assert_eq!(truth.tool_from_camera.translation.vector.x, 0.005);
-    assert_eq!(config.tool_from_camera, believed.tool_from_camera);
+    assert_eq!(config.cell.tool_from_camera, believed.cell.tool_from_camera);
 }
 
 #[test]
@@ -59,5 +59,5 @@ fn bad_values_and_a_camera_that_is_not_simulated_are_refused_by_key() {
     let simulating_driver =
         Config::from_toml(&format!("{external}\n[camera.truth]\nfx_px = 900.0\n"), "x.toml")
             .expect("an external camera may have a truth");
-    assert_eq!(simulating_driver.true_camera().intrinsics.fx_px(), 900.0);
+    assert_eq!(simulating_driver.cell.true_camera().intrinsics.fx_px(), 900.0);
 }

@@ -18,15 +18,15 @@ fn the_drivers_are_typed_choices_and_the_gstreamer_camera_needs_its_pipeline() {
         };
     let pipeline = "\n[camera.gstreamer]\npipeline = \"v4l2src ! videoconvert ! video/x-raw,format=GRAY8\"\n";
     let ros2 = with("ros2", "gstreamer", pipeline).expect("a ROS 2 arm and a GStreamer camera");
-    assert_eq!(ros2.robot.driver, vservo_config::RobotDriver::Ros2);
-    assert_eq!(ros2.vision.source, vservo_config::VisionSource::Gstreamer);
+    assert_eq!(ros2.cell.robot.driver, vservo_config::RobotDriver::Ros2);
+    assert_eq!(ros2.cell.vision.source, vservo_config::VisionSource::Gstreamer);
     assert!(
         ros2.runs_ros2_driver()
-            && ros2.vision.source.from_camera_driver()
-            && !ros2.robot.driver.is_simulated()
+            && ros2.cell.vision.source.from_camera_driver()
+            && !ros2.cell.robot.driver.is_simulated()
     );
     let ros2_camera_only = with("ros2", "external", "").expect("the ROS 2 arm alone");
-    assert!(ros2_camera_only.runs_ros2_driver() && ros2_camera_only.vision.source.name() == "external");
+    assert!(ros2_camera_only.runs_ros2_driver() && ros2_camera_only.cell.vision.source.name() == "external");
     let error = with("ros2", "gstreamer", "").expect_err("no pipeline").to_string();
     assert!(error.contains("camera.source") && error.contains("[camera.gstreamer]"), "{error}");
 }
@@ -65,13 +65,13 @@ fn the_commented_sections_of_the_default_are_valid_as_documented() {
     assert_eq!(uncommented, SECTIONS.len(), "each section is in the file, commented out");
     let config =
         Config::from_toml(&text, "uncommented vservo.toml").expect("the documented sections are valid");
-    assert!(config.board.apriltag().is_some_and(|tag| tag.id() == 3), "[target]");
+    assert!(config.cell.board.apriltag().is_some_and(|tag| tag.id() == 3), "[target]");
     assert!(
         config.gstreamer.as_ref().is_some_and(|g| g.pipeline.starts_with("v4l2src")),
         "[camera.gstreamer]"
     );
     assert!(config.calibration.as_ref().is_some_and(|c| c.poses == 12), "[calibration]");
-    assert!(config.camera_truth.is_some(), "[camera.truth]");
+    assert!(config.cell.camera_truth.is_some(), "[camera.truth]");
     let image = config.ros2.qos_of(vservo_config::Ros2Topic::Image);
     assert_eq!(image.reliability, Some(vservo_config::QosReliability::BestEffort), "[ros2.qos.image]");
 }

@@ -41,20 +41,20 @@ fn load_with_camera(name: &str, camera: &str, files: &[(&str, &str)]) -> Result<
 fn the_distorted_cell_has_its_lens() {
     let config =
         Config::load(config_dir().join("vservo-distorted.toml")).expect("vservo-distorted.toml is valid");
-    let camera = config.camera;
+    let camera = config.cell.camera;
     assert_eq!((camera.fx_px(), camera.fy_px()), (600.0, 606.0));
     assert_eq!((camera.width_px(), camera.height_px()), (640, 480));
     assert_eq!(camera.principal_point_px(), nalgebra::Point2::new(322.0, 237.0));
     assert_eq!(camera.distortion().coefficients(), [-0.25, 0.08, 0.0, 0.0, 0.0]);
-    assert!(config.vision.undistort);
+    assert!(config.cell.vision.undistort);
     // the robust law it extends
-    assert_eq!(config.controller.options.border_margin_px, 20.0);
+    assert_eq!(config.cell.controller.options.border_margin_px, 20.0);
 }
 
 #[test]
 fn the_default_camera_is_the_papers_pinhole() {
     let config = Config::load(config_dir().join("vservo.toml")).expect("the default loads");
-    assert_eq!(config.camera, vservo_scene::CameraIntrinsics::paper());
+    assert_eq!(config.cell.camera, vservo_scene::CameraIntrinsics::paper());
 }
 
 #[test]
@@ -63,7 +63,7 @@ fn a_ros_camera_info_file_gives_the_lens() {
     let config =
         load_with_camera("ros", "calibration_file = \"camera_info.yaml\"", &[("camera_info.yaml", &ros)])
             .expect("a ROS camera_info file is taken");
-    let camera = config.camera;
+    let camera = config.cell.camera;
     assert_eq!((camera.fx_px(), camera.fy_px()), (438.783367, 437.302876));
     // ROS's pixel centres are at integers, vservo's at + ½
     assert_eq!(camera.principal_point_px(), nalgebra::Point2::new(305.593336 + 0.5, 243.738352 + 0.5));
@@ -84,7 +84,7 @@ fn an_opencv_file_written_by_opencv_gives_the_lens() {
         &[("calibration.yaml", &opencv)],
     )
     .expect("an OpenCV FileStorage file is taken");
-    let camera = config.camera;
+    let camera = config.cell.camera;
     assert_eq!((camera.fx_px(), camera.fy_px()), (600.0, 606.0));
     // OpenCV's pixel centres are at integers, vservo's at + ½
     assert_eq!(camera.principal_point_px(), nalgebra::Point2::new(322.5, 237.5));
@@ -105,7 +105,7 @@ fn the_merged_text_names_the_calibration_file_wherever_it_is_read() {
     let (config, merged) = Config::load_with_text(directory.join("vservo.toml")).expect("loads");
     let again = Config::from_toml(&merged, "stdin").expect("the merged text loads on its own");
     std::fs::remove_dir_all(&directory).ok();
-    assert_eq!(again.camera, config.camera);
+    assert_eq!(again.cell.camera, config.cell.camera);
 }
 
 #[test]

@@ -40,9 +40,9 @@ fn the_scenarios_are_the_default_with_their_keys_changed() {
     let rotation = load("rotation-step");
     let mut expected = default();
     expected.origin = rotation.origin.clone();
-    expected.scenario.duration_s = 40.0;
-    expected.scenario.initial_camera_translation_m = nalgebra::Vector3::zeros();
-    expected.scenario.initial_camera_rotation = nalgebra::Vector3::new(0.0, 0.0, 10f64.to_radians());
+    expected.cell.scenario.duration_s = 40.0;
+    expected.cell.scenario.initial_camera_translation_m = nalgebra::Vector3::zeros();
+    expected.cell.scenario.initial_camera_rotation = nalgebra::Vector3::new(0.0, 0.0, 10f64.to_radians());
     assert!(rotation == expected, "{rotation:?}");
 
     for (name, r) in [
@@ -52,11 +52,11 @@ fn the_scenarios_are_the_default_with_their_keys_changed() {
         let tracking = load(name);
         let mut expected = default();
         expected.origin = tracking.origin.clone();
-        expected.scenario.duration_s = 36.0;
-        expected.scenario.initial_camera_translation_m = nalgebra::Vector3::zeros();
-        expected.scenario.object =
+        expected.cell.scenario.duration_s = 36.0;
+        expected.cell.scenario.initial_camera_translation_m = nalgebra::Vector3::zeros();
+        expected.cell.scenario.object =
             vservo_settings::simulation::ObjectMotion::Circle { radius_m: 0.1, rev_per_min: 5.0 };
-        expected.controller.r = vservo_settings::weights::InputWeight::new(
+        expected.cell.controller.r = vservo_settings::weights::InputWeight::new(
             nalgebra::SMatrix::<f64, 6, 6>::from_diagonal(&nalgebra::SVector::<f64, 6>::from(r)),
             vservo_settings::weights::InputUnits::MillimetreMilliradian,
         )
@@ -95,8 +95,8 @@ fn a_base_is_found_next_to_its_overlay_wherever_they_are() {
         ],
     );
     let config = Config::load(directory.join("cell.toml")).expect("the overlay loads");
-    assert_eq!(config.scenario.duration_s, 7.0);
-    assert_eq!(config.timing.control_ticks_per_frame, 85);
+    assert_eq!(config.cell.scenario.duration_s, 7.0);
+    assert_eq!(config.cell.timing.control_ticks_per_frame, 85);
     // given as text, there is no file to find the base from
     let error = Config::from_toml("extends = \"base.toml\"\n", "text").expect_err("refused");
     assert_eq!(error.key(), Some("extends"), "{error}");

@@ -15,23 +15,23 @@ fn default_with_target(target: &str) -> Result<Config, ConfigError> {
 #[test]
 fn the_default_target_is_the_marks() {
     let config = Config::from_toml(DEFAULT, "vservo.toml").expect("valid");
-    assert_eq!(config.board.target, Target::Marks);
+    assert_eq!(config.cell.board.target, Target::Marks);
 }
 
 #[test]
 fn the_apriltag_cell_servoes_on_the_tags_corners_in_the_tags_order() {
     let config = Config::load(APRILTAG).expect("config/vservo-apriltag.toml is valid");
-    let tag = config.board.apriltag().expect("an AprilTag target");
+    let tag = config.cell.board.apriltag().expect("an AprilTag target");
     assert_eq!(tag.id(), 3);
-    assert_eq!(config.board.marks_in_board, tag.corners_in_board());
+    assert_eq!(config.cell.board.marks_in_board, tag.corners_in_board());
     // 0.5 m fronto-parallel in front of a 0.16 m tag with fx = 600 px, fy = 606 px: 192 × 193.92 px (the
     // pinhole's: ξ_d is undistorted), centred at the principal point (322, 237); bottom left, bottom right,
     // top right, top left
     let expected = [226.0, 333.96, 418.0, 333.96, 418.0, 140.04, 226.0, 140.04];
-    for (f, e) in config.desired.features.iter().zip(expected) {
-        assert!((f - e).abs() < 1e-9, "{}", config.desired.features);
+    for (f, e) in config.cell.desired.features.iter().zip(expected) {
+        assert!((f - e).abs() < 1e-9, "{}", config.cell.desired.features);
     }
-    assert_eq!((config.camera.width_px(), config.camera.height_px()), (640, 480));
+    assert_eq!((config.cell.camera.width_px(), config.cell.camera.height_px()), (640, 480));
 }
 
 #[test]
@@ -89,14 +89,14 @@ fn a_tag_without_a_board_of_its_own_is_on_its_own_sheet() {
     let tag = "[desired.camera_from_board]\ntranslation_m = [-0.3, -0.3, 0.5]\nrotation_rpy_deg = [0.0, 0.0, 0.0]\n\
                [target]\nkind = \"apriltag\"\nid = 3\ntag_size_m = 0.08\ncentre_in_board_m = [0.3, 0.3]\n";
     let config = overlay_of_the_default("derived", tag).expect("the tag's own sheet holds it");
-    let [low, high] = config.board.extent_in_board;
+    let [low, high] = config.cell.board.extent_in_board;
     for (got, want) in [(low.x, 0.24), (low.y, 0.24), (high.x, 0.36), (high.y, 0.36)] {
-        assert!((got - want).abs() < 1e-12, "{:?}", config.board.extent_in_board);
+        assert!((got - want).abs() < 1e-12, "{:?}", config.cell.board.extent_in_board);
     }
     // a board written with the tag is taken as written, and refused when it does not hold the tag
     let written = format!("{tag}[object]\nboard_extent_m = [[0.2, 0.2], [0.5, 0.45]]\n");
     let config = overlay_of_the_default("written", &written).expect("valid");
-    assert_eq!((config.board.extent_in_board[1].x, config.board.extent_in_board[1].y), (0.5, 0.45));
+    assert_eq!((config.cell.board.extent_in_board[1].x, config.cell.board.extent_in_board[1].y), (0.5, 0.45));
     let short = format!("{tag}[object]\nboard_extent_m = [[0.2, 0.2], [0.32, 0.45]]\n");
     let error = overlay_of_the_default("short", &short).expect_err("refused").to_string();
     assert!(error.contains("object.board_extent_m") && error.contains("white margin"), "{error}");
@@ -113,6 +113,6 @@ fn a_board_written_with_the_tag_is_inherited() {
     let config = Config::load(&path).expect("valid");
     let _ = std::fs::remove_dir_all(&dir);
     let paper = Config::from_toml(DEFAULT, "vservo.toml").expect("valid");
-    assert_eq!(config.board.extent_in_board, paper.board.extent_in_board);
-    assert_eq!(config.board.apriltag().map(|t| t.id()), Some(5));
+    assert_eq!(config.cell.board.extent_in_board, paper.cell.board.extent_in_board);
+    assert_eq!(config.cell.board.apriltag().map(|t| t.id()), Some(5));
 }

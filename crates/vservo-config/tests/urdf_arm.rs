@@ -86,20 +86,20 @@ fn refusal(result: Result<Config, ConfigError>) -> (String, String) {
 fn a_six_joint_urdf_gives_the_arm_with_the_files_limits_unless_the_configuration_gives_them() {
     let scratch = Scratch::new("good");
     let config = scratch.load(&urdf(6, 0, "", ""), "tip_link = \"flange\"", "kinematic").expect("an arm");
-    let vservo_arm::Geometry::Chain(chain) = &config.arm.geometry else { panic!("a chain") };
+    let vservo_arm::Geometry::Chain(chain) = &config.cell.arm.geometry else { panic!("a chain") };
     assert_eq!(
         chain.joints.iter().map(|j| j.name.as_str()).collect::<Vec<_>>(),
         ["j1", "j2", "j3", "j4", "j5", "j6"]
     );
     assert_eq!((chain.base_link.as_str(), chain.tip_link.as_str()), ("l0", "flange"));
-    assert_eq!(config.arm.links[2].limits.position_max, 2.5);
-    assert_eq!(config.arm.links[2].limits.velocity_max, 3.0);
+    assert_eq!(config.cell.arm.links[2].limits.position_max, 2.5);
+    assert_eq!(config.cell.arm.links[2].limits.velocity_max, 3.0);
     assert!(config.arm_urdf_file.as_deref().is_some_and(|f| Path::new(f).is_absolute()));
     let keys = "tip_link = \"flange\"\njoint_limits_rad = [[-1, 1], [-1, 1], [-1, 1], [-1, 1], [-1, 1], [-1.5, 1]]\n\
                 velocity_limits_rad_s = [1, 1, 1, 1, 1, 0.5]";
     let config = scratch.load(&urdf(6, 0, "", ""), keys, "kinematic").expect("an arm");
-    assert_eq!(config.arm.links[5].limits.position_min, -1.5);
-    assert_eq!(config.arm.links[5].limits.velocity_max, 0.5);
+    assert_eq!(config.cell.arm.links[5].limits.position_min, -1.5);
+    assert_eq!(config.cell.arm.links[5].limits.velocity_max, 0.5);
 }
 
 #[test]
@@ -186,17 +186,17 @@ fn a_seven_joint_arm_takes_seven_values_per_joint_key() {
     let accelerations = "acceleration_limits_rad_s2 = [10.0, 10.0, 10.0, 10.0, 10.0, 10.0, 20.0]";
     let text = text.replacen(tip, &format!("{tip}\n{accelerations}"), 1);
     let config = write_and_load(text.clone()).expect("seven values each");
-    assert_eq!(config.arm.joint_count(), 7);
-    assert_eq!(config.desired.joints[6], 0.1);
-    assert_eq!(config.interpolator.acceleration_limit[6], 20.0);
-    assert_eq!(config.interpolator.null_space.posture, None);
+    assert_eq!(config.cell.arm.joint_count(), 7);
+    assert_eq!(config.cell.desired.joints[6], 0.1);
+    assert_eq!(config.cell.interpolator.acceleration_limit[6], 20.0);
+    assert_eq!(config.cell.interpolator.null_space.posture, None);
     let posture = |values: &str| {
         text.replacen("posture_gain = 0.5", &format!("posture_gain = 0.5\nposture_rad = {values}"), 1)
     };
     let (key, message) = refusal(write_and_load(posture("[0.0, 0.0, 0.0, 0.0, 0.0, 0.0]")));
     assert_eq!(key, "interpolator.null_space.posture_rad", "{message}");
     let config = write_and_load(posture("[0.0, 0.1, 0.0, -0.5, 0.0, 0.7, 0.0]")).expect("a posture of seven");
-    assert_eq!(config.interpolator.null_space.posture.map(|p| p[5]), Some(0.7));
+    assert_eq!(config.cell.interpolator.null_space.posture.map(|p| p[5]), Some(0.7));
 }
 
 /// Limits belong to the arm: an arm from a URDF without accelerations of its own is refused naming the keys to
@@ -217,11 +217,11 @@ fn an_arm_without_limits_of_its_own_is_refused_and_the_interpolator_only_narrows
          tool_speed_limit_m_s = 1.0\ntool_rotation_limit_rad_s = 2.0"
     );
     let config = scratch.load_arm(&urdf(6, 0, "", ""), &keys, "kinematic").expect("limits of its own");
-    assert_eq!(config.interpolator.acceleration_limit[0], 10.0);
-    assert_eq!(config.interpolator.jerk_limit.map(|j| j[5]), Some(250.0));
-    assert_eq!(config.interpolator.tool_speed_limit_m_s, 1.0);
-    assert_eq!(config.interpolator.tool_rotation_limit_rad_s, 2.0);
-    assert!(!config.robot.start_held, "the simulated driver servos at once");
+    assert_eq!(config.cell.interpolator.acceleration_limit[0], 10.0);
+    assert_eq!(config.cell.interpolator.jerk_limit.map(|j| j[5]), Some(250.0));
+    assert_eq!(config.cell.interpolator.tool_speed_limit_m_s, 1.0);
+    assert_eq!(config.cell.interpolator.tool_rotation_limit_rad_s, 2.0);
+    assert!(!config.cell.robot.start_held, "the simulated driver servos at once");
     let path = scratch.0.join("cell.toml");
     let written = std::fs::read_to_string(&path).expect("the configuration");
     let with = |from: &str, to: &str| {
@@ -232,28 +232,28 @@ fn an_arm_without_limits_of_its_own_is_refused_and_the_interpolator_only_narrows
     };
     let narrow = "[interpolator]\nacceleration_limit_rad_s2 = [5.0, 5.0, 5.0, 5.0, 5.0, 5.0]";
     let config = with("[interpolator]", narrow).expect("narrowed");
-    assert_eq!(config.interpolator.acceleration_limit[3], 5.0);
+    assert_eq!(config.cell.interpolator.acceleration_limit[3], 5.0);
     let wide = "[interpolator]\nacceleration_limit_rad_s2 = [5.0, 5.0, 50.0, 5.0, 5.0, 5.0]";
     let (key, message) = refusal(with("[interpolator]", wide));
     assert_eq!(key, "interpolator.acceleration_limit_rad_s2", "{message}");
     assert!(message.contains("joint 3 asks for 50 rad/s², above the arm's 10 rad/s²"), "{message}");
     let external = "driver = \"external\"\ncommand = \"velocity\"\nperiod_s = 0.001";
     let config = with("driver = \"simulated\"", external).expect("an external arm");
-    assert!(config.robot.start_held, "an external arm's cell starts held");
+    assert!(config.cell.robot.start_held, "an external arm's cell starts held");
     assert_eq!(
-        config.interpolator.tool_speed_limit_m_s, 0.25,
+        config.cell.interpolator.tool_speed_limit_m_s, 0.25,
         "the first motion's cap, below the arm's 1 m/s"
     );
-    assert_eq!(config.interpolator.tool_rotation_limit_rad_s, 0.75);
+    assert_eq!(config.cell.interpolator.tool_rotation_limit_rad_s, 0.75);
     let config =
         with("driver = \"simulated\"", &format!("{external}\nstart = \"servoing\"")).expect("servoing");
-    assert!(!config.robot.start_held);
+    assert!(!config.cell.robot.start_held);
     // the PUMA 560 has its own accelerations and no jerk limit
     let puma =
         Config::load(concat!(env!("CARGO_MANIFEST_DIR"), "/../../config/vservo.toml")).expect("the default");
-    assert_eq!(puma.interpolator.acceleration_limit[2], 45.0);
-    assert_eq!(puma.interpolator.jerk_limit, None);
-    assert_eq!(puma.interpolator.tool_speed_limit_m_s, f64::INFINITY);
+    assert_eq!(puma.cell.interpolator.acceleration_limit[2], 45.0);
+    assert_eq!(puma.cell.interpolator.jerk_limit, None);
+    assert_eq!(puma.cell.interpolator.tool_speed_limit_m_s, f64::INFINITY);
 }
 
 /// A configuration written before the null-space keys (an installed one kept over an upgrade) loads, with
@@ -265,9 +265,9 @@ fn a_configuration_without_the_null_space_section_loads_with_its_defaults() {
     let text = format!("{}{}", &DEFAULT[..start], &DEFAULT[end..]);
     assert!(!text.contains("limit_zone_rad"));
     let config = Config::from_toml(&text, "old.toml").expect("loads");
-    assert_eq!(config.interpolator.null_space, vservo_settings::simulation::NullSpaceTask::default());
+    assert_eq!(config.cell.interpolator.null_space, vservo_settings::simulation::NullSpaceTask::default());
     let full = Config::from_toml(DEFAULT, "vservo.toml").expect("loads");
-    assert_eq!(full.interpolator.null_space, config.interpolator.null_space);
+    assert_eq!(full.cell.interpolator.null_space, config.cell.interpolator.null_space);
 }
 
 #[test]
@@ -303,8 +303,8 @@ fn a_franka_arm_is_taken_and_what_its_driver_cannot_honour_is_refused() {
     let franka = config.franka.expect("the Franka driver's settings");
     assert_eq!(franka.address.to_string(), "10.0.0.2:1337");
     assert!(franka.limit_rate && !franka.simulator);
-    assert_eq!(config.robot.period_s, 0.001, "the FCI's period");
-    assert!(config.robot.start_held, "a real arm's cell starts held");
+    assert_eq!(config.cell.robot.period_s, 0.001, "the FCI's period");
+    assert!(config.cell.robot.start_held, "a real arm's cell starts held");
     let cases: [(String, &str); 6] = [
         ("[franka]\naddress = \"127.0.0.1\"\n".to_string(), "franka"),
         (format!("{robot}[franka]\naddress = \"robot.local\"\n"), "franka.address"),

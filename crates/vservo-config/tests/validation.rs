@@ -17,14 +17,14 @@ fn refused(text: &str) -> ConfigError {
 fn default_config_gives_the_papers_desired_features_and_camera_direction() {
     let config = Config::from_toml(DEFAULT, "vservo.toml").expect("valid");
     let expected = [151.0, 168.0, 318.0, 178.0, 339.0, 75.0, 172.0, 70.0];
-    for (f, e) in config.desired.features.iter().zip(expected) {
-        assert!((f - e).abs() < 1e-9, "{}", config.desired.features);
+    for (f, e) in config.cell.desired.features.iter().zip(expected) {
+        assert!((f - e).abs() < 1e-9, "{}", config.cell.desired.features);
     }
-    assert_eq!(config.timing.control_ticks_per_frame, 85);
+    assert_eq!(config.cell.timing.control_ticks_per_frame, 85);
     assert_eq!(config.instance, "default");
     // at q_d the camera looks along world +x with image y down (docs/REPRODUCTION.md)
     let arm = vservo_arm::puma560::puma560();
-    let base_from_camera = arm.base_from_tool(&config.desired.joints) * config.tool_from_camera;
+    let base_from_camera = arm.base_from_tool(&config.cell.desired.joints) * config.cell.tool_from_camera;
     let rotation = base_from_camera.rotation.matrix();
     assert!(
         (rotation.column(2) - nalgebra::Vector3::x()).norm() < 1e-12,
@@ -33,7 +33,7 @@ fn default_config_gives_the_papers_desired_features_and_camera_direction() {
     );
     assert!((rotation.column(1) + nalgebra::Vector3::z()).norm() < 1e-12, "image y {}", rotation.column(1));
     // the board is 0.5 m in front of the camera
-    let board = config.base_from_board(&arm);
+    let board = config.cell.base_from_board(&arm);
     let offset = board.translation.vector - base_from_camera.translation.vector;
     assert!((offset - nalgebra::Vector3::new(0.5, 0.0, 0.0)).norm() < 1e-12);
 }
@@ -131,7 +131,7 @@ fn weights_can_be_full_symmetric_matrices() {
     let full_r = "r = [[1.0, 0.1, 0.0, 0.0, 0.0, 0.0], [0.1, 1.0, 0.0, 0.0, 0.0, 0.0], [0.0, 0.0, 1.0, 0.0, 0.0, 0.0], \
                   [0.0, 0.0, 0.0, 6.0, 0.0, 0.0], [0.0, 0.0, 0.0, 0.0, 6.0, 0.0], [0.0, 0.0, 0.0, 0.0, 0.0, 6.0]]";
     let config = Config::from_toml(&with("r = [1.0, 1.0, 1.0, 6.0, 6.0, 6.0]", full_r), "t").expect("valid");
-    assert_eq!(config.controller.r.as_written()[(0, 1)], 0.1);
+    assert_eq!(config.cell.controller.r.as_written()[(0, 1)], 0.1);
     let asymmetric = full_r.replacen("[0.1, 1.0", "[0.2, 1.0", 1);
     let error = refused(&with("r = [1.0, 1.0, 1.0, 6.0, 6.0, 6.0]", &asymmetric));
     assert!(error.to_string().contains("not symmetric"), "{error}");
@@ -147,15 +147,15 @@ fn a_missing_file_is_named() {
 fn the_mujoco_cell_declares_an_external_velocity_driver_and_camera() {
     let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../config/mujoco.toml");
     let config = Config::load(path).expect("config/mujoco.toml is valid");
-    assert_eq!(config.robot.driver, vservo_config::RobotDriver::External);
-    assert_eq!(config.command_interface(), vservo_config::CommandInterface::Velocity);
-    assert_eq!(config.vision.source, vservo_config::VisionSource::External);
-    assert!((config.robot.state_timeout_s() - 0.05).abs() < 1e-12);
+    assert_eq!(config.cell.robot.driver, vservo_config::RobotDriver::External);
+    assert_eq!(config.cell.command_interface(), vservo_config::CommandInterface::Velocity);
+    assert_eq!(config.cell.vision.source, vservo_config::VisionSource::External);
+    assert!((config.cell.robot.state_timeout_s() - 0.05).abs() < 1e-12);
     // the default cell: the simulated driver takes torques, or positions with the kinematic plant
     let mut default = Config::from_toml(DEFAULT, "default").expect("valid");
-    assert_eq!(default.command_interface(), vservo_config::CommandInterface::Torque);
-    default.plant.mode = vservo_settings::simulation::PlantMode::Kinematic;
-    assert_eq!(default.command_interface(), vservo_config::CommandInterface::Position);
+    assert_eq!(default.cell.command_interface(), vservo_config::CommandInterface::Torque);
+    default.cell.plant.mode = vservo_settings::simulation::PlantMode::Kinematic;
+    assert_eq!(default.cell.command_interface(), vservo_config::CommandInterface::Position);
 }
 
 /// config/vservo-ros2-cell.toml: the arm and the camera from ROS 2, through the ROS 2 driver vservod starts (a
@@ -165,14 +165,14 @@ fn the_mujoco_cell_declares_an_external_velocity_driver_and_camera() {
 fn the_ros2_cell_takes_its_arm_and_camera_from_ros2() {
     let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../config/vservo-ros2-cell.toml");
     let config = Config::load(path).expect("config/vservo-ros2-cell.toml is valid");
-    assert_eq!(config.robot.driver, vservo_config::RobotDriver::Ros2);
-    assert_eq!(config.vision.source, vservo_config::VisionSource::Ros2);
-    assert!(config.vision.source.from_camera_driver() && !config.robot.driver.is_simulated());
-    assert_eq!(config.command_interface(), vservo_config::CommandInterface::Velocity);
+    assert_eq!(config.cell.robot.driver, vservo_config::RobotDriver::Ros2);
+    assert_eq!(config.cell.vision.source, vservo_config::VisionSource::Ros2);
+    assert!(config.cell.vision.source.from_camera_driver() && !config.cell.robot.driver.is_simulated());
+    assert_eq!(config.cell.command_interface(), vservo_config::CommandInterface::Velocity);
     let driver = &config.ros2.driver;
     assert!(config.runs_ros2_driver() && !config.ros2.enabled);
     assert_eq!(driver.command_topic, "/forward_velocity_controller/commands");
-    assert!((config.robot.period_s - 0.002).abs() < 1e-15);
+    assert!((config.cell.robot.period_s - 0.002).abs() < 1e-15);
 
     let ros2_arm = DEFAULT.replacen("driver = \"simulated\"", "driver = \"ros2\"", 1).replacen(
         "source = \"simulated\"",
@@ -180,10 +180,10 @@ fn the_ros2_cell_takes_its_arm_and_camera_from_ros2() {
         1,
     );
     let config = Config::from_toml(&ros2_arm, "t").expect("velocity by default");
-    assert_eq!(config.command_interface(), vservo_config::CommandInterface::Velocity);
+    assert_eq!(config.cell.command_interface(), vservo_config::CommandInterface::Velocity);
     let position = ros2_arm.replacen("# command = \"velocity\"", "command = \"position\"", 1);
     let config = Config::from_toml(&position, "t").expect("position");
-    assert_eq!(config.command_interface(), vservo_config::CommandInterface::Position);
+    assert_eq!(config.cell.command_interface(), vservo_config::CommandInterface::Position);
     let torque = ros2_arm.replacen("# command = \"velocity\"", "command = \"torque\"", 1);
     let error = refused(&torque).to_string();
     assert!(error.contains("robot.command") && error.contains("forward controller"), "{error}");
@@ -212,14 +212,18 @@ fn a_custom_arm_is_taken_from_its_dh_table() {
             1,
         );
     let config = Config::from_toml(&external, "test.toml").expect("a custom arm with an external driver");
-    assert_eq!(config.arm.name, "custom arm");
-    assert_eq!(config.arm.links[1].dh.a(), -0.425);
-    assert_eq!(config.arm.links[5].limits.velocity_max, 3.2);
-    let q = config.desired.joints + vservo_arm::JointVector::from_element(0.05);
-    let reached = config.arm.reach(&config.arm.base_from_tool(&q), &config.desired.joints).expect("reached");
+    assert_eq!(config.cell.arm.name, "custom arm");
+    assert_eq!(config.cell.arm.links[1].dh.a(), -0.425);
+    assert_eq!(config.cell.arm.links[5].limits.velocity_max, 3.2);
+    let q = config.cell.desired.joints + vservo_arm::JointVector::from_element(0.05);
+    let reached = config
+        .cell
+        .arm
+        .reach(&config.cell.arm.base_from_tool(&q), &config.cell.desired.joints)
+        .expect("reached");
     assert!(
-        (config.arm.base_from_tool(&reached).translation.vector
-            - config.arm.base_from_tool(&q).translation.vector)
+        (config.cell.arm.base_from_tool(&reached).translation.vector
+            - config.cell.arm.base_from_tool(&q).translation.vector)
             .norm()
             < 1e-9
     );
@@ -320,11 +324,13 @@ fn the_viewer_is_off_on_localhost_by_default_and_takes_ip_addresses_only() {
 fn the_law_beyond_the_paper_is_off_by_default_and_its_keys_are_checked() {
     let config =
         Config::from_toml(&with("feedforward = false", "feedforward = false"), "vservo.toml").expect("valid");
-    assert_eq!(config.controller.options, vservo_settings::control::LawOptions::default());
+    assert_eq!(config.cell.controller.options, vservo_settings::control::LawOptions::default());
     let robust = Config::load(concat!(env!("CARGO_MANIFEST_DIR"), "/../../config/vservo-robust.toml"))
         .expect("config/vservo-robust.toml is valid");
-    assert_eq!(robust.controller.options.interaction, vservo_settings::control::Interaction::Mean);
-    assert!(robust.controller.options.feedforward && robust.controller.options.border_margin_px == 20.0);
+    assert_eq!(robust.cell.controller.options.interaction, vservo_settings::control::Interaction::Mean);
+    assert!(
+        robust.cell.controller.options.feedforward && robust.cell.controller.options.border_margin_px == 20.0
+    );
 
     let error = refused(&with("interaction = \"desired\"", "interaction = \"nearest\""));
     assert!(
@@ -354,9 +360,9 @@ fn occlusions_name_a_mark_and_a_time_span() {
         "vservo.toml",
     )
     .expect("valid");
-    assert_eq!(config.scenario.hidden_marks(2.9), 0);
-    assert_eq!(config.scenario.hidden_marks(3.0), 0b0010);
-    assert_eq!(config.scenario.hidden_marks(4.5), 0);
+    assert_eq!(config.cell.scenario.hidden_marks(2.9), 0);
+    assert_eq!(config.cell.scenario.hidden_marks(3.0), 0b0010);
+    assert_eq!(config.cell.scenario.hidden_marks(4.5), 0);
     let error = refused(&with("occlusions = []", "occlusions = [{ mark = 5, from_s = 3.0, until_s = 4.5 }]"));
     assert!(error.to_string().contains("scenario.occlusions[0].mark"), "{error}");
     let error = refused(&with("occlusions = []", "occlusions = [{ mark = 1, from_s = 3.0, until_s = 2.0 }]"));
@@ -366,19 +372,22 @@ fn occlusions_name_a_mark_and_a_time_span() {
 #[test]
 fn reacquiring_has_the_defaults_and_its_keys_are_checked_against_the_period_and_the_robot() {
     let config = Config::from_toml(DEFAULT, "test.toml").expect("the default loads");
-    assert_eq!(config.reacquire, vservo_config::Reacquire::default());
+    assert_eq!(config.cell.reacquire, vservo_config::Reacquire::default());
     let without: String = DEFAULT
         .lines()
         .filter(|l| !["gain_per_s", "max_speed_m_s", "max_rotation_rad_s"].iter().any(|k| l.starts_with(k)))
         .collect::<Vec<_>>()
         .join("\n");
     let config = Config::from_toml(&without, "test.toml").expect("the section is optional");
-    assert_eq!(config.reacquire, vservo_config::Reacquire::default());
+    assert_eq!(config.cell.reacquire, vservo_config::Reacquire::default());
     // left out under a robot slower than the defaults: the defaults are lowered to its limits
     let slow_robot = without.replace("max_camera_speed_m_s = 2.0", "max_camera_speed_m_s = 0.05");
-    assert_eq!(Config::from_toml(&slow_robot, "test.toml").expect("loads").reacquire.max_speed_m_s, 0.05);
+    assert_eq!(
+        Config::from_toml(&slow_robot, "test.toml").expect("loads").cell.reacquire.max_speed_m_s,
+        0.05
+    );
     let gentle = with("max_speed_m_s = 0.1", "max_speed_m_s = 0.02");
-    assert_eq!(Config::from_toml(&gentle, "test.toml").expect("loads").reacquire.max_speed_m_s, 0.02);
+    assert_eq!(Config::from_toml(&gentle, "test.toml").expect("loads").cell.reacquire.max_speed_m_s, 0.02);
     for (text, key) in [
         // faster than 1 / vision period would overshoot within a frame
         (with("gain_per_s = 1.5", "gain_per_s = 12.0"), "reacquire.gain_per_s"),
@@ -520,7 +529,7 @@ fn a_camera_whose_image_camera_image_cannot_carry_is_refused_naming_the_key() {
 fn the_camera_timeout_is_in_vision_periods_with_a_range() {
     let config = Config::from_toml(DEFAULT, "vservo.toml").expect("valid");
     assert_eq!(config.faults.camera_timeout_periods, 6);
-    let timeout = config.faults.camera_timeout(config.timing.vision_period_s);
+    let timeout = config.faults.camera_timeout(config.cell.timing.vision_period_s);
     assert!((timeout.as_secs_f64() - 0.51).abs() < 1e-9, "{timeout:?}");
     for bad in ["1", "1001", "-3"] {
         let text = with("camera_timeout_periods = 6", &format!("camera_timeout_periods = {bad}"));

@@ -145,12 +145,12 @@ struct Driver {
 
 impl Driver {
     fn new(config: &Config, franka: &Franka, epoch: u64) -> Self {
-        let arm = &config.arm;
+        let arm = &config.cell.arm;
         let joints = arm.joint_count();
         let mut settings = DriverSettings {
             mode: CommandMode::Velocity,
             joint_count: joints,
-            period_ns: (config.robot.period_s * 1e9).round() as u64,
+            period_ns: (config.cell.robot.period_s * 1e9).round() as u64,
             hold_after_ns: (franka.hold_after_s * 1e9).round() as u64,
             position_min_rad: [f64::NEG_INFINITY; MAX_JOINTS],
             position_max_rad: [f64::INFINITY; MAX_JOINTS],
@@ -161,7 +161,7 @@ impl Driver {
             settings.position_max_rad[j] = limits.position_max;
             settings.velocity_max_rad_s[j] = limits.velocity_max;
         }
-        let interpolator = &config.interpolator;
+        let interpolator = &config.cell.interpolator;
         // no jerk limits (the configuration then refuses limit_rate): the guard is off
         let jerk =
             interpolator.jerk_limit.map_or([f64::INFINITY; MAX_JOINTS], |j| std::array::from_fn(|i| j[i]));
@@ -171,7 +171,7 @@ impl Driver {
         let limits = ShaperLimits {
             acceleration: std::array::from_fn(|j| interpolator.acceleration_limit[j] * margin * margin),
             jerk: std::array::from_fn(|j| jerk[j] * margin * margin * margin),
-            dt_s: config.robot.period_s,
+            dt_s: config.cell.robot.period_s,
         };
         Self {
             side: DriverSide::new(settings, epoch),

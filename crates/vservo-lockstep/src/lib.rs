@@ -187,7 +187,7 @@ impl Lockstep {
     /// Sets the loop up from a configuration (its `[plant]`, `[interpolator]`, `[joint_servo]` and
     /// `[scenario]` sections say what to simulate): designs the gains, places the arm by inverse kinematics.
     pub fn new(config: &Config) -> Result<Self, CellError> {
-        let cell = Cell::simulated(&config.cell())?;
+        let cell = Cell::simulated(&config.cell)?;
         Ok(Self {
             config: config.clone(),
             gains: cell.gains().clone(),
@@ -236,7 +236,7 @@ impl Lockstep {
     }
 
     fn own_pace(&self) -> Pace<'static> {
-        Pace::Own { period_ns: (self.config.timing.control_period_s * 1e9).round() as u64 }
+        Pace::Own { period_ns: (self.config.cell.timing.control_period_s * 1e9).round() as u64 }
     }
 
     /// Every tick of the scenario: a frame every vision period, then the rmrc and the plant.
@@ -246,9 +246,9 @@ impl Lockstep {
         mut progress: impl FnMut(f64),
         mut stop: impl FnMut(&[FrameRecord]) -> bool,
     ) -> Trace {
-        let dt = self.config.timing.control_period_s;
-        let ticks_per_frame = u64::from(self.config.timing.control_ticks_per_frame);
-        let ticks = (self.config.scenario.duration_s / dt).round() as u64;
+        let dt = self.config.cell.timing.control_period_s;
+        let ticks_per_frame = u64::from(self.config.cell.timing.control_ticks_per_frame);
+        let ticks = (self.config.cell.scenario.duration_s / dt).round() as u64;
         let mut frames = Vec::with_capacity((ticks / ticks_per_frame + 1) as usize);
         let mut joints = Vec::with_capacity((ticks / 10 + 1) as usize);
         let mut faults = Faults::default();
@@ -290,7 +290,7 @@ impl Lockstep {
         let at = pace.twist_taken_at(taken.delivered.as_ref().map(|d| d.capture_tick), tick);
         self.waiting = Some(Waiting { at, twist: step.twist, moves: step.verdict.moves() });
         FrameRecord {
-            t_s: tick as f64 * self.config.timing.control_period_s,
+            t_s: tick as f64 * self.config.cell.timing.control_period_s,
             measured: taken.captured.features,
             truth: taken.truth,
             twist: step.twist,

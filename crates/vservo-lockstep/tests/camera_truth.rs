@@ -13,7 +13,7 @@ use vservo_scene::CameraIntrinsics;
 fn robust() -> Config {
     let mut config = Config::load(concat!(env!("CARGO_MANIFEST_DIR"), "/../../config/vservo-robust.toml"))
         .expect("config/vservo-robust.toml is valid");
-    config.scenario.duration_s = 6.0;
+    config.cell.scenario.duration_s = 6.0;
     config
 }
 
@@ -23,7 +23,7 @@ fn run(config: &Config) -> Trace {
 
 /// The camera 5 mm along its x and 2° about its optical axis off the believed mount, fx and fy 2 % longer.
 fn off(config: &Config) -> CameraTruth {
-    let believed = &config.camera;
+    let believed = &config.cell.camera;
     let moved = nalgebra::IsometryMatrix3::from_parts(
         Translation3::new(0.005, 0.0, 0.0),
         UnitQuaternion::from_axis_angle(&Vector3::z_axis(), 2f64.to_radians()).to_rotation_matrix(),
@@ -37,7 +37,7 @@ fn off(config: &Config) -> CameraTruth {
             *believed.distortion(),
         )
         .expect("valid intrinsics"),
-        tool_from_camera: config.tool_from_camera * moved,
+        tool_from_camera: config.cell.tool_from_camera * moved,
     }
 }
 
@@ -50,15 +50,15 @@ fn a_truth_equal_to_the_belief_changes_nothing() {
             .expect("readable");
     let written = format!(
         "{text}\n[camera.truth]\nfx_px = {:?}\nfy_px = {:?}\n",
-        config.camera.fx_px(),
-        config.camera.fy_px()
+        config.cell.camera.fx_px(),
+        config.cell.camera.fy_px()
     );
     let loaded = Config::from_toml(&written, "robust-with-truth");
     let mut with_truth = loaded.expect("the truth section loads");
-    with_truth.scenario.duration_s = config.scenario.duration_s;
-    assert!(with_truth.camera_truth.is_some(), "written");
-    assert_eq!(with_truth.true_camera().intrinsics, config.camera);
-    assert_eq!(with_truth.true_camera().tool_from_camera, config.tool_from_camera);
+    with_truth.cell.scenario.duration_s = config.cell.scenario.duration_s;
+    assert!(with_truth.cell.camera_truth.is_some(), "written");
+    assert_eq!(with_truth.cell.true_camera().intrinsics, config.cell.camera);
+    assert_eq!(with_truth.cell.true_camera().tool_from_camera, config.cell.tool_from_camera);
     let (a, b) = (run(&config), run(&with_truth));
     assert_eq!(a.frames.len(), b.frames.len());
     for (x, y) in a.frames.iter().zip(&b.frames) {
@@ -70,7 +70,7 @@ fn a_truth_equal_to_the_belief_changes_nothing() {
 fn the_camera_renders_as_it_really_is_and_the_robust_law_still_converges() {
     let believed = robust();
     let mut config = robust();
-    config.camera_truth = Some(off(&config));
+    config.cell.camera_truth = Some(off(&config));
     let (as_believed, as_it_is) = (run(&believed), run(&config));
     let (first_believed, first) = (&as_believed.frames[0], &as_it_is.frames[0]);
     // the same joints, another camera: the marks are elsewhere in the image…
@@ -79,7 +79,7 @@ fn the_camera_renders_as_it_really_is_and_the_robust_law_still_converges() {
     // …where the real camera projects them (no lens here: measured is the real camera's pinhole image)
     let to_truth = (first.measured - first.truth).amax();
     assert!(to_truth < 0.2, "the image is the real camera's: {to_truth} px from its projection");
-    let summary = summarize(&as_it_is, &config.scenario.object);
+    let summary = summarize(&as_it_is, &config.cell.scenario.object);
     assert!(summary.final_error_px < 1.0, "the robust law converges: {summary:?}");
     eprintln!(
         "first frame {shift:.2} px from the believed camera's; final error {:.3} px",

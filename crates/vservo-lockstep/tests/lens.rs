@@ -35,9 +35,9 @@ fn lens_displacement_px(trace: &Trace) -> f64 {
 #[test]
 fn through_the_lens_the_servo_converges_below_one_pixel_and_without_undistortion_it_does_not() {
     let mut config = distorted();
-    config.scenario.duration_s = 8.0;
+    config.cell.scenario.duration_s = 8.0;
     let trace = run(&config);
-    let summary = summarize(&trace, &config.scenario.object);
+    let summary = summarize(&trace, &config.cell.scenario.object);
     let displacement = lens_displacement_px(&trace);
     println!(
         "undistorted features: final error {:.3} px, settling {:?} s; the lens moves the marks by up to {displacement:.2} px",
@@ -46,8 +46,8 @@ fn through_the_lens_the_servo_converges_below_one_pixel_and_without_undistortion
     assert!(summary.final_error_px < 1.0, "{summary:?}");
     assert!(displacement > 2.0, "the test's premise: the lens moves the marks by pixels ({displacement} px)");
 
-    config.vision.undistort = false;
-    let ignored = summarize(&run(&config), &config.scenario.object);
+    config.cell.vision.undistort = false;
+    let ignored = summarize(&run(&config), &config.cell.scenario.object);
     println!(
         "features left distorted: final error {:.3} px ({:.1}× the undistorted run's)",
         ignored.final_error_px,
@@ -65,10 +65,13 @@ fn through_the_lens_the_servo_converges_below_one_pixel_and_without_undistortion
 fn an_apriltag_through_the_lens_converges_below_one_pixel_and_without_undistortion_does_worse() {
     let mut config = Config::load(concat!(env!("CARGO_MANIFEST_DIR"), "/../../config/vservo-apriltag.toml"))
         .expect("config/vservo-apriltag.toml is valid");
-    assert!(config.board.apriltag().is_some() && !config.camera.distortion().is_none(), "the premise");
-    config.scenario.duration_s = 8.0;
+    assert!(
+        config.cell.board.apriltag().is_some() && !config.cell.camera.distortion().is_none(),
+        "the premise"
+    );
+    config.cell.scenario.duration_s = 8.0;
     let trace = run(&config);
-    let summary = summarize(&trace, &config.scenario.object);
+    let summary = summarize(&trace, &config.cell.scenario.object);
     let displacement = lens_displacement_px(&trace);
     println!(
         "tag corners undistorted: final error {:.3} px, settling {:?} s; the lens moves the corners by up to {displacement:.2} px",
@@ -80,8 +83,8 @@ fn an_apriltag_through_the_lens_converges_below_one_pixel_and_without_undistorti
         "the test's premise: the lens moves the corners by pixels ({displacement} px)"
     );
 
-    config.vision.undistort = false;
-    let ignored = summarize(&run(&config), &config.scenario.object);
+    config.cell.vision.undistort = false;
+    let ignored = summarize(&run(&config), &config.cell.scenario.object);
     println!(
         "tag corners left distorted: final error {:.3} px ({:.1}× the undistorted run's)",
         ignored.final_error_px,
@@ -103,8 +106,8 @@ fn a_covered_tag_corner_loses_the_tag_and_the_servo_converges_again_once_uncover
     use vservo_config::Occlusion;
     let mut config = Config::load(concat!(env!("CARGO_MANIFEST_DIR"), "/../../config/vservo-apriltag.toml"))
         .expect("config/vservo-apriltag.toml is valid");
-    config.scenario.duration_s = 4.0;
-    config.scenario.occlusions[0] = Some(Occlusion { mark: 1, from_s: 1.5, until_s: 2.0 });
+    config.cell.scenario.duration_s = 4.0;
+    config.cell.scenario.occlusions[0] = Some(Occlusion { mark: 1, from_s: 1.5, until_s: 2.0 });
     let trace = run(&config);
     let during: Vec<_> = trace
         .frames
@@ -117,7 +120,7 @@ fn a_covered_tag_corner_loses_the_tag_and_the_servo_converges_again_once_uncover
         assert!(none_measured, "a covered tag gives no corners: {during:?}");
         assert!(matches!(verdict, Some(ServoVerdict::Reacquiring(0b1111))), "{during:?}");
     }
-    let summary = summarize(&trace, &config.scenario.object);
+    let summary = summarize(&trace, &config.cell.scenario.object);
     println!("a tag corner covered 1.5–2.0 s: final error {:.3} px", summary.final_error_px);
     assert!(summary.final_error_px < 1.0, "{summary:?}");
 }

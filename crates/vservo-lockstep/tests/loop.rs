@@ -9,14 +9,14 @@ use vservo_sim::plant::PlantMode;
 fn config(law: ControlLaw) -> Config {
     let mut config =
         Config::from_toml(include_str!("../../../config/vservo.toml"), "vservo.toml").expect("valid");
-    config.controller.law = law;
+    config.cell.controller.law = law;
     config
 }
 
 fn run(law: ControlLaw, plant: PlantMode, duration_s: f64) -> Trace {
     let mut config = config(law);
-    config.plant.mode = plant;
-    config.scenario.duration_s = duration_s;
+    config.cell.plant.mode = plant;
+    config.cell.scenario.duration_s = duration_s;
     Lockstep::new(&config).expect("reachable").run(|_| {})
 }
 
@@ -95,7 +95,7 @@ fn full_dynamics_with_rendered_images_tracks_the_kinematic_loop() {
 #[test]
 fn recorded_images_are_refused_with_a_reason() {
     let mut config = config(ControlLaw::Paper);
-    config.vision.source = vservo_config::VisionSource::Directory("/tmp".into());
+    config.cell.vision.source = vservo_config::VisionSource::Directory("/tmp".into());
     let error = Lockstep::new(&config).err().expect("refused");
     assert!(error.to_string().contains("camera.source"), "{error}");
 }

@@ -11,7 +11,7 @@ const PERIOD_NS: u64 = 1_000_000;
 fn lockstep() -> Lockstep {
     let mut config =
         Config::from_toml(include_str!("../../../config/vservo.toml"), "vservo.toml").expect("valid");
-    config.scenario.duration_s = 1.0;
+    config.cell.scenario.duration_s = 1.0;
     Lockstep::new(&config).expect("reachable")
 }
 

@@ -35,17 +35,17 @@ fn never_left_the_image(trace: &Trace) -> bool {
 #[test]
 fn the_paper_s_moving_target_is_tracked_within_one_pixel_after_the_first_revolution() {
     let mut config = robust();
-    config.scenario.duration_s = 36.0;
-    config.scenario.initial_camera_translation_m = nalgebra::Vector3::zeros();
-    config.scenario.object = ObjectMotion::Circle { radius_m: 0.1, rev_per_min: 5.0 };
+    config.cell.scenario.duration_s = 36.0;
+    config.cell.scenario.initial_camera_translation_m = nalgebra::Vector3::zeros();
+    config.cell.scenario.object = ObjectMotion::Circle { radius_m: 0.1, rev_per_min: 5.0 };
     let trace = run(&config);
-    let summary = summarize(&trace, &config.scenario.object);
+    let summary = summarize(&trace, &config.cell.scenario.object);
     println!("robust tracking: {summary:?}");
     assert!(summary.max_error_x_px.expect("tracking") <= 1.0, "{summary:?}");
     assert!(summary.max_error_y_px.expect("tracking") <= 1.0, "{summary:?}");
     // without the feed-forward the same law lags by several pixels
-    config.controller.options.feedforward = false;
-    let lagging = summarize(&run(&config), &config.scenario.object);
+    config.cell.controller.options.feedforward = false;
+    let lagging = summarize(&run(&config), &config.cell.scenario.object);
     println!("without feed-forward: {lagging:?}");
     assert!(lagging.max_error_y_px.expect("tracking") > 3.0, "{lagging:?}");
 }
@@ -54,9 +54,9 @@ fn the_paper_s_moving_target_is_tracked_within_one_pixel_after_the_first_revolut
 #[test]
 fn a_start_with_a_mark_cut_by_the_border_converges() {
     let mut config = robust();
-    config.scenario.duration_s = 8.0;
-    config.scenario.initial_camera_translation_m = nalgebra::Vector3::new(0.0, 0.06, 0.0);
-    config.scenario.initial_camera_rotation = nalgebra::Vector3::new(0.0, 0.0, (-10.0_f64).to_radians());
+    config.cell.scenario.duration_s = 8.0;
+    config.cell.scenario.initial_camera_translation_m = nalgebra::Vector3::new(0.0, 0.06, 0.0);
+    config.cell.scenario.initial_camera_rotation = nalgebra::Vector3::new(0.0, 0.0, (-10.0_f64).to_radians());
     let trace = run(&config);
     let first = &trace.frames[0];
     assert!(first.measured[6].is_nan() && first.measured.rows(0, 6).iter().all(|v| v.is_finite()));
@@ -69,8 +69,9 @@ fn a_start_with_a_mark_cut_by_the_border_converges() {
     // the default cell (the paper's law and weights, its fixed gain) also goes on with three marks now
     let mut paper_config = Config::load(concat!(env!("CARGO_MANIFEST_DIR"), "/../../config/vservo.toml"))
         .expect("config/vservo.toml is valid");
-    paper_config.scenario.initial_camera_translation_m = config.scenario.initial_camera_translation_m;
-    paper_config.scenario.initial_camera_rotation = config.scenario.initial_camera_rotation;
+    paper_config.cell.scenario.initial_camera_translation_m =
+        config.cell.scenario.initial_camera_translation_m;
+    paper_config.cell.scenario.initial_camera_rotation = config.cell.scenario.initial_camera_rotation;
     let paper = run(&paper_config);
     let error = final_error_px(&paper);
     println!("paper's law from the cut start: final error {error} px");
@@ -82,12 +83,12 @@ fn a_start_with_a_mark_cut_by_the_border_converges() {
 #[test]
 fn losing_one_then_two_marks_mid_run_does_not_stop_the_loop() {
     let mut config = robust();
-    config.scenario.duration_s = 8.0;
+    config.cell.scenario.duration_s = 8.0;
     // a larger step than the paper's, so that the marks are lost while the arm moves
-    config.scenario.initial_camera_translation_m = nalgebra::Vector3::new(0.04, -0.05, 0.03);
-    config.scenario.occlusions[0] = Some(Occlusion { mark: 1, from_s: 0.2, until_s: 1.2 });
-    config.scenario.occlusions[1] = Some(Occlusion { mark: 0, from_s: 2.0, until_s: 2.6 });
-    config.scenario.occlusions[2] = Some(Occlusion { mark: 2, from_s: 2.0, until_s: 2.6 });
+    config.cell.scenario.initial_camera_translation_m = nalgebra::Vector3::new(0.04, -0.05, 0.03);
+    config.cell.scenario.occlusions[0] = Some(Occlusion { mark: 1, from_s: 0.2, until_s: 1.2 });
+    config.cell.scenario.occlusions[1] = Some(Occlusion { mark: 0, from_s: 2.0, until_s: 2.6 });
+    config.cell.scenario.occlusions[2] = Some(Occlusion { mark: 2, from_s: 2.0, until_s: 2.6 });
     let trace = run(&config);
     let verdicts: Vec<_> = trace.frames.iter().filter_map(|f| f.verdict).collect();
     assert!(verdicts.contains(&ServoVerdict::ServoingOnThree(0b0010)), "{verdicts:?}");

@@ -8,10 +8,10 @@ use vservo_lockstep::summary::{Summary, summarize};
 fn scenario(name: &str, law: ControlLaw) -> Summary {
     let path = format!("{}/../../config/scenarios/{name}.toml", env!("CARGO_MANIFEST_DIR"));
     let mut config = Config::load(&path).expect("the scenario file is valid");
-    config.controller.law = law;
+    config.cell.controller.law = law;
     let trace = Lockstep::new(&config).expect("reachable").run(|_| {});
     assert!(!trace.faults.any_limit(), "{name}: {:?}", trace.faults);
-    let summary = summarize(&trace, &config.scenario.object);
+    let summary = summarize(&trace, &config.cell.scenario.object);
     println!("{name} ({}): {summary:?}", law.name());
     summary
 }

@@ -41,15 +41,15 @@ pub struct ArmSettings {
 impl ArmSettings {
     /// From the configuration's arm, `[robot]` and `[ros2]`.
     pub fn of(config: &vservo_config::Config) -> Self {
-        let arm: &SerialArm = &config.arm;
+        let arm: &SerialArm = &config.cell.arm;
         let joint_count = arm.joint_count();
         let mut settings = Self {
-            joint_names: crate::convert::joint_names(&config.ros2.joint_names, &config.arm),
-            mode: match config.command_interface() {
+            joint_names: crate::convert::joint_names(&config.ros2.joint_names, &config.cell.arm),
+            mode: match config.cell.command_interface() {
                 vservo_config::CommandInterface::Position => CommandMode::Position,
                 _ => CommandMode::Velocity,
             },
-            period_ns: (config.robot.period_s * 1e9).round() as u64,
+            period_ns: (config.cell.robot.period_s * 1e9).round() as u64,
             hold_after_ns: (config.ros2.driver.hold_after_s * 1e9).round() as u64,
             position_min_rad: [f64::NEG_INFINITY; MAX_JOINTS],
             position_max_rad: [f64::INFINITY; MAX_JOINTS],

@@ -45,12 +45,12 @@ const HOLDS_AT_EXIT: usize = 3;
 
 /// Whether this driver is the arm's (`[robot] driver = "ros2"`).
 fn drives_arm(config: &Config) -> bool {
-    config.robot.driver == vservo_config::RobotDriver::Ros2
+    config.cell.robot.driver == vservo_config::RobotDriver::Ros2
 }
 
 /// Whether this driver is the camera's (`[camera] source = "ros2"`).
 fn drives_camera(config: &Config) -> bool {
-    config.vision.source == vservo_config::VisionSource::Ros2
+    config.cell.vision.source == vservo_config::VisionSource::Ros2
 }
 
 /// Runs until `stop` is set.
@@ -318,7 +318,7 @@ impl Driver {
     fn new(config: &Config) -> Self {
         let now = monotonic_ns();
         let driver = &config.ros2.driver;
-        let (width, height) = (config.camera.width_px(), config.camera.height_px());
+        let (width, height) = (config.cell.camera.width_px(), config.cell.camera.height_px());
         Self {
             arm: drives_arm(config).then(|| ArmFollower::new(ArmSettings::of(config), now)),
             last_state_ns: now,

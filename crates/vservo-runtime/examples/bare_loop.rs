@@ -30,7 +30,7 @@ fn main() -> ExitCode {
     let Some(mut lateness) = new_histogram() else {
         return ExitCode::FAILURE;
     };
-    let period_ns = (config.timing.control_period_s * 1e9).round() as u64;
+    let period_ns = (config.cell.timing.control_period_s * 1e9).round() as u64;
     let ticks = (seconds * 1e9 / period_ns as f64) as u64;
     let mut skipped = 0;
     let mut timer = PeriodicTimer::start(period_ns);

@@ -131,7 +131,7 @@ mod tests {
         let config =
             vservo_config::Config::load(concat!(env!("CARGO_MANIFEST_DIR"), "/../../config/vservo.toml"))
                 .expect("default config");
-        let mut spec = config.gains_spec();
+        let mut spec = config.cell.gains_spec();
         spec.law = vservo_control::ControlLaw::DelayAware;
         // the options travel with the gains (a reload applies them)
         spec.options = vservo_control::LawOptions {

@@ -15,11 +15,11 @@ fn tick(c: &mut Criterion) {
     let arm = puma560::puma560();
     let settings = InterpolatorSettings::new(0.085, 0.001);
     let mut interpolator =
-        Interpolator::new(settings, arm.clone(), config.tool_from_camera, config.desired.joints);
+        Interpolator::new(settings, arm.clone(), config.cell.tool_from_camera, config.cell.desired.joints);
     interpolator.set_twist(Twist::new(0.01, -0.02, 0.005, 0.01, 0.0, -0.01), 0.0);
-    let (law, kp, kv) = (config.joint_servo.law, config.joint_servo.kp, config.joint_servo.kv);
+    let (law, kp, kv) = (config.cell.joint_servo.law, config.cell.joint_servo.kp, config.cell.joint_servo.kv);
     let servo = JointServo::new(arm, law, kp, kv);
-    let (q, qd) = (config.desired.joints, vservo_arm::JointVector::from_element(0.01));
+    let (q, qd) = (config.cell.desired.joints, vservo_arm::JointVector::from_element(0.01));
     let mut t = 0.0;
     c.bench_function("interpolator_and_joint_servo_tick", |b| {
         b.iter(|| {
@@ -53,17 +53,17 @@ fn interpolator_ticks(c: &mut Criterion) {
             .expect("a valid configuration");
         // the same arm without its jerk limits: the acceleration-limited reference, for comparison
         if name.ends_with("acceleration_only") {
-            config.interpolator.jerk_limit = None;
+            config.cell.interpolator.jerk_limit = None;
         }
         let mut interpolator = Interpolator::new(
-            config.interpolator,
-            config.arm.clone(),
-            config.tool_from_camera,
-            config.desired.joints,
+            config.cell.interpolator,
+            config.cell.arm.clone(),
+            config.cell.tool_from_camera,
+            config.cell.desired.joints,
         );
         let twist = Twist::new(0.01, -0.02, 0.005, 0.01, 0.0, -0.01);
         interpolator.set_twist(twist, 0.0);
-        let dt = config.timing.control_period_s;
+        let dt = config.cell.timing.control_period_s;
         let mut t = 0.0;
         c.bench_function(name, |b| {
             b.iter(|| {

@@ -114,7 +114,7 @@ fn interpolator(q: JointVector) -> Interpolator {
 fn interpolator_with(q: JointVector, settings: InterpolatorSettings) -> Interpolator {
     let config =
         Config::from_toml(include_str!("../../../config/vservo.toml"), "vservo.toml").expect("valid");
-    Interpolator::new(settings, puma560::puma560(), config.tool_from_camera, q)
+    Interpolator::new(settings, puma560::puma560(), config.cell.tool_from_camera, q)
 }
 
 #[test]
@@ -122,11 +122,11 @@ fn the_camera_moves_as_the_twist_says() {
     let config =
         Config::from_toml(include_str!("../../../config/vservo.toml"), "vservo.toml").expect("valid");
     let arm = puma560::puma560();
-    let mut rmrc = interpolator(config.desired.joints);
+    let mut rmrc = interpolator(config.cell.desired.joints);
     let twist = Twist::new(0.02, -0.01, 0.03, 0.05, -0.02, 0.04);
     rmrc.set_twist(twist, 0.0);
-    let camera_at = |q: &JointVector| arm.base_from_tool(q) * config.tool_from_camera;
-    let start = camera_at(&config.desired.joints);
+    let camera_at = |q: &JointVector| arm.base_from_tool(q) * config.cell.tool_from_camera;
+    let start = camera_at(&config.cell.desired.joints);
     // let the acceleration limit settle, then compare one tick's motion with the twist
     for tick in 1..=100 {
         rmrc.step(tick as f64 * 0.001);

@@ -42,9 +42,9 @@ impl Measured {
 
     /// Each joint within the limits of `config`'s arm (the reference's own, not a tolerance of the test's).
     fn assert_within(&self, config: &Config, what: &str) {
-        let i = &config.interpolator;
+        let i = &config.cell.interpolator;
         let jerk = i.jerk_limit.expect("the arm has jerk limits");
-        for (j, limits) in config.arm.limits().enumerate() {
+        for (j, limits) in config.cell.arm.limits().enumerate() {
             let over = |value: f64, limit: f64| value > limit * (1.0 + ROUNDING);
             assert!(!over(self.velocity[j], limits.velocity_max), "{what}: joint {} speed {self:?}", j + 1);
             assert!(
@@ -81,10 +81,11 @@ fn ask() -> impl Strategy<Value = Ask> {
 
 /// Runs `asks` one vision period each from `q`, measuring every tick's reference.
 fn run(config: &Config, q: JointVector, asks: &[Ask]) -> (Measured, Interpolator) {
-    let settings = config.interpolator;
+    let settings = config.cell.interpolator;
     let dt = settings.control_period_s;
     let ticks_per_frame = (settings.vision_period_s / dt).round() as u64;
-    let mut interpolator = Interpolator::new(settings, config.arm.clone(), config.tool_from_camera, q);
+    let mut interpolator =
+        Interpolator::new(settings, config.cell.arm.clone(), config.cell.tool_from_camera, q);
     let mut measured = Measured::default();
     let mut tick = 0u64;
     for ask in asks {
@@ -93,13 +94,13 @@ fn run(config: &Config, q: JointVector, asks: &[Ask]) -> (Measured, Interpolator
             Ask::Twist(v) => interpolator.set_twist(Twist::from_row_slice(v), now_s),
             Ask::Nothing => {}
             Ask::Move(offset, share) => {
-                let joints = config.arm.joint_count();
+                let joints = config.cell.arm.joint_count();
                 let goal = JointVector::from_fn(|j, _| {
                     if j >= joints {
                         return 0.0;
                     }
-                    let limits = config.arm.links[j].limits;
-                    (config.desired.joints[j] + offset[j])
+                    let limits = config.cell.arm.links[j].limits;
+                    (config.cell.desired.joints[j] + offset[j])
                         .clamp(limits.position_min + 0.02, limits.position_max - 0.02)
                 });
                 interpolator.move_joints_to(goal, *share);
@@ -130,7 +131,7 @@ proptest! {
     #[test]
     fn the_fr3_reference_keeps_its_limits_whatever_is_asked(asks in prop::collection::vec(ask(), 1..24)) {
         let config = config("fr3");
-        let (measured, interpolator) = run(&config, config.desired.joints, &asks);
+        let (measured, interpolator) = run(&config, config.cell.desired.joints, &asks);
         measured.assert_within(&config, "FR3");
         prop_assert_eq!(interpolator.motion_refusals(), 0);
     }
@@ -138,7 +139,7 @@ proptest! {
     #[test]
     fn the_ur5e_reference_keeps_its_limits_whatever_is_asked(asks in prop::collection::vec(ask(), 1..24)) {
         let config = config("ur5e");
-        let (measured, interpolator) = run(&config, config.desired.joints, &asks);
+        let (measured, interpolator) = run(&config, config.cell.desired.joints, &asks);
         measured.assert_within(&config, "UR5e");
         prop_assert_eq!(interpolator.motion_refusals(), 0);
     }
@@ -150,13 +151,13 @@ proptest! {
 fn at_a_wrist_or_elbow_singularity_the_reference_keeps_its_limits() {
     let fast = Ask::Twist([0.2, -0.2, 0.1, 1.0, -1.0, 0.5]);
     let ur5e = config("ur5e");
-    let mut wrist_straight = ur5e.desired.joints;
+    let mut wrist_straight = ur5e.cell.desired.joints;
     wrist_straight[4] = 0.0;
     let (measured, _) = run(&ur5e, wrist_straight, &[fast.clone(), fast.clone(), Ask::Nothing, fast.clone()]);
     measured.assert_within(&ur5e, "UR5e at its wrist singularity");
     assert!(measured.velocity.amax() > 0.1, "it moved: {measured:?}");
     let fr3 = config("fr3");
-    let mut stretched = fr3.desired.joints;
+    let mut stretched = fr3.cell.desired.joints;
     stretched[3] = -0.16;
     let (measured, _) = run(&fr3, stretched, &[fast.clone(), fast, Ask::Nothing]);
     measured.assert_within(&fr3, "FR3 with its elbow stretched");
@@ -169,25 +170,25 @@ fn at_a_wrist_or_elbow_singularity_the_reference_keeps_its_limits() {
 fn a_step_uses_the_jerk_limit_and_the_tool_speed_is_capped() {
     let fr3 = config("fr3");
     let step = Ask::Twist([0.5, 0.0, 0.0, 0.0, 0.0, 0.0]);
-    let (measured, _) = run(&fr3, fr3.desired.joints, &[step.clone(), step]);
-    let jerk = fr3.interpolator.jerk_limit.expect("jerk limits");
+    let (measured, _) = run(&fr3, fr3.cell.desired.joints, &[step.clone(), step]);
+    let jerk = fr3.cell.interpolator.jerk_limit.expect("jerk limits");
     let used = (0..7).map(|j| measured.jerk[j] / jerk[j]).fold(0.0, f64::max);
     assert!(used > 0.5, "the step ramps at the jerk limit: {used} of it");
     // the tool held to 0.25 m/s (the first motion's cap) though 0.5 m/s was asked
-    let settings = fr3.interpolator;
+    let settings = fr3.cell.interpolator;
     let mut interpolator =
-        Interpolator::new(settings, fr3.arm.clone(), fr3.tool_from_camera, fr3.desired.joints);
+        Interpolator::new(settings, fr3.cell.arm.clone(), fr3.cell.tool_from_camera, fr3.cell.desired.joints);
     interpolator.set_twist(Twist::new(0.5, 0.0, 0.0, 0.0, 0.0, 0.0), 0.0);
-    let mut q = fr3.desired.joints;
+    let mut q = fr3.cell.desired.joints;
     for tick in 1..=60 {
         q = interpolator.step(tick as f64 * settings.control_period_s).q;
     }
-    let before = fr3.arm.base_from_tool(&q).translation.vector;
+    let before = fr3.cell.arm.base_from_tool(&q).translation.vector;
     for tick in 61..=70 {
         q = interpolator.step(tick as f64 * settings.control_period_s).q;
     }
-    let speed =
-        (fr3.arm.base_from_tool(&q).translation.vector - before).norm() / (10.0 * settings.control_period_s);
+    let speed = (fr3.cell.arm.base_from_tool(&q).translation.vector - before).norm()
+        / (10.0 * settings.control_period_s);
     assert!(speed > 0.2 && speed <= 0.25 * 1.001, "the tool at {speed} m/s");
 }
 
@@ -197,11 +198,12 @@ fn a_step_uses_the_jerk_limit_and_the_tool_speed_is_capped() {
 fn a_joint_move_arrives_with_any_jerk_limit() {
     for jerk in [5000.0, 1e6] {
         let mut fr3 = config("fr3");
-        fr3.interpolator.jerk_limit = Some(JointVector::repeat(jerk));
-        let settings = fr3.interpolator;
+        fr3.cell.interpolator.jerk_limit = Some(JointVector::repeat(jerk));
+        let settings = fr3.cell.interpolator;
         let start = JointVector::from([0.0, 0.0, 0.0, -1.57, 0.0, 1.57, 0.785]);
-        let mut interpolator = Interpolator::new(settings, fr3.arm.clone(), fr3.tool_from_camera, start);
-        interpolator.move_joints_to(fr3.desired.joints, 0.3);
+        let mut interpolator =
+            Interpolator::new(settings, fr3.cell.arm.clone(), fr3.cell.tool_from_camera, start);
+        interpolator.move_joints_to(fr3.cell.desired.joints, 0.3);
         let arrived = (1..=20_000).find(|tick| {
             interpolator.step(*tick as f64 * settings.control_period_s);
             interpolator.joint_move_arrived()

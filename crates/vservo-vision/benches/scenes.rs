@@ -26,22 +26,22 @@ fn shipped_configurations() -> Vec<PathBuf> {
 fn scenes(c: &mut Criterion) {
     for path in shipped_configurations() {
         let config = Config::load(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
-        if config.vision.source != VisionSource::Simulated {
+        if config.cell.vision.source != VisionSource::Simulated {
             continue;
         }
         let name = path
             .strip_prefix(Path::new(env!("CARGO_MANIFEST_DIR")).join("../../config"))
             .expect("under config/");
-        let truth = config.true_camera();
-        let mut camera = SimulatedCamera::new(truth.intrinsics, config.board, config.vision.render);
-        let pose = config.desired.camera_from_board;
+        let truth = config.cell.true_camera();
+        let mut camera = SimulatedCamera::new(truth.intrinsics, config.cell.board, config.cell.vision.render);
+        let pose = config.cell.desired.camera_from_board;
         let mut frame = 0;
         let label = format!(
             "scene {} ({} × {}, vision period {:.0} ms)",
             name.display(),
             truth.intrinsics.width_px(),
             truth.intrinsics.height_px(),
-            config.timing.vision_period_s * 1e3
+            config.cell.timing.vision_period_s * 1e3
         );
         c.bench_function(&label, |b| {
             b.iter(|| {

@@ -190,8 +190,8 @@ fn error_px(frame: &FrameRecord, desired: &vservo_scene::FeatureVector) -> f64 {
 
 fn run_one(config: &Config, start: Start, settled_for_s: f64, full: bool) -> Run {
     let mut config = config.clone();
-    config.scenario.initial_camera_translation_m = start.translation_m;
-    config.scenario.initial_camera_rotation = start.rotation;
+    config.cell.scenario.initial_camera_translation_m = start.translation_m;
+    config.cell.scenario.initial_camera_rotation = start.rotation;
     let unreachable = Run { start, outcome: Outcome::Unreachable, settling_time_s: None, left_image: false };
     let Ok(mut lockstep) = Lockstep::new(&config) else { return unreachable };
     let desired = lockstep.gains().desired_features;
@@ -216,7 +216,7 @@ fn run_one(config: &Config, start: Start, settled_for_s: f64, full: bool) -> Run
     }
     let left_image = trace.frames.iter().any(|f| {
         (0..MARKS)
-            .any(|m| !config.camera.contains(&nalgebra::Point2::new(f.truth[2 * m], f.truth[2 * m + 1])))
+            .any(|m| !config.cell.camera.contains(&nalgebra::Point2::new(f.truth[2 * m], f.truth[2 * m + 1])))
     });
     let settled = trace.frames.last().is_some_and(|last| {
         let long_enough = |since: f64| full || last.t_s - since >= settled_for_s;
@@ -290,10 +290,10 @@ pub fn run(args: &BasinArgs) -> Result<()> {
         }
     }
     let mut config = config;
-    config.scenario.duration_s = args.duration;
+    config.cell.scenario.duration_s = args.duration;
     // the board holds still and every mark can be seen: what is measured is the law's reach from a start
-    config.scenario.object = vservo_sim::world::ObjectMotion::Hold;
-    config.scenario.occlusions = Default::default();
+    config.cell.scenario.object = vservo_sim::world::ObjectMotion::Hold;
+    config.cell.scenario.occlusions = Default::default();
     // the configuration itself must make a cell (a bad one is the user's to fix, not a failed start)
     Lockstep::new(&config).map_err(|e| UsageError(format!("{}: {e}", config.origin)))?;
 
@@ -325,11 +325,11 @@ pub fn run(args: &BasinArgs) -> Result<()> {
     let classes: Vec<Value> = (0..CLASSES.len()).map(|c| class_summary(&runs, c)).collect();
     let result = json!({
         "config": config.origin,
-        "law": config.controller.law.name(),
-        "interaction": config.controller.options.interaction.name(),
-        "border_margin_px": config.controller.options.border_margin_px,
-        "feedforward": config.controller.options.feedforward,
-        "plant": config.plant.mode.name(),
+        "law": config.cell.controller.law.name(),
+        "interaction": config.cell.controller.options.interaction.name(),
+        "border_margin_px": config.cell.controller.options.border_margin_px,
+        "feedforward": config.cell.controller.options.feedforward,
+        "plant": config.cell.plant.mode.name(),
         "starts": args.starts,
         "seed": args.seed,
         "duration_s": args.duration,

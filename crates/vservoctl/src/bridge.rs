@@ -240,7 +240,7 @@ struct CellDrawing {
 /// `--config` (else config/vservo.toml).
 fn cell_drawing(instance: &InstanceArg, name: &str) -> anyhow::Result<CellDrawing> {
     let config = instance.configuration_in_force(name)?;
-    Ok(CellDrawing { arm: config.arm, tool_from_camera: config.tool_from_camera })
+    Ok(CellDrawing { arm: config.cell.arm, tool_from_camera: config.cell.tool_from_camera })
 }
 
 /// One service: its subscriber once the service exists.

@@ -90,11 +90,11 @@ pub fn run(args: &CalibrateArgs) -> Result<()> {
     let (views, truth) = if args.lockstep {
         let cell = capture::Simulated::new(&config)?;
         let board = cell.base_from_board();
-        let planned = plan_poses(&config, &settings, config.desired.joints, board, given.as_deref())?;
+        let planned = plan_poses(&config, &settings, config.cell.desired.joints, board, given.as_deref())?;
         if args.dry_run {
             return Ok(print_stdout(&report::plan(&config, &planned, args.json))?);
         }
-        (cell.take_views(&planned), Some((config.true_camera(), board)))
+        (cell.take_views(&planned), Some((config.cell.true_camera(), board)))
     } else {
         let mut cell = live::Running::connect(&config, args.speed_fraction)?;
         let solver = SolverRun { python: &python, script: &solver_path, views_dir: &views_dir };
@@ -122,10 +122,10 @@ pub fn run(args: &CalibrateArgs) -> Result<()> {
     dataset::write(
         &views_dir,
         &views,
-        &config.camera,
-        &config.tool_from_camera,
+        &config.cell.camera,
+        &config.cell.tool_from_camera,
         &settings.board,
-        config.arm.joint_count(),
+        config.cell.arm.joint_count(),
     )?;
     let solved = solver::solve(&python, &solver_path, &views_dir)?;
     file::write(&out, args.force, &config, &solved)?;
@@ -190,10 +190,10 @@ fn locate_board(
     dataset::write(
         &dir,
         std::slice::from_ref(&view),
-        &config.camera,
-        &config.tool_from_camera,
+        &config.cell.camera,
+        &config.cell.tool_from_camera,
         &settings.board,
-        config.arm.joint_count(),
+        config.cell.arm.joint_count(),
     )?;
     let located = solver::locate_board(solver.python, solver.script, &dir)?;
     let camera_from_board = report::isometry(&located.camera_from_board.matrix)
@@ -204,7 +204,7 @@ fn locate_board(
         camera_from_board.translation.vector.norm(),
         located.rms_px
     );
-    Ok(config.arm.base_from_tool(&at.start) * config.tool_from_camera * camera_from_board)
+    Ok(config.cell.arm.base_from_tool(&at.start) * config.cell.tool_from_camera * camera_from_board)
 }
 
 /// The truth of a simulated cell (`[camera.truth]`, which only a simulated camera may have: vservo's, or a
@@ -213,7 +213,7 @@ fn locate_board(
 fn simulated_truth(
     config: &Config,
 ) -> Option<(vservo_config::CameraTruth, vservo_scene::IsometryMatrix3<f64>)> {
-    config.camera_truth.map(|truth| (truth, config.base_from_board(&config.arm)))
+    config.cell.camera_truth.map(|truth| (truth, config.cell.base_from_board(&config.cell.arm)))
 }
 
 /// `[calibration]`, which the command needs.
@@ -235,13 +235,14 @@ fn plan_poses(
     base_from_board: vservo_scene::IsometryMatrix3<f64>,
     given: Option<&[Vec<f64>]>,
 ) -> vservo_calibrate::Result<Vec<plan::PlannedPose>> {
-    let distance_m =
-        settings.distance_m.unwrap_or_else(|| config.desired.camera_from_board.translation.vector.norm());
+    let distance_m = settings
+        .distance_m
+        .unwrap_or_else(|| config.cell.desired.camera_from_board.translation.vector.norm());
     let planner_cell = plan::Cell {
-        arm: &config.arm,
+        arm: &config.cell.arm,
         start,
-        camera: &config.camera,
-        tool_from_camera: config.tool_from_camera,
+        camera: &config.cell.camera,
+        tool_from_camera: config.cell.tool_from_camera,
         base_from_board,
     };
     let planned = match given {

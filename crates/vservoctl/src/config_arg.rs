@@ -26,14 +26,14 @@ impl ConfigArg {
 
 /// Designs the configured gains; a design that fails is a configuration the user must change.
 pub fn design_gains(config: &Config) -> Result<Gains, UsageError> {
-    Gains::design(&config.gains_spec())
+    Gains::design(&config.cell.gains_spec())
         .map_err(|e| UsageError(format!("{}: controller: the gain cannot be designed: {e}", config.origin)))
 }
 
 /// The delay-aware gain for the configured delay, designed on the same decomposition as `gains`, for
 /// showing beside the configured law whichever it is.
 pub fn design_delay_aware(config: &Config, gains: &Gains) -> Result<DelayAwareGain, UsageError> {
-    let spec = config.gains_spec();
-    delay_aware_gain(&gains.decomposition, &spec.q, &spec.r.si(), config.timing.pipeline_delay_frames)
+    let spec = config.cell.gains_spec();
+    delay_aware_gain(&gains.decomposition, &spec.q, &spec.r.si(), config.cell.timing.pipeline_delay_frames)
         .map_err(|e| UsageError(format!("{}: the delay-aware gain cannot be designed: {e}", config.origin)))
 }

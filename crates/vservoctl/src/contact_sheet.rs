@@ -85,7 +85,7 @@ type Read = (Vec<(u64, RawImage)>, BTreeMap<u64, Features>, [f64; 2 * MARKS]);
 fn read(bytes: &[u8], config: &Config) -> Result<Read> {
     let mut images = Vec::new();
     let mut features = BTreeMap::new();
-    let mut desired: [f64; 2 * MARKS] = std::array::from_fn(|i| config.desired.features[i]);
+    let mut desired: [f64; 2 * MARKS] = std::array::from_fn(|i| config.cell.desired.features[i]);
     for message in mcap::MessageStream::new(bytes)? {
         let message = message?;
         if message.channel.topic == vservo_view::drawing::IMAGE_TOPIC {
@@ -149,7 +149,7 @@ fn cell(
     let shown = |x: f64, y: f64| {
         let point = Point2::new(x, y);
         let in_image =
-            if config.vision.undistort { config.camera.observed_of_pinhole(&point) } else { point };
+            if config.cell.vision.undistort { config.cell.camera.observed_of_pinhole(&point) } else { point };
         Point2::new(in_image.x * scale, in_image.y * scale)
     };
     let drawn =

@@ -27,7 +27,7 @@ fn list(values: &[f64]) -> String {
 pub fn run(args: &GainsArgs) -> Result<()> {
     let config = args.config.load()?;
     let gains = design_gains(&config)?;
-    let delay = config.timing.pipeline_delay_frames;
+    let delay = config.cell.timing.pipeline_delay_frames;
     let delay_aware = design_delay_aware(&config, &gains)?;
     let k = gains.paper.k;
     let eig_abs = magnitudes(&nominal_eigenvalues(&gains.b, &k));
@@ -44,10 +44,10 @@ pub fn run(args: &GainsArgs) -> Result<()> {
         let past: Vec<_> = delay_aware.past_input_gains.iter().map(matrix_json).collect();
         let out = json!({
             "config": config.origin,
-            "law": config.controller.law.name(),
+            "law": config.cell.controller.law.name(),
             "delay_frames": delay,
-            "period_s": config.timing.vision_period_s,
-            "r_units": config.controller.r.units().name(),
+            "period_s": config.cell.timing.vision_period_s,
+            "r_units": config.cell.controller.r.units().name(),
             "K": matrix_json(&k),
             "singular_values": sigma,
             "eig_abs": eig_abs,
@@ -65,10 +65,10 @@ pub fn run(args: &GainsArgs) -> Result<()> {
     let mut out = format!(
         "{}: law {}, vision period {} s, pipeline delay {} frame(s), R written in {}\n",
         config.origin,
-        config.controller.law.name(),
-        config.timing.vision_period_s,
+        config.cell.controller.law.name(),
+        config.cell.timing.vision_period_s,
         delay,
-        config.controller.r.units().name()
+        config.cell.controller.r.units().name()
     );
     out += &format!("singular values of B = T·J⁺(ξ_d, Z_d) (px per m/s | rad/s): {}\n", list(&sigma));
     out += &matrix_text("K, the paper's gain (rows vx vy vz in m/s per px, wx wy wz in rad/s per px)", &k);

@@ -46,7 +46,7 @@ struct Report {
 /// Runs the command.
 pub fn run(args: &ModelArgs) -> Result<()> {
     let arm = match &args.config {
-        Some(file) => ConfigArg { config: file.clone() }.load()?.arm,
+        Some(file) => ConfigArg { config: file.clone() }.load()?.cell.arm,
         None => puma560::puma560(),
     };
     let is_puma = arm == puma560::puma560();

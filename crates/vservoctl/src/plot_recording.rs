@@ -63,7 +63,7 @@ pub fn trace_of(bytes: &[u8], config: &vservo_config::Config) -> anyhow::Result<
     };
     Ok(Trace {
         frames: camera_frames(&recorded, config, first_tick),
-        joints: joints_every_10_ms(&recorded.states, config.timing.control_period_s, first_tick),
+        joints: joints_every_10_ms(&recorded.states, config.cell.timing.control_period_s, first_tick),
         faults: faults_seen(&recorded.states),
         desired_features: recorded.desired,
     })
@@ -72,12 +72,12 @@ pub fn trace_of(bytes: &[u8], config: &vservo_config::Config) -> anyhow::Result<
 /// vservo's services in the recording (JSON; Foxglove's views are for Foxglove); joint states of another arm
 /// than the configured one refused.
 fn read_recording(bytes: &[u8], config: &vservo_config::Config) -> anyhow::Result<Recorded> {
-    let joint_count = config.arm.joint_count();
+    let joint_count = config.cell.arm.joint_count();
     let mut recorded = Recorded {
         features: Vec::new(),
         twists: BTreeMap::new(),
         states: BTreeMap::new(),
-        desired: config.desired.features,
+        desired: config.cell.desired.features,
     };
     let mut foreign_states = 0u64;
     for message in mcap::MessageStream::new(bytes)? {
@@ -147,8 +147,9 @@ fn joint_state(data: &Value, joint_count: usize) -> Option<Result<(u64, Recorded
 
 /// One record per frame: the camera where the joint state nearest its capture tick put it.
 fn camera_frames(recorded: &Recorded, config: &vservo_config::Config, first_tick: u64) -> Vec<FrameRecord> {
-    let arm = &config.arm;
-    let base_from_desired_camera = arm.base_from_tool(&config.desired.joints) * config.tool_from_camera;
+    let arm = &config.cell.arm;
+    let base_from_desired_camera =
+        arm.base_from_tool(&config.cell.desired.joints) * config.cell.tool_from_camera;
     let desired_from_base = base_from_desired_camera.inverse();
     let states = &recorded.states;
     let mut frames = Vec::with_capacity(recorded.features.len());
@@ -157,9 +158,9 @@ fn camera_frames(recorded: &Recorded, config: &vservo_config::Config, first_tick
         else {
             continue;
         };
-        let base_from_camera = arm.base_from_tool(q) * config.tool_from_camera;
+        let base_from_camera = arm.base_from_tool(q) * config.cell.tool_from_camera;
         frames.push(FrameRecord {
-            t_s: tick.saturating_sub(first_tick) as f64 * config.timing.control_period_s,
+            t_s: tick.saturating_sub(first_tick) as f64 * config.cell.timing.control_period_s,
             measured: *measured,
             truth: FeatureVector::from_element(f64::NAN),
             twist: recorded.twists.get(frame).copied().unwrap_or_else(Twist::zeros),

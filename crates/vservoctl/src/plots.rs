@@ -19,7 +19,7 @@ const COLOURS: [RGBColor; 4] =
 pub fn draw(trace: &Trace, config: &Config, dir: &Path) -> Result<()> {
     trajectory(trace, config, &dir.join("trajectory.svg"))?;
     error(trace, &dir.join("error.svg"))?;
-    if let ObjectMotion::Circle { radius_m, .. } = config.scenario.object {
+    if let ObjectMotion::Circle { radius_m, .. } = config.cell.scenario.object {
         camera_position(trace, radius_m, &dir.join("camera_position.svg"))?;
     }
     Ok(())
@@ -41,7 +41,7 @@ fn finite_points(trace: &Trace, mark: usize) -> Vec<(f64, f64)> {
 fn trajectory(trace: &Trace, config: &Config, path: &Path) -> Result<()> {
     let root = SVGBackend::new(path, (640, 640)).into_drawing_area();
     root.fill(&WHITE).map_err(plot_error)?;
-    let (w, h) = (f64::from(config.camera.width_px()), f64::from(config.camera.height_px()));
+    let (w, h) = (f64::from(config.cell.camera.width_px()), f64::from(config.cell.camera.height_px()));
     let mut chart = ChartBuilder::on(&root)
         .caption("Trajectory of the 4 points (× start, □ reference)", ("sans-serif", 18))
         .margin(12)

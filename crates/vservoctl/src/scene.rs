@@ -33,7 +33,7 @@ fn matrix4(pose: &IsometryMatrix3<f64>) -> Value {
 /// Runs the command.
 pub fn run(args: &SceneArgs) -> Result<()> {
     let config = args.config.load()?;
-    let cell = Cell::new(&config.cell()).map_err(|e| UsageError(format!("{}: {e}", config.origin)))?;
+    let cell = Cell::new(&config.cell).map_err(|e| UsageError(format!("{}: {e}", config.origin)))?;
     let arm = cell.arm();
     let chain = match &arm.geometry {
         vservo_arm::Geometry::Chain(chain) => Some(chain),
@@ -49,8 +49,8 @@ pub fn run(args: &SceneArgs) -> Result<()> {
     let limits = |f: &dyn Fn(&vservo_arm::JointLimits) -> Value| -> Vec<Value> {
         arm.joints().iter().map(|l| f(&l.limits)).collect()
     };
-    let board = &config.board;
-    let truth = config.true_camera();
+    let board = &config.cell.board;
+    let truth = config.cell.true_camera();
     let scene = json!({
         "instance": config.instance,
         "arm": {
@@ -66,19 +66,19 @@ pub fn run(args: &SceneArgs) -> Result<()> {
             "torque_limits_nm": limits(&|l| json!(l.torque_max)),
             // the motion limits the joint reference keeps (the arm's, narrowed by [interpolator]); no jerk limit:
             // null (the reference's acceleration may step within a tick)
-            "acceleration_limits_rad_s2": &config.interpolator.acceleration_limit.as_slice()[..arm.joint_count()],
-            "jerk_limits_rad_s3": config.interpolator.jerk_limit.map(|j| j.as_slice()[..arm.joint_count()].to_vec()),
-            "tool_speed_limit_m_s": finite(config.interpolator.tool_speed_limit_m_s),
-            "tool_rotation_limit_rad_s": finite(config.interpolator.tool_rotation_limit_rad_s),
+            "acceleration_limits_rad_s2": &config.cell.interpolator.acceleration_limit.as_slice()[..arm.joint_count()],
+            "jerk_limits_rad_s3": config.cell.interpolator.jerk_limit.map(|j| j.as_slice()[..arm.joint_count()].to_vec()),
+            "tool_speed_limit_m_s": finite(config.cell.interpolator.tool_speed_limit_m_s),
+            "tool_rotation_limit_rad_s": finite(config.cell.interpolator.tool_rotation_limit_rad_s),
         },
         "start_joints_rad": &cell.start_joints().as_slice()[..arm.joint_count()],
-        "desired_joints_rad": &config.desired.joints.as_slice()[..arm.joint_count()],
-        "desired_features_px": config.desired.features.as_slice(),
+        "desired_joints_rad": &config.cell.desired.joints.as_slice()[..arm.joint_count()],
+        "desired_features_px": config.cell.desired.features.as_slice(),
         "tool_from_camera": matrix4(&truth.tool_from_camera),
-        "base_from_board": matrix4(&config.base_from_board(arm)),
-        "camera": camera_json(&truth.intrinsics, config.vision.render.noise_sigma_gray),
-        "believed_tool_from_camera": matrix4(&config.tool_from_camera),
-        "believed_camera": camera_json(&config.camera, config.vision.render.noise_sigma_gray),
+        "base_from_board": matrix4(&config.cell.base_from_board(arm)),
+        "camera": camera_json(&truth.intrinsics, config.cell.vision.render.noise_sigma_gray),
+        "believed_tool_from_camera": matrix4(&config.cell.tool_from_camera),
+        "believed_camera": camera_json(&config.cell.camera, config.cell.vision.render.noise_sigma_gray),
         "board": {
             "mark_diameter_m": board.mark_diameter_m,
             "marks_in_board_m": board.marks_in_board.iter().map(|p| [p.x, p.y]).collect::<Vec<_>>(),
@@ -101,12 +101,12 @@ pub fn run(args: &SceneArgs) -> Result<()> {
                 })).collect::<Vec<_>>(),
             })),
         },
-        "timing": {"vision_period_s": config.timing.vision_period_s},
+        "timing": {"vision_period_s": config.cell.timing.vision_period_s},
         "robot": {
-            "driver": config.robot.driver.name(),
-            "command": config.command_interface().name(),
-            "period_s": config.robot.period_s,
-            "state_timeout_periods": config.robot.state_timeout_periods,
+            "driver": config.cell.robot.driver.name(),
+            "command": config.cell.command_interface().name(),
+            "period_s": config.cell.robot.period_s,
+            "state_timeout_periods": config.cell.robot.state_timeout_periods,
         },
     });
     print_stdout(&format!("{}\n", serde_json::to_string_pretty(&scene)?))?;

@@ -54,30 +54,30 @@ pub fn run(args: &SimArgs) -> Result<()> {
                 UsageError(format!("--duration {duration}: must be a positive number of seconds")).into()
             );
         }
-        config.scenario.duration_s = duration;
+        config.cell.scenario.duration_s = duration;
     }
     if let Some(controller) = args.controller {
-        config.controller.law = match controller {
+        config.cell.controller.law = match controller {
             ControllerArg::Paper => ControlLaw::Paper,
             ControllerArg::DelayAware => ControlLaw::DelayAware,
         };
     }
     if let Some(plant) = args.plant {
         // the configuration's own rule: only the PUMA 560 has a dynamics model
-        if plant == PlantArg::Dynamic && config.arm != vservo_arm::puma560::puma560() {
+        if plant == PlantArg::Dynamic && config.cell.arm != vservo_arm::puma560::puma560() {
             return Err(UsageError(format!(
                 "--plant dynamic: {} has no dynamics model in vservo (only the PUMA 560 has one); it is simulated kinematically",
                 config.origin
             ))
             .into());
         }
-        config.plant.mode = match plant {
+        config.cell.plant.mode = match plant {
             PlantArg::Dynamic => PlantMode::Dynamic,
             PlantArg::Kinematic => PlantMode::Kinematic,
         };
     }
     let mut lockstep = Lockstep::new(&config).map_err(|e| UsageError(format!("{}: {e}", config.origin)))?;
-    let duration = config.scenario.duration_s;
+    let duration = config.cell.scenario.duration_s;
     let started = std::time::Instant::now();
     // a progress bar on a terminal only (never in a pipe or a log); indicatif redraws at most 20 times a second
     let bar = std::io::IsTerminal::is_terminal(&std::io::stderr()).then(|| {
@@ -101,11 +101,11 @@ pub fn run(args: &SimArgs) -> Result<()> {
         eprintln!("simulated {duration:.1} s in {:.2} s of wall time", started.elapsed().as_secs_f64());
     }
     std::fs::create_dir_all(&args.out).with_context(|| format!("creating {}", args.out.display()))?;
-    let summary = summarize(&trace, &config.scenario.object);
+    let summary = summarize(&trace, &config.cell.scenario.object);
     let summary_json = json!({
         "config": config.origin,
-        "law": config.controller.law.name(),
-        "plant": config.plant.mode.name(),
+        "law": config.cell.controller.law.name(),
+        "plant": config.cell.plant.mode.name(),
         "duration_s": duration,
         "settling_time_s": summary.settling_time_s,
         "overshoot_percent": summary.overshoot_percent,
@@ -123,7 +123,7 @@ pub fn run(args: &SimArgs) -> Result<()> {
     });
     write(&args.out.join("summary.json"), &format!("{summary_json:#}\n"))?;
     write(&args.out.join("features.csv"), &features_csv(&trace))?;
-    write(&args.out.join("joints.csv"), &joints_csv(&trace, config.arm.joint_count()))?;
+    write(&args.out.join("joints.csv"), &joints_csv(&trace, config.cell.arm.joint_count()))?;
     crate::plots::draw(&trace, &config, &args.out)?;
     println!("{summary_json}");
     Ok(())

@@ -60,7 +60,7 @@ pub fn run(args: &SnapshotArgs) -> anyhow::Result<()> {
     let frame = newest_frame(&connection, until)?;
     let shown = |x: f64, y: f64| {
         let point = Point2::new(x, y);
-        if config.vision.undistort { config.camera.observed_of_pinhole(&point) } else { point }
+        if config.cell.vision.undistort { config.cell.camera.observed_of_pinhole(&point) } else { point }
     };
     let mut picture = annotate::gray_to_rgb(frame.width, frame.height, frame.width, &frame.pixels);
     let drawn = annotate::draw_marks(

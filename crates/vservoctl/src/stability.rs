@@ -54,14 +54,14 @@ fn table(title: &str, m: &StabilityMargins) -> String {
 pub fn run(args: &StabilityArgs) -> Result<()> {
     let config = args.config.load()?;
     let gains = design_gains(&config)?;
-    let delay = config.timing.pipeline_delay_frames;
+    let delay = config.cell.timing.pipeline_delay_frames;
     let delay_aware = design_delay_aware(&config, &gains)?;
     let loop_with = |feature_gain, past: &[nalgebra::Matrix6<f64>], delay_frames| {
         LoopUnderTest {
-            camera: &config.camera,
-            board: &config.board,
-            camera_from_board_desired: &config.desired.camera_from_board,
-            period_s: config.timing.vision_period_s,
+            camera: &config.cell.camera,
+            board: &config.cell.board,
+            camera_from_board_desired: &config.cell.desired.camera_from_board,
+            period_s: config.cell.timing.vision_period_s,
             feature_gain,
             past_input_gains: past,
             delay_frames,

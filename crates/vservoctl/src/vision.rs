@@ -67,7 +67,7 @@ pub fn run(args: &VisionArgs) -> Result<()> {
 
 fn render(args: &RenderArgs) -> Result<()> {
     let config = args.config.load()?;
-    let arm = &config.arm;
+    let arm = &config.cell.arm;
     let is_puma = *arm == vservo_arm::puma560::puma560();
     let q = parse_joint_vector("--q", &args.q, is_puma, arm.joint_count())?;
     arm.check_positions(&q).map_err(|v| UsageError(format!("--q: {v} (the {}'s range)", arm.name)))?;
@@ -77,11 +77,11 @@ fn render(args: &RenderArgs) -> Result<()> {
             UsageError(format!("--out {}: the file must end in .png or .pgm", args.out.display())).into()
         );
     }
-    let camera_from_board = config.camera_from_board_at(arm, &q);
-    let mut renderer = Renderer::new(config.camera, config.vision.render);
-    let image = renderer.render(&config.board, &camera_from_board, args.frame);
+    let camera_from_board = config.cell.camera_from_board_at(arm, &q);
+    let mut renderer = Renderer::new(config.cell.camera, config.cell.vision.render);
+    let image = renderer.render(&config.cell.board, &camera_from_board, args.frame);
     image.save(&args.out).with_context(|| format!("writing {}", args.out.display()))?;
-    let visible = config.camera.project_marks(&config.board, &camera_from_board);
+    let visible = config.cell.camera.project_marks(&config.cell.board, &camera_from_board);
     let note = match visible {
         Ok(features) => format!("marks at {:.1?} px", features.as_slice()),
         Err(e) => e.to_string(),
@@ -93,18 +93,21 @@ fn render(args: &RenderArgs) -> Result<()> {
 fn extract(args: &ExtractArgs) -> Result<()> {
     let config = args.config.load()?;
     let image = read_gray_image(&args.image).map_err(|e| UsageError(e.to_string()))?;
-    let mut extractor =
-        Extractor::new(config.vision.extractor, config.camera.width_px(), config.camera.height_px());
+    let mut extractor = Extractor::new(
+        config.cell.vision.extractor,
+        config.cell.camera.width_px(),
+        config.cell.camera.height_px(),
+    );
     // with an AprilTag target, its four corners; a tag not found gives each corner the tag's verdict
-    let (found, tag_verdict) = match config.board.apriltag() {
+    let (found, tag_verdict) = match config.cell.board.apriltag() {
         Some(tag) => {
             let found =
-                vservo_vision::TagExtractor::for_camera(tag.id(), &config.camera).extract(&image, None);
+                vservo_vision::TagExtractor::for_camera(tag.id(), &config.cell.camera).extract(&image, None);
             let verdict = (found.verdict != vservo_vision::TagVerdict::Found)
                 .then(|| format!("tag {}: {}", tag.id(), found.verdict.reason()));
             (found.to_extraction(), verdict)
         }
-        None => (extractor.extract(&image, &Prediction::Layout(config.desired.features)), None),
+        None => (extractor.extract(&image, &Prediction::Layout(config.cell.desired.features)), None),
     };
     let features: Vec<Option<f64>> =
         found.features.iter().map(|&v| if v.is_finite() { Some(v) } else { None }).collect();

@@ -89,7 +89,7 @@ impl Helper {
     /// The Franka driver (`vservo-franka`), started with `[robot] driver = "franka"`; it ends with this daemon
     /// (bringing the arm to rest and ending its motion).
     pub fn franka_driver(config: &vservo_config::Config, launch: &Launch) -> Self {
-        let runs = config.robot.driver == vservo_config::RobotDriver::Franka;
+        let runs = config.cell.robot.driver == vservo_config::RobotDriver::Franka;
         let args = ["--daemon-pid".to_string(), std::process::id().to_string()];
         Self::start("the Franka driver", launch.command(runs, "vservo-franka", &args))
     }
@@ -97,7 +97,7 @@ impl Helper {
     /// The GStreamer camera (`vservo-gst-camera`), started with `[camera] source = "gstreamer"` on the
     /// pipeline of `[camera.gstreamer]`; it ends with this daemon.
     pub fn gst_camera(config: &vservo_config::Config, launch: &Launch) -> Self {
-        let runs = config.vision.source == vservo_config::VisionSource::Gstreamer;
+        let runs = config.cell.vision.source == vservo_config::VisionSource::Gstreamer;
         let args = ["--daemon-pid".to_string(), std::process::id().to_string()];
         Self::start("the GStreamer camera", launch.command(runs, "vservo-gst-camera", &args))
     }

@@ -62,9 +62,8 @@ pub fn run(
     } else {
         (vservo_config::Config::load(config_path)?, None)
     };
-    let cell =
-        vservo_cell::Cell::new(&config.cell()).with_context(|| format!("{}", config_path.display()))?;
-    let joint_count = config.arm.joint_count();
+    let cell = vservo_cell::Cell::new(&config.cell).with_context(|| format!("{}", config_path.display()))?;
+    let joint_count = config.cell.arm.joint_count();
     let resume = match &args.resume_q {
         Some(q) if q.len() == joint_count && q.iter().all(|v| v.is_finite()) => {
             Some((vservo_arm::joint_vector(q).context("--resume-q")?, args.resume_tick))

@@ -24,7 +24,7 @@ mod weight;
 use checker::Checker;
 
 use crate::raw::RawConfig;
-use crate::{Config, ConfigError};
+use crate::{CellConfig, Config, ConfigError};
 
 /// Validates every section; the first error found is returned, naming `file`.
 pub fn validate(raw: RawConfig, file: &str) -> Result<Config, ConfigError> {
@@ -71,26 +71,28 @@ pub fn validate(raw: RawConfig, file: &str) -> Result<Config, ConfigError> {
     Ok(Config {
         origin: file.to_string(),
         instance,
-        timing,
-        camera,
-        tool_from_camera,
-        camera_truth,
-        board,
-        desired,
-        controller,
-        vision,
-        plant,
-        interpolator,
-        joint_servo,
-        scenario,
+        cell: CellConfig {
+            timing,
+            camera,
+            tool_from_camera,
+            camera_truth,
+            board,
+            desired,
+            controller,
+            vision,
+            plant,
+            interpolator,
+            joint_servo,
+            scenario,
+            robot,
+            arm,
+            reacquire,
+        },
         runtime: runtime::runtime(&check, &raw.runtime)?,
-        robot,
-        arm,
         arm_urdf_file: (raw.robot.arm.preset == crate::raw::RawArmPreset::Urdf)
             .then(|| raw.robot.arm.urdf.clone())
             .flatten(),
         faults: operation::faults(&check, &raw.faults)?,
-        reacquire,
         viewer: operation::viewer(&check, &raw.viewer)?,
         ros2,
         franka: franka::franka(&check, &raw.robot, raw.franka.as_ref(), &interpolator_jerk)?,

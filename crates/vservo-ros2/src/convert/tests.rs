@@ -65,7 +65,7 @@ fn a_urdf_arms_joints_have_the_urdfs_names() {
     let config =
         vservo_config::Config::load(concat!(env!("CARGO_MANIFEST_DIR"), "/../../config/arms/ur5e.toml"))
             .expect("ur5e.toml loads");
-    let names = joint_names(&[], &config.arm);
+    let names = joint_names(&[], &config.cell.arm);
     assert_eq!(names.len(), 6);
     assert_eq!((names[0].as_str(), names[5].as_str()), ("shoulder_pan_joint", "wrist_3_joint"));
 }
@@ -125,8 +125,8 @@ fn a_urdf_arms_frames_have_the_urdfs_link_names() {
         vservo_config::Config::load(concat!(env!("CARGO_MANIFEST_DIR"), "/../../config/arms/ur5e.toml"))
             .expect("ur5e.toml loads");
     let q = [0.3, -0.7, 0.9, 0.2, -0.4, 1.1, 0.0];
-    let frames = crate::frames::ArmFrames::of(&config.arm);
-    let (names, base_from_camera) = composed(&frames, &config.arm, q, &config.tool_from_camera);
+    let frames = crate::frames::ArmFrames::of(&config.cell.arm);
+    let (names, base_from_camera) = composed(&frames, &config.cell.arm, q, &config.cell.tool_from_camera);
     assert_eq!(
         names,
         [
@@ -142,11 +142,12 @@ fn a_urdf_arms_frames_have_the_urdfs_link_names() {
         ]
     );
     assert_eq!(
-        frames.fixed(&config.tool_from_camera, Time::default()).len(),
+        frames.fixed(&config.cell.tool_from_camera, Time::default()).len(),
         2,
         "flange and camera are fixed"
     );
-    let expected = config.arm.base_from_tool(&vservo_arm::JointVector::from(q)) * config.tool_from_camera;
+    let expected =
+        config.cell.arm.base_from_tool(&vservo_arm::JointVector::from(q)) * config.cell.tool_from_camera;
     assert_relative_eq!(base_from_camera.to_homogeneous(), expected.to_homogeneous(), epsilon = 1e-12);
 }
 

@@ -143,13 +143,14 @@ mod tests {
     fn the_first_twist_from_the_scenario_start_keeps_every_limit_and_uses_the_jerk() {
         // a real UR5e's cell (the file's own simulated plant is the ideal robot, which keeps no limit)
         let mut config = ur5e();
-        config.robot.driver = vservo_config::RobotDriver::External;
-        let cell = Cell::new(&config.cell()).expect("the UR5e cell");
+        config.cell.robot.driver = vservo_config::RobotDriver::External;
+        let cell = Cell::new(&config.cell).expect("the UR5e cell");
         let start = *cell.start_joints();
-        let base_from_camera = config.arm.base_from_tool(&start) * config.tool_from_camera;
+        let base_from_camera = config.cell.arm.base_from_tool(&start) * config.cell.tool_from_camera;
         let features = config
+            .cell
             .camera
-            .project_marks(&config.board, &config.camera_from_board_at(&config.arm, &start))
+            .project_marks(&config.cell.board, &config.cell.camera_from_board_at(&config.cell.arm, &start))
             .expect("the board in front");
         let mut seen = observed(&config);
         seen.states.iter_mut().for_each(|s| s.q = start);
@@ -163,8 +164,8 @@ mod tests {
         assert!(jerk > 0.5 && jerk <= WITHIN, "{line:?}");
         // the servo's own twist limit: a cell that allows only a crawl refuses this twist
         let mut crawl = config.clone();
-        crawl.robot.max_camera_speed_m_s = 0.01;
-        let cell = Cell::new(&crawl.cell()).expect("the UR5e cell");
+        crawl.cell.robot.max_camera_speed_m_s = 0.01;
+        let cell = Cell::new(&crawl.cell).expect("the UR5e cell");
         let line = first_twist(&seen, &cell);
         assert!(!line.pass && line.text.contains("would refuse it"), "{line:?}");
     }

@@ -57,11 +57,11 @@ pub fn run(args: &CheckArgs) -> anyhow::Result<()> {
     let connection = Connection::open_when_there(&args.instance, || true)?;
     let config = args.instance.configuration_in_force(&connection.instance)?;
     let cell =
-        vservo_cell::Cell::new(&config.cell()).map_err(|e| UsageError(format!("{}: {e}", config.origin)))?;
+        vservo_cell::Cell::new(&config.cell).map_err(|e| UsageError(format!("{}: {e}", config.origin)))?;
     let window = Duration::from_secs_f64(args.duration_s.max(0.2));
     // the ROS 2 arm's own joint names, heard beside the instance's services
     let names = ros_names::listen(&config, window);
-    let mut observed = observe::watch(&connection, window, config.arm.joint_count())?;
+    let mut observed = observe::watch(&connection, window, config.cell.arm.joint_count())?;
     observed.ros_joint_names = names.join();
     let lines = [
         verdicts::held(&observed),

@@ -11,7 +11,7 @@ pub struct Listening(Option<JoinHandle<Option<Vec<String>>>>);
 
 /// Starts listening for `window` on the arm's joint-states topic, if the ROS 2 driver drives the arm.
 pub fn listen(config: &Config, window: Duration) -> Listening {
-    if config.robot.driver != vservo_config::RobotDriver::Ros2 {
+    if config.cell.robot.driver != vservo_config::RobotDriver::Ros2 {
         return Listening(None);
     }
     let settings = config.ros2.clone();

@@ -124,7 +124,7 @@ pub fn held(observed: &Observed) -> Line {
 /// Joint states arrive at the declared period: the driver declares the configured period, and the median
 /// gap between consecutive ticks is within [`PERIOD_TOLERANCE`] of it.
 pub fn joint_states(observed: &Observed, config: &Config) -> Line {
-    let configured_ns = config.robot.period_s * 1e9;
+    let configured_ns = config.cell.robot.period_s * 1e9;
     let name = "joint_states";
     let Some(newest) = observed.newest_state() else {
         return Line::new(
@@ -184,8 +184,8 @@ pub fn joint_states(observed: &Observed, config: &Config) -> Line {
 /// `[ros2] joint_names`, else the URDF's, else joint1… (`vservo_ros2::convert::joint_names`); for others the
 /// URDF's chain (none for a DH arm).
 pub fn driver_joint_names(config: &Config) -> (Vec<String>, &'static str) {
-    let arm = &config.arm;
-    if config.robot.driver == vservo_config::RobotDriver::Ros2 {
+    let arm = &config.cell.arm;
+    if config.cell.robot.driver == vservo_config::RobotDriver::Ros2 {
         let from =
             if config.ros2.joint_names.is_empty() { "the ROS 2 driver's names" } else { "ros2.joint_names" };
         (vservo_ros2::convert::joint_names(&config.ros2.joint_names, arm), from)
@@ -208,7 +208,7 @@ pub fn urdf_joint_names(arm: &SerialArm) -> Option<Vec<String>> {
 /// URDF's (in its order) and, for the ROS 2 driver, in the arm's joint states; every measured angle inside
 /// its limits.
 pub fn joints(observed: &Observed, config: &Config) -> Line {
-    let arm = &config.arm;
+    let arm = &config.cell.arm;
     let (names, names_from) = driver_joint_names(config);
     let mut problems = Vec::new();
     let count = observed.newest_state().map(|s| s.joint_count);
@@ -303,15 +303,16 @@ pub(super) mod fixtures {
                 stamp_ns: 1_000_000 + tick * gap_ns,
                 period_ns,
                 joint_count: 6,
-                q: config.desired.joints,
+                q: config.cell.desired.joints,
             })
             .collect()
     }
 
     /// Frames of the board seen from the desired pose, `marks` of them valid.
     pub fn frames(config: &Config, count: u64, marks: usize) -> Vec<FrameSample> {
-        let base_from_camera = config.arm.base_from_tool(&config.desired.joints) * config.tool_from_camera;
-        let mut features = config.desired.features;
+        let base_from_camera =
+            config.cell.arm.base_from_tool(&config.cell.desired.joints) * config.cell.tool_from_camera;
+        let mut features = config.cell.desired.features;
         for mark in marks..MARKS {
             features[2 * mark] = f64::NAN;
             features[2 * mark + 1] = f64::NAN;

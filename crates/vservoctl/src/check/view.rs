@@ -19,18 +19,19 @@ pub const FRAME_PERIOD_TOLERANCE: f64 = 0.5;
 pub fn measured_board(observed: &Observed, config: &Config) -> Option<IsometryMatrix3<f64>> {
     let (frame, base_from_camera) = observed.newest_whole_frame()?;
     let features = pinhole_features(config, &frame.features)?;
-    let camera_from_board = config.camera.board_pose_from_features(&config.board, &features)?;
+    let camera_from_board = config.cell.camera.board_pose_from_features(&config.cell.board, &features)?;
     Some(base_from_camera * camera_from_board)
 }
 
 /// The features as the pinhole camera has them (undistorted when the vision node left them as seen).
 fn pinhole_features(config: &Config, features: &FeatureVector) -> Option<FeatureVector> {
-    if config.vision.undistort {
+    if config.cell.vision.undistort {
         return Some(*features);
     }
     let mut pinhole = *features;
     for mark in 0..MARKS {
         let p = config
+            .cell
             .camera
             .pinhole_of_observed(&nalgebra::Point2::new(features[2 * mark], features[2 * mark + 1]))?;
         pinhole[2 * mark] = p.x;
@@ -55,7 +56,7 @@ pub fn kinematics(observed: &Observed, config: &Config) -> Line {
             Value::Null,
         );
     };
-    let configured = config.base_from_board(&config.arm);
+    let configured = config.cell.base_from_board(&config.cell.arm);
     let offset = configured.inverse() * measured;
     let distance_m = offset.translation.vector.norm();
     let angle_rad = offset.rotation.angle();
@@ -87,7 +88,7 @@ pub fn kinematics(observed: &Observed, config: &Config) -> Line {
 /// newest frame.
 pub fn camera(observed: &Observed, config: &Config) -> Line {
     let name = "camera";
-    let configured_ms = config.timing.vision_period_s * 1e3;
+    let configured_ms = config.cell.timing.vision_period_s * 1e3;
     let Some(newest) = observed.frames.last() else {
         return Line::new(
             name,
@@ -137,12 +138,12 @@ pub fn camera(observed: &Observed, config: &Config) -> Line {
 /// it; `None` when the target's features fit no board pose.
 pub fn desired_camera(observed: &Observed, config: &Config) -> Option<IsometryMatrix3<f64>> {
     let base_from_board =
-        measured_board(observed, config).unwrap_or_else(|| config.base_from_board(&config.arm));
+        measured_board(observed, config).unwrap_or_else(|| config.cell.base_from_board(&config.cell.arm));
     let camera_from_board = match observed.desired_features {
-        Some(features) if features != config.desired.features => {
-            config.camera.board_pose_from_features(&config.board, &features)?
+        Some(features) if features != config.cell.desired.features => {
+            config.cell.camera.board_pose_from_features(&config.cell.board, &features)?
         }
-        _ => config.desired.camera_from_board,
+        _ => config.cell.desired.camera_from_board,
     };
     Some(base_from_board * camera_from_board.inverse())
 }
@@ -151,14 +152,14 @@ pub fn desired_camera(observed: &Observed, config: &Config) -> Option<IsometryMa
 /// and the arm is not at a singularity there (manipulability above the interpolator's damping threshold).
 pub fn desired_pose(observed: &Observed, config: &Config) -> Line {
     let name = "desired_pose";
-    let arm = &config.arm;
-    let q_now = observed.newest_state().map_or(config.desired.joints, |s| s.q);
+    let arm = &config.cell.arm;
+    let q_now = observed.newest_state().map_or(config.cell.desired.joints, |s| s.q);
     let Some(base_from_camera) = desired_camera(observed, config) else {
         return Line::new(name, false, "the target's features fit no board pose".to_string(), Value::Null);
     };
     let board_from =
         if measured_board(observed, config).is_some() { "as seen" } else { "as configured: not seen" };
-    let base_from_tool = base_from_camera * config.tool_from_camera.inverse();
+    let base_from_tool = base_from_camera * config.cell.tool_from_camera.inverse();
     let position = base_from_camera.translation.vector;
     let Some(q) = arm.reach(&base_from_tool, &q_now) else {
         return Line::new(
@@ -176,7 +177,7 @@ pub fn desired_pose(observed: &Observed, config: &Config) -> Line {
         );
     };
     let manipulability = arm.manipulability(&q);
-    let threshold = config.interpolator.manipulability_threshold;
+    let threshold = config.cell.interpolator.manipulability_threshold;
     let farthest_rad = (q - q_now).amax();
     let pass = manipulability > threshold;
     let text = format!(

@@ -141,7 +141,7 @@ impl Commander {
 
     /// ξ_d in force.
     fn desired_features(&self) -> [f64; FEATURES] {
-        let features = self.target.map_or(self.config.desired.features, |t| t.features);
+        let features = self.target.map_or(self.config.cell.desired.features, |t| t.features);
         let mut out = [0.0; FEATURES];
         out.copy_from_slice(features.as_slice());
         out
@@ -222,7 +222,7 @@ impl Commander {
                         heard.conditions.robot,
                     )));
                 }
-                let joint_move = joint_move::check(command, &self.config.arm)?;
+                let joint_move = joint_move::check(command, &self.config.cell.arm)?;
                 Ok(match safety.move_joints(joint_move, &heard.conditions)? {
                     None => Accepted::Moving(joint_move),
                     Some(resumed) => Accepted::MovingOutOfStop { joint_move, resumed },
@@ -275,7 +275,7 @@ impl Commander {
             };
         let refused = |why| ReloadRefused::Gains { path: path.clone(), why };
         let gains =
-            vservo_cell::gains::design(&config.cell(), target.as_ref()).map_err(|e| refused(e.into()))?;
+            vservo_cell::gains::design(&config.cell, target.as_ref()).map_err(|e| refused(e.into()))?;
         self.publish_gains(&gains).map_err(refused)?;
         self.config = config;
         self.config_text = text;
@@ -290,10 +290,10 @@ impl Commander {
 
     /// Places the target a client asks for and designs gains for it.
     fn retarget(&mut self, request: &TargetRequest, heard: &LoopState) -> Result<Accepted, CommandRefused> {
-        let margin_px = self.config.controller.options.border_margin_px;
-        let target = vservo_cell::target::place(&self.config.cell(), margin_px, request, &heard.cell_now())
+        let margin_px = self.config.cell.controller.options.border_margin_px;
+        let target = vservo_cell::target::place(&self.config.cell, margin_px, request, &heard.cell_now())
             .map_err(|why| CommandRefused::Target { request: request.name(), why })?;
-        let gains = vservo_cell::gains::design(&self.config.cell(), Some(&target))
+        let gains = vservo_cell::gains::design(&self.config.cell, Some(&target))
             .map_err(|e| CommandRefused::TargetGains(e.into()))?;
         self.publish_gains(&gains).map_err(CommandRefused::TargetGains)?;
         self.target = Some(target);
@@ -303,7 +303,7 @@ impl Commander {
     /// Checks an object command, seals it and hands it to the plant.
     fn object(&mut self, kind: CommandKind, command: &CommandMsg) -> Result<Accepted, CommandRefused> {
         let motion = object_motion(kind, command);
-        let simulated = self.config.robot.driver == vservo_config::RobotDriver::Simulated;
+        let simulated = self.config.cell.robot.driver == vservo_config::RobotDriver::Simulated;
         object::check(&motion, simulated)?;
         let mut message = ObjectMsg {
             schema: SCHEMA_VERSION,

@@ -5,7 +5,7 @@
 //! them. Pure: the commander reads the file and publishes the result.
 
 use vservo_cell::target::{self, Target, TargetRefused};
-use vservo_config::{Config, ConfigError};
+use vservo_config::{CellConfig, Config, ConfigError};
 
 /// Why a reload is refused; nothing is applied.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -104,24 +104,27 @@ pub fn diff(old: &Config, new: &Config) -> ConfigDiff {
     let Config {
         origin: _,
         instance,
-        timing,
-        camera,
-        tool_from_camera,
-        camera_truth,
-        board,
-        desired,
-        controller,
-        vision,
-        plant,
-        interpolator,
-        joint_servo,
-        scenario,
+        cell:
+            CellConfig {
+                timing,
+                camera,
+                tool_from_camera,
+                camera_truth,
+                board,
+                desired,
+                controller,
+                vision,
+                plant,
+                interpolator,
+                joint_servo,
+                scenario,
+                robot,
+                arm,
+                reacquire,
+            },
         runtime,
-        robot,
-        arm,
         arm_urdf_file,
         faults,
-        reacquire,
         viewer,
         ros2,
         franka,
@@ -131,32 +134,48 @@ pub fn diff(old: &Config, new: &Config) -> ConfigDiff {
         calibration: _,
     } = old;
     let mut live = Vec::new();
-    let (o, n) = (&controller.options, &new.controller.options);
-    let controller_keys = fields!("controller", controller, new.controller; law, q, r);
+    let (o, n) = (&controller.options, &new.cell.controller.options);
+    let controller_keys = fields!("controller", controller, new.cell.controller; law, q, r);
     let option_keys = fields!("controller", o, n; interaction, border_margin_px, feedforward);
-    section(&mut live, "controller", controller != &new.controller, &[controller_keys, option_keys].concat());
-    let desired_keys = [("desired.joints_rad", desired.joints != new.desired.joints)];
-    section(&mut live, "desired", desired != &new.desired, &desired_keys);
+    section(
+        &mut live,
+        "controller",
+        controller != &new.cell.controller,
+        &[controller_keys, option_keys].concat(),
+    );
+    let desired_keys = [("desired.joints_rad", desired.joints != new.cell.desired.joints)];
+    section(&mut live, "desired", desired != &new.cell.desired, &desired_keys);
     let mut restart = Vec::new();
     let r = &mut restart;
     section(r, "instance.name", instance != &new.instance, &[]);
     let timing_keys =
-        fields!("timing", timing, new.timing; vision_period_s, pipeline_delay_frames, control_period_s);
-    section(r, "timing", timing != &new.timing, &timing_keys);
-    section(r, "camera", camera != &new.camera, &[]);
-    section(r, "camera.tool_from_camera", tool_from_camera != &new.tool_from_camera, &[]);
-    section(r, "camera.truth", camera_truth != &new.camera_truth, &[]);
-    section(r, "object", board != &new.board, &[]);
-    section(r, "vision", vision != &new.vision, &[("camera.source", vision.source != new.vision.source)]);
-    section(r, "plant", plant != &new.plant, &fields!("plant", plant, new.plant; mode, rk4_substeps));
-    section(r, "interpolator", interpolator != &new.interpolator, &[]);
-    let servo_keys = fields!("joint_servo", joint_servo, new.joint_servo; law, kp, kv);
-    section(r, "joint_servo", joint_servo != &new.joint_servo, &servo_keys);
-    section(r, "scenario", scenario != &new.scenario, &[]);
+        fields!("timing", timing, new.cell.timing; vision_period_s, pipeline_delay_frames, control_period_s);
+    section(r, "timing", timing != &new.cell.timing, &timing_keys);
+    section(r, "camera", camera != &new.cell.camera, &[]);
+    section(r, "camera.tool_from_camera", tool_from_camera != &new.cell.tool_from_camera, &[]);
+    section(r, "camera.truth", camera_truth != &new.cell.camera_truth, &[]);
+    section(r, "object", board != &new.cell.board, &[]);
+    section(
+        r,
+        "vision",
+        vision != &new.cell.vision,
+        &[("camera.source", vision.source != new.cell.vision.source)],
+    );
+    section(
+        r,
+        "plant",
+        plant != &new.cell.plant,
+        &fields!("plant", plant, new.cell.plant; mode, rk4_substeps),
+    );
+    section(r, "interpolator", interpolator != &new.cell.interpolator, &[]);
+    let servo_keys = fields!("joint_servo", joint_servo, new.cell.joint_servo; law, kp, kv);
+    section(r, "joint_servo", joint_servo != &new.cell.joint_servo, &servo_keys);
+    section(r, "scenario", scenario != &new.cell.scenario, &[]);
     section(r, "runtime", runtime != &new.runtime, &runtime_keys(runtime, &new.runtime));
-    let robot_keys = fields!("robot", robot, new.robot; driver, command, period_s, state_timeout_periods);
-    section(r, "robot", robot != &new.robot, &robot_keys);
-    section(r, "robot.arm", arm != &new.arm || arm_urdf_file != &new.arm_urdf_file, &[]);
+    let robot_keys =
+        fields!("robot", robot, new.cell.robot; driver, command, period_s, state_timeout_periods);
+    section(r, "robot", robot != &new.cell.robot, &robot_keys);
+    section(r, "robot.arm", arm != &new.cell.arm || arm_urdf_file != &new.arm_urdf_file, &[]);
     // the times are durations in Config, named by their keys in the file
     let fault_keys = [
         ("faults.target_lost_s", faults.target_lost != new.faults.target_lost),
@@ -165,7 +184,7 @@ pub fn diff(old: &Config, new: &Config) -> ConfigDiff {
         ("faults.resume_after_s", faults.resume_after != new.faults.resume_after),
     ];
     section(r, "faults", faults != &new.faults, &fault_keys);
-    section(r, "reacquire", reacquire != &new.reacquire, &[]);
+    section(r, "reacquire", reacquire != &new.cell.reacquire, &[]);
     section(
         r,
         "viewer",
@@ -243,7 +262,7 @@ pub fn plan(
     }
     let target = client_target.filter(|_| !diff.desired_changed()).copied();
     if let Some(target) = &target {
-        target::check_features(&new.cell(), new.controller.options.border_margin_px, &target.features)
+        target::check_features(&new.cell, new.cell.controller.options.border_margin_px, &target.features)
             .map_err(|why| ReloadRefused::TargetInForce { path: path.to_string(), why })?;
     }
     let restart_nodes = !by_node_restart.is_empty();
@@ -321,7 +340,7 @@ mod tests {
         // a client's target with mark 4 at 15 px from the top
         let features =
             vservo_scene::FeatureVector::from([151.0, 168.0, 318.0, 178.0, 339.0, 75.0, 172.0, 15.0]);
-        let client = Target { features, depths: old.desired.depths };
+        let client = Target { features, depths: old.cell.desired.depths };
         let feedforward = with("feedforward = false", "feedforward = true");
         assert_eq!(
             plan("f", (&old, false), Some(&client), &feedforward),

@@ -105,16 +105,16 @@ impl Settings {
         let runtime = &config.runtime;
         Self {
             instance: config.instance.clone(),
-            external_robot: !config.robot.driver.is_simulated(),
-            external_camera: config.vision.source.from_camera_driver(),
-            robot_deadline: Duration::from_secs_f64(config.robot.state_timeout_s()),
-            camera_timeout: config.faults.camera_timeout(config.timing.vision_period_s),
+            external_robot: !config.cell.robot.driver.is_simulated(),
+            external_camera: config.cell.vision.source.from_camera_driver(),
+            robot_deadline: Duration::from_secs_f64(config.cell.robot.state_timeout_s()),
+            camera_timeout: config.faults.camera_timeout(config.cell.timing.vision_period_s),
             hang_timeout: runtime.hang_timeout,
             stop_timeout: runtime.stop_timeout,
             initial_backoff: runtime.restart_backoff_initial,
             max_backoff: runtime.restart_backoff_max,
             status_every: (status_every_s > 0.0).then(|| Duration::from_secs_f64(status_every_s)),
-            arm_joints: config.arm.joint_count(),
+            arm_joints: config.cell.arm.joint_count(),
         }
     }
 
@@ -165,9 +165,8 @@ struct Daemon {
 fn load_config(config_path: &Path) -> anyhow::Result<(Config, String, Gains)> {
     // the file with the bases it extends merged in: the nodes are handed that text
     let (config, config_text) = Config::load_with_text(config_path)?;
-    let cell =
-        vservo_cell::Cell::new(&config.cell()).with_context(|| format!("{}", config_path.display()))?;
-    if let vservo_config::VisionSource::Directory(directory) = &config.vision.source {
+    let cell = vservo_cell::Cell::new(&config.cell).with_context(|| format!("{}", config_path.display()))?;
+    if let vservo_config::VisionSource::Directory(directory) = &config.cell.vision.source {
         anyhow::bail!(
             "{}: camera.source = \"directory\" ({}): recorded images cannot close the loop; check them open-loop with `vservoctl vision extract`, or set camera.source = \"simulated\" or \"external\"",
             config_path.display(),
@@ -227,7 +226,7 @@ impl Daemon {
         let mut safety = Safety::new(
             &node,
             &settings.instance,
-            (config.faults, config.robot.start_held),
+            (config.faults, config.cell.robot.start_held),
             arm_joints,
             launcher.seal_key.clone(),
         )?;
@@ -245,10 +244,10 @@ impl Daemon {
         let started_ns = monotonic_ns();
         if settings.external_robot {
             tracing::info!(
-                command = config.robot.command.name(),
-                period_s = config.robot.period_s,
+                command = config.cell.robot.command.name(),
+                period_s = config.cell.robot.period_s,
                 deadline_s = settings.robot_deadline.as_secs_f64(),
-                driver = config.robot.driver.name(),
+                driver = config.cell.robot.driver.name(),
                 "no plant: waiting for the robot driver's joint states"
             );
         }
