@@ -194,7 +194,7 @@ fn what_the_configuration_accepts_the_cell_can_do() {
     nix::unistd::mkfifo(&fifo, nix::sys::stat::Mode::from_bits_truncate(0o600)).expect("mkfifo");
     let long = scratch.join("long.toml");
     let mut text = std::fs::read_to_string(vservo_system_tests::default_config()).expect("default");
-    while text.len() <= 4 * 1024 * 1024 {
+    while text.len() as u64 <= vservo_config::MAX_CONFIG_FILE_BYTES {
         text.push_str(&format!("# {}\n", "padding ".repeat(16)));
     }
     std::fs::write(&long, text).expect("written");
@@ -202,7 +202,7 @@ fn what_the_configuration_accepts_the_cell_can_do() {
         ("/dev/zero", "a character device"),
         (fifo.to_str().expect("utf-8"), "a FIFO"),
         (scratch.to_str().expect("utf-8"), "a directory"),
-        (long.to_str().expect("utf-8"), "longer than 4 MiB"),
+        (long.to_str().expect("utf-8"), "longer than 1 MiB"),
     ];
     for (path, why) in cases {
         for (name, args) in [

@@ -16,7 +16,10 @@
 //!   scheduled on the current features ([`frame_design`]), a barrier that keeps the marks inside the image
 //!   ([`border`]), and the target's own motion fed forward ([`target_motion`]);
 //! - [`analysis`]: closed-loop eigenvalues with and without the pipeline delay, and the Corollary 1
-//!   stability margins.
+//!   stability margins;
+//! - [`pose_features`]: the features of the target's pose for the laws beyond image-based servoing (pose-based
+//!   on the camera's or the target's straight line, and 2½-D) with their interaction matrices; not yet a law the
+//!   servo runs.
 //!
 //! Units: SI inside (m/s and rad/s for the camera twist u = [v; ω] in the camera frame), features in pixels,
 //! so K is in m/s and rad/s per pixel.
@@ -56,6 +59,7 @@ pub mod frame_design;
 pub mod image_jacobian;
 pub mod law;
 pub mod lq;
+pub mod pose_features;
 pub mod target_motion;
 
 pub use design::{ControlLaw, Gains, GainsError, GainsSpec, Interaction, LawOptions};
