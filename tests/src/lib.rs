@@ -135,6 +135,31 @@ pub fn unique(name: &str) -> String {
     format!("it-{name}-{}", std::process::id())
 }
 
+/// A folder for a test's files (`<temp>/vservo-<name>`), removed when the test ends, passed or failed.
+pub struct ScratchDir(pub PathBuf);
+
+impl ScratchDir {
+    /// Makes the folder (a name of [`unique`] keeps tests and runs apart).
+    pub fn new(name: &str) -> Self {
+        let dir = std::env::temp_dir().join(format!("vservo-{name}"));
+        std::fs::create_dir_all(&dir).expect("a scratch folder");
+        Self(dir)
+    }
+
+    /// Writes `text` to the file `name` in it; its path.
+    pub fn write(&self, name: &str, text: &str) -> PathBuf {
+        let path = self.0.join(name);
+        std::fs::write(&path, text).expect("written");
+        path
+    }
+}
+
+impl Drop for ScratchDir {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.0);
+    }
+}
+
 /// A running daemon; killed (and its nodes with it) if the test ends early.
 pub struct Daemon {
     /// The daemon process.
@@ -294,14 +319,7 @@ pub fn running(status: &Value) -> bool {
 /// A daemon of the default cell under `instance`, once every node runs (its configuration lives as long as
 /// the returned guard).
 pub fn running_daemon(instance: &str) -> (TempConfig, Daemon) {
-    let config = instance_config(instance);
-    let daemon = Daemon::start(&config);
-    assert!(
-        wait_until(Duration::from_secs(10), || status(instance).is_some_and(|s| running(&s))),
-        "{}",
-        daemon.log()
-    );
-    (config, daemon)
+    running_daemon_of("config/vservo.toml", instance)
 }
 
 /// [`running_daemon`] of the repository's configuration `file` (`config/…`, its bases merged in).

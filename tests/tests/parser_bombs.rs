@@ -8,35 +8,12 @@ use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
-use vservo_system_tests::{binary, repository_root, unique};
+use vservo_system_tests::{ScratchDir, binary, repository_root, unique};
 
 /// The bars: refused within this…
 const REFUSED_WITHIN: Duration = Duration::from_secs(1);
 /// …in at most this much memory (the process's peak resident set, kB)…
 const PEAK_KB: i64 = 100 * 1024;
-
-/// A scratch folder, removed when done (even when the test fails).
-struct Scratch(PathBuf);
-
-impl Scratch {
-    fn new(name: &str) -> Self {
-        let dir = std::env::temp_dir().join(unique(name));
-        std::fs::create_dir_all(&dir).expect("scratch folder");
-        Self(dir)
-    }
-
-    fn write(&self, name: &str, text: &str) -> PathBuf {
-        let path = self.0.join(name);
-        std::fs::write(&path, text).expect("written");
-        path
-    }
-}
-
-impl Drop for Scratch {
-    fn drop(&mut self) {
-        let _ = std::fs::remove_dir_all(&self.0);
-    }
-}
 
 /// How a process ended: its exit status, wall time, peak resident set (kB) and standard error.
 struct Ended {
@@ -89,7 +66,7 @@ fn start(program: &str, config: &Path, out: &Path) -> Child {
 }
 
 /// `config` given to vservod and to `vservoctl sim`: each refuses it within the bars, naming `file` and `bound`.
-fn refused_by_both(what: &str, config: &Path, file: &Path, bound: &str, scratch: &Scratch) {
+fn refused_by_both(what: &str, config: &Path, file: &Path, bound: &str, scratch: &ScratchDir) {
     for program in ["vservod", "vservoctl"] {
         let started = Instant::now();
         let ended =
@@ -116,7 +93,7 @@ fn refused_by_both(what: &str, config: &Path, file: &Path, bound: &str, scratch:
 }
 
 /// An overlay of config/arms/ur5e.toml (an arm read from a URDF) reading `urdf`.
-fn urdf_config(scratch: &Scratch, name: &str, urdf: &Path) -> PathBuf {
+fn urdf_config(scratch: &ScratchDir, name: &str, urdf: &Path) -> PathBuf {
     let base = repository_root().join("config/arms/ur5e.toml");
     let text = format!(
         "extends = \"{}\"\n[instance]\nname = \"{}\"\n[robot.arm]\nurdf = \"{}\"\ntip_link = \"flange\"\n",
@@ -129,7 +106,7 @@ fn urdf_config(scratch: &Scratch, name: &str, urdf: &Path) -> PathBuf {
 
 #[test]
 fn the_reviews_urdf_bombs_are_refused_at_once_in_little_memory_naming_the_file_and_the_bound() {
-    let scratch = Scratch::new("urdf-bombs");
+    let scratch = ScratchDir::new(&unique("urdf-bombs"));
     let bombs = [
         ("nested-12500", format!("<robot>{}{}</robot>", "<link>".repeat(12_500), "</link>".repeat(12_500))),
         ("nested-200000", format!("<robot>{}{}</robot>", "<a>".repeat(200_000), "</a>".repeat(200_000))),
@@ -151,7 +128,7 @@ fn the_reviews_urdf_bombs_are_refused_at_once_in_little_memory_naming_the_file_a
 
 #[test]
 fn the_reviews_alias_bomb_and_a_pipeline_of_thousands_of_elements_are_refused_at_once() {
-    let scratch = Scratch::new("text-bombs");
+    let scratch = ScratchDir::new(&unique("text-bombs"));
     // 589 bytes that grew to gigabytes in the loader: nine levels of six aliases each
     let mut yaml =
         String::from("a: &a [\"lol\",\"lol\",\"lol\",\"lol\",\"lol\",\"lol\",\"lol\",\"lol\",\"lol\"]\n");

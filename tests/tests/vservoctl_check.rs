@@ -9,26 +9,9 @@ use std::time::Duration;
 
 use serde_json::Value;
 use vservo_system_tests::{
-    Daemon, TempConfig, config_from, exclusive, pybullet_driver, repository_root, ros2_control_arm, run,
-    unique, vservoctl, wait_until,
+    Daemon, ScratchDir, TempConfig, config_from, exclusive, pybullet_driver, repository_root,
+    ros2_control_arm, run, unique, vservoctl, wait_until,
 };
-
-/// A directory for a run's files, removed when the test ends (passed or failed).
-struct RunDir(PathBuf);
-
-impl RunDir {
-    fn of(instance: &str) -> Self {
-        let dir = std::env::temp_dir().join(format!("vservo-{instance}"));
-        std::fs::create_dir_all(&dir).expect("a directory for the run");
-        Self(dir)
-    }
-}
-
-impl Drop for RunDir {
-    fn drop(&mut self) {
-        let _ = std::fs::remove_dir_all(&self.0);
-    }
-}
 
 /// `vservoctl check --json` on `instance`: its exit code and its object.
 fn check(instance: &str) -> (Option<i32>, Value) {
@@ -70,7 +53,7 @@ fn check_the_ur5e_cell(name: &str, edit: impl FnOnce(&mut Value)) -> (Option<i32
          start = \"held\"\n",
         root.join("config/arms/ur5e.toml").display()
     ));
-    let dir = RunDir::of(&instance);
+    let dir = ScratchDir::new(&instance);
     let scene = scene(&config, &dir.0, edit);
     let daemon = Daemon::start(&config);
     let _driver = pybullet_driver(&scene, &root.join("config/arms/ur5e.urdf"), &instance);
@@ -174,7 +157,7 @@ fn a_wrong_joint_name_fails_the_joints_check() {
             ("start = \"servoing\"", "start = \"held\""),
         ],
     );
-    let dir = RunDir::of(&instance);
+    let dir = ScratchDir::new(&instance);
     let scene = scene(&config, &dir.0, |_| {});
     let daemon = Daemon::start(&config);
     let _arm = ros2_control_arm(&scene, domain, &dir.0.join("arm.json"), &[]);

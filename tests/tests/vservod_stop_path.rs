@@ -438,15 +438,6 @@ fn a_replaced_safe_stop_path_is_a_safe_stop_and_is_made_again() {
     daemon.stop();
 }
 
-/// A file removed when the test ends, passed or failed.
-struct Removed(std::path::PathBuf);
-
-impl Drop for Removed {
-    fn drop(&mut self) {
-        let _ = std::fs::remove_file(&self.0);
-    }
-}
-
 /// Issue 37: vservod answers SIGTERM within a second during any parse. The longest the bounds allow: a
 /// configuration of a megabyte with its bases (an overlay of config/arms/ur5e.toml padded with comments)
 /// reading a URDF of nearly the most elements (the UR5e with 4,900 more links on fixed joints: 19,634), a
@@ -465,13 +456,13 @@ fn vservod_answers_sigterm_within_a_second_while_it_parses_the_longest_files_the
             )
         })
         .collect();
-    let urdf = Removed(std::env::temp_dir().join(format!("{}.urdf", unique("longest-parse"))));
-    std::fs::write(&urdf.0, ur5e.replace("</robot>", &format!("{extra}</robot>"))).expect("written");
+    let scratch = vservo_system_tests::ScratchDir::new(&unique("longest-parse"));
+    let urdf = scratch.write("long.urdf", &ur5e.replace("</robot>", &format!("{extra}</robot>")));
     let mut text = format!(
         "extends = \"{}\"\n[instance]\nname = \"{}\"\n[robot.arm]\nurdf = \"{}\"\n",
         root.join("config/arms/ur5e.toml").display(),
         unique("longest-parse"),
-        urdf.0.display()
+        urdf.display()
     );
     let bases: u64 = ["config/arms/ur5e.toml", "config/vservo-robust.toml", "config/vservo.toml"]
         .iter()

@@ -1,14 +1,5 @@
-//! `vservoctl calibrate`: the camera's intrinsics and lens and the hand-eye transform (`tool_from_camera`),
-//! from views of the calibration board (`[calibration]`) at poses spread over a half sphere around it
-//! (docs/CALIBRATION.md). The command line of the `vservo_calibrate` crate, whose modules are named below.
-//!
-//! The steps: find the board (`live`: through a running vservod, from a view where the arm is now; in lockstep
-//! where the configuration's world puts it); plan the poses (`plan`: each reachable and with the board in view,
-//! checked before anything moves) and check their spread (`spread`); take the views (`live`: moving the arm
-//! through the daemon and taking the camera's frames; `capture`: the simulated cell in lockstep, its camera as
-//! `[camera.truth]` says it is); hand them to the solver (`dataset`, `solver`: OpenCV and SciPy); report the
-//! residuals and, when the truth is known, the errors against it (`report`); write the calibration file
-//! (`file`); with `--apply`, make the configuration read it and ask the running instance to take it (`apply`).
+//! `vservoctl calibrate`: the command line of the `vservo_calibrate` crate (docs/CALIBRATION.md; the crate's doc
+//! has the steps): its arguments, the order of the steps, and the report printed.
 
 use std::path::PathBuf;
 
