@@ -63,11 +63,31 @@ fn the_robust_law_allocates_nothing_per_frame_either() {
     config.cell.controller.law = vservo_control::ControlLaw::DelayAware;
     // a margin just clear of the marks nearest the top edge (70 px at ξ_d), which the translation step
     // moves up: the barrier acts
-    config.cell.controller.options =
-        LawOptions { interaction: Interaction::Mean, border_margin_px: 65.0, feedforward: true };
+    config.cell.controller.options = LawOptions {
+        interaction: Interaction::Mean,
+        border_margin_px: 65.0,
+        feedforward: true,
+        ..Default::default()
+    };
     let flags = runs_without_allocating(config);
     assert!(flags.iter().any(|f| f.feedforward), "{flags:?}");
     assert!(flags.iter().any(|f| f.barrier), "{flags:?}");
+}
+
+/// The pose-based laws: the board's pose from the marks, the pose error and its interaction matrix, within
+/// the barrier, and the delay-aware image law when a frame shows three marks.
+#[test]
+fn the_pose_based_laws_allocate_nothing_per_frame_either() {
+    use vservo_control::ControlLaw;
+    for law in [ControlLaw::Pbvs, ControlLaw::PbvsTarget, ControlLaw::TwoAndAHalfD] {
+        let mut config =
+            vservo_config::Config::load(concat!(env!("CARGO_MANIFEST_DIR"), "/../../config/vservo.toml"))
+                .expect("the default config loads");
+        config.cell.controller.law = law;
+        config.cell.controller.options.border_margin_px = 65.0;
+        let flags = runs_without_allocating(config);
+        assert!(flags.iter().any(|f| f.barrier), "{law:?}: {flags:?}");
+    }
 }
 
 /// Arms from their URDFs (config/arms/xarm6.toml and panda.toml, PyBullet's xArm6 and Panda, simulated

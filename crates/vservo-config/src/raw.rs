@@ -425,6 +425,12 @@ pub struct RawController {
     pub border_margin_px: Option<f64>,
     #[serde(default)]
     pub feedforward: Option<bool>,
+    #[serde(default)]
+    pub pose_gain_per_s: Option<f64>,
+    #[serde(default)]
+    pub pose_max_speed_m_s: Option<f64>,
+    #[serde(default)]
+    pub pose_max_rotation_rad_s: Option<f64>,
 }
 
 #[derive(Debug, Deserialize)]

@@ -46,8 +46,12 @@ fn synthesis(c: &mut Criterion) {
     // the robust settings: a gain designed on every frame from B at the mean of ξ_d's and the current
     // features (the depths from the board pose they give), the target's motion fed forward, the barrier
     let mut robust_spec = delay_aware;
-    robust_spec.options =
-        LawOptions { interaction: Interaction::Mean, border_margin_px: 20.0, feedforward: true };
+    robust_spec.options = LawOptions {
+        interaction: Interaction::Mean,
+        border_margin_px: 20.0,
+        feedforward: true,
+        ..Default::default()
+    };
     let robust = Gains::design(&robust_spec).expect("designable");
     let mut law = ServoLaw::new(geometry(), &robust);
     let pose = IsometryMatrix3::identity();

@@ -18,6 +18,16 @@ pub enum GainsError {
     /// The period is not a positive finite number.
     #[error("the vision period {0} s must be positive")]
     Period(f64),
+    /// The pose-based laws' λ is not positive or more than one per vision period.
+    #[error(
+        "the pose-based law's gain λ = {gain_per_s} 1/s must be positive and at most 1/T ({most_per_s} 1/s)"
+    )]
+    PoseGain {
+        /// λ (1/s).
+        gain_per_s: f64,
+        /// 1/T (1/s).
+        most_per_s: f64,
+    },
     /// A desired mark is at or behind the camera.
     #[error("desired depth of mark {mark} is {depth_m} m; it must be in front of the camera")]
     Depth {
@@ -69,6 +79,10 @@ impl Gains {
         if spec.delay_frames > MAX_DELAY_FRAMES {
             return Err(LqError::DelayTooLong(spec.delay_frames).into());
         }
+        let pose_gain = spec.options.pose_gain_per_s;
+        if spec.law.is_pose_based() && !(pose_gain > 0.0 && pose_gain * spec.period_s <= 1.0) {
+            return Err(GainsError::PoseGain { gain_per_s: pose_gain, most_per_s: 1.0 / spec.period_s });
+        }
         let b = interaction_matrix(&spec.camera, &spec.desired_features, &spec.desired_depths, spec.period_s);
         let decomposition = ModeDecomposition::of(&b)?;
         let r_si = spec.r.si();
@@ -76,7 +90,8 @@ impl Gains {
         let mut past_input_gains = [Matrix6::zeros(); MAX_DELAY_FRAMES];
         let feature_gain = match spec.law {
             ControlLaw::Paper => paper.k,
-            ControlLaw::DelayAware => {
+            // the pose-based laws run the delay-aware image law on a frame with three marks
+            ControlLaw::DelayAware | ControlLaw::Pbvs | ControlLaw::PbvsTarget | ControlLaw::TwoAndAHalfD => {
                 let gain = lq::delay_aware_gain(&decomposition, &spec.q, &r_si, spec.delay_frames)?;
                 for (slot, k) in past_input_gains.iter_mut().zip(&gain.past_input_gains) {
                     *slot = *k;
@@ -102,9 +117,6 @@ impl Gains {
 
     /// The gains on past commands that the law uses (empty for the paper's law).
     pub fn active_past_input_gains(&self) -> &[Matrix6<f64>] {
-        match self.law {
-            ControlLaw::Paper => &[],
-            ControlLaw::DelayAware => &self.past_input_gains[..self.delay_frames],
-        }
+        if self.law.predicts_through_delay() { &self.past_input_gains[..self.delay_frames] } else { &[] }
     }
 }

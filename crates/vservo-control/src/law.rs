@@ -18,8 +18,12 @@ use vservo_scene::{Board, CameraIntrinsics, FEATURES, FeatureVector, IsometryMat
 use crate::border::Barrier;
 use crate::frame_design::{self, ALL_MARKS, FrameDesign, MarkSet};
 use crate::image_jacobian::{extended_image_jacobian, interaction_matrix};
+use crate::pose_features::PoseFeatures;
+use crate::pose_law::PoseLaw;
 use crate::target_motion::TargetMotion;
-use crate::{FeatureGain, Gains, Interaction, InteractionMatrix, LawOptions, MAX_DELAY_FRAMES, Twist};
+use crate::{
+    ControlLaw, FeatureGain, Gains, Interaction, InteractionMatrix, LawOptions, MAX_DELAY_FRAMES, Twist,
+};
 
 /// What the law needs of a design: the gain on the feature error, the gains on past commands, ξ_d, and what
 /// the law designs from on the frame. This is what crosses from the process that designs gains (off the hot
@@ -42,6 +46,19 @@ pub struct LawGains {
     pub r_si: Matrix6<f64>,
     /// What the law does beyond the paper's.
     pub options: LawOptions,
+    /// The pose features of a pose-based law (which runs the delay-aware image law on three marks); `None` for
+    /// the image laws.
+    pub pose_features: Option<PoseFeatures>,
+}
+
+/// The pose features a law servoes on with all four marks seen; `None` for the image laws.
+pub fn pose_features_of(law: ControlLaw) -> Option<PoseFeatures> {
+    match law {
+        ControlLaw::Paper | ControlLaw::DelayAware => None,
+        ControlLaw::Pbvs => Some(PoseFeatures::CameraPath),
+        ControlLaw::PbvsTarget => Some(PoseFeatures::TargetPath),
+        ControlLaw::TwoAndAHalfD => Some(PoseFeatures::TwoAndAHalfD),
+    }
 }
 
 impl From<&Gains> for LawGains {
@@ -55,6 +72,7 @@ impl From<&Gains> for LawGains {
             q: *gains.q.matrix(),
             r_si: gains.r_si,
             options: gains.options,
+            pose_features: pose_features_of(gains.law),
         }
     }
 }
@@ -95,6 +113,8 @@ pub struct ServoLaw {
     full: Option<FrameDesign>,
     /// The fixed design on the marks other than m.
     without: [Option<FrameDesign>; MARKS],
+    /// The pose-based law, when one is chosen and ξ_d gives a pose.
+    pose_law: Option<PoseLaw>,
     r_inverse: Matrix6<f64>,
     /// Commands sent, most recent first.
     history: [Twist; MAX_DELAY_FRAMES],
@@ -115,6 +135,7 @@ impl ServoLaw {
             b_desired: InteractionMatrix::zeros(),
             full: None,
             without: [None; MARKS],
+            pose_law: None,
             r_inverse: Matrix6::identity(),
             history: [Twist::zeros(); MAX_DELAY_FRAMES],
             depths: gains.desired_depths,
@@ -145,6 +166,9 @@ impl ServoLaw {
             self.without[mark] = frame_design::design(&b, &gains.q, &gains.r_si).ok();
         }
         self.r_inverse = gains.r_si.try_inverse().unwrap_or_else(Matrix6::identity);
+        self.pose_law = gains.pose_features.and_then(|features| {
+            PoseLaw::new(features, &g.camera, &g.board, &gains.desired_features, &gains.options, g.period_s)
+        });
         if target_changed {
             self.target.reset();
         }
@@ -191,22 +215,29 @@ impl ServoLaw {
         let marks = frame_design::finite_marks(measured);
         let options = self.gains.options;
         self.flags = LawFlags::default();
-        if options.needs_depths() && marks == ALL_MARKS {
+        let pose_based = self.gains.pose_features.is_some();
+        let board_pose = if (options.needs_depths() || pose_based) && marks == ALL_MARKS {
             let g = &self.geometry;
-            if let Some(pose) = g.camera.board_pose_from_features(&g.board, measured) {
-                for (depth, mark) in self.depths.iter_mut().zip(&g.board.marks_in_board) {
-                    let z = (pose * mark).z;
-                    if z.is_finite() && z > 0.0 {
-                        *depth = z;
-                    }
-                }
-            }
+            g.camera.board_pose_from_features(&g.board, measured)
+        } else {
+            None
+        };
+        if let Some(pose) = &board_pose {
+            self.take_depths(pose);
         }
         if options.feedforward {
             self.target.update(&self.geometry.camera, frame, measured, &self.depths, marks, base_from_camera);
         }
         if frame_design::mark_count(marks) < 3 {
             return None;
+        }
+        if pose_based && marks == ALL_MARKS {
+            if let Some(twist) = board_pose.and_then(|pose| self.pose_twist(measured, &pose)) {
+                self.remember(twist);
+                return Some(twist);
+            }
+            // no pose or no pose error on this frame (a degenerate image): the image law
+            self.flags.fixed_gain_fallback = true;
         }
         let plain = marks == ALL_MARKS && options == LawOptions::default();
         if plain {
@@ -297,6 +328,41 @@ impl ServoLaw {
         }
         self.remember(twist);
         Some(twist)
+    }
+
+    /// The depths of the marks at the board's pose, where finite and in front of the camera.
+    fn take_depths(&mut self, camera_from_board: &IsometryMatrix3<f64>) {
+        for (depth, mark) in self.depths.iter_mut().zip(&self.geometry.board.marks_in_board) {
+            let z = (camera_from_board * mark).z;
+            if z.is_finite() && z > 0.0 {
+                *depth = z;
+            }
+        }
+    }
+
+    /// The pose-based law's twist on a frame with all four marks, within the barrier when one is set; `None`
+    /// when the law gives none.
+    fn pose_twist(
+        &mut self,
+        measured: &FeatureVector,
+        camera_from_board: &IsometryMatrix3<f64>,
+    ) -> Option<Twist> {
+        let pose_law = self.pose_law?;
+        let delay = self.geometry.delay_frames.min(MAX_DELAY_FRAMES);
+        let in_pipeline: Twist = self.history.iter().take(delay).sum();
+        let twist = pose_law.twist(camera_from_board, &in_pipeline).ok()?;
+        let margin_px = self.gains.options.border_margin_px;
+        if margin_px <= 0.0 {
+            return Some(twist);
+        }
+        let g = &self.geometry;
+        let b = extended_image_jacobian(&g.camera, measured, &self.depths) * g.period_s;
+        let predicted = measured + b * in_pipeline;
+        let barrier = Barrier::new(&g.camera, margin_px, self.r_inverse);
+        let (kept, corrections) =
+            barrier.keep_inside(twist, &b, &predicted, &FeatureVector::zeros(), ALL_MARKS);
+        self.flags.barrier = corrections > 0;
+        Some(kept)
     }
 
     /// No usable features this frame: command zero, and remember that zero was sent.

@@ -18,8 +18,11 @@
 //! - [`analysis`]: closed-loop eigenvalues with and without the pipeline delay, and the Corollary 1
 //!   stability margins;
 //! - [`pose_features`]: the features of the target's pose for the laws beyond image-based servoing (pose-based
-//!   on the camera's or the target's straight line, and 2½-D) with their interaction matrices; not yet a law the
-//!   servo runs.
+//!   on the camera's or the target's straight line, and 2½-D) with their interaction matrices;
+//! - [`pose_law`]: those laws on the per-frame path (`controller.law = "pbvs"`, `"pbvs-target"`, `"2.5d"`): the
+//!   board's pose from the four marks, the pose error predicted through the pipeline, u = −λ L⁻¹ ê within speed
+//!   caps; [`ServoLaw`] runs them with all four marks seen (and the barrier when set), and the delay-aware image
+//!   law on three.
 //!
 //! Units: SI inside (m/s and rad/s for the camera twist u = [v; ω] in the camera frame), features in pixels,
 //! so K is in m/s and rad/s per pixel.
@@ -60,10 +63,11 @@ pub mod image_jacobian;
 pub mod law;
 pub mod lq;
 pub mod pose_features;
+pub mod pose_law;
 pub mod target_motion;
 
 pub use design::{ControlLaw, Gains, GainsError, GainsSpec, Interaction, LawOptions};
-pub use law::{LawFlags, LawGains, LawGeometry, ServoLaw};
+pub use law::{LawFlags, LawGains, LawGeometry, ServoLaw, pose_features_of};
 pub use vservo_settings::control::MAX_DELAY_FRAMES;
 pub use vservo_settings::weights::{self, InputUnits, InputWeight, StateWeight, WeightError};
 

@@ -51,7 +51,7 @@ pub use camera_image::{
 };
 pub use codes::{
     CellMode, CommandKind, CommandMode, DaemonState, DriverError, DriverStatus, Fault, Interaction,
-    MarkStatus, NodeState, PixelFormat, RobotState, UnknownCode, Verdict,
+    MarkStatus, NodeState, PixelFormat, RobotState, ServoFeatures, UnknownCode, Verdict,
 };
 pub use declare::{FieldInfo, WireField, WireMessage};
 pub use inbox::{Payload, Refused, TakeMessages};

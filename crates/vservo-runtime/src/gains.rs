@@ -3,6 +3,7 @@
 //! The design itself is `vservo_cell::gains::design`, the one the daemon, its commander and the nodes run.
 
 use nalgebra::Matrix6;
+use vservo_control::pose_features::PoseFeatures;
 use vservo_control::{FeatureGain, LawGains};
 use vservo_protocol::{GainsMsg, MAX_PAST_GAINS, SCHEMA_VERSION};
 use vservo_scene::FeatureVector;
@@ -55,6 +56,11 @@ pub fn gains_message(gains: &LawGains, version: u64, key: &vservo_protocol::seal
         interaction: wire_interaction(gains.options.interaction).into(),
         feedforward: u32::from(gains.options.feedforward),
         border_margin_px: gains.options.border_margin_px,
+        servo_features: wire_servo_features(gains.pose_features).into(),
+        reserved: 0,
+        pose_gain_per_s: gains.options.pose_gain_per_s,
+        pose_max_speed_m_s: gains.options.pose_max_speed_m_s,
+        pose_max_rotation_rad_s: gains.options.pose_max_rotation_rad_s,
         stamp_ns: crate::clock::monotonic_ns(),
         seal: 0,
     };
@@ -80,6 +86,12 @@ pub fn law_gains(message: &GainsMsg) -> Option<LawGains> {
     if !(margin.is_finite() && margin >= 0.0) || message.feedforward > 1 {
         return None;
     }
+    let pose_features =
+        law_pose_features(vservo_protocol::ServoFeatures::try_from(message.servo_features).ok()?);
+    let pose_numbers = [message.pose_gain_per_s, message.pose_max_speed_m_s, message.pose_max_rotation_rad_s];
+    if !pose_numbers.iter().all(|v| v.is_finite() && *v > 0.0) {
+        return None;
+    }
     if !message.desired_depths_m.iter().all(|z| *z > 0.0) {
         return None;
     }
@@ -100,8 +112,32 @@ pub fn law_gains(message: &GainsMsg) -> Option<LawGains> {
             interaction,
             border_margin_px: margin,
             feedforward: message.feedforward == 1,
+            pose_gain_per_s: message.pose_gain_per_s,
+            pose_max_speed_m_s: message.pose_max_speed_m_s,
+            pose_max_rotation_rad_s: message.pose_max_rotation_rad_s,
         },
+        pose_features,
     })
+}
+
+/// The law's pose features as the wire's code.
+fn wire_servo_features(features: Option<PoseFeatures>) -> vservo_protocol::ServoFeatures {
+    match features {
+        None => vservo_protocol::ServoFeatures::Image,
+        Some(PoseFeatures::CameraPath) => vservo_protocol::ServoFeatures::CameraPose,
+        Some(PoseFeatures::TargetPath) => vservo_protocol::ServoFeatures::TargetPose,
+        Some(PoseFeatures::TwoAndAHalfD) => vservo_protocol::ServoFeatures::TwoAndAHalfD,
+    }
+}
+
+/// The wire's code as the law's pose features.
+fn law_pose_features(features: vservo_protocol::ServoFeatures) -> Option<PoseFeatures> {
+    match features {
+        vservo_protocol::ServoFeatures::Image => None,
+        vservo_protocol::ServoFeatures::CameraPose => Some(PoseFeatures::CameraPath),
+        vservo_protocol::ServoFeatures::TargetPose => Some(PoseFeatures::TargetPath),
+        vservo_protocol::ServoFeatures::TwoAndAHalfD => Some(PoseFeatures::TwoAndAHalfD),
+    }
 }
 
 /// The law's interaction as the wire's code (the law knows no codes).
@@ -132,12 +168,15 @@ mod tests {
             vservo_config::Config::load(concat!(env!("CARGO_MANIFEST_DIR"), "/../../config/vservo.toml"))
                 .expect("default config");
         let mut spec = config.cell.gains_spec();
-        spec.law = vservo_control::ControlLaw::DelayAware;
+        spec.law = vservo_control::ControlLaw::TwoAndAHalfD;
         // the options travel with the gains (a reload applies them)
         spec.options = vservo_control::LawOptions {
             interaction: vservo_control::Interaction::Mean,
             border_margin_px: 20.0,
             feedforward: true,
+            pose_gain_per_s: 3.0,
+            pose_max_speed_m_s: 0.3,
+            pose_max_rotation_rad_s: 1.5,
         };
         let gains = vservo_control::Gains::design(&spec).expect("design");
         let law = LawGains::from(&gains);
@@ -153,7 +192,12 @@ mod tests {
         let mut changed = gains_message(&law, 3, &key);
         changed.border_margin_px = 0.0;
         assert_ne!(key.seal(&changed), changed.seal, "the margin is under the seal");
-        let spoilers: [fn(&mut GainsMsg); 6] = [
+        let spoilers: [fn(&mut GainsMsg); 11] = [
+            |m: &mut GainsMsg| m.pose_max_speed_m_s = -1.0,
+            |m: &mut GainsMsg| m.pose_max_rotation_rad_s = f64::INFINITY,
+            |m: &mut GainsMsg| m.servo_features = 4,
+            |m: &mut GainsMsg| m.pose_gain_per_s = 0.0,
+            |m: &mut GainsMsg| m.pose_gain_per_s = f64::NAN,
             |m: &mut GainsMsg| m.interaction = 3,
             |m: &mut GainsMsg| m.feedforward = 2,
             |m: &mut GainsMsg| m.border_margin_px = -1.0,

@@ -15,6 +15,13 @@ pub enum ControlLaw {
     Paper,
     /// LQ on the delay-augmented state: u = −K_ξ (ξ − ξ_d) − Σ K_j u(k − j).
     DelayAware,
+    /// Pose-based: on the board's pose from its four marks, the camera on a straight line to the desired pose,
+    /// u = −λ L⁻¹ ê with ê the pose error predicted through the pipeline.
+    Pbvs,
+    /// Pose-based with the board's origin on a straight line in the image (it stays in view).
+    PbvsTarget,
+    /// 2½-D (Malis): the board origin's image point, its log depth and the rotation.
+    TwoAndAHalfD,
 }
 
 impl ControlLaw {
@@ -23,9 +30,42 @@ impl ControlLaw {
         match self {
             ControlLaw::Paper => "paper",
             ControlLaw::DelayAware => "delay-aware",
+            ControlLaw::Pbvs => "pbvs",
+            ControlLaw::PbvsTarget => "pbvs-target",
+            ControlLaw::TwoAndAHalfD => "2.5d",
         }
     }
+
+    /// Every law, in the order the documentation lists them.
+    pub const ALL: [ControlLaw; 5] = [
+        ControlLaw::Paper,
+        ControlLaw::DelayAware,
+        ControlLaw::Pbvs,
+        ControlLaw::PbvsTarget,
+        ControlLaw::TwoAndAHalfD,
+    ];
+
+    /// Whether the law servoes on the board's pose (with all four marks seen) rather than on the image.
+    pub fn is_pose_based(&self) -> bool {
+        matches!(self, ControlLaw::Pbvs | ControlLaw::PbvsTarget | ControlLaw::TwoAndAHalfD)
+    }
+
+    /// Whether the law predicts the features through the pipeline's delay (every law but the paper's).
+    pub fn predicts_through_delay(&self) -> bool {
+        *self != ControlLaw::Paper
+    }
 }
+
+/// λ of the pose-based laws when `controller.pose_gain_per_s` is not written (1/s): the error predicted through
+/// the pipeline shrinks by λT per vision period (0.51 at the paper's 85 ms).
+pub const DEFAULT_POSE_GAIN_PER_S: f64 = 6.0;
+
+/// The pose-based laws' camera speed caps when `controller.pose_max_speed_m_s` and
+/// `controller.pose_max_rotation_rad_s` are not written: a twist above either is scaled down whole (its
+/// direction, so the path, kept).
+pub const DEFAULT_POSE_MAX_SPEED_M_S: f64 = 0.5;
+/// See [`DEFAULT_POSE_MAX_SPEED_M_S`].
+pub const DEFAULT_POSE_MAX_ROTATION_RAD_S: f64 = 2.0;
 
 /// Where the servo's model B = T·J⁺ is evaluated (`controller.interaction`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -52,7 +92,7 @@ impl Interaction {
 }
 
 /// What the law does beyond the paper's (all off by default: the paper's law as published).
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct LawOptions {
     /// Where B is evaluated.
     pub interaction: Interaction,
@@ -61,6 +101,26 @@ pub struct LawOptions {
     /// Estimate the target's image motion and feed it forward through the delay
     /// (`vservo_control::target_motion`).
     pub feedforward: bool,
+    /// λ of the pose-based laws, u = −λ L⁻¹ ê (1/s; [`DEFAULT_POSE_GAIN_PER_S`] unless written); the image
+    /// laws do not use it.
+    pub pose_gain_per_s: f64,
+    /// The pose-based laws' linear speed cap (m/s): a faster twist is scaled down whole.
+    pub pose_max_speed_m_s: f64,
+    /// The pose-based laws' angular speed cap (rad/s): a faster twist is scaled down whole.
+    pub pose_max_rotation_rad_s: f64,
+}
+
+impl Default for LawOptions {
+    fn default() -> Self {
+        Self {
+            interaction: Interaction::Desired,
+            border_margin_px: 0.0,
+            feedforward: false,
+            pose_gain_per_s: DEFAULT_POSE_GAIN_PER_S,
+            pose_max_speed_m_s: DEFAULT_POSE_MAX_SPEED_M_S,
+            pose_max_rotation_rad_s: DEFAULT_POSE_MAX_ROTATION_RAD_S,
+        }
+    }
 }
 
 impl LawOptions {

@@ -407,6 +407,20 @@ wire_code! {
     }
 }
 
+wire_code! {
+    /// What the servo's law servoes on with all four marks seen (`gains.servo_features`).
+    pub enum ServoFeatures: u32, "servo features" {
+        /// The image: the paper's and the delay-aware law.
+        Image = 0, "image";
+        /// The camera's pose, on a straight line (`pbvs`).
+        CameraPose = 1, "camera-pose";
+        /// The marks' centre on a straight line in the camera's frame, and the rotation (`pbvs-target`).
+        TargetPose = 2, "target-pose";
+        /// 2½-D: the marks' centre's image point and log depth, and the rotation (`2.5d`).
+        TwoAndAHalfD = 3, "2.5d";
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -449,6 +463,13 @@ mod tests {
             MarkStatus::name,
             |c| u8::try_from(c).ok().and_then(|c| MarkStatus::try_from(c).ok()),
             MarkStatus::from_name,
+        );
+        round_trips(
+            ServoFeatures::ALL,
+            |v| v.code(),
+            ServoFeatures::name,
+            |c| ServoFeatures::try_from(c).ok(),
+            ServoFeatures::from_name,
         );
     }
 

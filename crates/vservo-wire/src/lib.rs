@@ -44,7 +44,7 @@ pub mod supervision;
 
 pub use codes::{
     CellMode, CommandKind, CommandMode, DaemonState, DriverError, DriverStatus, Fault, Interaction,
-    MarkStatus, NodeState, PixelFormat, RobotState, UnknownCode, Verdict,
+    MarkStatus, NodeState, PixelFormat, RobotState, ServoFeatures, UnknownCode, Verdict,
 };
 pub use declare::{FieldInfo, WireField, WireMessage};
 pub use inbox::{Payload, Refused, TakeMessages};

@@ -16,7 +16,7 @@ use iceoryx2::prelude::ZeroCopySend;
 /// 9: `joint_state.driver_error` (was reserved) and `status.driver_error`: the robot's own reason for a driver fault.
 /// 10: the fault `supervision_stalled` (11); `cell_mode` is also a heartbeat, at least every 100 ms, and announces
 /// each node's process (`writers`), which `features` and `camera_twist` carry (`writer_pid`).
-pub const SCHEMA_VERSION: u32 = 10;
+pub const SCHEMA_VERSION: u32 = 11;
 
 /// Joints `joint_state` and `joint_command` have room for: the arm's joints come first, the slots past
 /// `joint_count` are zero.
@@ -560,6 +560,16 @@ wire_message! {
         feedforward: u32,
         /// the barrier keeps seen marks this far inside the image (0: none)
         border_margin_px: f64,
+        /// what the law servoes on with four marks (image; a pose-based law runs the image law on three)
+        servo_features: u32 as ServoFeatures,
+        /// zero
+        reserved: u32,
+        /// λ of a pose-based law (1/s)
+        pose_gain_per_s: f64,
+        /// a pose-based law's linear speed cap (m/s)
+        pose_max_speed_m_s: f64,
+        /// a pose-based law's angular speed cap (rad/s)
+        pose_max_rotation_rad_s: f64,
         /// CLOCK_MONOTONIC when the daemon made it (ns): a later one is newer (`vservo_protocol::freshness`)
         stamp_ns: u64,
         /// the daemon's seal (SipHash-2-4 of the fields under the run's key): other gains are refused

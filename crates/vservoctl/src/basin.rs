@@ -23,7 +23,7 @@ use vservo_lockstep::{FrameRecord, Lockstep};
 use vservo_scene::MARKS;
 
 use crate::UsageError;
-use crate::config_arg::ConfigArg;
+use crate::config_arg::{ConfigArg, LawArg};
 
 /// Arguments of `vservoctl basin`.
 #[derive(Args)]
@@ -46,6 +46,9 @@ pub struct BasinArgs {
     /// some time to the end.
     #[arg(long)]
     full: bool,
+    /// The control law, overriding `controller.law`.
+    #[arg(long, value_enum)]
+    law: Option<LawArg>,
     /// Print the result as JSON instead of a table.
     #[arg(long)]
     json: bool,
@@ -290,6 +293,9 @@ pub fn run(args: &BasinArgs) -> Result<()> {
         }
     }
     let mut config = config;
+    if let Some(law) = args.law {
+        config.cell.controller.law = law.law();
+    }
     config.cell.scenario.duration_s = args.duration;
     // the board holds still and every mark can be seen: what is measured is the law's reach from a start
     config.cell.scenario.object = vservo_sim::world::ObjectMotion::Hold;

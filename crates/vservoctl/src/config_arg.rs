@@ -2,10 +2,10 @@
 
 use std::path::PathBuf;
 
-use clap::Args;
+use clap::{Args, ValueEnum};
 use vservo_config::Config;
-use vservo_control::Gains;
 use vservo_control::lq::{DelayAwareGain, delay_aware_gain};
+use vservo_control::{ControlLaw, Gains};
 
 use crate::UsageError;
 
@@ -21,6 +21,35 @@ impl ConfigArg {
     /// Loads and validates the file; a bad file is the user's to fix (exit code 2).
     pub fn load(&self) -> Result<Config, UsageError> {
         Config::load(&self.config).map_err(|e| UsageError(e.to_string()))
+    }
+}
+
+/// A control law on the command line (`--controller`, `--law`), overriding `controller.law`.
+#[derive(Clone, Copy, Debug, ValueEnum)]
+pub enum LawArg {
+    /// The paper's LQ law.
+    Paper,
+    /// LQ on the state augmented with the commands in the pipeline.
+    DelayAware,
+    /// Pose-based, the camera on a straight line.
+    Pbvs,
+    /// Pose-based, the marks' centre on a straight line.
+    PbvsTarget,
+    /// 2½-D.
+    #[value(name = "2.5d")]
+    TwoAndAHalfD,
+}
+
+impl LawArg {
+    /// The configuration's law of this name.
+    pub fn law(self) -> ControlLaw {
+        match self {
+            LawArg::Paper => ControlLaw::Paper,
+            LawArg::DelayAware => ControlLaw::DelayAware,
+            LawArg::Pbvs => ControlLaw::Pbvs,
+            LawArg::PbvsTarget => ControlLaw::PbvsTarget,
+            LawArg::TwoAndAHalfD => ControlLaw::TwoAndAHalfD,
+        }
     }
 }
 

@@ -6,13 +6,12 @@ use std::path::{Path, PathBuf};
 use anyhow::{Context, Result};
 use clap::{Args, ValueEnum};
 use serde_json::json;
-use vservo_control::ControlLaw;
 use vservo_lockstep::summary::summarize;
 use vservo_lockstep::{Lockstep, Trace};
 use vservo_sim::plant::PlantMode;
 
 use crate::UsageError;
-use crate::config_arg::ConfigArg;
+use crate::config_arg::{ConfigArg, LawArg};
 
 /// Arguments of `vservoctl sim`.
 #[derive(Args)]
@@ -24,19 +23,13 @@ pub struct SimArgs {
     duration: Option<f64>,
     /// The control law, overriding `controller.law`.
     #[arg(long, value_enum)]
-    controller: Option<ControllerArg>,
+    controller: Option<LawArg>,
     /// The plant, overriding `plant.mode`.
     #[arg(long, value_enum)]
     plant: Option<PlantArg>,
     /// Where to write summary.json, features.csv, joints.csv and the plots.
     #[arg(long, value_name = "DIR", default_value = "sim-out")]
     out: PathBuf,
-}
-
-#[derive(Clone, Copy, ValueEnum)]
-enum ControllerArg {
-    Paper,
-    DelayAware,
 }
 
 #[derive(Clone, Copy, PartialEq, Eq, ValueEnum)]
@@ -57,10 +50,7 @@ pub fn run(args: &SimArgs) -> Result<()> {
         config.cell.scenario.duration_s = duration;
     }
     if let Some(controller) = args.controller {
-        config.cell.controller.law = match controller {
-            ControllerArg::Paper => ControlLaw::Paper,
-            ControllerArg::DelayAware => ControlLaw::DelayAware,
-        };
+        config.cell.controller.law = controller.law();
     }
     if let Some(plant) = args.plant {
         // the configuration's own rule: only the PUMA 560 has a dynamics model

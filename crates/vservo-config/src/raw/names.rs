@@ -71,6 +71,10 @@ pub enum RawRobotDriver {
 pub enum RawLaw {
     Paper,
     DelayAware,
+    Pbvs,
+    PbvsTarget,
+    #[serde(rename = "2.5d")]
+    TwoAndAHalfD,
 }
 
 impl From<RawLaw> for vservo_settings::control::ControlLaw {
@@ -78,6 +82,9 @@ impl From<RawLaw> for vservo_settings::control::ControlLaw {
         match law {
             RawLaw::Paper => Self::Paper,
             RawLaw::DelayAware => Self::DelayAware,
+            RawLaw::Pbvs => Self::Pbvs,
+            RawLaw::PbvsTarget => Self::PbvsTarget,
+            RawLaw::TwoAndAHalfD => Self::TwoAndAHalfD,
         }
     }
 }

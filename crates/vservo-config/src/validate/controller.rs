@@ -2,7 +2,10 @@
 
 use vservo_scene::{CameraIntrinsics, FEATURES, FeatureVector, MARKS};
 use vservo_settings::{
-    control::{Interaction, LawOptions},
+    control::{
+        DEFAULT_POSE_GAIN_PER_S, DEFAULT_POSE_MAX_ROTATION_RAD_S, DEFAULT_POSE_MAX_SPEED_M_S, Interaction,
+        LawOptions,
+    },
     weights::{InputWeight, StateWeight},
 };
 
@@ -17,28 +20,72 @@ pub fn controller(
     k: &RawController,
     camera: &CameraIntrinsics,
     desired_features: &FeatureVector,
+    vision_period_s: f64,
 ) -> Result<Controller, ConfigError> {
     let q_matrix = weight::<FEATURES>(check, "controller.q", &k.q)?;
     let q = StateWeight::new(q_matrix).map_err(|e| check.invalid("controller.q", &k.q, e.to_string()))?;
     let r_matrix = weight::<6>(check, "controller.r", &k.r)?;
     let r = InputWeight::new(r_matrix, k.r_units.into())
         .map_err(|e| check.invalid("controller.r", &k.r, e.to_string()))?;
-    let options = law_options(check, k, camera, desired_features)?;
+    let options = law_options(check, k, camera, desired_features, vision_period_s)?;
     Ok(Controller { law: k.law.into(), q, r, options })
 }
 
-/// `controller.interaction`, `controller.border_margin_px` and `controller.feedforward`: optional, the paper's
-/// law as published when left out. A margin must leave ξ_d inside it.
+/// `controller.interaction`, `controller.border_margin_px`, `controller.feedforward` and
+/// `controller.pose_gain_per_s`: optional, the paper's law as published when left out. A margin must leave ξ_d
+/// inside it.
 fn law_options(
     check: &Checker,
     k: &RawController,
     camera: &CameraIntrinsics,
     desired_features: &FeatureVector,
+    vision_period_s: f64,
 ) -> Result<LawOptions, ConfigError> {
     let interaction = k.interaction.map_or(Interaction::Desired, Interaction::from);
     let border_margin_px = border_margin_px(check, k.border_margin_px.unwrap_or(0.0), camera)?;
     desired_inside_the_margin(check, border_margin_px, camera, desired_features)?;
-    Ok(LawOptions { interaction, border_margin_px, feedforward: k.feedforward.unwrap_or(false) })
+    let pose_gain_per_s = pose_gain_per_s(check, k.pose_gain_per_s, vision_period_s)?;
+    let cap = |key: &str, written: Option<f64>, default: f64| match written {
+        None => Ok(default),
+        Some(v) if v.is_finite() && v > 0.0 => Ok(v),
+        Some(v) => Err(check.invalid(key, v, "must be a positive speed")),
+    };
+    Ok(LawOptions {
+        interaction,
+        border_margin_px,
+        feedforward: k.feedforward.unwrap_or(false),
+        pose_gain_per_s,
+        pose_max_speed_m_s: cap(
+            "controller.pose_max_speed_m_s",
+            k.pose_max_speed_m_s,
+            DEFAULT_POSE_MAX_SPEED_M_S,
+        )?,
+        pose_max_rotation_rad_s: cap(
+            "controller.pose_max_rotation_rad_s",
+            k.pose_max_rotation_rad_s,
+            DEFAULT_POSE_MAX_ROTATION_RAD_S,
+        )?,
+    })
+}
+
+/// λ of the pose-based laws: positive, and at most one per vision period (λT ≤ 1: the predicted error shrinks
+/// by λT a frame; beyond 1 it overshoots, beyond 2 it grows).
+fn pose_gain_per_s(check: &Checker, written: Option<f64>, vision_period_s: f64) -> Result<f64, ConfigError> {
+    let Some(gain_per_s) = written else {
+        return Ok(DEFAULT_POSE_GAIN_PER_S);
+    };
+    let most = 1.0 / vision_period_s;
+    if !(gain_per_s.is_finite() && gain_per_s > 0.0 && gain_per_s <= most) {
+        return Err(check.invalid(
+            "controller.pose_gain_per_s",
+            gain_per_s,
+            format!(
+                "must be positive and at most one per vision period ({most:.2} 1/s at {vision_period_s} s): the \
+                 error predicted through the pipeline shrinks by λT a frame"
+            ),
+        ));
+    }
+    Ok(gain_per_s)
 }
 
 /// At least 0 and less than half the image.

@@ -50,7 +50,8 @@ pub fn validate(raw: RawConfig, file: &str) -> Result<Config, ConfigError> {
     };
     let ros2 = ros2::ros2(&check, &raw.ros2, arm.joint_count(), from_ros2)?;
     let desired = desired::desired(&check, &raw.desired, &arm, &camera, &board)?;
-    let controller = controller::controller(&check, &raw.controller, &camera, &desired.features)?;
+    let controller =
+        controller::controller(&check, &raw.controller, &camera, &desired.features, timing.vision_period_s)?;
     let source = camera::source(&check, &raw.camera)?;
     let vision = vision::vision(&check, &raw.vision, source)?;
     let plant = simulation::plant(&check, &raw.plant)?;
