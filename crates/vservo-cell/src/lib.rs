@@ -199,7 +199,12 @@ impl Cell {
 
     /// The servo at rest.
     pub fn servo(&self) -> ServoStage {
-        ServoStage::new(self.law_geometry(), &self.gains, self.config.reacquire)
+        ServoStage::new(
+            self.law_geometry(),
+            &self.gains,
+            self.config.reacquire,
+            self.base_from_desired_camera,
+        )
     }
 
     /// What the law takes from the configuration and never changes.

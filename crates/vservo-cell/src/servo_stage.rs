@@ -4,8 +4,12 @@
 //! - All four marks: the law's twist ([`ServoVerdict::Servoing`]).
 //! - Three: the law on those three ([`ServoVerdict::ServoingOnThree`]).
 //! - Two or fewer: the camera is steered back towards where it was when all four were last seen, its own
-//!   motion since then known from the joint states at capture ([`ServoVerdict::Reacquiring`]); with no such
-//!   pose (none seen yet, or the camera's pose not known), zero twist ([`ServoVerdict::MarksMissing`]).
+//!   motion since then known from the joint states at capture ([`ServoVerdict::Reacquiring`]). Before all four
+//!   have ever been seen (a start with part of the target out of view), towards where the configuration
+//!   predicts them: the camera's pose at `desired.joints_rad`. Without the camera's pose (no joint state at
+//!   capture), the camera turns the marks it sees towards their desired image points ([`acquiring_turn`], also
+//!   `Reacquiring`); with none seen, zero twist ([`ServoVerdict::MarksMissing`]). Either way the daemon's
+//!   `faults.target_lost_s` bounds how long the servo may look: then a named safe stop (`target_lost`).
 //! - Held in a safe stop: zero twist, the law remembering it ([`ServoVerdict::Held`]).
 
 use nalgebra::Point2;
@@ -78,17 +82,24 @@ pub struct ServoStage {
     camera: CameraIntrinsics,
     period_s: f64,
     reacquire: Reacquire,
+    /// Where the camera last saw all four marks; before it has, where the configuration predicts it would (the
+    /// camera's pose at the desired joints).
     last_seen_whole: Option<IsometryMatrix3<f64>>,
 }
 
 impl ServoStage {
-    pub(crate) fn new(geometry: LawGeometry, gains: &Gains, reacquire: Reacquire) -> Self {
+    pub(crate) fn new(
+        geometry: LawGeometry,
+        gains: &Gains,
+        reacquire: Reacquire,
+        base_from_desired_camera: IsometryMatrix3<f64>,
+    ) -> Self {
         Self {
             law: ServoLaw::new(geometry, gains),
             camera: geometry.camera,
             period_s: geometry.period_s,
             reacquire,
-            last_seen_whole: None,
+            last_seen_whole: Some(base_from_desired_camera),
         }
     }
 
@@ -160,14 +171,22 @@ impl ServoStage {
         match self.law.step(frame, seen, base_from_camera) {
             Some(twist) if missing == 0 => (twist, ServoVerdict::Servoing),
             Some(twist) => (twist, ServoVerdict::ServoingOnThree(missing)),
-            None => match (self.last_seen_whole, base_from_camera) {
-                (Some(then), Some(now)) => {
-                    let twist = steer_towards(now, &then, self.period_s, &self.reacquire);
-                    self.law.sent(twist);
-                    (twist, ServoVerdict::Reacquiring(missing))
+            None => {
+                let turn = match (self.last_seen_whole, base_from_camera) {
+                    (Some(then), Some(now)) => {
+                        Some(steer_towards(now, &then, self.period_s, &self.reacquire))
+                    }
+                    // the camera's own pose unknown: turn the marks it sees towards their desired points
+                    _ => acquiring_turn(&self.camera, seen, self.law.desired_features(), &self.reacquire),
+                };
+                match turn {
+                    Some(twist) => {
+                        self.law.sent(twist);
+                        (twist, ServoVerdict::Reacquiring(missing))
+                    }
+                    None => (self.law.hold(), ServoVerdict::MarksMissing(missing)),
                 }
-                _ => (self.law.hold(), ServoVerdict::MarksMissing(missing)),
-            },
+            }
         }
     }
 }
@@ -218,6 +237,40 @@ pub fn steer_towards(
     Twist::new(v.x, v.y, v.z, w.x, w.y, w.z)
 }
 
+/// Before all four marks have been seen: the camera's rotation that moves the mean of the marks it sees towards
+/// the mean of their desired image points (the rotational part of the point's image Jacobian, which needs no
+/// depth), at the `[reacquire]` gain and within its rotation cap. `None` with no mark seen.
+pub fn acquiring_turn(
+    camera: &CameraIntrinsics,
+    seen: &FeatureVector,
+    desired: &FeatureVector,
+    reacquire: &Reacquire,
+) -> Option<Twist> {
+    let (mut now, mut wanted, mut count) = (Point2::origin(), Point2::origin(), 0.0);
+    for mark in (0..MARKS).filter(|m| seen[2 * m].is_finite() && seen[2 * m + 1].is_finite()) {
+        let normalized =
+            |f: &FeatureVector| camera.normalized_of_pixel(&Point2::new(f[2 * mark], f[2 * mark + 1]));
+        now += normalized(seen).coords;
+        wanted += normalized(desired).coords;
+        count += 1.0;
+    }
+    if count == 0.0 {
+        return None;
+    }
+    let (now, wanted) = (now / count, wanted / count);
+    // ẋ = −(1 + x²) ω_y + y ω_z …, ẏ = (1 + y²) ω_x − x ω_z …: turn about x and y only
+    let gain = reacquire.gain_per_s;
+    let mut w = nalgebra::Vector3::new(
+        -gain * (now.y - wanted.y) / (1.0 + now.y * now.y),
+        gain * (now.x - wanted.x) / (1.0 + now.x * now.x),
+        0.0,
+    );
+    if w.norm() > reacquire.max_rotation_rad_s {
+        w *= reacquire.max_rotation_rad_s / w.norm();
+    }
+    Some(Twist::new(0.0, 0.0, 0.0, w.x, w.y, w.z))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -259,6 +312,46 @@ mod tests {
         assert_eq!((held.twist, held.verdict, held.outside), (Twist::zeros(), ServoVerdict::Held, 0b1));
         assert!(!held.verdict.moves() && !waiting.verdict.moves() && !ServoVerdict::MarksMissing(3).moves());
         assert!(ServoVerdict::Servoing.moves() && ServoVerdict::Reacquiring(3).moves());
+    }
+
+    #[test]
+    fn before_any_whole_view_the_seen_marks_are_turned_towards_their_desired_points() {
+        let mut servo = servo();
+        let desired = *servo.desired_features();
+        // only marks 1 and 2 seen, 60 px right of and 40 px below their desired points
+        let mut seen = FeatureVector::from_element(f64::NAN);
+        for mark in 0..2 {
+            seen[2 * mark] = desired[2 * mark] + 60.0;
+            seen[2 * mark + 1] = desired[2 * mark + 1] + 40.0;
+        }
+        let step = servo.step(Some(ServoInput { frame: 1, features: &seen, base_from_camera: None }));
+        assert_eq!(step.verdict, ServoVerdict::Reacquiring(0b1100));
+        // turning about +y moves image points left (ẋ = −(1 + x²) ω_y), about −x moves them up
+        assert!(step.twist[4] > 0.0 && step.twist[3] < 0.0, "{}", step.twist);
+        assert!(step.twist.fixed_rows::<3>(0).norm() == 0.0 && step.twist[5] == 0.0, "a turn only");
+        let reacquire = Reacquire::default();
+        assert!(step.twist.fixed_rows::<3>(3).norm() <= reacquire.max_rotation_rad_s + 1e-12);
+        // the turn moves the image points towards their desired ones: one small step of it, through the
+        // rotational columns of the point image Jacobian, lowers the error
+        let camera = servo.camera;
+        let error_after = |dt: f64| {
+            (0..2)
+                .map(|m| {
+                    let p = camera.normalized_of_pixel(&Point2::new(seen[2 * m], seen[2 * m + 1]));
+                    let (wx, wy) = (step.twist[3], step.twist[4]);
+                    let x = p.x + dt * (p.x * p.y * wx - (1.0 + p.x * p.x) * wy);
+                    let y = p.y + dt * ((1.0 + p.y * p.y) * wx - p.x * p.y * wy);
+                    let moved = camera.pixel_of_normalized(&Point2::new(x, y));
+                    let (dx, dy) = (moved.x - desired[2 * m], moved.y - desired[2 * m + 1]);
+                    dx * dx + dy * dy
+                })
+                .sum::<f64>()
+        };
+        assert!(error_after(0.01) < error_after(0.0));
+        // no mark seen and none ever: nothing to turn towards
+        let none = FeatureVector::from_element(f64::NAN);
+        let step = servo.step(Some(ServoInput { frame: 2, features: &none, base_from_camera: None }));
+        assert_eq!((step.twist, step.verdict), (Twist::zeros(), ServoVerdict::MarksMissing(0b1111)));
     }
 
     #[test]

@@ -239,7 +239,7 @@ impl ServoLaw {
             // no pose or no pose error on this frame (a degenerate image): the image law
             self.flags.fixed_gain_fallback = true;
         }
-        let plain = marks == ALL_MARKS && options == LawOptions::default();
+        let plain = marks == ALL_MARKS && options.image_law_as_designed();
         if plain {
             return Some(self.command(measured));
         }
@@ -371,9 +371,12 @@ impl ServoLaw {
         Twist::zeros()
     }
 
-    /// Tells the law the twist sent this frame when it did not compute it (reacquiring the marks).
+    /// Tells the law the twist sent this frame when it did not compute it (reacquiring the marks). What it
+    /// estimated of the target's own motion is forgotten: the marks' motion while it looked, with the depths of
+    /// before, is no estimate to feed forward once it servoes again.
     pub fn sent(&mut self, twist: Twist) {
         self.flags = LawFlags::default();
+        self.target.reset();
         self.remember(twist);
     }
 

@@ -97,3 +97,31 @@ fn pbvs_moves_the_camera_on_a_straight_line_where_the_image_law_curves() {
     assert!(pbvs < 0.01, "pbvs: {pbvs} m off the line");
     assert!(pbvs * 5.0 < image, "pbvs {pbvs} m, the image law {image} m");
 }
+
+/// A medium start with no mark in view: the servo turns the camera towards where the configuration predicts the
+/// target (the camera's pose at the desired joints), straight there and no further, then servoes, with the
+/// robust image law and with PBVS.
+#[test]
+fn a_start_with_the_target_out_of_view_is_acquired_without_a_wander() {
+    let (translation, rotation) =
+        (Vector3::new(0.09, 0.0, 0.0), Vector3::new(0.0, 14.0, 0.0).map(f64::to_radians));
+    for law in [ControlLaw::DelayAware, ControlLaw::Pbvs] {
+        let config = robust_with(law, translation, rotation);
+        let trace = Lockstep::new(&config).expect("reachable").run(|_| {});
+        let seen_at_start = trace.frames[0].measured.iter().filter(|v| v.is_finite()).count() / 2;
+        assert_eq!(seen_at_start, 0, "premise: no mark seen at start");
+        let looking: Vec<_> = trace
+            .frames
+            .iter()
+            .take_while(|f| !f.measured.iter().all(|v| v.is_finite()))
+            .map(|f| f.camera_in_desired_m.norm())
+            .collect();
+        // the camera closes in on the predicted pose while it looks, never away
+        assert!(looking.len() > 2, "{} frames", looking.len());
+        assert!(looking.windows(2).all(|w| w[1] <= w[0] + 1e-4), "{}: {looking:?}", law.name());
+        let summary = summarize(&trace, &ObjectMotion::Hold);
+        println!("{} from out of view: looked {} frames, {summary:?}", law.name(), looking.len());
+        assert!(summary.final_error_px < 1.0, "{}: {summary:?}", law.name());
+        assert!(!trace.faults.any_limit(), "{:?}", trace.faults);
+    }
+}

@@ -124,6 +124,12 @@ impl Default for LawOptions {
 }
 
 impl LawOptions {
+    /// Whether the image law runs as designed: B at ξ_d, no barrier, no feed-forward (the pose-based laws'
+    /// settings do not change the image law).
+    pub fn image_law_as_designed(&self) -> bool {
+        self.interaction == Interaction::Desired && self.border_margin_px == 0.0 && !self.feedforward
+    }
+
     /// Whether the law needs the current mark depths (from the board pose the features give).
     pub fn needs_depths(&self) -> bool {
         self.interaction != Interaction::Desired || self.feedforward

@@ -4,8 +4,10 @@
 //!
 //! Classes (the starts are split evenly among them): translations and rotations (rotation vector, per axis)
 //! drawn uniformly within ±range in the desired camera frame, and rolls about the optical axis of 30–90°
-//! either way. A start whose first image does not show all four marks whole, or which the arm cannot
-//! reach, is not counted (it says nothing about the law). A run stops once every mark has stayed within
+//! either way. A start which the arm cannot reach is not counted; one whose first image does not show all four
+//! marks whole is not counted with the others but run on its own: acquired (then converged), or ended as the
+//! daemon would end it, in the safe stop `target_lost` once the marks have been missing for
+//! `faults.target_lost_s`. A run stops once every mark has stayed within
 //! 1 px for `--settled-for` seconds (with `--full` it runs the whole duration and must stay within 1 px to
 //! the end); its settling time is when it last entered. The configuration's scenario object motion and
 //! occlusions are left out: the board holds still and every mark can be seen.
@@ -19,7 +21,7 @@ use plotters::prelude::*;
 use rayon::prelude::*;
 use serde_json::{Value, json};
 use vservo_config::Config;
-use vservo_lockstep::{FrameRecord, Lockstep};
+use vservo_lockstep::{FrameRecord, Lockstep, ServoVerdict};
 use vservo_scene::MARKS;
 
 use crate::UsageError;
@@ -83,6 +85,9 @@ enum Outcome {
     MarksLeftImage,
     Limits,
     NotConverged,
+    /// A start with part of the target out of view whose marks stayed missing (the servo looking, or holding)
+    /// for `faults.target_lost_s`: the daemon's named safe stop `target_lost`.
+    TargetLost,
     /// Not counted: the first image does not show all four marks whole.
     NotAllSeenAtStart,
     /// Not counted: no inverse-kinematics solution within the joint limits.
@@ -91,11 +96,12 @@ enum Outcome {
 
 impl Outcome {
     /// Every outcome, in the legend's order.
-    const ALL: [Outcome; 6] = [
+    const ALL: [Outcome; 7] = [
         Outcome::Converged,
         Outcome::MarksLeftImage,
         Outcome::Limits,
         Outcome::NotConverged,
+        Outcome::TargetLost,
         Outcome::NotAllSeenAtStart,
         Outcome::Unreachable,
     ];
@@ -106,13 +112,14 @@ impl Outcome {
             Outcome::MarksLeftImage => "marks left the image",
             Outcome::Limits => "joint limits",
             Outcome::NotConverged => "not converged in time",
+            Outcome::TargetLost => "target lost (safe stop)",
             Outcome::NotAllSeenAtStart => "not all marks seen at start",
             Outcome::Unreachable => "unreachable",
         }
     }
 
     fn counted(self) -> bool {
-        !matches!(self, Outcome::NotAllSeenAtStart | Outcome::Unreachable)
+        !matches!(self, Outcome::NotAllSeenAtStart | Outcome::Unreachable | Outcome::TargetLost)
     }
 
     fn colour(self) -> RGBColor {
@@ -121,6 +128,7 @@ impl Outcome {
             Outcome::MarksLeftImage => RGBColor(230, 140, 0),
             Outcome::Limits => RGBColor(150, 60, 170),
             Outcome::NotConverged => RGBColor(200, 30, 30),
+            Outcome::TargetLost => RGBColor(60, 90, 200),
             _ => RGBColor(170, 170, 170),
         }
     }
@@ -140,6 +148,9 @@ struct Run {
     settling_time_s: Option<f64>,
     /// A mark's true image left the image at some frame (even if the run converged).
     left_image: bool,
+    /// The first image did not show all four marks whole: the start is not counted with the others, but
+    /// run, to see whether the cell acquires the target (outcome converged) or ends in a safe stop.
+    partial: bool,
 }
 
 /// SplitMix64: a small, well-mixed generator, so that a seed gives the same starts everywhere.
@@ -195,15 +206,28 @@ fn run_one(config: &Config, start: Start, settled_for_s: f64, full: bool) -> Run
     let mut config = config.clone();
     config.cell.scenario.initial_camera_translation_m = start.translation_m;
     config.cell.scenario.initial_camera_rotation = start.rotation;
-    let unreachable = Run { start, outcome: Outcome::Unreachable, settling_time_s: None, left_image: false };
+    let unreachable = Run {
+        start,
+        outcome: Outcome::Unreachable,
+        settling_time_s: None,
+        left_image: false,
+        partial: false,
+    };
     let Ok(mut lockstep) = Lockstep::new(&config) else { return unreachable };
     let desired = lockstep.gains().desired_features;
+    let target_lost_s = config.faults.target_lost.as_secs_f64();
     let mut entered: Option<f64> = None;
+    let mut lost_since: Option<f64> = None;
     let trace = lockstep.run_until(|frames| {
         let Some(last) = frames.last() else { return false };
-        // a start not counted ends at once
-        if frames.len() == 1 && !last.measured.iter().all(|v| v.is_finite()) {
-            return true;
+        // as the daemon: marks missing so that the servo cannot servo, for target_lost_s, is a safe stop
+        if matches!(last.verdict, Some(ServoVerdict::MarksMissing(_) | ServoVerdict::Reacquiring(_))) {
+            let since = *lost_since.get_or_insert(last.t_s);
+            if last.t_s - since >= target_lost_s && !frames[0].measured.iter().all(|v| v.is_finite()) {
+                return true;
+            }
+        } else {
+            lost_since = None;
         }
         if error_px(last, &desired) < 1.0 {
             let since = *entered.get_or_insert(last.t_s);
@@ -213,10 +237,7 @@ fn run_one(config: &Config, start: Start, settled_for_s: f64, full: bool) -> Run
             false
         }
     });
-    let first_whole = trace.frames.first().is_some_and(|f| f.measured.iter().all(|v| v.is_finite()));
-    if !first_whole {
-        return Run { outcome: Outcome::NotAllSeenAtStart, ..unreachable };
-    }
+    let partial = trace.frames.first().is_none_or(|f| !f.measured.iter().all(|v| v.is_finite()));
     let left_image = trace.frames.iter().any(|f| {
         (0..MARKS)
             .any(|m| !config.cell.camera.contains(&nalgebra::Point2::new(f.truth[2 * m], f.truth[2 * m + 1])))
@@ -225,16 +246,20 @@ fn run_one(config: &Config, start: Start, settled_for_s: f64, full: bool) -> Run
         let long_enough = |since: f64| full || last.t_s - since >= settled_for_s;
         entered.is_some_and(long_enough) && error_px(last, &desired) < 1.0
     });
+    let lost =
+        trace.frames.last().zip(lost_since).is_some_and(|(last, since)| last.t_s - since >= target_lost_s);
     let outcome = if settled {
         Outcome::Converged
+    } else if partial && lost {
+        Outcome::TargetLost
     } else if trace.faults.position_limit != 0 || trace.faults.velocity_limit != 0 {
         Outcome::Limits
-    } else if left_image {
+    } else if left_image && !partial {
         Outcome::MarksLeftImage
     } else {
         Outcome::NotConverged
     };
-    Run { start, outcome, settling_time_s: settled.then_some(entered).flatten(), left_image }
+    Run { start, outcome, settling_time_s: settled.then_some(entered).flatten(), left_image, partial }
 }
 
 fn percentile(sorted: &[f64], p: f64) -> Option<f64> {
@@ -247,21 +272,28 @@ fn percentile(sorted: &[f64], p: f64) -> Option<f64> {
 
 fn class_summary(runs: &[Run], class: usize) -> Value {
     let mine: Vec<&Run> = runs.iter().filter(|r| r.start.class == class).collect();
-    let counted: Vec<&&Run> = mine.iter().filter(|r| r.outcome.counted()).collect();
+    let counted: Vec<&&Run> = mine.iter().filter(|r| !r.partial && r.outcome.counted()).collect();
     let mut times: Vec<f64> = counted.iter().filter_map(|r| r.settling_time_s).collect();
     times.sort_by(f64::total_cmp);
     let converged = times.len();
     let mut reasons = serde_json::Map::new();
-    for outcome in [
-        Outcome::MarksLeftImage,
-        Outcome::Limits,
-        Outcome::NotConverged,
-        Outcome::NotAllSeenAtStart,
-        Outcome::Unreachable,
-    ] {
-        let n = mine.iter().filter(|r| r.outcome == outcome).count();
+    for outcome in [Outcome::MarksLeftImage, Outcome::Limits, Outcome::NotConverged, Outcome::Unreachable] {
+        let n = mine.iter().filter(|r| !r.partial && r.outcome == outcome).count();
         if n > 0 {
             reasons.insert(outcome.name().into(), json!(n));
+        }
+    }
+    let partial: Vec<&&Run> = mine.iter().filter(|r| r.partial).collect();
+    if !partial.is_empty() {
+        reasons.insert(Outcome::NotAllSeenAtStart.name().into(), json!(partial.len()));
+    }
+    let mut acquired_times: Vec<f64> = partial.iter().filter_map(|r| r.settling_time_s).collect();
+    acquired_times.sort_by(f64::total_cmp);
+    let mut partial_outcomes = serde_json::Map::new();
+    for outcome in Outcome::ALL {
+        let n = partial.iter().filter(|r| r.outcome == outcome).count();
+        if n > 0 {
+            partial_outcomes.insert(outcome.name().into(), json!(n));
         }
     }
     let c = CLASSES[class];
@@ -278,6 +310,14 @@ fn class_summary(runs: &[Run], class: usize) -> Value {
         "p90_settling_s": percentile(&times, 0.9),
         "marks_left_image": counted.iter().filter(|r| r.left_image).count(),
         "not_converged": reasons,
+        // the starts with part of the target out of view: acquired (then converged), or a named safe stop
+        "partial_view": {
+            "starts": partial.len(),
+            "acquired": acquired_times.len(),
+            "safe_stop": partial.iter().filter(|r| r.outcome == Outcome::TargetLost).count(),
+            "median_settling_s": percentile(&acquired_times, 0.5),
+            "outcomes": partial_outcomes,
+        },
     })
 }
 
@@ -411,6 +451,23 @@ fn print_table(result: &Value) {
             seconds(&class["p90_settling_s"]),
             count("marks_left_image"),
             reasons,
+        );
+    }
+    println!(
+        "starts with part of the target out of view: acquired (median settling) / safe stop (target lost) / other"
+    );
+    for class in result["classes"].as_array().into_iter().flatten() {
+        let partial = &class["partial_view"];
+        let count = |key: &str| partial[key].as_u64().unwrap_or(0);
+        let other = count("starts") - count("acquired") - count("safe_stop");
+        println!(
+            "{:<8} {:>3} of {:>3} acquired ({} s) / {} safe stop / {} other",
+            class["class"].as_str().unwrap_or(""),
+            count("acquired"),
+            count("starts"),
+            seconds(&partial["median_settling_s"]),
+            count("safe_stop"),
+            other,
         );
     }
 }

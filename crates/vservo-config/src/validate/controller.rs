@@ -12,7 +12,7 @@ use vservo_settings::{
 use super::checker::Checker;
 use super::weight::weight;
 use crate::raw::RawController;
-use crate::{ConfigError, Controller};
+use crate::{ConfigError, Controller, Robot};
 
 /// The law, its weights (Q ⪰ 0 on the features, R ≻ 0 on the twist in its unit) and its options.
 pub fn controller(
@@ -45,10 +45,9 @@ fn law_options(
     let border_margin_px = border_margin_px(check, k.border_margin_px.unwrap_or(0.0), camera)?;
     desired_inside_the_margin(check, border_margin_px, camera, desired_features)?;
     let pose_gain_per_s = pose_gain_per_s(check, k.pose_gain_per_s, vision_period_s)?;
-    let cap = |key: &str, written: Option<f64>, default: f64| match written {
+    let cap = |key: &str, written: Option<f64>, default: f64, unit: &str| match written {
         None => Ok(default),
-        Some(v) if v.is_finite() && v > 0.0 => Ok(v),
-        Some(v) => Err(check.invalid(key, v, "must be a positive speed")),
+        Some(v) => check.within(key, v, 0.001, 20.0, unit),
     };
     Ok(LawOptions {
         interaction,
@@ -59,11 +58,13 @@ fn law_options(
             "controller.pose_max_speed_m_s",
             k.pose_max_speed_m_s,
             DEFAULT_POSE_MAX_SPEED_M_S,
+            "m/s",
         )?,
         pose_max_rotation_rad_s: cap(
             "controller.pose_max_rotation_rad_s",
             k.pose_max_rotation_rad_s,
             DEFAULT_POSE_MAX_ROTATION_RAD_S,
+            "rad/s",
         )?,
     })
 }
@@ -124,6 +125,43 @@ fn desired_inside_the_margin(
                 ),
             ));
         }
+    }
+    Ok(())
+}
+
+/// The pose-based laws' speed caps within the robot's camera limits, which the rmrc refuses a twist beyond: a cap
+/// written above them is refused, a default one lowered to them.
+pub fn fit_pose_caps(
+    check: &Checker,
+    k: &RawController,
+    options: &mut LawOptions,
+    robot: &Robot,
+) -> Result<(), ConfigError> {
+    let caps = [
+        (
+            "controller.pose_max_speed_m_s",
+            k.pose_max_speed_m_s.is_some(),
+            &mut options.pose_max_speed_m_s,
+            robot.max_camera_speed_m_s,
+            "max_camera_speed_m_s",
+        ),
+        (
+            "controller.pose_max_rotation_rad_s",
+            k.pose_max_rotation_rad_s.is_some(),
+            &mut options.pose_max_rotation_rad_s,
+            robot.max_camera_rotation_rad_s,
+            "max_camera_rotation_rad_s",
+        ),
+    ];
+    for (key, written, cap, limit, limit_key) in caps {
+        if written && *cap > limit {
+            return Err(check.invalid(
+                key,
+                *cap,
+                format!("must be at most robot.{limit_key} ({limit}): the rmrc refuses a faster twist"),
+            ));
+        }
+        *cap = cap.min(limit);
     }
     Ok(())
 }

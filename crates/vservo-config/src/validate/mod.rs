@@ -66,6 +66,8 @@ pub fn validate(raw: RawConfig, file: &str) -> Result<Config, ConfigError> {
     let interpolator_jerk = (interpolator.jerk_limit, arm.joint_count());
     let scenario = scenario::scenario(&check, &raw.scenario)?;
     let robot = robot::robot(&check, &raw.robot, &plant, &timing)?;
+    let mut controller = controller;
+    controller::fit_pose_caps(&check, &raw.controller, &mut controller.options, &robot)?;
     let reacquire = operation::reacquire(&check, &raw.reacquire, &robot, timing.vision_period_s)?;
     let franka_simulator = raw.franka.as_ref().is_some_and(|f| f.simulator);
     robot::driver_and_camera_agree(&check, &raw.robot, &robot, (&vision.source, franka_simulator))?;
