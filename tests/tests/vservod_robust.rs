@@ -71,3 +71,50 @@ fn covered_marks_do_not_stop_the_robust_servo_in_real_time() {
     assert!(log.contains("servoing on all four marks again"), "{log}");
     daemon.stop();
 }
+
+/// A pose-based law as four real-time processes, from a start with no mark in view: the gains carry the law
+/// and its λ and caps across the wire, the servo looks towards where the target is predicted, finds it, and
+/// converges below 1 px with the 2½-D law; the target is never lost for `faults.target_lost_s`.
+#[test]
+fn a_pose_based_law_acquires_a_target_out_of_view_and_converges_in_real_time() {
+    let _one = exclusive();
+    let instance = unique("pose-law");
+    let config = config_from(
+        "config/vservo-robust.toml",
+        &[
+            ("name = \"default\"", &format!("name = \"{instance}\"")),
+            ("law = \"delay-aware\"", "law = \"2.5d\""),
+            (
+                "initial_camera_translation_m = [0.00596, -0.03023, 0.00113]",
+                "initial_camera_translation_m = [0.09, 0.0, 0.0]",
+            ),
+            (
+                "initial_camera_rotation_deg = [0.0, 0.0, 0.0]",
+                "initial_camera_rotation_deg = [0.0, 14.0, 0.0]",
+            ),
+        ],
+    );
+    let daemon = Daemon::start(&config);
+    assert!(
+        wait_until(Duration::from_secs(10), || status(&instance).is_some_and(|s| running(&s))),
+        "{}",
+        daemon.log()
+    );
+    let twists = echo_lines(&instance, "camera_twist", "4");
+    let verdicts: Vec<u64> = twists.iter().filter_map(|t| t["verdict"].as_u64()).collect();
+    let last = twists.last().expect("twists");
+    assert_eq!(
+        last["verdict"].as_u64(),
+        Some(u64::from(Verdict::Servoing.code())),
+        "{verdicts:?}\n{}",
+        daemon.log()
+    );
+    let error = last["feature_error_px"].as_f64().unwrap_or(f64::NAN);
+    assert!(error < 1.0, "feature error at the end {error} px");
+    let state = status(&instance).expect("status");
+    assert!(running(&state), "never stopped: {state}");
+    let log = daemon.log();
+    assert!(log.contains("reacquiring"), "it looked first: {log}");
+    assert!(!log.contains("target_lost"), "{log}");
+    daemon.stop();
+}
