@@ -136,12 +136,15 @@ pub fn diff(old: &Config, new: &Config) -> ConfigDiff {
     let mut live = Vec::new();
     let (o, n) = (&controller.options, &new.cell.controller.options);
     let controller_keys = fields!("controller", controller, new.cell.controller; law, q, r);
-    let option_keys = fields!("controller", o, n; interaction, border_margin_px, feedforward);
+    let option_keys = fields!(
+        "controller", o, n;
+        interaction, border_margin_px, feedforward, pose_gain_per_s, pose_max_speed_m_s, pose_max_rotation_rad_s
+    );
     section(
         &mut live,
         "controller",
         controller != &new.cell.controller,
-        &[controller_keys, option_keys].concat(),
+        &[&controller_keys[..], &option_keys[..]].concat(),
     );
     let desired_keys = [("desired.joints_rad", desired.joints != new.cell.desired.joints)];
     section(&mut live, "desired", desired != &new.cell.desired, &desired_keys);
@@ -347,6 +350,19 @@ mod tests {
             Ok(ReloadPlan::Design {
                 target: Some(client),
                 changed: vec!["controller.feedforward"],
+                restart_nodes: false
+            })
+        );
+        // a pose-based law and its λ are retuned live like the others
+        let text = DEFAULT
+            .replace("law = \"paper\"", "law = \"pbvs\"")
+            .replace("pose_gain_per_s = 6.0", "pose_gain_per_s = 4.0");
+        let pose = Config::from_toml(&text, "edited.toml").expect("valid");
+        assert_eq!(
+            plan("f", (&old, false), Some(&client), &pose),
+            Ok(ReloadPlan::Design {
+                target: Some(client),
+                changed: vec!["controller.law", "controller.pose_gain_per_s"],
                 restart_nodes: false
             })
         );
