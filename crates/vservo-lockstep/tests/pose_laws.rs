@@ -125,3 +125,21 @@ fn a_start_with_the_target_out_of_view_is_acquired_without_a_wander() {
         assert!(!trace.faults.any_limit(), "{:?}", trace.faults);
     }
 }
+
+/// The pose from the marks through the lens and from an AprilTag's corners, and on arms from their URDFs
+/// (simulated kinematically): each configuration's own start converges below 1 px with PBVS and 2½-D.
+#[test]
+fn the_pose_based_laws_converge_through_the_lens_on_a_tag_and_on_urdf_arms() {
+    for file in ["vservo-apriltag.toml", "vservo-distorted.toml", "arms/panda.toml", "arms/ur5e.toml"] {
+        for law in [ControlLaw::Pbvs, ControlLaw::TwoAndAHalfD] {
+            let path = format!("{}/../../config/{file}", env!("CARGO_MANIFEST_DIR"));
+            let mut config = Config::load(&path).expect("a shipped configuration");
+            config.cell.controller.law = law;
+            config.cell.scenario.duration_s = 6.0;
+            let trace = run(&config);
+            let summary = summarize(&trace, &ObjectMotion::Hold);
+            println!("{file} {}: {summary:?}", law.name());
+            assert!(summary.final_error_px < 1.0, "{file} {}: {summary:?}", law.name());
+        }
+    }
+}
