@@ -52,11 +52,11 @@ fn the_pose_based_laws_are_named_and_their_gain_and_caps_checked() {
         assert_eq!(config.cell.controller.law, law);
     }
     let config =
-        Config::from_toml(&with("pose_gain_per_s = 6.0", "pose_gain_per_s = 11.7"), "v.toml").expect("ok");
+        Config::from_toml(&with("# pose_gain_per_s = 6.0", "pose_gain_per_s = 11.7"), "v.toml").expect("ok");
     assert_eq!(config.cell.controller.options.pose_gain_per_s, 11.7);
     // λT ≤ 1 at the 85 ms period: 11.76 1/s at most
     for bad in ["0.0", "-1.0", "12.0", "nan"] {
-        let error = refused(&with("pose_gain_per_s = 6.0", &format!("pose_gain_per_s = {bad}")));
+        let error = refused(&with("# pose_gain_per_s = 6.0", &format!("pose_gain_per_s = {bad}")));
         assert!(
             error.to_string().contains("controller.pose_gain_per_s")
                 && error.to_string().contains("vision period"),

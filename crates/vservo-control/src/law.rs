@@ -96,7 +96,8 @@ pub struct LawGeometry {
 pub struct LawFlags {
     /// The border barrier changed the twist.
     pub barrier: bool,
-    /// The frame's own design (a scheduled interaction) failed: the fixed gain for its marks was used.
+    /// The frame's own design (a scheduled interaction) failed, or a pose-based law found no pose in it (a
+    /// degenerate image): the fixed gain for its marks was used.
     pub fixed_gain_fallback: bool,
     /// The target's estimated motion was fed forward.
     pub feedforward: bool,

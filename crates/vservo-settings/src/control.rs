@@ -56,8 +56,11 @@ impl ControlLaw {
     }
 }
 
-/// λ of the pose-based laws when `controller.pose_gain_per_s` is not written (1/s): the error predicted through
-/// the pipeline shrinks by λT per vision period (0.51 at the paper's 85 ms).
+/// λT of the pose-based laws when `controller.pose_gain_per_s` is not written: the share of the error predicted
+/// through the pipeline that one vision period takes away (λ = 6 per s at the paper's 85 ms).
+pub const DEFAULT_POSE_GAIN_PER_PERIOD: f64 = 0.51;
+
+/// [`DEFAULT_POSE_GAIN_PER_PERIOD`] at the paper's vision period of 85 ms, in [`LawOptions::default`] (1/s).
 pub const DEFAULT_POSE_GAIN_PER_S: f64 = 6.0;
 
 /// The pose-based laws' camera speed caps when `controller.pose_max_speed_m_s` and
@@ -101,8 +104,8 @@ pub struct LawOptions {
     /// Estimate the target's image motion and feed it forward through the delay
     /// (`vservo_control::target_motion`).
     pub feedforward: bool,
-    /// λ of the pose-based laws, u = −λ L⁻¹ ê (1/s; [`DEFAULT_POSE_GAIN_PER_S`] unless written); the image
-    /// laws do not use it.
+    /// λ of the pose-based laws, u = −λ L⁻¹ ê (1/s; [`DEFAULT_POSE_GAIN_PER_PERIOD`] per vision period unless
+    /// written); the image laws do not use it.
     pub pose_gain_per_s: f64,
     /// The pose-based laws' linear speed cap (m/s): a faster twist is scaled down whole.
     pub pose_max_speed_m_s: f64,

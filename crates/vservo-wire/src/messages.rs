@@ -245,8 +245,8 @@ wire_message! {
 pub mod law_flag {
     /// The border barrier (`controller.border_margin_px`) changed the twist to keep a mark inside.
     pub const BARRIER: u32 = 1;
-    /// The frame's own design (a scheduled `controller.interaction`) failed on a degenerate image: the fixed
-    /// gain for its marks was used.
+    /// The frame's own design (a scheduled `controller.interaction`) failed, or a pose-based law found no pose,
+    /// on a degenerate image: the fixed gain for its marks was used.
     pub const FIXED_GAIN_FALLBACK: u32 = 2;
     /// The target's estimated image motion was fed forward (`controller.feedforward`, once the estimate has
     /// settled).

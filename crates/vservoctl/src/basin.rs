@@ -153,6 +153,14 @@ struct Run {
     partial: bool,
 }
 
+impl Run {
+    /// The outcome a start is drawn as: a start with part of the target out of view as such (a ring, as the
+    /// starts not counted), whatever became of it.
+    fn drawn_as(&self) -> Outcome {
+        if self.partial { Outcome::NotAllSeenAtStart } else { self.outcome }
+    }
+}
+
 /// SplitMix64: a small, well-mixed generator, so that a seed gives the same starts everywhere.
 struct SplitMix64(u64);
 
@@ -502,7 +510,7 @@ fn draw(runs: &[Run], path: &Path) -> Result<()> {
         for outcome in Outcome::ALL {
             let points: Vec<(f64, f64)> = mine
                 .iter()
-                .filter(|r| r.outcome == outcome)
+                .filter(|r| r.drawn_as() == outcome)
                 .map(|r| (r.start.translation_m.norm() * 100.0, r.start.rotation.norm().to_degrees()))
                 .collect();
             if points.is_empty() {
@@ -516,7 +524,7 @@ fn draw(runs: &[Run], path: &Path) -> Result<()> {
                 .label(format!(
                     "{} ({})",
                     outcome.name(),
-                    mine.iter().filter(|r| r.outcome == outcome).count()
+                    mine.iter().filter(|r| r.drawn_as() == outcome).count()
                 ))
                 .legend(move |(x, y)| Circle::new((x + 6, y), 3, style));
         }

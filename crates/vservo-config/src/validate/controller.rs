@@ -3,8 +3,8 @@
 use vservo_scene::{CameraIntrinsics, FEATURES, FeatureVector, MARKS};
 use vservo_settings::{
     control::{
-        DEFAULT_POSE_GAIN_PER_S, DEFAULT_POSE_MAX_ROTATION_RAD_S, DEFAULT_POSE_MAX_SPEED_M_S, Interaction,
-        LawOptions,
+        DEFAULT_POSE_GAIN_PER_PERIOD, DEFAULT_POSE_MAX_ROTATION_RAD_S, DEFAULT_POSE_MAX_SPEED_M_S,
+        Interaction, LawOptions,
     },
     weights::{InputWeight, StateWeight},
 };
@@ -73,7 +73,7 @@ fn law_options(
 /// by λT a frame; beyond 1 it overshoots, beyond 2 it grows).
 fn pose_gain_per_s(check: &Checker, written: Option<f64>, vision_period_s: f64) -> Result<f64, ConfigError> {
     let Some(gain_per_s) = written else {
-        return Ok(DEFAULT_POSE_GAIN_PER_S);
+        return Ok(DEFAULT_POSE_GAIN_PER_PERIOD / vision_period_s);
     };
     let most = 1.0 / vision_period_s;
     if !(gain_per_s.is_finite() && gain_per_s > 0.0 && gain_per_s <= most) {

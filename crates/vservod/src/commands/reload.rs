@@ -356,7 +356,7 @@ mod tests {
         // a pose-based law and its λ are retuned live like the others
         let text = DEFAULT
             .replace("law = \"paper\"", "law = \"pbvs\"")
-            .replace("pose_gain_per_s = 6.0", "pose_gain_per_s = 4.0");
+            .replace("# pose_gain_per_s = 6.0", "pose_gain_per_s = 4.0");
         let pose = Config::from_toml(&text, "edited.toml").expect("valid");
         assert_eq!(
             plan("f", (&old, false), Some(&client), &pose),
