@@ -110,6 +110,8 @@ pub struct Cell {
     start_joints: JointVector,
     base_from_desired_camera: IsometryMatrix3<f64>,
     base_from_board_desired: IsometryMatrix3<f64>,
+    /// The camera at the desired joints in the frame that holds the board still (the base for a hand camera).
+    holder_from_desired_camera: IsometryMatrix3<f64>,
 }
 
 impl Cell {
@@ -129,15 +131,25 @@ impl Cell {
     pub fn new(config: &CellConfig) -> Result<Self, CellError> {
         let arm = config.arm.clone();
         let gains = gains::design(config, None)?;
-        let base_from_desired_camera = arm.base_from_tool(&config.desired.joints) * config.tool_from_camera;
+        let mount = config.mount();
+        let base_from_desired_tool = arm.base_from_tool(&config.desired.joints);
+        let base_from_desired_camera = mount.base_from_camera(&base_from_desired_tool);
+        let holder_from_desired_camera = mount.holder_from_camera(&base_from_desired_tool);
         let base_from_board_desired = config.base_from_board(&arm);
         let scenario = &config.scenario;
         let displacement = IsometryMatrix3::from_parts(
             Translation3::from(scenario.initial_camera_translation_m),
             Rotation3::from_scaled_axis(scenario.initial_camera_rotation),
         );
-        let base_from_tool_start =
-            base_from_desired_camera * displacement * config.tool_from_camera.inverse();
+        // the start is the camera displaced from the desired pose relative to the board: a hand camera moves
+        // there, a fixed one sees the board moved by the inverse
+        let base_from_tool_start = match config.fixed_camera {
+            None => base_from_desired_camera * displacement * config.tool_from_camera.inverse(),
+            Some(_) => mount.base_from_tool_seeing(
+                &(displacement.inverse() * config.desired.camera_from_board),
+                &base_from_board_desired,
+            ),
+        };
         let start_joints =
             arm.reach(&base_from_tool_start, &config.desired.joints).ok_or(CellError::Unreachable)?;
         Ok(Self {
@@ -147,6 +159,7 @@ impl Cell {
             start_joints,
             base_from_desired_camera,
             base_from_board_desired,
+            holder_from_desired_camera,
         })
     }
 
@@ -203,7 +216,7 @@ impl Cell {
             self.law_geometry(),
             &self.gains,
             self.config.reacquire,
-            self.base_from_desired_camera,
+            self.holder_from_desired_camera,
         )
     }
 

@@ -35,6 +35,8 @@ pub struct PlantStage {
     object_since_s: f64,
     base_from_desired_camera: IsometryMatrix3<f64>,
     base_from_board_desired: IsometryMatrix3<f64>,
+    /// With a fixed camera, the board on the tool (it moves with the arm; no scenario moves it).
+    tool_from_board: Option<IsometryMatrix3<f64>>,
     /// The drive's own servo, used only to hold the arm when no command comes (a brake).
     holding_servo: JointServo,
     held_at: Option<JointVector>,
@@ -65,6 +67,7 @@ impl PlantStage {
             object_since_s: 0.0,
             base_from_desired_camera,
             base_from_board_desired,
+            tool_from_board: config.fixed_camera.map(|fixed| fixed.tool_from_board),
             holding_servo,
             held_at: None,
         }
@@ -95,8 +98,11 @@ impl PlantStage {
         self.object_origin_m + self.object.offset_in_desired_camera(self.time_s() - self.object_since_s)
     }
 
-    /// Where the board is at the current tick, in the base frame.
+    /// Where the board is at the current tick, in the base frame: on the tool with a fixed camera.
     pub fn base_from_board(&self) -> IsometryMatrix3<f64> {
+        if let Some(tool_from_board) = &self.tool_from_board {
+            return self.plant.arm().base_from_tool(&self.plant.state().q) * tool_from_board;
+        }
         let mut pose = self.base_from_board_desired;
         pose.translation.vector += self.base_from_desired_camera.rotation * self.object_offset_m();
         pose

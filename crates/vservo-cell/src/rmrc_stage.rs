@@ -9,9 +9,10 @@
 //! the arm's clock. Both shells run this: the real-time node on every state it takes, the lockstep on every
 //! tick (or, replaying a real-time run, on the states that run answered).
 
-use vservo_arm::{JointVector, SerialArm, Transform};
+use vservo_arm::{JointVector, SerialArm};
 use vservo_config::{CellConfig, CommandInterface};
 use vservo_control::Twist;
+use vservo_scene::CameraMount;
 use vservo_sim::interpolator::{Interpolator, InterpolatorSettings, Reference};
 use vservo_sim::joint_servo::JointServo;
 
@@ -67,7 +68,7 @@ pub struct RmrcStage {
     command: CommandInterface,
     settings: InterpolatorSettings,
     arm: SerialArm,
-    tool_from_camera: Transform,
+    mount: CameraMount,
     gap: Gap,
     /// The last state followed.
     followed: Option<DriverTick>,
@@ -116,7 +117,7 @@ impl RmrcStage {
         let period_ns = (settings.control_period_s * 1e9).round() as u64;
         let periods = u64::from(config.robot.state_timeout_periods);
         Self {
-            interpolator: Interpolator::new(settings, arm.clone(), config.tool_from_camera, q),
+            interpolator: Interpolator::new(settings, arm.clone(), config.mount(), q),
             joint_servo: JointServo::new(
                 arm.clone(),
                 config.joint_servo.law,
@@ -126,7 +127,7 @@ impl RmrcStage {
             command: config.command_interface(),
             settings,
             arm,
-            tool_from_camera: config.tool_from_camera,
+            mount: config.mount(),
             gap: Gap { periods, ns: period_ns * periods },
             followed: None,
             since_tick: 0,
@@ -154,7 +155,7 @@ impl RmrcStage {
 
     /// The reference at rest at `q` from `tick` on, no twist held.
     fn restart_at_rest(&mut self, q: &JointVector, tick: u64) {
-        self.interpolator = Interpolator::new(self.settings, self.arm.clone(), self.tool_from_camera, *q);
+        self.interpolator = Interpolator::new(self.settings, self.arm.clone(), self.mount, *q);
         self.since_tick = tick;
         self.next_tick = tick;
         self.planned_move = None;

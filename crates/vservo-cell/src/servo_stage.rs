@@ -58,8 +58,9 @@ pub struct ServoInput<'a> {
     pub frame: u64,
     /// ξ (px), NaN where a mark is not valid.
     pub features: &'a FeatureVector,
-    /// The camera's pose at capture, if known.
-    pub base_from_camera: Option<&'a IsometryMatrix3<f64>>,
+    /// The camera's pose at capture, if known, in the frame that holds the board still (the base for a hand
+    /// camera, the tool for a fixed one: [`crate::DeliveredFrame::holder_from_camera`]).
+    pub holder_from_camera: Option<&'a IsometryMatrix3<f64>>,
 }
 
 /// What the servo made of a frame.
@@ -82,8 +83,8 @@ pub struct ServoStage {
     camera: CameraIntrinsics,
     period_s: f64,
     reacquire: Reacquire,
-    /// Where the camera last saw all four marks; before it has, where the configuration predicts it would (the
-    /// camera's pose at the desired joints).
+    /// Where the camera last saw all four marks (in the frame that holds the board still); before it has,
+    /// where the configuration predicts it would (the camera's pose at the desired joints).
     last_seen_whole: Option<IsometryMatrix3<f64>>,
 }
 
@@ -92,14 +93,14 @@ impl ServoStage {
         geometry: LawGeometry,
         gains: &Gains,
         reacquire: Reacquire,
-        base_from_desired_camera: IsometryMatrix3<f64>,
+        holder_from_desired_camera: IsometryMatrix3<f64>,
     ) -> Self {
         Self {
             law: ServoLaw::new(geometry, gains),
             camera: geometry.camera,
             period_s: geometry.period_s,
             reacquire,
-            last_seen_whole: Some(base_from_desired_camera),
+            last_seen_whole: Some(holder_from_desired_camera),
         }
     }
 
@@ -135,7 +136,7 @@ impl ServoStage {
         };
         let (features, outside) = self.taken_inside_image(input.features);
         let error_px = feature_error_px(&features, self.desired_features());
-        let (twist, verdict) = self.law_on(input.frame, &features, input.base_from_camera);
+        let (twist, verdict) = self.law_on(input.frame, &features, input.holder_from_camera);
         ServoStep { twist, verdict, outside, error_px }
     }
 
@@ -162,17 +163,17 @@ impl ServoStage {
         &mut self,
         frame: u64,
         seen: &FeatureVector,
-        base_from_camera: Option<&IsometryMatrix3<f64>>,
+        holder_from_camera: Option<&IsometryMatrix3<f64>>,
     ) -> (Twist, ServoVerdict) {
         let missing = missing_marks(seen);
         if missing == 0 {
-            self.last_seen_whole = base_from_camera.copied();
+            self.last_seen_whole = holder_from_camera.copied();
         }
-        match self.law.step(frame, seen, base_from_camera) {
+        match self.law.step(frame, seen, holder_from_camera) {
             Some(twist) if missing == 0 => (twist, ServoVerdict::Servoing),
             Some(twist) => (twist, ServoVerdict::ServoingOnThree(missing)),
             None => {
-                let turn = match (self.last_seen_whole, base_from_camera) {
+                let turn = match (self.last_seen_whole, holder_from_camera) {
                     (Some(then), Some(now)) => {
                         Some(steer_towards(now, &then, self.period_s, &self.reacquire))
                     }
@@ -289,14 +290,14 @@ mod tests {
         let mut servo = servo();
         let mut features = *servo.desired_features();
         features[2] = 600.0; // mark 2 beyond the right border of the 512 px image
-        let step = servo.step(Some(ServoInput { frame: 1, features: &features, base_from_camera: None }));
+        let step = servo.step(Some(ServoInput { frame: 1, features: &features, holder_from_camera: None }));
         assert_eq!(step.outside, 0b10);
         assert_eq!(step.verdict, ServoVerdict::ServoingOnThree(0b10));
         assert_eq!(step.error_px, 0.0, "the other three are at ξ_d; the refused mark is not counted");
         // a mark already missing is not refused again; one on the border is inside
         features[2] = f64::NAN;
         features[0] = 512.0;
-        let step = servo.step(Some(ServoInput { frame: 2, features: &features, base_from_camera: None }));
+        let step = servo.step(Some(ServoInput { frame: 2, features: &features, holder_from_camera: None }));
         assert_eq!((step.outside, step.verdict.missing_mask()), (0, 0b10));
     }
 
@@ -308,7 +309,7 @@ mod tests {
         assert!(waiting.error_px.is_nan());
         let mut features = *servo.desired_features();
         features[1] = -3.0;
-        let held = servo.held(ServoInput { frame: 1, features: &features, base_from_camera: None });
+        let held = servo.held(ServoInput { frame: 1, features: &features, holder_from_camera: None });
         assert_eq!((held.twist, held.verdict, held.outside), (Twist::zeros(), ServoVerdict::Held, 0b1));
         assert!(!held.verdict.moves() && !waiting.verdict.moves() && !ServoVerdict::MarksMissing(3).moves());
         assert!(ServoVerdict::Servoing.moves() && ServoVerdict::Reacquiring(3).moves());
@@ -324,7 +325,7 @@ mod tests {
             seen[2 * mark] = desired[2 * mark] + 60.0;
             seen[2 * mark + 1] = desired[2 * mark + 1] + 40.0;
         }
-        let step = servo.step(Some(ServoInput { frame: 1, features: &seen, base_from_camera: None }));
+        let step = servo.step(Some(ServoInput { frame: 1, features: &seen, holder_from_camera: None }));
         assert_eq!(step.verdict, ServoVerdict::Reacquiring(0b1100));
         // turning about +y moves image points left (ẋ = −(1 + x²) ω_y), about −x moves them up
         assert!(step.twist[4] > 0.0 && step.twist[3] < 0.0, "{}", step.twist);
@@ -350,7 +351,7 @@ mod tests {
         assert!(error_after(0.01) < error_after(0.0));
         // no mark seen and none ever: nothing to turn towards
         let none = FeatureVector::from_element(f64::NAN);
-        let step = servo.step(Some(ServoInput { frame: 2, features: &none, base_from_camera: None }));
+        let step = servo.step(Some(ServoInput { frame: 2, features: &none, holder_from_camera: None }));
         assert_eq!((step.twist, step.verdict), (Twist::zeros(), ServoVerdict::MarksMissing(0b1111)));
     }
 

@@ -262,7 +262,10 @@ fn check_reachable(
     now: &CellNow,
 ) -> Result<(), TargetRefused> {
     let (base_from_board, joints_now) = board_and_joints_now(config, now);
-    let base_from_tool = base_from_board * camera_from_board.inverse() * config.tool_from_camera.inverse();
+    let base_from_tool = match config.fixed_camera {
+        None => base_from_board * camera_from_board.inverse() * config.tool_from_camera.inverse(),
+        Some(_) => config.mount().base_from_tool_seeing(camera_from_board, &base_from_board),
+    };
     config.arm.reach(&base_from_tool, &joints_now).map(|_| ()).ok_or(TargetRefused::Unreachable)
 }
 
@@ -272,7 +275,7 @@ fn board_and_joints_now(config: &CellConfig, now: &CellNow) -> (IsometryMatrix3<
     let seen = now.features_seen.and_then(|f| config.camera.board_pose_from_features(&config.board, &f));
     match (now.joints, seen) {
         (Some(joints), Some(camera_from_board)) => {
-            (config.arm.base_from_tool(&joints) * config.tool_from_camera * camera_from_board, joints)
+            (config.base_from_camera_at(&config.arm, &joints) * camera_from_board, joints)
         }
         (Some(joints), None) => (config.base_from_board(&config.arm), joints),
         (None, _) => (config.base_from_board(&config.arm), config.desired.joints),

@@ -4,7 +4,7 @@ use std::collections::VecDeque;
 
 use vservo_arm::{JointVector, SerialArm};
 use vservo_config::CellConfig;
-use vservo_scene::{Board, CameraIntrinsics, FeatureVector, IsometryMatrix3, MARKS};
+use vservo_scene::{Board, CameraIntrinsics, CameraMount, FeatureVector, IsometryMatrix3, MARKS};
 use vservo_vision::GrayImage;
 use vservo_vision::source::SimulatedCamera;
 use vservo_vision::{Extraction, Extractor, Prediction, TagExtractor};
@@ -35,8 +35,10 @@ pub struct DeliveredFrame {
     /// ξ (px): the marks' pinhole pixels (undistorted, `vision.undistort`), NaN where a mark is not valid
     /// or its observed position has no undistorted one.
     pub features: FeatureVector,
-    /// Where the camera was when the image was taken (from the arm's joints then), if known.
-    pub base_from_camera: Option<IsometryMatrix3<f64>>,
+    /// Where the camera was when the image was taken (from the arm's joints then), if known, in the frame
+    /// that holds the board still: the arm's base for a hand camera, the tool for a fixed one
+    /// (`CameraMount::holder_from_camera`). Its change is the camera's motion relative to the board.
+    pub holder_from_camera: Option<IsometryMatrix3<f64>>,
 }
 
 /// What one frame produced.
@@ -50,6 +52,8 @@ pub struct VisionFrame {
     /// Where the camera really was (`[camera.truth]`'s mount; the frame delivered to the servo carries the
     /// believed one).
     pub base_from_camera: IsometryMatrix3<f64>,
+    /// The board as the real camera saw it.
+    pub camera_from_board: IsometryMatrix3<f64>,
     /// The frame leaving the pipeline now (`pipeline_delay_frames` older than this one), if any has yet.
     pub delivered: Option<DeliveredFrame>,
 }
@@ -58,10 +62,10 @@ pub struct VisionFrame {
 #[derive(Debug, Clone)]
 pub struct VisionStage {
     arm: SerialArm,
-    /// Where the cell believes the camera sits on the hand (the pose delivered with the features).
-    tool_from_camera: IsometryMatrix3<f64>,
-    /// Where the simulated camera really sits (`[camera.truth]`; the believed mount unless told otherwise).
-    true_tool_from_camera: IsometryMatrix3<f64>,
+    /// Where the cell believes the camera is (the pose delivered with the features follows from it).
+    mount: CameraMount,
+    /// Where the simulated camera really is (`[camera.truth]`; the believed mount unless told otherwise).
+    true_mount: CameraMount,
     /// The simulated camera's real intrinsics (the believed ones unless told otherwise).
     true_intrinsics: CameraIntrinsics,
     intrinsics: CameraIntrinsics,
@@ -93,8 +97,8 @@ impl VisionStage {
             if config.vision.source.from_camera_driver() { 0 } else { config.timing.pipeline_delay_frames };
         Self {
             arm,
-            tool_from_camera: config.tool_from_camera,
-            true_tool_from_camera: truth.tool_from_camera,
+            mount: config.mount(),
+            true_mount: config.true_mount(),
             true_intrinsics: truth.intrinsics,
             intrinsics: config.camera,
             board: config.board,
@@ -193,8 +197,8 @@ impl VisionStage {
     ) -> VisionFrame {
         let base_from_tool = self.arm.base_from_tool(q);
         // where the cell believes the camera is (what the servo is told), and where it is (what it sees from)
-        let base_from_camera = base_from_tool * self.tool_from_camera;
-        let base_from_true_camera = base_from_tool * self.true_tool_from_camera;
+        let holder_from_camera = self.mount.holder_from_camera(&base_from_tool);
+        let base_from_true_camera = self.true_mount.base_from_camera(&base_from_tool);
         let camera_from_board = base_from_true_camera.inverse() * base_from_board;
         let hidden = self.scenario.hidden_marks(tick as f64 * self.control_period_s);
         self.camera.capture_hiding(&camera_from_board, frame, hidden);
@@ -209,8 +213,8 @@ impl VisionStage {
             .true_intrinsics
             .project_marks(&self.board, &camera_from_board)
             .unwrap_or_else(|_| FeatureVector::from_element(f64::NAN));
-        let delivered = self.finish(frame, tick, &captured, Some(base_from_camera));
-        VisionFrame { captured, truth, base_from_camera: base_from_true_camera, delivered }
+        let delivered = self.finish(frame, tick, &captured, Some(holder_from_camera));
+        VisionFrame { captured, truth, base_from_camera: base_from_true_camera, camera_from_board, delivered }
     }
 
     /// The simulated camera's last image.
@@ -229,10 +233,10 @@ impl VisionStage {
         image: &GrayImage,
     ) -> (Extraction, Option<DeliveredFrame>) {
         let captured = self.extract(image);
-        let base_from_camera = q
+        let holder_from_camera = q
             .filter(|q| q.iter().all(|v| v.is_finite()))
-            .map(|q| self.arm.base_from_tool(q) * self.tool_from_camera);
-        let delivered = self.finish(frame, tick, &captured, base_from_camera);
+            .map(|q| self.mount.holder_from_camera(&self.arm.base_from_tool(q)));
+        let delivered = self.finish(frame, tick, &captured, holder_from_camera);
         (captured, delivered)
     }
 
@@ -288,11 +292,11 @@ impl VisionStage {
         frame: u64,
         tick: u64,
         captured: &Extraction,
-        base_from_camera: Option<IsometryMatrix3<f64>>,
+        holder_from_camera: Option<IsometryMatrix3<f64>>,
     ) -> Option<DeliveredFrame> {
         self.update_tracking(captured);
         let features = self.pinhole_features(&captured.features);
-        self.pipeline.push_back(DeliveredFrame { frame, capture_tick: tick, features, base_from_camera });
+        self.pipeline.push_back(DeliveredFrame { frame, capture_tick: tick, features, holder_from_camera });
         (self.pipeline.len() > self.delay_frames).then(|| self.pipeline.pop_front()).flatten()
     }
 }

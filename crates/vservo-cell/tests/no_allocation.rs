@@ -129,7 +129,7 @@ fn runs_without_allocating(config: vservo_config::Config) -> [LawFlags; COUNTED_
         let step = servo.step(delivered.as_ref().map(|d| ServoInput {
             frame: d.frame,
             features: &d.features,
-            base_from_camera: d.base_from_camera.as_ref(),
+            holder_from_camera: d.holder_from_camera.as_ref(),
         }));
         assert_eq!(step.outside != 0, k == 11, "frame {k}: {step:?}");
         (step.twist, servo.law_flags())
@@ -209,7 +209,7 @@ fn the_jerk_limited_reference_allocates_nothing_per_tick() {
         let mut interpolator = Interpolator::new(
             settings,
             config.cell.arm.clone(),
-            config.cell.tool_from_camera,
+            config.cell.mount(),
             config.cell.desired.joints,
         );
         let twist = Twist::new(0.05, -0.02, 0.03, 0.1, 0.0, -0.2);

@@ -8,12 +8,12 @@
 //! camera, the board's place, the gains' specification, the command interface) are its methods.
 
 use vservo_arm::JointVector;
-use vservo_scene::{Board, CameraIntrinsics, IsometryMatrix3};
+use vservo_scene::{Board, CameraIntrinsics, CameraMount, IsometryMatrix3};
 use vservo_settings::control::GainsSpec;
 
 use crate::{
-    CameraTruth, CommandInterface, Controller, Desired, JointServoSettings, PlantSettings, Reacquire, Robot,
-    RobotDriver, Scenario, Timing, Vision,
+    CameraTruth, CommandInterface, Controller, Desired, FixedCamera, JointServoSettings, PlantSettings,
+    Reacquire, Robot, RobotDriver, Scenario, Timing, Vision,
 };
 
 /// The configuration's part the core cell runs by (the field `cell` of [`crate::Config`]).
@@ -23,8 +23,12 @@ pub struct CellConfig {
     pub timing: Timing,
     /// The camera's intrinsics.
     pub camera: CameraIntrinsics,
-    /// Where the camera sits on the hand: camera = tool · `tool_from_camera`.
+    /// Where the camera sits on the hand: camera = tool · `tool_from_camera` (the identity, unused, for a
+    /// fixed camera: [`CellConfig::mount`] is the rule for where the camera is).
     pub tool_from_camera: IsometryMatrix3<f64>,
+    /// `camera.mount = "world"`: the camera fixed in the world and the board on the tool; `None`: the camera
+    /// on the hand at `tool_from_camera`, the board standing in the world.
+    pub fixed_camera: Option<FixedCamera>,
     /// The simulated camera as it really is, where `[camera.truth]` says it differs from `camera` and
     /// `tool_from_camera` (see [`CellConfig::true_camera`]). Only the simulated camera's rendering uses it;
     /// everything else works with what the cell believes.
@@ -60,20 +64,64 @@ impl CellConfig {
             .unwrap_or(CameraTruth { intrinsics: self.camera, tool_from_camera: self.tool_from_camera })
     }
 
-    /// The world (= arm base) pose of the board, placed so that the camera at q_d sees it as desired.
-    pub fn base_from_board(&self, arm: &vservo_arm::SerialArm) -> IsometryMatrix3<f64> {
-        arm.base_from_tool(&self.desired.joints) * self.tool_from_camera * self.desired.camera_from_board
+    /// Where the camera is fixed: on the hand, or in the world with the board on the tool.
+    pub fn mount(&self) -> CameraMount {
+        match self.fixed_camera {
+            None => CameraMount::Hand { tool_from_camera: self.tool_from_camera },
+            Some(FixedCamera { base_from_camera, tool_from_board }) => {
+                CameraMount::World { base_from_camera, tool_from_board }
+            }
+        }
     }
 
-    /// The board as the camera sees it with the arm at `joints` and the board where the desired pose puts
-    /// it: `camera_from_board = (base_from_tool(q) · tool_from_camera)⁻¹ · base_from_board`.
+    /// The mount of the simulated camera as it really is (`[camera.truth]`'s `tool_from_camera` on the hand).
+    pub fn true_mount(&self) -> CameraMount {
+        match self.mount() {
+            CameraMount::Hand { .. } => {
+                CameraMount::Hand { tool_from_camera: self.true_camera().tool_from_camera }
+            }
+            fixed => fixed,
+        }
+    }
+
+    /// The world (= arm base) pose of the board at the desired joints, where the camera there sees it as
+    /// desired (a hand camera's board stands there).
+    pub fn base_from_board(&self, arm: &vservo_arm::SerialArm) -> IsometryMatrix3<f64> {
+        match self.fixed_camera {
+            None => {
+                arm.base_from_tool(&self.desired.joints)
+                    * self.tool_from_camera
+                    * self.desired.camera_from_board
+            }
+            Some(fixed) => fixed.base_from_camera * self.desired.camera_from_board,
+        }
+    }
+
+    /// The camera in the base frame with the arm at `joints`.
+    pub fn base_from_camera_at(
+        &self,
+        arm: &vservo_arm::SerialArm,
+        joints: &JointVector,
+    ) -> IsometryMatrix3<f64> {
+        self.mount().base_from_camera(&arm.base_from_tool(joints))
+    }
+
+    /// The board as the camera sees it with the arm at `joints` (a hand camera's board where the desired pose
+    /// puts it): `camera_from_board = base_from_camera(q)⁻¹ · base_from_board(q)`.
     pub fn camera_from_board_at(
         &self,
         arm: &vservo_arm::SerialArm,
         joints: &JointVector,
     ) -> IsometryMatrix3<f64> {
-        let base_from_camera = arm.base_from_tool(joints) * self.tool_from_camera;
-        base_from_camera.inverse() * self.base_from_board(arm)
+        match self.fixed_camera {
+            None => {
+                let base_from_camera = arm.base_from_tool(joints) * self.tool_from_camera;
+                base_from_camera.inverse() * self.base_from_board(arm)
+            }
+            Some(fixed) => {
+                fixed.base_from_camera.inverse() * arm.base_from_tool(joints) * fixed.tool_from_board
+            }
+        }
     }
 
     /// The command the robot driver takes: an external driver's declaration; for the simulated driver,

@@ -7,7 +7,7 @@
 //!
 //! The camera's lens is one value ([`LENS_KEYS`]): a file that writes any of its keys replaces its base's
 //! whole lens (a file giving `fx_px`/`fy_px` or a `calibration_file` is not mixed with its base's
-//! `focal_px`). A relative `camera.calibration_file` or `robot.arm.urdf` is made relative to the file that
+//! `focal_px`); so is its mount ([`MOUNT_KEYS`]: a fixed camera's file drops its base's `tool_from_camera`). A relative `camera.calibration_file` or `robot.arm.urdf` is made relative to the file that
 //! wrote it here, so the merged text names it wherever it is read.
 
 use std::path::{Path, PathBuf};
@@ -213,22 +213,34 @@ pub const LENS_KEYS: [&str; 8] = [
     "height_px",
 ];
 
-/// `overlay`'s keys over `base`'s: tables key by key, any other value replaced; the camera's lens whole.
+/// The keys of the camera's mount, one value as the lens is: a file that writes any of them replaces its base's
+/// mount whole (a fixed camera over a hand camera's file does not inherit its `tool_from_camera`).
+pub const MOUNT_KEYS: [&str; 3] = ["mount", "tool_from_camera", "base_from_camera"];
+
+/// `overlay`'s keys over `base`'s: tables key by key, any other value replaced; the camera's lens and its
+/// mount each whole.
 fn merge(base: &mut toml::Table, overlay: &toml::Table) {
-    if writes_a_lens(overlay)
-        && let Some(toml::Value::Table(camera)) = base.get_mut("camera")
-    {
-        camera.retain(|key, _| !LENS_KEYS.contains(&key));
+    for keys in [&LENS_KEYS[..], &MOUNT_KEYS[..]] {
+        if writes_any(overlay, keys)
+            && let Some(toml::Value::Table(camera)) = base.get_mut("camera")
+        {
+            camera.retain(|key, _| !keys.contains(&key));
+        }
     }
     merge_tables(base, overlay);
 }
 
-/// Whether a file's keys hold any key of the camera's lens.
-fn writes_a_lens(table: &toml::Table) -> bool {
+/// Whether a file's `[camera]` holds any of `keys`.
+fn writes_any(table: &toml::Table, keys: &[&str]) -> bool {
     table
         .get("camera")
         .and_then(toml::Value::as_table)
-        .is_some_and(|camera| LENS_KEYS.iter().any(|key| camera.contains_key(*key)))
+        .is_some_and(|camera| keys.iter().any(|key| camera.contains_key(*key)))
+}
+
+/// Whether a file's keys hold any key of the camera's lens.
+fn writes_a_lens(table: &toml::Table) -> bool {
+    writes_any(table, &LENS_KEYS)
 }
 
 /// `overlay`'s keys over `base`'s: tables key by key, any other value replaced.

@@ -353,7 +353,12 @@ pub struct RawCamera {
     pub source: RawCameraSource,
     #[serde(default)]
     pub directory: String,
-    pub tool_from_camera: RawPose,
+    #[serde(default)]
+    pub mount: RawCameraMount,
+    #[serde(default)]
+    pub tool_from_camera: Option<RawPose>,
+    #[serde(default)]
+    pub base_from_camera: Option<RawPose>,
     /// `[camera.gstreamer]`: read by the GStreamer camera driver (vservo-gst-camera) only.
     #[serde(default)]
     pub gstreamer: Option<RawGstreamer>,

@@ -476,6 +476,15 @@ pub struct CalibrationSettings {
     pub output_file: Option<String>,
 }
 
+/// A camera fixed in the world (`camera.mount = "world"`), the board on the tool.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FixedCamera {
+    /// `camera.base_from_camera`: the camera in the arm's base frame.
+    pub base_from_camera: nalgebra::IsometryMatrix3<f64>,
+    /// The board on the tool, where the desired pose puts it (`[desired]` read with the camera fixed).
+    pub tool_from_board: nalgebra::IsometryMatrix3<f64>,
+}
+
 /// The simulated camera as it really is (`[camera.truth]`): what a calibration of the simulated cell should
 /// find, apart from what the configuration believes the camera to be.
 #[derive(Debug, Clone, Copy, PartialEq)]

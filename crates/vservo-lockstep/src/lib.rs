@@ -285,7 +285,7 @@ impl Lockstep {
         let step = self.servo.step(taken.delivered.as_ref().map(|d| ServoInput {
             frame: d.frame,
             features: &d.features,
-            base_from_camera: d.base_from_camera.as_ref(),
+            holder_from_camera: d.holder_from_camera.as_ref(),
         }));
         let at = pace.twist_taken_at(taken.delivered.as_ref().map(|d| d.capture_tick), tick);
         self.waiting = Some(Waiting { at, twist: step.twist, moves: step.verdict.moves() });
@@ -296,7 +296,15 @@ impl Lockstep {
             twist: step.twist,
             verdict: Some(step.verdict),
             camera_position_m: taken.base_from_camera.translation.vector,
-            camera_in_desired_m: (self.desired_camera_from_base * taken.base_from_camera).translation.vector,
+            camera_in_desired_m: match self.config.cell.fixed_camera {
+                None => (self.desired_camera_from_base * taken.base_from_camera).translation.vector,
+                // where the camera is relative to the board, in the desired camera frame
+                Some(_) => {
+                    (self.config.cell.desired.camera_from_board * taken.camera_from_board.inverse())
+                        .translation
+                        .vector
+                }
+            },
         }
     }
 

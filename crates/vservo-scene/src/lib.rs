@@ -40,6 +40,7 @@
 mod board;
 mod camera;
 pub mod lens;
+mod mount;
 pub mod pose_rows;
 pub mod tag36h11;
 mod tag_grid;
@@ -47,6 +48,7 @@ mod tag_grid;
 pub use board::{AprilTag, Board, MARKS, SHEET_MARGIN_CELLS, Target, UnknownTagId};
 pub use camera::{CameraIntrinsics, IntrinsicsError, ProjectionError, image_contains};
 pub use lens::{Distortion, DistortionError};
+pub use mount::CameraMount;
 pub use nalgebra::IsometryMatrix3;
 pub use tag_grid::{TagGrid, TagGridError};
 

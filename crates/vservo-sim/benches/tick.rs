@@ -15,7 +15,7 @@ fn tick(c: &mut Criterion) {
     let arm = puma560::puma560();
     let settings = InterpolatorSettings::new(0.085, 0.001);
     let mut interpolator =
-        Interpolator::new(settings, arm.clone(), config.cell.tool_from_camera, config.cell.desired.joints);
+        Interpolator::new(settings, arm.clone(), config.cell.mount(), config.cell.desired.joints);
     interpolator.set_twist(Twist::new(0.01, -0.02, 0.005, 0.01, 0.0, -0.01), 0.0);
     let (law, kp, kv) = (config.cell.joint_servo.law, config.cell.joint_servo.kp, config.cell.joint_servo.kv);
     let servo = JointServo::new(arm, law, kp, kv);
@@ -58,7 +58,7 @@ fn interpolator_ticks(c: &mut Criterion) {
         let mut interpolator = Interpolator::new(
             config.cell.interpolator,
             config.cell.arm.clone(),
-            config.cell.tool_from_camera,
+            config.cell.mount(),
             config.cell.desired.joints,
         );
         let twist = Twist::new(0.01, -0.02, 0.005, 0.01, 0.0, -0.01);

@@ -1,9 +1,10 @@
 //! The 1 ms resolved-motion-rate interpolator: from the camera twist the servo sends every vision frame to
 //! a joint reference every tick.
 
-use nalgebra::{Matrix6, Vector3, Vector6};
-use vservo_arm::{DH_JOINTS, Jacobian, JointLimits, JointVector, MAX_JOINTS, SerialArm, Transform};
+use nalgebra::{Matrix6, Vector6};
+use vservo_arm::{DH_JOINTS, Jacobian, JointLimits, JointVector, MAX_JOINTS, SerialArm};
 use vservo_control::Twist;
+use vservo_scene::CameraMount;
 
 use crate::motion_limits::{JointMotion, MotionLimits, MotionState, velocity_headroom};
 use crate::redundancy::{self, Damping, NullSpaceTask};
@@ -44,7 +45,7 @@ pub struct Interpolator {
     arm: SerialArm,
     /// The arm's joint limits, the slots past its joints unused (kept here so that a tick borrows a slice).
     limits: [JointLimits; MAX_JOINTS],
-    tool_from_camera: Transform,
+    mount: CameraMount,
     latest: Twist,
     previous: Twist,
     latest_at_s: Option<f64>,
@@ -58,19 +59,14 @@ pub struct Interpolator {
 
 impl Interpolator {
     /// An interpolator whose reference starts at rest at `q`.
-    pub fn new(
-        settings: InterpolatorSettings,
-        arm: SerialArm,
-        tool_from_camera: Transform,
-        q: JointVector,
-    ) -> Self {
+    pub fn new(settings: InterpolatorSettings, arm: SerialArm, mount: CameraMount, q: JointVector) -> Self {
         let motion =
             settings.jerk_limit.map(|_| JointMotion::new(arm.joint_count(), settings.control_period_s));
         Self {
             settings,
             limits: arm.links.map(|link| link.limits),
             arm,
-            tool_from_camera,
+            mount,
             latest: Twist::zeros(),
             previous: Twist::zeros(),
             latest_at_s: None,
@@ -165,17 +161,9 @@ impl Interpolator {
         }
         let twist = self.held_twist(now_s) * self.stop_scale;
         let q = self.reference.q;
-        // the camera twist (camera frame) as the tool's twist in the base frame
+        // the camera twist (camera frame) as the tool's twist in the base frame, for the camera's mount
         let (base_from_tool, jacobian) = self.arm.base_from_tool_and_jacobian(&q);
-        let base_from_camera = base_from_tool * self.tool_from_camera;
-        let rotation = base_from_camera.rotation.matrix();
-        let v_camera: Vector3<f64> = rotation * twist.fixed_rows::<3>(0);
-        let omega: Vector3<f64> = rotation * twist.fixed_rows::<3>(3);
-        let tool_from_camera_origin = base_from_tool.translation.vector - base_from_camera.translation.vector;
-        let v_tool = v_camera + omega.cross(&tool_from_camera_origin);
-        let mut tool_twist = Vector6::zeros();
-        tool_twist.fixed_rows_mut::<3>(0).copy_from(&v_tool);
-        tool_twist.fixed_rows_mut::<3>(3).copy_from(&omega);
+        let tool_twist = self.mount.tool_twist(&base_from_tool, &twist);
         let tool_twist = within_tool_speeds(tool_twist, s.tool_speed_limit_m_s, s.tool_rotation_limit_rad_s);
 
         let joints = self.arm.joint_count();

@@ -180,8 +180,12 @@ mod tests {
     fn worst_torque_share(share: f64) -> f64 {
         let arm = puma560::puma560();
         let settings = InterpolatorSettings::new(0.085, 0.001);
-        let mut interpolator =
-            Interpolator::new(settings, arm.clone(), vservo_arm::Transform::identity(), puma560::QN);
+        let mut interpolator = Interpolator::new(
+            settings,
+            arm.clone(),
+            vservo_scene::CameraMount::Hand { tool_from_camera: vservo_arm::Transform::identity() },
+            puma560::QN,
+        );
         interpolator.move_joints_to(far_goal(), share);
         let mut worst = 0.0f64;
         for tick in 0..20_000 {

@@ -114,7 +114,7 @@ fn interpolator(q: JointVector) -> Interpolator {
 fn interpolator_with(q: JointVector, settings: InterpolatorSettings) -> Interpolator {
     let config =
         Config::from_toml(include_str!("../../../config/vservo.toml"), "vservo.toml").expect("valid");
-    Interpolator::new(settings, puma560::puma560(), config.cell.tool_from_camera, q)
+    Interpolator::new(settings, puma560::puma560(), config.cell.mount(), q)
 }
 
 #[test]

@@ -84,8 +84,7 @@ fn run(config: &Config, q: JointVector, asks: &[Ask]) -> (Measured, Interpolator
     let settings = config.cell.interpolator;
     let dt = settings.control_period_s;
     let ticks_per_frame = (settings.vision_period_s / dt).round() as u64;
-    let mut interpolator =
-        Interpolator::new(settings, config.cell.arm.clone(), config.cell.tool_from_camera, q);
+    let mut interpolator = Interpolator::new(settings, config.cell.arm.clone(), config.cell.mount(), q);
     let mut measured = Measured::default();
     let mut tick = 0u64;
     for ask in asks {
@@ -177,7 +176,7 @@ fn a_step_uses_the_jerk_limit_and_the_tool_speed_is_capped() {
     // the tool held to 0.25 m/s (the first motion's cap) though 0.5 m/s was asked
     let settings = fr3.cell.interpolator;
     let mut interpolator =
-        Interpolator::new(settings, fr3.cell.arm.clone(), fr3.cell.tool_from_camera, fr3.cell.desired.joints);
+        Interpolator::new(settings, fr3.cell.arm.clone(), fr3.cell.mount(), fr3.cell.desired.joints);
     interpolator.set_twist(Twist::new(0.5, 0.0, 0.0, 0.0, 0.0, 0.0), 0.0);
     let mut q = fr3.cell.desired.joints;
     for tick in 1..=60 {
@@ -201,8 +200,7 @@ fn a_joint_move_arrives_with_any_jerk_limit() {
         fr3.cell.interpolator.jerk_limit = Some(JointVector::repeat(jerk));
         let settings = fr3.cell.interpolator;
         let start = JointVector::from([0.0, 0.0, 0.0, -1.57, 0.0, 1.57, 0.785]);
-        let mut interpolator =
-            Interpolator::new(settings, fr3.cell.arm.clone(), fr3.cell.tool_from_camera, start);
+        let mut interpolator = Interpolator::new(settings, fr3.cell.arm.clone(), fr3.cell.mount(), start);
         interpolator.move_joints_to(fr3.cell.desired.joints, 0.3);
         let arrived = (1..=20_000).find(|tick| {
             interpolator.step(*tick as f64 * settings.control_period_s);

@@ -47,6 +47,15 @@ pub enum RawCameraSource {
     Gstreamer,
 }
 
+/// `camera.mount`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum RawCameraMount {
+    #[default]
+    Hand,
+    World,
+}
+
 /// `robot.start`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
 #[serde(rename_all = "lowercase")]

@@ -5,7 +5,7 @@ use vservo_scene::{CameraIntrinsics, Distortion};
 
 use super::checker::Checker;
 use crate::calibration::Calibration;
-use crate::raw::{RawCamera, RawCameraSource, RawGstreamer};
+use crate::raw::{RawCamera, RawCameraMount, RawCameraSource, RawGstreamer};
 use crate::{CameraTruth, ConfigError, GstreamerCamera, VisionSource};
 
 /// `camera.calibration_file`, read and parsed once, if written.
@@ -171,14 +171,83 @@ fn fits_camera_image(
 }
 
 /// `camera.tool_from_camera`: within 2 m of the tool; the calibration file's where it has one (a file of
-/// `vservoctl calibrate`).
+/// `vservoctl calibrate`). A fixed camera (`camera.mount = "world"`) has none: the identity stands in, and
+/// [`crate::CellConfig::mount`] is the rule for where the camera is.
 pub fn tool_from_camera(
     check: &Checker,
     c: &RawCamera,
     calibration: Option<&Calibration>,
 ) -> Result<nalgebra::IsometryMatrix3<f64>, ConfigError> {
-    let written = check.pose("camera.tool_from_camera", &c.tool_from_camera, 2.0)?;
-    Ok(calibration.and_then(|k| k.tool_from_camera).unwrap_or(written))
+    match (c.mount, &c.tool_from_camera) {
+        (RawCameraMount::Hand, None) => Err(check.invalid(
+            "camera.tool_from_camera",
+            "nothing",
+            "must be given for a camera on the hand (or camera.mount = \"world\" with camera.base_from_camera)",
+        )),
+        (RawCameraMount::Hand, Some(pose)) => {
+            let written = check.pose("camera.tool_from_camera", pose, 2.0)?;
+            Ok(calibration.and_then(|k| k.tool_from_camera).unwrap_or(written))
+        }
+        (RawCameraMount::World, Some(_)) => Err(check.invalid(
+            "camera.tool_from_camera",
+            "(given)",
+            "is a hand camera's pose: a fixed camera (camera.mount = \"world\") is at camera.base_from_camera",
+        )),
+        (RawCameraMount::World, None) => {
+            if calibration.is_some_and(|k| k.tool_from_camera.is_some()) {
+                return Err(check.invalid(
+                    "camera.calibration_file",
+                    c.calibration_file.clone().unwrap_or_default(),
+                    "holds a hand-eye transform (tool_from_camera), a hand camera's: a fixed camera \
+                     (camera.mount = \"world\") is at camera.base_from_camera",
+                ));
+            }
+            Ok(nalgebra::IsometryMatrix3::identity())
+        }
+    }
+}
+
+/// A fixed camera (`camera.mount = "world"`): `camera.base_from_camera` (within 5 m of the arm's base), and the
+/// board on the tool where the desired pose puts it, `tool_from_board = tool_from_base(q_d) · base_from_camera
+/// · camera_from_board_d` (within 1 m of the tool: a target held by the hand). `None` for a hand camera, which
+/// must not give `camera.base_from_camera`.
+pub fn fixed_camera(
+    check: &Checker,
+    c: &RawCamera,
+    arm: &vservo_arm::SerialArm,
+    desired: &crate::Desired,
+) -> Result<Option<crate::FixedCamera>, ConfigError> {
+    match (c.mount, &c.base_from_camera) {
+        (RawCameraMount::Hand, None) => Ok(None),
+        (RawCameraMount::Hand, Some(_)) => Err(check.invalid(
+            "camera.base_from_camera",
+            "(given)",
+            "is a fixed camera's pose: write camera.mount = \"world\" (or leave it out for a camera on the hand)",
+        )),
+        (RawCameraMount::World, None) => Err(check.invalid(
+            "camera.base_from_camera",
+            "nothing",
+            "must be given for a fixed camera (camera.mount = \"world\"): its pose in the arm's base frame",
+        )),
+        (RawCameraMount::World, Some(pose)) => {
+            let base_from_camera = check.pose("camera.base_from_camera", pose, 5.0)?;
+            let tool_from_board = arm.base_from_tool(&desired.joints).inverse()
+                * base_from_camera
+                * desired.camera_from_board;
+            let reach_m = tool_from_board.translation.vector.norm();
+            if reach_m > 1.0 {
+                return Err(check.invalid(
+                    "desired.camera_from_board",
+                    format!("{:?}", tool_from_board.translation.vector.as_slice()),
+                    format!(
+                        "puts the board {reach_m:.2} m from the tool at desired.joints_rad, seen from \
+                         camera.base_from_camera: a fixed camera's target rides on the tool (within 1 m)"
+                    ),
+                ));
+            }
+            Ok(Some(crate::FixedCamera { base_from_camera, tool_from_board }))
+        }
+    }
 }
 
 /// `[camera.truth]`, if written: the simulated camera as it really is (a calibration's known answer), its
@@ -232,6 +301,13 @@ pub fn truth(
     };
     let intrinsics = CameraIntrinsics::with_lens([fx, fy], principal, width_px, height_px, distortion)
         .map_err(|e| check.invalid("camera.truth", format!("{t:?}"), e.to_string()))?;
+    if c.mount == RawCameraMount::World && t.tool_from_camera.is_some() {
+        return Err(check.invalid(
+            "camera.truth.tool_from_camera",
+            "(given)",
+            "is a hand camera's pose: a fixed camera (camera.mount = \"world\") is at camera.base_from_camera",
+        ));
+    }
     let tool_from_camera = match &t.tool_from_camera {
         None => *believed_tool_from_camera,
         Some(pose) => check.pose("camera.truth.tool_from_camera", pose, 2.0)?,

@@ -50,6 +50,7 @@ pub fn validate(raw: RawConfig, file: &str) -> Result<Config, ConfigError> {
     };
     let ros2 = ros2::ros2(&check, &raw.ros2, arm.joint_count(), from_ros2)?;
     let desired = desired::desired(&check, &raw.desired, &arm, &camera, &board)?;
+    let fixed_camera = camera::fixed_camera(&check, &raw.camera, &arm, &desired)?;
     let controller =
         controller::controller(&check, &raw.controller, &camera, &desired.features, timing.vision_period_s)?;
     let source = camera::source(&check, &raw.camera)?;
@@ -65,6 +66,14 @@ pub fn validate(raw: RawConfig, file: &str) -> Result<Config, ConfigError> {
     let joint_servo = simulation::joint_servo(&check, &raw.joint_servo)?;
     let interpolator_jerk = (interpolator.jerk_limit, arm.joint_count());
     let scenario = scenario::scenario(&check, &raw.scenario)?;
+    if fixed_camera.is_some() && scenario.object != vservo_settings::simulation::ObjectMotion::Hold {
+        return Err(check.invalid(
+            "scenario.object_motion",
+            format!("{:?}", raw.scenario.object_motion),
+            "moves a standing board: with a fixed camera (camera.mount = \"world\") the board rides on the tool \
+             (leave it out)",
+        ));
+    }
     let robot = robot::robot(&check, &raw.robot, &plant, &timing)?;
     let mut controller = controller;
     controller::fit_pose_caps(&check, &raw.controller, &mut controller.options, &robot)?;
@@ -78,6 +87,7 @@ pub fn validate(raw: RawConfig, file: &str) -> Result<Config, ConfigError> {
             timing,
             camera,
             tool_from_camera,
+            fixed_camera,
             camera_truth,
             board,
             desired,

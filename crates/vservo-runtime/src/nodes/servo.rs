@@ -154,7 +154,7 @@ impl Servo {
         let input = ServoInput {
             frame: message.frame,
             features: &features,
-            base_from_camera: base_from_camera.as_ref(),
+            holder_from_camera: base_from_camera.as_ref(),
         };
         if held { self.stage.held(input) } else { self.stage.step(Some(input)) }
     }

@@ -111,7 +111,7 @@ impl FeaturesOut {
             features_px: to_array(&delivered.features),
             mark_status: status.map(u8::from),
             writer_pid: std::process::id(),
-            base_from_camera: delivered.base_from_camera.as_ref().map_or([f64::NAN; 12], pose_to_wire),
+            base_from_camera: delivered.holder_from_camera.as_ref().map_or([f64::NAN; 12], pose_to_wire),
             seal: 0,
         };
         vservo_protocol::seal::sign_with(self.key.as_ref(), &mut message);

@@ -38,7 +38,7 @@ pub fn first_motion(observed: &Observed, cell: &Cell) -> Option<FirstMotion> {
     let step = servo.step(Some(vservo_cell::ServoInput {
         frame: 1,
         features: &frame.features,
-        base_from_camera: Some(&base_from_camera),
+        holder_from_camera: Some(&base_from_camera),
     }));
     let twist = step.twist;
     let period_s = config.robot.period_s;

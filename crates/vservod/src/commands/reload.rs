@@ -109,6 +109,7 @@ pub fn diff(old: &Config, new: &Config) -> ConfigDiff {
                 timing,
                 camera,
                 tool_from_camera,
+                fixed_camera,
                 camera_truth,
                 board,
                 desired,
@@ -156,6 +157,8 @@ pub fn diff(old: &Config, new: &Config) -> ConfigDiff {
     section(r, "timing", timing != &new.cell.timing, &timing_keys);
     section(r, "camera", camera != &new.cell.camera, &[]);
     section(r, "camera.tool_from_camera", tool_from_camera != &new.cell.tool_from_camera, &[]);
+    // a fixed camera's pose, or where the board sits on the tool (from [desired] read with the camera fixed)
+    section(r, "camera.base_from_camera", fixed_camera != &new.cell.fixed_camera, &[]);
     section(r, "camera.truth", camera_truth != &new.cell.camera_truth, &[]);
     section(r, "object", board != &new.cell.board, &[]);
     section(
