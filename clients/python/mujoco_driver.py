@@ -191,6 +191,9 @@ def build_mjcf(scene) -> str:
     The links are capsules along the DH offsets, with MuJoCo's inertias for them at a density of 1000 kg/m³:
     plausible, NOT the PUMA 560's true masses and inertias (vservo's own plant has those).
     """
+    if scene.get("camera_mount", "hand") != "hand":
+        raise SystemExit("mujoco_driver: the scene's camera is fixed in the world (camera.mount = \"world\"): this "
+                         "driver builds a hand camera only; the PyBullet driver renders a fixed one")
     arm, cam, board = scene["arm"], scene["camera"], scene["board"]
     lens = Lens(cam)
     fovy_deg = lens.fovy_deg()

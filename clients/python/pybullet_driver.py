@@ -191,8 +191,11 @@ class Cell:
 
 def board_world(scene, world_from_base):
     """A DIRECT client with the board alone: its white face is its plane z = 0, the box behind it (+z), the marks
-    0.1 mm in front (−z), as the MuJoCo driver builds it (the camera looks at the board along the board's +z)."""
+    0.1 mm in front (−z), as the MuJoCo driver builds it (the camera looks at the board along the board's +z).
+    Returns the client and the board's bodies (its face and marks, each at the board's pose), which a fixed
+    camera's renderer moves with the tool."""
     board, c = scene["board"], pybullet.connect(pybullet.DIRECT)
+    bodies = []
     (xlo, ylo), (xhi, yhi) = board["extent_m"]
     thickness, film = 0.005, 0.0001
     world_from_board = world_from_base @ np.array(scene["base_from_board"])
@@ -201,7 +204,7 @@ def board_world(scene, world_from_base):
                                       halfExtents=[(xhi - xlo) / 2, (yhi - ylo) / 2, thickness / 2],
                                       visualFramePosition=[(xhi + xlo) / 2, (yhi + ylo) / 2, thickness / 2],
                                       rgbaColor=gray(BOARD_GRAY), physicsClientId=c)
-    pybullet.createMultiBody(0, -1, face, position, orientation, physicsClientId=c)
+    bodies.append(pybullet.createMultiBody(0, -1, face, position, orientation, physicsClientId=c))
     tag = board.get("apriltag")
     if tag:  # its black cells as thin black boxes (the white ones are the board)
         cell = tag["size_m"] / 8
@@ -215,8 +218,8 @@ def board_world(scene, world_from_base):
     for x, y in centres:
         mark = pybullet.createVisualShape(visualFramePosition=[x, y, -film / 2], rgbaColor=gray(MARK_GRAY),
                                           physicsClientId=c, **shape)
-        pybullet.createMultiBody(0, -1, mark, position, orientation, physicsClientId=c)
-    return c
+        bodies.append(pybullet.createMultiBody(0, -1, mark, position, orientation, physicsClientId=c))
+    return c, bodies
 
 
 def gray(level):
@@ -231,14 +234,21 @@ def check_camera(scene):
 
 
 class Renderer:
-    """The hand camera: world_from_camera = world_from_tip · tool_from_camera, camera x right, y down, z along
-    the optical axis (docs/ARCHITECTURE.md), pixel (u, v) covering [u, u+1) × [v, v+1)."""
+    """The camera: on the hand, world_from_camera = world_from_tip · tool_from_camera; fixed in the world
+    (scene camera_mount "world"), world_from_base · base_from_camera, the board moved with the tool to
+    world_from_tip · tool_from_board before each image. Camera x right, y down, z along the optical axis
+    (docs/ARCHITECTURE.md), pixel (u, v) covering [u, u+1) × [v, v+1)."""
 
     def __init__(self, scene, urdf):
         cam = check_camera(scene)
-        self.cell = Cell(scene, urdf)  # for the camera's pose
-        self.client = board_world(scene, self.cell.world_from_base)  # what it sees
-        self.tool_from_camera = np.array(scene["tool_from_camera"], dtype=float)
+        self.cell = Cell(scene, urdf)  # for the camera's pose, or the board's
+        self.client, self.board_bodies = board_world(scene, self.cell.world_from_base)  # what it sees
+        self.fixed = scene.get("camera_mount", "hand") == "world"
+        if self.fixed:
+            self.world_from_fixed_camera = self.cell.world_from_base @ np.array(scene["base_from_camera"], dtype=float)
+            self.tool_from_board = np.array(scene["tool_from_board"], dtype=float)
+        else:
+            self.tool_from_camera = np.array(scene["tool_from_camera"], dtype=float)
         self.width, self.height = cam["width_px"], cam["height_px"]
         fx, fy = cam.get("fx_px", cam.get("focal_px")), cam.get("fy_px", cam.get("focal_px"))
         cx, cy = cam["principal_point_px"]
@@ -254,11 +264,17 @@ class Renderer:
         self.projection = projection.T.flatten().tolist()  # column-major, as OpenGL and PyBullet take it
 
     def world_from_camera(self, q):
+        """Where the camera is with the arm at q; a fixed camera's board is moved to the tool there."""
         self.cell.set_joints(q)
-        return self.cell.world_from_tip() @ self.tool_from_camera
+        if not self.fixed:
+            return self.cell.world_from_tip() @ self.tool_from_camera
+        position, orientation = position_quaternion(self.cell.world_from_tip() @ self.tool_from_board)
+        for body in self.board_bodies:
+            pybullet.resetBasePositionAndOrientation(body, position, orientation, physicsClientId=self.client)
+        return self.world_from_fixed_camera
 
     def image(self, q):
-        """The image (height × width, u8) the hand camera sees with the arm at q."""
+        """The image (height × width, u8) the camera sees with the arm at q."""
         eye_from_world = np.diag([1.0, -1.0, -1.0, 1.0]) @ np.linalg.inv(self.world_from_camera(q))
         _, _, rgba, _, _ = pybullet.getCameraImage(
             self.width, self.height, eye_from_world.T.flatten().tolist(), self.projection,

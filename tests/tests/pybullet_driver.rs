@@ -64,7 +64,7 @@ fn assert_held_until_resumed(summary: &serde_json::Value) {
 }
 
 /// `scripts/run-pybullet.sh --json` on every arm of config/arms/ that has a URDF (the xArm6, the Panda, the FR3,
-/// the iiwa and a UR5e), the README's way to try it: each converges, and its commanded joint stream (`vservoctl echo
+/// the iiwa and a UR5e, and the UR5e with a fixed camera), the README's way to try it: each converges, and its commanded joint stream (`vservoctl echo
 /// joint_command`) stays within that arm's own velocity, acceleration and jerk limits; nothing of the driver outlives
 /// the run (its camera process ends with it).
 #[test]
@@ -112,6 +112,15 @@ fn run_pybullet_with_every_arm_file_converges_below_one_pixel_within_the_arms_li
         &["--urdf", "config/arms/ur5e.urdf", "--config", "config/arms/ur5e.toml"],
     );
     assert_commands_within_the_arms_limits("ur5e", &summary);
+    // the UR5e again with the camera off its hand (camera.mount = "world"): fixed under the table, looking up at
+    // the board the flange carries; PyBullet renders the board where the arm puts it
+    let summary = run_script_to_convergence(
+        "run-pybullet.sh",
+        &["--urdf", "config/arms/ur5e.urdf", "--config", "config/arms/ur5e-eye-to-hand.toml"],
+    );
+    assert_commands_within_the_arms_limits("ur5e, eye to hand", &summary);
+    let initial_px = summary["initial_error_px"].as_f64().unwrap_or(0.0);
+    assert!(initial_px > 20.0, "the eye-to-hand run starts {initial_px} px off, no test: {summary}");
     assert!(
         wait_until(Duration::from_secs(3), || camera_processes().is_empty()),
         "camera processes left behind: {:?}",

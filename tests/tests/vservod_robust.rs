@@ -118,3 +118,43 @@ fn a_pose_based_law_acquires_a_target_out_of_view_and_converges_in_real_time() {
     assert!(!log.contains("target_lost"), "{log}");
     daemon.stop();
 }
+
+/// An eye-to-hand cell (config/eye-to-hand.toml: the camera fixed in the world, the board on the PUMA's tool) as
+/// four real-time processes: the rmrc moves the board with the opposite of the law's twist, and the cell
+/// converges below 1 px from a start 10 cm and 20° off.
+#[test]
+fn an_eye_to_hand_cell_converges_in_real_time() {
+    let _one = exclusive();
+    let instance = unique("eye-to-hand");
+    let config = config_from(
+        "config/eye-to-hand.toml",
+        &[
+            ("name = \"default\"", &format!("name = \"{instance}\"")),
+            (
+                "initial_camera_translation_m = [0.00596, -0.03023, 0.00113]",
+                "initial_camera_translation_m = [0.05, -0.04, 0.06]",
+            ),
+            (
+                "initial_camera_rotation_deg = [0.0, 0.0, 0.0]",
+                "initial_camera_rotation_deg = [6.0, -5.0, 20.0]",
+            ),
+        ],
+    );
+    let text = std::fs::read_to_string(config.arg()).expect("the configuration written");
+    assert!(text.contains("mount = \"world\"") && !text.contains("tool_from_camera"), "{text}");
+    let daemon = Daemon::start(&config);
+    assert!(
+        wait_until(Duration::from_secs(10), || status(&instance).is_some_and(|s| running(&s))),
+        "{}",
+        daemon.log()
+    );
+    let twists = echo_lines(&instance, "camera_twist", "4");
+    let first = twists.first().expect("twists")["feature_error_px"].as_f64().unwrap_or(f64::NAN);
+    let last = twists.last().expect("twists");
+    let error = last["feature_error_px"].as_f64().unwrap_or(f64::NAN);
+    assert_eq!(last["verdict"].as_u64(), Some(u64::from(Verdict::Servoing.code())), "{}", daemon.log());
+    assert!(error < 1.0, "feature error at the end {error} px (at the first twist heard {first} px)");
+    let state = status(&instance).expect("status");
+    assert!(running(&state), "never stopped: {state}");
+    daemon.stop();
+}

@@ -71,13 +71,20 @@ impl ArmFrames {
     }
 
     /// What does not move, for `/tf_static`: the tool on the last link (where it is a frame of its own) and the
-    /// camera's optical frame on the tool.
-    pub fn fixed(&self, tool_from_camera: &IsometryMatrix3<f64>, stamp: Time) -> Vec<TransformStamped> {
+    /// camera's optical frame on the tool (a camera fixed in the world: in the base frame).
+    pub fn fixed(&self, mount: &vservo_scene::CameraMount, stamp: Time) -> Vec<TransformStamped> {
         let mut transforms = Vec::with_capacity(2);
         if let (Some((tool, last_from_tool)), Some(last)) = (&self.tool, self.links.last()) {
             transforms.push(transform(stamp, last, tool, last_from_tool));
         }
-        transforms.push(transform(stamp, self.tool_frame(), CAMERA_FRAME, tool_from_camera));
+        match mount {
+            vservo_scene::CameraMount::Hand { tool_from_camera } => {
+                transforms.push(transform(stamp, self.tool_frame(), CAMERA_FRAME, tool_from_camera));
+            }
+            vservo_scene::CameraMount::World { base_from_camera, .. } => {
+                transforms.push(transform(stamp, &self.base, CAMERA_FRAME, base_from_camera));
+            }
+        }
         transforms
     }
 }

@@ -145,7 +145,7 @@ pub struct Translator {
     frames: ArmFrames,
     /// Whether `tf_static` was made (once: it is transient local).
     fixed_made: bool,
-    tool_from_camera: nalgebra::IsometryMatrix3<f64>,
+    mount: vservo_scene::CameraMount,
     camera: vservo_scene::CameraIntrinsics,
     board: vservo_scene::Board,
     /// The system clock's offset from the monotonic one, read again on each slow look.
@@ -173,7 +173,7 @@ impl Translator {
             arm: config.cell.arm.clone(),
             frames: ArmFrames::of(&config.cell.arm),
             fixed_made: false,
-            tool_from_camera: config.cell.tool_from_camera,
+            mount: config.cell.mount(),
             camera: config.cell.camera,
             board: config.cell.board,
             clock: StampClock::now(),
@@ -200,9 +200,7 @@ impl Translator {
         }
         if !self.fixed_made && self.wants(Ros2Topic::TfStatic) {
             let stamp = self.clock.ros_time(vservo_protocol::clock::monotonic_ns());
-            out(RosMessage::TfStatic(TfMessage {
-                transforms: self.frames.fixed(&self.tool_from_camera, stamp),
-            }));
+            out(RosMessage::TfStatic(TfMessage { transforms: self.frames.fixed(&self.mount, stamp) }));
             self.fixed_made = true;
         }
         let mut arrived = Arrived::default();

@@ -123,11 +123,12 @@ fn transform(stamp_ns: u64, parent: &str, child: &str, pose: &IsometryMatrix3<f6
     }
 }
 
-/// The arm's links (`base` → `link1` … `linkN`, N its joints) and the camera (`linkN` → `camera`) at a joint state; none
+/// The arm's links (`base` → `link1` … `linkN`, N its joints) and the camera (`linkN` → `camera` on the hand,
+/// `base` → `camera` fixed in the world) at a joint state; none
 /// from a joint state of another arm's joint count (drawn, it would be drawn wrongly).
 pub fn arm_transforms(
     arm: &vservo_arm::SerialArm,
-    tool_from_camera: &IsometryMatrix3<f64>,
+    mount: &vservo_scene::CameraMount,
     state: &JointStateMsg,
 ) -> FrameTransforms {
     let Some(q) = state.arm_q_rad(arm.joint_count()).map(vservo_arm::JointVector::from) else {
@@ -142,9 +143,16 @@ pub fn arm_transforms(
             transform(state.stamp_ns, "base", &format!("link{}", i + 1), base_from_link)
         })
         .collect();
-    // the camera rides on the last link, whatever the arm's number of joints
-    let hand = format!("link{}", arm.joint_count());
-    transforms.push(transform(state.stamp_ns, &hand, CAMERA_FRAME, tool_from_camera));
+    match mount {
+        // the camera rides on the last link, whatever the arm's number of joints
+        vservo_scene::CameraMount::Hand { tool_from_camera } => {
+            let hand = format!("link{}", arm.joint_count());
+            transforms.push(transform(state.stamp_ns, &hand, CAMERA_FRAME, tool_from_camera));
+        }
+        vservo_scene::CameraMount::World { base_from_camera, .. } => {
+            transforms.push(transform(state.stamp_ns, "base", CAMERA_FRAME, base_from_camera));
+        }
+    }
     FrameTransforms { transforms }
 }
 
@@ -208,7 +216,7 @@ mod tests {
             ..JointStateMsg::default()
         };
         let tool_from_camera = IsometryMatrix3::translation(0.0, 0.0, 0.1);
-        let frames = arm_transforms(&arm, &tool_from_camera, &state);
+        let frames = arm_transforms(&arm, &vservo_scene::CameraMount::Hand { tool_from_camera }, &state);
         assert_eq!(frames.transforms.len(), 7);
         let tool =
             arm.base_from_tool(&vservo_arm::JointVector::from(state.arm_q_rad(6).expect("six joints")));

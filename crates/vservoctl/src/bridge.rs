@@ -10,7 +10,6 @@ use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 use anyhow::Context;
 use iceoryx2::port::subscriber::Subscriber;
 use iceoryx2::prelude::{ZeroCopySend, ipc};
-use nalgebra::IsometryMatrix3;
 use serde_json::Value;
 use vservo_protocol::{
     CameraImageHeader, CameraTwistMsg, CellModeMsg, DaemonStatusMsg, FeaturesMsg, GainsMsg, JointCommandMsg,
@@ -175,7 +174,7 @@ impl Viewed for JointStateMsg {
         }
         bridge.last_transforms_ns = self.stamp_ns;
         let Some(drawing) = &bridge.drawing else { return Ok(()) };
-        let transforms = drawing::arm_transforms(&drawing.arm, &drawing.tool_from_camera, self);
+        let transforms = drawing::arm_transforms(&drawing.arm, &drawing.mount, self);
         bridge.write_foxglove(drawing::TRANSFORMS_TOPIC, &transforms, self.stamp_ns)
     }
 }
@@ -227,20 +226,20 @@ fn drain<T: Copy + std::fmt::Debug + ZeroCopySend + Viewed, S: Sink>(
     Ok(())
 }
 
-/// The configuration's `tool_from_camera`, if the instance's configuration file can be read.
 /// What drawing the cell needs from its configuration.
 struct CellDrawing {
     /// The arm configured (`[robot.arm]`).
     arm: vservo_arm::SerialArm,
-    /// Where the camera sits on its hand.
-    tool_from_camera: IsometryMatrix3<f64>,
+    /// Where the camera is: on the hand, or fixed in the world.
+    mount: vservo_scene::CameraMount,
 }
 
 /// The arm and camera mount of the instance: from the configuration its daemon runs, else from
 /// `--config` (else config/vservo.toml).
 fn cell_drawing(instance: &InstanceArg, name: &str) -> anyhow::Result<CellDrawing> {
     let config = instance.configuration_in_force(name)?;
-    Ok(CellDrawing { arm: config.cell.arm, tool_from_camera: config.cell.tool_from_camera })
+    let mount = config.cell.mount();
+    Ok(CellDrawing { arm: config.cell.arm, mount })
 }
 
 /// One service: its subscriber once the service exists.

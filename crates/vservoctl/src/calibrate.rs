@@ -67,6 +67,15 @@ pub struct CalibrateArgs {
 /// Runs `vservoctl calibrate`.
 pub fn run(args: &CalibrateArgs) -> Result<()> {
     let config = args.config.load()?;
+    if config.cell.fixed_camera.is_some() {
+        return Err(UsageError(format!(
+            "{}: camera.mount = \"world\": vservoctl calibrate solves a camera on the hand (tool_from_camera); \
+             the fixed camera's calibration (base_from_camera) is not built yet: measure camera.base_from_camera \
+             and calibrate the lens with the camera on a hand",
+            config.origin
+        ))
+        .into());
+    }
     let settings = settings_of(&config)?;
     let given = args.poses.as_deref().map(read_poses).transpose()?;
     let solver_path = solver::locate(args.solver.as_deref())?;

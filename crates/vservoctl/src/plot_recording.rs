@@ -148,8 +148,7 @@ fn joint_state(data: &Value, joint_count: usize) -> Option<Result<(u64, Recorded
 /// One record per frame: the camera where the joint state nearest its capture tick put it.
 fn camera_frames(recorded: &Recorded, config: &vservo_config::Config, first_tick: u64) -> Vec<FrameRecord> {
     let arm = &config.cell.arm;
-    let base_from_desired_camera =
-        arm.base_from_tool(&config.cell.desired.joints) * config.cell.tool_from_camera;
+    let base_from_desired_camera = config.cell.base_from_camera_at(arm, &config.cell.desired.joints);
     let desired_from_base = base_from_desired_camera.inverse();
     let states = &recorded.states;
     let mut frames = Vec::with_capacity(recorded.features.len());
@@ -158,7 +157,7 @@ fn camera_frames(recorded: &Recorded, config: &vservo_config::Config, first_tick
         else {
             continue;
         };
-        let base_from_camera = arm.base_from_tool(q) * config.cell.tool_from_camera;
+        let base_from_camera = config.cell.base_from_camera_at(arm, q);
         frames.push(FrameRecord {
             t_s: tick.saturating_sub(first_tick) as f64 * config.cell.timing.control_period_s,
             measured: *measured,

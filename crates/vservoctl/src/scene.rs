@@ -74,7 +74,13 @@ pub fn run(args: &SceneArgs) -> Result<()> {
         "start_joints_rad": &cell.start_joints().as_slice()[..arm.joint_count()],
         "desired_joints_rad": &config.cell.desired.joints.as_slice()[..arm.joint_count()],
         "desired_features_px": config.cell.desired.features.as_slice(),
-        "tool_from_camera": matrix4(&truth.tool_from_camera),
+        // "hand": the camera at tool_from_camera, the board standing at base_from_board; "world": the camera fixed
+        // at base_from_camera, the board on the tool at tool_from_board (base_from_board: where it is at the
+        // desired joints)
+        "camera_mount": if config.cell.fixed_camera.is_some() { "world" } else { "hand" },
+        "tool_from_camera": config.cell.fixed_camera.is_none().then(|| matrix4(&truth.tool_from_camera)),
+        "base_from_camera": config.cell.fixed_camera.map(|fixed| matrix4(&fixed.base_from_camera)),
+        "tool_from_board": config.cell.fixed_camera.map(|fixed| matrix4(&fixed.tool_from_board)),
         "base_from_board": matrix4(&config.cell.base_from_board(arm)),
         "camera": camera_json(&truth.intrinsics, config.cell.vision.render.noise_sigma_gray),
         "believed_tool_from_camera": matrix4(&config.cell.tool_from_camera),

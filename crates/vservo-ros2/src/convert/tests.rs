@@ -86,11 +86,15 @@ fn composed(
     tool_from_camera: &IsometryMatrix3<f64>,
 ) -> (Vec<String>, IsometryMatrix3<f64>) {
     let joint_count = arm.joint_count() as u32;
-    let chain: Vec<TransformStamped> = frames
-        .moving(arm, &state(joint_count, q), Time::default())
-        .into_iter()
-        .chain(frames.fixed(tool_from_camera, Time::default()))
-        .collect();
+    let chain: Vec<TransformStamped> =
+        frames
+            .moving(arm, &state(joint_count, q), Time::default())
+            .into_iter()
+            .chain(frames.fixed(
+                &vservo_scene::CameraMount::Hand { tool_from_camera: *tool_from_camera },
+                Time::default(),
+            ))
+            .collect();
     let mut names = vec![frames.base.clone()];
     let mut base_from_child = IsometryMatrix3::identity();
     for t in &chain {
@@ -141,11 +145,7 @@ fn a_urdf_arms_frames_have_the_urdfs_link_names() {
             CAMERA_FRAME
         ]
     );
-    assert_eq!(
-        frames.fixed(&config.cell.tool_from_camera, Time::default()).len(),
-        2,
-        "flange and camera are fixed"
-    );
+    assert_eq!(frames.fixed(&config.cell.mount(), Time::default()).len(), 2, "flange and camera are fixed");
     let expected =
         config.cell.arm.base_from_tool(&vservo_arm::JointVector::from(q)) * config.cell.tool_from_camera;
     assert_relative_eq!(base_from_camera.to_homogeneous(), expected.to_homogeneous(), epsilon = 1e-12);
