@@ -8,6 +8,11 @@ board's pose in each view, `calibrateHandEye` (Tsai–Lenz, and Park–Martin to
 the board's one pose in the arm's base, so that every corner of every view is reprojected through the arm's
 measured pose. Nothing is solved by hand here.
 
+A camera fixed in the world (the dataset's "mount": "world", the board on the tool) is the same problem with the
+arm's poses inverted: camera_from_board = (tool_from_base · base_from_camera)⁻¹ · tool_from_board, against
+(base_from_tool · tool_from_camera)⁻¹ · base_from_board on the hand; OpenCV's documentation of
+calibrateHandEye gives this recipe for eye-to-hand. The solution is then base_from_camera and tool_from_board.
+
 Pixels: vservo's pixel (u, v) covers [u, u+1) × [v, v+1) (its centre at u + ½); OpenCV puts a pixel's centre at
 u, but its AprilTag corner refinement, like the AprilTag library, adds the half pixel itself (`fit_quad`'s
 "adjust for pixel center bias"): its corners are in vservo's pixels as they come (measured: +0.53 / +0.46 px
@@ -270,6 +275,9 @@ def solve(dataset_dir):
     views = [found[i] for i in used]
     names = [dataset["views"][i]["image"] for i in used]
     base_from_tool = [matrix(dataset["views"][i]["base_from_tool"]) for i in used]
+    fixed = dataset.get("mount", "hand") == "world"
+    if fixed:  # eye-to-hand: the hand-eye problem on the inverted poses (above)
+        base_from_tool = [np.linalg.inv(m) for m in base_from_tool]
     check_spread(base_from_tool)
     zhang_rms, k, d, camera_from_board = zhang(views, image_size, dataset["camera"])
     tsai = hand_eye(base_from_tool, camera_from_board, cv2.CALIB_HAND_EYE_TSAI)
@@ -288,8 +296,8 @@ def solve(dataset_dir):
     return {
         "fx": float(k[0, 0]), "fy": float(k[1, 1]), "cx": float(k[0, 2]), "cy": float(k[1, 2]),
         "k1": float(d[0]), "distortion": [float(v) for v in d],
-        "tool_from_camera": transform_json(tool_from_camera),
-        "base_from_board": transform_json(base_from_board),
+        ("base_from_camera" if fixed else "tool_from_camera"): transform_json(tool_from_camera),
+        ("tool_from_board" if fixed else "base_from_board"): transform_json(base_from_board),
         "rms_px": rms_px,
         "ax_xb_rotation_deg": rotation_rms,
         "ax_xb_translation_mm": translation_rms,

@@ -92,6 +92,64 @@ fn the_demo_cell_is_calibrated_within_the_bars_and_its_file_reads_back() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// An eye-to-hand cell (config/eye-to-hand-calibration.toml: the demo's camera fixed in the world, 5 mm and 2° from
+/// where the configuration believes it, the board on the tool): the fixed camera's pose in the base is recovered
+/// within the hand camera's bars (1 mm, 0.2°; the lens as closely), and the file, read as the configuration's
+/// calibration file, puts the camera where it was solved.
+#[test]
+fn an_eye_to_hand_cell_is_calibrated_within_the_bars_and_its_file_reads_back() {
+    let dir = scratch("eye-to-hand");
+    let out = dir.join("calibration.yaml");
+    let cell = repository_root().join("config/eye-to-hand-calibration.toml").display().to_string();
+    let output = calibrate(&cell, &out, &[]);
+    assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stderr));
+    let report = last_line_json(&output.stdout);
+    eprintln!("{report}");
+    let believed = &report["configured_error_against_truth"];
+    assert!((number(believed, &["base_from_camera_translation_mm"]) - 5.0).abs() < 0.01, "{believed}");
+    assert!((number(believed, &["base_from_camera_rotation_deg"]) - 2.0).abs() < 0.05, "{believed}");
+    let error = &report["error_against_truth"];
+    assert!(number(error, &["base_from_camera_translation_mm"]) < 1.0, "{error}");
+    assert!(number(error, &["base_from_camera_rotation_deg"]) < 0.2, "{error}");
+    assert!(
+        number(error, &["fx_percent"]).abs() < 0.3 && number(error, &["fy_percent"]).abs() < 0.3,
+        "{error}"
+    );
+    assert!(number(error, &["k1"]).abs() < 0.01, "{error}");
+    assert!(number(&report, &["rms_px"]) < 0.5, "{report}");
+    assert_eq!(report["views"].as_array().map(Vec::len), Some(12), "every view used: {report}");
+    assert!(report["tool_from_camera"].is_null() && report["tool_from_board"].is_object(), "{report}");
+    let text = std::fs::read_to_string(&out).expect("the calibration file");
+    assert!(
+        text.contains("base_from_camera: !!opencv-matrix") && !text.contains("tool_from_camera"),
+        "{text}"
+    );
+
+    let extended = dir.join("calibrated.toml");
+    std::fs::write(
+        &extended,
+        format!("extends = {cell:?}\n[camera]\ncalibration_file = {:?}\n", out.display().to_string()),
+    )
+    .expect("written");
+    let config = vservo_config::Config::load(&extended).expect("the calibrated configuration loads");
+    let fixed = config.cell.fixed_camera.expect("a fixed camera");
+    for (axis, value) in fixed.base_from_camera.translation.vector.iter().enumerate() {
+        let solved = report["base_from_camera"]["translation_m"][axis].as_f64().expect("a number");
+        assert!((value - solved).abs() < 1e-9, "axis {axis}: {value} against {solved}");
+    }
+    // a hand camera's configuration refuses the fixed camera's file, naming it
+    let hand = dir.join("hand.toml");
+    let demo = repository_root().join(DEMO).display().to_string();
+    std::fs::write(
+        &hand,
+        format!("extends = {demo:?}\n[camera]\ncalibration_file = {:?}\n", out.display().to_string()),
+    )
+    .expect("written");
+    let refused = vservo_config::Config::load(&hand).expect_err("a hand camera with a fixed camera's file");
+    assert!(refused.to_string().contains("base_from_camera"), "{refused}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 /// `--apply` in lockstep: the configuration file reads the calibration file (its lens keys replaced, the file as
 /// it was kept beside it), loads with the solved camera, and a second calibration from it starts from a camera
 /// within the bars of the truth (the first started 5 mm and 2° off).

@@ -125,7 +125,8 @@ fn reads(config: &Config, calibration: &Path) -> Result<bool> {
     let same_lens = [camera.fx_px(), camera.fy_px(), point.x, point.y]
         == [file.focal_px[0], file.focal_px[1], file.principal_point_px[0], file.principal_point_px[1]]
         && camera.distortion().coefficients() == file.distortion;
-    let same_mount = file.tool_from_camera.is_none_or(|mount| mount == config.cell.tool_from_camera);
+    let (_, believed) = config.cell.camera_in_mount();
+    let same_mount = file.tool_from_camera.or(file.base_from_camera).is_none_or(|mount| mount == believed);
     Ok(same_lens && same_mount)
 }
 

@@ -13,7 +13,10 @@ use crate::{CalibrateError, Result};
 /// The simulated cell's camera and world.
 pub struct Simulated {
     cell: Cell,
+    /// Where a hand camera's board stands.
     base_from_board: IsometryMatrix3<f64>,
+    /// Where the camera is (a fixed one's board rides on the tool).
+    mount: vservo_scene::CameraMount,
 }
 
 impl Simulated {
@@ -28,10 +31,10 @@ impl Simulated {
         let cell = Cell::simulated(&config.cell)
             .map_err(|e| CalibrateError::Refused(format!("{}: {e}", config.origin)))?;
         let base_from_board = config.cell.base_from_board(cell.arm());
-        Ok(Self { cell, base_from_board })
+        Ok(Self { cell, base_from_board, mount: config.cell.mount() })
     }
 
-    /// Where the board is in the arm's base.
+    /// Where the board is in the arm's base (a fixed camera's: at the desired joints).
     pub fn base_from_board(&self) -> IsometryMatrix3<f64> {
         self.base_from_board
     }
@@ -43,12 +46,10 @@ impl Simulated {
             .iter()
             .enumerate()
             .map(|(k, pose)| {
-                vision.capture(k as u64, 0, &pose.q, &self.base_from_board);
-                View {
-                    image: vision.image().clone(),
-                    q: pose.q,
-                    base_from_tool: self.cell.arm().base_from_tool(&pose.q),
-                }
+                let base_from_tool = self.cell.arm().base_from_tool(&pose.q);
+                let board = self.mount.base_from_board(&base_from_tool, &self.base_from_board);
+                vision.capture(k as u64, 0, &pose.q, &board);
+                View { image: vision.image().clone(), q: pose.q, base_from_tool }
             })
             .collect()
     }

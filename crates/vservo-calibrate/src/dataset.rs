@@ -34,7 +34,7 @@ pub fn write(
     dir: &Path,
     views: &[View],
     camera: &CameraIntrinsics,
-    tool_from_camera: &IsometryMatrix3<f64>,
+    camera_in_mount: (&str, &IsometryMatrix3<f64>),
     grid: &TagGrid,
     joints: usize,
 ) -> Result<PathBuf> {
@@ -54,7 +54,10 @@ pub fn write(
     let dataset = json!({
         "image_size": [camera.width_px(), camera.height_px()],
         "camera": camera_json(camera),
-        "tool_from_camera": rows(tool_from_camera),
+        // "hand": the camera on the tool at tool_from_camera; "world": fixed at base_from_camera, the board on
+        // the tool (the solver inverts the arm's poses: docs/CALIBRATION.md)
+        "mount": if camera_in_mount.0 == "base_from_camera" { "world" } else { "hand" },
+        camera_in_mount.0: rows(camera_in_mount.1),
         "board": board,
         "views": listed,
     });

@@ -1,6 +1,7 @@
 //! The calibration file: an OpenCV FileStorage YAML (what `cv2.FileStorage` reads, and what
 //! `camera.calibration_file` takes) with the image size, the camera matrix, the lens and, as a 4 × 4
-//! `tool_from_camera`, the hand-eye transform. The principal point is written in OpenCV's pixels (a pixel's
+//! `tool_from_camera`, the hand-eye transform (a fixed camera's: `base_from_camera`). The principal point is
+//! written in OpenCV's pixels (a pixel's
 //! centre at integers), so that OpenCV's users read it right; vservo adds the half pixel back when it reads it.
 
 use std::path::Path;
@@ -24,11 +25,12 @@ pub fn write(path: &Path, force: bool, config: &Config, solved: &Solved) -> Resu
     };
     let (cx, cy) = (solved.cx - OPENCV_TO_VSERVO_PX, solved.cy - OPENCV_TO_VSERVO_PX);
     let camera_matrix = [solved.fx, 0.0, cx, 0.0, solved.fy, cy, 0.0, 0.0, 1.0];
-    let tool: Vec<f64> = solved.tool_from_camera.matrix.iter().flatten().copied().collect();
-    if tool.len() != 16 || !tool.iter().all(|v| v.is_finite()) {
+    let (mount_key, mount) = solved.camera_in_mount()?;
+    let pose: Vec<f64> = mount.matrix.iter().flatten().copied().collect();
+    if pose.len() != 16 || !pose.iter().all(|v| v.is_finite()) {
         return Err(CalibrateError::Solver(format!(
-            "the solver's tool_from_camera is not a 4 × 4 matrix of numbers: {:?}",
-            solved.tool_from_camera.matrix
+            "the solver's {mount_key} is not a 4 × 4 matrix of numbers: {:?}",
+            mount.matrix
         )));
     }
     let text = format!(
@@ -42,7 +44,7 @@ pub fn write(path: &Path, force: bool, config: &Config, solved: &Solved) -> Resu
         config.cell.camera.height_px(),
         matrix("camera_matrix", 3, 3, &camera_matrix),
         matrix("distortion_coefficients", 1, 5, &solved.distortion),
-        matrix("tool_from_camera", 4, 4, &tool),
+        matrix(mount_key, 4, 4, &pose),
     );
     Ok(vservo_config::new_file::write(path, text.as_bytes(), force, 0o644)?)
 }

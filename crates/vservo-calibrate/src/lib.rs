@@ -1,5 +1,6 @@
 //! vservo's calibration (docs/CALIBRATION.md): the camera's intrinsics and lens and the hand-eye transform
-//! (`tool_from_camera`), from views of the calibration board (`[calibration]`) at poses spread over a half sphere
+//! (`tool_from_camera`; a fixed camera's `base_from_camera`, the eye-to-hand case, the same problem with the
+//! arm's poses inverted), from views of the calibration board (`[calibration]`) at poses spread over a half sphere
 //! around it. `vservoctl calibrate` is its command line.
 //!
 //! The steps, a module each: find the board ([`live`]: through a running vservod, from a view where the arm is

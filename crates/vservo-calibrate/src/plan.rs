@@ -1,6 +1,6 @@
-//! The poses `vservoctl calibrate` takes: the camera on a half sphere around the calibration board, each pose
-//! checked reachable (inside the joint limits, near the pose before it) and with the board in view before
-//! anything moves.
+//! The poses `vservoctl calibrate` takes: the camera on a half sphere around the calibration board (relative to
+//! it: a fixed camera sees the board the arm holds turned the other way), each pose checked reachable (inside
+//! the joint limits, near the pose before it) and with the board in view before anything moves.
 //!
 //! Pose k of n looks at the board from azimuth 2πk/n about the board's normal, tilted from it alternately by
 //! the configured tilt and by half of it, rolled about its optical axis by 0, +20° or −20°, and aimed a little
@@ -9,7 +9,7 @@
 use nalgebra::{Matrix3, Point2, Point3, Rotation3, Translation3, Vector3};
 use vservo_arm::{JointVector, SerialArm};
 use vservo_config::CalibrationSettings;
-use vservo_scene::{CameraIntrinsics, IsometryMatrix3, TagGrid};
+use vservo_scene::{CameraIntrinsics, CameraMount, IsometryMatrix3, TagGrid};
 
 /// The share of the board's tags that must lie wholly in the image, with [`VIEW_MARGIN_PX`] to spare, for a
 /// pose to count as having the board in view.
@@ -29,9 +29,10 @@ pub struct Cell<'a> {
     pub start: JointVector,
     /// The camera's intrinsics and lens.
     pub camera: &'a CameraIntrinsics,
-    /// Where the camera sits on the hand.
-    pub tool_from_camera: IsometryMatrix3<f64>,
-    /// Where the board is in the arm's base.
+    /// Where the camera is: on the hand, or fixed with the board on the tool.
+    pub mount: CameraMount,
+    /// Where a hand camera's board stands in the arm's base (unused with a fixed camera, whose board is on the
+    /// tool: `mount`).
     pub base_from_board: IsometryMatrix3<f64>,
 }
 
@@ -123,7 +124,8 @@ pub fn given(cell: &Cell, grid: &TagGrid, joints: &[Vec<f64>]) -> Result<Vec<Pla
             return Err(PlanRefused::OutsideLimits { pose: k + 1, joint: joint + 1 });
         }
         let base_from_tool = cell.arm.base_from_tool(&q);
-        let camera_from_board = (base_from_tool * cell.tool_from_camera).inverse() * cell.base_from_board;
+        let camera_from_board = cell.mount.base_from_camera(&base_from_tool).inverse()
+            * cell.mount.base_from_board(&base_from_tool, &cell.base_from_board);
         let in_view = tags_in_view(cell.camera, grid, &camera_from_board);
         if in_view < needed {
             return Err(PlanRefused::BoardOutOfView {
@@ -208,7 +210,7 @@ pub fn plan(
                 needed,
             });
         }
-        let base_from_tool = cell.base_from_board * board_from_camera * cell.tool_from_camera.inverse();
+        let base_from_tool = cell.mount.base_from_tool_seeing(&camera_from_board, &cell.base_from_board);
         // the daemon moves the joints to goals inside the limits by a margin only: a solution closer is none
         let reached = cell
             .arm
@@ -275,7 +277,8 @@ mod tests {
         let base_from_camera = arm.base_from_tool(&puma560::QN) * tool_from_camera;
         let base_from_board = base_from_camera
             * IsometryMatrix3::from_parts(Translation3::new(0.0, 0.0, 0.35), Rotation3::identity());
-        let cell = Cell { arm: &arm, start: puma560::QN, camera: &camera, tool_from_camera, base_from_board };
+        let mount = CameraMount::Hand { tool_from_camera };
+        let cell = Cell { arm: &arm, start: puma560::QN, camera: &camera, mount, base_from_board };
         let poses = plan(&cell, &settings(12, 25.0), 0.35).expect("a plan");
         assert_eq!(poses.len(), 12);
         for pose in &poses {

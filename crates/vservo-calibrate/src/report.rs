@@ -65,16 +65,24 @@ fn pose_error(truth: &IsometryMatrix3<f64>, other: &IsometryMatrix3<f64>) -> (f6
     (e.translation.vector.norm() * 1e3, e.rotation.angle().to_degrees())
 }
 
-/// How far a solution is from the truth.
-fn errors(solved: &Solved, truth: &CameraTruth) -> Value {
-    let recovered = isometry(&solved.tool_from_camera.matrix);
+/// The solved camera pose in its mount, named, as an isometry (NaN-free or none).
+fn solved_mount(solved: &Solved) -> (&'static str, Option<IsometryMatrix3<f64>>) {
+    match solved.camera_in_mount() {
+        Ok((key, pose)) => (key, isometry(&pose.matrix)),
+        Err(_) => ("tool_from_camera", None),
+    }
+}
+
+/// How far a solution is from the truth (`true_in_mount`: the camera's pose in the frame it is fixed to).
+fn errors(solved: &Solved, truth: &CameraTruth, true_in_mount: &IsometryMatrix3<f64>) -> Value {
+    let (key, recovered) = solved_mount(solved);
     let (translation_mm, rotation_deg) =
-        recovered.map_or((f64::NAN, f64::NAN), |r| pose_error(&truth.tool_from_camera, &r));
+        recovered.map_or((f64::NAN, f64::NAN), |r| pose_error(true_in_mount, &r));
     let percent = |got: f64, true_value: f64| 100.0 * (got - true_value) / true_value;
     let lens = truth.intrinsics.distortion().coefficients();
     json!({
-        "tool_from_camera_translation_mm": translation_mm,
-        "tool_from_camera_rotation_deg": rotation_deg,
+        format!("{key}_translation_mm"): translation_mm,
+        format!("{key}_rotation_deg"): rotation_deg,
         "fx_percent": percent(solved.fx, truth.intrinsics.fx_px()),
         "fy_percent": percent(solved.fy, truth.intrinsics.fy_px()),
         "cx_px": solved.cx - truth.intrinsics.principal_point_px().x,
@@ -84,11 +92,12 @@ fn errors(solved: &Solved, truth: &CameraTruth) -> Value {
 }
 
 /// The configuration's belief against the truth, for scale.
-fn belief_errors(config: &Config, truth: &CameraTruth) -> Value {
-    let (translation_mm, rotation_deg) = pose_error(&truth.tool_from_camera, &config.cell.tool_from_camera);
+fn belief_errors(config: &Config, truth: &CameraTruth, true_in_mount: &IsometryMatrix3<f64>) -> Value {
+    let (key, believed) = config.cell.camera_in_mount();
+    let (translation_mm, rotation_deg) = pose_error(true_in_mount, &believed);
     json!({
-        "tool_from_camera_translation_mm": translation_mm,
-        "tool_from_camera_rotation_deg": rotation_deg,
+        format!("{key}_translation_mm"): translation_mm,
+        format!("{key}_rotation_deg"): rotation_deg,
         "fx_percent": 100.0 * (config.cell.camera.fx_px() - truth.intrinsics.fx_px()) / truth.intrinsics.fx_px(),
         "fy_percent": 100.0 * (config.cell.camera.fy_px() - truth.intrinsics.fy_px()) / truth.intrinsics.fy_px(),
         "k1": config.cell.camera.distortion().coefficients()[0] - truth.intrinsics.distortion().coefficients()[0],
@@ -100,9 +109,10 @@ fn belief_errors(config: &Config, truth: &CameraTruth) -> Value {
 fn changes(config: &Config, solved: &Solved) -> Value {
     let camera = &config.cell.camera;
     let before_lens = camera.distortion().coefficients();
-    let mount = isometry(&solved.tool_from_camera.matrix);
-    let (moved_mm, turned_deg) =
-        mount.map_or((f64::NAN, f64::NAN), |m| pose_error(&config.cell.tool_from_camera, &m));
+    let (key, mount) = solved_mount(solved);
+    let (_, believed) = config.cell.camera_in_mount();
+    let (moved_mm, turned_deg) = mount.map_or((f64::NAN, f64::NAN), |m| pose_error(&believed, &m));
+    let after = mount.map_or([f64::NAN; 3], |m| [m.translation.x, m.translation.y, m.translation.z]);
     let pair = |before: f64, after: f64| json!({"before": before, "after": after});
     json!({
         "fx_px": pair(camera.fx_px(), solved.fx),
@@ -110,9 +120,10 @@ fn changes(config: &Config, solved: &Solved) -> Value {
         "cx_px": pair(camera.principal_point_px().x, solved.cx),
         "cy_px": pair(camera.principal_point_px().y, solved.cy),
         "distortion": {"before": before_lens, "after": solved.distortion},
-        "tool_from_camera": {
-            "before_translation_m": config.cell.tool_from_camera.translation.vector.as_slice(),
-            "after_translation_m": solved.tool_from_camera.translation_m,
+        "mount": key,
+        key: {
+            "before_translation_m": believed.translation.vector.as_slice(),
+            "after_translation_m": after,
             "moved_mm": moved_mm,
             "turned_deg": turned_deg,
         },
@@ -141,22 +152,34 @@ fn changes_text(changes: &Value) -> String {
         lens("before").join(", "),
         lens("after").join(", ")
     );
-    let mount = &changes["tool_from_camera"];
+    let key = changes["mount"].as_str().unwrap_or("tool_from_camera");
+    let mount = &changes[key];
     let _ = writeln!(
         text,
-        "    tool_from_camera: moved {:.2} mm and turned {:.3}°",
+        "    {key}: moved {:.2} mm and turned {:.3}°",
         number(&mount["moved_mm"]),
         number(&mount["turned_deg"])
     );
     text
 }
 
+/// A simulated cell's truth: its camera (`[camera.truth]`), the camera's pose in the frame it is fixed to, and
+/// the board's in the frame that holds it (the base on the hand, the tool fixed).
+pub struct Truth {
+    /// The camera as it really is.
+    pub camera: CameraTruth,
+    /// `tool_from_camera` on the hand, `base_from_camera` fixed.
+    pub camera_in_mount: IsometryMatrix3<f64>,
+    /// `base_from_board` on the hand, `tool_from_board` fixed.
+    pub board: IsometryMatrix3<f64>,
+}
+
 /// A solved calibration and where it went.
 pub struct Solution<'a> {
     /// The solver's result.
     pub solved: &'a Solved,
-    /// The simulated cell's truth (the camera, and where the board is in the base), when known.
-    pub truth: Option<(&'a CameraTruth, &'a IsometryMatrix3<f64>)>,
+    /// The simulated cell's truth, when known.
+    pub truth: Option<&'a Truth>,
     /// The calibration file written.
     pub out: &'a Path,
     /// Where the views are.
@@ -166,7 +189,9 @@ pub struct Solution<'a> {
 /// The report of a solved calibration: text, or one JSON object on the last line.
 pub fn solved(config: &Config, solution: &Solution, applied: Option<&Applied>, json: bool) -> String {
     let Solution { solved, truth, out, views_dir } = *solution;
-    let against_truth = truth.map(|(t, _)| (errors(solved, t), belief_errors(config, t)));
+    let against_truth = truth.map(|t| {
+        (errors(solved, &t.camera, &t.camera_in_mount), belief_errors(config, &t.camera, &t.camera_in_mount))
+    });
     let changes = changes(config, solved);
     if json {
         let mut object = serde_json::to_value(solved).unwrap_or(Value::Null);
@@ -174,13 +199,15 @@ pub fn solved(config: &Config, solution: &Solution, applied: Option<&Applied>, j
         object["views_dir"] = json!(views_dir.display().to_string());
         object["changes"] = changes;
         object["applied"] = applied.map_or(Value::Null, Applied::json);
-        if let (Some((error, believed)), Some((t, base_from_board))) = (&against_truth, truth) {
+        if let (Some((error, believed)), Some(t)) = (&against_truth, truth) {
             object["error_against_truth"] = error.clone();
             object["configured_error_against_truth"] = believed.clone();
+            let (mount_key, _) = config.cell.camera_in_mount();
+            let board_key = if config.cell.mount().is_hand() { "base_from_board" } else { "tool_from_board" };
             object["truth"] = json!({
-                "camera": super::dataset::camera_json(&t.intrinsics),
-                "tool_from_camera": super::dataset::rows(&t.tool_from_camera),
-                "base_from_board": super::dataset::rows(base_from_board),
+                "camera": super::dataset::camera_json(&t.camera.intrinsics),
+                mount_key: super::dataset::rows(&t.camera_in_mount),
+                board_key: super::dataset::rows(&t.board),
             });
         }
         return format!("{object}\n");
@@ -196,7 +223,10 @@ pub fn solved(config: &Config, solution: &Solution, applied: Option<&Applied>, j
         solved.cy,
         solved.distortion.iter().map(|v| format!("{v:.5}")).collect::<Vec<_>>().join(", ")
     );
-    let t = &solved.tool_from_camera;
+    let (key, t) = match solved.camera_in_mount() {
+        Ok(found) => found,
+        Err(e) => return format!("{e}\n"),
+    };
     let q = UnitQuaternion::from_quaternion(Quaternion::new(
         t.quaternion_xyzw[3],
         t.quaternion_xyzw[0],
@@ -206,7 +236,7 @@ pub fn solved(config: &Config, solution: &Solution, applied: Option<&Applied>, j
     let (roll, pitch, yaw) = q.euler_angles();
     let _ = writeln!(
         text,
-        "  tool_from_camera: translation [{:.5}, {:.5}, {:.5}] m, rotation rpy [{:.3}, {:.3}, {:.3}]°",
+        "  {key}: translation [{:.5}, {:.5}, {:.5}] m, rotation rpy [{:.3}, {:.3}, {:.3}]°",
         t.translation_m[0],
         t.translation_m[1],
         t.translation_m[2],
@@ -237,14 +267,14 @@ pub fn solved(config: &Config, solution: &Solution, applied: Option<&Applied>, j
     if let Some((error, believed)) = &against_truth {
         let _ = writeln!(
             text,
-            "  against [camera.truth]: tool_from_camera {:.3} mm and {:.4}° off, fx {:+.4} %, fy {:+.4} %, k1 {:+.5} (the configuration was {:.2} mm, {:.3}°, fx {:+.2} %, fy {:+.2} %, k1 {:+.4} off)",
-            error["tool_from_camera_translation_mm"].as_f64().unwrap_or(f64::NAN),
-            error["tool_from_camera_rotation_deg"].as_f64().unwrap_or(f64::NAN),
+            "  against [camera.truth]: {key} {:.3} mm and {:.4}° off, fx {:+.4} %, fy {:+.4} %, k1 {:+.5} (the configuration was {:.2} mm, {:.3}°, fx {:+.2} %, fy {:+.2} %, k1 {:+.4} off)",
+            error[format!("{key}_translation_mm")].as_f64().unwrap_or(f64::NAN),
+            error[format!("{key}_rotation_deg")].as_f64().unwrap_or(f64::NAN),
             error["fx_percent"].as_f64().unwrap_or(f64::NAN),
             error["fy_percent"].as_f64().unwrap_or(f64::NAN),
             error["k1"].as_f64().unwrap_or(f64::NAN),
-            believed["tool_from_camera_translation_mm"].as_f64().unwrap_or(f64::NAN),
-            believed["tool_from_camera_rotation_deg"].as_f64().unwrap_or(f64::NAN),
+            believed[format!("{key}_translation_mm")].as_f64().unwrap_or(f64::NAN),
+            believed[format!("{key}_rotation_deg")].as_f64().unwrap_or(f64::NAN),
             believed["fx_percent"].as_f64().unwrap_or(f64::NAN),
             believed["fy_percent"].as_f64().unwrap_or(f64::NAN),
             believed["k1"].as_f64().unwrap_or(f64::NAN),

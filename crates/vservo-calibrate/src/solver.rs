@@ -49,10 +49,18 @@ pub struct Solved {
     pub k1: f64,
     /// OpenCV's k1, k2, p1, p2, k3.
     pub distortion: [f64; 5],
-    /// The hand-eye transform.
-    pub tool_from_camera: SolvedTransform,
-    /// The board in the arm's base.
-    pub base_from_board: SolvedTransform,
+    /// The hand-eye transform (a camera on the hand).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub tool_from_camera: Option<SolvedTransform>,
+    /// The board in the arm's base (a camera on the hand).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub base_from_board: Option<SolvedTransform>,
+    /// The camera in the arm's base (a fixed camera: the eye-to-hand case).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub base_from_camera: Option<SolvedTransform>,
+    /// The board on the tool (a fixed camera).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub tool_from_board: Option<SolvedTransform>,
     /// Reprojection RMS over every corner (px).
     pub rms_px: f64,
     /// AX = XB over every pair of views: RMS rotation (°).
@@ -110,6 +118,20 @@ pub fn python(given: Option<&Path>) -> PathBuf {
         .map(|env| PathBuf::from(env).join("bin/python"))
         .filter(|candidate| candidate.is_file());
     project.or(active).unwrap_or_else(|| PathBuf::from("python3"))
+}
+
+impl Solved {
+    /// The camera's pose in the frame it is fixed to, named (`tool_from_camera` on the hand, `base_from_camera`
+    /// fixed); refused when the solver gave neither.
+    pub fn camera_in_mount(&self) -> Result<(&'static str, &SolvedTransform)> {
+        match (&self.tool_from_camera, &self.base_from_camera) {
+            (Some(tool), None) => Ok(("tool_from_camera", tool)),
+            (None, Some(base)) => Ok(("base_from_camera", base)),
+            _ => Err(CalibrateError::Solver(
+                "the solver gave not one camera pose (tool_from_camera or base_from_camera)".into(),
+            )),
+        }
+    }
 }
 
 /// Runs `python solver dataset_dir`; a refusal (exit 2) is the user's to act on.

@@ -34,6 +34,10 @@ pub struct Calibration {
     /// The hand-eye transform, where the file has one (`tool_from_camera`, a 4 × 4 rigid transform, rows; a
     /// file of `vservoctl calibrate`): it then takes the place of `camera.tool_from_camera`.
     pub tool_from_camera: Option<nalgebra::IsometryMatrix3<f64>>,
+    /// A fixed camera's pose in the arm's base, where the file has one (`base_from_camera`, as
+    /// `tool_from_camera`; a file of `vservoctl calibrate` on an eye-to-hand cell): it then takes the place of
+    /// `camera.base_from_camera`.
+    pub base_from_camera: Option<nalgebra::IsometryMatrix3<f64>>,
 }
 
 /// Why a calibration file's text was refused: the key (dotted, inside the file) and why.
@@ -124,33 +128,39 @@ pub fn parse(text: &str) -> Result<Calibration, CalibrationError> {
         focal_px,
         principal_point_px,
         distortion: plumb_bob(&coefficients)?,
-        tool_from_camera: hand_eye(root)?,
+        tool_from_camera: hand_eye(root, "tool_from_camera", 2.0)?,
+        base_from_camera: hand_eye(root, "base_from_camera", 5.0)?,
     })
 }
 
-/// `tool_from_camera`, if the file has it: a rigid transform (a rotation to 1e-6, the last row 0 0 0 1)
-/// whose translation is within 2 m.
-fn hand_eye(root: &Yaml) -> Result<Option<nalgebra::IsometryMatrix3<f64>>, CalibrationError> {
-    const KEY: &str = "tool_from_camera";
-    if matches!(root[KEY], Yaml::BadValue) {
+/// `tool_from_camera` (or a fixed camera's `base_from_camera`), if the file has it: a rigid transform (a
+/// rotation to 1e-6, the last row 0 0 0 1) whose translation is within `reach_m` (2 m of the tool, 5 m of the
+/// base).
+fn hand_eye(
+    root: &Yaml,
+    key: &'static str,
+    reach_m: f64,
+) -> Result<Option<nalgebra::IsometryMatrix3<f64>>, CalibrationError> {
+    if matches!(root[key], Yaml::BadValue) {
         return Ok(None);
     }
-    let m = nalgebra::Matrix4::from_row_slice(&matrix(root, KEY, &[16])?);
+    let m = nalgebra::Matrix4::from_row_slice(&matrix(root, key, &[16])?);
     let rotation = m.fixed_view::<3, 3>(0, 0).into_owned();
     let orthonormal = (rotation.transpose() * rotation - nalgebra::Matrix3::identity()).amax() < 1e-6
         && (rotation.determinant() - 1.0).abs() < 1e-6;
     let last_row = [m[(3, 0)], m[(3, 1)], m[(3, 2)], m[(3, 3)]] == [0.0, 0.0, 0.0, 1.0];
     if !orthonormal || !last_row {
         return Err(refuse(
-            &format!("{KEY}.data"),
+            &format!("{key}.data"),
             "is not a rigid transform (a rotation, a translation, the last row 0 0 0 1)",
         ));
     }
     let translation = nalgebra::Vector3::new(m[(0, 3)], m[(1, 3)], m[(2, 3)]);
-    if translation.amax() > 2.0 {
+    if translation.amax() > reach_m {
+        let frame = if key == "tool_from_camera" { "the tool" } else { "the arm's base" };
         return Err(refuse(
-            &format!("{KEY}.data"),
-            format!("its translation {:?} m is not within 2 m of the tool", translation.as_slice()),
+            &format!("{key}.data"),
+            format!("its translation {:?} m is not within {reach_m} m of {frame}", translation.as_slice()),
         ));
     }
     let rotation = nalgebra::Rotation3::from_matrix(&rotation);

@@ -60,8 +60,11 @@ pub struct CellConfig {
 impl CellConfig {
     /// The simulated camera as it really is: `[camera.truth]` where written, else what the cell believes.
     pub fn true_camera(&self) -> CameraTruth {
-        self.camera_truth
-            .unwrap_or(CameraTruth { intrinsics: self.camera, tool_from_camera: self.tool_from_camera })
+        self.camera_truth.unwrap_or(CameraTruth {
+            intrinsics: self.camera,
+            tool_from_camera: self.tool_from_camera,
+            base_from_camera: None,
+        })
     }
 
     /// Where the camera is fixed: on the hand, or in the world with the board on the tool.
@@ -74,13 +77,33 @@ impl CellConfig {
         }
     }
 
-    /// The mount of the simulated camera as it really is (`[camera.truth]`'s `tool_from_camera` on the hand).
+    /// The mount of the simulated camera as it really is (`[camera.truth]`'s `tool_from_camera` on the hand, its
+    /// `base_from_camera` fixed; the board on the tool where the believed camera puts it).
     pub fn true_mount(&self) -> CameraMount {
+        let truth = self.true_camera();
         match self.mount() {
-            CameraMount::Hand { .. } => {
-                CameraMount::Hand { tool_from_camera: self.true_camera().tool_from_camera }
-            }
-            fixed => fixed,
+            CameraMount::Hand { .. } => CameraMount::Hand { tool_from_camera: truth.tool_from_camera },
+            CameraMount::World { base_from_camera, tool_from_board } => CameraMount::World {
+                base_from_camera: truth.base_from_camera.unwrap_or(base_from_camera),
+                tool_from_board,
+            },
+        }
+    }
+
+    /// The camera's pose in the frame it is fixed to, as believed: its name (`tool_from_camera` on the hand,
+    /// `base_from_camera` fixed) and value.
+    pub fn camera_in_mount(&self) -> (&'static str, IsometryMatrix3<f64>) {
+        match self.mount() {
+            CameraMount::Hand { tool_from_camera } => ("tool_from_camera", tool_from_camera),
+            CameraMount::World { base_from_camera, .. } => ("base_from_camera", base_from_camera),
+        }
+    }
+
+    /// The simulated camera's pose in the frame it is fixed to, as it really is.
+    pub fn true_camera_in_mount(&self) -> IsometryMatrix3<f64> {
+        match self.true_mount() {
+            CameraMount::Hand { tool_from_camera } => tool_from_camera,
+            CameraMount::World { base_from_camera, .. } => base_from_camera,
         }
     }
 

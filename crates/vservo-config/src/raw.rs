@@ -376,6 +376,7 @@ pub struct RawCameraTruth {
     pub principal_point_px: Option<[f64; 2]>,
     pub distortion: Option<[f64; 5]>,
     pub tool_from_camera: Option<RawPose>,
+    pub base_from_camera: Option<RawPose>,
 }
 
 /// `[camera.gstreamer]`.

@@ -493,6 +493,9 @@ pub struct CameraTruth {
     pub intrinsics: vservo_scene::CameraIntrinsics,
     /// Where it sits on the hand.
     pub tool_from_camera: nalgebra::IsometryMatrix3<f64>,
+    /// A fixed camera's pose in the base, where `[camera.truth] base_from_camera` says it differs from the
+    /// believed one.
+    pub base_from_camera: Option<nalgebra::IsometryMatrix3<f64>>,
 }
 
 /// `[camera.gstreamer]`: the GStreamer camera driver's pipeline and controls (docs/DRIVERS.md, "A real

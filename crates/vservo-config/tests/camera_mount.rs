@@ -95,3 +95,47 @@ fn a_fixed_camera_refuses_a_board_out_of_the_hands_reach_and_a_board_that_moves_
         .is_ok()
     );
 }
+
+#[test]
+fn the_truth_of_a_mount_is_the_mounts_own() {
+    // a hand camera's truth cannot be fixed in the world, nor a fixed camera's on the hand
+    let hand_truth = with_mount(&format!(
+        "{HAND_MOUNT}\n[camera.truth]\nbase_from_camera = {{ translation_m = [1.0, 0.0, 0.5], rotation_rpy_deg = [0.0, 0.0, 0.0] }}\n"
+    ));
+    let text = message(&hand_truth);
+    assert!(text.contains("camera.truth.base_from_camera"), "{text}");
+    let fixed_truth = with_mount(&format!(
+        "{FIXED_MOUNT}\n[camera.truth]\ntool_from_camera = {{ translation_m = [0.0, 0.0, 0.08], rotation_rpy_deg = [0.0, 0.0, -90.0] }}\n"
+    ));
+    let text = message(&fixed_truth);
+    assert!(text.contains("camera.truth.tool_from_camera"), "{text}");
+    // a fixed camera's truth moves the camera that renders, not the board on the tool
+    let moved = with_mount(&format!(
+        "{FIXED_MOUNT}\n[camera.truth]\nbase_from_camera = {{ translation_m = [1.135, -0.15, 0.66], rotation_rpy_deg = [0.0, 90.0, -180.0] }}\n"
+    ));
+    let config = Config::from_toml(&moved, "t.toml").expect("valid");
+    let (
+        CameraMount::World { base_from_camera: believed, tool_from_board },
+        CameraMount::World { base_from_camera: truth, tool_from_board: true_board },
+    ) = (config.cell.mount(), config.cell.true_mount())
+    else {
+        panic!("fixed cameras")
+    };
+    assert!(((truth.translation.vector - believed.translation.vector).norm() - 0.005).abs() < 1e-12);
+    assert_eq!(tool_from_board, true_board);
+}
+
+/// A fixed camera's file over a hand camera's base drops the base's mount and its truth's pose (config/
+/// eye-to-hand-calibration.toml over the demo's hand camera, whose truth is `tool_from_camera`).
+#[test]
+fn a_fixed_camera_over_a_hand_cameras_file_takes_none_of_its_mount() {
+    let config = Config::load(config_dir().join("eye-to-hand-calibration.toml")).expect("loads");
+    assert!(!config.cell.mount().is_hand());
+    let truth = config.cell.true_camera();
+    assert!(truth.base_from_camera.is_some());
+    let demo = Config::load(config_dir().join("calibration-demo.toml")).expect("loads");
+    assert_eq!(truth.intrinsics, demo.cell.true_camera().intrinsics, "the lens's truth is the base's");
+    let resolved =
+        vservo_config::resolve(config_dir().join("eye-to-hand-calibration.toml")).expect("resolves");
+    assert!(!resolved.contains("tool_from_camera"), "{resolved}");
+}

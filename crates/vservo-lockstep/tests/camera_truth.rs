@@ -38,6 +38,7 @@ fn off(config: &Config) -> CameraTruth {
         )
         .expect("valid intrinsics"),
         tool_from_camera: config.cell.tool_from_camera * moved,
+        base_from_camera: None,
     }
 }
 

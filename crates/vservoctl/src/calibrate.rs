@@ -67,15 +67,6 @@ pub struct CalibrateArgs {
 /// Runs `vservoctl calibrate`.
 pub fn run(args: &CalibrateArgs) -> Result<()> {
     let config = args.config.load()?;
-    if config.cell.fixed_camera.is_some() {
-        return Err(UsageError(format!(
-            "{}: camera.mount = \"world\": vservoctl calibrate solves a camera on the hand (tool_from_camera); \
-             the fixed camera's calibration (base_from_camera) is not built yet: measure camera.base_from_camera \
-             and calibrate the lens with the camera on a hand",
-            config.origin
-        ))
-        .into());
-    }
     let settings = settings_of(&config)?;
     let given = args.poses.as_deref().map(read_poses).transpose()?;
     let solver_path = solver::locate(args.solver.as_deref())?;
@@ -90,11 +81,12 @@ pub fn run(args: &CalibrateArgs) -> Result<()> {
     let (views, truth) = if args.lockstep {
         let cell = capture::Simulated::new(&config)?;
         let board = cell.base_from_board();
-        let planned = plan_poses(&config, &settings, config.cell.desired.joints, board, given.as_deref())?;
+        let start = config.cell.desired.joints;
+        let planned = plan_poses(&config, &settings, start, (config.cell.mount(), board), given.as_deref())?;
         if args.dry_run {
             return Ok(print_stdout(&report::plan(&config, &planned, args.json))?);
         }
-        (cell.take_views(&planned), Some((config.cell.true_camera(), board)))
+        (cell.take_views(&planned), Some(simulated_truth_of(&config)))
     } else {
         let mut cell = live::Running::connect(&config, args.speed_fraction)?;
         let solver = SolverRun { python: &python, script: &solver_path, views_dir: &views_dir };
@@ -123,7 +115,7 @@ pub fn run(args: &CalibrateArgs) -> Result<()> {
         &views_dir,
         &views,
         &config.cell.camera,
-        &config.cell.tool_from_camera,
+        (config.cell.camera_in_mount().0, &config.cell.camera_in_mount().1),
         &settings.board,
         config.cell.arm.joint_count(),
     )?;
@@ -138,8 +130,8 @@ pub fn run(args: &CalibrateArgs) -> Result<()> {
             Ok(applied)
         })
         .transpose()?;
-    let truth = truth.as_ref().map(|(camera, board)| (camera, board));
-    let report = report::Solution { solved: &solved, truth, out: &out, views_dir: &views_dir };
+    let report =
+        report::Solution { solved: &solved, truth: truth.as_ref(), out: &out, views_dir: &views_dir };
     let text = report::solved(&config, &report, applied.as_ref(), args.json);
     print_stdout(&text)?;
     Ok(())
@@ -164,8 +156,8 @@ fn locate_and_plan(
     solver: &SolverRun,
     given: Option<&[Vec<f64>]>,
 ) -> vservo_calibrate::Result<Vec<plan::PlannedPose>> {
-    let board = locate_board(config, settings, cell, at, solver)?;
-    plan_poses(config, settings, at.start, board, given)
+    let located = locate_board(config, settings, cell, at, solver)?;
+    plan_poses(config, settings, at.start, located, given)
 }
 
 /// How the solver is run, and where the views go.
@@ -175,23 +167,24 @@ struct SolverRun<'a> {
     views_dir: &'a std::path::Path,
 }
 
-/// Where the board is in the arm's base, from a view where the arm is now: the solver finds the board's pose
-/// in the camera through the camera and mount the configuration believes (a few millimetres off on a cell not
-/// yet calibrated, which the plan's margins take).
+/// Where the board is, from a view where the arm is now: the solver finds the board's pose in the camera through
+/// the camera and mount the configuration believes (a few millimetres off on a cell not yet calibrated, which
+/// the plan's margins take). A hand camera's board stands in the base (the pose returned); a fixed camera's
+/// rides on the tool (the mount returned holds it there).
 fn locate_board(
     config: &Config,
     settings: &CalibrationSettings,
     cell: &mut live::Running,
     at: &Located,
     solver: &SolverRun,
-) -> vservo_calibrate::Result<vservo_scene::IsometryMatrix3<f64>> {
+) -> vservo_calibrate::Result<(vservo_scene::CameraMount, vservo_scene::IsometryMatrix3<f64>)> {
     let view = cell.take_view("locating the board", at.settled_ns)?;
     let dir = solver.views_dir.join("locate");
     dataset::write(
         &dir,
         std::slice::from_ref(&view),
         &config.cell.camera,
-        &config.cell.tool_from_camera,
+        (config.cell.camera_in_mount().0, &config.cell.camera_in_mount().1),
         &settings.board,
         config.cell.arm.joint_count(),
     )?;
@@ -204,16 +197,35 @@ fn locate_board(
         camera_from_board.translation.vector.norm(),
         located.rms_px
     );
-    Ok(config.cell.arm.base_from_tool(&at.start) * config.cell.tool_from_camera * camera_from_board)
+    let base_from_tool = config.cell.arm.base_from_tool(&at.start);
+    let base_from_board = config.cell.mount().base_from_camera(&base_from_tool) * camera_from_board;
+    Ok(match config.cell.mount() {
+        hand @ vservo_scene::CameraMount::Hand { .. } => (hand, base_from_board),
+        vservo_scene::CameraMount::World { base_from_camera, .. } => {
+            let tool_from_board = base_from_tool.inverse() * base_from_board;
+            (vservo_scene::CameraMount::World { base_from_camera, tool_from_board }, base_from_board)
+        }
+    })
 }
 
 /// The truth of a simulated cell (`[camera.truth]`, which only a simulated camera may have: vservo's, or a
 /// driver's that renders `vservoctl scene`): the camera as it says, the board where the configuration's world
 /// puts it (unless a client moved it).
-fn simulated_truth(
-    config: &Config,
-) -> Option<(vservo_config::CameraTruth, vservo_scene::IsometryMatrix3<f64>)> {
-    config.cell.camera_truth.map(|truth| (truth, config.cell.base_from_board(&config.cell.arm)))
+fn simulated_truth(config: &Config) -> Option<report::Truth> {
+    config.cell.camera_truth.map(|_| simulated_truth_of(config))
+}
+
+/// The simulated cell's camera as it really is, and its board: in the base on the hand, on the tool fixed.
+fn simulated_truth_of(config: &Config) -> report::Truth {
+    let board = match config.cell.mount() {
+        vservo_scene::CameraMount::Hand { .. } => config.cell.base_from_board(&config.cell.arm),
+        vservo_scene::CameraMount::World { tool_from_board, .. } => tool_from_board,
+    };
+    report::Truth {
+        camera: config.cell.true_camera(),
+        camera_in_mount: config.cell.true_camera_in_mount(),
+        board,
+    }
 }
 
 /// `[calibration]`, which the command needs.
@@ -232,19 +244,14 @@ fn plan_poses(
     config: &Config,
     settings: &CalibrationSettings,
     start: vservo_arm::JointVector,
-    base_from_board: vservo_scene::IsometryMatrix3<f64>,
+    (mount, base_from_board): (vservo_scene::CameraMount, vservo_scene::IsometryMatrix3<f64>),
     given: Option<&[Vec<f64>]>,
 ) -> vservo_calibrate::Result<Vec<plan::PlannedPose>> {
     let distance_m = settings
         .distance_m
         .unwrap_or_else(|| config.cell.desired.camera_from_board.translation.vector.norm());
-    let planner_cell = plan::Cell {
-        arm: &config.cell.arm,
-        start,
-        camera: &config.cell.camera,
-        tool_from_camera: config.cell.tool_from_camera,
-        base_from_board,
-    };
+    let planner_cell =
+        plan::Cell { arm: &config.cell.arm, start, camera: &config.cell.camera, mount, base_from_board };
     let planned = match given {
         Some(joints) => plan::given(&planner_cell, &settings.board, joints),
         None => plan::plan(&planner_cell, settings, distance_m),

@@ -185,6 +185,14 @@ pub fn tool_from_camera(
             "must be given for a camera on the hand (or camera.mount = \"world\" with camera.base_from_camera)",
         )),
         (RawCameraMount::Hand, Some(pose)) => {
+            if calibration.is_some_and(|k| k.base_from_camera.is_some()) {
+                return Err(check.invalid(
+                    "camera.calibration_file",
+                    c.calibration_file.clone().unwrap_or_default(),
+                    "holds a fixed camera's pose (base_from_camera): a camera on the hand is at tool_from_camera \
+                     (or camera.mount = \"world\")",
+                ));
+            }
             let written = check.pose("camera.tool_from_camera", pose, 2.0)?;
             Ok(calibration.and_then(|k| k.tool_from_camera).unwrap_or(written))
         }
@@ -207,7 +215,8 @@ pub fn tool_from_camera(
     }
 }
 
-/// A fixed camera (`camera.mount = "world"`): `camera.base_from_camera` (within 5 m of the arm's base), and the
+/// A fixed camera (`camera.mount = "world"`): `camera.base_from_camera` (within 5 m of the arm's base; the
+/// calibration file's where it has one), and the
 /// board on the tool where the desired pose puts it, `tool_from_board = tool_from_base(q_d) · base_from_camera
 /// · camera_from_board_d` (within 1 m of the tool: a target held by the hand). `None` for a hand camera, which
 /// must not give `camera.base_from_camera`.
@@ -216,6 +225,7 @@ pub fn fixed_camera(
     c: &RawCamera,
     arm: &vservo_arm::SerialArm,
     desired: &crate::Desired,
+    calibration: Option<&Calibration>,
 ) -> Result<Option<crate::FixedCamera>, ConfigError> {
     match (c.mount, &c.base_from_camera) {
         (RawCameraMount::Hand, None) => Ok(None),
@@ -230,7 +240,8 @@ pub fn fixed_camera(
             "must be given for a fixed camera (camera.mount = \"world\"): its pose in the arm's base frame",
         )),
         (RawCameraMount::World, Some(pose)) => {
-            let base_from_camera = check.pose("camera.base_from_camera", pose, 5.0)?;
+            let written = check.pose("camera.base_from_camera", pose, 5.0)?;
+            let base_from_camera = calibration.and_then(|k| k.base_from_camera).unwrap_or(written);
             let tool_from_board = arm.base_from_tool(&desired.joints).inverse()
                 * base_from_camera
                 * desired.camera_from_board;
@@ -308,11 +319,24 @@ pub fn truth(
             "is a hand camera's pose: a fixed camera (camera.mount = \"world\") is at camera.base_from_camera",
         ));
     }
+    let base_from_camera = match (&t.base_from_camera, c.mount) {
+        (None, _) => None,
+        (Some(pose), RawCameraMount::World) => {
+            Some(check.pose("camera.truth.base_from_camera", pose, 5.0)?)
+        }
+        (Some(_), RawCameraMount::Hand) => {
+            return Err(check.invalid(
+                "camera.truth.base_from_camera",
+                "(given)",
+                "is a fixed camera's pose: a camera on the hand is at tool_from_camera",
+            ));
+        }
+    };
     let tool_from_camera = match &t.tool_from_camera {
         None => *believed_tool_from_camera,
         Some(pose) => check.pose("camera.truth.tool_from_camera", pose, 2.0)?,
     };
-    Ok(Some(CameraTruth { intrinsics, tool_from_camera }))
+    Ok(Some(CameraTruth { intrinsics, tool_from_camera, base_from_camera }))
 }
 
 /// `camera.source`, and the directory it names.

@@ -50,7 +50,7 @@ pub fn validate(raw: RawConfig, file: &str) -> Result<Config, ConfigError> {
     };
     let ros2 = ros2::ros2(&check, &raw.ros2, arm.joint_count(), from_ros2)?;
     let desired = desired::desired(&check, &raw.desired, &arm, &camera, &board)?;
-    let fixed_camera = camera::fixed_camera(&check, &raw.camera, &arm, &desired)?;
+    let fixed_camera = camera::fixed_camera(&check, &raw.camera, &arm, &desired, calibration_file.as_ref())?;
     let controller =
         controller::controller(&check, &raw.controller, &camera, &desired.features, timing.vision_period_s)?;
     let source = camera::source(&check, &raw.camera)?;
