@@ -182,8 +182,29 @@ def tag_boxes(tag) -> str:
     return "".join(boxes)
 
 
+def board_body(board, parent_from_board) -> str:
+    """The board (a body at parent_from_board, massless): its white face is the board plane z = 0, the box behind
+    it (+z), the marks on it, 0.1 mm towards the camera."""
+    (xlo, ylo), (xhi, yhi) = board["extent_m"]
+    thickness = 0.005
+    marks = "".join(f'<geom type="cylinder" size="{board["mark_diameter_m"] / 2:.9g} 0.00005" pos="{x:.9g} {y:.9g} -0.00005" '
+                    f'material="mark" mass="0"/>' for x, y in board["marks_in_board_m"])
+    # an AprilTag target, and the calibration board printed around it (its tags include the target's)
+    grid = (board.get("calibration_grid") or {}).get("tags", [])
+    tags = grid or ([board["apriltag"]] if board.get("apriltag") else [])
+    if tags:
+        marks = "".join(tag_boxes(tag) for tag in tags)
+    return (f'<body name="board" {placement(parent_from_board)}>'
+            f'<geom type="box" size="{(xhi - xlo) / 2:.9g} {(yhi - ylo) / 2:.9g} {thickness / 2}" '
+            f'pos="{(xhi + xlo) / 2:.9g} {(yhi + ylo) / 2:.9g} {thickness / 2}" material="board" mass="0"/>'
+            f'{marks}</body>')
+
+
 def build_mjcf(scene) -> str:
-    """The arm (body i is DH frame i-1 turned by q_i about its z), the hand camera, the board with its marks.
+    """The arm (body i is DH frame i-1 turned by q_i about its z), the camera, the board with its marks.
+
+    The camera (named "camera") rides on DH frame 6 at tool_from_camera, or with the scene's camera_mount "world"
+    stands in the world at base_from_camera, the board then a body of DH frame 6 at tool_from_board.
 
     Gray levels as vservo's simulated camera draws them: board 230, marks 20, background 110 (a flat skybox).
     No lights: MuJoCo then shows a surface at (0.3 + emission) × rgba (0.3 of ambient, measured with MuJoCo
@@ -191,9 +212,7 @@ def build_mjcf(scene) -> str:
     The links are capsules along the DH offsets, with MuJoCo's inertias for them at a density of 1000 kg/m³:
     plausible, NOT the PUMA 560's true masses and inertias (vservo's own plant has those).
     """
-    if scene.get("camera_mount", "hand") != "hand":
-        raise SystemExit("mujoco_driver: the scene's camera is fixed in the world (camera.mount = \"world\"): this "
-                         "driver builds a hand camera only; the PyBullet driver renders a fixed one")
+    fixed = scene.get("camera_mount", "hand") == "world"
     arm, cam, board = scene["arm"], scene["camera"], scene["board"]
     lens = Lens(cam)
     fovy_deg = lens.fovy_deg()
@@ -206,22 +225,20 @@ def build_mjcf(scene) -> str:
         for a, b in ((np.zeros(3), elbow), (elbow, end)):
             if np.linalg.norm(np.subtract(b, a)) > 1e-6:
                 geoms += '<geom type="capsule" size="%g" fromto="%g %g %g %g %g %g"/>' % (radius, *a, *b)
-        if i == 5:  # the camera, fixed to DH frame 6; MuJoCo's camera looks along its −z with y up: Rx(180°)
+        if i == 5 and fixed:  # the board, fixed to DH frame 6
+            geoms += board_body(board, dh_link(row) @ np.array(scene["tool_from_board"]))
+        elif i == 5:  # the camera, fixed to DH frame 6; MuJoCo's camera looks along its −z with y up: Rx(180°)
             tool_from_mujoco_camera = dh_link(row) @ np.array(scene["tool_from_camera"]) @ rot_x(math.pi)
-            geoms += (f'<camera name="hand" {placement(tool_from_mujoco_camera)} fovy="{fovy_deg:.9g}"/>'
+            geoms += (f'<camera name="camera" {placement(tool_from_mujoco_camera)} fovy="{fovy_deg:.9g}"/>'
                       f'<geom type="box" size="0.02 0.02 0.02" {placement(tool_from_mujoco_camera)}/>')
         bodies.append(f'<body name="link{i + 1}" {placement(parent_from_body)} gravcomp="1">'
                       f'<joint name="q{i + 1}" range="{lo:.9g} {hi:.9g}"/>{geoms}')
         parent_from_body = dh_link(row)
-    (xlo, ylo), (xhi, yhi) = board["extent_m"]
-    thickness = 0.005  # the white face is the board plane z = 0; the marks lie on it, 0.1 mm towards the camera
-    marks = "".join(f'<geom type="cylinder" size="{board["mark_diameter_m"] / 2:.9g} 0.00005" pos="{x:.9g} {y:.9g} -0.00005" '
-                    f'material="mark"/>' for x, y in board["marks_in_board_m"])
-    # an AprilTag target, and the calibration board printed around it (its tags include the target's)
-    grid = (board.get("calibration_grid") or {}).get("tags", [])
-    tags = grid or ([board["apriltag"]] if board.get("apriltag") else [])
-    if tags:
-        marks = "".join(tag_boxes(tag) for tag in tags)
+    if fixed:  # MuJoCo's camera looks along its −z with y up: Rx(180°)
+        world_camera = np.array(scene["base_from_camera"]) @ rot_x(math.pi)
+        standing = f'<camera name="camera" {placement(world_camera)} fovy="{fovy_deg:.9g}"/>'
+    else:
+        standing = board_body(board, np.array(scene["base_from_board"]))
     actuators = "".join(f'<position joint="q{i}" kp="1"/><velocity joint="q{i}" kv="1"/>' for i in range(1, 7))
     return f"""
 <mujoco model="vservo-cell">
@@ -245,11 +262,7 @@ def build_mjcf(scene) -> str:
   </default>
   <worldbody>
     {"".join(bodies)}{"</body>" * len(bodies)}
-    <body name="board" {placement(np.array(scene["base_from_board"]))}>
-      <geom type="box" size="{(xhi - xlo) / 2:.9g} {(yhi - ylo) / 2:.9g} {thickness / 2}"
-            pos="{(xhi + xlo) / 2:.9g} {(yhi + ylo) / 2:.9g} {thickness / 2}" material="board"/>
-      {marks}
-    </body>
+    {standing}
   </worldbody>
   <actuator>{actuators}</actuator>
 </mujoco>"""
@@ -323,7 +336,7 @@ class Camera(threading.Thread):
         data.qpos[:6] = q
         mujoco.mj_kinematics(self.model, data)
         mujoco.mj_camlight(self.model, data)
-        renderer.update_scene(data, camera="hand")
+        renderer.update_scene(data, camera="camera")
         image = self.lens.image(renderer.render()[:, :, 0])  # every surface is gray: red = green = blue
         if self.noise_sigma_gray > 0:  # the configured camera's noise (`vision.render.noise_sigma_gray`)
             noisy = image + self.noise.normal(0.0, self.noise_sigma_gray, image.shape)

@@ -26,6 +26,16 @@ fn run_mujoco_with_an_apriltag_through_a_lens_converges_below_one_pixel() {
     run_script_to_convergence("run-mujoco.sh", &["--config", "config/mujoco-apriltag.toml"]);
 }
 
+/// The eye-to-hand cell in MuJoCo (config/mujoco-eye-to-hand.toml): the camera in MuJoCo's world, the board a body
+/// of the arm's last link; the loop closes on what the fixed camera renders as the arm carries the board.
+#[test]
+fn run_mujoco_with_a_fixed_camera_converges_below_one_pixel() {
+    let _one = exclusive();
+    let summary = run_script_to_convergence("run-mujoco.sh", &["--config", "config/mujoco-eye-to-hand.toml"]);
+    let initial_px = summary["initial_error_px"].as_f64().unwrap_or(0.0);
+    assert!(initial_px > 20.0, "the run starts {initial_px} px off, no test: {summary}");
+}
+
 /// The calibration through a running vservod on the reference driver (config/mujoco-calibration.toml: MuJoCo
 /// renders the calibration board and the camera as `[camera.truth]` says it is, with its noise): the bars.
 #[test]

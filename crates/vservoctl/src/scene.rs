@@ -79,7 +79,11 @@ pub fn run(args: &SceneArgs) -> Result<()> {
         // desired joints)
         "camera_mount": if config.cell.fixed_camera.is_some() { "world" } else { "hand" },
         "tool_from_camera": config.cell.fixed_camera.is_none().then(|| matrix4(&truth.tool_from_camera)),
-        "base_from_camera": config.cell.fixed_camera.map(|fixed| matrix4(&fixed.base_from_camera)),
+        "base_from_camera": match config.cell.true_mount() {
+            vservo_scene::CameraMount::World { base_from_camera, .. } => Some(matrix4(&base_from_camera)),
+            vservo_scene::CameraMount::Hand { .. } => None,
+        },
+        "believed_base_from_camera": config.cell.fixed_camera.map(|fixed| matrix4(&fixed.base_from_camera)),
         "tool_from_board": config.cell.fixed_camera.map(|fixed| matrix4(&fixed.tool_from_board)),
         "base_from_board": matrix4(&config.cell.base_from_board(arm)),
         "camera": camera_json(&truth.intrinsics, config.cell.vision.render.noise_sigma_gray),
