@@ -45,13 +45,18 @@ fn states_arrive(instance: &str) -> bool {
 /// The UR5e cell held in PyBullet, the driver given the scene as `edit` leaves it (what the robot really is),
 /// vservod the configuration (what the user believes): the check's exit code and object, after the first frames.
 fn check_the_ur5e_cell(name: &str, edit: impl FnOnce(&mut Value)) -> (Option<i32>, Value) {
+    check_a_ur5e_cell("config/arms/ur5e.toml", name, edit)
+}
+
+/// As [`check_the_ur5e_cell`], the UR5e's cell of `file`.
+fn check_a_ur5e_cell(file: &str, name: &str, edit: impl FnOnce(&mut Value)) -> (Option<i32>, Value) {
     let instance = unique(name);
     let root = repository_root();
     let config = TempConfig::written(&format!(
         "extends = \"{}\"\n[instance]\nname = \"{instance}\"\n[timing]\npipeline_delay_frames = 0\n[camera]\n\
          source = \"external\"\n[robot]\ndriver = \"external\"\ncommand = \"velocity\"\nperiod_s = 0.002\n\
          start = \"held\"\n",
-        root.join("config/arms/ur5e.toml").display()
+        root.join(file).display()
     ));
     let dir = ScratchDir::new(&instance);
     let scene = scene(&config, &dir.0, edit);
@@ -87,6 +92,33 @@ fn the_ur5e_cell_as_configured_passes_every_check() {
     assert!(kinematics["board_offset_mm"].as_f64().unwrap_or(f64::INFINITY) < 5.0, "{check}");
     let (first, _) = verdict(&check, "first_twist");
     assert!(first["jerk_ratio"].as_f64().is_some_and(|r| r > 0.0 && r <= 1.0), "{check}");
+}
+
+/// The UR5e with the camera fixed under the table and the board on its flange (config/arms/ur5e-eye-to-hand.toml):
+/// the right cell passes every check, the board found on the tool where [desired] puts it; the board 40 mm
+/// farther out on the flange than configured fails the kinematics check, naming the mount among the causes.
+#[test]
+fn an_eye_to_hand_cell_passes_every_check_and_a_board_elsewhere_on_the_tool_fails_the_kinematics() {
+    let _one = exclusive();
+    let file = "config/arms/ur5e-eye-to-hand.toml";
+    let (code, check) = check_a_ur5e_cell(file, "check-fixed", |_| {});
+    assert_eq!(code, Some(0), "{check}");
+    for name in ["held", "joint_states", "joints", "kinematics", "camera", "desired_pose", "first_twist"] {
+        assert_eq!(verdict(&check, name).0["pass"], true, "{name}: {check}");
+    }
+    let (kinematics, _) = verdict(&check, "kinematics");
+    assert!(kinematics["board_offset_mm"].as_f64().unwrap_or(f64::INFINITY) < 5.0, "{check}");
+    assert!(kinematics["measured_tool_from_board_m"].is_array(), "{check}");
+    let (code, check) = check_a_ur5e_cell(file, "check-fixed-board", |scene| {
+        let z = scene["tool_from_board"][2][3].as_f64().expect("the board's offset on the tool");
+        scene["tool_from_board"][2][3] = (z + 0.04).into();
+    });
+    assert_eq!(code, Some(1), "{check}");
+    let (kinematics, text) = verdict(&check, "kinematics");
+    assert_eq!(kinematics["pass"], false, "{check}");
+    let offset_mm = kinematics["board_offset_mm"].as_f64().unwrap_or(0.0);
+    assert!((offset_mm - 40.0).abs() < 5.0, "{check}");
+    assert!(text.contains("base_from_camera"), "{text}");
 }
 
 /// The driver runs at 250 Hz where the configuration says 500 Hz.

@@ -196,7 +196,8 @@ wire_message! {
         /// feature vector of an earlier run of the node is refused)
         writer_pid: u32,
         /// the camera's pose in the robot's base frame at capture (the joint state of `capture_tick`; for an
-        /// external camera the joint states around `capture_stamp_ns`, interpolated): the top 3 rows of the
+        /// external camera the joint states around `capture_stamp_ns`, interpolated); a camera fixed in the world
+        /// (`camera.mount = "world"`): in the tool frame, which holds the board still: the top 3 rows of the
         /// 4×4 transform, row-major; NaN when not known
         base_from_camera: [f64; 12] = [f64::NAN; 12],
         /// the vision node's seal under the run's key: the servo (and the daemon) take sealed features only

@@ -56,14 +56,6 @@ pub struct ChecksFailed {
 pub fn run(args: &CheckArgs) -> anyhow::Result<()> {
     let connection = Connection::open_when_there(&args.instance, || true)?;
     let config = args.instance.configuration_in_force(&connection.instance)?;
-    if config.cell.fixed_camera.is_some() {
-        return Err(UsageError(format!(
-            "{}: camera.mount = \"world\": the preflight's checks of the view and the first twist are a hand \
-             camera's; a fixed camera's are not built yet",
-            config.origin
-        ))
-        .into());
-    }
     let cell =
         vservo_cell::Cell::new(&config.cell).map_err(|e| UsageError(format!("{}: {e}", config.origin)))?;
     let window = Duration::from_secs_f64(args.duration_s.max(0.2));

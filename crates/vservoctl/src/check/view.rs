@@ -15,12 +15,22 @@ pub const BOARD_ROTATION_TOLERANCE_RAD: f64 = 5.0 * std::f64::consts::PI / 180.0
 pub const FRAME_PERIOD_TOLERANCE: f64 = 0.5;
 
 /// The board as the camera sees it (features of a whole frame, the camera's pose from the measured joints),
-/// in the base frame; `None` when no whole frame came or the features fit no board pose.
+/// in the frame that holds it: the base for a camera on the hand, the tool for a fixed one (the frame the
+/// features' camera pose is in); `None` when no whole frame came or the features fit no board pose.
 pub fn measured_board(observed: &Observed, config: &Config) -> Option<IsometryMatrix3<f64>> {
-    let (frame, base_from_camera) = observed.newest_whole_frame()?;
+    let (frame, holder_from_camera) = observed.newest_whole_frame()?;
     let features = pinhole_features(config, &frame.features)?;
     let camera_from_board = config.cell.camera.board_pose_from_features(&config.cell.board, &features)?;
-    Some(base_from_camera * camera_from_board)
+    Some(holder_from_camera * camera_from_board)
+}
+
+/// Where the configuration places the board, in the frame that holds it: standing in the base (by `[desired]`)
+/// for a camera on the hand, on the tool for a fixed one.
+fn configured_board(config: &Config) -> IsometryMatrix3<f64> {
+    match config.cell.fixed_camera {
+        None => config.cell.base_from_board(&config.cell.arm),
+        Some(fixed) => fixed.tool_from_board,
+    }
 }
 
 /// The features as the pinhole camera has them (undistorted when the vision node left them as seen).
@@ -41,8 +51,9 @@ fn pinhole_features(config: &Config, features: &FeatureVector) -> Option<Feature
 }
 
 /// The arm's measured pose agrees with the configured kinematics: the board the camera sees, placed in the
-/// base frame by the forward kinematics of the measured joints and `tool_from_camera`, is where the
-/// configuration places it (by `[desired]`), within [`BOARD_POSITION_TOLERANCE_M`] and
+/// base frame by the forward kinematics of the measured joints and `tool_from_camera` (a fixed camera's: on the
+/// tool, by `base_from_camera` and the forward kinematics), is where the configuration places it (by
+/// `[desired]`), within [`BOARD_POSITION_TOLERANCE_M`] and
 /// [`BOARD_ROTATION_TOLERANCE_RAD`].
 pub fn kinematics(observed: &Observed, config: &Config) -> Line {
     let name = "kinematics";
@@ -56,7 +67,7 @@ pub fn kinematics(observed: &Observed, config: &Config) -> Line {
             Value::Null,
         );
     };
-    let configured = config.cell.base_from_board(&config.cell.arm);
+    let configured = configured_board(config);
     let offset = configured.inverse() * measured;
     let distance_m = offset.translation.vector.norm();
     let angle_rad = offset.rotation.angle();
@@ -71,16 +82,21 @@ pub fn kinematics(observed: &Observed, config: &Config) -> Line {
         if pass {
             ""
         } else {
-            ": the arm's kinematics, tool_from_camera, the camera's intrinsics or [desired] (which places the \
-             board) are not the cell's, or the board is not where it should stand"
+            ": the arm's kinematics, the camera's mount (tool_from_camera, base_from_camera), its intrinsics or \
+             [desired] (which places the board) are not the cell's, or the board is not where it should be"
         }
     );
+    let measured_key = if config.cell.fixed_camera.is_some() {
+        "measured_tool_from_board_m"
+    } else {
+        "measured_base_from_board_m"
+    };
     Line::new(
         name,
         pass,
         text,
         json!({ "board_offset_mm": distance_m * 1e3, "board_offset_deg": angle_rad.to_degrees(),
-                "measured_base_from_board_m": measured.translation.vector.as_slice() }),
+                measured_key: measured.translation.vector.as_slice() }),
     )
 }
 
@@ -134,11 +150,11 @@ pub fn camera(observed: &Observed, config: &Config) -> Line {
     )
 }
 
-/// Where the camera is to end: the board (as seen, else as configured) with the target in force in front of
-/// it; `None` when the target's features fit no board pose.
+/// Where the camera is to end relative to the board (as seen, else as configured) with the target in force in
+/// front of it, in the frame that holds the board (the base on the hand, the tool fixed); `None` when the
+/// target's features fit no board pose.
 pub fn desired_camera(observed: &Observed, config: &Config) -> Option<IsometryMatrix3<f64>> {
-    let base_from_board =
-        measured_board(observed, config).unwrap_or_else(|| config.cell.base_from_board(&config.cell.arm));
+    let base_from_board = measured_board(observed, config).unwrap_or_else(|| configured_board(config));
     let camera_from_board = match observed.desired_features {
         Some(features) if features != config.cell.desired.features => {
             config.cell.camera.board_pose_from_features(&config.cell.board, &features)?
@@ -154,26 +170,35 @@ pub fn desired_pose(observed: &Observed, config: &Config) -> Line {
     let name = "desired_pose";
     let arm = &config.cell.arm;
     let q_now = observed.newest_state().map_or(config.cell.desired.joints, |s| s.q);
-    let Some(base_from_camera) = desired_camera(observed, config) else {
+    let Some(holder_from_camera) = desired_camera(observed, config) else {
         return Line::new(name, false, "the target's features fit no board pose".to_string(), Value::Null);
     };
     let board_from =
         if measured_board(observed, config).is_some() { "as seen" } else { "as configured: not seen" };
-    let base_from_tool = base_from_camera * config.cell.tool_from_camera.inverse();
-    let position = base_from_camera.translation.vector;
+    // a hand camera goes to its desired pose; a fixed camera stays, and the tool brings the board before it
+    let (base_from_tool, what, position) = match config.cell.fixed_camera {
+        None => {
+            let base_from_tool = holder_from_camera * config.cell.tool_from_camera.inverse();
+            (base_from_tool, "camera", holder_from_camera.translation.vector)
+        }
+        Some(fixed) => {
+            let base_from_tool = fixed.base_from_camera * holder_from_camera.inverse();
+            (base_from_tool, "tool", base_from_tool.translation.vector)
+        }
+    };
     let Some(q) = arm.reach(&base_from_tool, &q_now) else {
         return Line::new(
             name,
             false,
             format!(
-                "unreachable: no joints inside the limits put the camera at its desired pose ({:.3}, {:.3}, {:.3}) m \
+                "unreachable: no joints inside the limits put the {what} at its desired pose ({:.3}, {:.3}, {:.3}) m \
                  in the base frame, {:.3} m from the base (the target before the board {board_from})",
                 position.x,
                 position.y,
                 position.z,
                 position.norm(),
             ),
-            json!({ "reachable": false, "desired_camera_position_m": position.as_slice() }),
+            json!({ "reachable": false, format!("desired_{what}_position_m"): position.as_slice() }),
         );
     };
     let manipulability = arm.manipulability(&q);
