@@ -1,12 +1,24 @@
 //! The robust controller (config/vservo-robust.toml) as four real-time processes: the gains with Q, R, Z_d
 //! and the options cross the wire, the servo takes the camera's pose from each feature message, goes on
-//! with three marks when one is covered, steers back while two are, and converges again.
+//! with three marks when one is covered, steers back while two are, and converges again; a pose-based law
+//! acquires a target out of view; an eye-to-hand cell (the camera fixed, the board on the tool) converges.
 
 use std::time::Duration;
 
 use serde_json::Value;
 use vservo_protocol::{Verdict, law_flag};
 use vservo_system_tests::{Daemon, config_from, echo_lines, exclusive, running, status, unique, wait_until};
+
+/// vservod on `config`, once its cell `instance` runs.
+fn running_daemon(instance: &str, config: &vservo_system_tests::TempConfig) -> Daemon {
+    let daemon = Daemon::start(config);
+    assert!(
+        wait_until(Duration::from_secs(10), || status(instance).is_some_and(|s| running(&s))),
+        "{}",
+        daemon.log()
+    );
+    daemon
+}
 
 #[test]
 fn covered_marks_do_not_stop_the_robust_servo_in_real_time() {
@@ -23,12 +35,7 @@ fn covered_marks_do_not_stop_the_robust_servo_in_real_time() {
             ),
         ],
     );
-    let daemon = Daemon::start(&config);
-    assert!(
-        wait_until(Duration::from_secs(10), || status(&instance).is_some_and(|s| running(&s))),
-        "{}",
-        daemon.log()
-    );
+    let daemon = running_daemon(&instance, &config);
     let twists = echo_lines(&instance, "camera_twist", "8");
     let verdicts: Vec<(u64, u64)> = twists
         .iter()
@@ -94,12 +101,7 @@ fn a_pose_based_law_acquires_a_target_out_of_view_and_converges_in_real_time() {
             ),
         ],
     );
-    let daemon = Daemon::start(&config);
-    assert!(
-        wait_until(Duration::from_secs(10), || status(&instance).is_some_and(|s| running(&s))),
-        "{}",
-        daemon.log()
-    );
+    let daemon = running_daemon(&instance, &config);
     let twists = echo_lines(&instance, "camera_twist", "4");
     let verdicts: Vec<u64> = twists.iter().filter_map(|t| t["verdict"].as_u64()).collect();
     let last = twists.last().expect("twists");
@@ -142,12 +144,7 @@ fn an_eye_to_hand_cell_converges_in_real_time() {
     );
     let text = std::fs::read_to_string(config.arg()).expect("the configuration written");
     assert!(text.contains("mount = \"world\"") && !text.contains("tool_from_camera"), "{text}");
-    let daemon = Daemon::start(&config);
-    assert!(
-        wait_until(Duration::from_secs(10), || status(&instance).is_some_and(|s| running(&s))),
-        "{}",
-        daemon.log()
-    );
+    let daemon = running_daemon(&instance, &config);
     let twists = echo_lines(&instance, "camera_twist", "4");
     let first = twists.first().expect("twists")["feature_error_px"].as_f64().unwrap_or(f64::NAN);
     let last = twists.last().expect("twists");
