@@ -178,7 +178,8 @@ def tag_boxes(tag) -> str:
                 column += 1
             centre = (start + column - 1) / 2
             boxes.append(f'<geom type="box" size="{(column - start) * cell / 2:.9g} {cell / 2:.9g} 0.00005" '
-                         f'pos="{cx + (centre - 3.5) * cell:.9g} {cy + (row - 3.5) * cell:.9g} -0.00005" material="mark"/>')
+                         f'pos="{cx + (centre - 3.5) * cell:.9g} {cy + (row - 3.5) * cell:.9g} -0.00005" material="mark" '
+                         f'mass="0"/>')
     return "".join(boxes)
 
 

@@ -195,7 +195,7 @@ def grab(model, data, renderer, lens, q_rad):
     data.qpos[:len(q_rad)] = q_rad
     mujoco.mj_kinematics(model, data)
     mujoco.mj_camlight(model, data)
-    renderer.update_scene(data, camera="hand")
+    renderer.update_scene(data, camera="camera")
     return lens.image(renderer.render()[:, :, 0])  # every surface is gray: red = green = blue
 
 

@@ -210,7 +210,12 @@ pub fn plan(
                 needed,
             });
         }
-        let base_from_tool = cell.mount.base_from_tool_seeing(&camera_from_board, &cell.base_from_board);
+        let base_from_tool = match cell.mount {
+            CameraMount::Hand { tool_from_camera } => {
+                cell.base_from_board * board_from_camera * tool_from_camera.inverse()
+            }
+            fixed => fixed.base_from_tool_seeing(&camera_from_board, &cell.base_from_board),
+        };
         // the daemon moves the joints to goals inside the limits by a margin only: a solution closer is none
         let reached = cell
             .arm

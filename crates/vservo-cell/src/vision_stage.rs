@@ -185,8 +185,9 @@ impl VisionStage {
         }
     }
 
-    /// Takes frame `frame` at plant tick `tick` with the arm at `q` and the board at `base_from_board`
-    /// with the simulated camera, extracts it and pushes it into the pipeline. The image stays available
+    /// Takes frame `frame` at plant tick `tick` with the arm at `q` and the board at `base_from_board` (a
+    /// fixed camera's board rides on the tool: it is where `q` puts it, whatever is given) with the simulated
+    /// camera, extracts it and pushes it into the pipeline. The image stays available
     /// ([`VisionStage::image`]) until the next capture.
     pub fn capture(
         &mut self,
@@ -199,6 +200,7 @@ impl VisionStage {
         // where the cell believes the camera is (what the servo is told), and where it is (what it sees from)
         let holder_from_camera = self.mount.holder_from_camera(&base_from_tool);
         let base_from_true_camera = self.true_mount.base_from_camera(&base_from_tool);
+        let base_from_board = self.true_mount.base_from_board(&base_from_tool, base_from_board);
         let camera_from_board = base_from_true_camera.inverse() * base_from_board;
         let hidden = self.scenario.hidden_marks(tick as f64 * self.control_period_s);
         self.camera.capture_hiding(&camera_from_board, frame, hidden);

@@ -214,8 +214,8 @@ pub const LENS_KEYS: [&str; 8] = [
 ];
 
 /// The keys of the camera's mount, one value as the lens is: a file that writes any of them replaces its base's
-/// mount whole, `[camera.truth]`'s pose too (a fixed camera over a hand camera's file does not inherit its
-/// `tool_from_camera`).
+/// mount whole, and one that writes `mount` `[camera.truth]`'s pose too (a fixed camera over a hand camera's
+/// file does not inherit its `tool_from_camera`).
 pub const MOUNT_KEYS: [&str; 3] = ["mount", "tool_from_camera", "base_from_camera"];
 
 /// `overlay`'s keys over `base`'s: tables key by key, any other value replaced; the camera's lens and its
@@ -226,8 +226,10 @@ fn merge(base: &mut toml::Table, overlay: &toml::Table) {
             && let Some(toml::Value::Table(camera)) = base.get_mut("camera")
         {
             camera.retain(|key, _| !keys.contains(&key));
-            // a new mount's truth is its own too: the base's `[camera.truth]` pose was of the base's mount
+            // a file that sets the mount's kind has a truth of its own: the base's `[camera.truth]` pose was of
+            // the base's mount
             if keys == MOUNT_KEYS
+                && writes_any(overlay, &["mount"])
                 && let Some(toml::Value::Table(truth)) = camera.get_mut("truth")
             {
                 truth.retain(|key, _| !keys.contains(&key));

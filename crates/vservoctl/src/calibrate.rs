@@ -110,7 +110,8 @@ pub fn run(args: &CalibrateArgs) -> Result<()> {
         (views, simulated_truth(&config))
     };
     let measured: Vec<_> = views.iter().map(|v| v.base_from_tool).collect();
-    spread::check(&measured).map_err(|e| UsageError(format!("the views taken: {e}")))?;
+    spread::check(&solved_poses(&config, &measured))
+        .map_err(|e| UsageError(format!("the views taken: {e}")))?;
     dataset::write(
         &views_dir,
         &views,
@@ -228,6 +229,16 @@ fn simulated_truth_of(config: &Config) -> report::Truth {
     }
 }
 
+/// The arm's poses as the hand-eye solver takes them, whose spread decides the calibration: as they are for a
+/// camera on the hand, inverted (tool_from_base) for a fixed one (docs/CALIBRATION.md).
+fn solved_poses(
+    config: &Config,
+    base_from_tool: &[vservo_scene::IsometryMatrix3<f64>],
+) -> Vec<vservo_scene::IsometryMatrix3<f64>> {
+    let fixed = config.cell.fixed_camera.is_some();
+    base_from_tool.iter().map(|pose| if fixed { pose.inverse() } else { *pose }).collect()
+}
+
 /// `[calibration]`, which the command needs.
 fn settings_of(config: &Config) -> Result<CalibrationSettings, UsageError> {
     config.calibration.clone().ok_or_else(|| {
@@ -260,7 +271,7 @@ fn plan_poses(
         CalibrateError::Refused(format!("{}: the plan is refused before anything moves: {e}", config.origin))
     })?;
     let tools: Vec<_> = planned.iter().map(|p| p.base_from_tool).collect();
-    spread::check(&tools).map_err(|e| {
+    spread::check(&solved_poses(config, &tools)).map_err(|e| {
         CalibrateError::Refused(format!("{}: the plan is refused before anything moves: {e}", config.origin))
     })?;
     Ok(planned)

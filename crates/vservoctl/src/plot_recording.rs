@@ -148,8 +148,10 @@ fn joint_state(data: &Value, joint_count: usize) -> Option<Result<(u64, Recorded
 /// One record per frame: the camera where the joint state nearest its capture tick put it.
 fn camera_frames(recorded: &Recorded, config: &vservo_config::Config, first_tick: u64) -> Vec<FrameRecord> {
     let arm = &config.cell.arm;
-    let base_from_desired_camera = config.cell.base_from_camera_at(arm, &config.cell.desired.joints);
-    let desired_from_base = base_from_desired_camera.inverse();
+    let mount = config.cell.mount();
+    // the camera relative to the board: in the frame that holds the board still (the base for a hand camera)
+    let desired_from_holder =
+        mount.holder_from_camera(&arm.base_from_tool(&config.cell.desired.joints)).inverse();
     let states = &recorded.states;
     let mut frames = Vec::with_capacity(recorded.features.len());
     for (frame, tick, measured) in &recorded.features {
@@ -157,7 +159,8 @@ fn camera_frames(recorded: &Recorded, config: &vservo_config::Config, first_tick
         else {
             continue;
         };
-        let base_from_camera = config.cell.base_from_camera_at(arm, q);
+        let base_from_tool = arm.base_from_tool(q);
+        let base_from_camera = mount.base_from_camera(&base_from_tool);
         frames.push(FrameRecord {
             t_s: tick.saturating_sub(first_tick) as f64 * config.cell.timing.control_period_s,
             measured: *measured,
@@ -165,7 +168,9 @@ fn camera_frames(recorded: &Recorded, config: &vservo_config::Config, first_tick
             twist: recorded.twists.get(frame).copied().unwrap_or_else(Twist::zeros),
             verdict: None,
             camera_position_m: base_from_camera.translation.vector,
-            camera_in_desired_m: (desired_from_base * base_from_camera).translation.vector,
+            camera_in_desired_m: (desired_from_holder * mount.holder_from_camera(&base_from_tool))
+                .translation
+                .vector,
         });
     }
     frames

@@ -87,7 +87,7 @@ pub fn run(args: &SceneArgs) -> Result<()> {
         "tool_from_board": config.cell.fixed_camera.map(|fixed| matrix4(&fixed.tool_from_board)),
         "base_from_board": matrix4(&config.cell.base_from_board(arm)),
         "camera": camera_json(&truth.intrinsics, config.cell.vision.render.noise_sigma_gray),
-        "believed_tool_from_camera": matrix4(&config.cell.tool_from_camera),
+        "believed_tool_from_camera": config.cell.fixed_camera.is_none().then(|| matrix4(&config.cell.tool_from_camera)),
         "believed_camera": camera_json(&config.cell.camera, config.cell.vision.render.noise_sigma_gray),
         "board": {
             "mark_diameter_m": board.mark_diameter_m,

@@ -370,7 +370,8 @@ fn run_simulated_camera(
     let mut capture = CaptureTicks { ticks_per_frame, next_tick: None };
     let (mut frame, mut previous_capture_ns) = (0u64, 0);
     // the simulated plant moves the board (sim_world); an external simulated arm (franka-sim) has none, and the
-    // board stands where the configuration places it
+    // board stands where the configuration places it (a fixed camera's rides on the tool: the stage puts it
+    // where the captured joints do)
     let config = context.cell.config();
     let mut world: Option<IsometryMatrix3<f64>> =
         (!config.robot.driver.is_simulated()).then(|| config.base_from_board(context.cell.arm()));

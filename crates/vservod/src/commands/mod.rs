@@ -304,7 +304,7 @@ impl Commander {
     fn object(&mut self, kind: CommandKind, command: &CommandMsg) -> Result<Accepted, CommandRefused> {
         let motion = object_motion(kind, command);
         let simulated = self.config.cell.robot.driver == vservo_config::RobotDriver::Simulated;
-        object::check(&motion, simulated)?;
+        object::check(&motion, simulated, self.config.cell.fixed_camera.is_some())?;
         let mut message = ObjectMsg {
             schema: SCHEMA_VERSION,
             kind: kind.into(),

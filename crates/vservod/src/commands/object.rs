@@ -48,6 +48,9 @@ pub enum ObjectRefused {
     /// An external robot: the board is not the daemon's to move.
     #[error("the board is the simulation's; with robot.driver = \"external\" there is none to move")]
     NotSimulated,
+    /// A camera fixed in the world: the board rides on the tool, and only the arm moves it.
+    #[error("the board rides on the tool (camera.mount = \"world\"): only the arm moves it")]
+    OnTheTool,
     /// A number is NaN or infinite.
     #[error("a number is not finite")]
     NotFinite,
@@ -70,9 +73,12 @@ pub enum ObjectRefused {
 }
 
 /// Checks `motion` for a cell whose robot is simulated (`simulated`) or not.
-pub fn check(motion: &ObjectMotion, simulated: bool) -> Result<(), ObjectRefused> {
+pub fn check(motion: &ObjectMotion, simulated: bool, on_the_tool: bool) -> Result<(), ObjectRefused> {
     if !simulated {
         return Err(ObjectRefused::NotSimulated);
+    }
+    if on_the_tool && *motion != ObjectMotion::Hold {
+        return Err(ObjectRefused::OnTheTool);
     }
     match *motion {
         ObjectMotion::Hold => Ok(()),
@@ -101,22 +107,34 @@ mod tests {
 
     #[test]
     fn the_simulated_board_moves_within_its_limits_only() {
-        assert_eq!(check(&ObjectMotion::Hold, true), Ok(()));
-        assert_eq!(check(&ObjectMotion::Hold, false), Err(ObjectRefused::NotSimulated));
-        assert_eq!(check(&ObjectMotion::Step(Vector3::new(0.2, 0.0, 0.0)), true), Ok(()));
+        assert_eq!(check(&ObjectMotion::Hold, true, false), Ok(()));
+        assert_eq!(check(&ObjectMotion::Hold, false, false), Err(ObjectRefused::NotSimulated));
+        assert_eq!(check(&ObjectMotion::Step(Vector3::new(0.2, 0.0, 0.0)), true, false), Ok(()));
         assert!(matches!(
-            check(&ObjectMotion::Step(Vector3::new(0.0, 1.0, 0.0)), true),
+            check(&ObjectMotion::Step(Vector3::new(0.0, 1.0, 0.0)), true, false),
             Err(ObjectRefused::StepTooLong { jump_m }) if jump_m == 1.0
         ));
         assert_eq!(
-            check(&ObjectMotion::Step(Vector3::new(f64::NAN, 0.0, 0.0)), true),
+            check(&ObjectMotion::Step(Vector3::new(f64::NAN, 0.0, 0.0)), true, false),
             Err(ObjectRefused::NotFinite)
         );
-        let circle = |radius_m, rev_per_min| check(&ObjectMotion::Circle { radius_m, rev_per_min }, true);
+        let circle =
+            |radius_m, rev_per_min| check(&ObjectMotion::Circle { radius_m, rev_per_min }, true, false);
         assert_eq!(circle(0.1, 60.0), Ok(()));
         assert!(matches!(circle(5.0, 1.0), Err(ObjectRefused::CircleOutOfRange { .. })));
         assert!(matches!(circle(0.1, 1000.0), Err(ObjectRefused::CircleOutOfRange { .. })));
         assert!(matches!(circle(-0.1, 1.0), Err(ObjectRefused::CircleOutOfRange { .. })));
         assert_eq!(circle(0.1, f64::INFINITY), Err(ObjectRefused::NotFinite));
+    }
+
+    #[test]
+    fn a_board_on_the_tool_is_moved_by_the_arm_only() {
+        let step = ObjectMotion::Step(Vector3::new(0.02, 0.0, 0.0));
+        assert_eq!(check(&step, true, true), Err(ObjectRefused::OnTheTool));
+        let circle = ObjectMotion::Circle { radius_m: 0.05, rev_per_min: 10.0 };
+        assert_eq!(check(&circle, true, true), Err(ObjectRefused::OnTheTool));
+        // holding still is what it does anyway
+        assert_eq!(check(&ObjectMotion::Hold, true, true), Ok(()));
+        assert!(ObjectRefused::OnTheTool.to_string().contains("camera.mount"));
     }
 }

@@ -157,8 +157,18 @@ pub fn diff(old: &Config, new: &Config) -> ConfigDiff {
     section(r, "timing", timing != &new.cell.timing, &timing_keys);
     section(r, "camera", camera != &new.cell.camera, &[]);
     section(r, "camera.tool_from_camera", tool_from_camera != &new.cell.tool_from_camera, &[]);
-    // a fixed camera's pose, or where the board sits on the tool (from [desired] read with the camera fixed)
-    section(r, "camera.base_from_camera", fixed_camera != &new.cell.fixed_camera, &[]);
+    // a fixed camera's pose, and where its board sits on the tool ([desired] read with the camera fixed: the
+    // board is where it is, so a new desired pose with a fixed camera is a new cell)
+    let both = fixed_camera.zip(new.cell.fixed_camera);
+    let fixed_keys = [
+        ("camera.mount", fixed_camera.is_some() != new.cell.fixed_camera.is_some()),
+        ("camera.base_from_camera", both.is_some_and(|(o, n)| o.base_from_camera != n.base_from_camera)),
+        (
+            "desired (the board on the tool)",
+            both.is_some_and(|(o, n)| o.tool_from_board != n.tool_from_board),
+        ),
+    ];
+    section(r, "camera.mount", fixed_camera != &new.cell.fixed_camera, &fixed_keys);
     section(r, "camera.truth", camera_truth != &new.cell.camera_truth, &[]);
     section(r, "object", board != &new.cell.board, &[]);
     section(
