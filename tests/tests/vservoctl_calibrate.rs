@@ -3,7 +3,9 @@
 //! longer, the lens and principal point off), with image noise σ = 2 grey levels and 12 poses: the recovered
 //! calibration against that truth (the bars) in lockstep and through a running vservod (with a safe
 //! stop and a resume on the way), the file it writes read back as `camera.calibration_file`, the detected
-//! corners against the true projections, and the refusals before anything moves.
+//! corners against the true projections, and the refusals before anything moves. The eye-to-hand cell
+//! (config/eye-to-hand-calibration.toml, the camera fixed 5 mm and 2° from the belief) in lockstep and through
+//! vservod.
 
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
@@ -367,5 +369,46 @@ fn a_running_cell_is_calibrated_through_vservod_within_the_bars_and_a_safe_stop_
     );
     daemon.stop();
     let _ = std::fs::remove_file(&kept);
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// The eye-to-hand cell calibrated through a running vservod: the board located on the tool from where the arm
+/// is, the poses planned relative to it and taken by moving the arm, the fixed camera's pose recovered within the
+/// bars (1 mm, 0.2°), and the cell servoing again below 1 px afterwards.
+#[test]
+fn a_running_eye_to_hand_cell_is_calibrated_through_vservod_within_the_bars() {
+    let _one = exclusive();
+    let instance = unique("calibrate-fixed");
+    let config = config_from(
+        "config/eye-to-hand-calibration.toml",
+        &[("name = \"default\"", &format!("name = \"{instance}\""))],
+    );
+    let daemon = Daemon::start(&config);
+    assert!(
+        wait_until(Duration::from_secs(10), || status(&instance).is_some_and(|s| running(&s))),
+        "{}",
+        daemon.log()
+    );
+    let dir = scratch("running-fixed");
+    let out = dir.join("calibration.yaml").display().to_string();
+    let output = run("vservoctl", &["calibrate", "--config", &config.arg(), "--json", "--out", &out]);
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(output.status.success(), "{stderr}\n{}", daemon.log());
+    assert!(stderr.contains("the board:"), "located first: {stderr}");
+    let report = last_line_json(&output.stdout);
+    eprintln!("eye to hand, calibrated through vservod: {report}");
+    let error = &report["error_against_truth"];
+    assert!(number(error, &["base_from_camera_translation_mm"]) < 1.0, "{error}");
+    assert!(number(error, &["base_from_camera_rotation_deg"]) < 0.2, "{error}");
+    assert!(number(error, &["fx_percent"]).abs() < 0.3 && number(error, &["k1"]).abs() < 0.01, "{error}");
+    assert_eq!(report["views"].as_array().map(Vec::len), Some(12), "every view used: {report}");
+    assert!(
+        wait_until(Duration::from_secs(10), || status(&instance)
+            .is_some_and(|s| running(&s) && s["feature_error_px"].as_f64().is_some_and(|e| e < 1.0))),
+        "{:?}\n{}",
+        status(&instance),
+        daemon.log()
+    );
+    daemon.stop();
     let _ = std::fs::remove_dir_all(&dir);
 }
