@@ -3,39 +3,23 @@
 //! with three marks when one is covered, steers back while two are, and converges again; a pose-based law
 //! acquires a target out of view; an eye-to-hand cell (the camera fixed, the board on the tool) converges.
 
-use std::time::Duration;
-
 use serde_json::Value;
 use vservo_protocol::{Verdict, law_flag};
-use vservo_system_tests::{Daemon, config_from, echo_lines, exclusive, running, status, unique, wait_until};
-
-/// vservod on `config`, once its cell `instance` runs.
-fn running_daemon(instance: &str, config: &vservo_system_tests::TempConfig) -> Daemon {
-    let daemon = Daemon::start(config);
-    assert!(
-        wait_until(Duration::from_secs(10), || status(instance).is_some_and(|s| running(&s))),
-        "{}",
-        daemon.log()
-    );
-    daemon
-}
+use vservo_system_tests::{echo_lines, exclusive, running, running_daemon_with, status, unique};
 
 #[test]
 fn covered_marks_do_not_stop_the_robust_servo_in_real_time() {
     let _one = exclusive();
     let instance = unique("robust");
-    let config = config_from(
+    let (_config, daemon) = running_daemon_with(
         "config/vservo-robust.toml",
-        &[
-            ("name = \"default\"", &format!("name = \"{instance}\"")),
-            (
-                "occlusions = []",
-                "occlusions = [{ mark = 2, from_s = 0.0, until_s = 4.0 }, { mark = 1, from_s = 5.0, until_s = 5.5 }, \
+        &instance,
+        &[(
+            "occlusions = []",
+            "occlusions = [{ mark = 2, from_s = 0.0, until_s = 4.0 }, { mark = 1, from_s = 5.0, until_s = 5.5 }, \
                  { mark = 3, from_s = 5.0, until_s = 5.5 }]",
-            ),
-        ],
+        )],
     );
-    let daemon = running_daemon(&instance, &config);
     let twists = echo_lines(&instance, "camera_twist", "8");
     let verdicts: Vec<(u64, u64)> = twists
         .iter()
@@ -86,10 +70,10 @@ fn covered_marks_do_not_stop_the_robust_servo_in_real_time() {
 fn a_pose_based_law_acquires_a_target_out_of_view_and_converges_in_real_time() {
     let _one = exclusive();
     let instance = unique("pose-law");
-    let config = config_from(
+    let (_config, daemon) = running_daemon_with(
         "config/vservo-robust.toml",
+        &instance,
         &[
-            ("name = \"default\"", &format!("name = \"{instance}\"")),
             ("law = \"delay-aware\"", "law = \"2.5d\""),
             (
                 "initial_camera_translation_m = [0.00596, -0.03023, 0.00113]",
@@ -101,7 +85,6 @@ fn a_pose_based_law_acquires_a_target_out_of_view_and_converges_in_real_time() {
             ),
         ],
     );
-    let daemon = running_daemon(&instance, &config);
     let twists = echo_lines(&instance, "camera_twist", "4");
     let verdicts: Vec<u64> = twists.iter().filter_map(|t| t["verdict"].as_u64()).collect();
     let last = twists.last().expect("twists");
@@ -128,10 +111,10 @@ fn a_pose_based_law_acquires_a_target_out_of_view_and_converges_in_real_time() {
 fn an_eye_to_hand_cell_converges_in_real_time() {
     let _one = exclusive();
     let instance = unique("eye-to-hand");
-    let config = config_from(
+    let (config, daemon) = running_daemon_with(
         "config/eye-to-hand.toml",
+        &instance,
         &[
-            ("name = \"default\"", &format!("name = \"{instance}\"")),
             (
                 "initial_camera_translation_m = [0.00596, -0.03023, 0.00113]",
                 "initial_camera_translation_m = [0.05, -0.04, 0.06]",
@@ -144,7 +127,6 @@ fn an_eye_to_hand_cell_converges_in_real_time() {
     );
     let text = std::fs::read_to_string(config.arg()).expect("the configuration written");
     assert!(text.contains("mount = \"world\"") && !text.contains("tool_from_camera"), "{text}");
-    let daemon = running_daemon(&instance, &config);
     let twists = echo_lines(&instance, "camera_twist", "4");
     let first = twists.first().expect("twists")["feature_error_px"].as_f64().unwrap_or(f64::NAN);
     let last = twists.last().expect("twists");

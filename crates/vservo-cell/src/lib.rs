@@ -18,8 +18,9 @@
 //!
 //! ## Vision
 //!
-//! Per frame, the image comes from the simulated camera (joint state → `camera_from_board`: forward kinematics
-//! × `tool_from_camera`, inverted, times the board's pose → `Renderer::render`) or from a driver
+//! Per frame, the image comes from the simulated camera (joint state → `camera_from_board`: the camera's and
+//! the board's poses at q by the mount, `CameraMount`: on the hand the forward kinematics × `tool_from_camera`
+//! and the standing board, fixed the camera where it stands and the board on the tool → `Renderer::render`) or from a driver
 //! ([`VisionStage::process_image`]; refused if its size or format is not the configured one) →
 //! `Extractor::extract` with the previous frame's features as the prediction (`Prediction::Tracking`;
 //! `Prediction::Layout` with ξ_d when there is none), or with an AprilTag target the tag's extractor fed the

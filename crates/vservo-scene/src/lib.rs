@@ -19,6 +19,8 @@
 //!   the board frame, [`TagGrid::is_black_at`], [`TagGrid::tags_meeting`] a box), which a [`Board`] may carry
 //!   printed on it (`Board::calibration_grid`; the renderer judges a pixel against every tag that can reach
 //!   it, the target's tag deciding inside its own square);
+//! - [`CameraMount`]: a camera on the hand or fixed in the world (the board then on the tool): where camera and
+//!   board are for a tool pose, and the tool twist that moves the camera relative to the board as a law asks;
 //! - [`pose_rows`]: a pose as vservo's messages carry it, the top three rows of the 4×4 transform
 //!   (3×4 [R | t], row-major);
 //! - the feature vector ξ = [x₁ y₁ x₂ y₂ x₃ y₃ x₄ y₄] (pixels, image origin top-left) in the board's mark

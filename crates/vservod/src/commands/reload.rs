@@ -98,6 +98,23 @@ fn section(out: &mut Vec<&'static str>, name: &'static str, changed: bool, field
     }
 }
 
+/// A fixed camera's keys that differ: its kind of mount, its pose, and where its board sits on the tool
+/// ([desired] read with the camera fixed: the board is where it is, so a new desired pose is a new cell).
+fn fixed_camera_keys(
+    old: &Option<vservo_config::FixedCamera>,
+    new: &Option<vservo_config::FixedCamera>,
+) -> [(&'static str, bool); 3] {
+    let both = old.zip(*new);
+    [
+        ("camera.mount", old.is_some() != new.is_some()),
+        ("camera.base_from_camera", both.is_some_and(|(o, n)| o.base_from_camera != n.base_from_camera)),
+        (
+            "desired (the board on the tool)",
+            both.is_some_and(|(o, n)| o.tool_from_board != n.tool_from_board),
+        ),
+    ]
+}
+
 /// The keys that differ between the configuration in force and a new one.
 pub fn diff(old: &Config, new: &Config) -> ConfigDiff {
     // every section is named here: a new one does not compile until it is sorted into live or restart-only
@@ -157,17 +174,7 @@ pub fn diff(old: &Config, new: &Config) -> ConfigDiff {
     section(r, "timing", timing != &new.cell.timing, &timing_keys);
     section(r, "camera", camera != &new.cell.camera, &[]);
     section(r, "camera.tool_from_camera", tool_from_camera != &new.cell.tool_from_camera, &[]);
-    // a fixed camera's pose, and where its board sits on the tool ([desired] read with the camera fixed: the
-    // board is where it is, so a new desired pose with a fixed camera is a new cell)
-    let both = fixed_camera.zip(new.cell.fixed_camera);
-    let fixed_keys = [
-        ("camera.mount", fixed_camera.is_some() != new.cell.fixed_camera.is_some()),
-        ("camera.base_from_camera", both.is_some_and(|(o, n)| o.base_from_camera != n.base_from_camera)),
-        (
-            "desired (the board on the tool)",
-            both.is_some_and(|(o, n)| o.tool_from_board != n.tool_from_board),
-        ),
-    ];
+    let fixed_keys = fixed_camera_keys(fixed_camera, &new.cell.fixed_camera);
     section(r, "camera.mount", fixed_camera != &new.cell.fixed_camera, &fixed_keys);
     section(r, "camera.truth", camera_truth != &new.cell.camera_truth, &[]);
     section(r, "object", board != &new.cell.board, &[]);
