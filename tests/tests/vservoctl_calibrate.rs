@@ -39,6 +39,14 @@ fn calibrate(config: &str, out: &Path, extra: &[&str]) -> std::process::Output {
     run("vservoctl", &args)
 }
 
+/// The cell runs again and servoes below 1 px within 10 s.
+fn servoes_below_one_pixel(instance: &str) -> bool {
+    wait_until(Duration::from_secs(10), || {
+        status(instance)
+            .is_some_and(|s| running(&s) && s["feature_error_px"].as_f64().is_some_and(|e| e < 1.0))
+    })
+}
+
 fn last_line_json(stdout: &[u8]) -> Value {
     let text = String::from_utf8_lossy(stdout);
     serde_json::from_str(text.lines().last().expect("a line")).expect("the last line is JSON")
@@ -349,13 +357,7 @@ fn a_running_cell_is_calibrated_through_vservod_within_the_bars_and_a_safe_stop_
     }
     assert_eq!(restarted["nodes"]["plant"]["restarts"], 0, "{restarted}");
     // and it servos again, with the calibrated camera, below 1 px
-    assert!(
-        wait_until(Duration::from_secs(10), || status(&instance)
-            .is_some_and(|s| running(&s) && s["feature_error_px"].as_f64().is_some_and(|e| e < 1.0))),
-        "{:?}\n{}",
-        status(&instance),
-        daemon.log()
-    );
+    assert!(servoes_below_one_pixel(&instance), "{:?}\n{}", status(&instance), daemon.log());
     daemon.stop();
     let _ = std::fs::remove_file(&kept);
     let _ = std::fs::remove_dir_all(&dir);
@@ -379,13 +381,7 @@ fn a_running_eye_to_hand_cell_is_calibrated_through_vservod_within_the_bars() {
     eprintln!("eye to hand, calibrated through vservod: {report}");
     assert_eq!(report["changes"]["mount"], "base_from_camera", "{report}");
     assert_calibration_within_the_bars(&report);
-    assert!(
-        wait_until(Duration::from_secs(10), || status(&instance)
-            .is_some_and(|s| running(&s) && s["feature_error_px"].as_f64().is_some_and(|e| e < 1.0))),
-        "{:?}\n{}",
-        status(&instance),
-        daemon.log()
-    );
+    assert!(servoes_below_one_pixel(&instance), "{:?}\n{}", status(&instance), daemon.log());
     daemon.stop();
     let _ = std::fs::remove_dir_all(&dir);
 }
