@@ -24,7 +24,8 @@
 # With --json the last line is one JSON object: final_error_px, settling_time_s, reflex_errors (the Franka's errors
 # that stopped a motion, empty when none), min_control_command_success_rate, max_joint_jerk_rad_s3 (of the
 # velocities the driver sent), state_to_command_p50_us / _p99_us, moved_to_start, and the feature summary's fields. Logs, the
-# scene and the recordings are left in target/franka-sim-run/.
+# scene and the recordings are left in a folder of the run's own, target/franka-sim-run/PID (`latest` links the
+# last; the summary's run_folder names it), so that runs at once never share one.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 duration=10
@@ -62,9 +63,7 @@ source scripts/lib/cell-run.sh
 scripts/setup.sh >&2
 venv=target/franka-sim-venv
 cell_binaries vservo-franka-driver
-out=target/franka-sim-run
-rm -rf "$out"
-mkdir -p "$out"
+run_folder franka-sim
 vservoctl="$bin/vservoctl"
 
 # franka-sim's FR3 from franky-sim: its fr3.xml wants its meshes in assets/ beside it, the wheel has them in meshes/
@@ -152,7 +151,8 @@ print(json.dumps({
 PY
 )"
     say "run-franka-sim: $summary"
-    [ "$json" = 1 ] && echo "$summary"
+    summary="$(with_run_folder "$summary")"
+[ "$json" = 1 ] && echo "$summary"
     exit 0
 fi
 "$bin/vservod" --config "$config" > "$out/vservod.log" 2>&1 &
@@ -250,5 +250,6 @@ violations="$(grep -c 'communication_constraints_violation' "$out/franka-sim.log
 summary="$(merge_json "$summary" "{\"sim_log_communication_violations\": ${violations:-0}, \"moved_to_start\": $([ "$moved" = 1 ] && echo true || echo false)}")"
 say "$(grep -h 'franka' "$out/vservod.log" | grep -E 'ERROR|WARN' | head -5 || true)"
 say "run-franka-sim: $summary"
+summary="$(with_run_folder "$summary")"
 [ "$json" = 1 ] && echo "$summary"
 exit 0

@@ -4,12 +4,13 @@
 # states and rendered camera frames over the driver contract of docs/DRIVERS.md. Runs the paper's
 # translation step (config/mujoco.toml) for --duration-s seconds (default 20), then stops both and prints the
 # final feature error and the settling time; with --json the last line is one JSON object
-# (final_error_px, settling_time_s, …). Logs and the recorded features are left in target/mujoco-run/.
+# (final_error_px, settling_time_s, …). Logs and the recorded features are left in target/mujoco-run/PID
+# (`latest` links the last; the summary's run_folder names it).
 #
 #   scripts/run-mujoco.sh [--config FILE] [--instance NAME] [--duration-s S] [--json] [--compare] [--calibrate]
 #
 # --instance runs the cell under that instance name (default: the configuration's), its logs in
-# target/mujoco-run-NAME/, so that runs of several cells side by side can be told apart.
+# target/mujoco-run/NAME-PID/, so that runs of several cells side by side can be told apart.
 # --config runs another external cell (default config/mujoco.toml; config/mujoco-apriltag.toml is the AprilTag
 # through a distorting lens): the driver renders what `vservoctl scene` says of it (lens and target included).
 # --compare also runs the built-in simulation of the same cell in the lockstep simulator (vservoctl sim on
@@ -47,9 +48,7 @@ source scripts/lib/cell-run.sh
 scripts/setup.sh >&2
 scripts/setup-mujoco.sh >&2
 cell_binaries
-out=target/mujoco-run${instance_name:+-$instance_name}
-rm -rf "$out"
-mkdir -p "$out"
+run_folder mujoco "$instance_name"
 vservoctl="$bin/vservoctl"
 # the file as given (its keys read below), and the file run: the same, or it under --instance
 given_config="$config"
@@ -106,5 +105,6 @@ latency="$("$python" scripts/capture_to_command.py "$out/features.jsonl" "$out/c
 summary="$(merge_json "$summary" "$latency")"
 say "$(cat "$out/status.txt" 2>/dev/null | head -3)"
 say "run-mujoco: $summary"
+summary="$(with_run_folder "$summary")"
 [ "$json" = 1 ] && echo "$summary"
 exit 0

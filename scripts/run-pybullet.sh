@@ -5,7 +5,7 @@
 # configuration whose arm vservo models from a URDF, with robot.driver = "external" and camera.source =
 # "external") for --duration-s seconds (default 20), then stops both and prints the final feature error and the
 # settling time; with --json the last line is one JSON object (final_error_px, settling_time_s, …). Logs, the
-# scene, the first camera image (first.pgm) and the recorded features are left in target/pybullet-run/.
+# scene, the first camera image (first.pgm) and the recorded features are left in target/pybullet-run/NAME-PID/ (`latest` links the last; the summary's run_folder names it).
 #
 #   scripts/run-pybullet.sh --config FILE [--urdf FILE] [--instance NAME] [--duration-s S] [--held-s S] [--json]
 #
@@ -18,7 +18,7 @@
 # (its meshes are found beside it and in pybullet_data); give it for a DH arm or another file of the same arm.
 # --instance names the run's instance (default "pybullet"), so that runs of several cells can be told apart.
 # --config is any configuration of a cell (the lockstep's, e.g. config/arms/xarm6.toml): the run
-# uses it through an overlay (target/pybullet-run/pybullet.toml) that only puts the driver in place of vservo's
+# uses it through an overlay (pybullet.toml in the run's folder) that only puts the driver in place of vservo's
 # simulated arm and camera: robot.driver and camera.source "external", the driver taking joint velocities every
 # --period-s seconds (the arm's own period; by default the configuration's robot.period_s, which for the lockstep's
 # simulated arm is its timing.control_period_s), the instance --instance, and no frame of pipeline delay
@@ -64,9 +64,7 @@ scripts/setup.sh >&2
 "$python" -c 'import pybullet' 2>/dev/null ||
     { echo "run-pybullet: pybullet is not in $python's venv (scripts/setup.sh installs it)" >&2; exit 1; }
 cell_binaries
-out=target/pybullet-run
-rm -rf "$out"
-mkdir -p "$out"
+run_folder pybullet "$instance_name"
 vservoctl="$bin/vservoctl"
 
 if [ -z "$urdf" ]; then
@@ -136,5 +134,6 @@ summary="$(merge_json "$summary" "$limits")"
 say "$(cat "$out/status.txt" 2>/dev/null | head -3)"
 say "$(grep '^pybullet_driver: ' "$out/driver.log" 2>/dev/null | grep -v 'waiting for it' || true)"
 say "run-pybullet: $summary"
+summary="$(with_run_folder "$summary")"
 [ "$json" = 1 ] && echo "$summary"
 exit 0

@@ -6,7 +6,8 @@
 # and a forward velocity controller around MuJoCo's PUMA 560) and a ROS camera (MuJoCo's render). Runs the
 # paper's translation step for --duration-s seconds (default 20), then stops both and prints the final feature
 # error, the settling time and the capture→command latency; with --json the last line is one JSON object
-# (final_error_px, settling_time_s, …). Logs and the recorded features are left in target/ros2-cell-run/.
+# (final_error_px, settling_time_s, …). Logs and the recorded features are left in target/ros2-cell-run/[TAG-]PID
+# (`latest` links the last; the summary's run_folder names it).
 #
 #   scripts/run-ros2-cell.sh [--netns] [--position] [--duration-s S] [--json] [--domain D]
 #
@@ -41,11 +42,11 @@ source scripts/lib/cell-run.sh
 scripts/setup.sh >&2
 scripts/setup-mujoco.sh >&2
 cell_binaries vservo-ros2
-out="$root/target/ros2-cell-run"
-[ "$netns" = 1 ] && out="$out-netns"
-[ "$controller" = position ] && out="$out-position"
-rm -rf "$out"
-mkdir -p "$out"
+tag=""
+[ "$netns" = 1 ] && tag="netns"
+[ "$controller" = position ] && tag="${tag:+$tag-}position"
+run_folder ros2-cell "$tag"
+out="$root/$out"
 vservoctl="$bin/vservoctl"
 instance="ros2-cell-$$"
 # this run's instance, domain and runtime directory (removed at the end, shared memory included)
@@ -118,5 +119,6 @@ latency="$("$python" scripts/capture_to_command.py "$out/features.jsonl" "$out/c
 summary="$(merge_json "$summary" "$latency")"
 say "$(head -3 "$out/status.txt" 2>/dev/null)"
 say "run-ros2-cell: $summary"
+summary="$(with_run_folder "$summary")"
 [ "$json" = 1 ] && echo "$summary"
 exit 0

@@ -5,11 +5,12 @@
 # receiving them and publishing them on camera_image. Runs the translation step for --duration-s seconds
 # (default 20), stops all three and prints the final feature error, the settling time and the servo's
 # capture→twist latency; with --json the last line is one JSON object (final_error_px, settling_time_s,
-# capture_to_twist_ms, …). Logs and the recorded features are left in target/rtp-camera-run/.
+# capture_to_twist_ms, …). Logs and the recorded features are left in target/rtp-camera-run/PID
+# (`latest` links the last; the summary's run_folder names it).
 #
 #   scripts/run-rtp-camera.sh [--instance NAME] [--duration-s S] [--json]
 #
-# --instance runs the cell under that instance name (default rtp-camera), its logs in target/rtp-camera-run-NAME/
+# --instance runs the cell under that instance name (default rtp-camera), its logs in target/rtp-camera-run/NAME-PID/
 # (the RTP port stays the configuration's: two such runs at once need a copy of it with another port).
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -35,9 +36,7 @@ cell_binaries vservo-camera-gst
 config=config/rtp-camera.toml
 instance="${instance_name:-rtp-camera}"
 port="$(sed -n 's/^pipeline = "udpsrc port=\([0-9]*\) .*/\1/p' "$config")"
-out=target/rtp-camera-run${instance_name:+-$instance_name}
-rm -rf "$out"
-mkdir -p "$out"
+run_folder rtp-camera "$instance_name"
 vservoctl="$bin/vservoctl"
 config="$(with_instance "$config" "$instance_name" "$out")"
 
@@ -75,5 +74,6 @@ print(json.dumps(summary))' "$summary" "$out/status.json")"
 say "$(head -3 "$out/status.txt" 2>/dev/null)"
 say "$(grep -h "frames .* lost" "$out/camera.log" | tail -1)"
 say "run-rtp-camera: $summary"
+summary="$(with_run_folder "$summary")"
 [ "$json" = 1 ] && echo "$summary"
 exit 0

@@ -111,6 +111,22 @@ remove_runtime_dir() {
     rm -rf "$VSERVO_RUNTIME_DIR"
 }
 
+# run_folder NAME [TAG]: sets `out` to a folder of this run's own, target/NAME-run/[TAG-]PID, made new, and points
+# target/NAME-run/latest at it: two runs at once never share a folder, so each keeps its own logs and recordings.
+# The summary's `run_folder` names it.
+run_folder() {
+    local base="target/$1-run" leaf="${2:+$2-}$$"
+    out="$base/$leaf"
+    rm -rf "$out"
+    mkdir -p "$out"
+    ln -sfn "$leaf" "$base/latest"
+}
+
+# with_run_folder SUMMARY: the summary with `run_folder` (the absolute path of `out`) added.
+with_run_folder() {
+    merge_json "$1" "{\"run_folder\": \"$(cd "$out" && pwd)\"}"
+}
+
 # merge_json A B: the JSON object A with B's keys added.
 merge_json() {
     "$python" -c 'import json,sys; a=json.loads(sys.argv[1]); a.update(json.loads(sys.argv[2])); print(json.dumps(a))' "$1" "$2"

@@ -105,6 +105,9 @@ pub fn remove_instance(instance: &str) {
     let _ = std::fs::remove_dir_all(&dir.path);
 }
 
+mod scripts;
+pub use scripts::{run_file, run_script, run_script_to_convergence};
+
 // ---- the daemon, for the tests that run it (one at a time per test binary) ----
 
 use std::io::{BufRead, BufReader};
@@ -452,30 +455,6 @@ pub fn fastest_joint_rad_s(instance: &str, seconds: &str) -> f64 {
         .flat_map(|s| s["qd_rad_s"].as_array().cloned().unwrap_or_default())
         .map(|v| v.as_f64().unwrap_or(f64::INFINITY).abs())
         .fold(0.0, f64::max)
-}
-
-/// Runs `scripts/<script> --duration-s 15 --json` with `extra` arguments and this test run's binaries (the
-/// scripts' `VSERVO_BIN_DIR`), as the README has people try a cell, and returns the summary its last line
-/// gives, after checking that it ran and that the loop converged below 1 px with a settling time.
-pub fn run_script_to_convergence(script: &str, extra: &[&str]) -> Value {
-    let bin_dir = binary("vservod").parent().expect("target/<profile>").to_path_buf();
-    let out = Command::new(repository_root().join("scripts").join(script))
-        .args(["--duration-s", "15", "--json"])
-        .args(extra)
-        .env("VSERVO_BIN_DIR", &bin_dir)
-        .stdin(Stdio::null())
-        .output()
-        .unwrap_or_else(|e| panic!("{script} runs: {e}"));
-    let stdout = String::from_utf8_lossy(&out.stdout);
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    assert!(out.status.success(), "{stdout}\n{stderr}");
-    let last = stdout.lines().last().expect("a JSON line");
-    let summary: Value = serde_json::from_str(last).expect("the last line is JSON");
-    println!("{summary}");
-    let final_error = summary["final_error_px"].as_f64().expect("final_error_px");
-    assert!(final_error < 1.0, "{summary}\n{stderr}");
-    assert!(summary["settling_time_s"].as_f64().is_some(), "{summary}");
-    summary
 }
 
 /// The calibration issue's bars on a `vservoctl calibrate --json` report against `[camera.truth]`:

@@ -3,30 +3,17 @@
 //! communication constraints both on, vservod with its Franka driver (vservo-franka), through
 //! `scripts/run-franka-sim.sh` (which starts the cell held, resumes it, moves to the start and servos).
 
-use std::process::{Command, Stdio};
-
 use serde_json::Value;
-use vservo_system_tests::{binary, exclusive, repository_root, run_script_to_convergence};
+use vservo_system_tests::{exclusive, run_file, run_script, run_script_to_convergence};
 
 /// The FR3's joint jerk limit (rad/s³), which franka-sim's checker enforces.
 const FR3_JERK_RAD_S3: f64 = 5000.0;
 
 /// `scripts/run-franka-sim.sh --json ARGS`: its summary, whether or not the loop converged.
 fn run_franka_sim(args: &[&str]) -> Value {
-    let bin_dir = binary("vservod").parent().expect("target/<profile>").to_path_buf();
-    let out = Command::new(repository_root().join("scripts/run-franka-sim.sh"))
-        .args(["--json"])
-        .args(args)
-        .env("VSERVO_BIN_DIR", &bin_dir)
-        .stdin(Stdio::null())
-        .output()
-        .expect("run-franka-sim.sh runs");
-    let stdout = String::from_utf8_lossy(&out.stdout);
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    assert!(out.status.success(), "{stdout}\n{stderr}");
-    let summary: Value = serde_json::from_str(stdout.lines().last().expect("a JSON line")).expect("JSON");
-    println!("{summary}");
-    summary
+    let mut all = vec!["--json"];
+    all.extend_from_slice(args);
+    run_script("run-franka-sim.sh", &all)
 }
 
 fn number(summary: &Value, key: &str) -> f64 {
@@ -109,4 +96,27 @@ fn the_daemon_killed_mid_motion_leaves_the_arm_at_rest_and_the_motion_finished()
     assert!(reflexes(&summary).is_empty(), "{summary}");
     assert_eq!(number(&summary, "sim_log_communication_violations"), 0.0, "{summary}");
     assert!(number(&summary, "max_joint_jerk_rad_s3") <= FR3_JERK_RAD_S3, "{summary}");
+}
+
+/// Two runs of the script at once keep their own folders: each run's overlay, log and recordings are its own (a
+/// shared folder once let one test read the other's aborted recording). One run limits its jerk and the other does
+/// not; each folder must hold its own run's overlay and its own instance's log.
+#[test]
+fn two_runs_at_once_keep_their_own_folders() {
+    let _one = exclusive();
+    let runs: Vec<_> = [vec!["--duration-s", "2"], vec!["--no-jerk-limit", "--duration-s", "2"]]
+        .into_iter()
+        .map(|args| std::thread::spawn(move || run_franka_sim(&args)))
+        .collect();
+    let summaries: Vec<Value> = runs.into_iter().map(|run| run.join().expect("the run's thread")).collect();
+    let folders: Vec<&str> =
+        summaries.iter().map(|s| s["run_folder"].as_str().expect("run_folder")).collect();
+    assert_ne!(folders[0], folders[1], "{summaries:?}");
+    for (summary, limit_rate) in summaries.iter().zip(["limit_rate = true", "limit_rate = false"]) {
+        let overlay = run_file(summary, "franka-sim.toml");
+        assert!(overlay.contains(limit_rate), "{overlay}");
+        let instance = overlay.lines().find(|l| l.starts_with("name = ")).expect("the instance's name");
+        let instance = instance.trim_start_matches("name = ").trim_matches('"');
+        assert!(run_file(summary, "vservod.log").contains(instance), "{instance} in its own log");
+    }
 }

@@ -7,7 +7,7 @@ use std::path::PathBuf;
 use std::process::Command;
 use std::time::Duration;
 
-use vservo_system_tests::{exclusive, repository_root, run_script_to_convergence, wait_until};
+use vservo_system_tests::{exclusive, repository_root, run_file, run_script_to_convergence, wait_until};
 
 /// pybullet_data's directory (the URDFs and meshes that come with PyBullet), as the venv's Python says.
 fn pybullet_data() -> PathBuf {
@@ -79,8 +79,7 @@ fn run_pybullet_with_every_arm_file_converges_below_one_pixel_within_the_arms_li
         &["--urdf", &urdf, "--config", "config/arms/xarm6.toml"],
     );
     assert_commands_within_the_arms_limits("xarm6", &xarm6);
-    let overlay = std::fs::read_to_string(repository_root().join("target/pybullet-run/pybullet.toml"))
-        .expect("the run's overlay");
+    let overlay = run_file(&xarm6, "pybullet.toml");
     assert!(overlay.contains("period_s = 0.004"), "{overlay}");
     // seven joints: the Panda (FER) at its own rate, 1 kHz, within Franka's published limits; its URDF the one its
     // configuration reads (no --urdf), under an instance name of the run's
@@ -89,11 +88,9 @@ fn run_pybullet_with_every_arm_file_converges_below_one_pixel_within_the_arms_li
         &["--config", "config/arms/panda.toml", "--instance", "my-panda"],
     );
     assert_commands_within_the_arms_limits("panda", &summary);
-    let overlay = std::fs::read_to_string(repository_root().join("target/pybullet-run/pybullet.toml"))
-        .expect("the run's overlay");
+    let overlay = run_file(&summary, "pybullet.toml");
     assert!(overlay.contains("name = \"my-panda\""), "{overlay}");
-    let driver_log =
-        std::fs::read_to_string(repository_root().join("target/pybullet-run/driver.log")).unwrap_or_default();
+    let driver_log = run_file(&summary, "driver.log");
     assert!(!driver_log.contains("Traceback"), "{driver_log}");
     // the FR3, from its own files: jerk 5000 rad/s³ and acceleration 10 rad/s² per joint; its cell starts held, as
     // a real arm's: for 2 s nothing moves and no twist or command but zero is sent, then `vservoctl resume`
