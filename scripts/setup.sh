@@ -14,6 +14,11 @@ for component in rustfmt clippy; do
     fi
 done
 
+# the test runner (scripts/test.sh, .config/nextest.toml): cargo-nextest, built from crates.io where the machine lacks it
+if ! cargo nextest --version >/dev/null 2>&1; then
+    cargo install --locked cargo-nextest
+fi
+
 # The Python client (clients/python/) and its test need the iceoryx2 bindings from PyPI, in a venv of their own.
 venv="target/python-venv"
 if ! "${venv}/bin/python" -c 'import iceoryx2' >/dev/null 2>&1; then
@@ -41,6 +46,13 @@ fi
 if ! "${venv}/bin/python" -c 'import cv2' >/dev/null 2>&1; then
     "${venv}/bin/python" -m pip install -q opencv-python-headless==4.14.0.94
 fi
+
+# the tag detector's reference (crates/vservo-vision's tests, docs/VISION.md): the AprilTag C library as Python users
+# run it (pupil-apriltags), and real photographs with the C library's own expected detections
+if ! "${venv}/bin/python" -c 'import pupil_apriltags' >/dev/null 2>&1; then
+    "${venv}/bin/python" -m pip install -q pupil-apriltags==1.0.4.post11
+fi
+scripts/setup-tag-photos.sh
 
 # `vservoctl calibrate`'s solver (clients/python/vservo_calibrate.py): OpenCV's calibration and hand-eye
 # functions, SciPy's least squares for the joint refinement

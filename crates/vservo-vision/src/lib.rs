@@ -44,4 +44,4 @@ pub mod tag_refine;
 pub use extract::{Extraction, Extractor, ExtractorSettings, MarkStatus, Prediction, Threshold};
 pub use image::GrayImage;
 pub use render::{RenderSettings, Renderer};
-pub use tag::{TagExtraction, TagExtractor, TagVerdict};
+pub use tag::{TagDetection, TagExtraction, TagExtractor, TagQuality, TagVerdict};

@@ -47,6 +47,52 @@ pub fn read_gray_image(path: &Path) -> Result<GrayImage, SourceError> {
     }
 }
 
+/// Reads any 8-bit or 16-bit gray or colour PNG, JPEG or PGM as 8-bit grayscale, for looking at a picture
+/// (`vservoctl tags`, `vservoctl vision extract`): a JPEG gives its luma channel Y as coded (what OpenCV's and
+/// the AprilTag library's grayscale readers give, and a YUY2 camera's Y), other colour its luma Y = 0.299 R +
+/// 0.587 G + 0.114 B (ITU-R BT.601), rounded; 16 bits become 8. Also the image's colour type as stored, for
+/// reports.
+pub fn read_image_as_gray(path: &Path) -> Result<(GrayImage, image::ColorType), SourceError> {
+    use image::ImageDecoder;
+    let error = |reason: String| SourceError::Image { path: path.display().to_string(), reason };
+    let bytes = std::fs::read(path).map_err(|e| error(e.to_string()))?;
+    let reader = image::ImageReader::new(std::io::Cursor::new(&bytes))
+        .with_guessed_format()
+        .map_err(|e| error(e.to_string()))?;
+    if reader.format() == Some(image::ImageFormat::Jpeg) {
+        let colour = reader.into_decoder().map_err(|e| error(e.to_string()))?.color_type();
+        return Ok((jpeg_luma(&bytes).map_err(error)?, colour));
+    }
+    let decoded = reader.decode().map_err(|e| error(e.to_string()))?;
+    let colour = decoded.color();
+    let gray = match decoded {
+        image::DynamicImage::ImageLuma8(gray) => gray,
+        other if !colour.has_color() => other.into_luma8(),
+        other => bt601_luma(&other.into_rgb8()),
+    };
+    Ok((gray, colour))
+}
+
+/// A JPEG's luma channel, decoded alone.
+fn jpeg_luma(bytes: &[u8]) -> Result<GrayImage, String> {
+    let options = zune_core::options::DecoderOptions::default()
+        .jpeg_set_out_colorspace(zune_core::colorspace::ColorSpace::Luma);
+    let mut decoder =
+        zune_jpeg::JpegDecoder::new_with_options(zune_core::bytestream::ZCursor::new(bytes), options);
+    let pixels = decoder.decode().map_err(|e| format!("{e:?}"))?;
+    let info = decoder.info().ok_or("no JPEG header")?;
+    GrayImage::from_raw(u32::from(info.width), u32::from(info.height), pixels)
+        .ok_or_else(|| "the JPEG's luma is not width × height bytes".to_string())
+}
+
+/// The BT.601 luma of an RGB image.
+fn bt601_luma(rgb: &image::RgbImage) -> GrayImage {
+    GrayImage::from_fn(rgb.width(), rgb.height(), |u, v| {
+        let [r, g, b] = rgb.get_pixel(u, v).0.map(f64::from);
+        image::Luma([(0.299 * r + 0.587 * g + 0.114 * b).round().clamp(0.0, 255.0) as u8])
+    })
+}
+
 /// The simulated hand camera: renders the board as seen from the camera.
 #[derive(Debug, Clone)]
 pub struct SimulatedCamera {

@@ -2,9 +2,14 @@
 //! sub-pixel, or a verdict and no features (docs/VISION.md).
 //!
 //! Steps: detect (the reference C library, AprilRobotics' apriltag 3.x, through the `apriltag` crate; first
-//! in a region around the previous detection, then, if the tag is not there, in the whole image) → pick the
-//! configured id → check every corner is inside the image → refine each of the four edges of the black
-//! square on the pixels' area coverage ([`crate::tag_refine`]) and intersect them.
+//! in a region around the previous detection, then, if the tag is not there, in the whole image, and if it is
+//! still not there, in the whole image at full resolution: the decimated quad search misses small and far
+//! tags) → pick the configured id → check every corner is inside the image → refine each of the four edges of
+//! the black square on the pixels' area coverage ([`crate::tag_refine`]) and intersect them. A corner the
+//! refinement cannot measure is the decoder's own: a tag the decoder accepted is never dropped, and its
+//! [`TagQuality`] says which corners were refined.
+//!
+//! [`detect_tags`] lists every tag in an image the same way (`vservoctl tags`).
 //!
 //! Corner order (the C library's `apriltag_detection_t::p`): tag coordinates (−1, +1), (+1, +1), (+1, −1),
 //! (−1, −1), i.e. bottom left, bottom right, top right, top left of the tag as printed; the order of
@@ -31,8 +36,13 @@ pub enum TagVerdict {
     NotFound,
     /// Only a tag of another id was detected (the first such id).
     WrongId(u32),
+    /// The configured id was detected more than once (which would be which?): the count.
+    Repeated(usize),
     /// The configured tag, but its corner `k` (zero-based, the tag's order) is outside the image.
     CornerOutside(usize),
+    /// The configured tag, but its corner `k` could not be refined and lies nearer the image's edge than the
+    /// tag's white margin (one cell): the decoder's quad may follow the image's edge rather than the tag's.
+    CornerAtTheEdge(usize),
 }
 
 impl TagVerdict {
@@ -42,8 +52,35 @@ impl TagVerdict {
             TagVerdict::Found => String::new(),
             TagVerdict::NotFound => "tag not found".into(),
             TagVerdict::WrongId(id) => format!("another tag found (id {id})"),
+            TagVerdict::Repeated(count) => format!("the tag's id is seen {count} times"),
             TagVerdict::CornerOutside(k) => format!("tag corner {} outside the image", k + 1),
+            TagVerdict::CornerAtTheEdge(k) => {
+                format!("tag corner {} too near the image's edge to measure", k + 1)
+            }
         }
+    }
+}
+
+/// How one detection was measured: the decoder's confidence and which corners the refinement measured.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TagQuality {
+    /// The decoder's decision margin (the C library's `decision_margin`: the mean difference between the code
+    /// cells' grays and the threshold; larger is surer).
+    pub decision_margin: f32,
+    /// How many bits of the code the decoder corrected (0 or 1 at vservo's settings).
+    pub bits_corrected: u8,
+    /// Per corner (the tag's order): refined on the pixels' coverage, or the decoder's own.
+    pub refined: [bool; MARKS],
+    /// Per edge k (corner k to corner k + 1): its fit's RMS (px), NaN where it could not be measured.
+    pub edge_rms_px: [f64; MARKS],
+    /// Whether the quads were searched at full resolution (the decimated search had not found the tag).
+    pub full_resolution: bool,
+}
+
+impl TagQuality {
+    /// How many of the four corners were refined.
+    pub fn refined_count(&self) -> usize {
+        self.refined.iter().filter(|&&r| r).count()
     }
 }
 
@@ -56,11 +93,18 @@ pub struct TagExtraction {
     pub verdict: TagVerdict,
     /// Whether the tag was found in the region around the previous detection (no full-image search).
     pub found_near_previous: bool,
+    /// How the corners were measured; `None` unless found.
+    pub quality: Option<TagQuality>,
 }
 
 impl TagExtraction {
     fn refused(verdict: TagVerdict) -> Self {
-        Self { features: FeatureVector::from_element(f64::NAN), verdict, found_near_previous: false }
+        Self {
+            features: FeatureVector::from_element(f64::NAN),
+            verdict,
+            found_near_previous: false,
+            quality: None,
+        }
     }
 
     /// As the marks' [`Extraction`]: every corner valid, or none (all `NotFound`, or all `OutsideImage`
@@ -68,8 +112,8 @@ impl TagExtraction {
     pub fn to_extraction(&self) -> Extraction {
         let status = match self.verdict {
             TagVerdict::Found => MarkStatus::Valid,
-            TagVerdict::CornerOutside(_) => MarkStatus::OutsideImage,
-            TagVerdict::NotFound | TagVerdict::WrongId(_) => MarkStatus::NotFound,
+            TagVerdict::CornerOutside(_) | TagVerdict::CornerAtTheEdge(_) => MarkStatus::OutsideImage,
+            TagVerdict::NotFound | TagVerdict::WrongId(_) | TagVerdict::Repeated(_) => MarkStatus::NotFound,
         };
         Extraction {
             features: self.features,
@@ -81,11 +125,43 @@ impl TagExtraction {
     }
 }
 
-/// A detection of the C library: id and corners (px, the tag's order).
+/// A detection of the C library: id, corners (px, the tag's order) and the decoder's confidence.
 #[derive(Debug, Clone, Copy, PartialEq)]
 struct Detected {
     id: u32,
     corners: [Point2<f64>; MARKS],
+    decision_margin: f32,
+    bits_corrected: u8,
+}
+
+/// How finely the C detector searches for quads: on the image decimated by 2 (quick; decoding stays at full
+/// resolution), or at full resolution (finds small and far tags the decimated search misses).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum QuadSearch {
+    Decimated,
+    FullResolution,
+}
+
+impl QuadSearch {
+    fn decimation(self) -> f32 {
+        match self {
+            QuadSearch::Decimated => 2.0,
+            QuadSearch::FullResolution => 1.0,
+        }
+    }
+}
+
+/// One tag in an image, as [`detect_tags`] lists it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TagDetection {
+    /// The tag36h11 id.
+    pub id: u32,
+    /// The corners (px, the tag's order): refined where [`TagQuality::refined`] says so, else the decoder's.
+    pub corners: [Point2<f64>; MARKS],
+    /// The decoder's own corners (px, the tag's order; the C library's edge-refined quad).
+    pub decoder_corners: [Point2<f64>; MARKS],
+    /// How they were measured.
+    pub quality: TagQuality,
 }
 
 /// The extractor of one tag36h11 id.
@@ -125,42 +201,67 @@ impl TagExtractor {
         }
         let region = previous.and_then(|p| self.search_region(p));
         if let Some(region) = region {
-            let near = detect(image, region);
+            let near = detect(image, region, QuadSearch::Decimated);
             if let Some(found) = near.iter().find(|d| d.id == self.id) {
-                let mut result = self.finish(image, found);
+                let mut result = self.finish(image, found, QuadSearch::Decimated);
                 result.found_near_previous = result.verdict == TagVerdict::Found;
                 if result.verdict == TagVerdict::Found {
                     return result;
                 }
             }
         }
-        let all = detect(image, (0, 0, self.width_px, self.height_px));
+        let whole = (0, 0, self.width_px, self.height_px);
+        let decimated = detect(image, whole, QuadSearch::Decimated);
+        if decimated.iter().any(|d| d.id == self.id) {
+            return self.pick(image, &decimated, QuadSearch::Decimated);
+        }
+        self.pick(image, &detect(image, whole, QuadSearch::FullResolution), QuadSearch::FullResolution)
+    }
+
+    /// Our id among the whole image's detections: found once, another id only, or repeated.
+    fn pick(&self, image: &GrayImage, all: &[Detected], search: QuadSearch) -> TagExtraction {
         let ours: Vec<&Detected> = all.iter().filter(|d| d.id == self.id).collect();
         match (ours.as_slice(), all.first()) {
-            ([one], _) => self.finish(image, one),
+            ([one], _) => self.finish(image, one, search),
             ([], Some(other)) => TagExtraction::refused(TagVerdict::WrongId(other.id)),
-            // none at all, or the same id twice (which would be which?)
-            _ => TagExtraction::refused(TagVerdict::NotFound),
+            ([], None) => TagExtraction::refused(TagVerdict::NotFound),
+            (many, _) => TagExtraction::refused(TagVerdict::Repeated(many.len())),
         }
     }
 
     /// The checks and the refinement of one detection of our id.
-    fn finish(&self, image: &GrayImage, detected: &Detected) -> TagExtraction {
+    fn finish(&self, image: &GrayImage, detected: &Detected, search: QuadSearch) -> TagExtraction {
         for (k, corner) in detected.corners.iter().enumerate() {
             if !vservo_scene::image_contains(self.width_px, self.height_px, corner, 0.0) {
                 return TagExtraction::refused(TagVerdict::CornerOutside(k));
             }
         }
         let straight = self.lens.as_ref().map_or(Straight::InImage, Straight::OnPinhole);
-        let Some(corners) = refine_corners(image, &detected.corners, straight) else {
-            return TagExtraction::refused(TagVerdict::NotFound);
-        };
+        let (corners, quality) = measure(image, detected, straight, search);
+        if let Some(k) = (0..MARKS).find(|&k| !quality.refined[k] && self.margin_cut(&corners, k)) {
+            return TagExtraction::refused(TagVerdict::CornerAtTheEdge(k));
+        }
         let mut features = FeatureVector::zeros();
         for (k, c) in corners.iter().enumerate() {
             features[2 * k] = c.x;
             features[2 * k + 1] = c.y;
         }
-        TagExtraction { features, verdict: TagVerdict::Found, found_near_previous: false }
+        TagExtraction {
+            features,
+            verdict: TagVerdict::Found,
+            found_near_previous: false,
+            quality: Some(quality),
+        }
+    }
+
+    /// Whether corner `k` lies nearer the image's edge than one cell of the tag (an eighth of its shorter
+    /// adjacent edge): the white margin a quad needs is then not all in view.
+    fn margin_cut(&self, corners: &[Point2<f64>; MARKS], k: usize) -> bool {
+        let (previous, next) = (&corners[(k + MARKS - 1) % MARKS], &corners[(k + 1) % MARKS]);
+        let cell = (corners[k] - previous).norm().min((next - corners[k]).norm()) / 8.0;
+        let (width, height) = (f64::from(self.width_px), f64::from(self.height_px));
+        let to_edge = corners[k].x.min(corners[k].y).min(width - corners[k].x).min(height - corners[k].y);
+        to_edge < cell
     }
 
     /// The previous corners' bounding box grown by a quarter of its size (at least [`SEARCH_MARGIN_PX`])
@@ -191,15 +292,55 @@ impl TagExtractor {
     }
 }
 
+/// The refined corners of one detection and how they were measured.
+fn measure(
+    image: &GrayImage,
+    detected: &Detected,
+    straight: Straight,
+    search: QuadSearch,
+) -> ([Point2<f64>; MARKS], TagQuality) {
+    let refined = refine_corners(image, &detected.corners, straight);
+    let quality = TagQuality {
+        decision_margin: detected.decision_margin,
+        bits_corrected: detected.bits_corrected,
+        refined: refined.refined,
+        edge_rms_px: refined.edge_rms_px,
+        full_resolution: search == QuadSearch::FullResolution,
+    };
+    (refined.corners, quality)
+}
+
+/// Every tag36h11 tag in `image`, quads searched at full resolution, each refined as the extractor refines
+/// its tag (`straight`: where the edges are straight, through the camera's lens if it distorts), in the C
+/// library's order. A repeated id is listed once per tag.
+pub fn detect_tags(image: &GrayImage, straight: Straight) -> Vec<TagDetection> {
+    let whole = (0, 0, image.width(), image.height());
+    detect(image, whole, QuadSearch::FullResolution)
+        .iter()
+        .map(|detected| {
+            let (corners, quality) = measure(image, detected, straight, QuadSearch::FullResolution);
+            TagDetection { id: detected.id, corners, decoder_corners: detected.corners, quality }
+        })
+        .collect()
+}
+
 /// The tags (id and corners in the tag's order, px) the reference C detector alone finds in the whole image,
-/// with the extractor's settings and no refinement: the baseline of the benchmarks and tests.
+/// with the extractor's first settings (quads on the decimated image) and no refinement: the baseline of the
+/// benchmarks and tests.
 pub fn reference_detections(image: &GrayImage) -> Vec<(u32, [Point2<f64>; MARKS])> {
-    detect(image, (0, 0, image.width(), image.height())).into_iter().map(|d| (d.id, d.corners)).collect()
+    let whole = (0, 0, image.width(), image.height());
+    detect(image, whole, QuadSearch::Decimated).into_iter().map(|d| (d.id, d.corners)).collect()
+}
+
+/// The same at full resolution: what the C library finds when it searches every pixel for quads.
+pub fn reference_detections_full_resolution(image: &GrayImage) -> Vec<(u32, [Point2<f64>; MARKS])> {
+    let whole = (0, 0, image.width(), image.height());
+    detect(image, whole, QuadSearch::FullResolution).into_iter().map(|d| (d.id, d.corners)).collect()
 }
 
 /// The tags the C detector finds in the region (u0, v0, u1, v1) of `image`, corners in image pixels (our
 /// convention: pixel (u, v) covers [u, u+1) × [v, v+1); the C library's pixel centres are at integers).
-fn detect(image: &GrayImage, (u0, v0, u1, v1): (u32, u32, u32, u32)) -> Vec<Detected> {
+fn detect(image: &GrayImage, (u0, v0, u1, v1): (u32, u32, u32, u32), search: QuadSearch) -> Vec<Detected> {
     let (w, h) = ((u1 - u0) as usize, (v1 - v0) as usize);
     let stride = w.div_ceil(96) * 96;
     let Ok(mut region) = apriltag::Image::zeros_with_stride(w, h, stride) else { return Vec::new() };
@@ -216,6 +357,7 @@ fn detect(image: &GrayImage, (u0, v0, u1, v1): (u32, u32, u32, u32)) -> Vec<Dete
             *slot = make_detector();
         }
         let Some(detector) = slot.as_mut() else { return Vec::new() };
+        detector.set_decimation(search.decimation());
         detector
             .detect(&region)
             .iter()
@@ -224,20 +366,20 @@ fn detect(image: &GrayImage, (u0, v0, u1, v1): (u32, u32, u32, u32)) -> Vec<Dete
                 corners: d
                     .corners()
                     .map(|[x, y]| Point2::new(x + 0.5 + f64::from(u0), y + 0.5 + f64::from(v0))),
+                decision_margin: d.decision_margin(),
+                bits_corrected: d.hamming().min(usize::from(u8::MAX)) as u8,
             })
             .collect()
     })
 }
 
 /// The C detector for tag36h11, correcting up to one bit (a covered or misread second bit is "not found"),
-/// one thread (deterministic), quads found on the image decimated by 2 (decoding stays at full resolution;
-/// the corners need only be within [`crate::tag_refine::MAX_CORNER_SHIFT_PX`] for the refinement), its own
-/// edge refinement on.
+/// one thread (deterministic), its own edge refinement on; the quad search's decimation is set per search
+/// ([`QuadSearch`]).
 fn make_detector() -> Option<apriltag::Detector> {
     let mut detector =
         apriltag::Detector::builder().add_family_bits(apriltag::Family::tag_36h11(), 1).build().ok()?;
     detector.set_thread_number(1);
-    detector.set_decimation(2.0);
     detector.set_sigma(0.0);
     detector.set_refine_edges(true);
     Some(detector)

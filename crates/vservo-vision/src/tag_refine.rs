@@ -9,8 +9,11 @@
 //! more along x than y each strip is a pixel column (else a row); b and d are fitted as straight lines
 //! along the edge (a lighting gradient) to the strips' end pixels; a straight line is fitted to the
 //! edge positions, once again without the points more than 3 RMS (at least 0.5 px) off; adjacent lines
-//! intersect at the corners. An edge with too few strips, a poor fit or a corner that moved more than
-//! [`MAX_CORNER_SHIFT_PX`] from the detector's gives no corners: better none than wrong ones.
+//! intersect at the corners. A corner is refined when both its edges were measured and it moved at most
+//! [`MAX_CORNER_SHIFT_PX`] from the detector's; otherwise it is the detector's own corner (the C library's
+//! edge-refined quad), and [`Refined::refined`] says so. An edge with too few strips, a poor fit or too little
+//! contrast costs its corners' accuracy, never the tag: the decoder accepted it (docs/VISION.md, "A tag that
+//! cannot be refined").
 //!
 //! Through a distorting lens the square's edges are curves in the image (a line fitted to a bowed edge
 //! puts the corners half a pixel out with OpenCV's k1 = −0.25 at 640 × 480): each edge point measured in
@@ -73,6 +76,13 @@ struct Line {
     offset: f64,
 }
 
+/// A measured edge: its line where edges are straight, and the RMS (px) of its points about it.
+#[derive(Debug, Clone, Copy)]
+struct EdgeFit {
+    line: Line,
+    rms_px: f64,
+}
+
 /// One edge of the black square to measure: strips along axis `along` (0: columns over x, 1: rows over y).
 #[derive(Debug, Clone, Copy)]
 struct Edge {
@@ -90,39 +100,65 @@ struct Edge {
     half_px: i64,
 }
 
-/// Refines the four corners (px, the tag's order) the detector gave. `None` when an edge cannot be
-/// measured reliably (see the module's documentation).
-pub fn refine_corners(
-    image: &GrayImage,
-    corners: &[Point2<f64>; MARKS],
-    straight: Straight,
-) -> Option<[Point2<f64>; MARKS]> {
+/// The four corners of one tag after refinement, and how each was measured.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Refined {
+    /// The corners (px, the tag's order).
+    pub corners: [Point2<f64>; MARKS],
+    /// Per corner: refined on the pixels' coverage (true), or the detector's own corner (false).
+    pub refined: [bool; MARKS],
+    /// Per edge k (corner k to corner k + 1): the RMS (px) of the edge points about the line fitted to them,
+    /// NaN where the edge could not be measured (too small a tag, too few strips, too little contrast, or an
+    /// RMS over [`MAX_EDGE_RMS_PX`]).
+    pub edge_rms_px: [f64; MARKS],
+}
+
+impl Refined {
+    /// The detector's corners as they are, nothing refined.
+    fn unrefined(corners: &[Point2<f64>; MARKS]) -> Self {
+        Self { corners: *corners, refined: [false; MARKS], edge_rms_px: [f64::NAN; MARKS] }
+    }
+
+    /// Whether all four corners were refined.
+    pub fn all_refined(&self) -> bool {
+        self.refined.iter().all(|&r| r)
+    }
+}
+
+/// Refines the four corners (px, the tag's order) the detector gave: each corner whose two edges could be
+/// measured, and which moved plausibly, is refined; the others stay the detector's (see the module's
+/// documentation).
+pub fn refine_corners(image: &GrayImage, corners: &[Point2<f64>; MARKS], straight: Straight) -> Refined {
     let centre = corners.iter().fold(Vector2::zeros(), |s, c| s + c.coords) / MARKS as f64;
     let shortest =
         (0..MARKS).map(|k| (corners[(k + 1) % MARKS] - corners[k]).norm()).fold(f64::INFINITY, f64::min);
     // strips reach at most half a cell (an eighth of the square) past the edge on either side
     let half_px = ((shortest / 16.0).floor() as i64).min(6);
+    let mut result = Refined::unrefined(corners);
     if half_px < 2 {
-        return None;
+        return result;
     }
-    let mut lines = [Line { normal: Vector2::zeros(), offset: 0.0 }; MARKS];
-    for (k, line) in lines.iter_mut().enumerate() {
+    let lines: [Option<EdgeFit>; MARKS] = std::array::from_fn(|k| {
         let edge = edge_between(&corners[k], &corners[(k + 1) % MARKS], &centre, half_px);
-        *line = fit_edge(image, &edge, straight)?;
+        fit_edge(image, &edge, straight)
+    });
+    for (k, fit) in lines.iter().enumerate() {
+        result.edge_rms_px[k] = fit.map_or(f64::NAN, |f| f.rms_px);
     }
-    let mut refined = [Point2::origin(); MARKS];
     for k in 0..MARKS {
-        let corner = straight.image_of(intersect(&lines[(k + MARKS - 1) % MARKS], &lines[k])?);
+        let (Some(before), Some(after)) = (&lines[(k + MARKS - 1) % MARKS], &lines[k]) else { continue };
+        let Some(crossing) = intersect(&before.line, &after.line) else { continue };
+        let corner = straight.image_of(crossing);
         // the detector fits straight lines in the image: through a lens its corners are off by up to
         // about the edges' bend
         let (previous, next) = (&corners[(k + MARKS - 1) % MARKS], &corners[(k + 1) % MARKS]);
         let bend = straight.bend_px(previous, &corners[k]).max(straight.bend_px(&corners[k], next));
-        if (corner - corners[k]).norm() > MAX_CORNER_SHIFT_PX + 2.0 * bend {
-            return None;
+        if (corner - corners[k]).norm() <= MAX_CORNER_SHIFT_PX + 2.0 * bend {
+            result.corners[k] = corner;
+            result.refined[k] = true;
         }
-        refined[k] = corner;
     }
-    Some(refined)
+    result
 }
 
 /// The edge from corner `p` to corner `q` of a square centred at `centre`.
@@ -192,39 +228,72 @@ impl LineFit {
     }
 }
 
-/// The dark and bright levels along the edge, each a straight line in the strip's centre (from the two
-/// end pixels of each strip on each side).
-fn fit_levels(image: &GrayImage, edge: &Edge) -> Option<((f64, f64), (f64, f64))> {
+/// The dark and bright levels along the edge, each a straight line `level = a + b·t` in the strip's centre
+/// `t`: (dark, bright).
+type Levels = ((f64, f64), (f64, f64));
+
+/// The dark and bright levels along the edge, from the two end pixels of each strip on each side. A strip
+/// whose ends do not reach the levels (something over the edge: a shadow, a covering, a neighbour) is left
+/// out of a second fit, and of the edge ([`edge_point`]).
+fn fit_levels(image: &GrayImage, edge: &Edge) -> Option<Levels> {
+    let first = fit_levels_over(image, edge, |_, _| true)?;
+    let mut grays = [0.0; 13];
+    let all_reach = strip_indices(edge).all(|index| {
+        strip(image, edge, index, &mut grays)
+            .is_none_or(|_| reaches_levels(&first, index, strip_ends(edge, &grays)))
+    });
+    if all_reach {
+        Some(first)
+    } else {
+        fit_levels_over(image, edge, |index, ends| reaches_levels(&first, index, ends))
+    }
+}
+
+/// The levels fitted to the ends of the strips `keep` takes (by index and ends).
+fn fit_levels_over(image: &GrayImage, edge: &Edge, keep: impl Fn(i64, (f64, f64)) -> bool) -> Option<Levels> {
     let (mut dark, mut bright) = (LineFit::default(), LineFit::default());
     let mut grays = [0.0; 13];
-    let last = (2 * edge.half_px) as usize;
     for index in strip_indices(edge) {
         if strip(image, edge, index, &mut grays).is_none() {
             continue;
         }
-        let (low_end, high_end) = (0.5 * (grays[0] + grays[1]), 0.5 * (grays[last] + grays[last - 1]));
-        let (d, b) = if edge.dark_after { (high_end, low_end) } else { (low_end, high_end) };
+        let ends = strip_ends(edge, &grays);
+        if !keep(index, ends) {
+            continue;
+        }
         let t = index as f64 + 0.5;
-        dark.add(t, d);
-        bright.add(t, b);
+        dark.add(t, ends.0);
+        bright.add(t, ends.1);
     }
     Some((dark.solve()?, bright.solve()?))
 }
 
-/// The edge's position across at strip `index`, from the dark length.
-fn edge_point(
-    image: &GrayImage,
-    edge: &Edge,
-    index: i64,
-    levels: &((f64, f64), (f64, f64)),
-) -> Option<(f64, f64)> {
+/// A strip's (dark end, bright end): the mean of its two end pixels on each side.
+fn strip_ends(edge: &Edge, grays: &[f64; 13]) -> (f64, f64) {
+    let last = (2 * edge.half_px) as usize;
+    let (low_end, high_end) = (0.5 * (grays[0] + grays[1]), 0.5 * (grays[last] + grays[last - 1]));
+    if edge.dark_after { (high_end, low_end) } else { (low_end, high_end) }
+}
+
+/// Whether a strip's ends lie within a quarter of the contrast of the levels at its centre.
+fn reaches_levels(levels: &Levels, index: i64, (dark_end, bright_end): (f64, f64)) -> bool {
+    let t = index as f64 + 0.5;
+    let ((d0, d1), (b0, b1)) = *levels;
+    let (dark, bright) = (d0 + d1 * t, b0 + b1 * t);
+    let tolerance = 0.25 * (bright - dark).abs();
+    (dark_end - dark).abs() <= tolerance && (bright_end - bright).abs() <= tolerance
+}
+
+/// The edge's position across at strip `index`, from the dark length; `None` where the strip leaves the image,
+/// the contrast is too low, or the strip's ends do not reach the levels.
+fn edge_point(image: &GrayImage, edge: &Edge, index: i64, levels: &Levels) -> Option<(f64, f64)> {
     let mut grays = [0.0; 13];
     let first = strip(image, edge, index, &mut grays)?;
     let t = index as f64 + 0.5;
     let ((d0, d1), (b0, b1)) = *levels;
     let (dark, bright) = (d0 + d1 * t, b0 + b1 * t);
     // a contrast under 20 gray levels says nothing reliable about an edge
-    if bright - dark < 20.0 {
+    if bright - dark < 20.0 || !reaches_levels(levels, index, strip_ends(edge, &grays)) {
         return None;
     }
     let count = (2 * edge.half_px + 1) as usize;
@@ -239,7 +308,7 @@ fn edge_point(
 
 /// The edge's line from its strips: fit, drop points off by more than 3 RMS (≥ 0.5 px), fit again; the
 /// points and the line where the edges are straight (`straight`), as (along, across) there.
-fn fit_edge(image: &GrayImage, edge: &Edge, straight: Straight) -> Option<Line> {
+fn fit_edge(image: &GrayImage, edge: &Edge, straight: Straight) -> Option<EdgeFit> {
     let levels = fit_levels(image, edge)?;
     let across = 1 - edge.along;
     let to_straight = |(t, y): (f64, f64)| {
@@ -267,7 +336,7 @@ fn fit_edge(image: &GrayImage, edge: &Edge, straight: Straight) -> Option<Line> 
     }
     // across = a + b·along, i.e. −b·along + across = a
     let normal = if edge.along == 0 { Vector2::new(-b, 1.0) } else { Vector2::new(1.0, -b) };
-    Some(Line { normal, offset: a })
+    Some(EdgeFit { line: Line { normal, offset: a }, rms_px: rms })
 }
 
 /// Where two lines cross; `None` for (nearly) parallel ones.

@@ -5,7 +5,7 @@
 use image::GrayImage;
 use nalgebra::{Point2, Rotation3, Translation3, Vector3};
 use vservo_scene::{AprilTag, Board, CameraIntrinsics, FeatureVector, IsometryMatrix3};
-use vservo_vision::{RenderSettings, Renderer, TagExtractor, TagVerdict};
+use vservo_vision::{RenderSettings, Renderer, TagExtraction, TagExtractor, TagVerdict};
 
 const ID: u32 = 3;
 
@@ -59,6 +59,19 @@ fn noisy() -> RenderSettings {
 /// RMS over the corners of the distance between extracted and true corners (px).
 fn rms_px(found: &FeatureVector, truth: &FeatureVector) -> f64 {
     ((found - truth).norm_squared() / 4.0).sqrt()
+}
+
+/// A found tag's corners against the truth: each refined corner within 0.3 px, as every corner was before the
+/// refinement kept tags it cannot measure; each corner it could not refine (the decoder's own, marked so in its
+/// quality) within the refinement's own bound on the decoder's corners, 2 px. How many were the decoder's.
+fn assert_right_corners(found: &TagExtraction, truth: &FeatureVector, what: &str) -> usize {
+    let quality = found.quality.expect("a found tag's quality");
+    for k in 0..4 {
+        let error = (found.features.fixed_rows::<2>(2 * k) - truth.fixed_rows::<2>(2 * k)).norm();
+        let bar = if quality.refined[k] { 0.3 } else { 2.0 };
+        assert!(error < bar, "{what}: corner {k} {error:.3} px off (refined: {})", quality.refined[k]);
+    }
+    4 - quality.refined_count()
 }
 
 /// The RMS corner error over all poses, every one of which must be found.
@@ -158,9 +171,9 @@ fn a_board_jump_that_takes_the_tag_partly_out_of_view_gives_a_verdict_never_wron
         match found.verdict {
             TagVerdict::Found => {
                 assert!(all_in, "shift {shift}: found with a corner out of view");
-                assert!(rms_px(&found.features, &truth) < 0.3, "shift {shift}: wrong corners");
+                assert_right_corners(&found, &truth, &format!("shift {shift}"));
             }
-            TagVerdict::NotFound | TagVerdict::CornerOutside(_) => {
+            TagVerdict::NotFound | TagVerdict::CornerOutside(_) | TagVerdict::CornerAtTheEdge(_) => {
                 assert!(found.features.iter().all(|v| v.is_nan()));
                 refused += 1;
                 assert!(
@@ -169,6 +182,7 @@ fn a_board_jump_that_takes_the_tag_partly_out_of_view_gives_a_verdict_never_wron
                 );
             }
             TagVerdict::WrongId(id) => panic!("shift {shift}: id {id} read from a tag partly out of view"),
+            TagVerdict::Repeated(count) => panic!("shift {shift}: one tag seen {count} times"),
         }
     }
     assert!(refused >= 10, "the jumps took the tag out of view {refused} times");
@@ -194,8 +208,8 @@ fn corners_survive_a_lighting_gradient() {
 }
 
 /// A gray patch over part of the tag: over two code cells the code is misread (not found is expected, the
-/// decoder corrects one bit only); over one cell of the border edge the edge fit drops it or refuses. In
-/// every case: the right corners or none, never others.
+/// decoder corrects one bit only); over one cell of the border edge the edge fit drops the strips it covers,
+/// or the corners of that edge stay the decoder's. In every case: the right corners or none, never others.
 #[test]
 fn a_partly_covered_tag_gives_the_right_corners_or_none() {
     let board = board(ID);
@@ -223,7 +237,8 @@ fn a_partly_covered_tag_gives_the_right_corners_or_none() {
         match found.verdict {
             TagVerdict::Found => {
                 found_count += 1;
-                assert!(rms_px(&found.features, &truth) < 0.3, "patch {i}: wrong corners");
+                let unrefined = assert_right_corners(&found, &truth, &format!("patch {i}"));
+                eprintln!("patch {i}: {unrefined} corner(s) the decoder's");
             }
             TagVerdict::WrongId(id) => panic!("patch {i}: id {id} read from a covered tag"),
             _ => assert!(found.features.iter().all(|v| v.is_nan())),

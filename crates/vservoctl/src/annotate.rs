@@ -93,3 +93,60 @@ fn line(picture: &mut RgbImage, from: Point2<f64>, to: Point2<f64>, colour: Rgb<
         put(picture, p.x, p.y, colour);
     }
 }
+
+/// A detected tag (`vservoctl tags --draw`): its outline through its four corners (the first corner marked
+/// with a cross, the tag's order), and its id written in digits at its centre.
+pub fn draw_tag(picture: &mut RgbImage, corners: &[Point2<f64>; MARKS], id: u32, colour: Rgb<u8>) {
+    for k in 0..MARKS {
+        line(picture, corners[k], corners[(k + 1) % MARKS], colour);
+    }
+    cross(picture, corners[0], DESIRED);
+    let centre = corners.iter().fold(Point2::origin(), |sum, c| sum + c.coords / MARKS as f64);
+    let edge = (corners[1] - corners[0]).norm();
+    let scale = (edge / 24.0).clamp(1.0, 6.0).floor();
+    number(picture, centre, id, scale, colour);
+}
+
+/// Digits 0–9 in 3 × 5 cells, a row of three bits each (the top row first).
+const DIGITS: [[u8; 5]; 10] = [
+    [0b111, 0b101, 0b101, 0b101, 0b111],
+    [0b010, 0b110, 0b010, 0b010, 0b111],
+    [0b111, 0b001, 0b111, 0b100, 0b111],
+    [0b111, 0b001, 0b111, 0b001, 0b111],
+    [0b101, 0b101, 0b111, 0b001, 0b001],
+    [0b111, 0b100, 0b111, 0b001, 0b111],
+    [0b111, 0b100, 0b111, 0b101, 0b111],
+    [0b111, 0b001, 0b010, 0b010, 0b010],
+    [0b111, 0b101, 0b111, 0b101, 0b111],
+    [0b111, 0b101, 0b111, 0b001, 0b111],
+];
+
+/// Writes `value` centred at `at`, each cell of a digit `scale` px square, on a black backing.
+fn number(picture: &mut RgbImage, at: Point2<f64>, value: u32, scale: f64, colour: Rgb<u8>) {
+    let text = value.to_string();
+    let (cell, count) = (scale, text.len() as f64);
+    let (width, height) = ((4.0 * count - 1.0) * cell, 5.0 * cell);
+    let origin = Point2::new(at.x - width / 2.0, at.y - height / 2.0);
+    for dv in -1..=(height as i64) {
+        for du in -1..=(width as i64) {
+            put(picture, origin.x + du as f64, origin.y + dv as f64, Rgb([0, 0, 0]));
+        }
+    }
+    for (place, digit) in text.bytes().enumerate() {
+        let rows = DIGITS[usize::from(digit - b'0')];
+        for (row, bits) in rows.iter().enumerate() {
+            for column in 0..3 {
+                if bits & (0b100 >> column) == 0 {
+                    continue;
+                }
+                let left = origin.x + (4.0 * place as f64 + f64::from(column)) * cell;
+                let top = origin.y + row as f64 * cell;
+                for dv in 0..(cell as i64) {
+                    for du in 0..(cell as i64) {
+                        put(picture, left + du as f64, top + dv as f64, colour);
+                    }
+                }
+            }
+        }
+    }
+}

@@ -15,7 +15,8 @@
 //!   `basin` ([`basin`]): a Monte Carlo of starting poses in classes on all cores with rayon (the share
 //!   converged, settling times, why the others failed; JSON and an SVG);
 //! - `scene` ([`scene`]): the cell a configuration describes, as JSON for drivers; `board` ([`board`]): a
-//!   calibration board as an SVG to print at scale, and its layout as JSON;
+//!   calibration board as an SVG to print at scale, and its layout as JSON; `tags` ([`tags`]): every tag in
+//!   pictures, as the detector sees them;
 //! - `calibrate` ([`calibrate`], docs/CALIBRATION.md): the command line of the `vservo_calibrate` crate (the
 //!   poses planned on a half sphere around the board or given with `--poses`, their spread checked, the views
 //!   taken in lockstep or through a running vservod, the OpenCV solver, the report, the calibration file, and
@@ -78,6 +79,7 @@ mod snapshot;
 mod stability;
 mod status;
 mod tag;
+mod tags;
 mod top;
 mod view;
 mod vision;
@@ -152,6 +154,9 @@ enum Command {
     /// One AprilTag (tag36h11) as an SVG to print at scale for a tag target: the id, the size of its black
     /// square, a scale bar and which edge is up.
     Tag(tag::TagArgs),
+    /// Every tag36h11 tag in pictures (PNG, JPEG or PGM, gray or colour, any size): id, corners, centre, how
+    /// each corner was measured, the time; `--draw` writes the picture annotated.
+    Tags(tags::TagsArgs),
     /// The preflight before a first motion, on a held cell (nothing moves): joint states at their period, the
     /// joints' count, names and limits, the kinematics against what the camera sees, the frames and the target,
     /// the desired pose's reach, and the first twist's motion against the limits; PASS or FAIL with the value
@@ -192,6 +197,7 @@ fn main() -> ExitCode {
         Command::Snapshot(args) => snapshot::run(&args),
         Command::Board(args) => board::run(&args),
         Command::Tag(args) => tag::run(&args),
+        Command::Tags(args) => tags::run(&args),
         Command::Calibrate(args) => calibrate::run(&args),
         Command::Check(args) => check::run(&args),
     };

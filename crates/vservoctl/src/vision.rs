@@ -7,7 +7,7 @@ use anyhow::{Context, Result};
 use clap::{Args, Subcommand};
 use serde_json::json;
 use vservo_vision::extract::{Extractor, Prediction};
-use vservo_vision::source::read_gray_image;
+use vservo_vision::source::read_image_as_gray;
 use vservo_vision::{MarkStatus, Renderer};
 
 use crate::UsageError;
@@ -92,7 +92,20 @@ fn render(args: &RenderArgs) -> Result<()> {
 
 fn extract(args: &ExtractArgs) -> Result<()> {
     let config = args.config.load()?;
-    let image = read_gray_image(&args.image).map_err(|e| UsageError(e.to_string()))?;
+    let (image, _) = read_image_as_gray(&args.image).map_err(|e| UsageError(e.to_string()))?;
+    let camera_size = (config.cell.camera.width_px(), config.cell.camera.height_px());
+    if image.dimensions() != camera_size {
+        return Err(UsageError(format!(
+            "{}: the picture is {}×{}, the configured camera {}×{}: the features are in the camera's pixels \
+             (`vservoctl tags` lists the tags in a picture of any size)",
+            args.image.display(),
+            image.width(),
+            image.height(),
+            camera_size.0,
+            camera_size.1
+        ))
+        .into());
+    }
     let mut extractor = Extractor::new(
         config.cell.vision.extractor,
         config.cell.camera.width_px(),
