@@ -1,14 +1,18 @@
 //! Speed of the AprilTag extractor (detection + sub-pixel refinement) against the reference C detector alone
 //! on the same images: one tag36h11 tag about 200 px wide at 640 × 480 (400 px at 1280 × 1024), clean and
 //! with Gaussian noise of σ = 5 gray levels; the extractor on the whole image and with the previous frame's
-//! detection. `cargo bench -p vservo-vision --bench apriltag` (docs/BENCHMARKS.md).
+//! detection; the C detector with its quads searched at full resolution (what the extractor falls back to when
+//! the decimated search misses its tag), and `detect_tags` (every tag, full resolution, refined) on the real
+//! photographs of scripts/setup-tag-photos.sh when they are there. `cargo bench -p vservo-vision --bench
+//! apriltag` (docs/BENCHMARKS.md).
 
 use std::hint::black_box;
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use nalgebra::{Point2, Rotation3, Translation3, Vector3};
 use vservo_scene::{AprilTag, Board, CameraIntrinsics, IsometryMatrix3};
-use vservo_vision::tag::reference_detections;
+use vservo_vision::tag::{detect_tags, reference_detections, reference_detections_full_resolution};
+use vservo_vision::tag_refine::Straight;
 use vservo_vision::{RenderSettings, Renderer, TagExtractor, TagVerdict};
 
 fn apriltag(c: &mut Criterion) {
@@ -45,7 +49,30 @@ fn apriltag(c: &mut Criterion) {
             group.bench_function(format!("c_detector_full_{name}"), |b| {
                 b.iter(|| reference_detections(black_box(&image)).len())
             });
+            group.bench_function(format!("c_detector_full_resolution_{name}"), |b| {
+                b.iter(|| reference_detections_full_resolution(black_box(&image)).len())
+            });
         }
+    }
+    group.finish();
+    real_photographs(c);
+}
+
+/// Every tag of each real photograph (799 × 533, 10–25 tags of 12–45 px), as `vservoctl tags` finds them.
+fn real_photographs(c: &mut Criterion) {
+    let folder = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../target/tag-photos");
+    let Ok(entries) = std::fs::read_dir(&folder) else { return };
+    let mut photos: Vec<_> =
+        entries.flatten().map(|e| e.path()).filter(|p| p.extension().is_some_and(|e| e == "jpg")).collect();
+    photos.sort();
+    let mut group = c.benchmark_group("apriltag_photographs");
+    group.sample_size(20).measurement_time(std::time::Duration::from_secs(3));
+    for path in photos {
+        let (image, _) = vservo_vision::source::read_image_as_gray(&path).expect("a photograph");
+        let name = path.file_stem().map(|s| s.to_string_lossy().to_string()).unwrap_or_default();
+        group.bench_function(format!("detect_tags_{name}"), |b| {
+            b.iter(|| detect_tags(black_box(&image), Straight::InImage).len())
+        });
     }
     group.finish();
 }

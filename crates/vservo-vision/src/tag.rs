@@ -1,10 +1,10 @@
 //! The AprilTag extractor: the four corners of one tag36h11 tag, in the tag's own order, refined to
 //! sub-pixel, or a verdict and no features (docs/VISION.md).
 //!
-//! Steps: detect (the reference C library, AprilRobotics' apriltag 3.x, through the `apriltag` crate; first
-//! in a region around the previous detection, then, if the tag is not there, in the whole image, and if it is
-//! still not there, in the whole image at full resolution: the decimated quad search misses small and far
-//! tags) → pick the configured id → check every corner is inside the image → refine each of the four edges of
+//! Steps: detect (the reference C library, AprilRobotics' apriltag 3.x, through the `apriltag` crate; quads
+//! searched on the image decimated by 2, then at full resolution, which finds the small and far tags the
+//! decimated search misses: first in a region around the previous detection, then in the whole image, the
+//! full-resolution search on at most [`FULL_RESOLUTION_MAX_PIXELS`]) → pick the configured id → check every corner is inside the image → refine each of the four edges of
 //! the black square on the pixels' area coverage ([`crate::tag_refine`]) and intersect them. A corner the
 //! refinement cannot measure is the decoder's own: a tag the decoder accepted is never dropped, and its
 //! [`TagQuality`] says which corners were refined.
@@ -26,6 +26,20 @@ use crate::tag_refine::{Straight, refine_corners};
 
 /// Pixels added on every side of the previous detection's bounding box to make the search region, at least.
 pub const SEARCH_MARGIN_PX: u32 = 24;
+
+/// The most pixels the extractor searches for quads at full resolution in one frame: 640 × 480. There the
+/// search took 53 ms with noise of σ = 5 gray levels (2.9 ms clean), within the 85 ms vision period with the
+/// decimated search before it; at 1280 × 1024 it took 287 ms (docs/BENCHMARKS.md). A larger image is searched
+/// at full resolution only in the region around the previous detection.
+pub const FULL_RESOLUTION_MAX_PIXELS: u32 = 640 * 480;
+
+/// A region of the image, (u0, v0, u1, v1) with exclusive ends.
+type Region = (u32, u32, u32, u32);
+
+/// Whether `region` is small enough for a full-resolution search in a frame.
+fn affordable_at_full_resolution((u0, v0, u1, v1): Region) -> bool {
+    (u1 - u0).saturating_mul(v1 - v0) <= FULL_RESOLUTION_MAX_PIXELS
+}
 
 /// What the extractor concluded about one image.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -201,21 +215,30 @@ impl TagExtractor {
         }
         let region = previous.and_then(|p| self.search_region(p));
         if let Some(region) = region {
-            let near = detect(image, region, QuadSearch::Decimated);
-            if let Some(found) = near.iter().find(|d| d.id == self.id) {
-                let mut result = self.finish(image, found, QuadSearch::Decimated);
-                result.found_near_previous = result.verdict == TagVerdict::Found;
-                if result.verdict == TagVerdict::Found {
+            for search in [QuadSearch::Decimated, QuadSearch::FullResolution] {
+                if search == QuadSearch::FullResolution && !affordable_at_full_resolution(region) {
+                    break;
+                }
+                if let Some(result) = self.near(image, region, search) {
                     return result;
                 }
             }
         }
         let whole = (0, 0, self.width_px, self.height_px);
         let decimated = detect(image, whole, QuadSearch::Decimated);
-        if decimated.iter().any(|d| d.id == self.id) {
+        if decimated.iter().any(|d| d.id == self.id) || !affordable_at_full_resolution(whole) {
             return self.pick(image, &decimated, QuadSearch::Decimated);
         }
         self.pick(image, &detect(image, whole, QuadSearch::FullResolution), QuadSearch::FullResolution)
+    }
+
+    /// Our tag in the region around the previous detection, found and measured, if it is there.
+    fn near(&self, image: &GrayImage, region: Region, search: QuadSearch) -> Option<TagExtraction> {
+        let near = detect(image, region, search);
+        let found = near.iter().find(|d| d.id == self.id)?;
+        let mut result = self.finish(image, found, search);
+        result.found_near_previous = true;
+        (result.verdict == TagVerdict::Found).then_some(result)
     }
 
     /// Our id among the whole image's detections: found once, another id only, or repeated.
@@ -266,7 +289,7 @@ impl TagExtractor {
 
     /// The previous corners' bounding box grown by a quarter of its size (at least [`SEARCH_MARGIN_PX`])
     /// on every side, clipped to the image: (u0, v0, u1, v1), exclusive ends. `None` without finite corners.
-    fn search_region(&self, previous: &FeatureVector) -> Option<(u32, u32, u32, u32)> {
+    fn search_region(&self, previous: &FeatureVector) -> Option<Region> {
         if !previous.iter().all(|v| v.is_finite()) {
             return None;
         }
@@ -340,7 +363,7 @@ pub fn reference_detections_full_resolution(image: &GrayImage) -> Vec<(u32, [Poi
 
 /// The tags the C detector finds in the region (u0, v0, u1, v1) of `image`, corners in image pixels (our
 /// convention: pixel (u, v) covers [u, u+1) × [v, v+1); the C library's pixel centres are at integers).
-fn detect(image: &GrayImage, (u0, v0, u1, v1): (u32, u32, u32, u32), search: QuadSearch) -> Vec<Detected> {
+fn detect(image: &GrayImage, (u0, v0, u1, v1): Region, search: QuadSearch) -> Vec<Detected> {
     let (w, h) = ((u1 - u0) as usize, (v1 - v0) as usize);
     let stride = w.div_ceil(96) * 96;
     let Ok(mut region) = apriltag::Image::zeros_with_stride(w, h, stride) else { return Vec::new() };

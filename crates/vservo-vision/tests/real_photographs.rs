@@ -7,7 +7,7 @@
 use std::path::{Path, PathBuf};
 
 use nalgebra::Point2;
-use vservo_scene::MARKS;
+use vservo_scene::{FeatureVector, MARKS};
 use vservo_vision::tag::{detect_tags, reference_detections, reference_detections_full_resolution};
 use vservo_vision::tag_refine::Straight;
 use vservo_vision::{GrayImage, TagExtractor, TagVerdict};
@@ -168,10 +168,12 @@ fn the_refinement_keeps_every_tag_the_decoder_accepted() {
     eprintln!("{refined} of {corners} corners refined, the others the decoder's");
 }
 
-/// The servo's path: each tag alone in the photograph (the rest of it a flat gray, so that its id is not
-/// repeated) is found by the extractor wherever the C library at full resolution finds it in those pixels —
-/// through the full-resolution search where the decimated one misses it — at the place the C library's test
-/// expects it; or refused with a verdict when an unrefined corner lies at the image's edge.
+/// The servo's path, tracking: each tag alone in the photograph (the rest of it a flat gray, so that its id is
+/// not repeated), its last corners 2 px off where they are now, is found by the extractor wherever the C library
+/// at full resolution finds it in those pixels — through the full-resolution search around the last corners
+/// where the decimated one misses it (the photograph, 799 × 533, is over the full-resolution budget for the
+/// whole image) — at the place the C library's test expects it; or refused with a verdict when an unrefined
+/// corner lies at the image's edge. With no last corners, only the decimated search runs on the whole image.
 #[test]
 fn the_extractor_finds_each_tag_alone_in_the_photograph() {
     let (mut found, mut at_full_resolution, mut at_the_edge, mut total, mut kept_before) = (0, 0, 0, 0, 0);
@@ -185,7 +187,12 @@ fn the_extractor_finds_each_tag_alone_in_the_photograph() {
                 continue;
             }
             total += 1;
-            let result = extractor.extract(&alone, None);
+            let last = FeatureVector::from_fn(|i, _| {
+                if i % 2 == 0 { tag.corners[i / 2].x + 2.0 } else { tag.corners[i / 2].y - 2.0 }
+            });
+            let result = extractor.extract(&alone, Some(&last));
+            let acquired = extractor.extract(&alone, None);
+            assert!(acquired.quality.is_none_or(|q| !q.full_resolution), "799 × 533 is over the budget");
             if let TagVerdict::CornerAtTheEdge(_) = result.verdict {
                 at_the_edge += 1;
                 continue;
