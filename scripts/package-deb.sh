@@ -11,15 +11,26 @@ cd "$(dirname "$0")/.."
 
 version="$(sed -n '/^\[workspace.package\]/,/^\[/s/^version = "\(.*\)"/\1/p' Cargo.toml)"
 arch="$(dpkg --print-architecture)"
-cargo build --release --locked -p vservod -p vservoctl -p vservo-ros2 -p vservo-franka-driver
+# the release build; `--profile dev` packages the binaries of the test build instead (scripts/test-systemd.sh: the
+# same code, without a second, optimised build of everything)
+profile=release
+case "${1:-}" in
+    "") ;;
+    --profile) profile="${2:?--profile NAME}" ;;
+    *) echo "package-deb: unknown argument $1 (expected [--profile release|dev])" >&2; exit 2 ;;
+esac
+case "${profile}" in
+    release) out=target/release ;;
+    dev) out=target/debug ;;
+    *) echo "package-deb: --profile is release or dev" >&2; exit 2 ;;
+esac
+cargo build --profile "${profile}" --locked -p vservod -p vservoctl -p vservo-ros2 -p vservo-franka-driver
 
 stage="target/debian/stage"
 rm -rf "${stage}"
-install -D -m 755 target/release/vservod "${stage}/usr/bin/vservod"
-install -D -m 755 target/release/vservoctl "${stage}/usr/bin/vservoctl"
-install -D -m 755 target/release/vservo-ros2 "${stage}/usr/bin/vservo-ros2"
-install -D -m 755 target/release/vservo-ros2-driver "${stage}/usr/bin/vservo-ros2-driver"
-install -D -m 755 target/release/vservo-franka "${stage}/usr/bin/vservo-franka"
+for binary in vservod vservoctl vservo-ros2 vservo-ros2-driver vservo-franka; do
+    install -D -m 755 "${out}/${binary}" "${stage}/usr/bin/${binary}"
+done
 install -D -m 644 config/systemd/vservo.service "${stage}/lib/systemd/system/vservo.service"
 install -D -m 644 config/vservo.toml "${stage}/etc/vservo/vservo.toml"
 # `vservoctl calibrate`'s solver, where the command looks for it (docs/CALIBRATION.md)

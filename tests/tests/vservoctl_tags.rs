@@ -47,23 +47,13 @@ fn holds(tags: &[Value], id: u64, at: (f64, f64), within_px: f64) -> bool {
     })
 }
 
-/// The tags the C library's own test expects in a photograph (its `.txt` beside it: `id, (x y), …` with the
-/// library's pixel centres at integers), as `{id, corners_px}` in vservo's pixels.
+/// The tags the C library's own test expects in a photograph (its `.txt` beside it), as `{id, corners_px}`.
 fn published_tags(photo: &str) -> Vec<Value> {
-    let text =
-        std::fs::read_to_string(PathBuf::from(photo).with_extension("txt")).expect("the expected tags");
-    text.lines()
-        .filter(|line| !line.trim().is_empty())
-        .map(|line| {
-            let numbers: Vec<f64> = line
-                .split(|c: char| c == ',' || c == '(' || c == ')' || c.is_whitespace())
-                .filter(|s| !s.is_empty())
-                .map(|s| s.parse().expect("a number"))
-                .collect();
-            let corners: Vec<Value> =
-                numbers[1..].chunks(2).map(|p| serde_json::json!([p[0] + 0.5, p[1] + 0.5])).collect();
-            serde_json::json!({"id": numbers[0] as u64, "corners_px": corners})
-        })
+    let path = PathBuf::from(photo).with_extension("txt");
+    vservo_vision::source::read_apriltag_test_detections(&path)
+        .expect("the expected tags")
+        .into_iter()
+        .map(|(id, corners)| serde_json::json!({"id": id, "corners_px": corners.map(|c| [c.x, c.y])}))
         .collect()
 }
 
@@ -148,7 +138,8 @@ fn tags_finds_what_pupil_apriltags_finds_at_full_resolution_and_nothing_else() {
 }
 
 /// `--draw` writes the picture, its size, with the tags drawn in colour; a second time only with --force; and
-/// `vision extract` names the sizes when a picture is not the configured camera's.
+/// `vision extract` reads the colour JPEG and names both sizes in every mark's reason, the picture not being the
+/// configured camera's.
 #[test]
 fn tags_draws_the_picture_annotated_and_extract_names_a_size_that_is_not_the_cameras() {
     let scratch = ScratchDir::new(&unique("tags-draw"));
@@ -169,11 +160,11 @@ fn tags_draws_the_picture_annotated_and_extract_names_a_size_that_is_not_the_cam
     assert!(!draw(false).status.success(), "an existing file is kept without --force");
     assert!(draw(true).status.success());
     let config = repository_root().join("config/vservo-apriltag.toml").display().to_string();
-    let extract = run("vservoctl", &["vision", "extract", "--config", &config, &photo]);
-    assert_eq!(extract.status.code(), Some(2));
-    let said = String::from_utf8_lossy(&extract.stderr);
-    assert!(
-        said.contains("799×533") && said.contains("640×480") && said.contains("vservoctl tags"),
-        "{said}"
-    );
+    let extract = run("vservoctl", &["vision", "extract", "--config", &config, &photo, "--json"]);
+    assert!(extract.status.success(), "{}", String::from_utf8_lossy(&extract.stderr));
+    let said: Value = serde_json::from_slice(&extract.stdout).expect("one JSON object");
+    for reason in said["reasons"].as_array().expect("reasons") {
+        let reason = reason.as_str().expect("a reason");
+        assert!(reason.contains("799×533") && reason.contains("640×480"), "{said}");
+    }
 }

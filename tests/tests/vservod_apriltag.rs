@@ -6,8 +6,11 @@
 
 use std::time::Duration;
 
+use serde_json::Value;
 use vservo_protocol::Verdict;
-use vservo_system_tests::{echo_lines, exclusive, running, running_daemon_of, status, unique, wait_until};
+use vservo_system_tests::{
+    ScratchDir, echo_lines, exclusive, numbers, run, running, running_daemon_of, status, unique, wait_until,
+};
 
 #[test]
 fn an_apriltag_through_a_lens_converges_below_one_pixel_in_real_time() {
@@ -26,7 +29,28 @@ fn an_apriltag_through_a_lens_converges_below_one_pixel_in_real_time() {
     println!("feature error: first {:?} px, last {last:.3} px", errors.first());
     assert!(last < 1.0, "feature error at the end {last} px: {errors:?}\n{}", daemon.log());
     assert!(running(&status(&instance).expect("status")), "{}", daemon.log());
+    the_snapshot_outlines_the_target_where_the_vision_node_found_it(&instance);
     daemon.stop();
+}
+
+/// `vservoctl snapshot` lists every tag in view: here the one target, refined, its corners where the vision node
+/// found the marks of the same frame (both refine the same edges; the snapshot's search is at full resolution).
+fn the_snapshot_outlines_the_target_where_the_vision_node_found_it(instance: &str) {
+    let scratch = ScratchDir::new(&unique("apriltag-snapshot"));
+    let out = scratch.0.join("snapshot.png");
+    let output =
+        run("vservoctl", &["snapshot", "--instance", instance, "--out", out.to_str().expect("utf-8")]);
+    assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stderr));
+    let summary: Value = serde_json::from_slice(&output.stdout).expect("one JSON object");
+    let tags = summary["tags"].as_array().expect("tags");
+    assert_eq!(tags.len(), 1, "{summary}");
+    assert_eq!(tags[0]["target"], true, "{summary}");
+    assert_eq!(tags[0]["refined"], serde_json::json!([true, true, true, true]), "{summary}");
+    for k in 0..4 {
+        let (corner, found) = (numbers(&tags[0]["corners_px"][k]), numbers(&summary["marks"][k]["found_px"]));
+        let apart = (corner[0] - found[0]).hypot(corner[1] - found[1]);
+        assert!(apart < 0.1, "corner {k}: {corner:?} and the mark {found:?} {apart} px apart");
+    }
 }
 
 /// The calibration demo (config/calibration-demo.toml: the 5 × 7 grid of tags through a lens, its centre tag

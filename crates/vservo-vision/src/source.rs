@@ -3,6 +3,7 @@
 use std::path::{Path, PathBuf};
 
 use image::GrayImage;
+use nalgebra::Point2;
 use vservo_scene::{Board, CameraIntrinsics, IsometryMatrix3};
 
 use crate::render::{RenderSettings, Renderer};
@@ -71,6 +72,29 @@ pub fn read_image_as_gray(path: &Path) -> Result<(GrayImage, image::ColorType), 
         other => bt601_luma(&other.into_rgb8()),
     };
     Ok((gray, colour))
+}
+
+/// The detections the AprilTag C library's own test data lists beside a picture (its `test/data/*.txt`: one tag a
+/// line, `id, (x y), (x y), (x y), (x y)`, the corners in the tag's order with the library's pixel centres at
+/// integers), as id and corners in vservo's pixels (+ ½): the reference of the real-photograph tests.
+pub fn read_apriltag_test_detections(path: &Path) -> Result<Vec<(u32, [Point2<f64>; 4])>, SourceError> {
+    let error = |reason: String| SourceError::Image { path: path.display().to_string(), reason };
+    let text = std::fs::read_to_string(path).map_err(|e| error(e.to_string()))?;
+    let mut detections = Vec::new();
+    for (number, line) in text.lines().enumerate().filter(|(_, line)| !line.trim().is_empty()) {
+        let values: Vec<f64> = line
+            .split(|c: char| c == ',' || c == '(' || c == ')' || c.is_whitespace())
+            .filter(|s| !s.is_empty())
+            .map(str::parse)
+            .collect::<Result<_, _>>()
+            .map_err(|e| error(format!("line {}: {e}", number + 1)))?;
+        if values.len() != 9 || values[0] < 0.0 || values[0].fract() != 0.0 {
+            return Err(error(format!("line {}: not `id, (x y), (x y), (x y), (x y)`", number + 1)));
+        }
+        let corners = std::array::from_fn(|k| Point2::new(values[1 + 2 * k] + 0.5, values[2 + 2 * k] + 0.5));
+        detections.push((values[0] as u32, corners));
+    }
+    Ok(detections)
 }
 
 /// A JPEG's luma channel, decoded alone.

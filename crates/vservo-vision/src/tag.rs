@@ -21,7 +21,7 @@ use image::GrayImage;
 use nalgebra::Point2;
 use vservo_scene::{CameraIntrinsics, FeatureVector, MARKS};
 
-use crate::extract::{Extraction, MarkStatus};
+use crate::extract::{Extraction, ImageProblem, MarkStatus};
 use crate::tag_refine::{Straight, refine_corners};
 
 /// Pixels added on every side of the previous detection's bounding box to make the search region, at least.
@@ -52,6 +52,8 @@ pub enum TagVerdict {
     WrongId(u32),
     /// The configured id was detected more than once (which would be which?): the count.
     Repeated(usize),
+    /// The image cannot be used (not the camera's size).
+    Unusable(ImageProblem),
     /// The configured tag, but its corner `k` (zero-based, the tag's order) is outside the image.
     CornerOutside(usize),
     /// The configured tag, but its corner `k` could not be refined and lies nearer the image's edge than the
@@ -67,6 +69,7 @@ impl TagVerdict {
             TagVerdict::NotFound => "tag not found".into(),
             TagVerdict::WrongId(id) => format!("another tag found (id {id})"),
             TagVerdict::Repeated(count) => format!("the tag's id is seen {count} times"),
+            TagVerdict::Unusable(problem) => problem.to_string(),
             TagVerdict::CornerOutside(k) => format!("tag corner {} outside the image", k + 1),
             TagVerdict::CornerAtTheEdge(k) => {
                 format!("tag corner {} too near the image's edge to measure", k + 1)
@@ -127,7 +130,10 @@ impl TagExtraction {
         let status = match self.verdict {
             TagVerdict::Found => MarkStatus::Valid,
             TagVerdict::CornerOutside(_) | TagVerdict::CornerAtTheEdge(_) => MarkStatus::OutsideImage,
-            TagVerdict::NotFound | TagVerdict::WrongId(_) | TagVerdict::Repeated(_) => MarkStatus::NotFound,
+            TagVerdict::NotFound
+            | TagVerdict::WrongId(_)
+            | TagVerdict::Repeated(_)
+            | TagVerdict::Unusable(_) => MarkStatus::NotFound,
         };
         Extraction {
             features: self.features,
@@ -211,7 +217,12 @@ impl TagExtractor {
     /// The tag in `image`, looked for first near `previous` (the last frame's corners, if it had them).
     pub fn extract(&self, image: &GrayImage, previous: Option<&FeatureVector>) -> TagExtraction {
         if image.width() != self.width_px || image.height() != self.height_px {
-            return TagExtraction::refused(TagVerdict::NotFound);
+            return TagExtraction::refused(TagVerdict::Unusable(ImageProblem::WrongSize {
+                width: self.width_px,
+                height: self.height_px,
+                got_width: image.width(),
+                got_height: image.height(),
+            }));
         }
         let region = previous.and_then(|p| self.search_region(p));
         if let Some(region) = region {

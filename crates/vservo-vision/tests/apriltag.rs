@@ -183,6 +183,7 @@ fn a_board_jump_that_takes_the_tag_partly_out_of_view_gives_a_verdict_never_wron
             }
             TagVerdict::WrongId(id) => panic!("shift {shift}: id {id} read from a tag partly out of view"),
             TagVerdict::Repeated(count) => panic!("shift {shift}: one tag seen {count} times"),
+            TagVerdict::Unusable(problem) => panic!("shift {shift}: {problem}"),
         }
     }
     assert!(refused >= 10, "the jumps took the tag out of view {refused} times");

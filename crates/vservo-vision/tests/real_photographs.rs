@@ -45,25 +45,12 @@ fn photographs() -> Vec<(PathBuf, GrayImage, Vec<Expected>)> {
         .collect()
 }
 
-/// The C library's test's lines: `id, (x y), (x y), (x y), (x y)`.
+/// The C library's test's detections of one photograph.
 fn expected_tags(path: &Path) -> Vec<Expected> {
-    let text = std::fs::read_to_string(path).expect("the expected detections");
-    text.lines()
-        .filter(|line| !line.trim().is_empty())
-        .map(|line| {
-            let numbers: Vec<f64> = line
-                .split(|c: char| c == ',' || c == '(' || c == ')' || c.is_whitespace())
-                .filter(|s| !s.is_empty())
-                .map(|s| s.parse().expect("a number"))
-                .collect();
-            assert_eq!(numbers.len(), 9, "{line}");
-            Expected {
-                id: numbers[0] as u32,
-                corners: std::array::from_fn(|k| {
-                    Point2::new(numbers[1 + 2 * k] + 0.5, numbers[2 + 2 * k] + 0.5)
-                }),
-            }
-        })
+    vservo_vision::source::read_apriltag_test_detections(path)
+        .expect("the expected detections")
+        .into_iter()
+        .map(|(id, corners)| Expected { id, corners })
         .collect()
 }
 

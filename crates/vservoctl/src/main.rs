@@ -147,7 +147,8 @@ enum Command {
     /// The cell a configuration describes (arm, camera, board, start joints, periods) as JSON, for drivers.
     Scene(scene::SceneArgs),
     /// What the camera of a running instance sees now, as a PNG: the newest image with the marks found, where
-    /// the servo wants them and the error between; the frame's numbers as JSON.
+    /// the servo wants them and the error between, and every tag in view outlined with its id; the frame's
+    /// numbers as JSON.
     Snapshot(snapshot::SnapshotArgs),
     /// A calibration board (a grid of AprilTags) as an SVG to print at scale, and its layout as JSON.
     Board(board::BoardArgs),

@@ -1,6 +1,8 @@
 //! `vservoctl snapshot`: what the camera of a running instance sees now, as a PNG a person can look at without
 //! Foxglove: the newest camera image with its marks drawn on it (`crate::annotate`: found, wanted by the gains
-//! in force, the error). The frame's numbers (its features, ξ_d, the error) are printed as one JSON object.
+//! in force, the error), and every tag36h11 tag in view outlined with its id (the target's green, the others
+//! yellow; found as `vservoctl tags` finds them). The frame's numbers (its features, ξ_d, the error, the tags)
+//! are printed as one JSON object.
 //!
 //! The image and the features are of the same frame (the features message names its frame).
 
@@ -63,6 +65,12 @@ pub fn run(args: &SnapshotArgs) -> anyhow::Result<()> {
         if config.cell.vision.undistort { config.cell.camera.observed_of_pinhole(&point) } else { point }
     };
     let mut picture = annotate::gray_to_rgb(frame.width, frame.height, frame.width, &frame.pixels);
+    let tags = tags_in_view(&frame, &config.cell.camera);
+    let target_id = config.cell.board.apriltag().map(|tag| tag.id());
+    for tag in &tags {
+        let colour = if target_id == Some(tag.id) { annotate::FOUND } else { annotate::ERROR };
+        annotate::draw_tag(&mut picture, &tag.corners, tag.id, colour);
+    }
     let drawn = annotate::draw_marks(
         &mut picture,
         &frame.features.features_px,
@@ -92,9 +100,30 @@ pub fn run(args: &SnapshotArgs) -> anyhow::Result<()> {
         "features_px": frame.features.features_px.map(|v| if v.is_finite() { Some(v) } else { None }),
         "desired_features_px": desired,
         "marks": marks,
+        "tags": tags.iter().map(|tag| json!({
+            "id": tag.id,
+            "corners_px": tag.corners.map(|c| [c.x, c.y]),
+            "refined": tag.quality.refined,
+            "target": target_id == Some(tag.id),
+        })).collect::<Vec<_>>(),
     });
     print_stdout(&format!("{summary}\n"))?;
     Ok(())
+}
+
+/// Every tag36h11 tag in the frame (as `vservoctl tags` finds them), its edges straight through the camera's lens.
+fn tags_in_view(frame: &Frame, camera: &vservo_scene::CameraIntrinsics) -> Vec<vservo_vision::TagDetection> {
+    let Some(gray) = vservo_vision::GrayImage::from_raw(frame.width, frame.height, frame.pixels.clone())
+    else {
+        return Vec::new();
+    };
+    let fits = (camera.width_px(), camera.height_px()) == (frame.width, frame.height);
+    let straight = if fits && !camera.distortion().is_none() {
+        vservo_vision::tag_refine::Straight::OnPinhole(camera)
+    } else {
+        vservo_vision::tag_refine::Straight::InImage
+    };
+    vservo_vision::tag::detect_tags(&gray, straight)
 }
 
 /// The newest camera image whose features have come, within `until`.

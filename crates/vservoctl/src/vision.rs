@@ -93,19 +93,6 @@ fn render(args: &RenderArgs) -> Result<()> {
 fn extract(args: &ExtractArgs) -> Result<()> {
     let config = args.config.load()?;
     let (image, _) = read_image_as_gray(&args.image).map_err(|e| UsageError(e.to_string()))?;
-    let camera_size = (config.cell.camera.width_px(), config.cell.camera.height_px());
-    if image.dimensions() != camera_size {
-        return Err(UsageError(format!(
-            "{}: the picture is {}×{}, the configured camera {}×{}: the features are in the camera's pixels \
-             (`vservoctl tags` lists the tags in a picture of any size)",
-            args.image.display(),
-            image.width(),
-            image.height(),
-            camera_size.0,
-            camera_size.1
-        ))
-        .into());
-    }
     let mut extractor = Extractor::new(
         config.cell.vision.extractor,
         config.cell.camera.width_px(),
