@@ -74,10 +74,13 @@ pub fn read_image_as_gray(path: &Path) -> Result<(GrayImage, image::ColorType), 
     Ok((gray, colour))
 }
 
+/// One detection of the AprilTag C library's test data: the id and the corners (px, the tag's order).
+pub type TestDetection = (u32, [Point2<f64>; 4]);
+
 /// The detections the AprilTag C library's own test data lists beside a picture (its `test/data/*.txt`: one tag a
 /// line, `id, (x y), (x y), (x y), (x y)`, the corners in the tag's order with the library's pixel centres at
 /// integers), as id and corners in vservo's pixels (+ ½): the reference of the real-photograph tests.
-pub fn read_apriltag_test_detections(path: &Path) -> Result<Vec<(u32, [Point2<f64>; 4])>, SourceError> {
+pub fn read_apriltag_test_detections(path: &Path) -> Result<Vec<TestDetection>, SourceError> {
     let error = |reason: String| SourceError::Image { path: path.display().to_string(), reason };
     let text = std::fs::read_to_string(path).map_err(|e| error(e.to_string()))?;
     let mut detections = Vec::new();
