@@ -20,11 +20,18 @@ case "${1:-}" in
     *) echo "package-deb: unknown argument $1 (expected [--profile release|dev])" >&2; exit 2 ;;
 esac
 case "${profile}" in
-    release) out=target/release ;;
-    dev) out=target/debug ;;
+    release)
+        out=target/release
+        cargo build --release --locked -p vservod -p vservoctl -p vservo-ros2 -p vservo-franka-driver
+        ;;
+    dev)
+        # the very build the tests ran (every target of the workspace: built for only these packages, some
+        # dependencies would take other features and be built again)
+        out=target/debug
+        cargo build --workspace --all-targets --locked
+        ;;
     *) echo "package-deb: --profile is release or dev" >&2; exit 2 ;;
 esac
-cargo build --profile "${profile}" --locked -p vservod -p vservoctl -p vservo-ros2 -p vservo-franka-driver
 
 stage="target/debian/stage"
 rm -rf "${stage}"
