@@ -34,6 +34,16 @@ pub enum Straight<'a> {
     OnPinhole(&'a CameraIntrinsics),
 }
 
+impl<'a> Straight<'a> {
+    /// Where the edges are straight in a picture of `width_px` × `height_px` from `camera`: on its pinhole image
+    /// when the picture is the camera's size and its lens distorts, else in the picture itself (a picture of
+    /// another size is not the camera's, and its lens does not apply).
+    pub fn for_picture(camera: &'a CameraIntrinsics, width_px: u32, height_px: u32) -> Self {
+        let fits = (camera.width_px(), camera.height_px()) == (width_px, height_px);
+        if fits && !camera.distortion().is_none() { Straight::OnPinhole(camera) } else { Straight::InImage }
+    }
+}
+
 impl Straight<'_> {
     /// An image point where edges are straight; `None` where the lens has no undistorted point.
     fn of_image(&self, point: Point2<f64>) -> Option<Point2<f64>> {

@@ -117,12 +117,7 @@ fn tags_in_view(frame: &Frame, camera: &vservo_scene::CameraIntrinsics) -> Vec<v
     else {
         return Vec::new();
     };
-    let fits = (camera.width_px(), camera.height_px()) == (frame.width, frame.height);
-    let straight = if fits && !camera.distortion().is_none() {
-        vservo_vision::tag_refine::Straight::OnPinhole(camera)
-    } else {
-        vservo_vision::tag_refine::Straight::InImage
-    };
+    let straight = vservo_vision::tag_refine::Straight::for_picture(camera, frame.width, frame.height);
     vservo_vision::tag::detect_tags(&gray, straight)
 }
 

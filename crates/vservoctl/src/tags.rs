@@ -106,7 +106,8 @@ fn look_at(path: &Path, camera: Option<&Camera>) -> Result<Seen> {
             )),
         ),
     };
-    let straight = lens.as_ref().map_or(Straight::InImage, Straight::OnPinhole);
+    let straight =
+        camera.map_or(Straight::InImage, |c| Straight::for_picture(&c.intrinsics, width_px, height_px));
     let began = Instant::now();
     let detections = detect_tags(&gray, straight);
     let detect_ms = began.elapsed().as_secs_f64() * 1e3;
