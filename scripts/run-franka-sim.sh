@@ -6,7 +6,7 @@
 # rendering the board from the arm's measured joints.
 #
 #   scripts/run-franka-sim.sh [--config FILE] [--start default|medium] [--duration-s S] [--no-jerk-limit]
-#                             [--fault driver-stopped|daemon-killed] [--reference] [--json]
+#                             [--fault driver-stopped|daemon-killed|held-takeover|udp-spoof] [--reference] [--json]
 #
 # The run as a user's first motion would go: the cell starts held; `vservoctl resume`; `vservoctl move-joints` to
 # the start (the configuration's scenario start, or with --start medium one 8–10 cm and 8–12° away in each axis);
@@ -16,7 +16,13 @@
 # --fault, 1 s into servoing: driver-stopped SIGSTOPs the Franka driver for 100 ms (the robot stops itself, the cell
 # stops safely; the status then is `fault_status`), then `vservoctl resume` (the robot's error recovery, a new
 # motion) and the recording; daemon-killed SIGKILLs vservod while the arm moves (its driver brings the arm to rest
-# and finishes the motion; `driver_finished`), and nothing is recorded.
+# and finishes the motion; `driver_finished`), and nothing is recorded. held-takeover is issue 46's attack on the
+# held cell, before any resume: a process of the same user SIGKILLs the rmrc, takes its joint_command slot and answers
+# each joint state with 0.3 rad/s on joint 1, unsealed, for 3 s (tests/python/takeover_attack.py); the summary's
+# `attack` says how far joint 1 moved (the robot's measured angle), and `rogue_named` whether vservod's log names the
+# attacker's pid; nothing is recorded. udp-spoof, 1 s into servoing: a local process finds the driver's UDP port and
+# sends it a 10-byte datagram and 200 states numbered ahead of the robot's (tests/python/udp_spoof.py, its JSON in
+# the summary's `spoof`); the run goes on and is recorded, and the driver's `datagrams_dropped` counts them.
 # --reference runs no vservo at all: a bare FCI client (crates/vservo-franka/examples/fci_smoke.rs, SCHED_FIFO 50
 # where permitted: a slow 0.02 rad/s bump on joint 1 for DURATION seconds) against the same franka-sim, the
 # reference for what the simulator's own timing on this machine leaves of the success rate (its JSON:
@@ -53,8 +59,8 @@ while [ $# -gt 0 ]; do
     esac
 done
 case "$start" in default|medium) ;; *) echo "run-franka-sim: --start is default or medium" >&2; exit 2 ;; esac
-case "$fault" in ""|driver-stopped|daemon-killed) ;;
-    *) echo "run-franka-sim: --fault is driver-stopped or daemon-killed" >&2; exit 2 ;; esac
+case "$fault" in ""|driver-stopped|daemon-killed|held-takeover|udp-spoof) ;;
+    *) echo "run-franka-sim: --fault is driver-stopped, daemon-killed, held-takeover or udp-spoof" >&2; exit 2 ;; esac
 [ -f "$config" ] || { echo "run-franka-sim: $config: no such file" >&2; exit 2; }
 config="$(cd "$(dirname "$config")" && pwd)/$(basename "$config")"
 python=target/python-venv/bin/python
@@ -161,6 +167,36 @@ pids+=("$vservod")
 say "run-franka-sim: franka-sim on port $port, vservod and its Franka driver run (logs in $out/)"
 wait_for_cell "$instance" "$out"
 
+# driver_summary: the Franka driver's JSON line from the log (the run's last, once it has ended)
+driver_summary() {
+    local line
+    line="$(grep -h 'franka-summary: ' "$out/vservod.log" | tail -1 | sed 's/.*franka-summary: //')"
+    if [ -n "$line" ]; then
+        echo "$line"
+    else
+        echo '{"reflex_errors": ["the driver wrote no summary (see vservod.log)"]}'
+    fi
+}
+
+if [ "$fault" = held-takeover ]; then
+    "$vservoctl" status --instance "$instance" --json > "$out/status-held.json" 2>&1 || true
+    attack="$("$python" tests/python/takeover_attack.py "$instance" 1 0.3 3 2> "$out/attack.log")" ||
+        { echo "run-franka-sim: the attack did not run (see $out/attack.log)" >&2; exit 1; }
+    "$vservoctl" status --instance "$instance" --json > "$out/status-attack.json" 2>&1 || true
+    stop_processes "$vservod"
+    wait "$vservod" 2>/dev/null || true
+    cleanup
+    trap - EXIT
+    attacker="$("$python" -c 'import json,sys; print(json.loads(sys.argv[1])["attacker_pid"])' "$attack")"
+    named=false
+    grep "stream taken" "$out/vservod.log" | grep -q "pid=$attacker" && named=true
+    summary="$(merge_json "$(driver_summary)" "{\"attack\": $attack, \"rogue_named\": $named}")"
+    say "run-franka-sim: $summary"
+    summary="$(with_run_folder "$summary")"
+    [ "$json" = 1 ] && echo "$summary"
+    exit 0
+fi
+
 # the cell starts held: resume once the driver's states arrive, then move to the start and servo from there
 for _ in $(seq 100); do
     "$vservoctl" resume --instance "$instance" > "$out/resume.txt" 2>&1 && break
@@ -216,6 +252,12 @@ case "$fault" in
         done
         extra="$("$python" -c 'import json,sys; s=json.load(open(sys.argv[1])); print(json.dumps({"fault_status": s.get("fault"), "resumed_after_fault": sys.argv[2] == "true"}))' "$out/status-fault.json" "$resumed")"
         ;;
+    udp-spoof)
+        sleep 1
+        spoof="$("$python" tests/python/udp_spoof.py "$driver_pid" 2> "$out/spoof.log")" ||
+            { echo "run-franka-sim: the spoofing did not run (see $out/spoof.log)" >&2; exit 1; }
+        extra="{\"spoof\": $spoof}"
+        ;;
     daemon-killed)
         sleep 1
         kill -KILL "$vservod"
@@ -243,8 +285,7 @@ if [ "$fault" != daemon-killed ]; then
     limits="$("$python" scripts/command_limits.py "$out/commands.jsonl" "$out/scene.json" |
         "$python" -c 'import json,sys; d=json.load(sys.stdin); print(json.dumps({"rmrc_max_jerk_ratio": d["max_jerk_ratio"], "rmrc_max_acceleration_ratio": d["max_acceleration_ratio"]}))')"
 fi
-driver="$(grep -h 'franka-summary: ' "$out/vservod.log" | tail -1 | sed 's/.*franka-summary: //')"
-[ -n "$driver" ] || driver='{"reflex_errors": ["the driver wrote no summary (see vservod.log)"]}'
+driver="$(driver_summary)"
 summary="$(merge_json "$(merge_json "$(merge_json "$summary" "$limits")" "$driver")" "$extra")"
 violations="$(grep -c 'communication_constraints_violation' "$out/franka-sim.log" || true)"
 summary="$(merge_json "$summary" "{\"sim_log_communication_violations\": ${violations:-0}, \"moved_to_start\": $([ "$moved" = 1 ] && echo true || echo false)}")"

@@ -126,3 +126,35 @@ fn two_runs_at_once_keep_their_own_folders() {
         assert!(run_file(summary, "vservod.log").contains(instance), "{instance} in its own log");
     }
 }
+
+/// Issue 46's takeover of a held Franka cell: before any resume, a process of the daemon's user SIGKILLs the rmrc,
+/// takes its `joint_command` slot and answers each joint state with 0.3 rad/s on joint 1, unsealed, for 3 s. The
+/// Franka driver takes none of it (not the rmrc's seal) and the robot's joint 1 does not move (it moved 0.606 rad
+/// before the driver checked the seal); vservod names the attacker's pid.
+#[test]
+fn a_rogue_that_takes_a_held_cells_command_stream_moves_nothing_and_is_named() {
+    let _one = exclusive();
+    let summary = run_franka_sim(&["--fault", "held-takeover"]);
+    let attack = &summary["attack"];
+    assert!(number(attack, "sent") > 1000.0, "the premise: the rogue answered the states for 3 s: {summary}");
+    assert!(number(attack, "moved_rad") < 1e-3, "joint 1 moved: {summary}");
+    assert!(number(attack, "fastest_rad_s") < 1e-3, "{summary}");
+    assert!(number(&summary, "commands_refused") >= number(attack, "sent"), "every rogue command: {summary}");
+    assert_eq!(attack["state_before"], attack["state_after"], "the cell stays held: {summary}");
+    assert_eq!(summary["rogue_named"], true, "{summary}");
+    assert!(reflexes(&summary).is_empty(), "{summary}");
+}
+
+/// Issue 46's attack on the Franka driver's state stream: 1 s into servoing a local process finds the driver's UDP
+/// port and sends it one 10-byte datagram and 200 states numbered ahead of the robot's. The driver drops and counts
+/// all 201 (not from the robot), answers the robot only, and the loop converges with no reflex (the 10-byte datagram
+/// once ended the driver with the motion running, and the spoofed states took the stream over).
+#[test]
+fn datagrams_spoofed_to_the_drivers_udp_port_change_nothing_and_the_motion_goes_on() {
+    let _one = exclusive();
+    let summary = run_script_to_convergence("run-franka-sim.sh", &["--fault", "udp-spoof"]);
+    assert_eq!(summary["spoof"]["sent_states"], 200, "the premise: the spoofer sent: {summary}");
+    assert!(summary["spoof"]["driver_udp"].as_str().is_some_and(|a| !a.starts_with("0.0.0.0")), "{summary}");
+    assert_eq!(number(&summary["datagrams_dropped"], "foreign"), 201.0, "{summary}");
+    assert_the_robot_accepted_every_command(&summary);
+}

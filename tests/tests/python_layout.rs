@@ -79,7 +79,8 @@ fn the_python_clients_codes_are_the_rust_enums() {
 /// The Python reference drivers take a command by the Rust driver side's rule: clients/python/vservo_driver.py's
 /// `refusal` and `vservo_driver::DriverSide::take_command` are handed the same commands — one valid, and one
 /// broken in each way the contract names, at each edge of the age window — and refuse the same ones for the same
-/// cause.
+/// cause. The Rust side is handed each command as the rmrc sealed it: the seal is the part a driver without the
+/// run's key (a third party's, started by the user) cannot check; the drivers vservod starts check it first.
 #[test]
 fn the_python_drivers_take_a_command_by_the_rust_driver_sides_rule() {
     use vservo_driver::{DriverSettings, DriverSide, MAX_COMMAND_AGE_TICKS, Measured};
@@ -94,9 +95,11 @@ fn the_python_drivers_take_a_command_by_the_rust_driver_sides_rule() {
         position_min_rad: [-10.0; MAX_JOINTS],
         position_max_rad: [10.0; MAX_JOINTS],
         velocity_max_rad_s: [10.0; MAX_JOINTS],
+        braking_gain_rad_s: [0.0; MAX_JOINTS],
     };
+    let key = vservo_protocol::seal::SealKey::random().expect("a key");
     let published = |last: Option<u64>| {
-        let mut side = DriverSide::new(settings.clone(), EPOCH);
+        let mut side = DriverSide::new(settings.clone(), EPOCH, Some(key.clone()));
         let at_rest = Measured {
             q_rad: [0.0; MAX_JOINTS],
             qd_rad_s: [0.0; MAX_JOINTS],
@@ -173,7 +176,9 @@ fn the_python_drivers_take_a_command_by_the_rust_driver_sides_rule() {
     assert_eq!(python_verdicts.len(), cases.len());
     let mut causes = std::collections::BTreeSet::new();
     for ((command, last), python) in cases.iter().zip(&python_verdicts) {
-        let rust = published(*last).take_command(command, 0).err().map(|refused| refused.kind());
+        let mut sealed = *command;
+        key.sign(&mut sealed);
+        let rust = published(*last).take_command(&sealed, 0).err().map(|refused| refused.kind());
         causes.insert(rust);
         assert_eq!(python, &serde_json::json!(rust), "answers {} with last {last:?}", command.answers_tick);
     }

@@ -1,10 +1,13 @@
 //! [`DriverSide`]: what a robot driver does with the rmrc's commands and its own joint states.
 
 use vservo_wire::messages::fault_bits;
+use vservo_wire::seal::{SealKey, sealed_by};
 use vservo_wire::{
-    CommandMode, DriverError, DriverStatus, JointCommandMsg, JointStateMsg, MAX_JOINTS, SCHEMA_VERSION,
+    CellMode, CellModeMsg, CommandMode, DriverError, DriverStatus, JointCommandMsg, JointStateMsg,
+    MAX_JOINTS, SCHEMA_VERSION,
 };
 
+use crate::held::HeldEnvelope;
 use crate::period::PeriodCheck;
 
 /// A command must answer the joint state last published or one of the two before it (docs/DRIVERS.md, "When to
@@ -28,11 +31,40 @@ pub struct DriverSettings {
     pub position_max_rad: [f64; MAX_JOINTS],
     /// Each joint's speed limit (rad/s), for the velocity-limit bits.
     pub velocity_max_rad_s: [f64; MAX_JOINTS],
+    /// The speed each joint may still gain once a ramp to rest has begun (rad/s): [`speed_gained_braking`]
+    /// of its acceleration and jerk limits; what a held cell's commands may add to the speed in force.
+    pub braking_gain_rad_s: [f64; MAX_JOINTS],
+}
+
+/// The speed a joint still gains while a jerk-limited ramp to rest takes its acceleration (at most
+/// `acceleration` rad/s²) down to zero at `jerk` rad/s³: a²/(2j) (zero without a jerk limit, where the
+/// acceleration can drop at once).
+pub fn speed_gained_braking(acceleration: f64, jerk: f64) -> f64 {
+    let gained = acceleration * acceleration / (2.0 * jerk);
+    if gained.is_finite() { gained } else { 0.0 }
 }
 
 /// Why a `joint_command` is not taken.
 #[derive(Debug, Clone, Copy, PartialEq, thiserror::Error)]
 pub enum CommandRefused {
+    /// It does not carry the seal of the run's key: not the rmrc's (docs/PROTOCOL.md, "Seals"). The driver
+    /// holds the arm at once: the rmrc is gone, or someone else writes its stream.
+    #[error("it is not sealed by the rmrc (someone else writes joint_command, or this driver has no key)")]
+    Unsealed,
+    /// The cell is held (a safe stop) and it does not bring the arm to rest: a joint faster than the speed in
+    /// force when the hold began (plus what a ramp to rest still gains), or turned around.
+    #[error(
+        "the cell is held and joint {} would go at {speed_rad_s:.4} rad/s, beyond its ramp to rest (at most {envelope_rad_s:.4} rad/s, same direction)",
+        .joint + 1
+    )]
+    NotTowardsRest {
+        /// The joint (zero-based).
+        joint: usize,
+        /// The speed it asks for (rad/s, signed).
+        speed_rad_s: f64,
+        /// The most a ramp to rest may ask (rad/s).
+        envelope_rad_s: f64,
+    },
     /// Another schema's message (docs/PROTOCOL.md's changelog).
     #[error("schema {found}, not this driver's {SCHEMA_VERSION}")]
     Schema {
@@ -94,6 +126,8 @@ impl CommandRefused {
     /// The kind of refusal, for a log that says each kind once and counts the rest.
     pub fn kind(&self) -> &'static str {
         match self {
+            CommandRefused::Unsealed => "unsealed",
+            CommandRefused::NotTowardsRest { .. } => "not towards rest",
             CommandRefused::Schema { .. } => "schema",
             CommandRefused::Epoch { .. } => "epoch",
             CommandRefused::Mode { .. } => "mode",
@@ -127,6 +161,8 @@ pub struct DriverCounts {
     pub commands_refused: u64,
     /// Periods held (no command in force).
     pub holds: u64,
+    /// Cell modes not sealed by the daemon: ignored.
+    pub modes_refused: u64,
 }
 
 /// The driver's side of the contract between its joint states.
@@ -140,13 +176,21 @@ pub struct DriverSide {
     /// The `answers_tick` of the command applied over the period running (2⁶⁴−1: holding).
     applying: u64,
     period: PeriodCheck,
+    /// The run's key: only commands sealed with it are taken (none: nothing is taken).
+    key: Option<SealKey>,
+    /// The cell's mode as the daemon last sealed it, and its sequence.
+    cell: Option<(CellMode, u64)>,
+    /// While the cell is held: what its commands may still ask of each joint.
+    held: Option<HeldEnvelope>,
     /// What happened so far.
     pub counts: DriverCounts,
 }
 
 impl DriverSide {
-    /// A driver run that starts now: `epoch` is its start time (ns), as docs/DRIVERS.md asks.
-    pub fn new(settings: DriverSettings, epoch: u64) -> Self {
+    /// A driver run that starts now: `epoch` is its start time (ns), as docs/DRIVERS.md asks; `key`, the run's
+    /// seal key as vservod hands it to the processes it starts (without it no command is taken: none can be
+    /// the rmrc's).
+    pub fn new(settings: DriverSettings, epoch: u64, key: Option<SealKey>) -> Self {
         Self {
             settings,
             epoch,
@@ -154,8 +198,42 @@ impl DriverSide {
             in_force: None,
             applying: u64::MAX,
             period: PeriodCheck::default(),
+            key,
+            cell: None,
+            held: None,
             counts: DriverCounts::default(),
         }
+    }
+
+    /// The cell's mode from the daemon (`cell_mode`): taken when sealed by the daemon and newer than the last.
+    /// A safe stop holds the cell: from then until it servos or moves again, a command is taken only if it brings
+    /// the arm to rest from the speed in force (velocity commands; see [`CommandRefused::NotTowardsRest`]).
+    pub fn cell_mode(&mut self, message: &CellModeMsg) {
+        let Ok(mode) = CellMode::try_from(message.mode) else {
+            self.counts.modes_refused += 1;
+            return;
+        };
+        if !sealed_by(self.key.as_ref(), message) {
+            self.counts.modes_refused += 1;
+            return;
+        }
+        if self.cell.is_some_and(|(_, sequence)| message.sequence <= sequence) {
+            return;
+        }
+        self.cell = Some((mode, message.sequence));
+        self.held = match (mode, self.held) {
+            (CellMode::SafeStop, Some(held)) => Some(held),
+            (CellMode::SafeStop, None) => Some(HeldEnvelope::from_speed(
+                self.in_force.filter(|_| self.settings.mode == CommandMode::Velocity).map(|c| c.values),
+                &self.settings.braking_gain_rad_s,
+            )),
+            _ => None,
+        };
+    }
+
+    /// The cell's mode as last taken.
+    pub fn mode(&self) -> Option<(CellMode, u64)> {
+        self.cell
     }
 
     /// This run's `driver_epoch`.
@@ -178,6 +256,9 @@ impl DriverSide {
         let admitted = self.admit(command);
         match admitted {
             Ok(values) => {
+                if let Some(held) = self.held.as_mut() {
+                    held.took(&values[..self.settings.joint_count]);
+                }
                 let answers_tick = command.answers_tick;
                 self.in_force = Some(InForce { values, answers_tick, taken_ns: now_ns });
                 self.counts.commands_taken += 1;
@@ -185,6 +266,11 @@ impl DriverSide {
             }
             Err(refused) => {
                 self.counts.commands_refused += 1;
+                if refused == CommandRefused::Unsealed {
+                    // the rmrc's stream in someone else's hands: the arm is brought to rest now, not after
+                    // hold_after
+                    self.in_force = None;
+                }
                 Err(refused)
             }
         }
@@ -192,6 +278,9 @@ impl DriverSide {
 
     fn admit(&self, command: &JointCommandMsg) -> Result<[f64; MAX_JOINTS], CommandRefused> {
         let s = &self.settings;
+        if !sealed_by(self.key.as_ref(), command) {
+            return Err(CommandRefused::Unsealed);
+        }
         if command.schema != SCHEMA_VERSION {
             return Err(CommandRefused::Schema { found: command.schema });
         }
@@ -217,10 +306,15 @@ impl DriverSide {
             CommandMode::Position => command.q_ref_rad,
             CommandMode::Torque => command.torque_nm,
         };
-        match values[..s.joint_count].iter().position(|v| !v.is_finite()) {
-            Some(joint) => Err(CommandRefused::NotFinite { joint }),
-            None => Ok(values),
+        if let Some(joint) = values[..s.joint_count].iter().position(|v| !v.is_finite()) {
+            return Err(CommandRefused::NotFinite { joint });
         }
+        if let Some(held) = &self.held
+            && s.mode == CommandMode::Velocity
+        {
+            held.admits(&values[..s.joint_count])?;
+        }
+        Ok(values)
     }
 
     /// The command to apply over the period that starts at `now_ns`: the one in force, if it was taken within
@@ -330,6 +424,10 @@ mod tests {
 
     const MS: u64 = 1_000_000;
 
+    fn key() -> SealKey {
+        SealKey::from_hex(b"000102030405060708090a0b0c0d0e0f").expect("a key")
+    }
+
     fn side() -> DriverSide {
         let settings = DriverSettings {
             mode: CommandMode::Velocity,
@@ -339,8 +437,21 @@ mod tests {
             position_min_rad: [-2.0; MAX_JOINTS],
             position_max_rad: [2.0; MAX_JOINTS],
             velocity_max_rad_s: [1.0; MAX_JOINTS],
+            braking_gain_rad_s: [speed_gained_braking(10.0, 5000.0); MAX_JOINTS],
         };
-        DriverSide::new(settings, 42)
+        DriverSide::new(settings, 42, Some(key()))
+    }
+
+    fn sealed(mut command: JointCommandMsg) -> JointCommandMsg {
+        key().sign(&mut command);
+        command
+    }
+
+    fn mode(mode: CellMode, sequence: u64) -> CellModeMsg {
+        let mut message =
+            CellModeMsg { schema: SCHEMA_VERSION, mode: mode.code(), sequence, ..CellModeMsg::default() };
+        key().sign(&mut message);
+        message
     }
 
     fn at_rest() -> Measured {
@@ -348,7 +459,7 @@ mod tests {
     }
 
     fn command(answers_tick: u64, qd: f64) -> JointCommandMsg {
-        JointCommandMsg {
+        sealed(JointCommandMsg {
             schema: SCHEMA_VERSION,
             mode: CommandMode::Velocity.code(),
             joint_count: 7,
@@ -356,7 +467,7 @@ mod tests {
             driver_epoch: 42,
             qd_ref_rad_s: [qd; MAX_JOINTS],
             ..JointCommandMsg::default()
-        }
+        })
     }
 
     #[test]
@@ -376,22 +487,68 @@ mod tests {
             Err(CommandRefused::TooOld { answers: 6, last_tick: 9 })
         );
         assert!(matches!(side.take_command(&command(10, 0.1), 0), Err(CommandRefused::NotPublished { .. })));
-        let other_run = JointCommandMsg { driver_epoch: 41, ..command(9, 0.1) };
+        let other_run = sealed(JointCommandMsg { driver_epoch: 41, ..command(9, 0.1) });
         assert_eq!(side.take_command(&other_run, 0), Err(CommandRefused::Epoch { found: 41, expected: 42 }));
-        let position = JointCommandMsg { mode: CommandMode::Position.code(), ..command(9, 0.1) };
+        let position = sealed(JointCommandMsg { mode: CommandMode::Position.code(), ..command(9, 0.1) });
         assert!(matches!(side.take_command(&position, 0), Err(CommandRefused::Mode { .. })));
-        let six = JointCommandMsg { joint_count: 6, ..command(9, 0.1) };
+        let six = sealed(JointCommandMsg { joint_count: 6, ..command(9, 0.1) });
         assert!(matches!(side.take_command(&six, 0), Err(CommandRefused::JointCount { found: 6, .. })));
         let mut nan = command(9, 0.1);
         nan.qd_ref_rad_s[3] = f64::NAN;
+        let nan = sealed(nan);
         assert_eq!(side.take_command(&nan, 0), Err(CommandRefused::NotFinite { joint: 3 }));
-        let old = JointCommandMsg { schema: SCHEMA_VERSION - 1, ..command(9, 0.1) };
+        let old = sealed(JointCommandMsg { schema: SCHEMA_VERSION - 1, ..command(9, 0.1) });
         assert!(matches!(side.take_command(&old, 0), Err(CommandRefused::Schema { .. })));
         assert_eq!(side.counts.commands_taken, 2);
         assert_eq!(side.counts.commands_refused, 8);
         // after the driver's own silence a command is as old as its tick says
         side.joint_state(60, 60 * MS, &at_rest(), None);
         assert!(matches!(side.take_command(&command(9, 0.1), 61 * MS), Err(CommandRefused::TooOld { .. })));
+    }
+
+    #[test]
+    fn an_unsealed_command_is_refused_and_holds_the_arm_at_once() {
+        let mut side = side();
+        side.joint_state(0, 0, &at_rest(), None);
+        side.take_command(&command(0, 0.3), 0).expect("the rmrc's");
+        assert!(side.apply(0).is_some());
+        let mut rogue = command(0, 0.3);
+        rogue.seal ^= 1;
+        assert_eq!(side.take_command(&rogue, MS / 2), Err(CommandRefused::Unsealed));
+        assert!(side.apply(MS / 2).is_none(), "held now, not after hold_after");
+        let mut without_a_key = DriverSide::new(side.settings().clone(), 42, None);
+        without_a_key.joint_state(0, 0, &at_rest(), None);
+        assert_eq!(without_a_key.take_command(&command(0, 0.0), 0), Err(CommandRefused::Unsealed));
+    }
+
+    #[test]
+    fn a_held_cell_takes_only_a_ramp_to_rest_and_only_the_daemons_mode_counts() {
+        let mut side = side();
+        side.joint_state(0, 0, &at_rest(), None);
+        side.cell_mode(&mode(CellMode::Servoing, 1));
+        side.take_command(&command(0, 0.3), 0).expect("servoing: any speed within the contract");
+        side.cell_mode(&mode(CellMode::SafeStop, 2));
+        assert_eq!(side.mode(), Some((CellMode::SafeStop, 2)));
+        for (tick, v) in [(1, 0.305), (2, 0.2), (3, 0.0)] {
+            side.joint_state(tick, tick * MS, &at_rest(), None);
+            side.take_command(&command(tick, v), tick * MS).expect("the ramp to rest");
+        }
+        side.joint_state(4, 4 * MS, &at_rest(), None);
+        assert!(matches!(
+            side.take_command(&command(4, 0.3), 4 * MS),
+            Err(CommandRefused::NotTowardsRest { joint: 0, .. })
+        ));
+        // a forged mode (not sealed by the daemon) changes nothing
+        let mut forged = mode(CellMode::Servoing, 3);
+        forged.seal ^= 1;
+        side.cell_mode(&forged);
+        assert_eq!(side.counts.modes_refused, 1);
+        assert!(side.take_command(&command(4, 0.3), 4 * MS).is_err(), "still held");
+        // an older one neither
+        side.cell_mode(&mode(CellMode::Servoing, 1));
+        assert!(side.take_command(&command(4, 0.3), 4 * MS).is_err(), "still held");
+        side.cell_mode(&mode(CellMode::Servoing, 3));
+        assert!(side.take_command(&command(4, 0.3), 4 * MS).is_ok(), "resumed");
     }
 
     #[test]

@@ -7,7 +7,7 @@ use iceoryx2::port::publisher::Publisher;
 use iceoryx2::port::subscriber::Subscriber;
 use iceoryx2::prelude::ipc;
 use vservo_protocol::inbox::TakeMessages;
-use vservo_protocol::{CellMode, CellModeMsg, JointCommandMsg, JointStateMsg, Topic};
+use vservo_protocol::{CellModeMsg, JointCommandMsg, JointStateMsg, Topic};
 
 /// The driver's ports on the instance.
 pub struct CellPorts {
@@ -15,8 +15,6 @@ pub struct CellPorts {
     wake: Notifier<ipc::Service>,
     commands: Subscriber<ipc::Service, JointCommandMsg, ()>,
     modes: Subscriber<ipc::Service, CellModeMsg, ()>,
-    /// The newest cell mode seen: its mode and sequence.
-    mode: Option<(CellMode, u64)>,
     _node: iceoryx2::node::Node<ipc::Service>,
 }
 
@@ -31,7 +29,6 @@ impl CellPorts {
             wake: vservo_protocol::notifier(&node, instance, Topic::JointState)?,
             commands: vservo_protocol::subscriber(&node, instance, Topic::JointCommand)?,
             modes: vservo_protocol::subscriber(&node, instance, Topic::CellMode)?,
-            mode: None,
             _node: node,
         })
     }
@@ -48,14 +45,9 @@ impl CellPorts {
         *refused += self.commands.each_message(taken);
     }
 
-    /// The cell's mode as last published, and its sequence.
-    pub fn mode(&mut self) -> Option<(CellMode, u64)> {
-        let mut ignored = 0;
-        if let Some(newest) = self.modes.newest_message(&mut ignored)
-            && let Ok(mode) = CellMode::try_from(newest.mode)
-        {
-            self.mode = Some((mode, newest.sequence));
-        }
-        self.mode
+    /// The newest cell mode published since the last look, if any (its seal is the driver side's to check).
+    pub fn newest_mode(&mut self) -> Option<CellModeMsg> {
+        let mut other_schema = 0;
+        self.modes.newest_message(&mut other_schema)
     }
 }

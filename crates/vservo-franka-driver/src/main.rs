@@ -45,11 +45,22 @@ struct Cli {
     /// Started by this vservod: end when it does, however it ends.
     #[arg(long, value_name = "PID", hide = true)]
     daemon_pid: Option<i32>,
+    /// Read the run's seal key from stdin, as vservod hands it: without it no command is the rmrc's, and none is
+    /// taken.
+    #[arg(long, hide = true)]
+    seal_key_stdin: bool,
 }
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
     vservo_driver::logging::to_stderr("info");
+    let key = match vservo_driver::seal_key(cli.seal_key_stdin) {
+        Ok(key) => key,
+        Err(error) => {
+            tracing::error!("{error:#}");
+            return ExitCode::from(2);
+        }
+    };
     let config = match vservo_config::Config::load(&cli.config) {
         Ok(config) => config,
         Err(error) => {
@@ -62,6 +73,6 @@ fn main() -> ExitCode {
         return ExitCode::from(2);
     };
     vservo_driver::logging::exit_code(vservo_protocol::signals::run_until_stopped(cli.daemon_pid, |stop| {
-        run::run(&config, &franka, stop)
+        run::run(&config, &franka, key.clone(), stop)
     }))
 }

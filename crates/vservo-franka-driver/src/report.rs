@@ -4,7 +4,7 @@
 
 use std::time::Duration;
 
-use vservo_franka::{MotionPhase, RobotState};
+use vservo_franka::{DroppedCounts, MotionPhase, RobotState};
 use vservo_protocol::MAX_JOINTS;
 
 use crate::run::monotonic_ns;
@@ -39,6 +39,8 @@ pub(crate) struct Report {
     motion_cycles: u64,
     /// The fastest joint's commanded speed when the stop came (rad/s).
     pub(crate) speed_at_stop_rad_s: Option<f64>,
+    /// The UDP datagrams dropped (not the robot's, not a state, an id jump).
+    dropped: DroppedCounts,
 }
 
 /// State → command latencies, counted per microsecond (no allocation per cycle).
@@ -104,7 +106,27 @@ impl Report {
             said_loss_ns: 0,
             motion_cycles: 0,
             speed_at_stop_rad_s: None,
+            dropped: DroppedCounts::default(),
         }
+    }
+
+    /// The connection's dropped datagrams: each kind said once in the log (as a warning: someone else is
+    /// sending to the driver's port, or the robot's stream is not what it should be), all counted.
+    pub(crate) fn datagrams(&mut self, dropped: &DroppedCounts) {
+        if dropped.total() == self.dropped.total() {
+            return;
+        }
+        if let Some(last) = dropped.last {
+            let kind = match last {
+                vservo_franka::Dropped::Foreign { .. } => "foreign datagram",
+                vservo_franka::Dropped::Malformed(_) => "malformed datagram",
+                vservo_franka::Dropped::IdJump { .. } => "message_id jump",
+            };
+            if self.said.insert(kind) {
+                tracing::warn!("dropped {last} (said once per kind; counted; the motion goes on)");
+            }
+        }
+        self.dropped = *dropped;
     }
 
     /// A velocity sent: the jerk it makes with the two before (the robot's measure).
@@ -185,7 +207,8 @@ impl Report {
              \"min_control_command_success_rate\": {}, \"mean_control_command_success_rate\": {}, \
              \"reflex_errors\": [{}], \"state_to_command_p50_us\": {}, \
              \"state_to_command_p99_us\": {}, \"state_to_command_max_us\": {}, \"max_joint_jerk_rad_s3\": {}, \
-             \"speed_at_stop_rad_s\": {}}}",
+             \"speed_at_stop_rad_s\": {}, \"datagrams_dropped\": {{\"foreign\": {}, \"malformed\": {}, \
+             \"id_jumps\": {}}}}}",
             self.cycles,
             self.late_answers,
             self.commands_refused,
@@ -197,6 +220,9 @@ impl Report {
             self.latencies.percentile_us(100.0),
             self.max_jerk_rad_s3,
             self.speed_at_stop_rad_s.unwrap_or(0.0),
+            self.dropped.foreign,
+            self.dropped.malformed,
+            self.dropped.id_jumps,
         );
     }
 }

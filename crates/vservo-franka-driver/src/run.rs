@@ -6,7 +6,7 @@ use std::time::Duration;
 
 use anyhow::Context as _;
 use vservo_config::{Config, Franka};
-use vservo_driver::{DriverSettings, DriverSide, Measured};
+use vservo_driver::{DriverSettings, DriverSide, Measured, speed_gained_braking};
 use vservo_franka::{Connection, JointVelocityCommand, MotionPhase, RobotErrors, RobotState};
 use vservo_protocol::{CellMode, CommandMode, DriverError, MAX_JOINTS};
 
@@ -27,7 +27,12 @@ const IDLE_PERIOD: Duration = Duration::from_millis(1);
 const FAULT_SHOWN_NS: u64 = 200_000_000;
 
 /// Runs until `stop` is set, then brings the arm to rest and ends the motion.
-pub fn run(config: &Config, franka: &Franka, stop: &AtomicBool) -> anyhow::Result<()> {
+pub fn run(
+    config: &Config,
+    franka: &Franka,
+    key: Option<vservo_protocol::seal::SealKey>,
+    stop: &AtomicBool,
+) -> anyhow::Result<()> {
     let stopped = || vservo_protocol::signals::stopped(stop);
     let waiting = |why: &_| tracing::info!("instance {:?}: {why}; waiting for vservod", config.instance);
     let Some(dir) = vservo_protocol::InstanceDir::locate_until(&config.instance, stopped, waiting)? else {
@@ -44,13 +49,15 @@ pub fn run(config: &Config, franka: &Franka, stop: &AtomicBool) -> anyhow::Resul
         config.instance
     );
     go_realtime(config);
-    let mut driver = Driver::new(config, franka, monotonic_ns());
+    let mut driver = Driver::new(config, franka, monotonic_ns(), key);
     driver.start_motion(&mut robot, None)?;
     loop {
         let stopping = vservo_protocol::signals::stopped(stop);
         // a robot that stopped its motion may send no states (franka-sim does not): the driver goes on alone
         let wait = if driver.moving() { STATE_TIMEOUT } else { IDLE_PERIOD };
-        let next = match robot.recv_state(wait) {
+        let received = robot.recv_state(wait);
+        driver.report.datagrams(robot.dropped());
+        let next = match received {
             Ok(state) => driver.cycle(&mut robot, &mut cell, &state, stopping)?,
             Err(vservo_franka::RecvStateError::Timeout { .. }) if !driver.moving() => {
                 driver.cycle_without_robot(&mut robot, &mut cell, stopping)?
@@ -144,7 +151,12 @@ struct Driver {
 }
 
 impl Driver {
-    fn new(config: &Config, franka: &Franka, epoch: u64) -> Self {
+    fn new(
+        config: &Config,
+        franka: &Franka,
+        epoch: u64,
+        key: Option<vservo_protocol::seal::SealKey>,
+    ) -> Self {
         let arm = &config.cell.arm;
         let joints = arm.joint_count();
         let mut settings = DriverSettings {
@@ -155,6 +167,7 @@ impl Driver {
             position_min_rad: [f64::NEG_INFINITY; MAX_JOINTS],
             position_max_rad: [f64::INFINITY; MAX_JOINTS],
             velocity_max_rad_s: [f64::INFINITY; MAX_JOINTS],
+            braking_gain_rad_s: [0.0; MAX_JOINTS],
         };
         for (j, limits) in arm.limits().enumerate().take(joints) {
             settings.position_min_rad[j] = limits.position_min;
@@ -173,8 +186,10 @@ impl Driver {
             jerk: std::array::from_fn(|j| jerk[j] * margin * margin * margin),
             dt_s: config.cell.robot.period_s,
         };
+        settings.braking_gain_rad_s =
+            std::array::from_fn(|j| speed_gained_braking(limits.acceleration[j], limits.jerk[j]));
         Self {
-            side: DriverSide::new(settings, epoch),
+            side: DriverSide::new(settings, epoch, key),
             limits,
             shaper: None,
             limit_rate: franka.limit_rate,
@@ -303,7 +318,7 @@ impl Driver {
         self.report.reflexes.extend(errors.names().into_iter().map(str::to_string));
         self.side.hold();
         self.shaper = None;
-        let sequence = cell.mode().map(|(_, sequence)| sequence);
+        let sequence = self.cell_mode(cell).map(|(_, sequence)| sequence);
         self.phase = Phase::Faulted { errors, since_ns: now_ns, sequence, held_at: None, recovering: None };
     }
 
@@ -349,8 +364,19 @@ impl Driver {
         Ok(Next::Go)
     }
 
-    /// Takes the rmrc's commands until one answers `tick` or `deadline_ns` passes; whether it came.
+    /// The cell's mode as the daemon sealed it, after the newest one published (a forged one is counted and
+    /// ignored by the driver side).
+    fn cell_mode(&mut self, cell: &mut CellPorts) -> Option<(CellMode, u64)> {
+        if let Some(message) = cell.newest_mode() {
+            self.side.cell_mode(&message);
+        }
+        self.side.mode()
+    }
+
+    /// Takes the rmrc's commands until one answers `tick` or `deadline_ns` passes; whether it came. The cell's
+    /// mode is looked at first: a held cell's commands may only bring the arm to rest.
     fn take_answer(&mut self, cell: &mut CellPorts, tick: u64, deadline_ns: u64) -> bool {
+        self.cell_mode(cell);
         loop {
             let mut answered = false;
             let (side, report) = (&mut self.side, &mut self.report);
@@ -389,7 +415,7 @@ impl Driver {
                 Some(Ok(())) => self.start_motion(robot, held_at)?,
                 Some(Err(error)) => {
                     tracing::error!("the Franka's error recovery failed: {error}; the cell stays stopped");
-                    let sequence = cell.mode().map(|(_, at)| at);
+                    let sequence = self.cell_mode(cell).map(|(_, at)| at);
                     self.phase = Phase::Faulted {
                         errors,
                         since_ns: now_ns,
@@ -401,7 +427,7 @@ impl Driver {
             }
             return Ok(Next::Go);
         }
-        let Some((mode, current)) = cell.mode() else { return Ok(Next::Go) };
+        let Some((mode, current)) = self.cell_mode(cell) else { return Ok(Next::Go) };
         let shown = now_ns.saturating_sub(since_ns) >= FAULT_SHOWN_NS;
         match held_at {
             None if mode == CellMode::SafeStop && shown && sequence.is_none_or(|at| current >= at) => {

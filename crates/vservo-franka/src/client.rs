@@ -127,10 +127,11 @@ impl Connection {
     /// connection, sends Connect with version 10 and the UDP port, refuses any other server version, and
     /// waits for the first state. Each step waits at most `timeout`.
     pub fn connect(robot: SocketAddr, timeout: Duration) -> Result<Self, ConnectError> {
-        let mut udp =
-            StateChannel::bind(robot).map_err(|(local, source)| ConnectError::BindUdp { local, source })?;
         let mut tcp = TcpChannel::connect(robot, timeout)
             .map_err(|source| ConnectError::TcpConnect { robot, source })?;
+        let interface = tcp.local_ip().map_err(|source| ConnectError::BindUdp { local: robot, source })?;
+        let mut udp = StateChannel::bind(interface, robot.ip())
+            .map_err(|(local, source)| ConnectError::BindUdp { local, source })?;
         let id = tcp.take_command_id();
         tcp.send(&encode_connect_request(id, udp.port()))?;
         let body = tcp.wait(Command::Connect, id, timeout)?;
@@ -179,6 +180,17 @@ impl Connection {
         self.udp.port()
     }
 
+    /// The local UDP address (bound on the interface that reaches the robot only).
+    pub fn udp_local(&self) -> SocketAddr {
+        self.udp.local()
+    }
+
+    /// The datagrams dropped so far: not from the robot, not a state, or a `message_id` jump
+    /// ([`crate::admission`]).
+    pub fn dropped(&self) -> &crate::admission::DroppedCounts {
+        self.udp.dropped()
+    }
+
     /// The state received right after Connect.
     pub fn first_state(&self) -> &RobotState {
         &self.first_state
@@ -190,8 +202,9 @@ impl Connection {
     }
 
     /// The newest state with a `message_id` above the last one received: drains the states already queued
-    /// (keeping the newest, as libfranka does), else waits up to `timeout` for the next. A datagram that is
-    /// not a 1377-byte v10 state is an error naming its size.
+    /// (keeping the newest, as libfranka does), else waits up to `timeout` for the next. A datagram that is not
+    /// the robot's 1377-byte v10 state, or whose `message_id` jumps, is dropped and counted ([`Connection::dropped`];
+    /// a timeout names the last one).
     pub fn recv_state(&mut self, timeout: Duration) -> Result<RobotState, RecvStateError> {
         let state = self.udp.recv_newest(timeout)?;
         self.last = LastState::of(&state);

@@ -34,7 +34,7 @@
 //! default): the caller must send a velocity profile within the robot's limits (|ddq| ≤ 10 rad/s²,
 //! |dddq| ≤ 5000 rad/s³, starting at the state's `dq_d`).
 //!
-//! Modules: [`wire`] (layouts, encode/decode), [`errors`] (the 41 robot error flags), [`client`]
+//! Modules: [`wire`] (layouts, encode/decode), [`admission`] (which datagrams are the robot's states), [`errors`] (the 41 robot error flags), [`client`]
 //! (connection, states, commands), [`motion`] (start, finish, stop, recover), [`outcome`] (running / ended /
 //! aborted), [`profile`] (a smooth velocity profile), [`stats`] (latency percentiles).
 //!
@@ -45,6 +45,7 @@
 #[macro_use]
 mod macros;
 
+pub mod admission;
 pub mod client;
 pub mod errors;
 pub mod motion;
@@ -55,6 +56,7 @@ mod tcp_channel;
 mod udp_channel;
 pub mod wire;
 
+pub use admission::{Dropped, DroppedCounts};
 pub use client::{ConnectError, Connection, FCI_PORT};
 pub use errors::{RobotError, RobotErrors};
 pub use motion::{

@@ -114,6 +114,11 @@ impl TcpChannel {
         self.peer
     }
 
+    /// The local address of the connection: the interface that reaches the robot.
+    pub(crate) fn local_ip(&self) -> Result<std::net::IpAddr, std::io::Error> {
+        Ok(self.stream.local_addr()?.ip())
+    }
+
     /// The id the next request gets (libfranka counts from 0).
     pub(crate) fn take_command_id(&mut self) -> u32 {
         let id = self.next_command_id;

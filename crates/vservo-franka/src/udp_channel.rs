@@ -1,11 +1,11 @@
-//! The UDP stream: states from the robot (newest one wins, as in libfranka's `receiveRobotState`) and
-//! commands back to the address the states come from.
+//! The UDP stream: states from the robot (newest one wins, as in libfranka's `receiveRobotState`; which datagrams
+//! are the robot's states is [`crate::admission`]'s rule) and commands back to the robot's address.
 
 use std::io::ErrorKind;
-use std::net::{SocketAddr, UdpSocket};
+use std::net::{IpAddr, SocketAddr, UdpSocket};
 use std::time::{Duration, Instant};
 
-use crate::wire::DecodeError;
+use crate::admission::{DroppedCounts, StateAdmission};
 use crate::wire::command::ROBOT_COMMAND_SIZE;
 use crate::wire::state::RobotState;
 
@@ -15,8 +15,11 @@ const MAX_DATAGRAM: usize = 65_507;
 /// Receiving a robot state failed.
 #[derive(Debug, thiserror::Error)]
 pub enum RecvStateError {
-    /// No state newer than the last one arrived in time.
-    #[error("no robot state newer than message_id {last_message_id} on UDP {local} within {waited:?}")]
+    /// No state newer than the last one arrived in time (what was dropped meanwhile is named).
+    #[error(
+        "no robot state newer than message_id {last_message_id} on UDP {local} within {waited:?}{}",
+        dropped_text(dropped)
+    )]
     Timeout {
         /// The client's UDP address.
         local: SocketAddr,
@@ -24,6 +27,8 @@ pub enum RecvStateError {
         last_message_id: u64,
         /// How long it was waited for.
         waited: Duration,
+        /// The datagrams dropped so far on this connection (boxed: an error's size, on the error path only).
+        dropped: Box<DroppedCounts>,
     },
     /// A socket call failed.
     #[error("UDP {op} on {local} failed: {source}")]
@@ -36,15 +41,14 @@ pub enum RecvStateError {
         #[source]
         source: std::io::Error,
     },
-    /// A datagram was not a v10 robot state (wrong size, bad bool, unknown mode).
-    #[error("UDP datagram from {from}: {source}")]
-    Malformed {
-        /// Where it came from.
-        from: SocketAddr,
-        /// What was wrong.
-        #[source]
-        source: DecodeError,
-    },
+}
+
+/// "; dropped N datagrams, the last: …" when any was dropped.
+fn dropped_text(dropped: &DroppedCounts) -> String {
+    match dropped.last {
+        Some(last) => format!("; {} datagram(s) dropped, the last: {last}", dropped.total()),
+        None => String::new(),
+    }
 }
 
 /// Sending a command failed or was refused.
@@ -99,7 +103,7 @@ pub(crate) struct StateChannel {
     socket: UdpSocket,
     local: SocketAddr,
     buf: Vec<u8>,
-    robot: Option<SocketAddr>,
+    admission: StateAdmission,
     last_message_id: u64,
     received_at: Option<Instant>,
     nonblocking: bool,
@@ -107,19 +111,17 @@ pub(crate) struct StateChannel {
 }
 
 impl StateChannel {
-    /// Binds the wildcard address of `robot`'s family on an ephemeral port.
-    pub(crate) fn bind(robot: SocketAddr) -> Result<Self, (SocketAddr, std::io::Error)> {
-        let any: SocketAddr = match robot {
-            SocketAddr::V4(_) => SocketAddr::from(([0, 0, 0, 0], 0)),
-            SocketAddr::V6(_) => SocketAddr::from(([0u16; 8], 0)),
-        };
-        let socket = UdpSocket::bind(any).map_err(|e| (any, e))?;
-        let local = socket.local_addr().map_err(|e| (any, e))?;
+    /// Binds an ephemeral port on `interface` (the local address of the TCP connection to the robot: the
+    /// interface that reaches it, not every interface), for the robot on `robot_host`.
+    pub(crate) fn bind(interface: IpAddr, robot_host: IpAddr) -> Result<Self, (SocketAddr, std::io::Error)> {
+        let at = SocketAddr::new(interface, 0);
+        let socket = UdpSocket::bind(at).map_err(|e| (at, e))?;
+        let local = socket.local_addr().map_err(|e| (at, e))?;
         Ok(StateChannel {
             socket,
             local,
             buf: vec![0; MAX_DATAGRAM],
-            robot: None,
+            admission: StateAdmission::new(robot_host),
             last_message_id: 0,
             received_at: None,
             nonblocking: false,
@@ -130,6 +132,16 @@ impl StateChannel {
     /// The local UDP port (announced in Connect).
     pub(crate) fn port(&self) -> u16 {
         self.local.port()
+    }
+
+    /// The local UDP address.
+    pub(crate) fn local(&self) -> SocketAddr {
+        self.local
+    }
+
+    /// The datagrams dropped so far (not the robot's, not a state, an id jump).
+    pub(crate) fn dropped(&self) -> &DroppedCounts {
+        self.admission.dropped()
     }
 
     /// The `message_id` of the newest state received (0 before the first).
@@ -157,7 +169,7 @@ impl StateChannel {
         self.set_nonblocking(true)?;
         loop {
             match self.socket.recv_from(&mut self.buf) {
-                Ok((n, from)) => self.consider(n, from, &mut best)?,
+                Ok((n, from)) => self.consider(n, from, &mut best),
                 Err(e) if e.kind() == ErrorKind::WouldBlock => break,
                 Err(e) if e.kind() == ErrorKind::Interrupted => {}
                 Err(e) => return Err(self.io("recv_from")(e)),
@@ -176,7 +188,7 @@ impl StateChannel {
                 self.read_timeout = Some(timeout);
             }
             match self.socket.recv_from(&mut self.buf) {
-                Ok((n, from)) => self.consider(n, from, &mut best)?,
+                Ok((n, from)) => self.consider(n, from, &mut best),
                 Err(e) if matches!(e.kind(), ErrorKind::WouldBlock | ErrorKind::TimedOut) => {
                     return Err(self.timeout(timeout));
                 }
@@ -188,6 +200,7 @@ impl StateChannel {
             Some((state, at)) => {
                 self.last_message_id = state.message_id;
                 self.received_at = Some(at);
+                self.admission.taken(state.message_id, at);
                 Ok(state)
             }
             None => Err(self.timeout(timeout)),
@@ -195,31 +208,25 @@ impl StateChannel {
     }
 
     fn timeout(&self, waited: Duration) -> RecvStateError {
-        RecvStateError::Timeout { local: self.local, last_message_id: self.last_message_id, waited }
+        let dropped = Box::new(*self.admission.dropped());
+        RecvStateError::Timeout { local: self.local, last_message_id: self.last_message_id, waited, dropped }
     }
 
-    /// Decodes the datagram of `n` bytes in the buffer and keeps it if it is the newest so far.
-    fn consider(
-        &mut self,
-        n: usize,
-        from: SocketAddr,
-        best: &mut Option<(RobotState, Instant)>,
-    ) -> Result<(), RecvStateError> {
+    /// The datagram of `n` bytes in the buffer: kept if the robot's state and the newest so far, else dropped
+    /// (counted by the admission rule).
+    fn consider(&mut self, n: usize, from: SocketAddr, best: &mut Option<(RobotState, Instant)>) {
         let at = Instant::now();
         let bytes = self.buf.get(..n).unwrap_or(&[]);
-        let state = RobotState::decode(bytes).map_err(|source| RecvStateError::Malformed { from, source })?;
-        // libfranka answers the address the states come from.
-        self.robot = Some(from);
+        let Some(state) = self.admission.admit(bytes, from, at) else { return };
         let newest_so_far = best.as_ref().map_or(self.last_message_id, |(s, _)| s.message_id);
         if state.message_id > newest_so_far {
             *best = Some((state, at));
         }
-        Ok(())
     }
 
     /// Sends a 371-byte command to the robot; returns the time since the newest state was received.
     pub(crate) fn send(&mut self, command: &[u8; ROBOT_COMMAND_SIZE]) -> Result<Duration, SendCommandError> {
-        let to = self.robot.ok_or(SendCommandError::NoRobotAddress)?;
+        let to = self.admission.robot().ok_or(SendCommandError::NoRobotAddress)?;
         let sent = self.socket.send_to(command, to).map_err(|source| SendCommandError::Io { to, source })?;
         let latency = self.received_at.map_or(Duration::ZERO, |at| at.elapsed());
         if sent != ROBOT_COMMAND_SIZE {

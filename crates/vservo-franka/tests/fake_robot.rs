@@ -8,9 +8,9 @@ use std::time::Duration;
 
 use vservo_franka::client::ConnectError;
 use vservo_franka::{
-    Connection, ControllerMode, DecodeError, JointVelocityCommand, MotionGeneratorMode, MotionOutcome,
-    MotionPhase, MoveStatus, RecvStateError, RobotCommand, RobotError, RobotErrors, RobotMode, RobotState,
-    SendCommandError,
+    Connection, ControllerMode, DecodeError, Dropped, JointVelocityCommand, MotionGeneratorMode,
+    MotionOutcome, MotionPhase, MoveStatus, RecvStateError, RobotCommand, RobotError, RobotErrors, RobotMode,
+    RobotState, SendCommandError,
 };
 
 const T: Duration = Duration::from_secs(2);
@@ -87,20 +87,76 @@ fn a_server_of_another_version_is_refused_naming_both_versions() {
 }
 
 #[test]
-fn a_short_first_state_is_refused_naming_both_sizes() {
+fn a_short_first_state_is_dropped_and_named_when_no_state_follows() {
     let (addr, robot) = fake_robot(0, 10, |r| {
         r.udp.send_to(&[0u8; 1376], r.client_udp).expect("send");
     });
-    let err = Connection::connect(addr, T).expect_err("short state refused");
+    let err = Connection::connect(addr, Duration::from_millis(300)).expect_err("no state came");
     match &err {
-        ConnectError::FirstState(RecvStateError::Malformed { source, .. }) => {
-            assert_eq!(*source, DecodeError::WrongSize { what: "RobotState", got: 1376, expected: 1377 });
+        ConnectError::FirstState(RecvStateError::Timeout { dropped, .. }) => {
+            assert_eq!(dropped.malformed, 1);
+            let wrong_size = DecodeError::WrongSize { what: "RobotState", got: 1376, expected: 1377 };
+            assert_eq!(dropped.last, Some(Dropped::Malformed(wrong_size)));
         }
         other => panic!("unexpected {other:?}"),
     }
     let text = err.to_string();
     assert!(text.contains("1376") && text.contains("1377"), "{text}");
     robot.join().expect("robot thread");
+}
+
+/// The attacks of issue 46 on the state stream, by a local process that found the client's UDP port: one
+/// 10-byte datagram, then 200 well-formed states numbered far ahead of the robot's. The robot (this fake one,
+/// the robot's side of the measurement) gets an answer to each of its own states, and only to them; the
+/// robot's own malformed datagram and an id jump from its own address are dropped too. Nothing ends the
+/// motion.
+#[test]
+fn datagrams_not_from_the_robot_or_jumping_ahead_are_dropped_and_counted_and_the_motion_goes_on() {
+    const CYCLES: u64 = 300;
+    let (addr, robot) = fake_robot(0, 10, |r| {
+        r.send_state(&RobotState::idle(1));
+        let (command, move_id, _) = r.read_frame();
+        assert_eq!(command, 1, "Move");
+        r.respond(1, move_id, &[1, 0, 0, 0]);
+        r.udp.set_read_timeout(Some(T)).expect("a read timeout");
+        for id in 2..2 + CYCLES {
+            if id == 100 {
+                r.udp.send_to(&[0u8; 10], r.client_udp).expect("the robot's own bad datagram");
+                r.send_state(&running(id + 100_000));
+            }
+            r.send_state(&running(id));
+            let mut buf = [0u8; 2048];
+            let (n, from) = r.udp.recv_from(&mut buf).expect("an answer to each of the robot's states");
+            let command = RobotCommand::decode(&buf[..n]).expect("a 371-byte command");
+            assert_eq!(command.message_id, id, "the answer answers the robot's own state (from {from})");
+        }
+    });
+    let mut conn = Connection::connect(addr, T).expect("connect");
+    assert_eq!(
+        conn.udp_local().ip(),
+        addr.ip(),
+        "bound on the interface that reaches the robot, not 0.0.0.0"
+    );
+    let attacker = UdpSocket::bind("127.0.0.1:0").expect("the attacker's socket");
+    let client = conn.udp_local();
+    let mut state = conn.start_joint_velocity_motion(T).expect("motion starts");
+    for cycle in 0..CYCLES {
+        if cycle == 10 {
+            attacker.send_to(&[0u8; 10], client).expect("a 10-byte datagram");
+        }
+        if (20..220).contains(&cycle) {
+            attacker.send_to(&running(1_000_000 + cycle).encode(), client).expect("a spoofed state");
+        }
+        assert!(state.message_id < 100_000, "only the robot's states: {}", state.message_id);
+        conn.send_command(&state, &JointVelocityCommand::new([0.0; 7])).expect("the answer goes out");
+        if cycle + 1 < CYCLES {
+            state = conn.recv_state(T).expect("the robot's next state");
+        }
+    }
+    robot.join().expect("the robot got an answer to each of its states");
+    let dropped = conn.dropped();
+    println!("dropped: {dropped:?}");
+    assert_eq!((dropped.foreign, dropped.malformed, dropped.id_jumps), (201, 1, 1));
 }
 
 fn running(id: u64) -> RobotState {

@@ -14,8 +14,9 @@
 //! functions.
 
 use vservo_arm::SerialArm;
-use vservo_driver::{DriverSettings, DriverSide};
-use vservo_protocol::{CommandMode, DriverStatus, JointCommandMsg, JointStateMsg, MAX_JOINTS};
+use vservo_driver::{CommandRefused, DriverSettings, DriverSide};
+use vservo_protocol::seal::SealKey;
+use vservo_protocol::{CellModeMsg, CommandMode, DriverStatus, JointCommandMsg, JointStateMsg, MAX_JOINTS};
 
 use crate::msg::JointState;
 
@@ -36,6 +37,9 @@ pub struct ArmSettings {
     pub position_max_rad: [f64; MAX_JOINTS],
     /// Each joint's speed limit (rad/s): the velocity-limit bits.
     pub velocity_max_rad_s: [f64; MAX_JOINTS],
+    /// What a ramp to rest still gains (rad/s): how much a held cell's commands may add to the speed in force
+    /// (`vservo_driver::speed_gained_braking` of the interpolator's limits).
+    pub braking_gain_rad_s: [f64; MAX_JOINTS],
 }
 
 impl ArmSettings {
@@ -54,11 +58,16 @@ impl ArmSettings {
             position_min_rad: [f64::NEG_INFINITY; MAX_JOINTS],
             position_max_rad: [f64::INFINITY; MAX_JOINTS],
             velocity_max_rad_s: [f64::INFINITY; MAX_JOINTS],
+            braking_gain_rad_s: [0.0; MAX_JOINTS],
         };
+        let interpolator = &config.cell.interpolator;
         for (j, limits) in arm.limits().enumerate().take(joint_count) {
             settings.position_min_rad[j] = limits.position_min;
             settings.position_max_rad[j] = limits.position_max;
             settings.velocity_max_rad_s[j] = limits.velocity_max;
+            let jerk = interpolator.jerk_limit.map_or(f64::INFINITY, |jerk| jerk[j]);
+            settings.braking_gain_rad_s[j] =
+                vservo_driver::speed_gained_braking(interpolator.acceleration_limit[j], jerk);
         }
         settings
     }
@@ -77,6 +86,7 @@ impl ArmSettings {
             position_min_rad: self.position_min_rad,
             position_max_rad: self.position_max_rad,
             velocity_max_rad_s: self.velocity_max_rad_s,
+            braking_gain_rad_s: self.braking_gain_rad_s,
         }
     }
 }
@@ -162,19 +172,32 @@ pub struct ArmFollower {
 }
 
 impl ArmFollower {
-    /// A driver run that starts now: `epoch` is its start time (ns), as docs/DRIVERS.md asks.
-    pub fn new(settings: ArmSettings, epoch: u64) -> Self {
-        let side = DriverSide::new(settings.driver_settings(), epoch);
+    /// A driver run that starts now: `epoch` is its start time (ns), as docs/DRIVERS.md asks; `key`, the run's
+    /// seal key (vservod hands it over; without it no command is taken).
+    pub fn new(settings: ArmSettings, epoch: u64, key: Option<SealKey>) -> Self {
+        let side = DriverSide::new(settings.driver_settings(), epoch, key);
         Self { settings, side, origin_ns: None, last: None, hold_at: None, counts: ArmCounts::default() }
     }
 
-    /// Takes one of vservo's commands if the contract admits it (`DriverSide::take_command`: this run's, of the
-    /// declared mode and arm, answering one of the last states published, finite).
-    pub fn take_command(&mut self, command: &JointCommandMsg, now_ns: u64) {
+    /// Takes one of vservo's commands if the contract admits it (`DriverSide::take_command`: the rmrc's seal,
+    /// this run's, of the declared mode and arm, answering one of the last states published, finite, and a
+    /// ramp to rest while the cell is held); the refusal, if any.
+    pub fn take_command(&mut self, command: &JointCommandMsg, now_ns: u64) -> Option<CommandRefused> {
         match self.side.take_command(command, now_ns) {
-            Ok(()) => self.counts.commands_taken += 1,
-            Err(_) => self.counts.commands_refused += 1,
+            Ok(()) => {
+                self.counts.commands_taken += 1;
+                None
+            }
+            Err(refused) => {
+                self.counts.commands_refused += 1;
+                Some(refused)
+            }
         }
+    }
+
+    /// The cell's mode (`cell_mode`), taken by the driver side when the daemon sealed it.
+    pub fn cell_mode(&mut self, message: &CellModeMsg) {
+        self.side.cell_mode(message);
     }
 
     /// One of the arm's joint states, measured at `stamp_ns` and received at `now_ns`: the `joint_state` to
@@ -353,7 +376,23 @@ mod tests {
             position_min_rad: [-3.0; MAX_JOINTS],
             position_max_rad: [3.0; MAX_JOINTS],
             velocity_max_rad_s: [2.0; MAX_JOINTS],
+            braking_gain_rad_s: [0.01; MAX_JOINTS],
         }
+    }
+
+    fn key() -> SealKey {
+        SealKey::from_hex(b"0f0e0d0c0b0a09080706050403020100").expect("a key")
+    }
+
+    fn follower(mode: CommandMode) -> ArmFollower {
+        ArmFollower::new(settings(mode), EPOCH, Some(key()))
+    }
+
+    /// Takes `command` as the rmrc sealed it.
+    fn take(arm: &mut ArmFollower, command: &JointCommandMsg, now_ns: u64) -> Option<CommandRefused> {
+        let mut command = *command;
+        key().sign(&mut command);
+        arm.take_command(&command, now_ns)
     }
 
     /// A ROS joint state with the joints in reverse order (the broadcaster's order is the URDF's, not ours).
@@ -382,7 +421,7 @@ mod tests {
 
     #[test]
     fn joints_are_taken_by_name_and_ticks_by_stamp() {
-        let mut arm = ArmFollower::new(settings(CommandMode::Velocity), EPOCH);
+        let mut arm = follower(CommandMode::Velocity);
         let q = [0.1, 0.2, 0.3, 0.4, 0.5, 0.6];
         let first = arm.on_joint_state(&ros_state(q), 1_000_000_000, 1_000_100_000).expect("the first");
         assert_eq!(&first.state.q_rad[..6], &q);
@@ -421,13 +460,13 @@ mod tests {
 
     #[test]
     fn a_recent_command_of_this_run_is_followed_and_reported_applied() {
-        let mut arm = ArmFollower::new(settings(CommandMode::Velocity), EPOCH);
+        let mut arm = follower(CommandMode::Velocity);
         let q = [0.0; 6];
         let t0 = 5_000_000_000;
         let first = arm.on_joint_state(&ros_state(q), t0, t0).expect("state 0");
         assert_eq!(first.state.driver_status, DriverStatus::Holding.code(), "no command yet");
         assert_eq!(first.command, vec![0.0; 6], "rest");
-        arm.take_command(&command_answering(0, 0.3), t0 + 100_000);
+        take(&mut arm, &command_answering(0, 0.3), t0 + 100_000);
         let second = arm.on_joint_state(&ros_state(q), t0 + PERIOD_NS, t0 + PERIOD_NS).expect("state 1");
         assert_eq!(second.state.driver_status, DriverStatus::Following.code());
         assert_eq!(second.command, vec![0.3; 6]);
@@ -446,7 +485,7 @@ mod tests {
             nan,
         ];
         for command in &refused {
-            arm.take_command(command, t0 + 2 * PERIOD_NS + 100_000);
+            take(&mut arm, command, t0 + 2 * PERIOD_NS + 100_000);
         }
         assert_eq!(arm.counts.commands_refused, 5);
         let fourth =
@@ -456,10 +495,10 @@ mod tests {
 
     #[test]
     fn with_no_command_in_time_the_arm_is_held() {
-        let mut arm = ArmFollower::new(settings(CommandMode::Velocity), EPOCH);
+        let mut arm = follower(CommandMode::Velocity);
         let t0 = 1_000_000_000;
         arm.on_joint_state(&ros_state([0.0; 6]), t0, t0).expect("state 0");
-        arm.take_command(&command_answering(0, 0.3), t0 + 100_000);
+        take(&mut arm, &command_answering(0, 0.3), t0 + 100_000);
         let within = t0 + 10 * PERIOD_NS;
         let step = arm.on_joint_state(&ros_state([0.0; 6]), within, t0 + 20_100_000).expect("within");
         assert_eq!(step.command, vec![0.3; 6], "20 ms after the command: still followed");
@@ -472,7 +511,7 @@ mod tests {
 
     #[test]
     fn position_mode_holds_where_holding_began() {
-        let mut arm = ArmFollower::new(settings(CommandMode::Position), EPOCH);
+        let mut arm = follower(CommandMode::Position);
         assert_eq!(arm.hold(), None, "no position known yet: nothing to hold at");
         let t0 = 1_000_000_000;
         let q = [0.1, 0.2, 0.3, 0.4, 0.5, 0.6];
@@ -482,7 +521,7 @@ mod tests {
             arm.on_joint_state(&ros_state([0.7; 6]), t0 + PERIOD_NS, t0 + PERIOD_NS).expect("state 1");
         assert_eq!(drifted.command, q.to_vec(), "still where holding began, not where the arm drifted");
         let command = JointCommandMsg { mode: CommandMode::Position.code(), ..command_answering(1, 0.0) };
-        arm.take_command(&command, t0 + PERIOD_NS + 1000);
+        take(&mut arm, &command, t0 + PERIOD_NS + 1000);
         let following = arm.on_joint_state(&ros_state([0.7; 6]), t0 + 2 * PERIOD_NS, t0 + 2 * PERIOD_NS);
         assert_eq!(following.expect("state 2").command, vec![0.25; 6], "q_ref");
     }
@@ -492,12 +531,12 @@ mod tests {
     /// states at the right period change nothing.
     #[test]
     fn an_arm_of_another_period_is_a_fault() {
-        let mut arm = ArmFollower::new(settings(CommandMode::Velocity), EPOCH);
+        let mut arm = follower(CommandMode::Velocity);
         let t0 = 1_000_000_000;
         let mut last = None;
         for k in 0..=PERIOD_CHECK_GAPS as u64 {
             let stamp = t0 + k * PERIOD_NS / 2;
-            arm.take_command(&command_answering(k.saturating_sub(1), 0.3), stamp);
+            take(&mut arm, &command_answering(k.saturating_sub(1), 0.3), stamp);
             last = Some(arm.on_joint_state(&ros_state([0.0; 6]), stamp, stamp).expect("a state"));
         }
         let last = last.expect("states");
@@ -505,7 +544,7 @@ mod tests {
         assert_eq!(last.state.driver_status, DriverStatus::Fault.code());
         assert_eq!(last.command, vec![0.0; 6], "held");
 
-        let mut arm = ArmFollower::new(settings(CommandMode::Velocity), EPOCH);
+        let mut arm = follower(CommandMode::Velocity);
         let mut stamp = t0;
         for k in 0..3 * PERIOD_CHECK_GAPS as u64 {
             stamp += match k % 20 {
@@ -522,7 +561,7 @@ mod tests {
 
     #[test]
     fn limits_set_fault_bits() {
-        let mut arm = ArmFollower::new(settings(CommandMode::Velocity), EPOCH);
+        let mut arm = follower(CommandMode::Velocity);
         let mut state = ros_state([0.0, 0.0, 3.1, 0.0, 0.0, 0.0]);
         state.velocity[0] = -2.5; // the message's first joint is j6
         let step = arm.on_joint_state(&state, 1_000_000_000, 0).expect("state");

@@ -21,7 +21,8 @@ use rustdds::mio1::{Events, Interest, Poll, Token};
 use vservo_config::Config;
 use vservo_protocol::clock::monotonic_ns;
 use vservo_protocol::inbox::TakeMessages;
-use vservo_protocol::{CameraImageHeader, JointCommandMsg, JointStateMsg, Topic};
+use vservo_protocol::seal::SealKey;
+use vservo_protocol::{CameraImageHeader, CellModeMsg, JointCommandMsg, JointStateMsg, Topic};
 use vservo_ros2::arm_driver::{ArmFollower, ArmSettings};
 use vservo_ros2::convert::StampClock;
 use vservo_ros2::msg::{Float64MultiArray, Image, JointState, RosType};
@@ -54,7 +55,7 @@ fn drives_camera(config: &Config) -> bool {
 }
 
 /// Runs until `stop` is set.
-pub fn run(config: &Config, stop: &AtomicBool) -> anyhow::Result<()> {
+pub fn run(config: &Config, key: Option<SealKey>, stop: &AtomicBool) -> anyhow::Result<()> {
     let settings = &config.ros2;
     anyhow::ensure!(
         config.runs_ros2_driver(),
@@ -68,7 +69,7 @@ pub fn run(config: &Config, stop: &AtomicBool) -> anyhow::Result<()> {
         return Ok(());
     };
     let mut cell = CellSide::connect(config, &dir)?;
-    let mut driver = Driver::new(config);
+    let mut driver = Driver::new(config, key);
     let mut poll = Poll::new().context("mio")?;
     ros.register(&poll)?;
     let mut events = Events::with_capacity(8);
@@ -175,6 +176,7 @@ struct ArmPorts {
     states: IoxPublisher<ipc::Service, JointStateMsg, ()>,
     wake: Notifier<ipc::Service>,
     commands: IoxSubscriber<ipc::Service, JointCommandMsg, ()>,
+    modes: IoxSubscriber<ipc::Service, CellModeMsg, ()>,
 }
 
 struct CameraPorts {
@@ -192,6 +194,7 @@ impl CellSide {
                     .context("the joint_state stream (is another robot driver running?)")?,
                 wake: vservo_protocol::notifier(&node, instance, Topic::JointState)?,
                 commands: vservo_protocol::subscriber(&node, instance, Topic::JointCommand)?,
+                modes: vservo_protocol::subscriber(&node, instance, Topic::CellMode)?,
             })
         } else {
             None
@@ -315,12 +318,12 @@ struct Driver {
 }
 
 impl Driver {
-    fn new(config: &Config) -> Self {
+    fn new(config: &Config, key: Option<SealKey>) -> Self {
         let now = monotonic_ns();
         let driver = &config.ros2.driver;
         let (width, height) = (config.cell.camera.width_px(), config.cell.camera.height_px());
         Self {
-            arm: drives_arm(config).then(|| ArmFollower::new(ArmSettings::of(config), now)),
+            arm: drives_arm(config).then(|| ArmFollower::new(ArmSettings::of(config), now, key)),
             last_state_ns: now,
             last_silent_hold_ns: 0,
             hold_after_ns: (driver.hold_after_s * 1e9) as u64,
@@ -371,7 +374,16 @@ impl Driver {
                 }
             };
             let now = monotonic_ns();
-            let other_schema = ports.commands.each_message(|command| arm.take_command(&command, now));
+            let mut other_schema = 0;
+            if let Some(mode) = ports.modes.newest_message(&mut other_schema) {
+                arm.cell_mode(&mode);
+            }
+            let report = &mut self.report;
+            let other_schema = ports.commands.each_message(|command| {
+                if let Some(refused) = arm.take_command(&command, now) {
+                    report.once(refused.kind(), || format!("a joint_command refused: {refused}"));
+                }
+            });
             if other_schema > 0 {
                 arm.counts.commands_refused += other_schema;
                 self.report.once("command of another schema", || {

@@ -153,6 +153,56 @@ pub fn sealed_by<M: Sealed>(key: Option<&SealKey>, message: &M) -> bool {
     key.is_some_and(|key| key.verifies(message))
 }
 
+/// The first line of what the daemon writes on the stdin of a process it hands the key to (its nodes, and the
+/// drivers it starts): this, the key's 32 digits, a newline.
+pub const SEAL_KEY_LINE: &str = "vservo-seal-key=";
+
+/// The longest key line: [`SEAL_KEY_LINE`], the key's digits and the newline.
+pub const KEY_LINE_BYTES: usize = SEAL_KEY_LINE.len() + KEY_HEX_DIGITS + 1;
+
+/// Writes the key line of `key` to `out` (no copy of the key's text is left behind).
+pub fn write_key_line(key: &SealKey, out: &mut impl std::io::Write) -> std::io::Result<()> {
+    out.write_all(SEAL_KEY_LINE.as_bytes())?;
+    out.write_all(&key.to_hex()[..])?;
+    out.write_all(b"\n")
+}
+
+/// Reads a first line from `input` byte by byte (unbuffered: read it from the file descriptor itself, as std's
+/// `Stdin` keeps a copy of what it read), into a buffer wiped once parsed: the key if it is a key line, else
+/// the bytes read, which are the beginning of what follows (a node's configuration). A key line whose digits
+/// are not a key is an error.
+pub fn read_key_line(input: &mut impl std::io::Read) -> std::io::Result<(Option<SealKey>, Vec<u8>)> {
+    let mut line = Zeroizing::new([0u8; KEY_LINE_BYTES]);
+    let mut length = 0;
+    while length < KEY_LINE_BYTES {
+        let mut byte = [0u8; 1];
+        if input.read(&mut byte)? == 0 {
+            break;
+        }
+        line[length] = byte[0];
+        byte.zeroize();
+        length += 1;
+        if line[length - 1] == b'\n' {
+            break;
+        }
+    }
+    let line = &line[..length];
+    if line.starts_with(SEAL_KEY_LINE.as_bytes()) {
+        let key = parse_key_line(line).ok_or_else(|| {
+            std::io::Error::new(std::io::ErrorKind::InvalidData, "the key line is not 32 hexadecimal digits")
+        })?;
+        Ok((Some(key), Vec::new()))
+    } else {
+        Ok((None, line.to_vec()))
+    }
+}
+
+/// The key of a key line ([`SEAL_KEY_LINE`], 32 hexadecimal digits, a newline).
+fn parse_key_line(line: &[u8]) -> Option<SealKey> {
+    let digits = line.strip_prefix(SEAL_KEY_LINE.as_bytes())?.strip_suffix(b"\n")?;
+    SealKey::from_hex(digits)
+}
+
 /// SipHash-2-4 (Aumasson & Bernstein 2012), fed in pieces: the bytes of a message field by field, with
 /// no buffer but the last incomplete word.
 struct SipHasher24 {
@@ -259,6 +309,23 @@ mod tests {
             hasher.write(b);
             assert_eq!(hasher.finish(), siphash24(3, 5, &data), "split at {split}");
         }
+    }
+
+    #[test]
+    fn a_key_line_gives_the_key_and_nothing_else_does() {
+        let key = SealKey::random().expect("a key");
+        let mut line = Vec::new();
+        write_key_line(&key, &mut line).expect("written");
+        assert_eq!(line.len(), KEY_LINE_BYTES);
+        assert_eq!(parse_key_line(&line), Some(key.clone()));
+        assert_eq!(parse_key_line(&line[..line.len() - 1]), None, "no newline: cut short");
+        assert_eq!(parse_key_line(b"[instance]\n"), None);
+        line.extend_from_slice(b"[instance]\n");
+        let (read, rest) = read_key_line(&mut line.as_slice()).expect("read");
+        assert_eq!((read, rest), (Some(key), Vec::new()), "the line only, not what follows");
+        let (read, rest) = read_key_line(&mut &b"[instance]\nname = 'a'\n"[..]).expect("read");
+        assert_eq!((read, rest.as_slice()), (None, &b"[instance]\n"[..]));
+        assert!(read_key_line(&mut &b"vservo-seal-key=zz\n"[..]).is_err());
     }
 
     #[test]

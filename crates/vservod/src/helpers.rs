@@ -7,7 +7,9 @@
 //! start: vservod never starts it. The viewer and the bridge are clients of the instance like any other: they
 //! read with iceoryx2's safe overflow, so a slow or absent helper never slows the loop, and its failure is a
 //! warning, never a fault of the cell. A driver is the cell's: while it is away the arm is found stalled (or
-//! the camera silent) and the cell stops safely, as with any driver.
+//! the camera silent) and the cell stops safely, as with any driver. The robot drivers are handed the run's seal
+//! key on their stdin, as the nodes are (`--seal-key-stdin`): they take only the rmrc's sealed commands and the
+//! daemon's sealed cell modes (`vservo_driver::DriverSide`).
 
 use std::path::Path;
 use std::process::{Child, Command, Stdio};
@@ -15,6 +17,7 @@ use std::time::{Duration, Instant};
 
 use nix::sys::signal::{Signal, kill};
 use nix::unistd::Pid;
+use vservo_protocol::seal::SealKey;
 
 /// After a helper ended, wait this long before starting it again.
 const RESTART_AFTER: Duration = Duration::from_secs(5);
@@ -24,6 +27,8 @@ pub struct Helper {
     /// What it is, for the log.
     what: &'static str,
     command: Option<Command>,
+    /// The run's key, written on its stdin at each start (a robot driver's).
+    key: Option<SealKey>,
     child: Option<Child>,
     restart_at: Option<Instant>,
 }
@@ -37,6 +42,8 @@ pub struct Launch<'a> {
     pub config_path: &'a Path,
     /// The instance's runtime base.
     pub runtime_base: &'a Path,
+    /// The run's seal key, for the robot drivers.
+    pub seal_key: &'a SealKey,
 }
 
 impl Launch<'_> {
@@ -80,10 +87,8 @@ impl Helper {
     /// `"ros2"`; it ends with this daemon.
     pub fn ros2_driver(config: &vservo_config::Config, launch: &Launch) -> Self {
         let args = ["--daemon-pid".to_string(), std::process::id().to_string()];
-        Self::start(
-            "the ROS 2 driver",
-            launch.command(config.runs_ros2_driver(), "vservo-ros2-driver", &args),
-        )
+        let command = launch.command(config.runs_ros2_driver(), "vservo-ros2-driver", &args);
+        Self::start_keyed("the ROS 2 driver", command, launch.seal_key)
     }
 
     /// The Franka driver (`vservo-franka`), started with `[robot] driver = "franka"`; it ends with this daemon
@@ -91,7 +96,7 @@ impl Helper {
     pub fn franka_driver(config: &vservo_config::Config, launch: &Launch) -> Self {
         let runs = config.cell.robot.driver == vservo_config::RobotDriver::Franka;
         let args = ["--daemon-pid".to_string(), std::process::id().to_string()];
-        Self::start("the Franka driver", launch.command(runs, "vservo-franka", &args))
+        Self::start_keyed("the Franka driver", launch.command(runs, "vservo-franka", &args), launch.seal_key)
     }
 
     /// The GStreamer camera (`vservo-gst-camera`), started with `[camera] source = "gstreamer"` on the
@@ -103,9 +108,26 @@ impl Helper {
     }
 
     fn start(what: &'static str, command: Option<Command>) -> Self {
-        let mut helper = Self { what, command, child: None, restart_at: Some(Instant::now()) };
+        let mut helper = Self { what, command, key: None, child: None, restart_at: Some(Instant::now()) };
         helper.poll();
         helper
+    }
+
+    /// A robot driver: handed the run's key on its stdin at each start.
+    fn start_keyed(what: &'static str, mut command: Option<Command>, key: &SealKey) -> Self {
+        if let Some(command) = command.as_mut() {
+            command.arg("--seal-key-stdin").stdin(Stdio::piped());
+        }
+        let key = Some(key.clone());
+        let mut helper = Self { what, command, key, child: None, restart_at: Some(Instant::now()) };
+        helper.poll();
+        helper
+    }
+
+    /// Writes the key line on the child's stdin and closes it; a child that cannot be handed its key is ended.
+    fn hand_key(&self, child: &mut Child) -> std::io::Result<()> {
+        let (Some(key), Some(mut stdin)) = (self.key.as_ref(), child.stdin.take()) else { return Ok(()) };
+        vservo_protocol::seal::write_key_line(key, &mut stdin)
     }
 
     /// Starts the helper again once it has been gone for [`RESTART_AFTER`]; call every supervisor cycle.
@@ -121,7 +143,11 @@ impl Helper {
         if self.child.is_none() && self.restart_at.is_some_and(|at| Instant::now() >= at) {
             self.restart_at = None;
             match command.spawn() {
-                Ok(child) => {
+                Ok(mut child) => {
+                    if let Err(error) = self.hand_key(&mut child) {
+                        tracing::warn!(%error, "{} could not be handed the run's key: ended", self.what);
+                        let _ = child.kill();
+                    }
                     tracing::info!(pid = child.id(), "{} started", self.what);
                     self.child = Some(child);
                 }

@@ -10,7 +10,6 @@ use anyhow::{Context, bail};
 use vservo_protocol::NodeRole;
 use vservo_protocol::seal::SealKey;
 use vservo_runtime::{NodeContext, nodes};
-use zeroize::{Zeroize, Zeroizing};
 
 /// Arguments of `vservod node`.
 #[derive(clap::Args)]
@@ -31,9 +30,6 @@ pub struct NodeArgs {
     #[arg(long)]
     config_stdin: bool,
 }
-
-/// The first line of what the daemon writes on a node's stdin: the run's seal key, then the configuration.
-pub const SEAL_KEY_LINE: &str = "vservo-seal-key=";
 
 /// The environment variable that tells a node its daemon's pid.
 pub const DAEMON_PID_ENV: &str = "VSERVO_DAEMON_PID";
@@ -99,41 +95,12 @@ pub fn run(
     Ok(())
 }
 
-/// The longest key line the daemon writes: [`SEAL_KEY_LINE`], the key's digits and the newline.
-const KEY_LINE_BYTES: usize = SEAL_KEY_LINE.len() + vservo_protocol::seal::KEY_HEX_DIGITS + 1;
-
 /// What the daemon hands a node on its stdin: the run's key on a first line of its own (if the first line
-/// is one), then the configuration's text.
-///
-/// Read from the file descriptor itself, unbuffered (std's `Stdin` keeps a copy of what it read in its own
-/// buffer): the key line byte by byte into a buffer wiped once the key is parsed, so that no copy of the
-/// key's text stays in the node's memory (docs/PROTOCOL.md, "Seals").
+/// is one: `vservo_protocol::seal::read_key_line`, which leaves no copy of the key's text in the node's memory,
+/// docs/PROTOCOL.md "Seals"), then the configuration's text.
 fn read_handover() -> std::io::Result<(Option<SealKey>, String)> {
     let mut stdin = std::fs::File::from(std::io::stdin().as_fd().try_clone_to_owned()?);
-    let mut line = Zeroizing::new([0u8; KEY_LINE_BYTES]);
-    let mut length = 0;
-    while length < KEY_LINE_BYTES {
-        let mut byte = [0u8; 1];
-        if stdin.read(&mut byte)? == 0 {
-            break;
-        }
-        line[length] = byte[0];
-        byte.zeroize();
-        length += 1;
-        if line[length - 1] == b'\n' {
-            break;
-        }
-    }
-    let line = &line[..length];
-    let (key, mut text) = if line.starts_with(SEAL_KEY_LINE.as_bytes()) {
-        let key = parse_key_line(line).ok_or_else(|| {
-            std::io::Error::new(std::io::ErrorKind::InvalidData, "the key line is not 32 hexadecimal digits")
-        })?;
-        (Some(key), Vec::new())
-    } else {
-        // no key line: what was read is the configuration's beginning
-        (None, line.to_vec())
-    };
+    let (key, mut text) = vservo_protocol::seal::read_key_line(&mut stdin)?;
     // the daemon hands over a configuration it read within the files' bound; more is not its
     let bound = vservo_config::MAX_CONFIG_FILE_BYTES;
     if (&mut stdin).take(bound + 1).read_to_end(&mut text)? as u64 > bound {
@@ -145,27 +112,4 @@ fn read_handover() -> std::io::Result<(Option<SealKey>, String)> {
     let text =
         String::from_utf8(text).map_err(|e| std::io::Error::new(std::io::ErrorKind::InvalidData, e))?;
     Ok((key, text))
-}
-
-/// The key of a key line ([`SEAL_KEY_LINE`], 32 hexadecimal digits, a newline).
-fn parse_key_line(line: &[u8]) -> Option<SealKey> {
-    let digits = line.strip_prefix(SEAL_KEY_LINE.as_bytes())?.strip_suffix(b"\n")?;
-    SealKey::from_hex(digits)
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn a_key_line_gives_the_key_and_nothing_else_does() {
-        let key = SealKey::random().expect("a key");
-        let mut line = SEAL_KEY_LINE.as_bytes().to_vec();
-        line.extend_from_slice(&key.to_hex()[..]);
-        line.push(b'\n');
-        assert_eq!(line.len(), KEY_LINE_BYTES);
-        assert_eq!(parse_key_line(&line), Some(key));
-        assert_eq!(parse_key_line(&line[..line.len() - 1]), None, "no newline: cut short");
-        assert_eq!(parse_key_line(b"[instance]\n"), None);
-    }
 }

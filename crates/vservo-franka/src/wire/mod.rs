@@ -98,7 +98,7 @@ pub const fn tiles_exactly(fields: &[FieldLayout], size: usize) -> bool {
 }
 
 /// A message could not be decoded; names the message, the field and the byte offset.
-#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
 pub enum DecodeError {
     /// The message is not the size protocol v10 gives it.
     #[error("{what}: {got} bytes received, protocol v10 expects {expected} bytes")]

@@ -177,22 +177,19 @@ enum Reply {
 }
 
 /// Judges a command that came while the state of `tick` was the last published: admitted by the driver side of
-/// the contract (`vservo_driver::DriverSide::take_command`: schema, run, mode, joint count, age, finite) once it is
-/// the rmrc's (`sealed`), then applied only as the answer to `tick` itself (the lockstep's replay of a run is tick
-/// for tick) and when `command_of` takes it (its reference finite, its torque within the bound).
+/// the contract (`vservo_driver::DriverSide::take_command`: the rmrc's seal, schema, run, mode, joint count, age,
+/// finite), then applied only as the answer to `tick` itself (the lockstep's replay of a run is tick for tick)
+/// and when `command_of` takes it (its reference finite, its torque within the bound).
 fn judge(
     side: &mut DriverSide,
-    (reply, sealed): (&JointCommandMsg, bool),
+    reply: &JointCommandMsg,
     tick: u64,
     torque_max_nm: &[f64],
     now_ns: u64,
 ) -> Reply {
-    if !sealed {
-        return Reply::Refused;
-    }
     match side.take_command(reply, now_ns) {
-        // another run's (a restarted plant's predecessor's), whatever tick it answers
-        Err(CommandRefused::Epoch { .. }) => Reply::Refused,
+        // not the rmrc's, or another run's (a restarted plant's predecessor's), whatever tick it answers
+        Err(CommandRefused::Unsealed | CommandRefused::Epoch { .. }) => Reply::Refused,
         _ if reply.answers_tick != tick => Reply::Late,
         Ok(()) => {
             command_of(reply, side.settings().mode, torque_max_nm).map_or(Reply::Refused, Reply::Answer)
@@ -255,6 +252,8 @@ impl Plant {
             position_min_rad: std::array::from_fn(|j| limits(j).position_min),
             position_max_rad: std::array::from_fn(|j| limits(j).position_max),
             velocity_max_rad_s: std::array::from_fn(|j| limits(j).velocity_max),
+            // a torque driver: the held cell's ramp to rest is the rmrc's to keep (the rule is for velocities)
+            braking_gain_rad_s: [0.0; MAX_JOINTS],
         };
         Self {
             stage: match context.resume {
@@ -262,7 +261,7 @@ impl Plant {
                 None => context.cell.plant(),
             },
             declared,
-            side: DriverSide::new(settings, declared.epoch),
+            side: DriverSide::new(settings, declared.epoch, context.seal_key.clone()),
             torque_max_nm: std::array::from_fn(|j| limits(j).torque_max),
             speed_max_rad_s: std::array::from_fn(|j| limits(j).velocity_max),
             joint_count: context.cell.arm().joint_count(),
@@ -300,14 +299,7 @@ impl Plant {
 
     /// The rmrc's answer to the state of `tick`, from the commands waiting ([`judge`]): a refused one counted;
     /// an answer to an older tick came too late (already counted).
-    fn answer(
-        &mut self,
-        ports: &Ports,
-        tick: u64,
-        published_at: u64,
-        context: &NodeContext,
-        counters: &Counters,
-    ) -> Answer {
+    fn answer(&mut self, ports: &Ports, tick: u64, published_at: u64, counters: &Counters) -> Answer {
         let mut answer = Answer::default();
         let torque_max_nm = &self.torque_max_nm[..self.joint_count];
         let now_ns = monotonic_ns();
@@ -316,8 +308,7 @@ impl Plant {
                 counters.rejected();
                 continue;
             };
-            let sealed = sealed_by(context.seal_key.as_ref(), &reply);
-            match judge(&mut self.side, (&reply, sealed), tick, torque_max_nm, now_ns) {
+            match judge(&mut self.side, &reply, tick, torque_max_nm, now_ns) {
                 Reply::Answer(command) => {
                     answer.command = Some(command);
                     answer.round_trip_ns = reply.stamp_ns.saturating_sub(published_at).max(1);
@@ -450,7 +441,7 @@ pub fn run(context: &NodeContext) -> Result<(), RuntimeError> {
         // on an iceoryx2 listener that times out overshoots by several milliseconds (measured 7.8 ms here)
         let wake = timer.wait();
         let started = monotonic_ns();
-        let mut answer = plant.answer(&ports, tick, published_at, context, counters);
+        let mut answer = plant.answer(&ports, tick, published_at, counters);
         if wake.skipped_periods > 0 {
             counters.overrun();
             counters.skipped(wake.skipped_periods);
@@ -541,12 +532,19 @@ mod tests {
             position_min_rad: [-3.0; MAX_JOINTS],
             position_max_rad: [3.0; MAX_JOINTS],
             velocity_max_rad_s: [2.0; MAX_JOINTS],
+            braking_gain_rad_s: [0.0; MAX_JOINTS],
         };
-        let mut side = DriverSide::new(settings, 5);
+        let key = vservo_protocol::seal::SealKey::random().expect("a key");
+        let mut side = DriverSide::new(settings, 5, Some(key.clone()));
         side.published(10, 1_000);
         let answer = JointCommandMsg { answers_tick: 10, driver_epoch: 5, ..command(0) };
-        let mut judged =
-            |reply: &JointCommandMsg, sealed: bool| judge(&mut side, (reply, sealed), 10, &LIMITS_NM, 0);
+        // `sealed`: the rmrc's seal, or another's
+        let mut judged = |reply: &JointCommandMsg, sealed: bool| {
+            let mut reply = *reply;
+            key.sign(&mut reply);
+            reply.seal ^= u64::from(!sealed);
+            judge(&mut side, &reply, 10, &LIMITS_NM, 0)
+        };
         assert!(matches!(judged(&answer, true), Reply::Answer(_)));
         // not the rmrc's, another run's (whatever tick it answers), beyond the torque bound: refused
         assert_eq!(judged(&answer, false), Reply::Refused);

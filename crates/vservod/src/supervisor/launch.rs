@@ -79,9 +79,7 @@ impl Launcher {
         // a buffer wiped when dropped, never formatted into a string (docs/PROTOCOL.md, "Seals")
         if let Some(mut stdin) = child.stdin.take() {
             use std::io::Write;
-            stdin.write_all(crate::node_process::SEAL_KEY_LINE.as_bytes())?;
-            stdin.write_all(&self.seal_key.to_hex()[..])?;
-            stdin.write_all(b"\n")?;
+            vservo_protocol::seal::write_key_line(&self.seal_key, &mut stdin)?;
             stdin.write_all(config_text.as_bytes())?;
         }
         Ok(child)

@@ -258,6 +258,7 @@ impl Daemon {
             // the configuration in force, as the nodes get it (and again after a reload), not the user's file
             config_path: &claim.dir().configuration(),
             runtime_base: claim.base(),
+            seal_key: &launcher.seal_key,
         };
         let viewer = Helper::viewer(&config.viewer, &launch);
         let ros2_bridge = Helper::ros2_bridge(&config.ros2, &launch);
