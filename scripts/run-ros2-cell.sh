@@ -9,12 +9,16 @@
 # (final_error_px, settling_time_s, …). Logs and the recorded features are left in target/ros2-cell-run/[TAG-]PID
 # (`latest` links the last; the summary's run_folder names it).
 #
-#   scripts/run-ros2-cell.sh [--netns] [--position] [--duration-s S] [--json] [--domain D]
+#   scripts/run-ros2-cell.sh [--netns] [--position] [--duration-s S] [--json] [--domain D] [--fault held-takeover]
 #
 # --netns: vservod in one network namespace and the arm and camera node in another, joined by a veth pair:
 # the two PCs of a real cell (root; `ip netns`). --position: the arm's forward position controller
 # (/forward_position_controller/commands) in place of the velocity one. --domain: the ROS domain (default: one from this process's id,
-# so that runs side by side do not meet). Each run has an instance of its own and removes what it leaves.
+# so that runs side by side do not meet). --fault held-takeover: the cell starts held (as a real arm's does) and,
+# before any resume, a process of the same user SIGKILLs the rmrc, takes its joint_command slot and answers each joint
+# state with 0.3 rad/s on joint 1, unsealed, for 3 s (tests/python/takeover_attack.py; its JSON is the summary's
+# `attack`, with `rogue_named`: whether vservod's log names the attacker's pid); nothing is recorded. Each run has an
+# instance of its own and removes what it leaves.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 duration=20
@@ -22,6 +26,7 @@ json=0
 netns=0
 controller=velocity
 domain=$((1 + $$ % 200))
+fault=""
 while [ $# -gt 0 ]; do
     case "$1" in
         --duration-s) duration="$2"; shift 2 ;;
@@ -31,10 +36,13 @@ while [ $# -gt 0 ]; do
         --position) controller=position; shift ;;
         --domain) domain="$2"; shift 2 ;;
         --domain=*) domain="${1#*=}"; shift ;;
-        *) echo "run-ros2-cell: unknown argument $1 (expected --netns, --position, --duration-s S, --json, --domain D)" >&2
+        --fault) fault="$2"; shift 2 ;;
+        --fault=*) fault="${1#*=}"; shift ;;
+        *) echo "run-ros2-cell: unknown argument $1 (expected --netns, --position, --duration-s S, --json, --domain D, --fault held-takeover)" >&2
            exit 2 ;;
     esac
 done
+case "$fault" in ""|held-takeover) ;; *) echo "run-ros2-cell: --fault is held-takeover" >&2; exit 2 ;; esac
 root="$(pwd)"
 python="$root/target/python-venv/bin/python"
 source scripts/lib/cell-run.sh
@@ -59,6 +67,7 @@ name = "$instance"
 
 [robot]
 command = "$controller"
+start = "$([ "$fault" = held-takeover ] && echo held || echo servoing)"
 
 [ros2]
 domain_id = $domain
@@ -109,6 +118,21 @@ pids+=($!)
 ${in_arm[@]+"${in_arm[@]}"} "$python" clients/python/ros2_control_arm.py --scene "$out/scene.json" \
     --domain "$domain" --controller "$controller" --summary "$out/arm.json" > "$out/arm.log" 2>&1 &
 pids+=($!)
+if [ "$fault" = held-takeover ]; then
+    wait_for_cell "$instance" "$out"
+    attack="$("$python" tests/python/takeover_attack.py "$instance" 1 0.3 3 2> "$out/attack.log")" ||
+        { echo "run-ros2-cell: the attack did not run (see $out/attack.log)" >&2; exit 1; }
+    cleanup
+    trap - EXIT
+    attacker="$("$python" -c 'import json,sys; print(json.loads(sys.argv[1])["attacker_pid"])' "$attack")"
+    named=false
+    grep "stream taken" "$out/vservod.log" | grep -q "pid=$attacker" && named=true
+    summary="{\"attack\": $attack, \"rogue_named\": $named}"
+    say "run-ros2-cell: $summary"
+    summary="$(with_run_folder "$summary")"
+    [ "$json" = 1 ] && echo "$summary"
+    exit 0
+fi
 say "run-ros2-cell: vservod and the ROS 2 arm and camera run on domain $domain; recording $duration s of features (logs in $out/)"
 record_run "$instance" "$duration" "$out" commands
 cleanup

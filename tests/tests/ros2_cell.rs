@@ -54,6 +54,22 @@ fn run_ros2_cell_with_a_position_controller_converges_below_one_pixel() {
     assert_latency_measured(&summary);
 }
 
+/// Issue 46's takeover of a held cell, on the ROS 2 driver: before any resume, a process of the daemon's user
+/// SIGKILLs the rmrc, takes its `joint_command` slot and answers each joint state with 0.3 rad/s on joint 1,
+/// unsealed, for 3 s. The ROS 2 driver takes none of it (not the rmrc's seal): the ros2_control arm's joint 1, as
+/// its own joint states measure it, does not move; vservod names the attacker's pid.
+#[test]
+fn a_rogue_that_takes_a_held_ros2_cells_command_stream_moves_nothing_and_is_named() {
+    let _one = exclusive();
+    let summary = vservo_system_tests::run_script("run-ros2-cell.sh", &["--json", "--fault", "held-takeover"]);
+    let attack = &summary["attack"];
+    let number = |key: &str| attack[key].as_f64().unwrap_or_else(|| panic!("{key} in {summary}"));
+    assert!(number("sent") > 500.0, "the premise: the rogue answered the states for 3 s: {summary}");
+    assert!(number("moved_rad") < 1e-3, "joint 1 moved: {summary}");
+    assert_eq!(attack["state_before"], attack["state_after"], "the cell stays held: {summary}");
+    assert_eq!(summary["rogue_named"], true, "{summary}");
+}
+
 fn converged(instance: &str) -> bool {
     status(instance)
         .is_some_and(|s| s["state"] == "running" && s["feature_error_px"].as_f64().is_some_and(|e| e < 1.0))
