@@ -41,8 +41,8 @@ import mujoco
 import numpy as np
 
 from vservo_driver import (COMMAND_TIMEOUT_NS, FOLLOWING, HOLDING, MAX_COMMAND_AGE_TICKS, SCHEMA, VELOCITY,  # noqa: F401
-                           MOST_PERIODS_CAUGHT_UP, JointCommand, JointState, camera_image_publisher, command_values,
-                           make_node, open_notifier, open_topic, periods_passed, refusal, sleep_until, spread_ms)
+                           MOST_PERIODS_CAUGHT_UP, JointCommand, JointState, camera_image_publisher, cell_modes,
+                           command_values, follow_cell_mode, held_cell, make_node, open_notifier, open_topic, periods_passed, refusal, sleep_until, spread_ms)
 
 JOINTS = 6  # the arm's (the PUMA 560's); the messages have room for 7 (joint_count says how many)
 VELOCITY_BANDWIDTH_RAD_S = 1000.0  # of the simulated joints' velocity loop
@@ -430,6 +430,8 @@ def main(argv=None) -> int:
     state_publisher = open_topic(node, instance, "joint_state", JointState, 1, 64).publisher_builder().create()
     state_notifier = open_notifier(node, instance, "joint_state")
     commands = open_topic(node, instance, "joint_command", JointCommand, 0, 64).subscriber_builder().create()
+    # a held cell's commands may only bring the arm to rest (vservo_driver.HeldCell)
+    modes, held = cell_modes(node, instance), held_cell(scene, JOINTS)
 
     lock, shared = threading.Lock(), {"q": arm.data.qpos[:6].copy(), "stamp_ns": time.monotonic_ns()}
 
@@ -458,12 +460,16 @@ def main(argv=None) -> int:
     while not stop.is_set():
         # 1. the newest valid command: velocity mode, this run of the driver, answering a recent joint state
         now = time.monotonic_ns()
+        follow_cell_mode(modes, held)
         while (sample := commands.receive()) is not None:
             c = JointCommand.from_buffer_copy(sample.payload().contents)
             # the last state published is the one before this tick's
             published = tick - 1 if tick > 0 else None
-            if refusal(c, epoch=epoch, mode=VELOCITY, joint_count=JOINTS, last_tick=published) is None:
-                qd_command = np.array(command_values(c, VELOCITY, JOINTS))
+            values = command_values(c, VELOCITY, JOINTS)
+            if (refusal(c, epoch=epoch, mode=VELOCITY, joint_count=JOINTS, last_tick=published) is None
+                    and held.refusal(values) is None):
+                held.took(values)
+                qd_command = np.array(values)
                 last_valid_ns, command_tick = now, c.answers_tick
         status = FOLLOWING if now - last_valid_ns <= COMMAND_TIMEOUT_NS else HOLDING
         if status == HOLDING:

@@ -53,7 +53,8 @@ import pybullet_data
 
 
 from vservo_driver import (COMMAND_TIMEOUT_NS, FOLLOWING, HOLDING, MAX_COMMAND_AGE_TICKS, NONE, POSITION,  # noqa: F401
-                           SCHEMA, VELOCITY, JointCommand, JointState, command_values, make_node,
+                           SCHEMA, VELOCITY, JointCommand, JointState, cell_modes, command_values, follow_cell_mode,
+                           held_cell, make_node,
                            open_notifier, open_topic, periods_passed, camera_image_publisher, refusal, sleep_until,
                            spread_ms, MOST_PERIODS_CAUGHT_UP)
 from vservo_driver import MAX_JOINTS as PROTOCOL_JOINTS
@@ -435,6 +436,8 @@ def main(argv=None) -> int:
     state_publisher = open_topic(node, instance, "joint_state", JointState, 1, 64).publisher_builder().create()
     state_notifier = open_notifier(node, instance, "joint_state")
     commands = open_topic(node, instance, "joint_command", JointCommand, 0, 64).subscriber_builder().create()
+    # a held cell's velocity commands may only bring the arm to rest (vservo_driver.HeldCell)
+    modes, held = cell_modes(node, instance), held_cell(scene, n)
     if options.fifo_priority > 0:
         try:
             os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(options.fifo_priority))
@@ -469,10 +472,14 @@ def main(argv=None) -> int:
         sleep_until(deadline)
         woke = monotonic_ns()
         late.append(woke - deadline)
+        follow_cell_mode(modes, held)
         while (sample := commands.receive()) is not None:
             c = JointCommand.from_buffer_copy(sample.payload().contents)
-            if refusal(c, epoch=epoch, mode=mode, joint_count=n, last_tick=tick) is None:
-                command = np.array(command_values(c, mode, n))
+            values = command_values(c, mode, n)
+            if (refusal(c, epoch=epoch, mode=mode, joint_count=n, last_tick=tick) is None
+                    and (mode != VELOCITY or held.refusal(values) is None)):
+                held.took(values)
+                command = np.array(values)
                 last_valid_ns, applied_tick = woke, c.answers_tick
         if woke - last_valid_ns > COMMAND_TIMEOUT_NS:
             command, applied_tick = None, NONE  # bring the joints to rest

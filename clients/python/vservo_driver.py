@@ -54,6 +54,21 @@ class JointCommand(ctypes.Structure):
         return "vservo::JointCommand"
 
 
+class CellMode(ctypes.Structure):
+    """vservo::CellMode, 120 bytes: whether the cell servos, is held in a safe stop or moves its joints (vservod's,
+    sealed with the run's key; a driver without the key cannot check the seal, but the stream's one writer slot is
+    vservod's while it runs)."""
+
+    _fields_ = [("schema", ctypes.c_uint32), ("mode", ctypes.c_uint32), ("sequence", ctypes.c_uint64),
+                ("fault", ctypes.c_uint32), ("fault_joints", ctypes.c_uint32), ("speed_fraction", ctypes.c_double),
+                ("goal_rad", ctypes.c_double * MAX_JOINTS), ("writers", ctypes.c_uint32 * 4),
+                ("stamp_ns", ctypes.c_uint64), ("seal", ctypes.c_uint64)]
+
+    @staticmethod
+    def type_name() -> str:
+        return "vservo::CellMode"
+
+
 class CameraImageHeader(ctypes.Structure):
     """vservo::CameraImageHeader, 40 bytes: the user header of `camera_image`, whose payload is the pixels (u8)."""
 
@@ -89,6 +104,82 @@ def refusal(command, *, epoch, mode, joint_count, last_tick):
     if not all(math.isfinite(v) for v in command_values(command, mode, joint_count)):
         return "not finite"
     return None
+
+
+SERVOING, SAFE_STOP, MOVING = 0, 1, 2  # cell modes
+REST_RAD_S = 1e-9  # speeds this small count as rest, of either sign
+
+
+def speed_gained_braking(acceleration, jerk):
+    """The speed a joint still gains while a jerk-limited ramp to rest takes its acceleration (rad/s²) to zero at
+    `jerk` (rad/s³): a²/2j (zero without a jerk limit)."""
+    gained = acceleration * acceleration / (2.0 * jerk) if jerk else math.inf
+    return gained if math.isfinite(gained) else 0.0
+
+
+class HeldCell:
+    """While the cell is held (its `cell_mode` a safe stop), a velocity command is taken only if it brings the arm
+    to rest: each joint no faster than the speed in force when the hold began plus what a ramp to rest still gains
+    (`speed_gained_braking` of its limits), never turned around, and never faster again than a later command plus
+    that gain. The rule of the Rust driver side (crates/vservo-driver's `held`), tied to it by
+    tests/tests/python_layout.rs. Call `cell_mode` with each `cell_mode` read, `refusal` before taking a command
+    and `took` after."""
+
+    def __init__(self, gain_rad_s):
+        self.gain = list(gain_rad_s)
+        self.in_force = None
+        self.sequence = None
+        self.envelope = None  # (fastest, direction) per joint while held
+
+    def cell_mode(self, mode, sequence):
+        if mode not in (SERVOING, SAFE_STOP, MOVING) or (self.sequence is not None and sequence <= self.sequence):
+            return
+        self.sequence = sequence
+        if mode != SAFE_STOP:
+            self.envelope = None
+        elif self.envelope is None:
+            speed = self.in_force or [0.0] * len(self.gain)
+            self.envelope = ([abs(v) + g for v, g in zip(speed, self.gain)],
+                             [0.0 if abs(v) <= REST_RAD_S else math.copysign(1.0, v) for v in speed])
+
+    def refusal(self, speeds):
+        """"not towards rest" (crates/vservo-driver's `CommandRefused::kind`) or None."""
+        if self.envelope is None:
+            return None
+        fastest, direction = self.envelope
+        for v, most, way in zip(speeds, fastest, direction):
+            if abs(v) > most or (way * v < 0.0 and abs(v) > REST_RAD_S):
+                return "not towards rest"
+        return None
+
+    def took(self, speeds):
+        self.in_force = list(speeds)
+        if self.envelope is not None:
+            fastest, _ = self.envelope
+            fastest[:] = [min(most, abs(v) + g) for most, v, g in zip(fastest, speeds, self.gain)]
+
+
+def held_cell(scene, joint_count):
+    """The `HeldCell` of the scene's arm (`vservoctl scene`): its acceleration and jerk limits."""
+    arm = scene["arm"]
+    jerks = arm.get("jerk_limits_rad_s3") or [None] * joint_count
+    return HeldCell([speed_gained_braking(a, j if j is not None else math.inf)
+                     for a, j in zip(arm["acceleration_limits_rad_s2"][:joint_count], jerks[:joint_count])])
+
+
+def cell_modes(node, instance):
+    """A reader of the instance's `cell_mode` (vservod's; its newest is kept for a new reader)."""
+    service = (node.service_builder(iox2.ServiceName.new(f"vservo/{instance}/cell_mode"))
+               .publish_subscribe(CellMode).open())
+    return service.subscriber_builder().create()
+
+
+def follow_cell_mode(reader, held):
+    """Hands `held` each cell mode that arrived."""
+    while (sample := reader.receive()) is not None:
+        mode = CellMode.from_buffer_copy(sample.payload().contents)
+        if mode.schema == SCHEMA:
+            held.cell_mode(mode.mode, mode.sequence)
 
 
 def command_values(command, mode, joint_count):

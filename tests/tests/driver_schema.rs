@@ -67,3 +67,61 @@ fn a_driver_of_another_schema_says_so_in_one_line_naming_both() {
         .expect("the schema file restored");
     daemon.stop();
 }
+
+/// A robot driver of another schema whose joint states still open the service (the same layout, another number:
+/// one written for an older schema) is named by vservod within 5 s, in one ERROR line with its pid and both
+/// schemas, instead of "no robot driver has appeared" alone (issue 46).
+#[test]
+fn vservod_names_a_robot_driver_of_another_schema_with_its_pid_and_both_numbers() {
+    let _one = exclusive();
+    let instance = unique("old-driver");
+    // the MuJoCo cell's configuration: an external robot driver and camera
+    let config =
+        config_from("config/mujoco.toml", &[("name = \"mujoco\"", &format!("name = \"{instance}\""))]);
+    let daemon = vservo_system_tests::Daemon::start(&config);
+    let older = SCHEMA_VERSION - 1;
+    let script = format!(
+        "import os, sys, time; sys.path.insert(0, {clients:?}); import vservo_driver as d\n\
+         node = d.make_node({instance:?}, 'an old driver')\n\
+         publisher = d.open_topic(node, {instance:?}, 'joint_state', d.JointState, 1, 64).publisher_builder().create()\n\
+         state = d.JointState(schema={older}, period_ns=1000000, command_mode=d.VELOCITY, joint_count=6)\n\
+         print(os.getpid(), flush=True)\n\
+         for tick in range(600):\n    state.tick, state.stamp_ns = tick, time.monotonic_ns()\n    \
+         publisher.send_copy(state)\n    time.sleep(0.01)\n",
+        clients = repository_root().join("clients/python").display().to_string(),
+    );
+    let mut driver = Command::new(repository_root().join("target/python-venv/bin/python"))
+        .args(["-c", &script])
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("python runs");
+    let stdout = driver.stdout.take().expect("stdout");
+    let (sender, receiver) = std::sync::mpsc::channel();
+    std::thread::spawn(move || {
+        use std::io::BufRead;
+        let mut line = String::new();
+        let _ = std::io::BufReader::new(stdout).read_line(&mut line);
+        let _ = sender.send(line);
+    });
+    let Ok(pid) = receiver.recv_timeout(Duration::from_secs(20)) else {
+        let _ = driver.kill();
+        let out = driver.wait_with_output().expect("python ends");
+        panic!("the old driver did not start: {}\n{}", String::from_utf8_lossy(&out.stderr), daemon.log());
+    };
+    let started = Instant::now();
+    let wanted = format!(
+        "the robot driver (pid {}) speaks schema {older}; this vservod speaks {SCHEMA_VERSION}",
+        pid.trim()
+    );
+    let named = vservo_system_tests::wait_until(Duration::from_secs(5), || daemon.log().contains(&wanted));
+    let after = started.elapsed();
+    let _ = driver.kill();
+    let _ = driver.wait();
+    assert!(named, "named within 5 s ({after:?}): {}", daemon.log());
+    let lines = daemon.log().lines().filter(|l| l.contains(&wanted)).count();
+    assert_eq!(lines, 1, "said once: {}", daemon.log());
+    println!("named after {:.2} s", after.as_secs_f64());
+    daemon.stop();
+}

@@ -185,3 +185,115 @@ fn the_python_drivers_take_a_command_by_the_rust_driver_sides_rule() {
     // the premise: the cases took every branch of the rule
     assert_eq!(causes.len(), 8, "{causes:?}");
 }
+
+/// A third party's driver, which has no key to check the rmrc's seal, can still keep a held cell's arm to a ramp to
+/// rest: clients/python/vservo_driver.py's `HeldCell` and the Rust driver side are handed the same cell modes and
+/// velocity commands — a hold that begins at speed, a ramp that first gains what a jerk-limited stop gains, a joint
+/// that speeds up again or turns around, an older and an unknown mode, a resume and a second hold — and take the
+/// same commands.
+#[test]
+fn the_python_drivers_keep_a_held_cell_to_a_ramp_to_rest_by_the_rust_rule() {
+    use vservo_driver::{DriverSettings, DriverSide, Measured, speed_gained_braking};
+    use vservo_protocol::seal::SealKey;
+    use vservo_protocol::{CellMode, CellModeMsg, JointCommandMsg, MAX_JOINTS};
+
+    const EPOCH: u64 = 5;
+    let gain = speed_gained_braking(10.0, 5000.0);
+    let settings = DriverSettings {
+        mode: CommandMode::Velocity,
+        joint_count: 6,
+        period_ns: 1_000_000,
+        hold_after_ns: 1_000_000_000,
+        position_min_rad: [-10.0; MAX_JOINTS],
+        position_max_rad: [10.0; MAX_JOINTS],
+        velocity_max_rad_s: [10.0; MAX_JOINTS],
+        braking_gain_rad_s: [gain; MAX_JOINTS],
+    };
+    let key = SealKey::random().expect("a key");
+    let mut side = DriverSide::new(settings, EPOCH, Some(key.clone()));
+    let at_rest =
+        Measured { q_rad: [0.0; MAX_JOINTS], qd_rad_s: [0.0; MAX_JOINTS], torque_nm: [f64::NAN; MAX_JOINTS] };
+    let speeds = |first: f64, second: f64| [first, second, 0.0, 0.0, 0.0, 0.0];
+    enum Event {
+        Mode(u32, u64),
+        Command([f64; 6]),
+    }
+    use Event::{Command, Mode};
+    let (servoing, safe_stop) = (CellMode::Servoing.code(), CellMode::SafeStop.code());
+    let events = [
+        Mode(servoing, 1),
+        Command(speeds(0.3, 0.0)),
+        Command(speeds(0.5, -0.2)),
+        Mode(safe_stop, 2),
+        Command(speeds(0.5 + 0.9 * gain, -0.2 - 0.9 * gain)),
+        Command(speeds(0.5 + 1.1 * gain, -0.2)),
+        Command(speeds(0.3, -0.1)),
+        Command(speeds(0.3 + 1.5 * gain, -0.1)),
+        Command(speeds(0.2, 0.05)),
+        Command(speeds(0.0, 0.0)),
+        Mode(servoing, 1),
+        Command(speeds(0.3, 0.0)),
+        Mode(7, 9),
+        Command(speeds(0.3, 0.0)),
+        Mode(servoing, 3),
+        Command(speeds(0.3, 0.0)),
+        Mode(safe_stop, 4),
+        Command(speeds(0.3 + 0.5 * gain, 0.0)),
+        Command(speeds(-0.001, 0.0)),
+        Command(speeds(0.0, 0.0)),
+    ];
+    let mut input = format!("{}\n", serde_json::json!({ "gain": vec![gain; 6] }));
+    let mut rust = Vec::new();
+    let mut tick = 0;
+    for event in &events {
+        match event {
+            Mode(mode, sequence) => {
+                input += &format!("{}\n", serde_json::json!({ "mode": mode, "sequence": sequence }));
+                let mut message = CellModeMsg {
+                    schema: SCHEMA_VERSION,
+                    mode: *mode,
+                    sequence: *sequence,
+                    ..CellModeMsg::default()
+                };
+                key.sign(&mut message);
+                side.cell_mode(&message);
+            }
+            Command(values) => {
+                input += &format!("{}\n", serde_json::json!({ "command": values }));
+                side.joint_state(tick, tick * 1_000_000, &at_rest, None);
+                let mut command = JointCommandMsg {
+                    mode: CommandMode::Velocity.code(),
+                    joint_count: 6,
+                    answers_tick: tick,
+                    driver_epoch: EPOCH,
+                    ..JointCommandMsg::default()
+                };
+                command.qd_ref_rad_s[..6].copy_from_slice(values);
+                key.sign(&mut command);
+                rust.push(side.take_command(&command, tick * 1_000_000).err().map(|refused| refused.kind()));
+                tick += 1;
+            }
+        }
+    }
+    let python = repository_root().join("target/python-venv/bin/python");
+    let mut child = std::process::Command::new(&python)
+        .arg(repository_root().join("tests/python/held.py"))
+        .arg(repository_root().join("clients/python"))
+        .stdin(std::process::Stdio::piped())
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("python runs");
+    use std::io::Write;
+    child.stdin.take().expect("stdin").write_all(input.as_bytes()).expect("the events written");
+    let out = child.wait_with_output().expect("python ends");
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let python_verdicts: Vec<Value> = String::from_utf8_lossy(&out.stdout)
+        .lines()
+        .map(|l| serde_json::from_str(l).expect("a JSON line"))
+        .collect();
+    let refused = rust.iter().filter(|verdict| verdict.is_some()).count();
+    assert_eq!(python_verdicts, rust.iter().map(|v| serde_json::json!(v)).collect::<Vec<_>>(), "{rust:?}");
+    // the premise: the events took both ways, and every refusal was the held cell's
+    assert!(refused >= 5 && rust.iter().flatten().all(|kind| *kind == "not towards rest"), "{rust:?}");
+}

@@ -61,7 +61,8 @@ fn run_ros2_cell_with_a_position_controller_converges_below_one_pixel() {
 #[test]
 fn a_rogue_that_takes_a_held_ros2_cells_command_stream_moves_nothing_and_is_named() {
     let _one = exclusive();
-    let summary = vservo_system_tests::run_script("run-ros2-cell.sh", &["--json", "--fault", "held-takeover"]);
+    let summary =
+        vservo_system_tests::run_script("run-ros2-cell.sh", &["--json", "--fault", "held-takeover"]);
     let attack = &summary["attack"];
     let number = |key: &str| attack[key].as_f64().unwrap_or_else(|| panic!("{key} in {summary}"));
     assert!(number("sent") > 500.0, "the premise: the rogue answered the states for 3 s: {summary}");

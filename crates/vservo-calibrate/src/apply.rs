@@ -20,6 +20,29 @@ use vservo_protocol::DaemonState;
 
 use crate::{CalibrateError, Result};
 
+/// Refuses a configuration the user keeps read-only (no write permission for its owner: a 0444 file, which root
+/// too must not replace) or cannot open for writing, and one in a folder where the edited file cannot be made (a
+/// probe file is made there and removed).
+fn writable(config_path: &Path) -> Result<()> {
+    use std::os::unix::fs::PermissionsExt;
+    let metadata =
+        std::fs::metadata(config_path).map_err(CalibrateError::file("--apply: looking at", config_path))?;
+    let mode = metadata.permissions().mode() & 0o777;
+    let opens = std::fs::OpenOptions::new().write(true).open(config_path).is_ok();
+    if mode & 0o200 == 0 || !opens {
+        return Err(CalibrateError::Refused(format!(
+            "--apply: {} is read-only (mode {mode:04o}): nothing was moved; make it writable (chmod u+w), or leave \
+             --apply out and point [camera] calibration_file at the calibration yourself",
+            config_path.display()
+        )));
+    }
+    vservo_config::new_file::can_make_beside(config_path).map_err(|e| {
+        CalibrateError::Refused(format!(
+            "--apply: {e}, where the edited configuration is written: nothing was moved"
+        ))
+    })
+}
+
 /// The suffix of the configuration as it was before `--apply`.
 const BEFORE_SUFFIX: &str = "before-calibration";
 
@@ -64,6 +87,7 @@ impl Edit {
         })?;
         vservo_config::new_file::check(&kept_path(config_path), true)?;
         vservo_config::new_file::check(config_path, true)?;
+        writable(config_path)?;
         Ok(Self { config_path: config_path.to_path_buf(), before })
     }
 

@@ -29,7 +29,9 @@ pub fn rows(m: &IsometryMatrix3<f64>) -> Vec<Vec<f64>> {
     (0..4).map(|r| (0..4).map(|c| h[(r, c)]).collect()).collect()
 }
 
-/// Writes the views and `dataset.json` into `dir` (made if missing); returns `dataset.json`'s path.
+/// Writes the views and `dataset.json` into `dir` (made new, or the user's own folder: never a link or another
+/// user's, `vservo_config::new_file::folder`; a link at a file's name is refused, never written through);
+/// returns `dataset.json`'s path.
 pub fn write(
     dir: &Path,
     views: &[View],
@@ -38,7 +40,7 @@ pub fn write(
     grid: &TagGrid,
     joints: usize,
 ) -> Result<PathBuf> {
-    std::fs::create_dir_all(dir).map_err(CalibrateError::file("making", dir))?;
+    vservo_config::new_file::folder(dir)?;
     let mut listed = Vec::with_capacity(views.len());
     for (k, view) in views.iter().enumerate() {
         let name = format!("view_{:02}.pgm", k + 1);
@@ -62,7 +64,7 @@ pub fn write(
         "views": listed,
     });
     let path = dir.join("dataset.json");
-    std::fs::write(&path, format!("{dataset}\n")).map_err(CalibrateError::file("writing", &path))?;
+    vservo_config::new_file::write(&path, format!("{dataset}\n").as_bytes(), true, 0o644)?;
     Ok(path)
 }
 
@@ -77,14 +79,14 @@ pub fn camera_json(camera: &CameraIntrinsics) -> Value {
     })
 }
 
-/// A binary PGM (P5).
+/// A binary PGM (P5), as a new file of the user's (`vservo_config::new_file`).
 fn write_pgm(path: &Path, image: &GrayImage) -> Result<()> {
-    let file =
-        std::io::BufWriter::new(std::fs::File::create(path).map_err(CalibrateError::file("creating", path))?);
-    PnmEncoder::new(file)
+    let mut pgm = Vec::with_capacity(image.as_raw().len() + 32);
+    PnmEncoder::new(&mut pgm)
         .with_subtype(PnmSubtype::Graymap(SampleEncoding::Binary))
         .encode(image.as_raw().as_slice(), image.width(), image.height(), ExtendedColorType::L8)
-        .map_err(|source| CalibrateError::Image { path: path.to_path_buf(), source })
+        .map_err(|source| CalibrateError::Image { path: path.to_path_buf(), source })?;
+    Ok(vservo_config::new_file::write(path, &pgm, true, 0o644)?)
 }
 
 /// The layout: the grid's parameters and each tag's corners in the board frame (m).

@@ -4,7 +4,8 @@
 //! `--force` is given. The file is made new beside the name (`O_CREAT | O_EXCL | O_NOFOLLOW`, mode 0600 unless
 //! said), written, flushed and then moved to the name: a file that does not finish leaves nothing behind, and
 //! what another user plants at the name meanwhile is replaced, never written through (in a sticky folder the
-//! system refuses the move over another user's file).
+//! system refuses the move over another user's file). A folder vservo writes its files into ([`folder`]) is made
+//! new, or must already be the user's own folder — not a link to one, not another user's.
 
 use std::fs::{File, OpenOptions};
 use std::os::unix::fs::{MetadataExt, OpenOptionsExt};
@@ -32,6 +33,24 @@ pub enum NameRefused {
     /// The user's own file is at the name.
     #[error("{0} exists: --force replaces it")]
     Exists(PathBuf),
+    /// The folder named is a symbolic link.
+    #[error(
+        "{0} is a symbolic link: vservo writes only into a folder of the user's own; choose another folder"
+    )]
+    FolderLink(PathBuf),
+    /// The folder named is another user's.
+    #[error(
+        "{path} is user {owner}'s folder: vservo writes only into a folder of the user's own; choose another"
+    )]
+    OtherUsersFolder {
+        /// The folder.
+        path: PathBuf,
+        /// Its owner (a name, or `uid N`).
+        owner: String,
+    },
+    /// Something that is not a folder is at the name.
+    #[error("{0} is not a folder; choose another name")]
+    NotAFolder(PathBuf),
 }
 
 /// Why a new file could not be written: its name refused, or the system's error doing it.
@@ -133,6 +152,56 @@ impl Drop for NewFile {
     }
 }
 
+/// The folder `path`, for files of the user's: made new (mode 0755, its parents as `mkdir -p` makes them), or
+/// already the user's own folder ([`check_folder`]). Write into it with [`write`] and `force` (the user's own files
+/// at the names are replaced; links and other users' files there are still refused).
+pub fn folder(path: &Path) -> Result<(), NewFileError> {
+    if check_folder(path)? {
+        return Ok(());
+    }
+    if let Some(parent) = path.parent().filter(|p| !p.as_os_str().is_empty()) {
+        std::fs::create_dir_all(parent).map_err(NewFileError::io("making", parent))?;
+    }
+    // a name taken meanwhile (a link planted after the check) is refused by the system: nothing is followed
+    std::fs::create_dir(path).map_err(NewFileError::io("making", path))
+}
+
+/// Checks, before any work, that `path` may be a folder of the user's files: `false` if nothing is there (it
+/// will be made), `true` if it is the user's own folder. A symbolic link at the name (to a folder or not),
+/// another user's folder, or anything else is refused, naming it.
+pub fn check_folder(path: &Path) -> Result<bool, NewFileError> {
+    let metadata = match std::fs::symlink_metadata(path) {
+        Ok(metadata) => metadata,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(false),
+        Err(e) => return Err(NewFileError::io("looking at", path)(e)),
+    };
+    let refused = if metadata.file_type().is_symlink() {
+        NameRefused::FolderLink(path.into())
+    } else if !metadata.is_dir() {
+        NameRefused::NotAFolder(path.into())
+    } else if metadata.uid() != nix::unistd::geteuid().as_raw() {
+        NameRefused::OtherUsersFolder { path: path.into(), owner: user_name(metadata.uid()) }
+    } else {
+        return Ok(true);
+    };
+    Err(refused.into())
+}
+
+/// Whether a new file can be made beside `path` (in its folder), as [`NewFile`] will make one: a probe file is made
+/// and removed. For a check before any work.
+pub fn can_make_beside(path: &Path) -> Result<(), NewFileError> {
+    let name = path.file_name().map_or("file".into(), |n| n.to_string_lossy());
+    let probe = path.with_file_name(format!(".{name}.{}.probe", std::process::id()));
+    OpenOptions::new()
+        .write(true)
+        .create_new(true)
+        .mode(0o600)
+        .custom_flags(nix::libc::O_NOFOLLOW)
+        .open(&probe)
+        .map_err(NewFileError::io("making a file beside", path))?;
+    std::fs::remove_file(&probe).map_err(NewFileError::io("removing", &probe))
+}
+
 /// Writes `bytes` to `path` as a new file of mode `mode` ([`NewFile`]).
 pub fn write(path: &Path, bytes: &[u8], force: bool, mode: u32) -> Result<(), NewFileError> {
     use std::io::Write;
@@ -181,6 +250,23 @@ mod tests {
         assert!(std::fs::symlink_metadata(&link).expect("still there").file_type().is_symlink());
         let refused = write(&dir, b"bad", true, 0o600).expect_err("a folder");
         assert!(refused.to_string().contains("not a regular file"), "{refused}");
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    #[test]
+    fn a_folder_is_made_new_or_must_be_the_users_own_and_no_link() {
+        let dir = folder("folders");
+        let made = dir.join("a/b/out");
+        super::folder(&made).expect("made, with its parents");
+        assert!(made.is_dir());
+        super::folder(&made).expect("the user's own: taken again");
+        let link = dir.join("linked");
+        std::os::unix::fs::symlink(&made, &link).expect("a link");
+        let refused = super::folder(&link).expect_err("a link to a folder");
+        assert!(refused.to_string().contains("symbolic link"), "{refused}");
+        let file = dir.join("file");
+        std::fs::write(&file, b"x").expect("a file");
+        assert!(super::folder(&file).expect_err("a file").to_string().contains("not a folder"));
         let _ = std::fs::remove_dir_all(&dir);
     }
 }

@@ -12,9 +12,9 @@
 //! the end); its settling time is when it last entered. The configuration's scenario object motion and
 //! occlusions are left out: the board holds still and every mark can be seen.
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
-use anyhow::{Context, Result};
+use anyhow::Result;
 use clap::Args;
 use nalgebra::Vector3;
 use plotters::prelude::*;
@@ -406,11 +406,11 @@ pub fn run(args: &BasinArgs) -> Result<()> {
         })).collect::<Vec<_>>(),
     });
     if let Some(dir) = &args.out {
-        std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
-        let path = dir.join("basin.json");
-        std::fs::write(&path, format!("{result:#}\n"))
-            .with_context(|| format!("writing {}", path.display()))?;
-        draw(&runs, &dir.join("basin.svg"))?;
+        vservo_config::new_file::folder(dir)?;
+        crate::output::write_in(dir, "basin.json", format!("{result:#}\n").as_bytes())?;
+        let mut svg = String::new();
+        draw(&runs, &mut svg)?;
+        crate::output::write_in(dir, "basin.svg", svg.as_bytes())?;
     }
     if args.json {
         let mut summary = result.clone();
@@ -482,9 +482,9 @@ fn print_table(result: &Value) {
 
 /// One panel per class: each start at its translation (cm, norm) and rotation (deg, norm), coloured by
 /// outcome.
-fn draw(runs: &[Run], path: &Path) -> Result<()> {
-    let plot_error = |e: &dyn std::fmt::Debug| anyhow::anyhow!("drawing {}: {e:?}", path.display());
-    let root = SVGBackend::new(path, (1200, 360)).into_drawing_area();
+fn draw(runs: &[Run], svg: &mut String) -> Result<()> {
+    let plot_error = |e: &dyn std::fmt::Debug| anyhow::anyhow!("drawing basin.svg: {e:?}");
+    let root = SVGBackend::with_string(svg, (1200, 360)).into_drawing_area();
     root.fill(&WHITE).map_err(|e| plot_error(&e))?;
     let panels = root.split_evenly((1, CLASSES.len()));
     for (class, panel) in panels.iter().enumerate() {

@@ -78,6 +78,10 @@ pub fn run(args: &CalibrateArgs) -> Result<()> {
     let edit =
         if args.apply && !args.dry_run { Some(apply::Edit::check(&args.config.config)?) } else { None };
     let views_dir = args.views.clone().unwrap_or_else(|| out.with_file_name("calibration-views"));
+    if !args.dry_run {
+        // before anything moves: the views go into a folder of the user's own, never through a planted link
+        vservo_config::new_file::check_folder(&views_dir)?;
+    }
     let (views, truth) = if args.lockstep {
         let cell = capture::Simulated::new(&config)?;
         let board = cell.base_from_board();

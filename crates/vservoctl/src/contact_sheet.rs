@@ -61,10 +61,9 @@ pub fn write(bytes: &[u8], config: &Config, count: usize, out: &Path) -> Result<
             cell(image, features, &desired, config, (stamp - first_stamp) as f64 * 1e-9)
         })
         .collect::<Result<_>>()?;
-    std::fs::write(out.join("frames.svg"), sheet(&cells)).context("writing frames.svg")?;
+    crate::output::write_in(out, "frames.svg", sheet(&cells).as_bytes())?;
     let records: Vec<&Value> = cells.iter().map(|c| &c.record).collect();
-    std::fs::write(out.join("frames.json"), format!("{}\n", json!({ "frames": records })))
-        .context("writing frames.json")?;
+    crate::output::write_in(out, "frames.json", format!("{}\n", json!({ "frames": records })).as_bytes())?;
     Ok(cells.len())
 }
 

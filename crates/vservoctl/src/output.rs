@@ -63,3 +63,11 @@ pub fn print_stdout(text: &str) -> std::io::Result<()> {
         other => other,
     }
 }
+
+/// Writes `bytes` as `name` in `folder`, a folder of the user's own (checked, or made new, by
+/// `vservo_config::new_file::folder` before any work): the user's own file at the name is replaced; a link or
+/// another user's file there is refused, naming it, and never written through.
+pub fn write_in(folder: &std::path::Path, name: &str, bytes: &[u8]) -> anyhow::Result<()> {
+    vservo_config::new_file::write(&folder.join(name), bytes, true, 0o644)?;
+    Ok(())
+}

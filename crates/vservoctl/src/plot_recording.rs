@@ -208,7 +208,7 @@ pub fn run(args: &PlotArgs) -> anyhow::Result<()> {
     let config = args.config.load()?;
     let bytes = std::fs::read(&args.file).with_context(|| format!("reading {}", args.file.display()))?;
     let trace = trace_of(&bytes, &config).with_context(|| format!("{}", args.file.display()))?;
-    std::fs::create_dir_all(&args.out).with_context(|| format!("creating {}", args.out.display()))?;
+    vservo_config::new_file::folder(&args.out)?;
     crate::plots::draw(&trace, &config, &args.out)?;
     println!(
         "{} frames, {} joint states every 10 ms: figures in {}",

@@ -15,12 +15,18 @@ use vservo_sim::world::ObjectMotion;
 const COLOURS: [RGBColor; 4] =
     [RGBColor(200, 30, 30), RGBColor(30, 110, 200), RGBColor(30, 150, 60), RGBColor(150, 60, 170)];
 
-/// Draws the figures into `dir`.
+/// Draws the figures into `dir` (the user's own folder: `crate::output::write_in`).
 pub fn draw(trace: &Trace, config: &Config, dir: &Path) -> Result<()> {
-    trajectory(trace, config, &dir.join("trajectory.svg"))?;
-    error(trace, &dir.join("error.svg"))?;
+    let mut svg = String::new();
+    trajectory(trace, config, &mut svg)?;
+    crate::output::write_in(dir, "trajectory.svg", svg.as_bytes())?;
+    svg.clear();
+    error(trace, &mut svg)?;
+    crate::output::write_in(dir, "error.svg", svg.as_bytes())?;
     if let ObjectMotion::Circle { radius_m, .. } = config.cell.scenario.object {
-        camera_position(trace, radius_m, &dir.join("camera_position.svg"))?;
+        svg.clear();
+        camera_position(trace, radius_m, &mut svg)?;
+        crate::output::write_in(dir, "camera_position.svg", svg.as_bytes())?;
     }
     Ok(())
 }
@@ -38,8 +44,8 @@ fn finite_points(trace: &Trace, mark: usize) -> Vec<(f64, f64)> {
         .collect()
 }
 
-fn trajectory(trace: &Trace, config: &Config, path: &Path) -> Result<()> {
-    let root = SVGBackend::new(path, (640, 640)).into_drawing_area();
+fn trajectory(trace: &Trace, config: &Config, svg: &mut String) -> Result<()> {
+    let root = SVGBackend::with_string(svg, (640, 640)).into_drawing_area();
     root.fill(&WHITE).map_err(plot_error)?;
     let (w, h) = (f64::from(config.cell.camera.width_px()), f64::from(config.cell.camera.height_px()));
     let mut chart = ChartBuilder::on(&root)
@@ -76,7 +82,7 @@ fn trajectory(trace: &Trace, config: &Config, path: &Path) -> Result<()> {
     Ok(())
 }
 
-fn error(trace: &Trace, path: &Path) -> Result<()> {
+fn error(trace: &Trace, svg: &mut String) -> Result<()> {
     let points: Vec<(f64, f64)> = trace
         .frames
         .iter()
@@ -89,7 +95,7 @@ fn error(trace: &Trace, path: &Path) -> Result<()> {
         .collect();
     let t_end = trace.frames.last().map_or(1.0, |f| f.t_s).max(1e-3);
     let top = points.iter().map(|p| p.1).fold(1.0, f64::max) * 1.05;
-    let root = SVGBackend::new(path, (720, 400)).into_drawing_area();
+    let root = SVGBackend::with_string(svg, (720, 400)).into_drawing_area();
     root.fill(&WHITE).map_err(plot_error)?;
     let mut chart = ChartBuilder::on(&root)
         .caption("Error of point 1", ("sans-serif", 18))
@@ -114,7 +120,7 @@ fn error(trace: &Trace, path: &Path) -> Result<()> {
     Ok(())
 }
 
-fn camera_position(trace: &Trace, radius_m: f64, path: &Path) -> Result<()> {
+fn camera_position(trace: &Trace, radius_m: f64, svg: &mut String) -> Result<()> {
     let points: Vec<(f64, f64)> =
         trace.frames.iter().map(|f| (f.camera_in_desired_m.y, f.camera_in_desired_m.z)).collect();
     let circle: Vec<(f64, f64)> = (0..=200)
@@ -124,7 +130,7 @@ fn camera_position(trace: &Trace, radius_m: f64, path: &Path) -> Result<()> {
         })
         .collect();
     let span = 1.3 * radius_m;
-    let root = SVGBackend::new(path, (600, 640)).into_drawing_area();
+    let root = SVGBackend::with_string(svg, (600, 640)).into_drawing_area();
     root.fill(&WHITE).map_err(plot_error)?;
     let mut chart = ChartBuilder::on(&root)
         .caption("Camera position (grey: the object's circle)", ("sans-serif", 18))

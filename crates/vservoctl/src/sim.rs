@@ -1,9 +1,9 @@
 //! `vservoctl sim`: a scenario in the lockstep simulator, with the numbers and the data to judge it by.
 
 use std::fmt::Write as _;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
-use anyhow::{Context, Result};
+use anyhow::Result;
 use clap::{Args, ValueEnum};
 use serde_json::json;
 use vservo_lockstep::summary::summarize;
@@ -90,7 +90,7 @@ pub fn run(args: &SimArgs) -> Result<()> {
     if duration >= 10.0 {
         eprintln!("simulated {duration:.1} s in {:.2} s of wall time", started.elapsed().as_secs_f64());
     }
-    std::fs::create_dir_all(&args.out).with_context(|| format!("creating {}", args.out.display()))?;
+    vservo_config::new_file::folder(&args.out)?;
     let summary = summarize(&trace, &config.cell.scenario.object);
     let summary_json = json!({
         "config": config.origin,
@@ -111,16 +111,13 @@ pub fn run(args: &SimArgs) -> Result<()> {
             "integration_failed": trace.faults.integration_failed,
         },
     });
-    write(&args.out.join("summary.json"), &format!("{summary_json:#}\n"))?;
-    write(&args.out.join("features.csv"), &features_csv(&trace))?;
-    write(&args.out.join("joints.csv"), &joints_csv(&trace, config.cell.arm.joint_count()))?;
+    let out = &args.out;
+    crate::output::write_in(out, "summary.json", format!("{summary_json:#}\n").as_bytes())?;
+    crate::output::write_in(out, "features.csv", features_csv(&trace).as_bytes())?;
+    crate::output::write_in(out, "joints.csv", joints_csv(&trace, config.cell.arm.joint_count()).as_bytes())?;
     crate::plots::draw(&trace, &config, &args.out)?;
     println!("{summary_json}");
     Ok(())
-}
-
-fn write(path: &Path, text: &str) -> Result<()> {
-    std::fs::write(path, text).with_context(|| format!("writing {}", path.display()))
 }
 
 fn features_csv(trace: &Trace) -> String {

@@ -78,8 +78,8 @@ fn say_absent(instance: &str, what: &str, started: &str, waited: Duration) {
         instance,
         schema = vservo_protocol::SCHEMA_VERSION,
         "no {what} has appeared: is it running, for this instance (and this user's runtime directory), on the same \
-         schema (docs/PROTOCOL.md)? One vservod starts ({started}) says why above; `vservoctl status` shows the \
-         streams' writers"
+         schema (docs/PROTOCOL.md)? One vservod starts ({started}) says why above; a writer of another schema or a \
+         stream taken is named above by its pid"
     );
 }
 

@@ -9,8 +9,8 @@ use iceoryx2::port::subscriber::Subscriber;
 use iceoryx2::prelude::{Node, ipc};
 use vservo_protocol::seal::SealKey;
 use vservo_protocol::{
-    CameraTwistMsg, DaemonStatusMsg, FeaturesMsg, JointCommandMsg, JointStateMsg, NodeRole, RobotState,
-    TakeMessages, TelemetryMsg, Topic,
+    CameraTwistMsg, DaemonStatusMsg, FeaturesMsg, JointCommandMsg, JointStateMsg, NodeRole, Refused,
+    RobotState, TakeMessages, TelemetryMsg, Topic,
 };
 use vservo_runtime::clock::monotonic_ns;
 
@@ -78,6 +78,8 @@ pub struct LoopHeard {
     pub plant_state: Option<JointStateMsg>,
     /// The pid of the plant process this daemon started last (kept after its death, for what it sent before).
     plant_pid: Option<u32>,
+    /// The writers of joint states of another schema already named in the log: (pid, schema).
+    other_schemas_said: Vec<(Option<i32>, u32)>,
 }
 
 impl Default for LoopHeard {
@@ -93,6 +95,7 @@ impl Default for LoopHeard {
             tick_rate: TickRate::default(),
             plant_state: None,
             plant_pid: None,
+            other_schemas_said: Vec::new(),
         }
     }
 }
@@ -107,7 +110,13 @@ impl LoopHeard {
         self.plant_pid = started_plant.or(self.plant_pid);
         // a message of another schema is refused by `TakeMessages`, the protocol's one place for it
         while let Some((taken, sender)) = ports.joint_state.next_sent() {
-            let Ok(state) = taken else { continue };
+            let state = match taken {
+                Ok(state) => state,
+                Err(Refused::Schema { found }) => {
+                    self.name_other_schema(sender, found);
+                    continue;
+                }
+            };
             if sent_by(sender, self.plant_pid) {
                 self.plant_state = Some(state);
             }
@@ -138,6 +147,24 @@ impl LoopHeard {
         ports.telemetry.each_message(|telemetry| {
             route_telemetry(nodes.iter_mut().map(|n| &mut n.record), telemetry, now);
         });
+    }
+
+    /// Says once per writer and schema that the robot driver speaks another schema: its joint states are refused
+    /// (by `TakeMessages`), so the cell hears no robot, and the log says whose and which.
+    fn name_other_schema(&mut self, sender: Option<i32>, found: u32) {
+        if self.other_schemas_said.contains(&(sender, found)) || self.other_schemas_said.len() >= 16 {
+            return;
+        }
+        self.other_schemas_said.push((sender, found));
+        let pid = sender.map_or("unknown".to_string(), |pid| pid.to_string());
+        tracing::error!(
+            pid = sender.unwrap_or(0),
+            driver_schema = found,
+            schema = vservo_protocol::SCHEMA_VERSION,
+            "the robot driver (pid {pid}) speaks schema {found}; this vservod speaks {}: its joint states are \
+             refused; see docs/PROTOCOL.md's changelog (\"Changelog and migration\") for what changed since",
+            vservo_protocol::SCHEMA_VERSION
+        );
     }
 
     /// The tick rate to report, sampled at `now` (0 while the robot driver is stalled).
