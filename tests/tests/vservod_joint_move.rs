@@ -52,3 +52,35 @@ fn a_far_joint_move_at_full_speed_asks_no_torque_the_plant_refuses() {
     assert_eq!(now["safe_stops"], 0, "no safe stop on the way: {now}");
     daemon.stop();
 }
+
+/// `servo` right after a joint move at full speed, while it still runs (issue 46 reported 283–305 of the rmrc's
+/// commands refused by the simulated driver, joint 1 at its torque limit): the reference goes on from the move's
+/// state under its jerk limits, the simulated driver refuses none of the rmrc's commands, and the cell converges.
+#[test]
+fn servo_right_after_a_joint_move_asks_no_torque_the_plant_refuses() {
+    let _one = exclusive();
+    let instance = unique("servo-after-move");
+    let (config, daemon) = running_daemon(&instance);
+    let (code, scene) = vservoctl(&["scene", "--config", &config.arg()]);
+    assert_eq!(code, Some(0), "{scene}");
+    let scene: Value = serde_json::from_str(&scene).expect("the scene");
+    let desired = numbers(&scene["desired_joints_rad"]);
+    let goal: Vec<String> =
+        desired.iter().enumerate().map(|(j, q)| (q + if j < 3 { 0.04 } else { -0.03 }).to_string()).collect();
+    let refused_before = plant_counter(&instance, "rejected_messages");
+    let (code, out) =
+        vservoctl(&["move-joints", "--instance", &instance, "--q", &goal.join(","), "--speed-fraction", "1.0"]);
+    assert_eq!(code, Some(0), "{out}");
+    // while the move still runs
+    std::thread::sleep(Duration::from_millis(100));
+    let (code, out) = vservoctl(&["servo", "--instance", &instance]);
+    assert_eq!(code, Some(0), "{out}");
+    let converged = wait_until(Duration::from_secs(20), || {
+        status(&instance).is_some_and(|s| s["feature_error_px"].as_f64().is_some_and(|e| e < 1.0))
+    });
+    let refused = plant_counter(&instance, "rejected_messages") - refused_before;
+    println!("servo after a joint move: the plant refused {refused} commands");
+    assert!(converged, "{:?}\n{}", status(&instance), daemon.log());
+    assert_eq!(refused, 0, "commands beyond what the drives take\n{}", daemon.log());
+    daemon.stop();
+}
