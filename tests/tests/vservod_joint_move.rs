@@ -68,8 +68,15 @@ fn servo_right_after_a_joint_move_asks_no_torque_the_plant_refuses() {
     let goal: Vec<String> =
         desired.iter().enumerate().map(|(j, q)| (q + if j < 3 { 0.04 } else { -0.03 }).to_string()).collect();
     let refused_before = plant_counter(&instance, "rejected_messages");
-    let (code, out) =
-        vservoctl(&["move-joints", "--instance", &instance, "--q", &goal.join(","), "--speed-fraction", "1.0"]);
+    let (code, out) = vservoctl(&[
+        "move-joints",
+        "--instance",
+        &instance,
+        "--q",
+        &goal.join(","),
+        "--speed-fraction",
+        "1.0",
+    ]);
     assert_eq!(code, Some(0), "{out}");
     // while the move still runs
     std::thread::sleep(Duration::from_millis(100));
