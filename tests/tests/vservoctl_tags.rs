@@ -1,6 +1,7 @@
 //! `vservoctl tags` on real photographs (AprilRobotics apriltag's test data: colour JPEGs of 799 × 533, every tag
-//! id 0; scripts/setup-tag-photos.sh), against pupil-apriltags — the C library as Python users run it — on the
-//! very same pixels: everything the reference finds at full resolution, vservo lists, and nothing else.
+//! id 0; scripts/setup-tag-photos.sh; and pupil-labs/apriltags' 26 test images, tests/data/tag-photos), against
+//! pupil-apriltags — the C library as Python users run it — on the very same pixels: everything the reference finds
+//! at full resolution, vservo lists, and nothing else.
 
 use std::path::PathBuf;
 use std::process::Command;
@@ -93,18 +94,7 @@ fn tags_lists_every_tag_of_a_colour_jpeg_of_any_size_each_repeated_id_once_per_t
 #[test]
 fn tags_finds_what_pupil_apriltags_finds_at_full_resolution_and_nothing_else() {
     let scratch = ScratchDir::new(&unique("tags-pupil"));
-    let python = repository_root().join("target/python-venv/bin/python");
-    let out = Command::new(&python)
-        .arg(repository_root().join("tests/python/pupil_tags.py"))
-        .arg(&scratch.0)
-        .args(photographs())
-        .output()
-        .expect("python runs");
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-    let reference: Vec<Value> = String::from_utf8_lossy(&out.stdout)
-        .lines()
-        .map(|l| serde_json::from_str(l).expect("JSON"))
-        .collect();
+    let reference = pupil_reference(&scratch, &photographs());
     let pgms: Vec<String> = reference.iter().map(|r| r["pgm"].as_str().expect("pgm").to_string()).collect();
     let seen = tags_json(&pgms);
     let (mut theirs, mut ours, mut beyond_pupil) = (0, 0, 0);
@@ -135,6 +125,62 @@ fn tags_finds_what_pupil_apriltags_finds_at_full_resolution_and_nothing_else() {
         "pupil-apriltags {theirs} tags, vservo {ours} ({beyond_pupil} of them the C library's test expects)"
     );
     assert!(theirs >= 40, "the premise: the reference finds most of the photographs' 47 tags ({theirs})");
+}
+
+/// pupil-apriltags' tags in `pictures` at full resolution, one object per picture (`image`, `pgm`: its grayscale as
+/// OpenCV makes it, written into `scratch`, `tags`).
+fn pupil_reference(scratch: &ScratchDir, pictures: &[String]) -> Vec<Value> {
+    let python = repository_root().join("target/python-venv/bin/python");
+    let out = Command::new(&python)
+        .arg(repository_root().join("tests/python/pupil_tags.py"))
+        .arg(&scratch.0)
+        .args(pictures)
+        .output()
+        .expect("python runs");
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    String::from_utf8_lossy(&out.stdout).lines().map(|l| serde_json::from_str(l).expect("JSON")).collect()
+}
+
+/// pupil-labs/apriltags' 26 test images (tests/data/tag-photos/pupil-apriltags, MANIFEST.md: tags on an office
+/// table through an undistorted wide lens, 640 × 480 colour; one tag turned −70° to 70°, 1056 × 792): on the same
+/// pixels vservo lists every tag the C library finds at full resolution, at the same place, and no other.
+#[test]
+fn tags_finds_what_pupil_apriltags_finds_on_pupil_labs_test_images_and_nothing_else() {
+    let folder = repository_root().join("tests/data/tag-photos/pupil-apriltags");
+    let mut pictures: Vec<String> = std::fs::read_dir(&folder)
+        .expect("the committed photographs")
+        .flatten()
+        .map(|entry| entry.path())
+        .filter(|path| path.extension().is_some_and(|e| e == "png"))
+        .map(|path| path.display().to_string())
+        .collect();
+    pictures.sort();
+    assert_eq!(pictures.len(), 26);
+    let scratch = ScratchDir::new(&unique("tags-pupil-labs"));
+    let reference = pupil_reference(&scratch, &pictures);
+    let pgms: Vec<String> = reference.iter().map(|r| r["pgm"].as_str().expect("pgm").to_string()).collect();
+    let seen = tags_json(&pgms);
+    let (mut theirs, mut ours, mut missed, mut extra) = (0, 0, Vec::new(), Vec::new());
+    for (picture, expected) in seen.iter().zip(&reference) {
+        let (found, wanted) =
+            (picture["tags"].as_array().expect("tags"), expected["tags"].as_array().expect("tags"));
+        for tag in wanted {
+            if !holds(found, tag["id"].as_u64().expect("id"), centre(&tag["corners_px"]), 1.0) {
+                missed.push(format!("{}: {tag}", picture["image"]));
+            }
+        }
+        for tag in found {
+            if !holds(wanted, tag["id"].as_u64().expect("id"), centre(&tag["corners_px"]), 1.0) {
+                extra.push(format!("{}: {tag}", picture["image"]));
+            }
+        }
+        theirs += wanted.len();
+        ours += found.len();
+    }
+    println!("pupil-apriltags {theirs} tags, vservo {ours}; missed {missed:?}; not the reference's {extra:?}");
+    assert!(theirs >= 26, "the premise: the reference finds the tags ({theirs})");
+    assert!(missed.is_empty(), "{missed:#?}");
+    assert!(extra.is_empty(), "{extra:#?}");
 }
 
 /// `--draw` writes the picture, its size, with the tags drawn in colour; a second time only with --force; and
