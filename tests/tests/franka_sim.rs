@@ -158,3 +158,36 @@ fn datagrams_spoofed_to_the_drivers_udp_port_change_nothing_and_the_motion_goes_
     assert_eq!(number(&summary["datagrams_dropped"], "foreign"), 201.0, "{summary}");
     assert_the_robot_accepted_every_command(&summary);
 }
+
+/// A wrong `[franka] port` (nothing listens there): the driver vservod starts says, in one line, the address it
+/// tried and what to check — the address, the cable and that FCI is activated in Desk — instead of a bare
+/// "Connection refused" (issue 49).
+#[test]
+fn a_wrong_address_is_one_line_naming_it_and_what_to_check() {
+    let _one = exclusive();
+    let instance = vservo_system_tests::unique("franka-wrong-port");
+    let free = std::net::TcpListener::bind("127.0.0.1:0").expect("a port").local_addr().expect("its address");
+    let port = free.port();
+    let config = vservo_system_tests::config_from(
+        "config/franka-sim.toml",
+        &[
+            ("name = \"franka-sim\"", &format!("name = \"{instance}\"")),
+            ("port = 1337", &format!("port = {port}")),
+        ],
+    );
+    let daemon = vservo_system_tests::Daemon::start(&config);
+    let address = format!("127.0.0.1:{port}");
+    let line = |log: &str| {
+        log.lines()
+            .filter(|l| l.contains(&address) && l.contains("FCI is activated in Desk"))
+            .map(str::to_string)
+            .next()
+    };
+    let said =
+        vservo_system_tests::wait_until(std::time::Duration::from_secs(10), || line(&daemon.log()).is_some());
+    assert!(said, "{}", daemon.log());
+    let said = line(&daemon.log()).expect("the line");
+    println!("{said}");
+    assert!(said.contains("check the address, the cable"), "{said}");
+    daemon.stop();
+}

@@ -177,7 +177,9 @@ fn tags_finds_what_pupil_apriltags_finds_on_pupil_labs_test_images_and_nothing_e
         theirs += wanted.len();
         ours += found.len();
     }
-    println!("pupil-apriltags {theirs} tags, vservo {ours}; missed {missed:?}; not the reference's {extra:?}");
+    println!(
+        "pupil-apriltags {theirs} tags, vservo {ours}; missed {missed:?}; not the reference's {extra:?}"
+    );
     assert!(theirs >= 26, "the premise: the reference finds the tags ({theirs})");
     assert!(missed.is_empty(), "{missed:#?}");
     assert!(extra.is_empty(), "{extra:#?}");

@@ -355,7 +355,9 @@ impl DriverSide {
         fault: Option<DriverError>,
     ) -> JointStateMsg {
         self.published(tick, stamp_ns);
-        let status = if fault.is_some() || self.period_mismatch_ns().is_some() {
+        // the robot's own reason first; else the period check's
+        let fault = fault.or_else(|| self.period_mismatch_ns().map(|_| DriverError::PeriodMismatch));
+        let status = if fault.is_some() {
             DriverStatus::Fault
         } else if self.applying == u64::MAX {
             DriverStatus::Holding
@@ -511,13 +513,13 @@ mod tests {
         let mut side = side();
         side.joint_state(0, 0, &at_rest(), None);
         side.take_command(&command(0, 0.3), 0).expect("the rmrc's");
-        assert!(side.apply(0).is_some());
+        assert!(side.apply(0).is_some(), "in force");
         let mut rogue = command(0, 0.3);
         rogue.seal ^= 1;
         assert_eq!(side.take_command(&rogue, MS / 2), Err(CommandRefused::Unsealed));
         assert!(side.apply(MS / 2).is_none(), "held now, not after hold_after");
         let mut without_a_key = DriverSide::new(side.settings().clone(), 42, None);
-        without_a_key.joint_state(0, 0, &at_rest(), None);
+        without_a_key.published(0, 0);
         assert_eq!(without_a_key.take_command(&command(0, 0.0), 0), Err(CommandRefused::Unsealed));
     }
 
@@ -544,9 +546,8 @@ mod tests {
         side.cell_mode(&forged);
         assert_eq!(side.counts.modes_refused, 1);
         assert!(side.take_command(&command(4, 0.3), 4 * MS).is_err(), "still held");
-        // an older one neither
         side.cell_mode(&mode(CellMode::Servoing, 1));
-        assert!(side.take_command(&command(4, 0.3), 4 * MS).is_err(), "still held");
+        assert!(side.take_command(&command(4, 0.3), 4 * MS).is_err(), "an older mode: still held");
         side.cell_mode(&mode(CellMode::Servoing, 3));
         assert!(side.take_command(&command(4, 0.3), 4 * MS).is_ok(), "resumed");
     }
@@ -594,5 +595,6 @@ mod tests {
         assert_eq!(side.period_mismatch_ns(), Some(2 * MS));
         let state = side.joint_state(100, 200 * MS, &at_rest(), None);
         assert_eq!(DriverStatus::try_from(state.driver_status), Ok(DriverStatus::Fault));
+        assert_eq!(DriverError::try_from(state.driver_error), Ok(DriverError::PeriodMismatch), "named");
     }
 }

@@ -21,6 +21,8 @@ pub(crate) struct Report {
     pub(crate) late_answers: u64,
     pub(crate) commands_refused: u64,
     pub(crate) publish_failed: u64,
+    /// Whether the period check's fault has been named in the log.
+    pub(crate) period_said: bool,
     said: std::collections::BTreeSet<&'static str>,
     pub(crate) reflexes: Vec<String>,
     /// The lowest `control_command_success_rate` the robot reported (after its first 100 cycles).
@@ -93,6 +95,7 @@ impl Report {
             late_answers: 0,
             commands_refused: 0,
             publish_failed: 0,
+            period_said: false,
             said: Default::default(),
             reflexes: Vec::new(),
             min_success_rate: 1.0,

@@ -40,7 +40,7 @@ pub fn run(
     };
     let mut cell = CellPorts::connect(&config.instance, &dir)?;
     let mut robot = Connection::connect(franka.address, ROBOT_TIMEOUT)
-        .with_context(|| format!("the Franka at {} ([franka] address)", franka.address))?;
+        .map_err(|error| anyhow::anyhow!("{}: {error}", connection_advice(franka.address, &error)))?;
     tracing::info!(
         robot = %franka.address,
         protocol = robot.server_version(),
@@ -76,6 +76,21 @@ pub fn run(
     driver.report.log("the motion ended; stopping");
     driver.report.summary_line();
     Ok(())
+}
+
+/// What a failed connection to the robot at `address` asks the user to check, by its cause.
+fn connection_advice(address: std::net::SocketAddr, error: &vservo_franka::ConnectError) -> String {
+    use vservo_franka::ConnectError;
+    match error {
+        ConnectError::IncompatibleVersion { .. } | ConnectError::VersionMismatch { .. } => format!(
+            "the Franka at {address} ([franka] address and port) speaks another version of the FCI protocol than \
+             this driver (the Panda's version 5 is not supported yet; check the robot's system version)"
+        ),
+        _ => format!(
+            "no Franka answered as an FCI server at {address} ([franka] address and port): check the address, the \
+             cable to the Control's LAN port, and that FCI is activated in Desk (the robot unlocked, FCI on)"
+        ),
+    }
 }
 
 /// Memory locked (`[runtime] lock_memory`) and SCHED_FIFO at the rmrc's priority (`[runtime.rmrc]
@@ -264,10 +279,32 @@ impl Driver {
             _ => None,
         };
         let joint_state = self.side.joint_state(tick, stamp_ns, &measured, fault);
+        self.say_period_mismatch();
         if !cell.publish(joint_state) {
             self.report.publish_failed += 1;
         }
         self.last = Some((tick, stamp_ns, measured));
+    }
+
+    /// The first time the robot's states come at another period than `[robot] period_s`: an ERROR line naming the
+    /// measured (the median gap of the last states) and the configured period (the driver side then reports a fault
+    /// and holds the arm: the cell's `driver_fault`).
+    fn say_period_mismatch(&mut self) {
+        let Some(measured_ns) = self.side.period_mismatch_ns() else { return };
+        if self.report.period_said {
+            return;
+        }
+        self.report.period_said = true;
+        tracing::error!(
+            measured_ms = measured_ns as f64 / 1e6,
+            expected_ms = self.side.settings().period_ns as f64 / 1e6,
+            "the Franka's states come every {:.3} ms (the median of the last {} gaps), not every [robot] period_s = \
+             {:.3} ms: the driver reports a fault (driver_fault) and holds the arm; a loaded network or host, or \
+             another period configured",
+            measured_ns as f64 / 1e6,
+            vservo_driver::PERIOD_CHECK_GAPS,
+            self.side.settings().period_ns as f64 / 1e6
+        );
     }
 
     /// No robot state came while the motion is stopped: the arm's last state again, at rest, its tick advanced by

@@ -251,6 +251,9 @@ wire_code! {
     pub enum DriverError: u32, "driver error" {
         /// None given (no fault, or a driver that names none).
         None = 0, "none";
+        /// The contract's period check: the joint states come at another period than `[robot] period_s`
+        /// (`vservo_driver::PeriodCheck`; the driver's log names both periods).
+        PeriodMismatch = 1, "period_mismatch";
         /// The Franka's `joint_position_limits_violation`.
         FrankaJointPositionLimitsViolation = 1000, "joint_position_limits_violation";
         /// The Franka's `cartesian_position_limits_violation`.

@@ -50,7 +50,7 @@ wire_message! {
         /// outwards; it must be the configured arm's
         joint_count: u32 = 6,
         /// with `driver_status` fault, why: the robot's own error where the driver knows it (`DriverError`: 0 none,
-        /// 1000 + i the Franka's error flag i; docs/PROTOCOL.md, "Driver errors")
+        /// 1 the period check, 1000 + i the Franka's error flag i; docs/PROTOCOL.md, "Driver errors")
         driver_error: u32,
         /// joint angles (rad)
         q_rad: [f64; MAX_JOINTS],
