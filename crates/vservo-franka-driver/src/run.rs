@@ -41,6 +41,15 @@ pub fn run(
     let mut cell = CellPorts::connect(&config.instance, &dir)?;
     let mut robot = Connection::connect(franka.address, ROBOT_TIMEOUT)
         .map_err(|error| anyhow::anyhow!("{}: {error}", connection_advice(franka.address, &error)))?;
+    if robot.server_version() != vservo_franka::PROTOCOL_VERSION {
+        tracing::warn!(
+            "the Franka at {} took protocol version {} and reports version {} beside its success (a server that lays \
+             its reply out otherwise, as franky-sim; libfranka goes on too)",
+            franka.address,
+            vservo_franka::PROTOCOL_VERSION,
+            robot.server_version()
+        );
+    }
     tracing::info!(
         robot = %franka.address,
         protocol = robot.server_version(),
@@ -82,7 +91,7 @@ pub fn run(
 fn connection_advice(address: std::net::SocketAddr, error: &vservo_franka::ConnectError) -> String {
     use vservo_franka::ConnectError;
     match error {
-        ConnectError::IncompatibleVersion { .. } | ConnectError::VersionMismatch { .. } => format!(
+        ConnectError::IncompatibleVersion { .. } => format!(
             "the Franka at {address} ([franka] address and port) speaks another version of the FCI protocol than \
              this driver (the Panda's version 5 is not supported yet; check the robot's system version)"
         ),

@@ -58,18 +58,6 @@ pub enum ConnectError {
         /// This client's protocol version.
         client: u16,
     },
-    /// The robot accepted but reports another version (e.g. franka-sim accepts any): refused here.
-    #[error(
-        "the robot at {robot} speaks protocol version {server}, this client speaks only version {client}"
-    )]
-    VersionMismatch {
-        /// The robot's address.
-        robot: SocketAddr,
-        /// The robot's protocol version.
-        server: u16,
-        /// This client's protocol version.
-        client: u16,
-    },
     /// The first state did not arrive or was malformed.
     #[error("waiting for the first robot state after Connect: {0}")]
     FirstState(#[source] RecvStateError),
@@ -123,9 +111,11 @@ pub struct Connection {
 }
 
 impl Connection {
-    /// Connects to the robot at `robot` (normally port [`FCI_PORT`]): binds a UDP socket, makes the TCP
-    /// connection, sends Connect with version 10 and the UDP port, refuses any other server version, and
-    /// waits for the first state. Each step waits at most `timeout`.
+    /// Connects to the robot at `robot` (normally port [`FCI_PORT`]): makes the TCP connection, binds a UDP socket
+    /// on the interface that reaches the robot, sends Connect with version 10 and the UDP port, takes the robot's
+    /// answer as libfranka does (a refusal of the version is an error naming both; a success is taken, whatever
+    /// version it reports: [`Connection::server_version`]), and waits for the first state. Each step waits at most
+    /// `timeout`.
     pub fn connect(robot: SocketAddr, timeout: Duration) -> Result<Self, ConnectError> {
         let mut tcp = TcpChannel::connect(robot, timeout)
             .map_err(|source| ConnectError::TcpConnect { robot, source })?;
@@ -145,13 +135,9 @@ impl Connection {
                     client: PROTOCOL_VERSION,
                 });
             }
-            ConnectStatus::Success if response.version != PROTOCOL_VERSION => {
-                return Err(ConnectError::VersionMismatch {
-                    robot,
-                    server: response.version,
-                    client: PROTOCOL_VERSION,
-                });
-            }
+            // as libfranka: a robot that takes the client's version says so; the version it reports beside a
+            // success is not compared (franky-sim lays it out as a u16 at byte 2, read here as 2560). A server of
+            // another version in truth sends states of another size, which are dropped and named.
             ConnectStatus::Success => {}
         }
         let first_state = udp.recv_newest(timeout).map_err(ConnectError::FirstState)?;
@@ -165,7 +151,8 @@ impl Connection {
         })
     }
 
-    /// The robot's protocol version (always [`PROTOCOL_VERSION`]: another one is refused).
+    /// The protocol version the robot reported with its success (10 from a robot; a server that lays its reply out
+    /// otherwise, as franky-sim, reports another number: the driver says so).
     pub fn server_version(&self) -> u16 {
         self.server_version
     }
