@@ -573,3 +573,13 @@ pub fn pybullet_driver(scene: &Path, urdf: &Path, instance: &str) -> Killed {
     let args = ["--scene", scene_arg.as_str(), "--urdf", urdf_arg.as_str(), "--instance", instance];
     python_process("clients/python/pybullet_driver.py", &args, &scene.with_extension("driver.log"))
 }
+
+/// `nobody`'s uid and gid, when the test runs as root (it plants files as that user); `None`, said, otherwise.
+pub fn nobody() -> Option<(u32, u32)> {
+    if !nix::unistd::geteuid().is_root() {
+        println!("skipped: needs root to plant another user's files");
+        return None;
+    }
+    let user = nix::unistd::User::from_name("nobody").ok().flatten().expect("the user nobody exists");
+    Some((user.uid.as_raw(), user.gid.as_raw()))
+}

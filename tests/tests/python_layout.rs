@@ -76,6 +76,28 @@ fn the_python_clients_codes_are_the_rust_enums() {
     }
 }
 
+/// What the Python script `script` (run on clients/python/) prints for `input` on its stdin, one JSON line each.
+fn python_verdicts(script: &str, input: &str) -> Vec<Value> {
+    use std::io::Write;
+    use std::process::{Command, Stdio};
+    let python = repository_root().join("target/python-venv/bin/python");
+    let mut child = Command::new(&python)
+        .arg(repository_root().join(script))
+        .arg(repository_root().join("clients/python"))
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("python runs");
+    child.stdin.take().expect("stdin").write_all(input.as_bytes()).expect("the input written");
+    let out = child.wait_with_output().expect("python ends");
+    assert!(out.status.success(), "{script}: {}", String::from_utf8_lossy(&out.stderr));
+    String::from_utf8_lossy(&out.stdout)
+        .lines()
+        .map(|l| serde_json::from_str(l).expect("a JSON line"))
+        .collect()
+}
+
 /// The Python reference drivers take a command by the Rust driver side's rule: clients/python/vservo_driver.py's
 /// `refusal` and `vservo_driver::DriverSide::take_command` are handed the same commands — one valid, and one
 /// broken in each way the contract names, at each edge of the age window — and refuse the same ones for the same
@@ -156,23 +178,7 @@ fn the_python_drivers_take_a_command_by_the_rust_driver_sides_rule() {
             format!("{line}\n")
         })
         .collect();
-    let python = repository_root().join("target/python-venv/bin/python");
-    let mut child = std::process::Command::new(&python)
-        .arg(repository_root().join("tests/python/admission.py"))
-        .arg(repository_root().join("clients/python"))
-        .stdin(std::process::Stdio::piped())
-        .stdout(std::process::Stdio::piped())
-        .stderr(std::process::Stdio::piped())
-        .spawn()
-        .expect("python runs");
-    use std::io::Write;
-    child.stdin.take().expect("stdin").write_all(input.as_bytes()).expect("the cases written");
-    let out = child.wait_with_output().expect("python ends");
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-    let python_verdicts: Vec<Value> = String::from_utf8_lossy(&out.stdout)
-        .lines()
-        .map(|l| serde_json::from_str(l).expect("a JSON line"))
-        .collect();
+    let python_verdicts = python_verdicts("tests/python/admission.py", &input);
     assert_eq!(python_verdicts.len(), cases.len());
     let mut causes = std::collections::BTreeSet::new();
     for ((command, last), python) in cases.iter().zip(&python_verdicts) {
@@ -275,23 +281,7 @@ fn the_python_drivers_keep_a_held_cell_to_a_ramp_to_rest_by_the_rust_rule() {
             }
         }
     }
-    let python = repository_root().join("target/python-venv/bin/python");
-    let mut child = std::process::Command::new(&python)
-        .arg(repository_root().join("tests/python/held.py"))
-        .arg(repository_root().join("clients/python"))
-        .stdin(std::process::Stdio::piped())
-        .stdout(std::process::Stdio::piped())
-        .stderr(std::process::Stdio::piped())
-        .spawn()
-        .expect("python runs");
-    use std::io::Write;
-    child.stdin.take().expect("stdin").write_all(input.as_bytes()).expect("the events written");
-    let out = child.wait_with_output().expect("python ends");
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-    let python_verdicts: Vec<Value> = String::from_utf8_lossy(&out.stdout)
-        .lines()
-        .map(|l| serde_json::from_str(l).expect("a JSON line"))
-        .collect();
+    let python_verdicts = python_verdicts("tests/python/held.py", &input);
     let refused = rust.iter().filter(|verdict| verdict.is_some()).count();
     assert_eq!(python_verdicts, rust.iter().map(|v| serde_json::json!(v)).collect::<Vec<_>>(), "{rust:?}");
     // the premise: the events took both ways, and every refusal was the held cell's

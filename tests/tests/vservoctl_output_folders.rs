@@ -7,17 +7,7 @@
 use std::os::unix::fs::PermissionsExt;
 use std::path::{Path, PathBuf};
 
-use vservo_system_tests::{binary, exclusive, repository_root, running_daemon, unique};
-
-/// `nobody`'s uid and gid, when the test runs as root (it plants files as that user).
-fn nobody() -> Option<(u32, u32)> {
-    if !nix::unistd::geteuid().is_root() {
-        println!("skipped: needs root to plant another user's files");
-        return None;
-    }
-    let user = nix::unistd::User::from_name("nobody").ok().flatten().expect("the user nobody exists");
-    Some((user.uid.as_raw(), user.gid.as_raw()))
-}
+use vservo_system_tests::{binary, exclusive, nobody, repository_root, running_daemon, unique};
 
 /// A sticky folder open to all, as /tmp is.
 fn shared_folder(name: &str) -> PathBuf {

@@ -6,7 +6,7 @@
 use std::os::unix::fs::{MetadataExt, PermissionsExt};
 use std::path::Path;
 
-use vservo_system_tests::{binary, exclusive, running_daemon, unique};
+use vservo_system_tests::{binary, exclusive, nobody, running_daemon, unique};
 
 /// `vservoctl record --out OUT` for a second (with `extra` arguments): its exit code and its stderr.
 fn record(instance: &str, out: &Path, extra: &[&str]) -> (Option<i32>, String) {
@@ -25,16 +25,6 @@ fn assert_a_recording_of_its_own(out: &Path) {
     assert_eq!(metadata.mode() & 0o777, 0o600);
     let bytes = std::fs::read(out).expect("readable");
     assert!(bytes.starts_with(b"\x89MCAP"), "an MCAP file");
-}
-
-/// `nobody`'s uid and gid, when the test runs as root (it plants files as that user).
-fn nobody() -> Option<(u32, u32)> {
-    if !nix::unistd::geteuid().is_root() {
-        println!("skipped: needs root to plant another user's files");
-        return None;
-    }
-    let user = nix::unistd::User::from_name("nobody").ok().flatten().expect("the user nobody exists");
-    Some((user.uid.as_raw(), user.gid.as_raw()))
 }
 
 #[test]
