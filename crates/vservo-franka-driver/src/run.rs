@@ -288,21 +288,23 @@ impl Driver {
             _ => None,
         };
         let joint_state = self.side.joint_state(tick, stamp_ns, &measured, fault);
-        self.say_period_mismatch();
+        if joint_state.driver_error == DriverError::PeriodMismatch.code() {
+            self.say_period_mismatch();
+        }
         if !cell.publish(joint_state) {
             self.report.publish_failed += 1;
         }
         self.last = Some((tick, stamp_ns, measured));
     }
 
-    /// The first time the robot's states come at another period than `[robot] period_s`: an ERROR line naming the
-    /// measured (the median gap of the last states) and the configured period (the driver side then reports a fault
-    /// and holds the arm: the cell's `driver_fault`).
+    /// The first time a joint state reports the period check's fault (the robot's states come at another period
+    /// than `[robot] period_s`): an ERROR line naming the measured (the median gap of the last states) and the
+    /// configured period. The driver side reports the fault and holds the arm: the cell's `driver_fault`.
     fn say_period_mismatch(&mut self) {
-        let Some(measured_ns) = self.side.period_mismatch_ns() else { return };
         if self.report.period_said {
             return;
         }
+        let Some(measured_ns) = self.side.period_mismatch_ns() else { return };
         self.report.period_said = true;
         tracing::error!(
             measured_ms = measured_ns as f64 / 1e6,
