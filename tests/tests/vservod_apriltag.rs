@@ -9,7 +9,8 @@ use std::time::Duration;
 use serde_json::Value;
 use vservo_protocol::Verdict;
 use vservo_system_tests::{
-    ScratchDir, echo_lines, exclusive, numbers, run, running, running_daemon_of, status, unique, wait_until,
+    ScratchDir, echo_lines, exclusive, numbers, run, running, running_daemon_of, running_daemon_with, status,
+    unique, wait_until,
 };
 
 #[test]
@@ -30,6 +31,29 @@ fn an_apriltag_through_a_lens_converges_below_one_pixel_in_real_time() {
     assert!(last < 1.0, "feature error at the end {last} px: {errors:?}\n{}", daemon.log());
     assert!(running(&status(&instance).expect("status")), "{}", daemon.log());
     the_snapshot_outlines_the_target_where_the_vision_node_found_it(&instance);
+    daemon.stop();
+}
+
+/// The same cell with a camera whose shutter stays open 30 ms (the board's motion over it blurs each frame,
+/// `vision.render.exposure_s`; up to 17 px at the start, docs/VISION.md) and pixel noise of σ = 4: the tag is
+/// found in every frame and the servo converges below 1 px.
+#[test]
+fn an_apriltag_through_a_lens_blurred_by_the_motion_and_noisy_converges_below_one_pixel_in_real_time() {
+    let _one = exclusive();
+    let instance = unique("apriltag-blur");
+    let blurred =
+        [("exposure_s = 0.0", "exposure_s = 0.03"), ("noise_sigma_gray = 1.0", "noise_sigma_gray = 4.0")];
+    let (_config, daemon) = running_daemon_with("config/vservo-apriltag.toml", &instance, &blurred);
+    let twists = echo_lines(&instance, "camera_twist", "8");
+    let verdicts: Vec<u64> = twists.iter().filter_map(|t| t["verdict"].as_u64()).collect();
+    let (servoing, waiting) = (u64::from(Verdict::Servoing.code()), u64::from(Verdict::Waiting.code()));
+    assert!(verdicts.len() > 40, "{} twists in 8 s\n{}", verdicts.len(), daemon.log());
+    assert!(verdicts.iter().all(|&v| v == servoing || v == waiting), "{verdicts:?}\n{}", daemon.log());
+    let errors: Vec<f64> = twists.iter().filter_map(|t| t["feature_error_px"].as_f64()).collect();
+    let last = errors.last().copied().unwrap_or(f64::NAN);
+    println!("blurred and noisy: feature error first {:?} px, last {last:.3} px", errors.first());
+    assert!(last < 1.0, "feature error at the end {last} px: {errors:?}\n{}", daemon.log());
+    assert!(running(&status(&instance).expect("status")), "{}", daemon.log());
     daemon.stop();
 }
 

@@ -61,6 +61,7 @@
 //! [`target::TargetRefused`] naming why (outside the image or inside the barrier's margin, degenerate, out of
 //! reach). [`Cell::simulated`] is the wholly simulated cell, the only one the lockstep runs.
 
+mod exposure;
 pub mod gains;
 mod plant_stage;
 mod rmrc_stage;

@@ -9,6 +9,8 @@ use vservo_vision::GrayImage;
 use vservo_vision::source::SimulatedCamera;
 use vservo_vision::{Extraction, Extractor, Prediction, TagExtractor};
 
+use crate::exposure::Exposure;
+
 /// After this many frames in a row with a mark missing, the tracker gives up its prediction and matches
 /// the layout again.
 pub const RELOCK_AFTER_FRAMES: u32 = 3;
@@ -52,8 +54,11 @@ pub struct VisionFrame {
     /// Where the camera really was (`[camera.truth]`'s mount; the frame delivered to the servo carries the
     /// believed one).
     pub base_from_camera: IsometryMatrix3<f64>,
-    /// The board as the real camera saw it.
+    /// The board as the real camera saw it (at the end of the exposure).
     pub camera_from_board: IsometryMatrix3<f64>,
+    /// How far the board's image moved while the shutter was open (px, the mark that moved most: the
+    /// motion blur; 0 for an instant, `vision.render.exposure_s`).
+    pub motion_blur_px: f64,
     /// The frame leaving the pipeline now (`pipeline_delay_frames` older than this one), if any has yet.
     pub delivered: Option<DeliveredFrame>,
 }
@@ -74,6 +79,8 @@ pub struct VisionStage {
     /// Whether the features are undistorted before they leave (`vision.undistort`).
     undistort: bool,
     camera: SimulatedCamera,
+    /// Where the board was over the simulated camera's exposure (its motion blur).
+    exposure: Exposure,
     extractor: Extractor,
     /// With an AprilTag target, its extractor (the marks' is then not used).
     tag_extractor: Option<TagExtractor>,
@@ -106,6 +113,7 @@ impl VisionStage {
             undistort: config.vision.undistort,
             // the camera renders as it really is
             camera: SimulatedCamera::new(truth.intrinsics, config.board, config.vision.render),
+            exposure: Exposure::new(config.vision.render.exposure_s, config.timing.control_period_s),
             extractor: Extractor::new(
                 config.vision.extractor,
                 config.camera.width_px(),
@@ -203,7 +211,13 @@ impl VisionStage {
         let base_from_board = self.true_mount.base_from_board(&base_from_tool, base_from_board);
         let camera_from_board = base_from_true_camera.inverse() * base_from_board;
         let hidden = self.scenario.hidden_marks(tick as f64 * self.control_period_s);
-        self.camera.capture_hiding(&camera_from_board, frame, hidden);
+        let (intrinsics, board) = (&self.true_intrinsics, &self.board);
+        let instants = self.exposure.instants(tick, (&camera_from_board, &holder_from_camera), |pose| {
+            intrinsics.project_marks(board, pose).ok()
+        });
+        self.camera.capture_exposure(instants, frame, hidden);
+        // a blurred image shows the board where it was in the middle of the exposure
+        let holder_from_camera = *self.exposure.mid_holder_from_camera();
         let captured = Self::extract_with(
             &mut self.extractor,
             self.tag_extractor.as_ref(),
@@ -216,7 +230,14 @@ impl VisionStage {
             .project_marks(&self.board, &camera_from_board)
             .unwrap_or_else(|_| FeatureVector::from_element(f64::NAN));
         let delivered = self.finish(frame, tick, &captured, Some(holder_from_camera));
-        VisionFrame { captured, truth, base_from_camera: base_from_true_camera, camera_from_board, delivered }
+        VisionFrame {
+            captured,
+            truth,
+            base_from_camera: base_from_true_camera,
+            camera_from_board,
+            motion_blur_px: self.exposure.motion_px(),
+            delivered,
+        }
     }
 
     /// The simulated camera's last image.

@@ -463,6 +463,8 @@ pub struct RawRender {
     pub noise_seed: i64,
     pub lighting_gradient: [f64; 2],
     pub supersampling: i64,
+    #[serde(default)]
+    pub exposure_s: f64,
 }
 
 #[derive(Debug, Deserialize)]

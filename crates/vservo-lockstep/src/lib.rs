@@ -59,6 +59,9 @@ pub struct FrameRecord {
     pub camera_position_m: Vector3<f64>,
     /// The camera's position in the desired camera frame at capture time (m): zero at the desired pose.
     pub camera_in_desired_m: Vector3<f64>,
+    /// How far the board's image moved while the shutter was open (px; 0 for an instant or where not
+    /// known): the motion blur of `vision.render.exposure_s`.
+    pub motion_blur_px: f64,
 }
 
 /// The joints, every 10 ms.
@@ -296,6 +299,7 @@ impl Lockstep {
             twist: step.twist,
             verdict: Some(step.verdict),
             camera_position_m: taken.base_from_camera.translation.vector,
+            motion_blur_px: taken.motion_blur_px,
             camera_in_desired_m: match self.config.cell.fixed_camera {
                 None => (self.desired_camera_from_base * taken.base_from_camera).translation.vector,
                 // where the camera is relative to the board, in the desired camera frame

@@ -124,3 +124,31 @@ fn a_covered_tag_corner_loses_the_tag_and_the_servo_converges_again_once_uncover
     println!("a tag corner covered 1.5–2.0 s: final error {:.3} px", summary.final_error_px);
     assert!(summary.final_error_px < 1.0, "{summary:?}");
 }
+
+/// The same tag through the lens, seen by a camera whose shutter stays open 30 ms (the board's motion over it
+/// blurs the image: `vision.render.exposure_s`) with pixel noise of σ = 4 gray levels: the detector finds the
+/// tag in the blurred frames and the servo converges below 1 px.
+#[test]
+fn an_apriltag_through_the_lens_blurred_by_the_motion_and_noisy_converges_below_one_pixel() {
+    let mut config = Config::load(concat!(env!("CARGO_MANIFEST_DIR"), "/../../config/vservo-apriltag.toml"))
+        .expect("config/vservo-apriltag.toml is valid");
+    config.cell.scenario.duration_s = 8.0;
+    config.cell.vision.render.exposure_s = 0.03;
+    config.cell.vision.render.noise_sigma_gray = 4.0;
+    let trace = run(&config);
+    let summary = summarize(&trace, &config.cell.scenario.object);
+    let blur_px: Vec<f64> = trace.frames.iter().map(|f| f.motion_blur_px).collect();
+    let largest = blur_px.iter().copied().fold(0.0, f64::max);
+    let blurred = blur_px.iter().filter(|&&b| b >= 1.0).count();
+    let lost = trace.frames.iter().filter(|f| f.measured.iter().any(|v| v.is_nan())).count();
+    println!(
+        "motion blur up to {largest:.2} px ({blurred} of {} frames blurred by a pixel or more), {lost} frames \
+         without the tag; final error {:.3} px, settling {:?} s",
+        blur_px.len(),
+        summary.final_error_px,
+        summary.settling_time_s
+    );
+    assert!(largest > 3.0 && blurred >= 3, "the test's premise: frames blurred by pixels ({largest} px)");
+    assert_eq!(lost, 0, "the tag is found in every frame, blurred or not");
+    assert!(summary.final_error_px < 1.0, "{summary:?}");
+}

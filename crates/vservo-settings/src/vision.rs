@@ -57,6 +57,9 @@ pub struct RenderSettings {
     pub lighting_gradient: [f64; 2],
     /// Samples per axis in a pixel an edge may cross (8: 64 samples, coverage to 1/64).
     pub supersampling: u32,
+    /// How long the shutter is open (s), ending at the capture instant: the board's motion relative to the
+    /// camera over it blurs the image, as a real camera's does; 0 for an instant (no motion blur).
+    pub exposure_s: f64,
 }
 
 impl Default for RenderSettings {
@@ -69,6 +72,7 @@ impl Default for RenderSettings {
             noise_seed: 1,
             lighting_gradient: [0.0, 0.0],
             supersampling: 8,
+            exposure_s: 0.0,
         }
     }
 }

@@ -9,14 +9,17 @@
 
 use image::GrayImage;
 use nalgebra::Point2;
-use vservo_scene::{AprilTag, Board, CameraIntrinsics, IsometryMatrix3, MARKS, TagGrid};
+use vservo_scene::{Board, CameraIntrinsics, IsometryMatrix3, MARKS};
 
 use crate::noise::{GaussianTable, Xorshift64};
 use scene::{Scene, Surface};
 pub use vservo_settings::vision::RenderSettings;
 
 mod coverage;
+mod lens;
 mod scene;
+
+use lens::{Footprint, Lens, Printed, distorted_row, pinhole_corners, printed_footprint};
 
 /// The renderer and its image buffer, sized once for the camera.
 #[derive(Debug, Clone)]
@@ -32,6 +35,9 @@ pub struct Renderer {
     /// With a distorting lens: the board points of a row's pixel corners, above and below the row being
     /// drawn (each corner is shared by four pixels, so each is mapped once).
     board_corners: [Vec<Option<Point2<f64>>>; 2],
+    /// The albedo of the whole image summed over an exposure's instants (width × height, row by row); sized
+    /// when the renderer is made if `exposure_s` > 0, else empty.
+    exposure_sum: Vec<f32>,
 }
 
 impl Renderer {
@@ -46,6 +52,7 @@ impl Renderer {
             albedo: vec![0.0; w as usize],
             pinhole_corners: pinhole_corners(&camera),
             board_corners: [vec![None; w as usize + 1], vec![None; w as usize + 1]],
+            exposure_sum: if settings.exposure_s > 0.0 { vec![0.0; (w * h) as usize] } else { Vec::new() },
         }
     }
 
@@ -67,28 +74,83 @@ impl Renderer {
         frame: u64,
     ) -> &GrayImage {
         let scene = Scene::new(&self.camera, board, camera_from_board);
+        let height = self.camera.height_px() as i64;
+        let boxes = EdgeBoxes::of(&scene);
+        let mut rng = self.frame_noise(frame);
+        for v in 0..height {
+            self.albedo_row(&scene, &boxes, v);
+            self.light_row(v, &mut rng);
+        }
+        &self.image
+    }
+
+    /// Renders an exposure: the mean of what the camera sees with the board at each of `camera_from_board`
+    /// (instants evenly spread over the time the shutter is open), then lit and with noise as one image, as a
+    /// sensor integrates a moving scene. One pose is [`Renderer::render`]'s image.
+    pub fn render_exposure(
+        &mut self,
+        board: &Board,
+        camera_from_board: &[IsometryMatrix3<f64>],
+        frame: u64,
+    ) -> &GrayImage {
+        let (width, height) = (self.camera.width_px() as usize, self.camera.height_px() as i64);
+        match camera_from_board {
+            [] => return &self.image,
+            [only] => return self.render(board, only, frame),
+            _ => {}
+        }
+        if self.exposure_sum.len() != width * height as usize {
+            // a renderer made without an exposure, asked for one (offline use): sized once
+            self.exposure_sum = vec![0.0; width * height as usize];
+        }
+        self.exposure_sum.fill(0.0);
+        for pose in camera_from_board {
+            let scene = Scene::new(&self.camera, board, pose);
+            let boxes = EdgeBoxes::of(&scene);
+            for v in 0..height {
+                self.albedo_row(&scene, &boxes, v);
+                let sum = &mut self.exposure_sum[v as usize * width..(v as usize + 1) * width];
+                sum.iter_mut().zip(&self.albedo).for_each(|(total, albedo)| *total += albedo);
+            }
+        }
+        let instants = camera_from_board.len() as f32;
+        let mut rng = self.frame_noise(frame);
+        for v in 0..height {
+            let sum = &self.exposure_sum[v as usize * width..(v as usize + 1) * width];
+            self.albedo.iter_mut().zip(sum).for_each(|(albedo, total)| *albedo = total / instants);
+            self.light_row(v, &mut rng);
+        }
+        &self.image
+    }
+
+    /// The noise generator of frame `frame`.
+    fn frame_noise(&self, frame: u64) -> Xorshift64 {
+        Xorshift64::new(self.settings.noise_seed ^ frame.wrapping_mul(0x9E37_79B9_7F4A_7C15))
+    }
+
+    /// Row `v` of the image from the albedo row: lit, with noise.
+    fn light_row(&mut self, v: i64, rng: &mut Xorshift64) {
         let (width, height) = (self.camera.width_px() as i64, self.camera.height_px() as i64);
+        let out = &mut self.image.as_mut()[(v * width) as usize..((v + 1) * width) as usize];
+        light_and_noise(&self.settings, &self.noise, rng, (v, height), &self.albedo, out);
+    }
+
+    /// Row `v` of `scene`'s albedo into `self.albedo` (rows must come in order from 0: a lens's corners
+    /// are carried from one row to the next).
+    fn albedo_row(&mut self, scene: &Scene, boxes: &EdgeBoxes, v: i64) {
         let s = self.settings;
-        let samples = s.supersampling.max(1);
         let gray = |surface: Surface| match surface {
             Surface::Background => s.background_gray,
             Surface::Board => s.board_gray,
             Surface::Mark => s.mark_gray,
         };
-        let boxes = EdgeBoxes { marks: std::array::from_fn(|i| scene.mark_box(i)), tags: scene.tags_box() };
-        let mut rng = Xorshift64::new(s.noise_seed ^ frame.wrapping_mul(0x9E37_79B9_7F4A_7C15));
-        for v in 0..height {
-            if scene.distorted {
-                let lens =
-                    Lens { pinhole_corners: &self.pinhole_corners, board_corners: &mut self.board_corners };
-                distorted_row(&scene, lens, v, &mut self.albedo, &gray, samples);
-            } else {
-                pinhole_row(&scene, &s, &boxes, v, &mut self.albedo, &gray);
-            }
-            let out = &mut self.image.as_mut()[(v * width) as usize..((v + 1) * width) as usize];
-            light_and_noise(&s, &self.noise, &mut rng, (v, height), &self.albedo, out);
+        if scene.distorted {
+            let lens =
+                Lens { pinhole_corners: &self.pinhole_corners, board_corners: &mut self.board_corners };
+            distorted_row(scene, lens, v, &mut self.albedo, &gray, s.supersampling.max(1));
+        } else {
+            pinhole_row(scene, &s, boxes, v, &mut self.albedo, &gray);
         }
-        &self.image
     }
 }
 
@@ -97,6 +159,12 @@ impl Renderer {
 struct EdgeBoxes {
     marks: [Option<(i64, i64, i64, i64)>; MARKS],
     tags: Option<(i64, i64, i64, i64)>,
+}
+
+impl EdgeBoxes {
+    fn of(scene: &Scene) -> Self {
+        Self { marks: std::array::from_fn(|i| scene.mark_box(i)), tags: scene.tags_box() }
+    }
 }
 
 /// Row `v` of the albedo through a pinhole: the board's outline where it crosses the row (supersampled at
@@ -224,271 +292,6 @@ fn light_and_noise(
             *pixel = (a * (y_light + step * u as f32) + 0.5).clamp(0.0, 255.0) as u8;
         }
     }
-}
-
-/// The pinhole pixel of every pixel corner of a distorting camera (NaN where the lens has none), row by row;
-/// empty for a pinhole camera.
-fn pinhole_corners(camera: &CameraIntrinsics) -> Vec<Point2<f64>> {
-    if camera.distortion().is_none() {
-        return Vec::new();
-    }
-    let (w, h) = (camera.width_px(), camera.height_px());
-    (0..=h)
-        .flat_map(|v| (0..=w).map(move |u| Point2::new(f64::from(u), f64::from(v))))
-        .map(|corner| camera.pinhole_of_observed(&corner).unwrap_or(Point2::new(f64::NAN, f64::NAN)))
-        .collect()
-}
-
-/// What a pixel's footprint on the board holds, judged from its corners.
-enum Footprint {
-    /// All of it sees one surface.
-    Whole(Surface),
-    /// A mark's edge may cross it.
-    NearMark,
-    /// Tags' cells of both colours meet it: this share of it is black (exact, from the clipped areas).
-    Covered(f64),
-    /// The board's outline may cross it (or part of it misses the board plane or the lens).
-    NearOutline,
-}
-
-/// What a distorting lens's rows need: the pinhole points of every pixel corner (per camera), and the board
-/// points of the corners above and below the row (per frame, the row above kept from the last row).
-struct Lens<'a> {
-    pinhole_corners: &'a [Point2<f64>],
-    board_corners: &'a mut [Vec<Option<Point2<f64>>>; 2],
-}
-
-/// Row `v` of the albedo through a distorting lens: each pixel is judged by where its corners' rays meet the
-/// board (the lens's map of the corners, computed once per camera, then this frame's homography, once per
-/// corner) and supersampled where an edge may cross it. Within one pixel the lens's map is taken as bilinear
-/// between the corners' pinhole points (its bend over a pixel is below 1e-3 px for the lenses here), so a
-/// sample costs a homography, not an undistortion.
-fn distorted_row(
-    scene: &Scene,
-    lens: Lens,
-    v: i64,
-    row: &mut [f32],
-    gray: &impl Fn(Surface) -> f64,
-    samples: u32,
-) {
-    let stride = row.len() + 1;
-    let top = v as usize * stride;
-    let pinhole_corners = lens.pinhole_corners;
-    let on_board = |i: usize| {
-        let p = pinhole_corners[i];
-        scene.on_board(p.x, p.y)
-    };
-    // the corners above this row are those below the last one, but on the first row
-    let [above, below] = lens.board_corners;
-    if v == 0 {
-        above.iter_mut().enumerate().for_each(|(u, corner)| *corner = on_board(u));
-    } else {
-        std::mem::swap(above, below);
-    }
-    below.iter_mut().enumerate().for_each(|(u, corner)| *corner = on_board(top + stride + u));
-    // mark and tag edges get the full count (they carry the features); the outline half as many per axis
-    let outline_samples = (samples / 2).max(2);
-    for (u, albedo) in row.iter_mut().enumerate() {
-        let pinhole =
-            [top + u, top + u + 1, top + stride + u + 1, top + stride + u].map(|i| pinhole_corners[i]);
-        let corners = [above[u], above[u + 1], below[u + 1], below[u]];
-        *albedo = match footprint(scene, corners) {
-            Footprint::Whole(surface) => gray(surface) as f32,
-            Footprint::Covered(black) => mixed(gray(Surface::Board), gray(Surface::Mark), black),
-            Footprint::NearMark => supersample_between(scene, (u as f64, v as f64), &pinhole, samples, gray),
-            Footprint::NearOutline => {
-                supersample_between(scene, (u as f64, v as f64), &pinhole, outline_samples, gray)
-            }
-        };
-    }
-}
-
-/// The mean gray of `samples` × `samples` points of the pixel whose top left corner is `top_left` and whose
-/// corners' pinhole points are `pinhole` (top left, top right, bottom right, bottom left), each point's
-/// pinhole point bilinear between them. A pixel with a corner the lens has no pinhole point for is sampled
-/// through the lens's inverse.
-fn supersample_between(
-    scene: &Scene,
-    top_left: (f64, f64),
-    pinhole: &[Point2<f64>; 4],
-    samples: u32,
-    gray: &impl Fn(Surface) -> f64,
-) -> f32 {
-    let exact = pinhole.iter().any(|p| !(p.x.is_finite() && p.y.is_finite()));
-    let mut sum = 0.0;
-    for j in 0..samples {
-        let b = (f64::from(j) + 0.5) / f64::from(samples);
-        for i in 0..samples {
-            let a = (f64::from(i) + 0.5) / f64::from(samples);
-            let surface = if exact {
-                scene.surface(top_left.0 + a, top_left.1 + b)
-            } else {
-                let top = pinhole[0] + (pinhole[1] - pinhole[0]) * a;
-                let bottom = pinhole[3] + (pinhole[2] - pinhole[3]) * a;
-                let p = top + (bottom - top) * b;
-                match scene.on_board(p.x, p.y) {
-                    Some(on_board) => scene.surface_on_board_plane(on_board),
-                    None => Surface::Background,
-                }
-            };
-            sum += gray(surface);
-        }
-    }
-    (sum / f64::from(samples * samples)) as f32
-}
-
-/// Judges a pixel's footprint on the board from its four corners' board points. Any point of a convex
-/// quadrilateral lies within its longer diagonal of every corner; the lens bends a pixel's edges, so every
-/// test keeps a further half diagonal (the bend over one pixel is orders of magnitude smaller) and a pixel
-/// it cannot judge is supersampled.
-fn footprint(scene: &Scene, corners: [Option<Point2<f64>>; 4]) -> Footprint {
-    let mut points = [Point2::origin(); 4];
-    for (point, corner) in points.iter_mut().zip(corners) {
-        match corner {
-            Some(c) => *point = c,
-            None => return Footprint::NearOutline,
-        }
-    }
-    let diameter = (points[0] - points[2]).norm().max((points[1] - points[3]).norm());
-    let margin = 0.5 * diameter;
-    let [lo, hi] = scene.board.extent_in_board;
-    let outside = points.iter().all(|p| p.x < lo.x - margin)
-        || points.iter().all(|p| p.x > hi.x + margin)
-        || points.iter().all(|p| p.y < lo.y - margin)
-        || points.iter().all(|p| p.y > hi.y + margin);
-    if outside {
-        return Footprint::Whole(Surface::Background);
-    }
-    let inside = points.iter().all(|p| {
-        p.x >= lo.x + margin && p.x <= hi.x - margin && p.y >= lo.y + margin && p.y <= hi.y - margin
-    });
-    if !inside {
-        return Footprint::NearOutline;
-    }
-    match printed_footprint(scene.board, &points, margin) {
-        Printed::Tags(footprint) => return footprint,
-        Printed::GridOverMarks(near @ (Footprint::Whole(Surface::Mark) | Footprint::NearMark)) => {
-            return near;
-        }
-        // a disc mark may be near too: sampled, as both are
-        Printed::GridOverMarks(Footprint::Covered(_)) => return Footprint::NearMark,
-        Printed::GridOverMarks(_) | Printed::Marks => {}
-    }
-    let r = scene.mark_radius_m;
-    for m in &scene.board.marks_in_board {
-        let distances = points.map(|p| ((p.x - m.x).powi(2) + (p.y - m.y).powi(2)).sqrt());
-        if distances.iter().all(|&d| d <= r - margin) {
-            return Footprint::Whole(Surface::Mark);
-        }
-        if distances.iter().any(|&d| d <= r + diameter + margin) {
-            return Footprint::NearMark;
-        }
-    }
-    Footprint::Whole(Surface::Board)
-}
-
-/// What the tags printed on a board make of a pixel's footprint.
-enum Printed {
-    /// The board's target is a tag (a calibration grid or not): the footprint as they judge it.
-    Tags(Footprint),
-    /// Disc marks with a calibration grid: the grid's judgement, the marks still to judge.
-    GridOverMarks(Footprint),
-    /// Disc marks alone.
-    Marks,
-}
-
-/// Judges a pixel's footprint, from its corners' board points and the margin for the lens's bend, against
-/// the tags printed on the board: the target's tag decides wherever the footprint is not wholly beside its
-/// black square, the calibration grid elsewhere.
-fn printed_footprint(board: &Board, points: &[Point2<f64>; 4], margin: f64) -> Printed {
-    let on_grid = || board.calibration_grid.as_ref().map(|grid| grid_footprint(grid, points, margin));
-    match board.apriltag() {
-        Some(tag) => Printed::Tags(match tag_footprint(tag, points, margin) {
-            Some(on_tag) => on_tag,
-            None => on_grid().unwrap_or(Footprint::Whole(Surface::Board)),
-        }),
-        None => on_grid().map_or(Printed::Marks, Printed::GridOverMarks),
-    }
-}
-
-/// Judges a pixel's footprint on the calibration grid: every tag that can reach it judged alone. A footprint
-/// wholly in one tag's cell is beside every other tag (the gaps are a tag's border wide); the tags' black
-/// cells are apart, so the shares of those it meets add up.
-#[inline]
-fn grid_footprint(grid: &TagGrid, points: &[Point2<f64>; 4], margin: f64) -> Footprint {
-    let low = Point2::new(
-        points.iter().map(|p| p.x).fold(f64::INFINITY, f64::min) - margin,
-        points.iter().map(|p| p.y).fold(f64::INFINITY, f64::min) - margin,
-    );
-    let high = Point2::new(
-        points.iter().map(|p| p.x).fold(f64::NEG_INFINITY, f64::max) + margin,
-        points.iter().map(|p| p.y).fold(f64::NEG_INFINITY, f64::max) + margin,
-    );
-    let mut judged = Footprint::Whole(Surface::Board);
-    for tag in grid.tags_meeting(low, high) {
-        judged = match (judged, tag_footprint(&tag, points, margin)) {
-            (judged, None | Some(Footprint::Whole(Surface::Board))) => judged,
-            (Footprint::Whole(Surface::Board), Some(other)) => other,
-            (Footprint::Covered(black), Some(Footprint::Covered(more))) => Footprint::Covered(black + more),
-            // wholly black in one tag and met by another, or near an edge to sample
-            _ => return Footprint::NearMark,
-        };
-    }
-    match judged {
-        Footprint::Covered(black) => Footprint::Covered(black.min(1.0)),
-        judged => judged,
-    }
-}
-
-/// Judges a pixel's footprint on a tag, from its corners' board points and the margin for the lens's bend:
-/// wholly in cells of one colour, the share of it that is black where cells of both colours meet it (exact
-/// for the quadrilateral between its corners, which the lens bends by far less than a gray level's worth),
-/// or near an edge to sample; `None` wholly beside the tag's black square.
-#[inline]
-fn tag_footprint(tag: &AprilTag, points: &[Point2<f64>; 4], margin: f64) -> Option<Footprint> {
-    let cells = f64::from(vservo_scene::tag36h11::WIDTH_AT_BORDER);
-    let per_cell = tag.size_m() / cells;
-    let c = tag.centre_in_board();
-    // in cell units, the square's corner at (0, 0)
-    let local = points.map(|p| ((p.x - c.x) / per_cell + 0.5 * cells, (p.y - c.y) / per_cell + 0.5 * cells));
-    let m = margin / per_cell;
-    // the footprint's extent in cell units, lowest and highest along each axis
-    let extent = |axis: fn(&(f64, f64)) -> f64| {
-        local
-            .iter()
-            .map(axis)
-            .fold((f64::INFINITY, f64::NEG_INFINITY), |(low, high), v| (low.min(v), high.max(v)))
-    };
-    let (x, y) = (extent(|l| l.0), extent(|l| l.1));
-    let beside = x.1 < -m || x.0 > cells + m || y.1 < -m || y.0 > cells + m;
-    if beside {
-        return None;
-    }
-    // the cells the footprint (and the margin) can reach: all inside the square and of one colour, or near an
-    // edge between colours
-    let reach = |(low, high): (f64, f64)| ((low - m).floor(), (high + m).floor());
-    let (columns, rows) = (reach(x), reach(y));
-    // a footprint over more than 3 × 3 cells, or reaching further than the cell beside the square, is
-    // sampled: the cells next to the square are the white around it (a grid's gaps are two cells or more,
-    // the board's outline was judged first), further ones may be another tag's
-    let within = |(first, last): (f64, f64)| first >= -1.0 && last <= cells && last - first <= 2.0;
-    if !(within(columns) && within(rows)) {
-        return Some(Footprint::NearMark);
-    }
-    // a cell beside the square is the board's white
-    let black_in = |column: f64, row: f64| tag.is_black_cell(column, row);
-    let black = black_in(columns.0, rows.0);
-    let one_colour = (columns.1 - columns.0 <= 1.0 && rows.1 - rows.0 <= 1.0)
-        && [(columns.0, rows.1), (columns.1, rows.0), (columns.1, rows.1)]
-            .iter()
-            .all(|&(column, row)| black_in(column, row) == black);
-    if one_colour {
-        return Some(Footprint::Whole(if black { Surface::Mark } else { Surface::Board }));
-    }
-    let quad = local.map(|(x, y)| [x, y]);
-    Some(
-        coverage::black_share(&quad, columns, rows, black_in).map_or(Footprint::NearMark, Footprint::Covered),
-    )
 }
 
 /// The gray of a footprint `black` of whose area is `mark_gray`, the rest `board_gray`.

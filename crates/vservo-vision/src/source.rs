@@ -147,14 +147,26 @@ impl SimulatedCamera {
         frame: u64,
         hidden: u8,
     ) -> &GrayImage {
+        self.capture_exposure(std::slice::from_ref(camera_from_board), frame, hidden)
+    }
+
+    /// [`SimulatedCamera::capture_hiding`] over an exposure: the board at each of `camera_from_board`
+    /// (instants spread evenly over the time the shutter is open), blurred by its motion as a real camera's
+    /// image is ([`crate::render::Renderer::render_exposure`]).
+    pub fn capture_exposure(
+        &mut self,
+        camera_from_board: &[IsometryMatrix3<f64>],
+        frame: u64,
+        hidden: u8,
+    ) -> &GrayImage {
         if hidden == 0 {
-            return self.capture(camera_from_board, frame);
+            return self.renderer.render_exposure(&self.board, camera_from_board, frame);
         }
         let mut board = self.board;
         if let Some(tag) = board.apriltag() {
             // a tag's corner is covered where it lies, by a patch of white over it
             board.target = vservo_scene::Target::AprilTag(tag.with_corners_covered(hidden));
-            return self.renderer.render(&board, camera_from_board, frame);
+            return self.renderer.render_exposure(&board, camera_from_board, frame);
         }
         for (index, mark) in board.marks_in_board.iter_mut().enumerate() {
             if hidden & (1 << index) != 0 {
@@ -163,7 +175,7 @@ impl SimulatedCamera {
                 *mark = nalgebra::Point3::new(lo.x - 10.0, lo.y - 10.0, 0.0);
             }
         }
-        self.renderer.render(&board, camera_from_board, frame)
+        self.renderer.render_exposure(&board, camera_from_board, frame)
     }
 
     /// The last image captured.

@@ -171,6 +171,7 @@ fn camera_frames(recorded: &Recorded, config: &vservo_config::Config, first_tick
             camera_in_desired_m: (desired_from_holder * mount.holder_from_camera(&base_from_tool))
                 .translation
                 .vector,
+            motion_blur_px: 0.0,
         });
     }
     frames

@@ -96,6 +96,13 @@ fn render(check: &Checker, r: &RawRender) -> Result<RenderSettings, ConfigError>
         16,
         "must be from 1 to 16 samples per axis",
     )?;
+    if !(r.exposure_s.is_finite() && (0.0..=0.1).contains(&r.exposure_s)) {
+        return Err(check.invalid(
+            "vision.render.exposure_s",
+            r.exposure_s,
+            "must be from 0 (an instant) to 0.1 s",
+        ));
+    }
     Ok(RenderSettings {
         background_gray,
         board_gray,
@@ -105,5 +112,6 @@ fn render(check: &Checker, r: &RawRender) -> Result<RenderSettings, ConfigError>
         noise_seed: r.noise_seed as u64,
         lighting_gradient,
         supersampling,
+        exposure_s: r.exposure_s,
     })
 }

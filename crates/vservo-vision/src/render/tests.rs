@@ -1,8 +1,9 @@
 //! Unit tests of `render`.
 
+use super::lens::{footprint, supersample_between};
 use super::*;
 use nalgebra::{Point3, Rotation3, Translation3, Vector3};
-use vservo_scene::Distortion;
+use vservo_scene::{AprilTag, Distortion};
 
 /// config/vservo-distorted.toml's camera.
 fn lens_camera() -> CameraIntrinsics {
@@ -285,4 +286,41 @@ fn through_a_lens_the_marks_are_drawn_where_the_lens_images_them() {
         assert!((drawn - observed).norm() < 0.3, "mark drawn at {drawn}, the lens images it at {observed}");
         assert!((observed - pinhole).norm() > 2.0, "the lens moves the mark ({observed} vs {pinhole})");
     }
+}
+
+/// An exposure of one pose, or of several that do not move, is the instant's image bit for bit; a board that
+/// moves along x during it is smeared along x: each image column is the mean of the instants' columns (no
+/// noise, no light), and a row across the motion is wider in gray.
+#[test]
+fn an_exposure_averages_the_instants_and_a_still_one_is_the_instant() {
+    let camera = CameraIntrinsics::paper();
+    let settings = RenderSettings { noise_sigma_gray: 2.0, exposure_s: 0.02, ..Default::default() };
+    let pose = IsometryMatrix3::from_parts(Translation3::new(0.0, 0.0, 0.5), Rotation3::identity());
+    let instant = Renderer::new(camera, settings).render(&Board::paper(), &pose, 3).clone();
+    let mut renderer = Renderer::new(camera, settings);
+    assert_eq!(renderer.render_exposure(&Board::paper(), &[pose], 3), &instant);
+    assert_eq!(renderer.render_exposure(&Board::paper(), &[pose; 4], 3), &instant);
+
+    let clean = RenderSettings { exposure_s: 0.02, lighting_gradient: [0.0, 0.0], ..Default::default() };
+    let shifted =
+        |dx: f64| IsometryMatrix3::from_parts(Translation3::new(dx, 0.0, 0.5), Rotation3::identity());
+    // the paper's camera: 3 mm at 0.5 m is a few pixels
+    let instants: Vec<_> = (0..4).map(|k| shifted(0.001 * k as f64)).collect();
+    let mut blurred = Renderer::new(camera, clean);
+    let image = blurred.render_exposure(&Board::paper(), &instants, 0).clone();
+    let singles: Vec<_> =
+        instants.iter().map(|p| Renderer::new(camera, clean).render(&Board::paper(), p, 0).clone()).collect();
+    let mut edges_blurred = 0;
+    for (index, pixel) in image.as_raw().iter().enumerate() {
+        let mean = singles.iter().map(|s| f64::from(s.as_raw()[index])).sum::<f64>() / 4.0;
+        // each instant's pixel is rounded once, the mean of the albedos once: within a level
+        assert!((f64::from(*pixel) - mean).abs() <= 1.0, "pixel {index}: {pixel} against a mean of {mean}");
+        let gray = |s: &GrayImage| s.as_raw()[index];
+        if singles.iter().all(|s| gray(s) == gray(&singles[0])) {
+            assert_eq!(*pixel, gray(&singles[0]), "a pixel the motion does not change stays");
+        } else {
+            edges_blurred += 1;
+        }
+    }
+    assert!(edges_blurred > 100, "the marks' edges are smeared ({edges_blurred} pixels)");
 }
