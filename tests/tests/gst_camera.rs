@@ -237,6 +237,66 @@ fn videotestsrc_frames_reach_camera_image_counted_stamped_at_capture_and_the_slo
     let _ = std::fs::remove_file(&second_log);
 }
 
+/// The luma of one raw frame as GStreamer writes it, by the format's layout as GStreamer documents it (the
+/// test's own reading, not the driver's): a YUV format's Y bytes, RGB's BT.601 luma computed in floating point.
+fn luma_of_raw(format: &str, raw: &[u8]) -> Vec<u8> {
+    let pixels = WIDTH * HEIGHT;
+    let bt601 = |r: u8, g: u8, b: u8| {
+        (0.299 * f64::from(r) + 0.587 * f64::from(g) + 0.114 * f64::from(b)).round() as u8
+    };
+    match format {
+        // planar: the Y plane first, WIDTH bytes a row (512 is aligned: no padding)
+        "I420" | "NV12" => raw[..pixels].to_vec(),
+        "YUY2" => raw.iter().step_by(2).take(pixels).copied().collect(),
+        "UYVY" => raw.iter().skip(1).step_by(2).take(pixels).copied().collect(),
+        "RGB" => raw.chunks_exact(3).map(|p| bt601(p[0], p[1], p[2])).collect(),
+        "BGR" => raw.chunks_exact(3).map(|p| bt601(p[2], p[1], p[0])).collect(),
+        "BGRx" => raw.chunks_exact(4).map(|p| bt601(p[2], p[1], p[0])).collect(),
+        "ARGB" => raw.chunks_exact(4).map(|p| bt601(p[1], p[2], p[3])).collect(),
+        other => panic!("no reading of {other}"),
+    }
+}
+
+/// A colour or YUV camera needs no `videoconvert`: the driver publishes the luma of GStreamer's frame in each
+/// format, the same pixels as the test reads from gst-launch-1.0's frame of the same pattern.
+#[test]
+fn yuv_and_rgb_frames_are_published_as_their_luma() {
+    let _one = exclusive();
+    let instance = unique("gst-colour");
+    let caps = |format: &str| format!("video/x-raw,format={format},width=512,height=512,framerate=25/1");
+    let config = camera_config(&instance, "videotestsrc");
+    let daemon = Daemon::start(&config);
+    assert!(wait_until(Duration::from_secs(10), || status(&instance).is_some()), "{}", daemon.log());
+    for format in ["YUY2", "UYVY", "I420", "NV12", "RGB", "BGR", "BGRx", "ARGB"] {
+        let pipeline = format!("videotestsrc is-live=true pattern=smpte ! {}", caps(format));
+        let text = std::fs::read_to_string(&config.path).expect("config");
+        let start = text.find("[camera.gstreamer]").expect("the section");
+        let with_format =
+            format!("{}[camera.gstreamer]\npipeline = {}\n", &text[..start], Value::String(pipeline));
+        std::fs::write(&config.path, with_format).expect("config written");
+        let (mut driver, log) = start_driver(&config);
+        let read = || read_frames(&instance, 0.3);
+        let mut frames = Vec::new();
+        let published = wait_until(Duration::from_secs(10), || {
+            frames = read();
+            !frames.is_empty()
+        });
+        let log_text = std::fs::read_to_string(&log).unwrap_or_default();
+        assert!(published, "{format}: no frame\n{log_text}");
+        let expected = luma_of_raw(format, &gst_launch_frame(&format!("pattern=smpte ! {}", caps(format))));
+        let received = &frames[0];
+        assert_eq!((received.width, received.height), (WIDTH as u32, HEIGHT as u32), "{format}");
+        let differing = received.pixels.iter().zip(&expected).filter(|(a, b)| a != b).count();
+        assert_eq!(differing, 0, "{format}: {differing} pixels differ from the luma of gst-launch's frame");
+        let distinct: std::collections::BTreeSet<u8> = received.pixels.iter().copied().collect();
+        assert!(distinct.len() >= 8, "{format}: the pattern's bars in {} gray levels", distinct.len());
+        driver.signal(Signal::SIGTERM);
+        assert_eq!(exit_code(&mut driver, Duration::from_secs(5)), Some(0), "{format}: {log_text}");
+        let _ = std::fs::remove_file(&log);
+    }
+    drop(daemon);
+}
+
 #[test]
 fn bad_pipelines_and_wrong_caps_are_refused_naming_the_pipeline_and_why() {
     let _one = exclusive();
@@ -246,8 +306,8 @@ fn bad_pipelines_and_wrong_caps_are_refused_naming_the_pipeline_and_why() {
         ("videotestsrc ! ! !", "camera.gstreamer.pipeline"),
         ("videotestsrc ! fakesink", "camera.gstreamer.pipeline"),
         (
-            "videotestsrc is-live=true ! video/x-raw,format=I420,width=512,height=512",
-            "format I420, not GRAY8",
+            "videotestsrc is-live=true ! video/x-raw,format=GRAY16_LE,width=512,height=512",
+            "format GRAY16_LE, not one the driver turns into gray",
         ),
         (
             "videotestsrc is-live=true ! video/x-raw,format=GRAY8,width=320,height=240",

@@ -1,4 +1,7 @@
-//! Whether the frames the pipeline negotiated are the configured camera's: 8-bit gray of its size.
+//! Whether the frames the pipeline negotiated are the configured camera's: raw video of its size, in a format
+//! the driver turns into 8-bit gray ([`crate::luma`]).
+
+use crate::luma::{self, Luma};
 
 /// What the pipeline negotiated, as read from its caps.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -25,9 +28,13 @@ pub enum CapsError {
         /// The caps.
         caps: String,
     },
-    /// Another pixel format.
-    #[error("the pipeline ends in {caps}: format {format}, not GRAY8 ({})", convert_hint(caps))]
-    NotGray8 {
+    /// A pixel format the driver does not convert.
+    #[error(
+        "the pipeline ends in {caps}: format {format}, not one the driver turns into gray ({}; {})",
+        luma::FORMATS.join(", "),
+        convert_hint(caps)
+    )]
+    UnsupportedFormat {
         /// The caps.
         caps: String,
         /// Their format.
@@ -82,13 +89,14 @@ pub fn element_hint(message: &str) -> &'static str {
     }
 }
 
-/// Accepts GRAY8 frames of `width_px` × `height_px`, else says what is wrong.
-pub fn check(negotiated: &Negotiated, width_px: u32, height_px: u32) -> Result<(), CapsError> {
+/// Accepts raw frames of `width_px` × `height_px` in a format the driver converts, and says where their luma
+/// is; else says what is wrong.
+pub fn check(negotiated: &Negotiated, width_px: u32, height_px: u32) -> Result<Luma, CapsError> {
     let caps = negotiated.caps.clone();
     let Some(format) = &negotiated.format else { return Err(CapsError::NotRawVideo { caps }) };
-    if format != "GRAY8" {
-        return Err(CapsError::NotGray8 { caps, format: format.clone() });
-    }
+    let Some(luma) = luma::of_format(format) else {
+        return Err(CapsError::UnsupportedFormat { caps, format: format.clone() });
+    };
     if (negotiated.width_px, negotiated.height_px) != (width_px, height_px) {
         return Err(CapsError::WrongSize {
             caps,
@@ -98,7 +106,7 @@ pub fn check(negotiated: &Negotiated, width_px: u32, height_px: u32) -> Result<(
             expected_height_px: height_px,
         });
     }
-    Ok(())
+    Ok(luma)
 }
 
 #[cfg(test)]
@@ -112,14 +120,21 @@ mod tests {
     }
 
     #[test]
-    fn gray8_of_the_configured_size_is_taken() {
-        assert_eq!(check(&negotiated(Some("GRAY8"), 512, 512), 512, 512), Ok(()));
+    fn gray_yuv_and_rgb_of_the_configured_size_are_taken() {
+        assert_eq!(check(&negotiated(Some("GRAY8"), 512, 512), 512, 512), Ok(Luma::Bytes));
+        assert_eq!(check(&negotiated(Some("YUY2"), 512, 512), 512, 512), Ok(Luma::Packed422 { first: 0 }));
+        assert!(matches!(check(&negotiated(Some("BGRx"), 512, 512), 512, 512), Ok(Luma::Rgb { .. })));
     }
 
     #[test]
     fn another_format_size_or_media_is_refused_naming_it() {
         let refusal = |n: Negotiated| check(&n, 512, 512).expect_err("refused").to_string();
-        assert!(refusal(negotiated(Some("I420"), 512, 512)).contains("format I420, not GRAY8"));
+        let format = refusal(negotiated(Some("GRAY16_LE"), 512, 512));
+        assert!(
+            format.contains("format GRAY16_LE, not one the driver turns into gray (GRAY8, I420"),
+            "{format}"
+        );
+        assert!(format.contains("videoconvert ! video/x-raw,format=GRAY8"), "{format}");
         let size = refusal(negotiated(Some("GRAY8"), 320, 240));
         assert!(size.contains("320×240, not the configured camera's 512×512"), "{size}");
         assert!(refusal(negotiated(None, 0, 0)).contains("not raw video"));

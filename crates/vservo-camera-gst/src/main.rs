@@ -4,8 +4,8 @@
 //! vservod starts it with `[camera] source = "gstreamer"` (and ends it with itself); with `"external"` it is
 //! the user's to run, by hand or as a unit of its own. The GStreamer (gstreamer-rs 0.25 on Debian's GStreamer 1.22) and iceoryx2 side is
 //! here: [`pipeline`] (the pipeline with its appsink on the monotonic system clock, exposure and gain on its
-//! sources, each frame taken with its caps, stamp and buffer offset), [`publish`] (each frame checked — GRAY8
-//! of the configured size —, counted and stamped — PTS → running time → CLOCK_MONOTONIC — onto `camera_image`,
+//! sources, each frame taken with its caps, stamp and buffer offset), [`publish`] (each frame checked — raw gray,
+//! YUV or RGB of the configured size, turned into gray —, counted and stamped — PTS → running time → CLOCK_MONOTONIC — onto `camera_image`,
 //! with the camera's frame counter; stalls logged, one writer per stream). The decisions are the library's,
 //! `vservo_camera_gst`.
 //!

@@ -8,6 +8,7 @@ use gstreamer_video as gst_video;
 use gstreamer_video::prelude::*;
 use vservo_camera_gst::caps::Negotiated;
 use vservo_camera_gst::controls::{self, Setting};
+use vservo_camera_gst::luma;
 use vservo_camera_gst::stamp::ClockMapping;
 use vservo_config::GstreamerCamera;
 
@@ -213,20 +214,27 @@ pub fn caps_frame_period_ns(sample: &gst::Sample) -> u64 {
     (1_000_000_000u64 * rate.denom() as u64) / rate.numer() as u64
 }
 
-/// Copies a GRAY8 frame's rows into `out` (width bytes each, no padding); false if it cannot be read.
-pub fn copy_gray8(sample: &gst::Sample, out: &mut [u8], width: usize, height: usize) -> bool {
+/// Writes the luma of a frame's rows into `out` (width bytes each, no padding), by the frame's own format
+/// ([`luma::of_format`]); false if it cannot be read, is not `width` × `height` or its format is not one the
+/// driver converts (caps may change mid-stream).
+pub fn copy_luma(sample: &gst::Sample, out: &mut [u8], width: usize, height: usize) -> bool {
     let (Some(buffer), Some(caps)) = (sample.buffer(), sample.caps()) else { return false };
     let Ok(info) = gst_video::VideoInfo::from_caps(caps) else { return false };
+    let Some(luma) = luma::of_format(info.format().to_str()) else { return false };
+    if (info.width() as usize, info.height() as usize) != (width, height) {
+        return false;
+    }
     let Ok(frame) = gst_video::VideoFrameRef::from_buffer_ref_readable(buffer, &info) else { return false };
     let (Ok(data), Ok(stride)) = (frame.plane_data(0), usize::try_from(frame.plane_stride()[0])) else {
         return false;
     };
-    if stride < width || out.len() < width * height {
+    let row_bytes = luma.row_bytes(width);
+    if stride < row_bytes || out.len() < width * height {
         return false;
     }
     for (row, target) in out.chunks_exact_mut(width).take(height).enumerate() {
-        let Some(source) = data.get(row * stride..row * stride + width) else { return false };
-        target.copy_from_slice(source);
+        let Some(source) = data.get(row * stride..row * stride + row_bytes) else { return false };
+        luma.convert_row(source, target);
     }
     true
 }

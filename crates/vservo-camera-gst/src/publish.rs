@@ -115,7 +115,7 @@ impl Publishing {
         let step = self.counter.count(frame.offset, frame.pts_ns, self.period_ns);
         let stamp = stamp::capture_stamp(camera.clock_mapping(), frame.running_time_ns, arrival_ns);
         watch.frame(arrival_ns, stamp.source, arrival_ns - stamp.monotonic_ns);
-        if !pipeline::copy_gray8(&frame.sample, &mut self.image, self.width as usize, self.height as usize) {
+        if !pipeline::copy_luma(&frame.sample, &mut self.image, self.width as usize, self.height as usize) {
             watch.unreadable += 1;
             return;
         }
