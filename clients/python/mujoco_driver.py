@@ -2,7 +2,7 @@
 """A MuJoCo arm and hand camera for vservo: the reference robot + camera driver.
 
 Copy this file to write a driver for a real arm and camera: replace `Arm` (`step`: send the joint velocities
-and wait for the next encoder reading) and `Camera.grab` (take an image), keep the rest. It speaks docs/PROTOCOL.md (schema 11) over
+and wait for the next encoder reading) and `Camera.grab` (take an image), keep the rest. It speaks docs/PROTOCOL.md (schema 12) over
 iceoryx2 0.10 shared memory:
 
 - every robot period (1 ms) it publishes `joint_state` and notifies the `joint_state` event;

@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """A URDF arm and hand camera in PyBullet for vservo: the second reference robot + camera driver.
 
-The same contract as clients/python/mujoco_driver.py (docs/DRIVERS.md; docs/PROTOCOL.md, schema 11, over
+The same contract as clients/python/mujoco_driver.py (docs/DRIVERS.md; docs/PROTOCOL.md, schema 12, over
 iceoryx2 0.10 shared memory), for any arm vservo models from a URDF (the scene's `arm`: `urdf`, `base_link`,
 `tip_link`, `joint_names`): nothing in this file is specific to an arm.
 

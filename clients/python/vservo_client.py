@@ -27,7 +27,7 @@ import time
 
 import iceoryx2 as iox2
 
-SCHEMA_VERSION = 11
+SCHEMA_VERSION = 12
 (TARGET_FEATURES, TARGET_POSE, TARGET_TEACH, OBJECT_HOLD, OBJECT_STEP, OBJECT_CIRCLE, RELOAD, RESUME,
  SAFE_STOP, MOVE_JOINTS, SERVO) = range(1, 12)
 STATES = ["starting", "running", "degraded", "stopping", "safe-stop", "moving"]

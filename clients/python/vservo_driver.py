@@ -1,4 +1,4 @@
-"""The driver side of vservo's contract (docs/DRIVERS.md, docs/PROTOCOL.md schema 11), shared by the reference
+"""The driver side of vservo's contract (docs/DRIVERS.md, docs/PROTOCOL.md schema 12), shared by the reference
 drivers (mujoco_driver.py, pybullet_driver.py): the payloads a robot and camera driver exchange with vservo as
 ctypes structures, their codes, deadlines on CLOCK_MONOTONIC, and the iceoryx2 node and services opened exactly
 as vservo creates them. A driver of your own may import it too (with vservo_client.py beside it).
@@ -70,11 +70,12 @@ class CellMode(ctypes.Structure):
 
 
 class CameraImageHeader(ctypes.Structure):
-    """vservo::CameraImageHeader, 40 bytes: the user header of `camera_image`, whose payload is the pixels (u8)."""
+    """vservo::CameraImageHeader, 56 bytes: the user header of `camera_image`, whose payload is the pixels (u8)."""
 
     _fields_ = [("schema", ctypes.c_uint32), ("format", ctypes.c_uint32), ("width", ctypes.c_uint32),
                 ("height", ctypes.c_uint32), ("stride_bytes", ctypes.c_uint32), ("reserved", ctypes.c_uint32),
-                ("frame", ctypes.c_uint64), ("capture_stamp_ns", ctypes.c_uint64)]
+                ("frame", ctypes.c_uint64), ("capture_stamp_ns", ctypes.c_uint64),
+                ("exposure_us", ctypes.c_double), ("gain_db", ctypes.c_double)]
 
     @staticmethod
     def type_name() -> str:
@@ -279,6 +280,7 @@ def camera_image_publisher(node, instance, width, height):
         header = sample.user_header().contents
         header.schema, header.format, header.width, header.height = SCHEMA, 0, width, height
         header.stride_bytes, header.reserved, header.frame, header.capture_stamp_ns = width, 0, frame, stamp_ns
+        header.exposure_us, header.gain_db = math.nan, math.nan  # a simulator's camera reports neither
         np.frombuffer(sample.payload().as_memory_view(), dtype=np.uint8)[:] = image.ravel()
         sample.assume_init().send()
         notifier.notify()

@@ -30,8 +30,24 @@ fn an_apriltag_through_a_lens_converges_below_one_pixel_in_real_time() {
     println!("feature error: first {:?} px, last {last:.3} px", errors.first());
     assert!(last < 1.0, "feature error at the end {last} px: {errors:?}\n{}", daemon.log());
     assert!(running(&status(&instance).expect("status")), "{}", daemon.log());
+    the_features_say_how_each_corner_was_measured(&instance);
     the_snapshot_outlines_the_target_where_the_vision_node_found_it(&instance);
     daemon.stop();
+}
+
+/// At the target, each of the tag's corners is refined on its two edges, which fitted well; the decoder was sure.
+fn the_features_say_how_each_corner_was_measured(instance: &str) {
+    let features = echo_lines(instance, "features", "0.5");
+    let last = features.last().expect("features");
+    println!(
+        "refined_mask {}, edge_rms_px {}, decision_margin {}, bits_corrected {}",
+        last["refined_mask"], last["edge_rms_px"], last["decision_margin"], last["bits_corrected"]
+    );
+    assert_eq!(last["refined_mask"], 0b1111, "{last}");
+    let edges = numbers(&last["edge_rms_px"]);
+    assert!(edges.len() == 4 && edges.iter().all(|rms| (0.0..0.35).contains(rms)), "{last}");
+    assert!(last["decision_margin"].as_f64().is_some_and(|m| m > 20.0), "{last}");
+    assert_eq!(last["bits_corrected"], 0, "{last}");
 }
 
 /// The same cell with a camera whose shutter stays open 30 ms (the board's motion over it blurs each frame,
@@ -54,6 +70,10 @@ fn an_apriltag_through_a_lens_blurred_by_the_motion_and_noisy_converges_below_on
     println!("blurred and noisy: feature error first {:?} px, last {last:.3} px", errors.first());
     assert!(last < 1.0, "feature error at the end {last} px: {errors:?}\n{}", daemon.log());
     assert!(running(&status(&instance).expect("status")), "{}", daemon.log());
+    // the camera reports its exposure with each image (its gain is not modelled)
+    let image = echo_lines(&instance, "camera_image", "0.3").pop().expect("an image");
+    assert_eq!(image["exposure_us"].as_f64(), Some(30_000.0), "{image}");
+    assert!(image["gain_db"].is_null(), "{image}");
     daemon.stop();
 }
 

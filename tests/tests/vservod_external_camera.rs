@@ -36,7 +36,12 @@ fn start_camera(
         let mut frame = 0;
         while !stop.load(Ordering::Relaxed) {
             let exposed_ns = vservo_runtime::clock::monotonic_ns().saturating_sub(LATENCY_NS);
-            vservo_runtime::nodes::vision::publish_image(&publisher, &image, frame, exposed_ns);
+            vservo_runtime::nodes::vision::publish_image(
+                &publisher,
+                &image,
+                (frame, exposed_ns),
+                vservo_protocol::Exposure::UNKNOWN,
+            );
             let _ = notifier.notify();
             frame += 1;
             std::thread::sleep(period);

@@ -244,7 +244,12 @@ fn start_camera(
         while !stop.load(Ordering::Relaxed) {
             if sending.load(Ordering::Relaxed) {
                 let now_ns = vservo_runtime::clock::monotonic_ns();
-                vservo_runtime::nodes::vision::publish_image(&publisher, &image, frame, now_ns);
+                vservo_runtime::nodes::vision::publish_image(
+                    &publisher,
+                    &image,
+                    (frame, now_ns),
+                    vservo_protocol::Exposure::UNKNOWN,
+                );
                 let _ = notifier.notify();
                 *last_sent.lock().expect("lock") = Some(Instant::now());
                 frame += 1;

@@ -64,6 +64,9 @@ pub struct Camera {
     pipeline: gst::Pipeline,
     appsink: gst_app::AppSink,
     clock_minus_monotonic_ns: i64,
+    /// The source element that reports its exposure (a double `exposure` property, µs) or gain (a double
+    /// `gain`, dB), if one does (`aravissrc`; not `v4l2src`, whose controls are written, not read back).
+    reporting: Option<gst::Element>,
 }
 
 /// One frame as taken from the appsink.
@@ -101,7 +104,8 @@ impl Camera {
         let appsink = appsink(&pipeline, &settings.appsink, &text)?;
         let clock_minus_monotonic_ns = use_monotonic_clock(&pipeline);
         apply_controls(&pipeline, settings);
-        Ok(Camera { text, pipeline, appsink, clock_minus_monotonic_ns })
+        let reporting = reporting_source(&pipeline);
+        Ok(Camera { text, pipeline, appsink, clock_minus_monotonic_ns, reporting })
     }
 
     /// Starts the pipeline.
@@ -144,6 +148,15 @@ impl Camera {
             base_time_ns: self.pipeline.base_time().map_or(0, gst::ClockTime::nseconds),
             clock_minus_monotonic_ns: self.clock_minus_monotonic_ns,
         }
+    }
+
+    /// The exposure and gain the source reports now (NaN where it reports none).
+    pub fn reported_exposure(&self) -> vservo_protocol::Exposure {
+        let Some(source) = &self.reporting else { return vservo_protocol::Exposure::UNKNOWN };
+        let read = |property: &str| {
+            if has_double(source, property) { source.property::<f64>(property) } else { f64::NAN }
+        };
+        vservo_protocol::Exposure { exposure_us: read("exposure"), gain_db: read("gain") }
     }
 
     /// The offset of the pipeline clock from CLOCK_MONOTONIC (ns; 0 on the monotonic system clock).
@@ -280,16 +293,35 @@ fn use_monotonic_clock(pipeline: &gst::Pipeline) -> i64 {
     (i128::from(clock_ns) - i128::from(before / 2 + after / 2)) as i64
 }
 
+/// Whether `element` has a property `name` of type double.
+fn has_double(element: &gst::Element, name: &str) -> bool {
+    element.find_property(name).is_some_and(|p| p.value_type() == f64::static_type())
+}
+
+/// The first source element with a double `exposure` or `gain` property.
+fn reporting_source(pipeline: &gst::Pipeline) -> Option<gst::Element> {
+    let mut sources = pipeline.iterate_sources();
+    while let Ok(Some(source)) = sources.next() {
+        if has_double(&source, "exposure") || has_double(&source, "gain") {
+            return Some(source);
+        }
+    }
+    None
+}
+
 /// Exposure and gain on every source element of the pipeline (docs/DRIVERS.md).
 fn apply_controls(pipeline: &gst::Pipeline, settings: &GstreamerCamera) {
     let mut sources = pipeline.iterate_sources();
     while let Ok(Some(source)) = sources.next() {
         let name = source.name().to_string();
         let factory = source.factory().map_or_else(|| "?".into(), |f| f.name().to_string());
-        let has_double = |property: &str| {
-            source.find_property(property).is_some_and(|p| p.value_type() == f64::static_type())
-        };
-        let plan = controls::plan(&name, &factory, has_double, settings.exposure_us, settings.gain_db);
+        let plan = controls::plan(
+            &name,
+            &factory,
+            |property| has_double(&source, property),
+            settings.exposure_us,
+            settings.gain_db,
+        );
         for warning in &plan.warnings {
             tracing::warn!("{warning}");
         }

@@ -124,8 +124,8 @@ impl Publishing {
             &self.out.publisher,
             size,
             &self.image,
-            step.frame,
-            stamp.monotonic_ns,
+            (step.frame, stamp.monotonic_ns),
+            camera.reported_exposure(),
         ) {
             watch.no_slot += 1;
             return;

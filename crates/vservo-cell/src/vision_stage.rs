@@ -348,7 +348,14 @@ mod tests {
             features[2 * m] = f64::NAN;
             features[2 * m + 1] = f64::NAN;
         }
-        Extraction { features, status, extra_blobs: 0, threshold: 128, sized_blobs_over_cap: 0 }
+        Extraction {
+            features,
+            status,
+            extra_blobs: 0,
+            threshold: 128,
+            sized_blobs_over_cap: 0,
+            tag_quality: None,
+        }
     }
 
     #[test]

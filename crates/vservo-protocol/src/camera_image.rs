@@ -62,15 +62,29 @@ pub fn camera_image_publisher(
     )
 }
 
+/// The exposure and gain a camera reports with a frame (NaN where it does not say).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Exposure {
+    /// How long the shutter was open (µs).
+    pub exposure_us: f64,
+    /// The sensor's gain (dB).
+    pub gain_db: f64,
+}
+
+impl Exposure {
+    /// A camera that reports neither.
+    pub const UNKNOWN: Exposure = Exposure { exposure_us: f64::NAN, gain_db: f64::NAN };
+}
+
 /// An 8-bit gray image of `width` × `height` (rows packed: `pixels.len()` is their product) published on
-/// `camera_image` as frame `frame`, exposed at `capture_stamp_ns`; `false` when no sample was free or the
-/// send failed (the caller counts it).
+/// `camera_image` as frame `frame`, exposed at `capture_stamp_ns` with `exposure`; `false` when no sample was
+/// free or the send failed (the caller counts it).
 pub fn publish_mono8(
     publisher: &Publisher<ipc::Service, [u8], CameraImageHeader>,
     (width, height): (u32, u32),
     pixels: &[u8],
-    frame: u64,
-    capture_stamp_ns: u64,
+    (frame, capture_stamp_ns): (u64, u64),
+    exposure: Exposure,
 ) -> bool {
     let Ok(mut sample) = publisher.loan_slice_uninit(pixels.len()) else { return false };
     *sample.user_header_mut() = CameraImageHeader {
@@ -82,6 +96,8 @@ pub fn publish_mono8(
         reserved: 0,
         frame,
         capture_stamp_ns,
+        exposure_us: exposure.exposure_us,
+        gain_db: exposure.gain_db,
     };
     sample.write_from_slice(pixels).send().is_ok()
 }

@@ -46,7 +46,7 @@ pub mod writers;
 pub use vservo_wire::{clock, codes, declare, freshness, inbox, layout, messages, seal, supervision};
 
 pub use camera_image::{
-    CAMERA_IMAGE_SERVICE, camera_image_listener, camera_image_notifier, camera_image_publisher,
+    CAMERA_IMAGE_SERVICE, Exposure, camera_image_listener, camera_image_notifier, camera_image_publisher,
     camera_image_subscriber, open_camera_image_service, publish_mono8,
 };
 pub use codes::{

@@ -452,7 +452,15 @@ impl Driver {
 
     fn publish_image(&mut self, ports: &CameraPorts, capture_stamp_ns: u64) {
         let size = (self.width, self.height);
-        if !vservo_protocol::publish_mono8(&ports.images, size, &self.gray, self.frame, capture_stamp_ns) {
+        // sensor_msgs/Image carries no exposure or gain
+        let exposure = vservo_protocol::Exposure::UNKNOWN;
+        if !vservo_protocol::publish_mono8(
+            &ports.images,
+            size,
+            &self.gray,
+            (self.frame, capture_stamp_ns),
+            exposure,
+        ) {
             self.report.publish_failed += 1;
             return;
         }

@@ -27,7 +27,12 @@ fn camera_image(c: &mut Criterion) {
         c.bench_function(name, |b| {
             b.iter(|| {
                 frame += 1;
-                publish_image(&publisher, black_box(&image), frame, frame);
+                publish_image(
+                    &publisher,
+                    black_box(&image),
+                    (frame, frame),
+                    vservo_protocol::Exposure::UNKNOWN,
+                );
                 // keep the subscriber's queue from filling, as the vision node's consumers do
                 while let Ok(Some(sample)) = subscriber.receive() {
                     black_box(sample.payload().len());

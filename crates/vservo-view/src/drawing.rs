@@ -43,9 +43,10 @@ pub fn raw_image(header: &CameraImageHeader, pixels: &[u8]) -> RawImage {
     }
 }
 
-/// The marks of a frame on its image: each mark the servo used as a green circle, where it should be
-/// (`desired_px`) as a blue circle, the error between them as a line, and each mark the frame lacks as a
-/// red text saying why, at its desired position.
+/// The marks of a frame on its image: each mark the servo used as a circle, green where vservo refined its
+/// position and orange where it is a tag decoder's corner (`refined_mask`), where it should be (`desired_px`)
+/// as a blue circle, the error between them as a line, and each mark the frame lacks as a red text saying why,
+/// at its desired position. With a tag, its decoder's margin and its edges' fit in the top left corner.
 pub fn annotations(features: &FeaturesMsg, desired_px: Option<&[f64; 8]>) -> ImageAnnotations {
     let stamp = Some(timestamp(features.capture_stamp_ns));
     let mut circles = Vec::with_capacity(8);
@@ -57,13 +58,14 @@ pub fn annotations(features: &FeaturesMsg, desired_px: Option<&[f64; 8]>) -> Ima
             features.valid_mask & (1 << mark) != 0 && measured.x.is_finite() && measured.y.is_finite();
         let desired = desired_px.map(|d| Point2 { x: d[2 * mark], y: d[2 * mark + 1] });
         if valid {
+            let refined = features.refined_mask & (1 << mark) != 0;
             circles.push(CircleAnnotation {
                 timestamp: stamp,
                 position: Some(measured),
                 diameter: 14.0,
                 thickness: 2.0,
                 fill_color: None,
-                outline_color: color(0.1, 0.9, 0.2),
+                outline_color: if refined { color(0.1, 0.9, 0.2) } else { color(1.0, 0.55, 0.0) },
                 metadata: Vec::new(),
             });
             if let Some(desired) = desired {
@@ -93,6 +95,9 @@ pub fn annotations(features: &FeaturesMsg, desired_px: Option<&[f64; 8]>) -> Ima
             });
         }
     }
+    if features.decision_margin.is_finite() {
+        texts.push(tag_quality_text(features, stamp));
+    }
     let points = if lines.is_empty() {
         Vec::new()
     } else {
@@ -109,6 +114,29 @@ pub fn annotations(features: &FeaturesMsg, desired_px: Option<&[f64; 8]>) -> Ima
         }]
     };
     ImageAnnotations { timestamp: stamp, circles, points, texts, metadata: Vec::new() }
+}
+
+/// A tag's quality as a line of text: the decoder's margin and corrected bits, each edge's fit RMS.
+fn tag_quality_text(features: &FeaturesMsg, stamp: Option<Timestamp>) -> TextAnnotation {
+    let edges: Vec<String> = features
+        .edge_rms_px
+        .iter()
+        .map(|rms| if rms.is_finite() { format!("{rms:.2}") } else { "—".to_string() })
+        .collect();
+    TextAnnotation {
+        timestamp: stamp,
+        position: Some(Point2 { x: 10.0, y: 100.0 }),
+        text: format!(
+            "tag margin {:.0}, {} bit(s) corrected, edges {} px",
+            features.decision_margin,
+            features.bits_corrected,
+            edges.join(" ")
+        ),
+        font_size: 12.0,
+        text_color: color(1.0, 1.0, 1.0),
+        background_color: Some(Color { r: 0.0, g: 0.0, b: 0.0, a: 0.6 }),
+        metadata: Vec::new(),
+    }
 }
 
 fn transform(stamp_ns: u64, parent: &str, child: &str, pose: &IsometryMatrix3<f64>) -> FrameTransform {
@@ -205,6 +233,25 @@ mod tests {
         assert_eq!(drawn.texts[0].text, "mark 3 outside the image");
         let stamp = drawn.timestamp.expect("stamped");
         assert_eq!((stamp.sec(), stamp.nsec()), (12, 345_678_901));
+    }
+
+    #[test]
+    fn a_decoders_corner_is_drawn_apart_from_refined_ones_and_the_tags_quality_is_written() {
+        let message = FeaturesMsg {
+            refined_mask: 0b0111,
+            edge_rms_px: [0.08, f64::NAN, 0.12, 0.1],
+            decision_margin: 84.6,
+            bits_corrected: 1,
+            ..features(0b1111)
+        };
+        let drawn = annotations(&message, None);
+        let outlines: Vec<_> = drawn.circles.iter().map(|c| c.outline_color).collect();
+        assert_eq!(outlines[..3], [color(0.1, 0.9, 0.2), color(0.1, 0.9, 0.2), color(0.1, 0.9, 0.2)]);
+        assert_eq!(outlines[3], color(1.0, 0.55, 0.0), "mark 4 is the decoder's corner");
+        assert_eq!(drawn.texts.len(), 1);
+        assert_eq!(drawn.texts[0].text, "tag margin 85, 1 bit(s) corrected, edges 0.08 — 0.12 0.10 px");
+        // disc marks: no tag line
+        assert!(annotations(&features(0b1111), None).texts.is_empty());
     }
 
     #[test]

@@ -108,6 +108,8 @@ pub struct Extraction {
     /// Blobs of a mark's size beyond the [`MAX_SIZED_BLOBS`] the extractor considers (in the order found):
     /// not looked at, so a mark among them would be missed. 0 on any image of the board alone.
     pub sized_blobs_over_cap: usize,
+    /// With an AprilTag target, how its corners were measured (`None` for disc marks, or no tag found).
+    pub tag_quality: Option<crate::tag::TagQuality>,
 }
 
 impl Extraction {
@@ -121,6 +123,16 @@ impl Extraction {
         self.status.iter().all(MarkStatus::is_valid)
     }
 
+    /// Per mark, whether its position is vservo's own sub-pixel measurement: every valid disc (its centre from
+    /// the pixels' coverage), a valid tag corner refined on both its edges (not the decoder's own corner).
+    pub fn refined(&self) -> [bool; MARKS] {
+        let valid = self.valid();
+        match &self.tag_quality {
+            Some(quality) => std::array::from_fn(|m| valid[m] && quality.refined[m]),
+            None => valid,
+        }
+    }
+
     fn unusable(problem: ImageProblem, threshold: u8) -> Self {
         Self {
             features: FeatureVector::from_element(f64::NAN),
@@ -128,6 +140,7 @@ impl Extraction {
             extra_blobs: 0,
             threshold,
             sized_blobs_over_cap: 0,
+            tag_quality: None,
         }
     }
 }
@@ -192,7 +205,14 @@ impl Extractor {
             used[*index] = true;
         }
         let extra_blobs = candidates.iter().enumerate().filter(|(i, c)| c.mark_like && !used[*i]).count();
-        Extraction { features, status, extra_blobs, threshold, sized_blobs_over_cap: found.over_cap }
+        Extraction {
+            features,
+            status,
+            extra_blobs,
+            threshold,
+            sized_blobs_over_cap: found.over_cap,
+            tag_quality: None,
+        }
     }
 
     /// The gray level that separates dark from bright, or why the image cannot be used (not the configured

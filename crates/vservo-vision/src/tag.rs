@@ -141,6 +141,7 @@ impl TagExtraction {
             extra_blobs: 0,
             threshold: 0,
             sized_blobs_over_cap: 0,
+            tag_quality: self.quality,
         }
     }
 }

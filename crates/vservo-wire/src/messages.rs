@@ -16,7 +16,9 @@ use iceoryx2::prelude::ZeroCopySend;
 /// 9: `joint_state.driver_error` (was reserved) and `status.driver_error`: the robot's own reason for a driver fault.
 /// 10: the fault `supervision_stalled` (11); `cell_mode` is also a heartbeat, at least every 100 ms, and announces
 /// each node's process (`writers`), which `features` and `camera_twist` carry (`writer_pid`).
-pub const SCHEMA_VERSION: u32 = 11;
+/// 12: `features` carries how each mark was measured (`refined_mask`, a tag's `edge_rms_px`, `decision_margin`,
+/// `bits_corrected`); `camera_image`'s header the exposure and gain the camera reports.
+pub const SCHEMA_VERSION: u32 = 12;
 
 /// Joints `joint_state` and `joint_command` have room for: the arm's joints come first, the slots past
 /// `joint_count` are zero.
@@ -170,6 +172,10 @@ wire_message! {
         frame: u64,
         /// CLOCK_MONOTONIC when the image was exposed (ns)
         capture_stamp_ns: u64,
+        /// how long the shutter was open, as the camera reports it (µs); NaN when it does not say
+        exposure_us: f64 = f64::NAN,
+        /// the sensor's gain, as the camera reports it (dB); NaN when it does not say
+        gain_db: f64 = f64::NAN,
     }
 }
 
@@ -200,6 +206,16 @@ wire_message! {
         /// (`camera.mount = "world"`): in the tool frame, which holds the board still: the top 3 rows of the
         /// 4×4 transform, row-major; NaN when not known
         base_from_camera: [f64; 12] = [f64::NAN; 12],
+        /// an AprilTag target: per edge k of the tag (corner k to corner k + 1), the RMS of its fit (px), NaN
+        /// where the edge could not be measured (its corners are then the decoder's); NaN for disc marks
+        edge_rms_px: [f64; MARKS] = [f64::NAN; MARKS],
+        /// an AprilTag target: the decoder's decision margin (larger is surer); NaN for disc marks or no tag
+        decision_margin: f64 = f64::NAN,
+        /// bit m set when mark m's position is vservo's own sub-pixel measurement (a disc's centre, a tag
+        /// corner refined on both its edges); clear where it is the tag decoder's corner, or not valid
+        refined_mask: u32,
+        /// an AprilTag target: the bits of the code the decoder corrected; 0 for disc marks
+        bits_corrected: u32,
         /// the vision node's seal under the run's key: the servo (and the daemon) take sealed features only
         seal: u64,
     }

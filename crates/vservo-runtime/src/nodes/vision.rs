@@ -48,17 +48,46 @@ fn status_on_wire(status: &MarkStatus) -> WireMarkStatus {
     }
 }
 
-/// What the pipeline remembers of a frame until it leaves: capture time and mark status.
+/// How a frame's marks were measured, as `features` carries it.
+#[derive(Debug, Clone, Copy)]
+struct Measured {
+    refined: [bool; MARKS],
+    edge_rms_px: [f64; MARKS],
+    decision_margin: f64,
+    bits_corrected: u32,
+}
+
+impl Measured {
+    fn of(captured: &Extraction) -> Self {
+        let tag = captured.tag_quality.as_ref();
+        Self {
+            refined: captured.refined(),
+            edge_rms_px: tag.map_or([f64::NAN; MARKS], |q| q.edge_rms_px),
+            decision_margin: tag.map_or(f64::NAN, |q| f64::from(q.decision_margin)),
+            bits_corrected: tag.map_or(0, |q| u32::from(q.bits_corrected)),
+        }
+    }
+}
+
+/// What the pipeline remembers of a frame until it leaves: capture time, mark status and how the marks were
+/// measured.
 #[derive(Debug, Clone, Copy)]
 struct FrameInfo {
     frame: u64,
     capture_stamp_ns: u64,
     status: [WireMarkStatus; MARKS],
+    measured: Measured,
 }
 
 impl Default for FrameInfo {
     fn default() -> Self {
-        Self { frame: 0, capture_stamp_ns: 0, status: [WireMarkStatus::Valid; MARKS] }
+        let measured = Measured {
+            refined: [false; MARKS],
+            edge_rms_px: [f64::NAN; MARKS],
+            decision_margin: f64::NAN,
+            bits_corrected: 0,
+        };
+        Self { frame: 0, capture_stamp_ns: 0, status: [WireMarkStatus::Valid; MARKS], measured }
     }
 }
 
@@ -77,8 +106,12 @@ impl FeaturesOut {
     /// Keeps a frame's capture time and mark status until its features leave; says when the extractor
     /// starts finding more blobs of a mark's size than it considers.
     fn remember(&mut self, frame: u64, capture_stamp_ns: u64, captured: &Extraction, monitor: &LoopMonitor) {
-        self.in_pipeline[(frame % 8) as usize] =
-            FrameInfo { frame, capture_stamp_ns, status: captured.status.map(|s| status_on_wire(&s)) };
+        self.in_pipeline[(frame % 8) as usize] = FrameInfo {
+            frame,
+            capture_stamp_ns,
+            status: captured.status.map(|s| status_on_wire(&s)),
+            measured: Measured::of(captured),
+        };
         let over_cap = captured.sized_blobs_over_cap;
         if over_cap > 0 && !self.over_cap {
             monitor.note(Note::BlobsOverCap { frame, over_cap });
@@ -101,6 +134,9 @@ impl FeaturesOut {
                 valid_mask |= 1 << mark;
             }
         }
+        // a frame whose slot was taken by a later one: nothing of it is known
+        let measured =
+            if info.frame == delivered.frame { info.measured } else { FrameInfo::default().measured };
         let mut message = FeaturesMsg {
             schema: SCHEMA_VERSION,
             valid_mask,
@@ -112,6 +148,11 @@ impl FeaturesOut {
             mark_status: status.map(u8::from),
             writer_pid: std::process::id(),
             base_from_camera: delivered.holder_from_camera.as_ref().map_or([f64::NAN; 12], pose_to_wire),
+            edge_rms_px: measured.edge_rms_px,
+            decision_margin: measured.decision_margin,
+            refined_mask: (0..MARKS).filter(|&m| measured.refined[m]).fold(0, |mask, m| mask | 1 << m)
+                & valid_mask,
+            bits_corrected: measured.bits_corrected,
             seal: 0,
         };
         vservo_protocol::seal::sign_with(self.key.as_ref(), &mut message);
@@ -373,6 +414,9 @@ fn run_simulated_camera(
     // board stands where the configuration places it (a fixed camera's rides on the tool: the stage puts it
     // where the captured joints do)
     let config = context.cell.config();
+    // the simulated camera's exposure, as a camera reports it (its gain is not modelled)
+    let simulated_exposure =
+        vservo_protocol::Exposure { exposure_us: config.vision.render.exposure_s * 1e6, gain_db: f64::NAN };
     let mut world: Option<IsometryMatrix3<f64>> =
         (!config.robot.driver.is_simulated()).then(|| config.base_from_board(context.cell.arm()));
     while !context.stopping() && !context.orphaned() {
@@ -405,7 +449,7 @@ fn run_simulated_camera(
         if let Some(delivered) = taken.delivered {
             out.publish(&delivered);
         }
-        publish_image(&image_publisher, stage.image(), frame, state.stamp_ns);
+        publish_image(&image_publisher, stage.image(), (frame, state.stamp_ns), simulated_exposure);
         let _ = image_notifier.notify();
         frame += 1;
         counters.set_progress(frame);
@@ -419,18 +463,19 @@ fn run_simulated_camera(
     Ok(())
 }
 
-/// Publishes an image on `camera_image` (one copy into shared memory; subscribers read it in place).
+/// Publishes an image on `camera_image` as frame `frame` exposed at `capture_stamp_ns` (one copy into shared
+/// memory; subscribers read it in place).
 pub fn publish_image(
     publisher: &Publisher<ipc::Service, [u8], CameraImageHeader>,
     image: &GrayImage,
-    frame: u64,
-    capture_stamp_ns: u64,
+    (frame, capture_stamp_ns): (u64, u64),
+    exposure: vservo_protocol::Exposure,
 ) {
     let _ = vservo_protocol::publish_mono8(
         publisher,
         image.dimensions(),
         image.as_raw(),
-        frame,
-        capture_stamp_ns,
+        (frame, capture_stamp_ns),
+        exposure,
     );
 }

@@ -27,9 +27,12 @@ fn layouts_are_the_documented_ones() {
     assert_eq!(offset_of!(JointCommandMsg, twist_capture_tick), 216);
     assert_eq!(offset_of!(JointCommandMsg, seal), 240);
     assert_eq!(size_of::<SimWorldMsg>(), 16 + 96);
-    assert_eq!(size_of::<CameraImageHeader>(), 40);
-    assert_eq!(size_of::<FeaturesMsg>(), 40 + 64 + 8 + 96 + 8);
-    assert_eq!(offset_of!(FeaturesMsg, seal), 208);
+    assert_eq!(size_of::<CameraImageHeader>(), 56);
+    assert_eq!(offset_of!(CameraImageHeader, exposure_us), 40);
+    assert_eq!(size_of::<FeaturesMsg>(), 40 + 64 + 8 + 96 + 32 + 8 + 8 + 8);
+    assert_eq!(offset_of!(FeaturesMsg, edge_rms_px), 208);
+    assert_eq!(offset_of!(FeaturesMsg, refined_mask), 248);
+    assert_eq!(offset_of!(FeaturesMsg, seal), 256);
     assert_eq!(offset_of!(FeaturesMsg, features_px), 40);
     assert_eq!(offset_of!(FeaturesMsg, mark_status), 104);
     assert_eq!(size_of::<CameraTwistMsg>(), 40 + 48 + 8 + 8 + 8 + 8);
