@@ -1,8 +1,8 @@
 """The AprilTag C library as Python users run it (pupil-apriltags), on pictures read by OpenCV: the reference for
 `vservoctl tags` (tests/tests/vservoctl_tags.rs). For each picture it writes its grayscale as a PGM into OUT_DIR
 (so that vservo reads the very same pixels) and prints one JSON line: the picture, the PGM, and every tag36h11 tag
-found with quads at full resolution (id, corners in vservo's pixels: the library's pixel centres are at integers,
-vservo's at + 1/2), with the settings vservo's detector uses (one bit corrected, no quad blur, edge refinement on).
+found with quads at full resolution (id, corners as the library gives them, which are vservo's pixels: its quad
+fit adds the half pixel itself, "adjust for pixel center bias"), with the settings vservo's detector uses (one bit corrected, no quad blur, edge refinement on).
 
     python pupil_tags.py OUT_DIR IMAGE...
 """
@@ -27,7 +27,7 @@ def main() -> None:
         pgm = os.path.join(out_dir, os.path.splitext(os.path.basename(path))[0] + ".pgm")
         cv2.imwrite(pgm, gray)
         tags = [
-            {"id": int(t.tag_id), "corners_px": [[float(x) + 0.5, float(y) + 0.5] for x, y in t.corners]}
+            {"id": int(t.tag_id), "corners_px": [[float(x), float(y)] for x, y in t.corners]}
             for t in detector.detect(gray)
             if t.hamming <= 1
         ]

@@ -78,8 +78,9 @@ pub fn read_image_as_gray(path: &Path) -> Result<(GrayImage, image::ColorType), 
 pub type TestDetection = (u32, [Point2<f64>; 4]);
 
 /// The detections the AprilTag C library's own test data lists beside a picture (its `test/data/*.txt`: one tag a
-/// line, `id, (x y), (x y), (x y), (x y)`, the corners in the tag's order with the library's pixel centres at
-/// integers), as id and corners in vservo's pixels (+ ½): the reference of the real-photograph tests.
+/// line, `id, (x y), (x y), (x y), (x y)`, the corners in the tag's order as `apriltag_detection_t::p` gives them,
+/// in vservo's pixels already: the library's quad fit adds the half pixel itself), as id and corners: the
+/// reference of the real-photograph tests.
 pub fn read_apriltag_test_detections(path: &Path) -> Result<Vec<TestDetection>, SourceError> {
     let error = |reason: String| SourceError::Image { path: path.display().to_string(), reason };
     let text = std::fs::read_to_string(path).map_err(|e| error(e.to_string()))?;
@@ -94,7 +95,7 @@ pub fn read_apriltag_test_detections(path: &Path) -> Result<Vec<TestDetection>, 
         if values.len() != 9 || values[0] < 0.0 || values[0].fract() != 0.0 {
             return Err(error(format!("line {}: not `id, (x y), (x y), (x y), (x y)`", number + 1)));
         }
-        let corners = std::array::from_fn(|k| Point2::new(values[1 + 2 * k] + 0.5, values[2 + 2 * k] + 0.5));
+        let corners = std::array::from_fn(|k| Point2::new(values[1 + 2 * k], values[2 + 2 * k]));
         detections.push((values[0] as u32, corners));
     }
     Ok(detections)

@@ -37,6 +37,10 @@ pub const FULL_RESOLUTION_MAX_PIXELS: u32 = 640 * 480;
 type Region = (u32, u32, u32, u32);
 
 /// Whether `region` is small enough for a full-resolution search in a frame.
+/// The C library thresholds in tiles of 4 × 4 pixels of the image it searches for quads, 8 × 8 of the original
+/// at the decimation of 2; a search region starts on a multiple of this.
+const TILE_GRID_PX: u32 = 8;
+
 fn affordable_at_full_resolution((u0, v0, u1, v1): Region) -> bool {
     (u1 - u0).saturating_mul(v1 - v0) <= FULL_RESOLUTION_MAX_PIXELS
 }
@@ -317,9 +321,12 @@ impl TagExtractor {
         );
         let grow = (0.25 * (x1 - x0).max(y1 - y0)).max(f64::from(SEARCH_MARGIN_PX));
         let clip = |v: f64, high: u32| v.clamp(0.0, f64::from(high)) as u32;
+        // the region starts on the whole image's grid of the C library's threshold tiles (4 px, 8 at the
+        // decimation of 2), so that the region's pixels are thresholded as the whole image's are
+        let on_grid = |v: f64| (v / f64::from(TILE_GRID_PX)).floor() * f64::from(TILE_GRID_PX);
         let region = (
-            clip((x0 - grow).floor(), self.width_px),
-            clip((y0 - grow).floor(), self.height_px),
+            clip(on_grid(x0 - grow), self.width_px),
+            clip(on_grid(y0 - grow), self.height_px),
             clip((x1 + grow).ceil(), self.width_px),
             clip((y1 + grow).ceil(), self.height_px),
         );
@@ -373,8 +380,10 @@ pub fn reference_detections_full_resolution(image: &GrayImage) -> Vec<(u32, [Poi
     detect(image, whole, QuadSearch::FullResolution).into_iter().map(|d| (d.id, d.corners)).collect()
 }
 
-/// The tags the C detector finds in the region (u0, v0, u1, v1) of `image`, corners in image pixels (our
-/// convention: pixel (u, v) covers [u, u+1) × [v, v+1); the C library's pixel centres are at integers).
+/// The tags the C detector finds in the region (u0, v0, u1, v1) of `image`, corners in image pixels. The C
+/// library's corners are already in vservo's convention, pixel (u, v) covering [u, u+1) × [v, v+1): its quad fit
+/// adds the half pixel itself (`fit_quad`'s "adjust for pixel center bias"; measured on renders, a mean offset
+/// of 0.006 / 0.005 px as they come, and 0.5 px with a half pixel added, as vservo did until 2026-12-06).
 fn detect(image: &GrayImage, (u0, v0, u1, v1): Region, search: QuadSearch) -> Vec<Detected> {
     let (w, h) = ((u1 - u0) as usize, (v1 - v0) as usize);
     let stride = w.div_ceil(96) * 96;
@@ -398,9 +407,7 @@ fn detect(image: &GrayImage, (u0, v0, u1, v1): Region, search: QuadSearch) -> Ve
             .iter()
             .map(|d| Detected {
                 id: d.id() as u32,
-                corners: d
-                    .corners()
-                    .map(|[x, y]| Point2::new(x + 0.5 + f64::from(u0), y + 0.5 + f64::from(v0))),
+                corners: d.corners().map(|[x, y]| Point2::new(x + f64::from(u0), y + f64::from(v0))),
                 decision_margin: d.decision_margin(),
                 bits_corrected: d.hamming().min(usize::from(u8::MAX)) as u8,
             })
