@@ -11,6 +11,10 @@ use super::verdicts::{Line, Observed};
 /// A limit is kept when the ratio to it is at most this (floating-point rounding of the differences).
 const WITHIN: f64 = 1.0 + 1e-6;
 
+/// From this share of its acceleration or jerk limit on, the first frame saturates the reference: it cannot
+/// follow the law's twist within the frame (the generator keeps 0.990 and 0.985 of them at most).
+const SATURATED: f64 = 0.95;
+
 /// The motion the first twist makes over one frame, run through the cell's own interpolator from the joints
 /// now: the largest share of each limit it reaches.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -132,6 +136,28 @@ pub fn first_twist(observed: &Observed, cell: &Cell) -> Line {
                 "velocity_ratio": motion.velocity_ratio, "acceleration_ratio": motion.acceleration_ratio,
                 "jerk_ratio": motion.jerk_ratio, "tool_speed_ratio": motion.tool_speed_ratio }),
     )
+    .warning(saturation_warning(&motion))
+}
+
+/// When the first frame already reaches the acceleration or jerk limits: the reference lags the twist, which
+/// the law's design (an arm that follows its twist within a period) does not know.
+fn saturation_warning(motion: &FirstMotion) -> Option<String> {
+    let saturated: Vec<String> =
+        [("acceleration", Some(motion.acceleration_ratio)), ("jerk", motion.jerk_ratio)]
+            .into_iter()
+            .filter_map(|(limit, ratio)| {
+                ratio.filter(|r| *r >= SATURATED).map(|r| format!("{r:.2} of its {limit}"))
+            })
+            .collect();
+    (!saturated.is_empty()).then(|| {
+        format!(
+            "the first frame already reaches {} limits: the reference cannot follow the law's twist within the \
+             frame, and a law designed for an arm that follows its twist may swing; start slower \
+             (robot.max_camera_speed_m_s, robot.max_camera_rotation_rad_s) or nearer the target \
+             (docs/DRIVERS.md, \"First motion on a real arm\")",
+            saturated.join(" and ")
+        )
+    })
 }
 
 #[cfg(test)]
@@ -162,11 +188,35 @@ mod tests {
         assert!(line.pass, "{line:?}");
         let jerk = line.values["jerk_ratio"].as_f64().expect("the UR5e has jerk limits");
         assert!(jerk > 0.5 && jerk <= WITHIN, "{line:?}");
+        // the UR5e's limits are low: the first frame reaches them, and the line says so
+        assert!(
+            line.warning.as_deref().is_some_and(|w| w.contains("limits: the reference cannot")),
+            "{line:?}"
+        );
         // the servo's own twist limit: a cell that allows only a crawl refuses this twist
         let mut crawl = config.clone();
         crawl.cell.robot.max_camera_speed_m_s = 0.01;
         let cell = Cell::new(&crawl.cell).expect("the UR5e cell");
         let line = first_twist(&seen, &cell);
         assert!(!line.pass && line.text.contains("would refuse it"), "{line:?}");
+    }
+
+    #[test]
+    fn a_first_frame_at_the_acceleration_or_jerk_limit_is_a_warning() {
+        let motion = |acceleration_ratio, jerk_ratio| FirstMotion {
+            twist: Twist::zeros(),
+            admitted: true,
+            velocity_ratio: 0.3,
+            acceleration_ratio,
+            jerk_ratio,
+            tool_speed_ratio: 0.2,
+        };
+        let both = saturation_warning(&motion(0.99, Some(0.985))).expect("a warning");
+        assert!(both.contains("0.99 of its acceleration and 0.98 of its jerk limits"), "{both}");
+        assert!(
+            saturation_warning(&motion(0.97, None)).is_some_and(|w| w.contains("0.97 of its acceleration"))
+        );
+        assert_eq!(saturation_warning(&motion(0.6, Some(0.94))), None);
+        assert_eq!(saturation_warning(&motion(0.6, None)), None);
     }
 }

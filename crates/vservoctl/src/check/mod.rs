@@ -88,10 +88,20 @@ pub fn run(args: &CheckArgs) -> anyhow::Result<()> {
 fn as_text(instance: &str, origin: &str, lines: &[Line]) -> String {
     let mut out = format!("vservoctl check: instance {instance:?} ({origin}); nothing moves\n");
     for line in lines {
-        out += &format!("{} {:<13} {}\n", if line.pass { "PASS" } else { "FAIL" }, line.name, line.text);
+        let verdict = match (line.pass, &line.warning) {
+            (false, _) => "FAIL",
+            (true, None) => "PASS",
+            (true, Some(_)) => "WARN",
+        };
+        out += &format!("{verdict} {:<13} {}\n", line.name, line.text);
+        if let Some(warning) = &line.warning {
+            out += &format!("     {:<13} {warning}\n", "");
+        }
     }
     let passed = lines.iter().filter(|line| line.pass).count();
-    out += &format!("{passed} of {} checks passed\n", lines.len());
+    let warned = lines.iter().filter(|line| line.pass && line.warning.is_some()).count();
+    let with_warnings = if warned > 0 { format!(" ({warned} with a warning)") } else { String::new() };
+    out += &format!("{passed} of {} checks passed{with_warnings}\n", lines.len());
     out
 }
 
@@ -100,7 +110,7 @@ fn as_json(instance: &str, origin: &str, lines: &[Line]) -> Value {
     let checks: serde_json::Map<String, Value> = lines
         .iter()
         .map(|line| {
-            let mut entry = json!({ "pass": line.pass, "text": line.text });
+            let mut entry = json!({ "pass": line.pass, "text": line.text, "warning": line.warning });
             if let (Value::Object(entry), Value::Object(values)) = (&mut entry, &line.values) {
                 entry.extend(values.clone());
             }

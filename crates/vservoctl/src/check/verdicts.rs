@@ -23,11 +23,19 @@ pub struct Line {
     pub text: String,
     /// What was measured, as numbers (the JSON view).
     pub values: Value,
+    /// A check that passed but saw something to watch: what, and what to do.
+    pub warning: Option<String>,
 }
 
 impl Line {
     pub(super) fn new(name: &'static str, pass: bool, text: String, values: Value) -> Self {
-        Self { name, pass, text, values }
+        Self { name, pass, text, values, warning: None }
+    }
+
+    /// The line with `warning` (none when `None`).
+    pub(super) fn warning(mut self, warning: Option<String>) -> Self {
+        self.warning = warning;
+        self
     }
 }
 
