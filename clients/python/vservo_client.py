@@ -29,7 +29,7 @@ import iceoryx2 as iox2
 
 SCHEMA_VERSION = 12
 (TARGET_FEATURES, TARGET_POSE, TARGET_TEACH, OBJECT_HOLD, OBJECT_STEP, OBJECT_CIRCLE, RELOAD, RESUME,
- SAFE_STOP, MOVE_JOINTS, SERVO) = range(1, 12)
+ SAFE_STOP, MOVE_JOINTS, SERVO, SPEED) = range(1, 13)
 STATES = ["starting", "running", "degraded", "stopping", "safe-stop", "moving"]
 MAX_JOINTS = 7
 FAULTS = ["none", "position_limit", "velocity_limit", "torque_saturated", "driver_fault", "target_lost",
@@ -49,7 +49,7 @@ class Command(ctypes.Structure):
         ("radius_m", ctypes.c_double),
         ("rev_per_min", ctypes.c_double),
         ("joint_count", ctypes.c_uint32),
-        ("reserved", ctypes.c_uint32),
+        ("flags", ctypes.c_uint32),
         ("joints_rad", ctypes.c_double * MAX_JOINTS),
         ("speed_fraction", ctypes.c_double),
     ]
@@ -118,7 +118,7 @@ class NodeStatus(ctypes.Structure):
 
 
 class DaemonStatus(ctypes.Structure):
-    """vservo::DaemonStatus, 216 bytes."""
+    """vservo::DaemonStatus, 224 bytes."""
 
     _fields_ = [
         ("schema", ctypes.c_uint32),
@@ -137,6 +137,7 @@ class DaemonStatus(ctypes.Structure):
         ("safe_stops", ctypes.c_uint64),
         ("driver_error", ctypes.c_uint32),
         ("reserved", ctypes.c_uint32),
+        ("speed_scale", ctypes.c_double),
     ]
 
     @staticmethod
@@ -440,6 +441,12 @@ class Client:
     def servo(self) -> CommandReply:
         """End a joint move: servo again from where the arm is."""
         return self.request(Command(kind=SERVO))
+
+    def speed(self, speed_scale: float, while_moving: bool = False) -> CommandReply:
+        """Set the dynamics override (0–1]: the reference keeps that share of the joints' speed, acceleration and
+        jerk limits and of the tool's caps. Lowering it is always taken; raising it only while the cell is held,
+        or with `while_moving`."""
+        return self.request(Command(kind=SPEED, speed_fraction=speed_scale, flags=1 if while_moving else 0))
 
     def _latest(self, service: str, payload):
         # open, never create: a client that created the daemon's services with other sizes would stop the

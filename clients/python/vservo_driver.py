@@ -55,13 +55,13 @@ class JointCommand(ctypes.Structure):
 
 
 class CellMode(ctypes.Structure):
-    """vservo::CellMode, 120 bytes: whether the cell servos, is held in a safe stop or moves its joints (vservod's,
+    """vservo::CellMode, 128 bytes: whether the cell servos, is held in a safe stop or moves its joints (vservod's,
     sealed with the run's key; a driver without the key cannot check the seal, but the stream's one writer slot is
     vservod's while it runs)."""
 
     _fields_ = [("schema", ctypes.c_uint32), ("mode", ctypes.c_uint32), ("sequence", ctypes.c_uint64),
                 ("fault", ctypes.c_uint32), ("fault_joints", ctypes.c_uint32), ("speed_fraction", ctypes.c_double),
-                ("goal_rad", ctypes.c_double * MAX_JOINTS), ("writers", ctypes.c_uint32 * 4),
+                ("speed_scale", ctypes.c_double), ("goal_rad", ctypes.c_double * MAX_JOINTS), ("writers", ctypes.c_uint32 * 4),
                 ("stamp_ns", ctypes.c_uint64), ("seal", ctypes.c_uint64)]
 
     @staticmethod

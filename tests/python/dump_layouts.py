@@ -40,7 +40,7 @@ codes = {
     "fault": vservo_client.FAULTS,
     "command_kind": {name: getattr(vservo_client, name) for name in
                      ["TARGET_FEATURES", "TARGET_POSE", "TARGET_TEACH", "OBJECT_HOLD", "OBJECT_STEP",
-                      "OBJECT_CIRCLE", "RELOAD", "RESUME", "SAFE_STOP", "MOVE_JOINTS", "SERVO"]},
+                      "OBJECT_CIRCLE", "RELOAD", "RESUME", "SAFE_STOP", "MOVE_JOINTS", "SERVO", "SPEED"]},
     "command_mode": {"TORQUE": vservo_driver.TORQUE, "VELOCITY": vservo_driver.VELOCITY,
                      "POSITION": vservo_driver.POSITION},
     "driver_status": {"FOLLOWING": vservo_driver.FOLLOWING, "HOLDING": vservo_driver.HOLDING},

@@ -49,6 +49,35 @@ fn assert_commands_within_the_arms_limits(arm: &str, summary: &serde_json::Value
     assert!(share("max_jerk_ratio") > 0.5, "{arm}: {summary}");
 }
 
+/// The dynamics override at a quarter (`[robot] speed_scale = 0.25` over the arm's own file): the Panda and the
+/// UR5e in PyBullet converge, and every commanded joint stream keeps a quarter of the arm's speed, acceleration
+/// and jerk limits (measured as the arm's controller would), and uses it.
+#[test]
+fn run_pybullet_at_a_quarter_speed_keeps_a_quarter_of_the_arms_limits() {
+    let _one = exclusive();
+    let dir = vservo_system_tests::ScratchDir::new(&vservo_system_tests::unique("quarter-speed"));
+    for (arm, urdf) in [("panda", None), ("ur5e", Some("config/arms/ur5e.urdf"))] {
+        let file = repository_root().join(format!("config/arms/{arm}.toml"));
+        let quarter = dir.write(
+            &format!("{arm}-quarter.toml"),
+            &format!("extends = \"{}\"\n[robot]\nspeed_scale = 0.25\n", file.display()),
+        );
+        let quarter = quarter.display().to_string();
+        let mut args = vec!["--config", quarter.as_str()];
+        if let Some(urdf) = urdf {
+            args.extend(["--urdf", urdf]);
+        }
+        let summary = run_script_to_convergence("run-pybullet.sh", &args);
+        println!("{arm} at a quarter: {summary}");
+        let share = |key: &str| summary[key].as_f64().unwrap_or_else(|| panic!("{arm}: {key} in {summary}"));
+        assert!(share("consecutive_triples") > 1000.0, "{arm}: too few consecutive commands: {summary}");
+        for key in ["max_velocity_ratio", "max_acceleration_ratio", "max_jerk_ratio"] {
+            assert!(share(key) <= 0.25, "{arm}: {key} {} over a quarter: {summary}", share(key));
+        }
+        assert!(share("max_jerk_ratio") > 0.2, "{arm}: the quarter's limits were used: {summary}");
+    }
+}
+
 /// A cell that started held (`--held-s`): while held its servo published twists (the premise: it ran) that were
 /// all zero, the rmrc answered every joint state with a zero velocity, the arm stood still (PyBullet's own drift
 /// under a zero command aside), and the resume was taken.

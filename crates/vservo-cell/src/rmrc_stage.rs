@@ -161,6 +161,21 @@ impl RmrcStage {
         self.planned_move = None;
     }
 
+    /// The dynamics override: from the next tick on, every path of the reference keeps `speed_scale` (0–1]
+    /// of the joints' speed, acceleration and jerk limits and of the tool's caps, a restart at rest included
+    /// (another value is ignored). Allocates nothing.
+    pub fn set_speed_scale(&mut self, speed_scale: f64) {
+        if speed_scale > 0.0 && speed_scale <= 1.0 && speed_scale != self.settings.speed_scale {
+            self.settings.speed_scale = speed_scale;
+            self.interpolator.set_speed_scale(speed_scale);
+        }
+    }
+
+    /// The dynamics override in force.
+    pub fn speed_scale(&self) -> f64 {
+        self.settings.speed_scale
+    }
+
     /// The tick the reference runs from: the state it last started at rest from.
     pub fn since_tick(&self) -> u64 {
         self.since_tick

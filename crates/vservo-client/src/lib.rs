@@ -285,6 +285,16 @@ impl Client {
         self.request(CommandMsg::new(CommandKind::Servo, 0))
     }
 
+    /// Sets the dynamics override to `speed_scale` (0–1]: every path of the reference keeps that share of the
+    /// joints' speed, acceleration and jerk limits and of the tool's caps. Lowering it is always taken; raising
+    /// it only while the cell is held, or `while_moving`.
+    pub fn set_speed_scale(&mut self, speed_scale: f64, while_moving: bool) -> Result<Reply, ClientError> {
+        let mut command = CommandMsg::new(CommandKind::Speed, 0);
+        command.speed_fraction = speed_scale;
+        command.flags = if while_moving { vservo_protocol::SPEED_WHILE_MOVING } else { 0 };
+        self.request(command)
+    }
+
     /// A subscriber to one of the instance's topics (payload type as in docs/PROTOCOL.md).
     pub fn subscribe<T: std::fmt::Debug + ZeroCopySend + 'static>(
         &self,

@@ -117,6 +117,9 @@ pub struct StatusView {
     pub gains_version: u64,
     /// Overruns per node, by name.
     pub overruns: BTreeMap<&'static str, u64>,
+    /// The dynamics override in force: the share of the arm's speed, acceleration and jerk limits (and of the
+    /// tool's caps) the reference keeps (`vservoctl speed`).
+    pub speed_scale: f64,
 }
 
 /// The name of a code another process wrote: its enum's, or "unknown".
@@ -189,6 +192,7 @@ impl StatusView {
             feature_error_px: daemon.feature_error_px.is_finite().then_some(daemon.feature_error_px),
             gains_version: daemon.gains_version,
             overruns,
+            speed_scale: daemon.speed_scale,
         }
     }
 

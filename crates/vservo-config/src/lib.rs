@@ -64,6 +64,7 @@ pub mod new_file;
 mod raw;
 mod sections;
 mod validate;
+pub use vservo_settings::simulation::MIN_SPEED_SCALE;
 
 use std::path::Path;
 

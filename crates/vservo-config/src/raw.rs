@@ -220,6 +220,7 @@ pub struct RawRobot {
     pub state_timeout_periods: i64,
     pub max_camera_speed_m_s: f64,
     pub max_camera_rotation_rad_s: f64,
+    pub speed_scale: Option<f64>,
     pub arm: RawArm,
 }
 
@@ -233,6 +234,7 @@ impl Default for RawRobot {
             state_timeout_periods: 50,
             max_camera_speed_m_s: 2.0,
             max_camera_rotation_rad_s: 6.0,
+            speed_scale: None,
             arm: RawArm::default(),
         }
     }

@@ -128,6 +128,9 @@ pub enum TwistHold {
     Linear,
 }
 
+/// The lowest dynamics override taken (a thousandth of the arm's limits); what is below is not a motion.
+pub const MIN_SPEED_SCALE: f64 = 0.001;
+
 /// The interpolator's tuning.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct InterpolatorSettings {
@@ -160,6 +163,10 @@ pub struct InterpolatorSettings {
     pub tool_rotation_limit_rad_s: f64,
     /// What a seven-joint arm does with the joint it has to spare (a six-joint arm has none).
     pub null_space: NullSpaceTask,
+    /// The dynamics override, in (0, 1]: the joints' speed, acceleration and jerk limits and the tool's caps
+    /// are each this share of the arm's (`[robot] speed_scale`, and live `vservoctl speed`), as a pendant's
+    /// speed slider scales them.
+    pub speed_scale: f64,
 }
 
 impl InterpolatorSettings {
@@ -181,6 +188,7 @@ impl InterpolatorSettings {
             tool_speed_limit_m_s: f64::INFINITY,
             tool_rotation_limit_rad_s: f64::INFINITY,
             null_space: NullSpaceTask::default(),
+            speed_scale: 1.0,
         }
     }
 }

@@ -41,9 +41,14 @@ impl Reference {
 /// The interpolator's state.
 #[derive(Debug, Clone)]
 pub struct Interpolator {
+    /// The settings in force: the configured ones with the speed scale applied to the acceleration and jerk
+    /// limits and the tool's caps.
     settings: InterpolatorSettings,
+    /// The settings as configured (unscaled), which a new speed scale applies to.
+    configured: InterpolatorSettings,
     arm: SerialArm,
-    /// The arm's joint limits, the slots past its joints unused (kept here so that a tick borrows a slice).
+    /// The joint limits in force, the speeds scaled; the slots past the arm's joints unused (kept here so that a
+    /// tick borrows a slice).
     limits: [JointLimits; MAX_JOINTS],
     mount: CameraMount,
     latest: Twist,
@@ -62,9 +67,11 @@ impl Interpolator {
     pub fn new(settings: InterpolatorSettings, arm: SerialArm, mount: CameraMount, q: JointVector) -> Self {
         let motion =
             settings.jerk_limit.map(|_| JointMotion::new(arm.joint_count(), settings.control_period_s));
+        let (scaled, limits) = scaled(&settings, &arm, settings.speed_scale);
         Self {
-            settings,
-            limits: arm.links.map(|link| link.limits),
+            settings: scaled,
+            configured: settings,
+            limits,
             arm,
             mount,
             latest: Twist::zeros(),
@@ -82,6 +89,22 @@ impl Interpolator {
             joint_goal: None,
             motion,
         }
+    }
+
+    /// The dynamics override in force: every path of the reference keeps this share of the joints' speed,
+    /// acceleration and jerk limits and of the tool's caps from the next tick on (a reference faster than the
+    /// new limits is brought within them by the generator, within the new limits). `speed_scale` is taken as it
+    /// is when in (0, 1]; any other value is ignored (the caller checks it, `vservo_config`'s range).
+    pub fn set_speed_scale(&mut self, speed_scale: f64) {
+        if !(speed_scale > 0.0 && speed_scale <= 1.0) {
+            return;
+        }
+        (self.settings, self.limits) = scaled(&self.configured, &self.arm, speed_scale);
+    }
+
+    /// The dynamics override in force.
+    pub fn speed_scale(&self) -> f64 {
+        self.settings.speed_scale
     }
 
     /// How many ticks the jerk-limited generator refused (it fell back to easing the acceleration off).
@@ -307,6 +330,27 @@ impl Interpolator {
         };
         &self.reference
     }
+}
+
+/// The settings and joint limits in force at `speed_scale`: the joints' speeds, accelerations and jerks and
+/// the tool's caps, each that share of the configured ones (unchanged at 1).
+fn scaled(
+    configured: &InterpolatorSettings,
+    arm: &SerialArm,
+    speed_scale: f64,
+) -> (InterpolatorSettings, [JointLimits; MAX_JOINTS]) {
+    let settings = InterpolatorSettings {
+        acceleration_limit: configured.acceleration_limit * speed_scale,
+        jerk_limit: configured.jerk_limit.map(|jerk| jerk * speed_scale),
+        tool_speed_limit_m_s: configured.tool_speed_limit_m_s * speed_scale,
+        tool_rotation_limit_rad_s: configured.tool_rotation_limit_rad_s * speed_scale,
+        speed_scale,
+        ..*configured
+    };
+    let limits = arm
+        .links
+        .map(|link| JointLimits { velocity_max: link.limits.velocity_max * speed_scale, ..link.limits });
+    (settings, limits)
 }
 
 /// The tool twist scaled down, whole, so that its linear part is at most `speed_m_s` and its angular part at

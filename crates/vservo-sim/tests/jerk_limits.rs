@@ -42,10 +42,15 @@ impl Measured {
 
     /// Each joint within the limits of `config`'s arm (the reference's own, not a tolerance of the test's).
     fn assert_within(&self, config: &Config, what: &str) {
+        self.assert_within_share(config, 1.0, what);
+    }
+
+    /// Each joint within `share` of the limits of `config`'s arm.
+    fn assert_within_share(&self, config: &Config, share: f64, what: &str) {
         let i = &config.cell.interpolator;
         let jerk = i.jerk_limit.expect("the arm has jerk limits");
         for (j, limits) in config.cell.arm.limits().enumerate() {
-            let over = |value: f64, limit: f64| value > limit * (1.0 + ROUNDING);
+            let over = |value: f64, limit: f64| value > share * limit * (1.0 + ROUNDING);
             assert!(!over(self.velocity[j], limits.velocity_max), "{what}: joint {} speed {self:?}", j + 1);
             assert!(
                 !over(self.acceleration[j], i.acceleration_limit[j]),
@@ -142,6 +147,69 @@ proptest! {
         measured.assert_within(&config, "UR5e");
         prop_assert_eq!(interpolator.motion_refusals(), 0);
     }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 12, .. ProptestConfig::default() })]
+
+    /// `[robot] speed_scale` = 0.25: whatever is asked, every joint keeps a quarter of its speed, acceleration
+    /// and jerk limits.
+    #[test]
+    fn at_a_speed_scale_of_a_quarter_the_reference_keeps_a_quarter_of_the_limits(
+        asks in prop::collection::vec(ask(), 1..16)
+    ) {
+        for arm in ["fr3", "ur5e"] {
+            let mut config = config(arm);
+            config.cell.interpolator.speed_scale = 0.25;
+            let (measured, interpolator) = run(&config, config.cell.desired.joints, &asks);
+            measured.assert_within_share(&config, 0.25, arm);
+            prop_assert_eq!(interpolator.motion_refusals(), 0);
+        }
+    }
+}
+
+/// The scale lowered live while the arm moves fast: the reference slows within the arm's limits, and from then
+/// on keeps the new share of them; raised again, it uses the whole.
+#[test]
+fn a_speed_scale_lowered_while_moving_slows_the_reference_within_the_limits() {
+    let fr3 = config("fr3");
+    let settings = fr3.cell.interpolator;
+    let dt = settings.control_period_s;
+    let mut interpolator =
+        Interpolator::new(settings, fr3.cell.arm.clone(), fr3.cell.mount(), fr3.cell.desired.joints);
+    let fast = Twist::new(0.2, -0.1, 0.1, 0.6, -0.4, 0.5);
+    let (mut full, mut quarter) = (Measured::default(), Measured::default());
+    let mut tick = 0u64;
+    let mut steps = |interpolator: &mut Interpolator, ticks: u64, measured: &mut Measured| {
+        for _ in 0..ticks {
+            tick += 1;
+            if tick.is_multiple_of(85) {
+                interpolator.set_twist(fast, tick as f64 * dt);
+            }
+            measured.take(&interpolator.step(tick as f64 * dt).qd, dt);
+        }
+    };
+    steps(&mut interpolator, 1000, &mut full);
+    let fastest_before = full.velocity.amax();
+    interpolator.set_speed_scale(0.25);
+    assert_eq!(interpolator.speed_scale(), 0.25);
+    // the slowing down, within the arm's limits (the generator brings the reference within the new ones)
+    steps(&mut interpolator, 2000, &mut full);
+    full.assert_within(&fr3, "slowing down");
+    // from then on: a quarter (the measurement starts from the reference's state, not from rest)
+    quarter.last_qd = full.last_qd;
+    quarter.last_qdd = full.last_qdd;
+    steps(&mut interpolator, 3000, &mut quarter);
+    quarter.assert_within_share(&fr3, 0.25, "at a quarter");
+    assert!(fastest_before > 0.3, "it moved fast before: {fastest_before} rad/s");
+    assert!(quarter.velocity.amax() > 0.05, "and still moves: {quarter:?}");
+    // out-of-range values are ignored
+    interpolator.set_speed_scale(0.0);
+    interpolator.set_speed_scale(f64::NAN);
+    interpolator.set_speed_scale(1.5);
+    assert_eq!(interpolator.speed_scale(), 0.25);
+    interpolator.set_speed_scale(1.0);
+    assert_eq!(interpolator.speed_scale(), 1.0);
 }
 
 /// At a singularity the damped inverse asks for large joint rates; the reference still keeps every limit: a UR5e

@@ -395,6 +395,10 @@ wire_code! {
         MoveJoints = 10, "move_joints";
         /// End a joint move: servo again from where the arm is.
         Servo = 11, "servo";
+        /// Set the dynamics override to `speed_fraction` (0–1]: every path of the reference keeps that share of
+        /// the joints' speed, acceleration and jerk limits and of the tool's caps. Lowering it is always taken;
+        /// raising it only while the cell is held, or with `flags` bit 0.
+        Speed = 12, "speed";
     }
 }
 

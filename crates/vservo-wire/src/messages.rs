@@ -17,7 +17,8 @@ use iceoryx2::prelude::ZeroCopySend;
 /// 10: the fault `supervision_stalled` (11); `cell_mode` is also a heartbeat, at least every 100 ms, and announces
 /// each node's process (`writers`), which `features` and `camera_twist` carry (`writer_pid`).
 /// 12: `features` carries how each mark was measured (`refined_mask`, a tag's `edge_rms_px`, `decision_margin`,
-/// `bits_corrected`); `camera_image`'s header the exposure and gain the camera reports.
+/// `bits_corrected`); `camera_image`'s header the exposure and gain the camera reports; `cell_mode` and `status`
+/// the dynamics override (`speed_scale`), which the command `speed` sets.
 pub const SCHEMA_VERSION: u32 = 12;
 
 /// Joints `joint_state` and `joint_command` have room for: the arm's joints come first, the slots past
@@ -430,6 +431,9 @@ wire_message! {
         driver_error: u32,
         /// zero
         reserved: u32,
+        /// the dynamics override in force (0–1]: the share of the joints' speed, acceleration and jerk limits
+        /// and of the tool's caps the reference keeps
+        speed_scale: f64 = 1.0,
     }
 }
 
@@ -449,6 +453,9 @@ wire_message! {
         fault_joints: u32,
         /// moving: the share of each joint's speed limit it may move at (0–1]
         speed_fraction: f64,
+        /// the dynamics override in force, in every mode (0–1]: the rmrc keeps this share of the joints' speed,
+        /// acceleration and jerk limits and of the tool's caps on every path
+        speed_scale: f64 = 1.0,
         /// moving: the joints' goal (rad; the slots past the arm's joints zero)
         goal_rad: [f64; MAX_JOINTS],
         /// the process id of each node the daemon started, by role (plant, vision, servo, rmrc; 0 while none
@@ -483,14 +490,18 @@ wire_message! {
         rev_per_min: f64,
         /// move joints: how many of `joints_rad` are given (the arm's joint count)
         joint_count: u32,
-        /// zero
-        reserved: u32,
+        /// speed: bit 0 raises the dynamics override while the cell moves (refused without it unless held)
+        flags: u32,
         /// move joints: the goal (rad; the slots past `joint_count` zero)
         joints_rad: [f64; MAX_JOINTS],
-        /// move joints: the share of each joint's speed limit it may move at (0–1]
+        /// move joints: the share of each joint's speed limit it may move at (0–1]; speed: the new dynamics
+        /// override (0–1]
         speed_fraction: f64,
     }
 }
+
+/// `command.flags` of a `speed` command: raise the dynamics override while the cell moves.
+pub const SPEED_WHILE_MOVING: u32 = 1;
 
 impl CommandMsg {
     /// A command of `kind` with every parameter zero.

@@ -175,6 +175,25 @@ pub fn move_joints(args: &MoveJointsArgs) -> anyhow::Result<()> {
     report(client.move_joints(&args.q, args.speed_fraction)?)
 }
 
+/// Arguments of `vservoctl speed`.
+#[derive(Args, Debug)]
+pub struct SpeedArgs {
+    /// The share of the arm's speed, acceleration and jerk limits (and of the tool's caps) the reference
+    /// keeps, (0, 1].
+    scale: f64,
+    /// Raise it while the cell moves (without it a raise is taken only while the cell is held).
+    #[arg(long)]
+    while_moving: bool,
+    #[command(flatten)]
+    instance: InstanceArg,
+}
+
+/// `vservoctl speed`: the dynamics override.
+pub fn speed(args: &SpeedArgs) -> anyhow::Result<()> {
+    let mut client = Client::connect(&args.instance.name()?)?;
+    report(client.set_speed_scale(args.scale, args.while_moving)?)
+}
+
 /// `vservoctl servo`: ends a joint move.
 pub fn servo(args: &ReloadArgs) -> anyhow::Result<()> {
     let mut client = Client::connect(&args.instance.name()?)?;

@@ -26,7 +26,7 @@
 //! On a running instance:
 //! - `status` ([`status`]), `top` ([`top`]: a live terminal view with ratatui), `echo` ([`echo`]: a topic as
 //!   JSON lines);
-//! - `target`, `object`, `reload`, `safe-stop`, `resume`, `move-joints` and `servo` ([`commands`]);
+//! - `target`, `object`, `reload`, `safe-stop`, `resume`, `move-joints`, `servo` and `speed` ([`commands`]);
 //! - `check` ([`check`]): the preflight on a held cell, reading only: `check/observe` watches joint states,
 //!   frames, status and gains for a while (a second by default), `check/ros_names` hears a ROS 2 arm's joint
 //!   names over DDS (`vservo_ros2::probe`); pure judgements with unit tests: `check/verdicts` (held, period,
@@ -135,6 +135,9 @@ enum Command {
     MoveJoints(commands::MoveJointsArgs),
     /// End a joint move: servo again from where the arm is.
     Servo(commands::ReloadArgs),
+    /// Set the dynamics override: the share of the arm's speed, acceleration and jerk limits the reference keeps
+    /// (lowering is always taken; raising only while held, or with --while-moving).
+    Speed(commands::SpeedArgs),
     /// A live terminal view of a running instance: nodes, loop timing, fault, servo, feature error (q quits).
     Top(top::TopArgs),
     /// Record every service of a running instance to an MCAP file.
@@ -186,6 +189,7 @@ fn main() -> ExitCode {
         Command::Resume(args) => commands::resume(&args),
         Command::MoveJoints(args) => commands::move_joints(&args),
         Command::Servo(args) => commands::servo(&args),
+        Command::Speed(args) => commands::speed(&args),
         Command::Top(args) => top::run(&args),
         Command::Record(args) => record::run(&args),
         // the live view serves the instance to its viewers: its memory is private like the daemon's

@@ -74,7 +74,7 @@ fn text(view: &StatusView) -> String {
         t.map_or("-".to_string(), |t| format!("{:.0}/{:.0}/{:.0}/{:.0}", t.p50, t.p99, t.p999, t.max))
     };
     let mut out = format!(
-        "instance {}: {} (daemon pid {}, up {:.1} s)\n  robot driver {}, joint states {:.1}/s, feature error {} px, gains version {}\n",
+        "instance {}: {} (daemon pid {}, up {:.1} s)\n  robot driver {}, joint states {:.1}/s, feature error {} px, gains version {}, speed scale {}\n",
         view.instance,
         view.state,
         view.daemon_pid,
@@ -82,7 +82,8 @@ fn text(view: &StatusView) -> String {
         view.robot,
         view.tick_rate_hz,
         view.feature_error_px.map_or("-".to_string(), |e| format!("{e:.3}")),
-        view.gains_version
+        view.gains_version,
+        view.speed_scale
     );
     if let Some(fault) = &view.fault {
         let joints = if fault.joints.is_empty() {

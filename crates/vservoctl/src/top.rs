@@ -9,8 +9,9 @@ use clap::Args;
 use ratatui::crossterm::event::{self, Event, KeyCode, KeyEventKind, KeyModifiers};
 use ratatui::layout::{Constraint, Layout};
 use ratatui::style::{Color, Modifier, Style};
+use ratatui::symbols::Marker;
 use ratatui::text::{Line, Span};
-use ratatui::widgets::{Block, Paragraph, Row, Sparkline, Table};
+use ratatui::widgets::{Axis, Block, Chart, Dataset, GraphType, Paragraph, Row, Table};
 use vservo_client::{StatusView, TimingUs};
 use vservo_protocol::{
     CameraTwistMsg, DaemonStatusMsg, NodeRole, TakeMessages, TelemetryMsg, Topic, Verdict,
@@ -81,10 +82,11 @@ fn draw_instance(frame: &mut ratatui::Frame, header: ratatui::layout::Rect, view
         )),
     ])];
     lines.push(Line::from(format!(
-        "robot driver {}  joint states {:.0}/s  feature error {} px",
+        "robot driver {}  joint states {:.0}/s  feature error {} px  speed scale {}",
         view.robot,
         view.tick_rate_hz,
-        view.feature_error_px.map_or("-".into(), |e| format!("{e:.3}"))
+        view.feature_error_px.map_or("-".into(), |e| format!("{e:.3}")),
+        view.speed_scale
     )));
     if let Some(fault) = &view.fault {
         let joints = fault.joints.iter().map(u32::to_string).collect::<Vec<_>>().join(",");
@@ -159,24 +161,41 @@ fn draw_servo(frame: &mut ratatui::Frame, servo: ratatui::layout::Rect, gathered
     frame.render_widget(Paragraph::new(servo_line).block(Block::bordered().title(" servo ")), servo);
 }
 
-/// The feature error of each frame, newest right.
+/// The feature error of each frame, newest right, on axes: frames ago and pixels.
 fn draw_error_curve(frame: &mut ratatui::Frame, curve: ratatui::layout::Rect, gathered: &Gathered) {
-    // the curve: the feature error of each frame, in 0.01 px
-    let width = usize::from(curve.width.saturating_sub(2));
-    let data: Vec<u64> = gathered
-        .errors_px
+    let points = error_points(&gathered.errors_px, usize::from(curve.width.saturating_sub(8)).max(2));
+    let oldest = points.first().map_or(1.0, |p| -p.0).max(1.0);
+    let largest = points.iter().map(|p| p.1).fold(0.0, f64::max).max(0.01);
+    let dataset = Dataset::default()
+        .marker(Marker::Braille)
+        .graph_type(GraphType::Line)
+        .style(Style::default().fg(Color::Cyan))
+        .data(&points);
+    let label = |text: String| Span::raw(text);
+    let chart = Chart::new(vec![dataset])
+        .block(Block::bordered().title(format!(" feature error per frame (largest {largest:.2} px) ")))
+        .x_axis(Axis::default().title("frames ago").bounds([-oldest, 0.0]).labels([
+            label(format!("{oldest:.0}")),
+            label(format!("{:.0}", oldest / 2.0)),
+            label("0".into()),
+        ]))
+        .y_axis(Axis::default().title("px").bounds([0.0, largest]).labels([
+            label("0".into()),
+            label(format!("{:.2}", largest / 2.0)),
+            label(format!("{largest:.2}")),
+        ]));
+    frame.render_widget(chart, curve);
+}
+
+/// The newest `count` errors as (frames ago, negative; error px), oldest first; a frame without an error at 0.
+fn error_points(errors_px: &VecDeque<f64>, count: usize) -> Vec<(f64, f64)> {
+    let newest = errors_px.len();
+    errors_px
         .iter()
-        .skip(gathered.errors_px.len().saturating_sub(width))
-        .map(|e| if e.is_finite() { (e * 100.0).round() as u64 } else { 0 })
-        .collect();
-    let largest = gathered.errors_px.iter().copied().filter(|e| e.is_finite()).fold(0.0, f64::max);
-    frame.render_widget(
-        Sparkline::default()
-            .data(&data)
-            .style(Style::default().fg(Color::Cyan))
-            .block(Block::bordered().title(format!(" feature error per frame (largest {largest:.2} px) "))),
-        curve,
-    );
+        .enumerate()
+        .skip(newest.saturating_sub(count))
+        .map(|(i, e)| (i as f64 - (newest - 1) as f64, if e.is_finite() { *e } else { 0.0 }))
+        .collect()
 }
 
 pub fn run(args: &TopArgs) -> anyhow::Result<()> {
@@ -242,4 +261,17 @@ pub fn run(args: &TopArgs) -> anyhow::Result<()> {
     })();
     ratatui::restore();
     outcome
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_curve_holds_the_newest_errors_by_frames_ago_and_a_missing_one_at_zero() {
+        let errors: VecDeque<f64> = [3.0, 2.0, f64::NAN, 0.5].into_iter().collect();
+        assert_eq!(error_points(&errors, 3), vec![(-2.0, 2.0), (-1.0, 0.0), (0.0, 0.5)]);
+        assert_eq!(error_points(&errors, 10).len(), 4);
+        assert!(error_points(&VecDeque::new(), 5).is_empty());
+    }
 }

@@ -53,6 +53,23 @@ pub enum SafetyRefused {
     /// The end of a joint move asked for while none is in force.
     #[error("the cell is not moving its joints: it servos already")]
     NotMoving,
+    /// A dynamics override outside (0, 1].
+    #[error(
+        "speed {0}: the dynamics override is a share of the arm's limits, from {min} to 1",
+        min = vservo_config::MIN_SPEED_SCALE
+    )]
+    SpeedOutOfRange(f64),
+    /// A raise of the dynamics override while the cell moves, not asked for as such.
+    #[error(
+        "speed {to} is above the {from} in force while the cell moves: hold it first (`vservoctl safe-stop`), or \
+         raise it while moving with `--while-moving`"
+    )]
+    RaiseWhileMoving {
+        /// The override in force.
+        from: f64,
+        /// The one asked for.
+        to: f64,
+    },
 }
 
 /// What a client is told when its joint move or `servo` finds the cell held.
@@ -78,15 +95,18 @@ pub struct Safety {
     published_ns: u64,
     /// The process of each node the daemon started, by role (0: none runs), announced with every mode.
     writers: [u32; 4],
+    /// The dynamics override in force, announced with every mode.
+    speed_scale: f64,
 }
 
 impl Safety {
-    /// Opens `cell_mode` and publishes "servoing", or with `start_held` a safe stop `start_held` (sequence 1):
-    /// call before any node starts, so that every node finds the mode in the service's history.
+    /// Opens `cell_mode` and publishes "servoing", or with `start_held` a safe stop `start_held` (sequence 1),
+    /// with the dynamics override `speed_scale`: call before any node starts, so that every node finds the mode
+    /// in the service's history.
     pub fn new(
         node: &Node<ipc::Service>,
         instance: &str,
-        (settings, start_held): (vservo_config::Faults, bool),
+        (settings, start_held, speed_scale): (vservo_config::Faults, bool, f64),
         arm_joints: u32,
         seal_key: vservo_protocol::seal::SealKey,
     ) -> anyhow::Result<Self> {
@@ -98,6 +118,7 @@ impl Safety {
             joint_move: None,
             published_ns: 0,
             writers: [0; 4],
+            speed_scale,
         };
         if start_held {
             let fault = safety.monitor.hold_at_start(monotonic_ns());
@@ -137,6 +158,7 @@ impl Safety {
             fault: fault.map_or(Fault::None, |f| f.code).into(),
             fault_joints: fault.map_or(0, |f| f.joints),
             speed_fraction: joint_move.map_or(0.0, |m| m.speed_fraction),
+            speed_scale: self.speed_scale,
             goal_rad: joint_move.map_or([0.0; vservo_protocol::MAX_JOINTS], |m| m.goal_rad),
             writers: self.writers,
             stamp_ns: monotonic_ns(),
@@ -292,6 +314,27 @@ impl Safety {
         Ok(false)
     }
 
+    /// A client's dynamics override: lowering it is always taken; raising it only while the cell is held, or
+    /// `while_moving`. The override before is returned.
+    pub fn set_speed_scale(&mut self, speed_scale: f64, while_moving: bool) -> Result<f64, SafetyRefused> {
+        if !(vservo_config::MIN_SPEED_SCALE..=1.0).contains(&speed_scale) {
+            return Err(SafetyRefused::SpeedOutOfRange(speed_scale));
+        }
+        let before = self.speed_scale;
+        if speed_scale > before && !self.holding() && !while_moving {
+            return Err(SafetyRefused::RaiseWhileMoving { from: before, to: speed_scale });
+        }
+        self.speed_scale = speed_scale;
+        self.publish_in_force().map_err(|e| {
+            self.speed_scale = before;
+            SafetyRefused::Publish(e.to_string())
+        })?;
+        tracing::warn!(
+            "speed scale {before} → {speed_scale}: the reference keeps that share of the arm's limits"
+        );
+        Ok(before)
+    }
+
     /// A client's `safe-stop`.
     pub fn request_safe_stop(&mut self) -> Result<(), SafetyRefused> {
         let fault = self.monitor.request_safe_stop(monotonic_ns())?;
@@ -320,8 +363,9 @@ impl Safety {
         Ok(())
     }
 
-    /// The fault fields of the status.
+    /// The fault fields and the dynamics override of the status.
     pub fn fill(&self, status: &mut DaemonStatusMsg) {
+        status.speed_scale = self.speed_scale;
         if let Some(fault) = self.monitor.shown() {
             status.fault = fault.code.into();
             status.fault_joints = fault.joints;

@@ -61,7 +61,7 @@ pub fn validate(raw: RawConfig, file: &str) -> Result<Config, ConfigError> {
         &raw.interpolator,
         &timing,
         (&raw.robot.arm, &arm),
-        raw.robot.driver,
+        (raw.robot.driver, raw.robot.speed_scale),
     )?;
     let joint_servo = simulation::joint_servo(&check, &raw.joint_servo)?;
     let interpolator_jerk = (interpolator.jerk_limit, arm.joint_count());

@@ -3,7 +3,7 @@
 
 use vservo_arm::{SerialArm, six_joints};
 use vservo_settings::simulation::InterpolatorSettings;
-use vservo_settings::simulation::NullSpaceTask;
+use vservo_settings::simulation::{MIN_SPEED_SCALE, NullSpaceTask};
 
 use super::checker::Checker;
 use vservo_settings::simulation::{KinematicFollows, KinematicResponse};
@@ -32,7 +32,7 @@ pub fn interpolator(
     i: &RawInterpolator,
     timing: &Timing,
     (a, arm): (&RawArm, &SerialArm),
-    driver: RawRobotDriver,
+    (driver, speed_scale): (RawRobotDriver, Option<f64>),
 ) -> Result<InterpolatorSettings, ConfigError> {
     let manipulability_threshold =
         check.within("interpolator.manipulability_threshold", i.manipulability_threshold, 0.0, 10.0, "")?;
@@ -59,6 +59,18 @@ pub fn interpolator(
         tool_speed_limit_m_s: limits.tool_speed_m_s,
         tool_rotation_limit_rad_s: limits.tool_rotation_rad_s,
         null_space: null_space(check, &i.null_space, arm)?,
+        speed_scale: speed_scale
+            .map(|scale| {
+                check.within(
+                    "robot.speed_scale",
+                    scale,
+                    MIN_SPEED_SCALE,
+                    1.0,
+                    "(a share of the arm's limits)",
+                )
+            })
+            .transpose()?
+            .unwrap_or(1.0),
     })
 }
 

@@ -236,6 +236,7 @@ fn view(state: &'static str) -> StatusView {
         feature_error_px: Some(0.5),
         gains_version: 1,
         overruns: std::collections::BTreeMap::new(),
+        speed_scale: 1.0,
     }
 }
 

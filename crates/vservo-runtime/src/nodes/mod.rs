@@ -103,6 +103,8 @@ pub(crate) struct CellModeFollower {
     issue: Option<Issue>,
     /// The process of each node the daemon started, by role, as its newest mode announces (none yet: zeros).
     writers: [u32; 4],
+    /// The dynamics override the newest mode carries (1 until the daemon's first word).
+    speed_scale: f64,
     /// When a sealed mode was last taken (or the follower opened): the daemon's word, a heartbeat at least
     /// every `CELL_MODE_EVERY`.
     heard_at_ns: u64,
@@ -123,6 +125,7 @@ impl CellModeFollower {
             mode: ModeInForce::Servoing,
             issue: None,
             writers: [0; 4],
+            speed_scale: 1.0,
             heard_at_ns: crate::clock::monotonic_ns(),
             daemon_silent: false,
             role,
@@ -140,13 +143,18 @@ impl CellModeFollower {
             let sealed = vservo_protocol::seal::sealed_by(key, &message);
             let issue = Issue { stamp_ns: message.stamp_ns, counter: message.sequence };
             let standing = freshness::standing(self.issue, issue, crate::clock::monotonic_ns());
+            let scale_ok = message.speed_scale > 0.0 && message.speed_scale <= 1.0;
             match ModeInForce::of(&message) {
                 Some(mode)
-                    if vservo_protocol::inbox::accept(message).is_ok() && sealed && standing.is_newer() =>
+                    if vservo_protocol::inbox::accept(message).is_ok()
+                        && sealed
+                        && scale_ok
+                        && standing.is_newer() =>
                 {
                     self.mode = mode;
                     self.issue = Some(issue);
                     self.writers = message.writers;
+                    self.speed_scale = message.speed_scale;
                     self.heard_at_ns = crate::clock::monotonic_ns();
                 }
                 _ if standing != Standing::Same || !sealed => counters.rejected(),
@@ -159,6 +167,11 @@ impl CellModeFollower {
             self.say_silence();
         }
         if silent { ModeInForce::SafeStop } else { self.mode }
+    }
+
+    /// The dynamics override the daemon's newest mode carries (0–1]: the share of the limits the reference keeps.
+    pub(crate) fn speed_scale(&self) -> f64 {
+        self.speed_scale
     }
 
     /// The process the daemon announces as `role`'s (0: none runs, or none announced yet): the only writer

@@ -278,6 +278,7 @@ pub fn run(context: &NodeContext) -> Result<(), RuntimeError> {
         rmrc.follow(&state, &q, &qd, counters);
         // the mode first: it announces the servo's process, whose twists alone are taken
         let mode = ports.cell_mode.mode(context.seal_key.as_ref(), counters);
+        rmrc.stage.set_speed_scale(ports.cell_mode.speed_scale());
         rmrc.take_twists(&mut ports, state.tick, context, counters);
         rmrc.apply_mode(mode, state.tick, counters);
         let message = rmrc.command(&state, &q, &qd);

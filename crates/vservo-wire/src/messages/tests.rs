@@ -48,11 +48,13 @@ fn layouts_are_the_documented_ones() {
     assert_eq!(size_of::<NodeStatusMsg>(), 32);
     assert_eq!(offset_of!(DaemonStatusMsg, nodes), 32);
     assert_eq!(offset_of!(DaemonStatusMsg, tick_rate_hz), 160);
-    assert_eq!(size_of::<DaemonStatusMsg>(), 32 + 4 * 32 + 16 + 8 + 24 + 8);
+    assert_eq!(size_of::<DaemonStatusMsg>(), 32 + 4 * 32 + 16 + 8 + 24 + 8 + 8);
     assert_eq!(offset_of!(DaemonStatusMsg, driver_error), 208);
-    assert_eq!(size_of::<CellModeMsg>(), 32 + 56 + 16 + 16);
-    assert_eq!(offset_of!(CellModeMsg, writers), 88);
-    assert_eq!(offset_of!(CellModeMsg, goal_rad), 32);
+    assert_eq!(offset_of!(DaemonStatusMsg, speed_scale), 216);
+    assert_eq!(size_of::<CellModeMsg>(), 32 + 8 + 56 + 16 + 16);
+    assert_eq!(offset_of!(CellModeMsg, speed_scale), 32);
+    assert_eq!(offset_of!(CellModeMsg, writers), 96);
+    assert_eq!(offset_of!(CellModeMsg, goal_rad), 40);
     assert_eq!(size_of::<CommandMsg>(), 16 + 64 + 48 + 16 + 8 + 56 + 8);
     assert_eq!(offset_of!(CommandMsg, joints_rad), 152);
     assert_eq!(size_of::<CommandReplyMsg>(), 24 + 64 + REASON_BYTES);

@@ -31,6 +31,8 @@ pub struct FirstMotion {
     pub jerk_ratio: Option<f64>,
     /// Largest tool speed / its cap (0 without a cap).
     pub tool_speed_ratio: f64,
+    /// The dynamics override it ran at.
+    pub speed_scale: f64,
 }
 
 /// Runs the first twist (the law's on the newest whole frame) through the rmrc for one frame.
@@ -49,6 +51,8 @@ pub fn first_motion(observed: &Observed, cell: &Cell) -> Option<FirstMotion> {
     let period_ns = (period_s * 1e9).round() as u64;
     let ticks = (config.timing.vision_period_s / period_s).round().max(1.0) as u64;
     let mut rmrc = cell.rmrc(&q_now);
+    // the dynamics override in force (`vservoctl speed`), else the configuration's
+    rmrc.set_speed_scale(observed.speed_scale.unwrap_or(config.interpolator.speed_scale));
     let arm = cell.arm();
     let n = arm.joint_count();
     let limits: Vec<_> = arm.limits().collect();
@@ -62,6 +66,7 @@ pub fn first_motion(observed: &Observed, cell: &Cell) -> Option<FirstMotion> {
         acceleration_ratio: 0.0,
         jerk_ratio: settings.jerk_limit.map(|_| 0.0),
         tool_speed_ratio: 0.0,
+        speed_scale: rmrc.speed_scale(),
     };
     for tick in 0..=ticks {
         let at = DriverTick { epoch: 1, tick, stamp_ns: tick * period_ns, holding: false };
@@ -112,8 +117,9 @@ pub fn first_twist(observed: &Observed, cell: &Cell) -> Line {
     let pass = motion.admitted && within;
     let config = cell.config();
     let text = format!(
-        "the law's first twist |v| {v:.3} m/s, |ω| {w:.3} rad/s{}; over its frame the joints reach {:.2} of their \
-         speed, {:.2} of their acceleration and {} of their jerk limits, the tool {:.2} of its speed cap",
+        "the law's first twist |v| {v:.3} m/s, |ω| {w:.3} rad/s{}; over its frame (speed scale {}) the joints reach \
+         {:.2} of their speed, {:.2} of their acceleration and {} of their jerk limits, the tool {:.2} of its speed \
+         cap",
         if motion.admitted {
             String::new()
         } else {
@@ -123,6 +129,7 @@ pub fn first_twist(observed: &Observed, cell: &Cell) -> Line {
                 config.robot.max_camera_speed_m_s, config.robot.max_camera_rotation_rad_s
             )
         },
+        motion.speed_scale,
         motion.velocity_ratio,
         motion.acceleration_ratio,
         motion.jerk_ratio.map_or("(no jerk limit)".to_string(), |r| format!("{r:.2}")),
@@ -134,25 +141,29 @@ pub fn first_twist(observed: &Observed, cell: &Cell) -> Line {
         text,
         json!({ "twist": motion.twist.as_slice(), "admitted": motion.admitted,
                 "velocity_ratio": motion.velocity_ratio, "acceleration_ratio": motion.acceleration_ratio,
-                "jerk_ratio": motion.jerk_ratio, "tool_speed_ratio": motion.tool_speed_ratio }),
+                "jerk_ratio": motion.jerk_ratio, "tool_speed_ratio": motion.tool_speed_ratio,
+                "speed_scale": motion.speed_scale }),
     )
     .warning(saturation_warning(&motion))
 }
 
-/// When the first frame already reaches the acceleration or jerk limits: the reference lags the twist, which
-/// the law's design (an arm that follows its twist within a period) does not know.
+/// When the first frame already reaches the acceleration or jerk limits in force (the arm's at the speed scale):
+/// the reference lags the twist, which the law's design (an arm that follows its twist within a period) does
+/// not know.
 fn saturation_warning(motion: &FirstMotion) -> Option<String> {
+    let scale = motion.speed_scale;
     let saturated: Vec<String> =
         [("acceleration", Some(motion.acceleration_ratio)), ("jerk", motion.jerk_ratio)]
             .into_iter()
             .filter_map(|(limit, ratio)| {
-                ratio.filter(|r| *r >= SATURATED).map(|r| format!("{r:.2} of its {limit}"))
+                ratio.map(|r| r / scale).filter(|r| *r >= SATURATED).map(|r| format!("{r:.2} of its {limit}"))
             })
             .collect();
+    let in_force = if scale < 1.0 { format!(" (at speed scale {scale})") } else { String::new() };
     (!saturated.is_empty()).then(|| {
         format!(
-            "the first frame already reaches {} limits: the reference cannot follow the law's twist within the \
-             frame, and a law designed for an arm that follows its twist may swing; start slower \
+            "the first frame already reaches {} limits{in_force}: the reference cannot follow the law's twist \
+             within the frame, and a law designed for an arm that follows its twist may swing; start slower \
              (robot.max_camera_speed_m_s, robot.max_camera_rotation_rad_s) or nearer the target \
              (docs/DRIVERS.md, \"First motion on a real arm\")",
             saturated.join(" and ")
@@ -210,6 +221,7 @@ mod tests {
             acceleration_ratio,
             jerk_ratio,
             tool_speed_ratio: 0.2,
+            speed_scale: 1.0,
         };
         let both = saturation_warning(&motion(0.99, Some(0.985))).expect("a warning");
         assert!(both.contains("0.99 of its acceleration and 0.98 of its jerk limits"), "{both}");

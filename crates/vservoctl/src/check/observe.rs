@@ -40,6 +40,7 @@ pub fn watch(connection: &Connection, window: Duration, joint_count: usize) -> a
             let state = DaemonState::try_from(daemon.state).unwrap_or(DaemonState::Degraded);
             let fault = Fault::try_from(daemon.fault).unwrap_or(Fault::None);
             observed.daemon = Some((state, fault));
+            observed.speed_scale = Some(daemon.speed_scale);
         }
         if let Some(gains) = gains.newest_message(&mut refused) {
             observed.desired_features = Some(FeatureVector::from(gains.desired_features_px));

@@ -78,6 +78,8 @@ pub struct Observed {
     pub frames: Vec<FrameSample>,
     /// The daemon's state and its fault, if it answered.
     pub daemon: Option<(DaemonState, Fault)>,
+    /// The dynamics override in force, if the daemon answered.
+    pub speed_scale: Option<f64>,
     /// ξ_d in force (the daemon's gains), if they were read.
     pub desired_features: Option<FeatureVector>,
     /// The names the arm's ROS 2 node publishes on its joint states (the ROS 2 driver only), if heard.
@@ -341,6 +343,7 @@ pub(super) mod fixtures {
             states: states(config, 500, 2_000_000, 2_000_000),
             frames: frames(config, 12, 4),
             daemon: Some((DaemonState::SafeStop, Fault::StartHeld)),
+            speed_scale: Some(1.0),
             desired_features: None,
             ros_joint_names: None,
         }

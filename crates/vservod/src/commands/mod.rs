@@ -24,7 +24,7 @@ use vservo_control::{Gains, LawGains};
 use vservo_protocol::seal::SealKey;
 use vservo_protocol::{
     CommandKind, CommandMsg, CommandReplyMsg, FEATURES, FeaturesMsg, GainsMsg, JointStateMsg, ObjectMsg,
-    RobotState, SCHEMA_VERSION, Topic,
+    RobotState, SCHEMA_VERSION, SPEED_WHILE_MOVING, Topic,
 };
 use vservo_runtime::gains::gains_message;
 use vservo_scene::FeatureVector;
@@ -231,6 +231,11 @@ impl Commander {
             CommandKind::Servo => Ok(safety
                 .servo()
                 .map(|held| if held { Accepted::MoveCancelled } else { Accepted::Servoing })?),
+            CommandKind::Speed => {
+                let to = command.speed_fraction;
+                let from = safety.set_speed_scale(to, command.flags & SPEED_WHILE_MOVING != 0)?;
+                Ok(Accepted::Speed { from, to })
+            }
         }
     }
 

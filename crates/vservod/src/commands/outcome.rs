@@ -64,6 +64,13 @@ pub enum Accepted {
     Servoing,
     /// A joint move cancelled while the cell is held in a safe stop.
     MoveCancelled,
+    /// The dynamics override changed.
+    Speed {
+        /// The one before.
+        from: f64,
+        /// The one in force.
+        to: f64,
+    },
 }
 
 impl std::fmt::Display for Accepted {
@@ -98,6 +105,11 @@ impl std::fmt::Display for Accepted {
             Accepted::MoveCancelled => write!(
                 f,
                 "the joint move is cancelled; the cell stays in its safe stop, and `vservoctl resume` servos from where the arm is"
+            ),
+            Accepted::Speed { from, to } => write!(
+                f,
+                "speed scale {to} (was {from}): the reference keeps {to} of the joints' speed, acceleration and jerk \
+                 limits and of the tool's caps from the next tick on"
             ),
         }
     }

@@ -226,7 +226,7 @@ impl Daemon {
         let mut safety = Safety::new(
             &node,
             &settings.instance,
-            (config.faults, config.cell.robot.start_held),
+            (config.faults, config.cell.robot.start_held, config.cell.interpolator.speed_scale),
             arm_joints,
             launcher.seal_key.clone(),
         )?;

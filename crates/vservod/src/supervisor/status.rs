@@ -115,6 +115,8 @@ pub fn status_message<'a>(
         safe_stops: 0,
         driver_error: DriverError::None.into(),
         reserved: 0,
+        // the dynamics override in force (`Safety::fill`)
+        speed_scale: 1.0,
     }
 }
 
