@@ -501,7 +501,7 @@ impl PanelAxes {
                 max_x: largest(&|r| r.start.rotation.norm().to_degrees()),
                 max_y: largest(&|r| r.settling_time_s.unwrap_or(0.0)),
                 x_desc: "roll [deg]",
-                y_desc: "settling time [s] (top: none)",
+                y_desc: "settling time [s] (above: not settled)",
             };
         }
         Self {
@@ -515,7 +515,7 @@ impl PanelAxes {
 
     fn point(&self, run: &Run) -> (f64, f64) {
         if self.rolls {
-            let settled = run.settling_time_s.unwrap_or(self.max_y * 1.4);
+            let settled = run.settling_time_s.unwrap_or(self.max_y * 1.1);
             (run.start.rotation.norm().to_degrees(), settled)
         } else {
             (run.start.translation_m.norm() * 100.0, run.start.rotation.norm().to_degrees())
