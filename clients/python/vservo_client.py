@@ -427,13 +427,15 @@ class Client:
     def object_circle(self, radius_m: float, rev_per_min: float) -> CommandReply:
         return self.request(Command(kind=OBJECT_CIRCLE, radius_m=radius_m, rev_per_min=rev_per_min))
 
-    def move_joints(self, joints_rad, speed_fraction: float) -> CommandReply:
+    def move_joints(self, joints_rad, speed_fraction: float, out_of_hold: bool = False) -> CommandReply:
         """Move the arm's joints to `joints_rad` (the arm's joint count of values) at up to `speed_fraction`
         (0–1] of their speed limits and hold them there instead of servoing, until `servo`; refused in a safe
-        stop, outside the joint limits or with values for joints the arm does not have."""
+        stop (but, with `out_of_hold`, a cell held by the user: start_held, requested), outside the joint limits
+        or with values for joints the arm does not have."""
         if len(joints_rad) > MAX_JOINTS:
             raise ValueError(f"{len(joints_rad)} joint values; the protocol carries {MAX_JOINTS} at most")
-        command = Command(kind=MOVE_JOINTS, speed_fraction=speed_fraction, joint_count=len(joints_rad))
+        command = Command(kind=MOVE_JOINTS, speed_fraction=speed_fraction, joint_count=len(joints_rad),
+                          flags=2 if out_of_hold else 0)
         for i, q in enumerate(joints_rad):
             command.joints_rad[i] = q
         return self.request(command)

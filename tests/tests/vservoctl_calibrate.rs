@@ -363,6 +363,51 @@ fn a_running_cell_is_calibrated_through_vservod_within_the_bars_and_a_safe_stop_
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// A held cell (`robot.start = "held"`, as a real arm's on its first day) is calibrated: the calibration's planned,
+/// slow moves are its first motion. With `--apply` the configuration reads the calibration, and the cell ends held
+/// again at its start, at rest, within the bars; resumed, it servoes below 1 px.
+#[test]
+fn a_held_cell_is_calibrated_first_and_held_again() {
+    let _one = exclusive();
+    let instance = unique("calibrate-held");
+    let held = "driver = \"simulated\"\nstart = \"held\"";
+    let config = config_from(
+        DEMO,
+        &[("name = \"default\"", &format!("name = \"{instance}\"")), ("driver = \"simulated\"", held)],
+    );
+    let daemon = Daemon::start(&config);
+    assert!(
+        wait_until(Duration::from_secs(10), || safe_stopped_by(&instance, "start_held")),
+        "{:?}\n{}",
+        status(&instance),
+        daemon.log()
+    );
+    let dir = scratch("held");
+    let out = dir.join("calibration.yaml").display().to_string();
+    let output =
+        run("vservoctl", &["calibrate", "--config", &config.arg(), "--json", "--out", &out, "--apply"]);
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(output.status.success(), "{stderr}\n{}", daemon.log());
+    assert!(stderr.contains("the cell is held: its first motion is the calibration's"), "{stderr}");
+    let report = last_line_json(&output.stdout);
+    eprintln!("a held cell, calibrated: {report}");
+    assert_calibration_within_the_bars(&report);
+    let applied = &report["applied"];
+    assert!(applied["reply"].as_str().is_some_and(|r| r.contains("the cell stays held")), "{report}");
+    let text = std::fs::read_to_string(&config.path).expect("the configuration");
+    assert!(text.contains("calibration_file"), "the configuration reads the calibration: {text}");
+    assert!(safe_stopped_by(&instance, "requested"), "held again: {:?}", status(&instance));
+    assert!(fastest_joint_rad_s(&instance, "0.5") < 0.01, "at rest while held");
+    let (code, text) = vservoctl(&["resume", "--instance", &instance]);
+    assert_eq!(code, Some(0), "{text}");
+    assert!(servoes_below_one_pixel(&instance), "{:?}\n{}", status(&instance), daemon.log());
+    daemon.stop();
+    if let Some(kept) = applied["kept"].as_str() {
+        let _ = std::fs::remove_file(kept);
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 /// The eye-to-hand cell calibrated through a running vservod: the board located on the tool from where the arm
 /// is, the poses planned relative to it and taken by moving the arm, the fixed camera's pose recovered within the
 /// bars (1 mm, 0.2°), and the cell servoing again below 1 px afterwards.

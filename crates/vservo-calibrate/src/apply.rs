@@ -92,13 +92,29 @@ impl Edit {
     }
 
     /// Points `[camera] calibration_file` at `calibration`, checks the configuration loads so and that it
-    /// reads the calibration, then writes it (the old text kept beside it).
+    /// reads the calibration, then writes it (the old text kept beside it). A failure names what it left: the
+    /// calibration file, and the copy of the configuration when one was made.
     pub fn apply(self, calibration: &Path) -> Result<Applied> {
-        let (text, replaced_keys) = edited(&self.before, &self.relative(calibration))?;
-        self.validate(&text, calibration)?;
+        let left_calibration = |e: CalibrateError| {
+            e.left(format!(
+                "the calibration is written at {} (`[camera] calibration_file` takes it)",
+                calibration.display()
+            ))
+        };
+        let (text, replaced_keys) =
+            edited(&self.before, &self.relative(calibration)).map_err(left_calibration)?;
+        self.validate(&text, calibration).map_err(left_calibration)?;
         let kept = kept_path(&self.config_path);
-        vservo_config::new_file::write(&kept, self.before.as_bytes(), true, mode_of(&self.config_path))?;
-        vservo_config::new_file::write(&self.config_path, text.as_bytes(), true, mode_of(&self.config_path))?;
+        let mode = mode_of(&self.config_path);
+        vservo_config::new_file::write(&kept, self.before.as_bytes(), true, mode)
+            .map_err(|e| left_calibration(e.into()))?;
+        vservo_config::new_file::write(&self.config_path, text.as_bytes(), true, mode).map_err(|e| {
+            left_calibration(CalibrateError::from(e).left(format!(
+                "{} is as it was; a copy of it is at {}",
+                self.config_path.display(),
+                kept.display()
+            )))
+        })?;
         Ok(Applied { config_path: self.config_path, kept, replaced_keys, reload: None })
     }
 

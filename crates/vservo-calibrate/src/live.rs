@@ -2,7 +2,9 @@
 //! daemon's joint move (`move_joints`: at a share of the speed limits, within the joint limits, held by a safe
 //! stop and taken on by `resume`), each view the first camera frame exposed after the arm has been at rest on
 //! its goal for [`SETTLE`], with the joints of the joint state stamped nearest the frame's exposure. At the end
-//! the arm goes back to where it started and the cell servos again.
+//! the arm goes back to where it started and the cell servos again; a cell that was held by the user when the
+//! calibration began (`start_held`, a first motion; or `requested`) leaves its stop by the first move (the
+//! calibration's planned, slow moves are then the cell's first motion) and is held again at the end.
 //!
 //! What goes wrong before the first pose gives the cell back to the servo (the arm is where it was). Later, what
 //! goes wrong (a refusal, an arm that does not settle, no frame, SIGINT or SIGTERM) stops the calibration with
@@ -53,10 +55,15 @@ pub struct Running {
     recent: VecDeque<JointStateMsg>,
     /// Set on SIGINT or SIGTERM: the calibration stops, the arm held.
     interrupted: Arc<AtomicBool>,
+    /// The cell was held by the user when the calibration began: it is held again at the end.
+    started_held: bool,
+    /// The next move leaves the user's hold (the first move of a held cell).
+    out_of_hold: bool,
 }
 
 impl Running {
-    /// Connects to the configuration's instance; refused while it is in a safe stop or not running.
+    /// Connects to the configuration's instance; refused while it is not running, or in a safe stop other than
+    /// the user's hold (`start_held`, `requested`).
     pub fn connect(config: &Config, speed_fraction: f64) -> Result<Self> {
         if !(speed_fraction > 0.0 && speed_fraction <= 1.0) {
             return Err(CalibrateError::Refused(format!(
@@ -73,12 +80,17 @@ impl Running {
             ))
         })?;
         let status = client.status(Duration::from_secs(2))?;
-        match DaemonState::try_from(status.state) {
-            Ok(DaemonState::Running | DaemonState::Moving) => {}
+        let fault = vservo_protocol::Fault::try_from(status.fault).ok();
+        let held_by_user =
+            matches!(fault, Some(vservo_protocol::Fault::StartHeld | vservo_protocol::Fault::Requested));
+        let started_held = match DaemonState::try_from(status.state) {
+            Ok(DaemonState::Running | DaemonState::Moving) => false,
+            Ok(DaemonState::SafeStop) if held_by_user => true,
             Ok(DaemonState::SafeStop) => {
-                return Err(CalibrateError::Refused(
-                    "the cell is in a safe stop: `vservoctl resume` first, then calibrate".into(),
-                ));
+                let fault = fault.map_or("unknown", vservo_protocol::Fault::name);
+                return Err(CalibrateError::Refused(format!(
+                    "the cell is in a safe stop ({fault}): `vservoctl resume` once its cause is gone, then calibrate"
+                )));
             }
             other => {
                 let state = other.map_or("unknown", DaemonState::name);
@@ -86,6 +98,9 @@ impl Running {
                     "the cell is {state}, not running: nothing was moved"
                 )));
             }
+        };
+        if started_held {
+            eprintln!("the cell is held: its first motion is the calibration's; it is held again at the end");
         }
         let joint_states = client.subscribe::<JointStateMsg>(Topic::JointState)?;
         let images = client.subscribe_camera_images()?;
@@ -99,6 +114,8 @@ impl Running {
             speed_fraction,
             recent: VecDeque::with_capacity(KEPT_STATES),
             interrupted,
+            started_held,
+            out_of_hold: started_held,
         })
     }
 
@@ -110,8 +127,15 @@ impl Running {
         Ok(())
     }
 
-    /// After an error before the first pose: the servo gets the cell back (the arm is where it was).
+    /// After an error before the first pose: the servo gets the cell back (the arm is where it was); a cell
+    /// that began held is held again.
     pub fn give_back(&mut self, error: CalibrateError) -> CalibrateError {
+        if self.started_held {
+            return match self.hold_again() {
+                Ok(()) => error.left("nothing was moved; the cell is held again"),
+                Err(e) => error.left(format!("the cell could not be held again: {e}")),
+            };
+        }
         match self.client.servo() {
             Ok(reply) if reply.accepted => error.left("nothing was moved; the cell servos again"),
             Ok(reply) => {
@@ -121,8 +145,39 @@ impl Running {
         }
     }
 
-    /// After an error on the way: the arm held where it is (in a safe stop: the move cancelled).
+    /// A cell that began held, held again: a safe stop (the arm ramps to rest where it is), then the joint move
+    /// cancelled, so that `vservoctl resume` servos rather than taking the move on.
+    fn hold_again(&mut self) -> Result<()> {
+        // refused when held already (the first move never went), and the cancel when no move is in force: what
+        // counts is the cell held at the end
+        let stopped = self.client.safe_stop_command()?;
+        let cancelled = self.client.servo()?;
+        // the status is published every 100 ms: it may still say what was before the stop
+        let started = Instant::now();
+        let mut held = false;
+        while !held && started.elapsed() < Duration::from_secs(1) {
+            let status = self.client.status(Duration::from_secs(2))?;
+            held = DaemonState::try_from(status.state) == Ok(DaemonState::SafeStop);
+            std::thread::sleep(STATUS_EVERY / 2);
+        }
+        if !held {
+            return Err(CalibrateError::Cell(format!(
+                "holding the cell again: the safe stop: {}; the move's end: {}",
+                stopped.reason, cancelled.reason
+            )));
+        }
+        Ok(())
+    }
+
+    /// After an error on the way: the arm held where it is (in a safe stop: the move cancelled; a cell that
+    /// began held, held again).
     pub fn stop_here(&mut self, error: CalibrateError) -> CalibrateError {
+        if self.started_held {
+            return match self.hold_again() {
+                Ok(()) => error.left("calibration stopped; the cell is held again where the arm is"),
+                Err(e) => error.left(format!("calibration stopped; {e}")),
+            };
+        }
         let held_here = self.joints_now().and_then(|here| {
             let joints = self.arm.joint_count();
             Ok(self.client.move_joints(&here.as_slice()[..joints], self.speed_fraction)?)
@@ -263,8 +318,14 @@ impl Running {
         let mut told_held = false;
         let mut asked_again = false;
         loop {
-            let reply = self.client.move_joints(&goal.as_slice()[..joints], self.speed_fraction)?;
+            let goal = &goal.as_slice()[..joints];
+            let reply = if self.out_of_hold {
+                self.client.move_joints_out_of_hold(goal, self.speed_fraction)?
+            } else {
+                self.client.move_joints(goal, self.speed_fraction)?
+            };
             if reply.accepted {
+                self.out_of_hold = false;
                 return Ok(());
             }
             let status = self.client.status(Duration::from_secs(2))?;
@@ -445,9 +506,14 @@ impl Running {
         Ok(views)
     }
 
-    /// Takes the arm back to `start` and servos again.
+    /// Takes the arm back to `start` and servos again; a cell that began held is held again there.
     pub fn finish(&mut self, start: &JointVector) -> Result<()> {
         self.move_to("back to the start", start)?;
+        if self.started_held {
+            self.hold_again()?;
+            eprintln!("back at the start: the cell is held again (`vservoctl resume` servos)");
+            return Ok(());
+        }
         let reply = self.client.servo()?;
         if !reply.accepted {
             return Err(CalibrateError::Cell(format!("ending the joint move: {}", reply.reason)));

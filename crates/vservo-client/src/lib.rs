@@ -267,7 +267,27 @@ impl Client {
     /// joint limits or with values for joints the arm does not have. The reply comes at once: the joint states
     /// say when the arm is there.
     pub fn move_joints(&mut self, joints_rad: &[f64], speed_fraction: f64) -> Result<Reply, ClientError> {
+        self.move_joints_with(joints_rad, speed_fraction, 0)
+    }
+
+    /// [`Client::move_joints`] that also ends a cell held by the user (`start_held`, `requested`) into the move:
+    /// the user's own first motion of a held cell (a calibration's planned, slow moves).
+    pub fn move_joints_out_of_hold(
+        &mut self,
+        joints_rad: &[f64],
+        speed_fraction: f64,
+    ) -> Result<Reply, ClientError> {
+        self.move_joints_with(joints_rad, speed_fraction, vservo_protocol::MOVE_OUT_OF_HOLD)
+    }
+
+    fn move_joints_with(
+        &mut self,
+        joints_rad: &[f64],
+        speed_fraction: f64,
+        flags: u32,
+    ) -> Result<Reply, ClientError> {
         let mut command = CommandMsg::new(CommandKind::MoveJoints, 0);
+        command.flags = flags;
         if joints_rad.len() > command.joints_rad.len() {
             return Err(ClientError::TooManyJoints {
                 given: joints_rad.len(),

@@ -490,7 +490,8 @@ wire_message! {
         rev_per_min: f64,
         /// move joints: how many of `joints_rad` are given (the arm's joint count)
         joint_count: u32,
-        /// speed: bit 0 raises the dynamics override while the cell moves (refused without it unless held)
+        /// speed: bit 0 raises the dynamics override while the cell moves (refused without it unless held);
+        /// move joints: bit 1 ends a cell held by the user (`start_held`, `requested`) into the move
         flags: u32,
         /// move joints: the goal (rad; the slots past `joint_count` zero)
         joints_rad: [f64; MAX_JOINTS],
@@ -502,6 +503,9 @@ wire_message! {
 
 /// `command.flags` of a `speed` command: raise the dynamics override while the cell moves.
 pub const SPEED_WHILE_MOVING: u32 = 1;
+/// `command.flags` of a `move_joints` command: a cell held by the user (`start_held`, `requested`) leaves its
+/// stop into the move (the user's own first motion: a held cell's calibration).
+pub const MOVE_OUT_OF_HOLD: u32 = 2;
 
 impl CommandMsg {
     /// A command of `kind` with every parameter zero.

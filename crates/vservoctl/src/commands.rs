@@ -91,6 +91,10 @@ pub struct MoveJointsArgs {
     /// The share of each joint's speed limit the move may use, (0, 1].
     #[arg(long, default_value_t = 0.2)]
     speed_fraction: f64,
+    /// Leave a cell held by the user (`start_held`, `requested`) into this move: the move is the arm's first
+    /// motion (without it a held cell refuses the move).
+    #[arg(long)]
+    out_of_hold: bool,
     #[command(flatten)]
     instance: InstanceArg,
 }
@@ -172,7 +176,11 @@ pub fn resume(args: &ReloadArgs) -> anyhow::Result<()> {
 /// `vservoctl move-joints`: the arm moves its joints to the goal and holds them there until `servo`.
 pub fn move_joints(args: &MoveJointsArgs) -> anyhow::Result<()> {
     let mut client = Client::connect(&args.instance.name()?)?;
-    report(client.move_joints(&args.q, args.speed_fraction)?)
+    report(if args.out_of_hold {
+        client.move_joints_out_of_hold(&args.q, args.speed_fraction)?
+    } else {
+        client.move_joints(&args.q, args.speed_fraction)?
+    })
 }
 
 /// Arguments of `vservoctl speed`.

@@ -180,6 +180,10 @@ impl Evidence {
     }
 }
 
+/// The stops a joint move may end (nothing else keeping them): lost marks, which a joint move does not need,
+/// and a cell held by the user.
+const JOINT_MOVE_ENDS: [Fault; 3] = [Fault::TargetLost, Fault::StartHeld, Fault::Requested];
+
 /// What the supervisor knows besides the messages.
 #[derive(Debug, Clone, Copy)]
 pub struct Conditions {
@@ -529,13 +533,15 @@ impl FaultMonitor {
         Ok(self.unlatch(fault))
     }
 
-    /// Out of a `target_lost` stop into a joint move, which needs no marks (the daemon's `Safety` asks only
-    /// for that fault): refused, naming them, while any cause but the lost marks is present.
+    /// Out of a stop into a joint move, which needs no marks: a `target_lost` stop, or a cell held by the user
+    /// (`start_held`, `requested`: a joint move is the user's own motion, as the calibration's planned, slow
+    /// moves are the first motion of a held cell). Refused, naming them, while any cause but the lost marks is
+    /// present, or for another fault.
     pub fn resume_into_joint_move(&mut self, c: &Conditions) -> Result<LatchedFault, ResumeRefused> {
         let fault = self.latched.clone().ok_or(ResumeRefused::NotHeld)?;
         let causes: Vec<Cause> =
             self.causes(c).into_iter().filter(|k| !matches!(k, Cause::MarksMissing(_))).collect();
-        if fault.code != Fault::TargetLost || !causes.is_empty() {
+        if !JOINT_MOVE_ENDS.contains(&fault.code) || !causes.is_empty() {
             return Err(ResumeRefused::CausesLeft { fault: fault.code, causes });
         }
         Ok(self.unlatch(fault))

@@ -268,23 +268,31 @@ impl Safety {
 
     /// A client's joint move: the rmrc takes the joints to the goal instead of following the servo's twists.
     /// Refused while the cell is held, except in a `target_lost` stop that only the lost marks keep (a joint
-    /// move needs none): the move ends that stop, and the resume is returned.
+    /// move needs none), and, `out_of_hold`, in a cell held by the user (`start_held`, `requested`: the move is
+    /// the user's own motion): the move ends that stop, and the resume is returned.
     pub fn move_joints(
         &mut self,
         joint_move: JointMove,
         conditions: &Conditions,
+        out_of_hold: bool,
     ) -> Result<Option<Resumed>, SafetyRefused> {
         let before = self.joint_move.replace(joint_move);
+        let out = |safety: &mut Self, how: &str| {
+            safety
+                .monitor
+                .resume_into_joint_move(conditions)
+                .map_err(SafetyRefused::from)
+                .and_then(|fault| safety.leave(&fault, how).map(Some))
+        };
         let moved = match self.monitor.latched().map(|f| f.code) {
             None => self
                 .publish(CellMode::Moving, None)
                 .map(|()| None)
                 .map_err(|e| SafetyRefused::Publish(e.to_string())),
-            Some(Fault::TargetLost) => self
-                .monitor
-                .resume_into_joint_move(conditions)
-                .map_err(SafetyRefused::from)
-                .and_then(|fault| self.leave(&fault, "by a joint move (it needs no marks)").map(Some)),
+            Some(Fault::TargetLost) => out(self, "by a joint move (it needs no marks)"),
+            Some(Fault::StartHeld | Fault::Requested) if out_of_hold => {
+                out(self, "by the user's joint move out of the held cell")
+            }
             Some(code) => Err(SafetyRefused::Held(code)),
         };
         if moved.is_err() {

@@ -23,8 +23,8 @@ use vservo_config::Config;
 use vservo_control::{Gains, LawGains};
 use vservo_protocol::seal::SealKey;
 use vservo_protocol::{
-    CommandKind, CommandMsg, CommandReplyMsg, FEATURES, FeaturesMsg, GainsMsg, JointStateMsg, ObjectMsg,
-    RobotState, SCHEMA_VERSION, SPEED_WHILE_MOVING, Topic,
+    CommandKind, CommandMsg, CommandReplyMsg, FEATURES, FeaturesMsg, GainsMsg, JointStateMsg,
+    MOVE_OUT_OF_HOLD, ObjectMsg, RobotState, SCHEMA_VERSION, SPEED_WHILE_MOVING, Topic,
 };
 use vservo_runtime::gains::gains_message;
 use vservo_scene::FeatureVector;
@@ -223,7 +223,8 @@ impl Commander {
                     )));
                 }
                 let joint_move = joint_move::check(command, &self.config.cell.arm)?;
-                Ok(match safety.move_joints(joint_move, &heard.conditions)? {
+                let out_of_hold = command.flags & MOVE_OUT_OF_HOLD != 0;
+                Ok(match safety.move_joints(joint_move, &heard.conditions, out_of_hold)? {
                     None => Accepted::Moving(joint_move),
                     Some(resumed) => Accepted::MovingOutOfStop { joint_move, resumed },
                 })

@@ -161,9 +161,17 @@ fn a_joint_move_ends_a_target_lost_stop_that_only_the_lost_marks_keep() {
     assert!(monitor.latched().is_some());
     assert_eq!(monitor.resume_into_joint_move(&running(1100 * MS)).map(|f| f.code), Ok(Fault::TargetLost));
     assert!(monitor.latched().is_none());
-    // another fault is not left this way
+    // a cell held by the user is left this way too (the daemon asks only for a move out of the hold)
     assert!(monitor.request_safe_stop(1200 * MS).is_ok());
-    assert!(monitor.resume_into_joint_move(&running(1200 * MS)).is_err());
+    assert_eq!(monitor.resume_into_joint_move(&running(1200 * MS)).map(|f| f.code), Ok(Fault::Requested));
+    let mut held = FaultMonitor::new(settings(ResumePolicy::Command), 6);
+    held.hold_at_start(0);
+    assert_eq!(held.resume_into_joint_move(&running(MS)).map(|f| f.code), Ok(Fault::StartHeld));
+    // another fault is not left this way
+    let stalled = Conditions { robot: RobotState::Stalled, external_robot: true, ..running(2000 * MS) };
+    let mut monitor = FaultMonitor::new(settings(ResumePolicy::Command), 6);
+    assert!(matches!(monitor.cycle(&stalled), Decision::SafeStop(_)));
+    assert!(monitor.resume_into_joint_move(&running(2100 * MS)).is_err());
 }
 
 #[test]
