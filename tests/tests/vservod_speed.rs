@@ -44,6 +44,15 @@ fn share(summary: &Value, key: &str) -> f64 {
     summary[key].as_f64().unwrap_or_else(|| panic!("{key} in {summary}"))
 }
 
+/// Resumes the held cell while `seconds` of its commands are recorded into `name`: what they used of the limits.
+fn resumed_and_measured(instance: &str, dir: &ScratchDir, name: &str, seconds: &str) -> Value {
+    let recorder = record(instance, &dir.0.join(name), seconds);
+    std::thread::sleep(std::time::Duration::from_millis(300));
+    let (code, text) = vservoctl(&["resume", "--instance", instance]);
+    assert_eq!(code, Some(0), "{text}");
+    measured(recorder, dir, name)
+}
+
 /// Waits for the recorder, then measures what it heard.
 fn measured(recorder: Child, dir: &ScratchDir, name: &str) -> Value {
     let recorded = recorder.wait_with_output().expect("the recording ends");
@@ -79,11 +88,7 @@ fn a_quarter_speed_keeps_a_quarter_of_the_limits_and_is_raised_only_while_held()
     );
 
     // held at its start; resumed at a quarter: the whole transient within a quarter of the FR3's limits
-    let recorder = record(&instance, &dir.0.join("quarter.jsonl"), "4");
-    std::thread::sleep(std::time::Duration::from_millis(300));
-    let (code, text) = vservoctl(&["resume", "--instance", &instance]);
-    assert_eq!(code, Some(0), "{text}");
-    let quarter = measured(recorder, &dir, "quarter.jsonl");
+    let quarter = resumed_and_measured(&instance, &dir, "quarter.jsonl", "4");
     let velocity = share(&quarter, "max_velocity_ratio");
     assert!(velocity <= 0.25 * (1.0 + ROUNDING), "over a quarter of the speed limits: {quarter}");
     assert!(velocity > 0.2, "it moved at the quarter's limits: {quarter}");
@@ -103,11 +108,7 @@ fn a_quarter_speed_keeps_a_quarter_of_the_limits_and_is_raised_only_while_held()
     // the board jumps while the cell is held; resumed at the whole: more than a quarter, never over the limits
     let (code, text) = vservoctl(&["object", "step", "--by-m", "0.03,-0.02,0.0", "--instance", &instance]);
     assert_eq!(code, Some(0), "{text}");
-    let recorder = record(&instance, &dir.0.join("whole.jsonl"), "3");
-    std::thread::sleep(std::time::Duration::from_millis(300));
-    let (code, text) = vservoctl(&["resume", "--instance", &instance]);
-    assert_eq!(code, Some(0), "{text}");
-    let whole = measured(recorder, &dir, "whole.jsonl");
+    let whole = resumed_and_measured(&instance, &dir, "whole.jsonl", "3");
     let velocity = share(&whole, "max_velocity_ratio");
     assert!(velocity <= 1.0 + ROUNDING, "over the speed limits: {whole}");
     assert!(velocity > 0.3, "the whole is more than a quarter: {whole}");

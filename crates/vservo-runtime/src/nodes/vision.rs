@@ -58,6 +58,14 @@ struct Measured {
 }
 
 impl Measured {
+    /// Nothing known (a frame whose slot a later one took, or none yet).
+    const UNKNOWN: Self = Self {
+        refined: [false; MARKS],
+        edge_rms_px: [f64::NAN; MARKS],
+        decision_margin: f64::NAN,
+        bits_corrected: 0,
+    };
+
     fn of(captured: &Extraction) -> Self {
         let tag = captured.tag_quality.as_ref();
         Self {
@@ -81,12 +89,7 @@ struct FrameInfo {
 
 impl Default for FrameInfo {
     fn default() -> Self {
-        let measured = Measured {
-            refined: [false; MARKS],
-            edge_rms_px: [f64::NAN; MARKS],
-            decision_margin: f64::NAN,
-            bits_corrected: 0,
-        };
+        let measured = Measured::UNKNOWN;
         Self { frame: 0, capture_stamp_ns: 0, status: [WireMarkStatus::Valid; MARKS], measured }
     }
 }
@@ -135,8 +138,7 @@ impl FeaturesOut {
             }
         }
         // a frame whose slot was taken by a later one: nothing of it is known
-        let measured =
-            if info.frame == delivered.frame { info.measured } else { FrameInfo::default().measured };
+        let measured = if info.frame == delivered.frame { info.measured } else { Measured::UNKNOWN };
         let mut message = FeaturesMsg {
             schema: SCHEMA_VERSION,
             valid_mask,
