@@ -2,7 +2,7 @@
 """A MuJoCo arm and hand camera for vservo: the reference robot + camera driver.
 
 Copy this file to write a driver for a real arm and camera: replace `Arm` (`step`: send the joint velocities
-and wait for the next encoder reading) and `Camera.grab` (take an image), keep the rest. It speaks docs/PROTOCOL.md (schema 12) over
+and wait for the next encoder reading) and `Camera.grab` (take an image), keep the rest. It speaks docs/PROTOCOL.md (schema 13) over
 iceoryx2 0.10 shared memory:
 
 - every robot period (1 ms) it publishes `joint_state` and notifies the `joint_state` event;
@@ -190,9 +190,10 @@ def board_body(board, parent_from_board) -> str:
     thickness = 0.005
     marks = "".join(f'<geom type="cylinder" size="{board["mark_diameter_m"] / 2:.9g} 0.00005" pos="{x:.9g} {y:.9g} -0.00005" '
                     f'material="mark" mass="0"/>' for x, y in board["marks_in_board_m"])
-    # an AprilTag target, and the calibration board printed around it (its tags include the target's)
+    # an AprilTag target (or a bundle of tags), and the calibration board printed around it (its tags include
+    # the target's)
     grid = (board.get("calibration_grid") or {}).get("tags", [])
-    tags = grid or ([board["apriltag"]] if board.get("apriltag") else [])
+    tags = grid or board.get("target_tags") or ([board["apriltag"]] if board.get("apriltag") else [])
     if tags:
         marks = "".join(tag_boxes(tag) for tag in tags)
     return (f'<body name="board" {placement(parent_from_board)}>'

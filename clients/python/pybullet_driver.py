@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """A URDF arm and hand camera in PyBullet for vservo: the second reference robot + camera driver.
 
-The same contract as clients/python/mujoco_driver.py (docs/DRIVERS.md; docs/PROTOCOL.md, schema 12, over
+The same contract as clients/python/mujoco_driver.py (docs/DRIVERS.md; docs/PROTOCOL.md, schema 13, over
 iceoryx2 0.10 shared memory), for any arm vservo models from a URDF (the scene's `arm`: `urdf`, `base_link`,
 `tip_link`, `joint_names`): nothing in this file is specific to an arm.
 
@@ -206,20 +206,22 @@ def board_world(scene, world_from_base):
                                       visualFramePosition=[(xhi + xlo) / 2, (yhi + ylo) / 2, thickness / 2],
                                       rgbaColor=gray(BOARD_GRAY), physicsClientId=c)
     bodies.append(pybullet.createMultiBody(0, -1, face, position, orientation, physicsClientId=c))
-    tag = board.get("apriltag")
-    if tag:  # its black cells as thin black boxes (the white ones are the board)
+    tags = board.get("target_tags") or ([board["apriltag"]] if board.get("apriltag") else [])
+    marks = []  # (centres, shape): the tags' black cells as thin black boxes (the white ones are the board)
+    for tag in tags:
         cell = tag["size_m"] / 8
         cx, cy = tag["centre_in_board_m"]
         centres = [(cx + (column - 3.5) * cell, cy + (row - 3.5) * cell)
                    for row, cells in enumerate(tag["black_cells"]) for column, black in enumerate(cells) if black]
-        shape = dict(shapeType=pybullet.GEOM_BOX, halfExtents=[cell / 2, cell / 2, film / 2])
-    else:
-        centres = [tuple(m) for m in board["marks_in_board_m"]]
-        shape = dict(shapeType=pybullet.GEOM_CYLINDER, radius=board["mark_diameter_m"] / 2, length=film)
-    for x, y in centres:
-        mark = pybullet.createVisualShape(visualFramePosition=[x, y, -film / 2], rgbaColor=gray(MARK_GRAY),
-                                          physicsClientId=c, **shape)
-        bodies.append(pybullet.createMultiBody(0, -1, mark, position, orientation, physicsClientId=c))
+        marks.append((centres, dict(shapeType=pybullet.GEOM_BOX, halfExtents=[cell / 2, cell / 2, film / 2])))
+    if not tags:
+        marks.append(([tuple(m) for m in board["marks_in_board_m"]],
+                      dict(shapeType=pybullet.GEOM_CYLINDER, radius=board["mark_diameter_m"] / 2, length=film)))
+    for centres, shape in marks:
+        for x, y in centres:
+            mark = pybullet.createVisualShape(visualFramePosition=[x, y, -film / 2], rgbaColor=gray(MARK_GRAY),
+                                              physicsClientId=c, **shape)
+            bodies.append(pybullet.createMultiBody(0, -1, mark, position, orientation, physicsClientId=c))
     return c, bodies
 
 

@@ -27,7 +27,7 @@ import time
 
 import iceoryx2 as iox2
 
-SCHEMA_VERSION = 12
+SCHEMA_VERSION = 13
 (TARGET_FEATURES, TARGET_POSE, TARGET_TEACH, OBJECT_HOLD, OBJECT_STEP, OBJECT_CIRCLE, RELOAD, RESUME,
  SAFE_STOP, MOVE_JOINTS, SERVO, SPEED) = range(1, 13)
 STATES = ["starting", "running", "degraded", "stopping", "safe-stop", "moving"]

@@ -1,4 +1,4 @@
-"""The driver side of vservo's contract (docs/DRIVERS.md, docs/PROTOCOL.md schema 12), shared by the reference
+"""The driver side of vservo's contract (docs/DRIVERS.md, docs/PROTOCOL.md schema 13), shared by the reference
 drivers (mujoco_driver.py, pybullet_driver.py): the payloads a robot and camera driver exchange with vservo as
 ctypes structures, their codes, deadlines on CLOCK_MONOTONIC, and the iceoryx2 node and services opened exactly
 as vservo creates them. A driver of your own may import it too (with vservo_client.py beside it).

@@ -90,6 +90,10 @@ fn a_printed_tag_is_read_with_its_id_and_size() {
     {
         assert!(svg.contains(caption), "{caption:?} missing");
     }
+    // the configured target: config/vservo-bundle.toml's four 70 mm tags on one sheet, each where the layout says
+    let bundle = repository_root().join("config/vservo-bundle.toml");
+    let figures = check_of("tag", &["--config", bundle.to_str().expect("utf-8")], 4);
+    assert_eq!(figures["ids"], serde_json::json!([10, 11, 12, 13]), "{figures}");
     for (args, reason) in
         [(["--id", "587", "--size-mm", "80"], "586"), (["--id", "1", "--size-mm", "-5"], "tag")]
     {

@@ -130,3 +130,42 @@ fn the_calibration_demo_renders_every_frame_and_converges_in_real_time() {
     assert!(wait_until(Duration::from_secs(11), below), "{:?}\n{}", status(&instance), daemon.log());
     daemon.stop();
 }
+
+/// A bundle of four tags through the lens (config/vservo-bundle.toml), its second tag covered from 2 s to 6 s
+/// while the camera still moves: every frame has its four marks (the bundle's outer corners, from the tags
+/// seen), the features say which tags gave them, and the servo converges below 1 px in real time.
+#[test]
+fn a_bundle_with_a_tag_covered_keeps_every_frame_and_converges_below_one_pixel_in_real_time() {
+    let _one = exclusive();
+    let instance = unique("bundle");
+    let (_config, daemon) = running_daemon_of("config/vservo-bundle.toml", &instance);
+    let features = echo_lines(&instance, "features", "8");
+    assert!(features.len() > 40, "{} frames in 8 s\n{}", features.len(), daemon.log());
+    let masks: Vec<u64> = features.iter().filter_map(|f| f["tags_used_mask"].as_u64()).collect();
+    let valid: Vec<u64> = features.iter().filter_map(|f| f["valid_mask"].as_u64()).collect();
+    assert!(
+        valid.iter().all(|&v| v == 0b1111),
+        "a frame without its four marks: {valid:?}\n{}",
+        daemon.log()
+    );
+    assert!(masks.contains(&0b1101), "the covered tag (2) left out while covered: {masks:?}");
+    assert_eq!(masks.last(), Some(&0b1111), "every tag used once uncovered: {masks:?}");
+    let twists = echo_lines(&instance, "camera_twist", "0.5");
+    let last = twists.iter().rev().find_map(|t| t["feature_error_px"].as_f64()).unwrap_or(f64::NAN);
+    println!("bundle: tags used {masks:?}; feature error at the end {last:.3} px");
+    assert!(last < 1.0, "feature error at the end {last} px\n{}", daemon.log());
+    assert!(running(&status(&instance).expect("status")), "{}", daemon.log());
+    // the snapshot marks each of the bundle's tags as the target's
+    let scratch = ScratchDir::new(&unique("bundle-snapshot"));
+    let out = scratch.0.join("snapshot.png");
+    let output =
+        run("vservoctl", &["snapshot", "--instance", &instance, "--out", out.to_str().expect("utf-8")]);
+    assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stderr));
+    let summary: Value = serde_json::from_slice(&output.stdout).expect("one JSON object");
+    let mut ids: Vec<u64> =
+        summary["tags"].as_array().expect("tags").iter().filter_map(|t| t["id"].as_u64()).collect();
+    ids.sort_unstable();
+    assert_eq!(ids, [10, 11, 12, 13], "{summary}");
+    assert!(summary["tags"].as_array().expect("tags").iter().all(|t| t["target"] == true), "{summary}");
+    daemon.stop();
+}

@@ -82,7 +82,7 @@ pub struct VisionStage {
     /// Where the board was over the simulated camera's exposure (its motion blur).
     exposure: Exposure,
     extractor: Extractor,
-    /// With an AprilTag target, its extractor (the marks' is then not used).
+    /// With an AprilTag target or a bundle, its extractor (the marks' is then not used).
     tag_extractor: Option<TagExtractor>,
     /// The latest known position of each mark, once all four have been found.
     tracked: Option<FeatureVector>,
@@ -119,10 +119,7 @@ impl VisionStage {
                 config.camera.width_px(),
                 config.camera.height_px(),
             ),
-            tag_extractor: config
-                .board
-                .apriltag()
-                .map(|tag| TagExtractor::for_camera(tag.id(), &config.camera)),
+            tag_extractor: TagExtractor::for_board(&config.board, &config.camera),
             tracked: None,
             frames_with_a_mark_missing: 0,
             pipeline: VecDeque::with_capacity(delay_frames + 1),

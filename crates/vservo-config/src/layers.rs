@@ -183,12 +183,12 @@ fn merge_layers(layers: &[Layer]) -> toml::Table {
     merged
 }
 
-/// A tag's board is its own: when `[target] kind = "apriltag"` is in force and neither the file that set it nor
+/// A tag's board is its own: when `[target] kind = "apriltag"` (or `"bundle"`) is in force and neither the file that set it nor
 /// a file over it writes `object.board_extent_m`, the extent a base wrote (for its own board) gives way and the
 /// tag's sheet is derived from the tag (`validate/object.rs`).
 fn tag_board(merged: &mut toml::Table, layers: &[Layer]) {
     let kind = merged.get("target").and_then(|t| t.get("kind")).and_then(toml::Value::as_str);
-    if kind != Some("apriltag") {
+    if kind != Some("apriltag") && kind != Some("bundle") {
         return;
     }
     let Some(kind_set_in) = layers.iter().position(|layer| holds(&layer.table, &["target", "kind"])) else {

@@ -83,6 +83,17 @@ pub struct RawTarget {
     pub id: i64,
     pub tag_size_m: f64,
     pub centre_in_board_m: [f64; 2],
+    /// `kind = "bundle"`: the bundle's tags.
+    pub tags: Vec<RawBundleTag>,
+}
+
+/// One tag of `[target] tags`.
+#[derive(Debug, Clone, Copy, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawBundleTag {
+    pub id: i64,
+    pub tag_size_m: f64,
+    pub centre_in_board_m: [f64; 2],
 }
 
 impl Default for RawTarget {
@@ -93,6 +104,7 @@ impl Default for RawTarget {
             id: 0,
             tag_size_m: 0.1,
             centre_in_board_m: [0.0, 0.0],
+            tags: Vec::new(),
         }
     }
 }

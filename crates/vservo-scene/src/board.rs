@@ -2,6 +2,7 @@
 
 use nalgebra::{Point2, Point3};
 
+use crate::bundle::TagBundle;
 use crate::tag_grid::TagGrid;
 use crate::tag36h11;
 
@@ -29,11 +30,19 @@ pub struct Board {
 
 /// What is printed on the board, and so what the four features are.
 #[derive(Debug, Clone, Copy, PartialEq)]
+#[expect(
+    clippy::large_enum_variant,
+    reason = "a bundle's 8 tags inline (about 330 bytes) keep the board `Copy` and free of allocation; a board is \
+              copied per stage and per occluded frame, never per pixel"
+)]
 pub enum Target {
     /// Four dark discs at `marks_in_board` (the paper's).
     Marks,
     /// One tag36h11 AprilTag; the features are its four corners.
     AprilTag(AprilTag),
+    /// Several tags on the board; the features are the corners of the box that holds them
+    /// ([`TagBundle::outer_corners_in_board`]).
+    Bundle(TagBundle),
 }
 
 /// One tag of the tag36h11 family lying on the board, its rows along the board's +y axis and its columns
@@ -209,12 +218,55 @@ impl Board {
         }
     }
 
-    /// The AprilTag on the board, if that is the target.
+    /// A board of the given extent with `bundle` printed on it: its marks are the bundle's outer corners.
+    pub fn with_bundle(bundle: TagBundle, extent_in_board: [Point2<f64>; 2]) -> Board {
+        Board {
+            marks_in_board: bundle.outer_corners_in_board(),
+            mark_diameter_m: 0.0,
+            extent_in_board,
+            target: Target::Bundle(bundle),
+            calibration_grid: None,
+        }
+    }
+
+    /// The AprilTag on the board, if one tag is the target.
     pub fn apriltag(&self) -> Option<&AprilTag> {
         match &self.target {
             Target::AprilTag(tag) => Some(tag),
+            Target::Marks | Target::Bundle(_) => None,
+        }
+    }
+
+    /// The bundle on the board, if that is the target.
+    pub fn bundle(&self) -> Option<&TagBundle> {
+        match &self.target {
+            Target::Bundle(bundle) => Some(bundle),
+            Target::Marks | Target::AprilTag(_) => None,
+        }
+    }
+
+    /// The tags that make the target: the one tag, the bundle's, or none for disc marks.
+    pub fn target_tags(&self) -> &[AprilTag] {
+        match &self.target {
+            Target::AprilTag(tag) => std::slice::from_ref(tag),
+            Target::Bundle(bundle) => bundle.tags(),
+            Target::Marks => &[],
+        }
+    }
+
+    /// Whether a point of the board plane is on a black cell of the target's tags; `None` beside their black
+    /// squares (and always for disc marks).
+    pub fn target_black_at(&self, x_m: f64, y_m: f64) -> Option<bool> {
+        match &self.target {
+            Target::AprilTag(tag) => tag.is_black_at(x_m, y_m),
+            Target::Bundle(bundle) => bundle.is_black_at(x_m, y_m),
             Target::Marks => None,
         }
+    }
+
+    /// Whether the target is printed tags (one or a bundle) rather than disc marks.
+    pub fn target_is_tags(&self) -> bool {
+        !matches!(self.target, Target::Marks)
     }
 }
 

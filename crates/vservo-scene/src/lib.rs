@@ -14,11 +14,14 @@
 //! - [`Board`]: the object — a board with four disc marks, their centres in the board frame, or with one
 //!   AprilTag whose four corners are the marks ([`Target`], [`AprilTag`]: id, size, centre, corners in the C
 //!   library's order, which cell is black; [`AprilTag::with_corners_covered`]: a scenario's occlusion of a
-//!   corner); [`tag36h11`]: the family's codes and bit positions, from the C library's `tag36h11.c`;
+//!   corner), or with a bundle of up to eight tags whose outer corners are the marks ([`TagBundle`]);
+//!   [`tag36h11`]: the family's codes and bit positions, from the C library's `tag36h11.c`;
 //! - [`TagGrid`]: a calibration board, a grid of tag36h11 tags with white gaps (ids row by row, corners in
 //!   the board frame, [`TagGrid::is_black_at`], [`TagGrid::tags_meeting`] a box), which a [`Board`] may carry
 //!   printed on it (`Board::calibration_grid`; the renderer judges a pixel against every tag that can reach
 //!   it, the target's tag deciding inside its own square);
+//! - [`fit_homography`]: a plane's homography to the image from any number of point pairs (the normalised
+//!   DLT), which finds a bundle's outer corners from the tags seen;
 //! - [`CameraMount`]: a camera on the hand or fixed in the world (the board then on the tool): where camera and
 //!   board are for a tool pose, and the tool twist that moves the camera relative to the board as a law asks;
 //! - [`pose_rows`]: a pose as vservo's messages carry it, the top three rows of the 4×4 transform
@@ -40,7 +43,9 @@
 //! ```
 
 mod board;
+mod bundle;
 mod camera;
+mod homography;
 pub mod lens;
 mod mount;
 pub mod pose_rows;
@@ -48,7 +53,9 @@ pub mod tag36h11;
 mod tag_grid;
 
 pub use board::{AprilTag, Board, MARKS, SHEET_MARGIN_CELLS, Target, UnknownTagId};
+pub use bundle::{BundleError, MAX_BUNDLE_TAGS, TagBundle};
 pub use camera::{CameraIntrinsics, IntrinsicsError, ProjectionError, image_contains};
+pub use homography::{apply_homography, fit_homography};
 pub use lens::{Distortion, DistortionError};
 pub use mount::CameraMount;
 pub use nalgebra::IsometryMatrix3;

@@ -117,6 +117,16 @@ pub fn annotations(features: &FeaturesMsg, desired_px: Option<&[f64; 8]>) -> Ima
 }
 
 /// A tag's quality as a line of text: the decoder's margin and corrected bits, each edge's fit RMS.
+/// A bundle's tags used ("tags 1 2 4 of the bundle"), nothing for a single tag (mask 1) or none.
+fn bundle_text(tags_used_mask: u16) -> String {
+    if tags_used_mask <= 1 {
+        return String::new();
+    }
+    let used: Vec<String> =
+        (0..16).filter(|k| tags_used_mask & (1 << k) != 0).map(|k| (k + 1).to_string()).collect();
+    format!(", bundle tags {}", used.join(" "))
+}
+
 fn tag_quality_text(features: &FeaturesMsg, stamp: Option<Timestamp>) -> TextAnnotation {
     let edges: Vec<String> = features
         .edge_rms_px
@@ -127,10 +137,11 @@ fn tag_quality_text(features: &FeaturesMsg, stamp: Option<Timestamp>) -> TextAnn
         timestamp: stamp,
         position: Some(Point2 { x: 10.0, y: 100.0 }),
         text: format!(
-            "tag margin {:.0}, {} bit(s) corrected, edges {} px",
+            "tag margin {:.0}, {} bit(s) corrected, edges {} px{}",
             features.decision_margin,
             features.bits_corrected,
-            edges.join(" ")
+            edges.join(" "),
+            bundle_text(features.tags_used_mask)
         ),
         font_size: 12.0,
         text_color: color(1.0, 1.0, 1.0),
@@ -250,6 +261,9 @@ mod tests {
         assert_eq!(outlines[3], color(1.0, 0.55, 0.0), "mark 4 is the decoder's corner");
         assert_eq!(drawn.texts.len(), 1);
         assert_eq!(drawn.texts[0].text, "tag margin 85, 1 bit(s) corrected, edges 0.08 — 0.12 0.10 px");
+        // a bundle with its third tag unseen says which tags gave the corners
+        let bundle = FeaturesMsg { tags_used_mask: 0b1011, ..message };
+        assert!(annotations(&bundle, None).texts[0].text.ends_with("px, bundle tags 1 2 4"));
         // disc marks: no tag line
         assert!(annotations(&features(0b1111), None).texts.is_empty());
     }

@@ -7,7 +7,8 @@
 //!   pixel noise and a lighting gradient. Through a distorting lens each pixel is judged by its corners' board
 //!   points (their pinhole points mapped once per camera, then each frame's homography), with a margin for
 //!   the lens's bend, and a pixel near an edge is sampled at points bilinear between its corners' pinhole
-//!   points; without distortion, the pinhole path. With an AprilTag target it draws the tag's cells.
+//!   points; without distortion, the pinhole path. With an AprilTag target (or a bundle) it draws the tags'
+//!   cells.
 //! - [`extract::Extractor`]: the four marks in an image — threshold (Otsu or a set level), connected
 //!   components, area and shape filters, coverage-weighted sub-pixel centroids, and association of blobs
 //!   to marks so that the order of ξ never changes, with per-mark validity and a reason when a mark is
@@ -22,7 +23,9 @@
 //!   tag's own order (the reference C detector near the last detection, then on the whole image; then a
 //!   sub-pixel edge refinement from the pixels' area coverage, [`tag_refine`], fitted on the pinhole image
 //!   through a lens that distorts: [`tag_refine::Straight`], [`TagExtractor::for_camera`]), or a verdict (not
-//!   found, another id, a corner outside the image) and no features. docs/VISION.md.
+//!   found, another id, a corner outside the image) and no features; with a bundle of tags
+//!   ([`TagExtractor::for_board`], [`bundle`]), its four outer corners through the homography of every tag of
+//!   it seen, so that a tag hidden costs accuracy, not the target. docs/VISION.md.
 //! - [`source`]: image sources — the simulated camera (whose [`source::SimulatedCamera::capture_hiding`]
 //!   covers a scenario's hidden marks, or a tag's corners), and a directory of PGM or PNG files (recorded
 //!   real images).
@@ -34,6 +37,7 @@
 //! for the configured image (but for the C detector's own buffers).
 
 pub mod blobs;
+mod bundle;
 pub mod extract;
 pub mod noise;
 pub mod render;

@@ -141,7 +141,8 @@ impl SimulatedCamera {
 
     /// [`SimulatedCamera::capture`] with the marks of `hidden` (bit m for mark m) covered, as if by something
     /// the board's colour: a scenario's occlusion. With an AprilTag target, the corners of `hidden` are
-    /// covered ([`vservo_scene::AprilTag::with_corners_covered`]).
+    /// covered ([`vservo_scene::AprilTag::with_corners_covered`]); with a bundle, its tags of `hidden` whole
+    /// ([`vservo_scene::TagBundle::with_tags_covered`]).
     pub fn capture_hiding(
         &mut self,
         camera_from_board: &IsometryMatrix3<f64>,
@@ -167,6 +168,14 @@ impl SimulatedCamera {
         if let Some(tag) = board.apriltag() {
             // a tag's corner is covered where it lies, by a patch of white over it
             board.target = vservo_scene::Target::AprilTag(tag.with_corners_covered(hidden));
+            return self.renderer.render_exposure(&board, camera_from_board, frame);
+        }
+        if let Some(bundle) = board.bundle() {
+            // a bundle's tag k is covered whole, by a white patch over it (all of them: a bare board, whose
+            // zero-sized marks draw nothing)
+            board.target = bundle
+                .with_tags_covered(hidden)
+                .map_or(vservo_scene::Target::Marks, vservo_scene::Target::Bundle);
             return self.renderer.render_exposure(&board, camera_from_board, frame);
         }
         for (index, mark) in board.marks_in_board.iter_mut().enumerate() {

@@ -19,7 +19,7 @@ use std::cell::RefCell;
 
 use image::GrayImage;
 use nalgebra::Point2;
-use vservo_scene::{CameraIntrinsics, FeatureVector, MARKS};
+use vservo_scene::{Board, CameraIntrinsics, FeatureVector, MARKS, TagBundle};
 
 use crate::extract::{Extraction, ImageProblem, MarkStatus};
 use crate::tag_refine::{Straight, refine_corners};
@@ -96,6 +96,9 @@ pub struct TagQuality {
     pub edge_rms_px: [f64; MARKS],
     /// Whether the quads were searched at full resolution (the decimated search had not found the tag).
     pub full_resolution: bool,
+    /// Which of the target's tags gave the corners, bit k for tag k: 1 for a single tag; for a bundle, the
+    /// tags seen (the rest hidden, out of view or refused), the other fields then the worst over them.
+    pub tags_used: u8,
 }
 
 impl TagQuality {
@@ -119,7 +122,7 @@ pub struct TagExtraction {
 }
 
 impl TagExtraction {
-    fn refused(verdict: TagVerdict) -> Self {
+    pub(crate) fn refused(verdict: TagVerdict) -> Self {
         Self {
             features: FeatureVector::from_element(f64::NAN),
             verdict,
@@ -152,9 +155,9 @@ impl TagExtraction {
 
 /// A detection of the C library: id, corners (px, the tag's order) and the decoder's confidence.
 #[derive(Debug, Clone, Copy, PartialEq)]
-struct Detected {
-    id: u32,
-    corners: [Point2<f64>; MARKS],
+pub(crate) struct Detected {
+    pub(crate) id: u32,
+    pub(crate) corners: [Point2<f64>; MARKS],
     decision_margin: f32,
     bits_corrected: u8,
 }
@@ -162,7 +165,7 @@ struct Detected {
 /// How finely the C detector searches for quads: on the image decimated by 2 (quick; decoding stays at full
 /// resolution), or at full resolution (finds small and far tags the decimated search misses).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-enum QuadSearch {
+pub(crate) enum QuadSearch {
     Decimated,
     FullResolution,
 }
@@ -189,14 +192,24 @@ pub struct TagDetection {
     pub quality: TagQuality,
 }
 
-/// The extractor of one tag36h11 id.
+/// The extractor of one tag36h11 id, or of a bundle of tags.
 #[derive(Debug, Clone)]
 pub struct TagExtractor {
-    id: u32,
+    target: TagTarget,
     width_px: u32,
     height_px: u32,
     /// The camera, when its lens distorts: the edges are fitted on its pinhole image.
     lens: Option<CameraIntrinsics>,
+}
+
+/// What the extractor looks for.
+#[derive(Debug, Clone)]
+enum TagTarget {
+    /// One tag: its corners are the features.
+    One(u32),
+    /// A bundle: the features are its outer corners, through the homography of the tags seen
+    /// ([`crate::bundle`]).
+    Bundle(Box<TagBundle>),
 }
 
 thread_local! {
@@ -208,7 +221,7 @@ thread_local! {
 impl TagExtractor {
     /// An extractor of tag `id` in images of `width_px` × `height_px`.
     pub fn new(id: u32, width_px: u32, height_px: u32) -> Self {
-        Self { id, width_px, height_px, lens: None }
+        Self { target: TagTarget::One(id), width_px, height_px, lens: None }
     }
 
     /// An extractor of tag `id` in `camera`'s images: through a lens that distorts, the corners are those
@@ -216,7 +229,31 @@ impl TagExtractor {
     /// the lens; the same as [`TagExtractor::new`] for a pinhole camera.
     pub fn for_camera(id: u32, camera: &CameraIntrinsics) -> Self {
         let lens = (!camera.distortion().is_none()).then_some(*camera);
-        Self { id, width_px: camera.width_px(), height_px: camera.height_px(), lens }
+        Self { target: TagTarget::One(id), width_px: camera.width_px(), height_px: camera.height_px(), lens }
+    }
+
+    /// The extractor of `board`'s target in `camera`'s images: its tag ([`TagExtractor::for_camera`]) or its
+    /// bundle (the features its outer corners, found through the homography of every tag of it seen); `None`
+    /// for disc marks.
+    pub fn for_board(board: &Board, camera: &CameraIntrinsics) -> Option<Self> {
+        if let Some(tag) = board.apriltag() {
+            return Some(Self::for_camera(tag.id(), camera));
+        }
+        let bundle = board.bundle()?;
+        Some(Self { target: TagTarget::Bundle(Box::new(*bundle)), ..Self::for_camera(0, camera) })
+    }
+
+    /// Whether a tag of id `id` is one the extractor looks for.
+    fn wants(&self, id: u32) -> bool {
+        match &self.target {
+            TagTarget::One(ours) => *ours == id,
+            TagTarget::Bundle(bundle) => bundle.tag_with_id(id).is_some(),
+        }
+    }
+
+    /// The lens, when it distorts.
+    pub(crate) fn lens(&self) -> Option<&CameraIntrinsics> {
+        self.lens.as_ref()
     }
 
     /// The tag in `image`, looked for first near `previous` (the last frame's corners, if it had them).
@@ -242,24 +279,30 @@ impl TagExtractor {
         }
         let whole = (0, 0, self.width_px, self.height_px);
         let decimated = detect(image, whole, QuadSearch::Decimated);
-        if decimated.iter().any(|d| d.id == self.id) || !affordable_at_full_resolution(whole) {
+        if decimated.iter().any(|d| self.wants(d.id)) || !affordable_at_full_resolution(whole) {
             return self.pick(image, &decimated, QuadSearch::Decimated);
         }
         self.pick(image, &detect(image, whole, QuadSearch::FullResolution), QuadSearch::FullResolution)
     }
 
-    /// Our tag in the region around the previous detection, found and measured, if it is there.
+    /// Our tag (or bundle) in the region around the previous detection, found and measured, if it is there.
     fn near(&self, image: &GrayImage, region: Region, search: QuadSearch) -> Option<TagExtraction> {
         let near = detect(image, region, search);
-        let found = near.iter().find(|d| d.id == self.id)?;
-        let mut result = self.finish(image, found, search);
+        if !near.iter().any(|d| self.wants(d.id)) {
+            return None;
+        }
+        let mut result = self.pick(image, &near, search);
         result.found_near_previous = true;
         (result.verdict == TagVerdict::Found).then_some(result)
     }
 
-    /// Our id among the whole image's detections: found once, another id only, or repeated.
+    /// Our id among the detections: found once, another id only, or repeated; or our bundle's tags.
     fn pick(&self, image: &GrayImage, all: &[Detected], search: QuadSearch) -> TagExtraction {
-        let ours: Vec<&Detected> = all.iter().filter(|d| d.id == self.id).collect();
+        let id = match &self.target {
+            TagTarget::One(id) => *id,
+            TagTarget::Bundle(bundle) => return crate::bundle::extract(self, bundle, image, all, search),
+        };
+        let ours: Vec<&Detected> = all.iter().filter(|d| d.id == id).collect();
         match (ours.as_slice(), all.first()) {
             ([one], _) => self.finish(image, one, search),
             ([], Some(other)) => TagExtraction::refused(TagVerdict::WrongId(other.id)),
@@ -268,18 +311,32 @@ impl TagExtractor {
         }
     }
 
-    /// The checks and the refinement of one detection of our id.
-    fn finish(&self, image: &GrayImage, detected: &Detected, search: QuadSearch) -> TagExtraction {
+    /// One detection checked (every corner in the image, none unrefined at the image's edge) and measured.
+    pub(crate) fn checked(
+        &self,
+        image: &GrayImage,
+        detected: &Detected,
+        search: QuadSearch,
+    ) -> Result<([Point2<f64>; MARKS], TagQuality), TagVerdict> {
         for (k, corner) in detected.corners.iter().enumerate() {
             if !vservo_scene::image_contains(self.width_px, self.height_px, corner, 0.0) {
-                return TagExtraction::refused(TagVerdict::CornerOutside(k));
+                return Err(TagVerdict::CornerOutside(k));
             }
         }
         let straight = self.lens.as_ref().map_or(Straight::InImage, Straight::OnPinhole);
         let (corners, quality) = measure(image, detected, straight, search);
         if let Some(k) = (0..MARKS).find(|&k| !quality.refined[k] && self.margin_cut(&corners, k)) {
-            return TagExtraction::refused(TagVerdict::CornerAtTheEdge(k));
+            return Err(TagVerdict::CornerAtTheEdge(k));
         }
+        Ok((corners, quality))
+    }
+
+    /// The checks and the refinement of one detection of our id.
+    fn finish(&self, image: &GrayImage, detected: &Detected, search: QuadSearch) -> TagExtraction {
+        let (corners, quality) = match self.checked(image, detected, search) {
+            Ok(measured) => measured,
+            Err(verdict) => return TagExtraction::refused(verdict),
+        };
         let mut features = FeatureVector::zeros();
         for (k, c) in corners.iter().enumerate() {
             features[2 * k] = c.x;
@@ -348,6 +405,7 @@ fn measure(
         refined: refined.refined,
         edge_rms_px: refined.edge_rms_px,
         full_resolution: search == QuadSearch::FullResolution,
+        tags_used: 1,
     };
     (refined.corners, quality)
 }

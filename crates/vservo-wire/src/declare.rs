@@ -37,7 +37,7 @@ macro_rules! integer_field {
         }
     )*};
 }
-integer_field!(u8, u32, i32, u64);
+integer_field!(u8, u16, u32, i32, u64);
 
 impl WireField for f64 {
     const ZERO: Self = 0.0;

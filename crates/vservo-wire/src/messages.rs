@@ -19,7 +19,9 @@ use iceoryx2::prelude::ZeroCopySend;
 /// 12: `features` carries how each mark was measured (`refined_mask`, a tag's `edge_rms_px`, `decision_margin`,
 /// `bits_corrected`); `camera_image`'s header the exposure and gain the camera reports; `cell_mode` and `status`
 /// the dynamics override (`speed_scale`), which the command `speed` sets.
-pub const SCHEMA_VERSION: u32 = 12;
+/// 13: `features` says which tags of the target gave the marks (`tags_used_mask`, where `bits_corrected` was a u32:
+/// both are u16 now), for a target of several tags (a bundle).
+pub const SCHEMA_VERSION: u32 = 13;
 
 /// Joints `joint_state` and `joint_command` have room for: the arm's joints come first, the slots past
 /// `joint_count` are zero.
@@ -215,8 +217,12 @@ wire_message! {
         /// bit m set when mark m's position is vservo's own sub-pixel measurement (a disc's centre, a tag
         /// corner refined on both its edges); clear where it is the tag decoder's corner, or not valid
         refined_mask: u32,
-        /// an AprilTag target: the bits of the code the decoder corrected; 0 for disc marks
-        bits_corrected: u32,
+        /// an AprilTag target: the bits of the code the decoder corrected (a bundle: the most of any of its tags
+        /// used); 0 for disc marks
+        bits_corrected: u16,
+        /// the tags that gave the marks: a bundle's, bit k for its tag k (the others hidden, out of view or
+        /// refused); 1 for a single tag found; 0 for disc marks or no tag
+        tags_used_mask: u16,
         /// the vision node's seal under the run's key: the servo (and the daemon) take sealed features only
         seal: u64,
     }

@@ -7,7 +7,8 @@ use std::path::PathBuf;
 
 use anyhow::Result;
 use clap::Args;
-use vservo_scene::TagGrid;
+use nalgebra::Point2;
+use vservo_scene::{AprilTag, TagGrid};
 
 use crate::UsageError;
 use crate::output::print_stdout;
@@ -52,12 +53,30 @@ pub struct PrintOut {
 impl PrintOut {
     /// Writes `grid` as an SVG with `caption` below it, and its layout as JSON if asked.
     pub fn write(&self, grid: &TagGrid, caption: &[String]) -> Result<()> {
+        let tags: Vec<AprilTag> = grid.tags().collect();
+        self.write_tags(
+            &tags,
+            grid.extent_in_board(),
+            caption,
+            &vservo_calibrate::dataset::board_layout(grid),
+        )
+    }
+
+    /// Writes `tags` on a sheet of `extent` (board frame, m) as an SVG with `caption` below it, and `layout`
+    /// (which must hold `extent_in_board_m` and each tag's id and corners) if asked.
+    pub fn write_tags(
+        &self,
+        tags: &[AprilTag],
+        extent: [Point2<f64>; 2],
+        caption: &[String],
+        layout: &serde_json::Value,
+    ) -> Result<()> {
         if self.out.extension().and_then(|e| e.to_str()) != Some("svg") {
             return Err(UsageError(format!("--out {}: the file must end in .svg", self.out.display())).into());
         }
-        vservo_config::new_file::write(&self.out, svg(grid, caption).as_bytes(), self.force, 0o644)?;
+        vservo_config::new_file::write(&self.out, svg(tags, extent, caption).as_bytes(), self.force, 0o644)?;
         if self.json {
-            print_stdout(&format!("{}\n", vservo_calibrate::dataset::board_layout(grid)))?;
+            print_stdout(&format!("{layout}\n"))?;
         }
         Ok(())
     }
@@ -80,11 +99,10 @@ pub fn run(args: &BoardArgs) -> Result<()> {
     args.print.write(&grid, &[caption])
 }
 
-/// The board as an SVG in millimetres: the board's x to the right and its y down, as an upright camera facing it
-/// sees it; each row of black cells one rectangle per run; below, a scale bar (50 mm, or 20 or 10 on a narrow
-/// print) and the caption's lines.
-pub fn svg(grid: &TagGrid, caption: &[String]) -> String {
-    let [low, high] = grid.extent_in_board();
+/// The tags on a sheet of `extent` as an SVG in millimetres: the board's x to the right and its y down, as an
+/// upright camera facing it sees it; each row of black cells one rectangle per run; below, a scale bar (50 mm,
+/// or 20 or 10 on a narrow print) and the caption's lines.
+pub fn svg(tags: &[AprilTag], [low, high]: [Point2<f64>; 2], caption: &[String]) -> String {
     let mm = |m: f64| m * 1e3;
     let (width, height) = (mm(high.x - low.x), mm(high.y - low.y));
     let line_mm = 5.0;
@@ -101,15 +119,16 @@ pub fn svg(grid: &TagGrid, caption: &[String]) -> String {
         r#"<rect x="0" y="0" width="{width:.3}" height="{:.3}" fill="white"/>"#,
         height + footer
     );
-    let cell = grid.tag_size_m() / f64::from(vservo_scene::tag36h11::WIDTH_AT_BORDER);
-    for tag in grid.tags() {
+    for tag in tags {
+        let size_m = tag.size_m();
+        let cell = size_m / f64::from(vservo_scene::tag36h11::WIDTH_AT_BORDER);
         let c = tag.centre_in_board();
         let side = vservo_scene::tag36h11::WIDTH_AT_BORDER as usize;
         for row in 0..side {
-            let y = c.y - 0.5 * grid.tag_size_m() + (row as f64 + 0.5) * cell;
+            let y = c.y - 0.5 * size_m + (row as f64 + 0.5) * cell;
             let mut column = 0;
             while column < side {
-                let x = |k: usize| c.x - 0.5 * grid.tag_size_m() + (k as f64 + 0.5) * cell;
+                let x = |k: usize| c.x - 0.5 * size_m + (k as f64 + 0.5) * cell;
                 if tag.is_black_at(x(column), y) != Some(true) {
                     column += 1;
                     continue;
@@ -118,7 +137,7 @@ pub fn svg(grid: &TagGrid, caption: &[String]) -> String {
                 while column < side && tag.is_black_at(x(column), y) == Some(true) {
                     column += 1;
                 }
-                let left = c.x - 0.5 * grid.tag_size_m() + start as f64 * cell;
+                let left = c.x - 0.5 * size_m + start as f64 * cell;
                 let top = y - 0.5 * cell;
                 let _ = writeln!(
                     out,

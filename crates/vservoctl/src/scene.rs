@@ -101,6 +101,13 @@ pub fn run(args: &SceneArgs) -> Result<()> {
                 "centre_in_board_m": [tag.centre_in_board().x, tag.centre_in_board().y],
                 "black_cells": black_cells(tag),
             })),
+            // with an AprilTag target or a bundle: every tag of the target, as "apriltag" is
+            "target_tags": board.target_tags().iter().map(|tag| json!({
+                "id": tag.id(),
+                "size_m": tag.size_m(),
+                "centre_in_board_m": [tag.centre_in_board().x, tag.centre_in_board().y],
+                "black_cells": black_cells(tag),
+            })).collect::<Vec<_>>(),
             // the calibration board (`vservoctl board`) printed on it, its tags as the target's
             "calibration_grid": board.calibration_grid.as_ref().map(|grid| json!({
                 "tags": grid.tags().map(|tag| json!({

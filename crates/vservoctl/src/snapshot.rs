@@ -66,9 +66,9 @@ pub fn run(args: &SnapshotArgs) -> anyhow::Result<()> {
     };
     let mut picture = annotate::gray_to_rgb(frame.width, frame.height, frame.width, &frame.pixels);
     let tags = tags_in_view(&frame, &config.cell.camera);
-    let target_id = config.cell.board.apriltag().map(|tag| tag.id());
+    let target_ids: Vec<u32> = config.cell.board.target_tags().iter().map(|tag| tag.id()).collect();
     for tag in &tags {
-        let colour = if target_id == Some(tag.id) { annotate::FOUND } else { annotate::ERROR };
+        let colour = if target_ids.contains(&tag.id) { annotate::FOUND } else { annotate::ERROR };
         annotate::draw_tag(&mut picture, &tag.corners, tag.id, colour);
     }
     let drawn = annotate::draw_marks(
@@ -104,7 +104,7 @@ pub fn run(args: &SnapshotArgs) -> anyhow::Result<()> {
             "id": tag.id,
             "corners_px": tag.corners.map(|c| [c.x, c.y]),
             "refined": tag.quality.refined,
-            "target": target_id == Some(tag.id),
+            "target": target_ids.contains(&tag.id),
         })).collect::<Vec<_>>(),
     });
     print_stdout(&format!("{summary}\n"))?;

@@ -41,10 +41,10 @@ pub struct TagsArgs {
     force: bool,
 }
 
-/// What the configuration adds: the camera (for its lens) and the target's tag id.
+/// What the configuration adds: the camera (for its lens) and the target's tag ids (one, or a bundle's).
 struct Camera {
     intrinsics: CameraIntrinsics,
-    target_id: Option<u32>,
+    target_ids: Vec<u32>,
 }
 
 /// One picture's tags.
@@ -70,12 +70,12 @@ pub fn run(args: &TagsArgs) -> Result<()> {
     let camera = args.config.as_deref().map(camera_of).transpose()?;
     for path in &args.images {
         let seen = look_at(path, camera.as_ref())?;
-        let target_id = camera.as_ref().and_then(|c| c.target_id);
+        let target_ids = camera.as_ref().map_or(&[][..], |c| &c.target_ids[..]);
         let text =
-            if args.json { format!("{}\n", to_json(&seen, target_id)) } else { to_text(&seen, target_id) };
+            if args.json { format!("{}\n", to_json(&seen, target_ids)) } else { to_text(&seen, target_ids) };
         print_stdout(&text)?;
         if let Some(out) = &args.draw {
-            draw(&seen, target_id, out, args.force)?;
+            draw(&seen, target_ids, out, args.force)?;
         }
     }
     Ok(())
@@ -84,7 +84,8 @@ pub fn run(args: &TagsArgs) -> Result<()> {
 /// The camera and target of a configuration file.
 fn camera_of(path: &Path) -> Result<Camera> {
     let config = vservo_config::Config::load(path).map_err(|e| UsageError(e.to_string()))?;
-    Ok(Camera { intrinsics: config.cell.camera, target_id: config.cell.board.apriltag().map(|tag| tag.id()) })
+    let target_ids = config.cell.board.target_tags().iter().map(|tag| tag.id()).collect();
+    Ok(Camera { intrinsics: config.cell.camera, target_ids })
 }
 
 /// Reads one picture and finds its tags.
@@ -142,7 +143,7 @@ fn finite_or_null(value: f64) -> Value {
     if value.is_finite() { json!(value) } else { Value::Null }
 }
 
-fn to_json(seen: &Seen, target_id: Option<u32>) -> Value {
+fn to_json(seen: &Seen, target_ids: &[u32]) -> Value {
     let tags: Vec<Value> = seen
         .detections
         .iter()
@@ -160,7 +161,7 @@ fn to_json(seen: &Seen, target_id: Option<u32>) -> Value {
                 "decision_margin": d.quality.decision_margin,
                 "bits_corrected": d.quality.bits_corrected,
                 "repeated": count_of(seen, d.id) > 1,
-                "target": target_id == Some(d.id),
+                "target": target_ids.contains(&d.id),
             })
         })
         .collect();
@@ -171,13 +172,15 @@ fn to_json(seen: &Seen, target_id: Option<u32>) -> Value {
         "colour": seen.colour,
         "detect_ms": seen.detect_ms,
         "lens_note": seen.lens_note,
-        "target_id": target_id,
-        "target_found": target_id.map(|id| count_of(seen, id)),
+        // one tag's id (null for a bundle: target_ids lists its tags)
+        "target_id": match target_ids { [one] => Some(*one), _ => None },
+        "target_ids": target_ids,
+        "target_found": (!target_ids.is_empty()).then(|| target_ids.iter().map(|&id| count_of(seen, id)).sum::<usize>()),
         "tags": tags,
     })
 }
 
-fn to_text(seen: &Seen, target_id: Option<u32>) -> String {
+fn to_text(seen: &Seen, target_ids: &[u32]) -> String {
     let mut out = format!(
         "{}: {}×{} {}, {} tag(s) in {:.1} ms\n",
         seen.path.display(),
@@ -197,8 +200,8 @@ fn to_text(seen: &Seen, target_id: Option<u32>) -> String {
         if count_of(seen, d.id) > 1 {
             marks.push(format!("repeated ×{}", count_of(seen, d.id)));
         }
-        if target_id == Some(d.id) {
-            marks.push("the target".to_string());
+        if target_ids.contains(&d.id) {
+            marks.push(if target_ids.len() == 1 { "the target" } else { "the target's bundle" }.to_string());
         }
         out.push_str(&format!(
             "  id {:>3}  centre ({:.2}, {:.2}) px  corners {}  refined {}/4  margin {:.1}  bits {}{}\n",
@@ -212,17 +215,23 @@ fn to_text(seen: &Seen, target_id: Option<u32>) -> String {
             if marks.is_empty() { String::new() } else { format!("  ({})", marks.join(", ")) }
         ));
     }
-    if let Some(id) = target_id.filter(|&id| count_of(seen, id) == 0) {
-        out.push_str(&format!("  the target's tag (id {id}) is not in the picture\n"));
+    let missing: Vec<String> =
+        target_ids.iter().filter(|&&id| count_of(seen, id) == 0).map(|id| id.to_string()).collect();
+    match missing.as_slice() {
+        [] => {}
+        [id] if target_ids.len() == 1 => {
+            out.push_str(&format!("  the target's tag (id {id}) is not in the picture\n"))
+        }
+        ids => out.push_str(&format!("  the target's bundle: id(s) {} not in the picture\n", ids.join(", "))),
     }
     out
 }
 
 /// The picture with its tags drawn: the target's in green, the others in yellow.
-fn draw(seen: &Seen, target_id: Option<u32>, out: &Path, force: bool) -> Result<()> {
+fn draw(seen: &Seen, target_ids: &[u32], out: &Path, force: bool) -> Result<()> {
     let mut picture = annotate::gray_to_rgb(seen.width_px, seen.height_px, seen.width_px, seen.gray.as_raw());
     for d in &seen.detections {
-        let colour = if target_id == Some(d.id) { annotate::FOUND } else { annotate::ERROR };
+        let colour = if target_ids.contains(&d.id) { annotate::FOUND } else { annotate::ERROR };
         annotate::draw_tag(&mut picture, &d.corners, d.id, colour);
     }
     let mut png = std::io::Cursor::new(Vec::new());

@@ -98,13 +98,14 @@ fn extract(args: &ExtractArgs) -> Result<()> {
         config.cell.camera.width_px(),
         config.cell.camera.height_px(),
     );
-    // with an AprilTag target, its four corners; a tag not found gives each corner the tag's verdict
-    let (found, tag_verdict) = match config.cell.board.apriltag() {
-        Some(tag) => {
-            let found =
-                vservo_vision::TagExtractor::for_camera(tag.id(), &config.cell.camera).extract(&image, None);
+    // with an AprilTag target (or a bundle), its four corners; a target not found gives each corner its verdict
+    let board = &config.cell.board;
+    let (found, tag_verdict) = match vservo_vision::TagExtractor::for_board(board, &config.cell.camera) {
+        Some(tags) => {
+            let found = tags.extract(&image, None);
+            let ids: Vec<String> = board.target_tags().iter().map(|tag| tag.id().to_string()).collect();
             let verdict = (found.verdict != vservo_vision::TagVerdict::Found)
-                .then(|| format!("tag {}: {}", tag.id(), found.verdict.reason()));
+                .then(|| format!("tag {}: {}", ids.join(", "), found.verdict.reason()));
             (found.to_extraction(), verdict)
         }
         None => (extractor.extract(&image, &Prediction::Layout(config.cell.desired.features)), None),

@@ -8,6 +8,7 @@ use serde::Deserialize;
 pub enum RawTargetKind {
     Marks,
     AprilTag,
+    Bundle,
 }
 
 /// The tag families vservo renders and detects: tag36h11 only.

@@ -64,11 +64,14 @@ pub fn printed(
             ),
         ));
     }
-    let one_of_the_grid = match board.target {
-        Target::AprilTag(tag) => grid.tag_with_id(tag.id()).is_some_and(|printed| {
+    let printed_in_the_grid = |tag: &vservo_scene::AprilTag| {
+        grid.tag_with_id(tag.id()).is_some_and(|printed| {
             printed.size_m() == tag.size_m()
                 && (printed.centre_in_board() - tag.centre_in_board()).norm() < 1e-9
-        }),
+        })
+    };
+    let one_of_the_grid = match board.target {
+        Target::AprilTag(_) | Target::Bundle(_) => board.target_tags().iter().all(printed_in_the_grid),
         Target::Marks => false,
     };
     if !one_of_the_grid {
@@ -78,7 +81,7 @@ pub fn printed(
             "calibration.printed_on_object",
             c.printed_on_object,
             format!(
-                "the target must then be one of the grid's tags ([target] kind = \"apriltag\" with its id, \
+                "the target must then be one of the grid's tags, or a bundle of them ([target] kind = \"apriltag\" with its id, \
                  tag_size_m = {} and its centre, e.g. id {first} at [{:.4}, {:.4}])",
                 grid.tag_size_m(),
                 at(first).x,

@@ -54,7 +54,8 @@ struct Measured {
     refined: [bool; MARKS],
     edge_rms_px: [f64; MARKS],
     decision_margin: f64,
-    bits_corrected: u32,
+    bits_corrected: u16,
+    tags_used_mask: u16,
 }
 
 impl Measured {
@@ -64,6 +65,7 @@ impl Measured {
         edge_rms_px: [f64::NAN; MARKS],
         decision_margin: f64::NAN,
         bits_corrected: 0,
+        tags_used_mask: 0,
     };
 
     fn of(captured: &Extraction) -> Self {
@@ -72,7 +74,8 @@ impl Measured {
             refined: captured.refined(),
             edge_rms_px: tag.map_or([f64::NAN; MARKS], |q| q.edge_rms_px),
             decision_margin: tag.map_or(f64::NAN, |q| f64::from(q.decision_margin)),
-            bits_corrected: tag.map_or(0, |q| u32::from(q.bits_corrected)),
+            bits_corrected: tag.map_or(0, |q| u16::from(q.bits_corrected)),
+            tags_used_mask: tag.map_or(0, |q| u16::from(q.tags_used)),
         }
     }
 }
@@ -155,6 +158,7 @@ impl FeaturesOut {
             refined_mask: (0..MARKS).filter(|&m| measured.refined[m]).fold(0, |mask, m| mask | 1 << m)
                 & valid_mask,
             bits_corrected: measured.bits_corrected,
+            tags_used_mask: measured.tags_used_mask,
             seal: 0,
         };
         vservo_protocol::seal::sign_with(self.key.as_ref(), &mut message);

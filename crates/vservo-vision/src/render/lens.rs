@@ -184,18 +184,16 @@ pub(super) enum Printed {
 /// black square, the calibration grid elsewhere.
 pub(super) fn printed_footprint(board: &Board, points: &[Point2<f64>; 4], margin: f64) -> Printed {
     let on_grid = || board.calibration_grid.as_ref().map(|grid| grid_footprint(grid, points, margin));
-    match board.apriltag() {
-        Some(tag) => Printed::Tags(match tag_footprint(tag, points, margin) {
-            Some(on_tag) => on_tag,
-            None => on_grid().unwrap_or(Footprint::Whole(Surface::Board)),
-        }),
-        None => on_grid().map_or(Printed::Marks, Printed::GridOverMarks),
-    }
+    let on_target = match board.target_tags() {
+        [] => return on_grid().map_or(Printed::Marks, Printed::GridOverMarks),
+        [tag] => tag_footprint(tag, points, margin),
+        bundle => tags_footprint(bundle.iter().copied(), points, margin),
+    };
+    Printed::Tags(on_target.or_else(on_grid).unwrap_or(Footprint::Whole(Surface::Board)))
 }
 
-/// Judges a pixel's footprint on the calibration grid: every tag that can reach it judged alone. A footprint
-/// wholly in one tag's cell is beside every other tag (the gaps are a tag's border wide); the tags' black
-/// cells are apart, so the shares of those it meets add up.
+/// Judges a pixel's footprint on the calibration grid: every tag that can reach it judged alone
+/// ([`tags_footprint`]).
 #[inline]
 pub(super) fn grid_footprint(grid: &TagGrid, points: &[Point2<f64>; 4], margin: f64) -> Footprint {
     let low = Point2::new(
@@ -206,20 +204,33 @@ pub(super) fn grid_footprint(grid: &TagGrid, points: &[Point2<f64>; 4], margin: 
         points.iter().map(|p| p.x).fold(f64::NEG_INFINITY, f64::max) + margin,
         points.iter().map(|p| p.y).fold(f64::NEG_INFINITY, f64::max) + margin,
     );
-    let mut judged = Footprint::Whole(Surface::Board);
-    for tag in grid.tags_meeting(low, high) {
-        judged = match (judged, tag_footprint(&tag, points, margin)) {
-            (judged, None | Some(Footprint::Whole(Surface::Board))) => judged,
-            (Footprint::Whole(Surface::Board), Some(other)) => other,
-            (Footprint::Covered(black), Some(Footprint::Covered(more))) => Footprint::Covered(black + more),
+    tags_footprint(grid.tags_meeting(low, high), points, margin).unwrap_or(Footprint::Whole(Surface::Board))
+}
+
+/// Judges a pixel's footprint on several tags, each judged alone; `None` wholly beside all of them. A
+/// footprint wholly in one tag's cell is beside every other tag (a grid's gaps and a bundle's are a tag's
+/// border wide at least); the tags' black cells are apart, so the shares of those it meets add up.
+#[inline]
+fn tags_footprint(
+    tags: impl IntoIterator<Item = AprilTag>,
+    points: &[Point2<f64>; 4],
+    margin: f64,
+) -> Option<Footprint> {
+    let mut judged: Option<Footprint> = None;
+    for tag in tags {
+        let Some(next) = tag_footprint(&tag, points, margin) else { continue };
+        judged = Some(match (judged, next) {
+            (None | Some(Footprint::Whole(Surface::Board)), next) => next,
+            (Some(judged), Footprint::Whole(Surface::Board)) => judged,
+            (Some(Footprint::Covered(black)), Footprint::Covered(more)) => Footprint::Covered(black + more),
             // wholly black in one tag and met by another, or near an edge to sample
-            _ => return Footprint::NearMark,
-        };
+            _ => return Some(Footprint::NearMark),
+        });
     }
-    match judged {
+    judged.map(|judged| match judged {
         Footprint::Covered(black) => Footprint::Covered(black.min(1.0)),
         judged => judged,
-    }
+    })
 }
 
 /// Judges a pixel's footprint on a tag, from its corners' board points and the margin for the lens's bend:

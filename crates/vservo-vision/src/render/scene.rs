@@ -121,13 +121,13 @@ impl Scene<'_> {
         if p.x < lo.x || p.x > hi.x || p.y < lo.y || p.y > hi.y {
             return Surface::Background;
         }
-        if let Some(black) = self.board.apriltag().and_then(|tag| tag.is_black_at(p.x, p.y)) {
+        if let Some(black) = self.board.target_black_at(p.x, p.y) {
             return if black { Surface::Mark } else { Surface::Board };
         }
         if self.board.calibration_grid.is_some_and(|grid| grid.is_black_at(p.x, p.y)) {
             return Surface::Mark;
         }
-        if self.board.apriltag().is_some() {
+        if self.board.target_is_tags() {
             return Surface::Board;
         }
         let r2 = self.mark_radius_m * self.mark_radius_m;
@@ -162,7 +162,7 @@ impl Scene<'_> {
     /// The pixel box (u0, u1, v0, v1), exclusive ends, that holds mark `index`'s image; `None` when part
     /// of the mark is behind the camera (it is then drawn by the edge sampler alone).
     pub(super) fn mark_box(&self, index: usize) -> Option<(i64, i64, i64, i64)> {
-        if self.board.apriltag().is_some() {
+        if self.board.target_is_tags() {
             return None;
         }
         let c = self.board.marks_in_board[index];
@@ -175,11 +175,15 @@ impl Scene<'_> {
     /// image: every pixel of the board is then judged against the tags.
     pub(super) fn tags_box(&self) -> Option<(i64, i64, i64, i64)> {
         const WHOLE_IMAGE: (i64, i64, i64, i64) = (i64::MIN / 2, i64::MAX / 2, i64::MIN / 2, i64::MAX / 2);
-        let tag = self.board.apriltag().map(|tag| {
+        let tag = self.board.target_tags().iter().fold(None, |union, tag| {
             let c = tag.centre_in_board();
             let r = 0.5 * tag.size_m();
-            self.board_box([Point2::new(c.x - r, c.y - r), Point2::new(c.x + r, c.y + r)])
-                .unwrap_or(WHOLE_IMAGE)
+            let one = self
+                .board_box([Point2::new(c.x - r, c.y - r), Point2::new(c.x + r, c.y + r)])
+                .unwrap_or(WHOLE_IMAGE);
+            Some(union.map_or(one, |u: (i64, i64, i64, i64)| {
+                (u.0.min(one.0), u.1.max(one.1), u.2.min(one.2), u.3.max(one.3))
+            }))
         });
         let grid = self
             .board

@@ -32,6 +32,8 @@ fn layouts_are_the_documented_ones() {
     assert_eq!(size_of::<FeaturesMsg>(), 40 + 64 + 8 + 96 + 32 + 8 + 8 + 8);
     assert_eq!(offset_of!(FeaturesMsg, edge_rms_px), 208);
     assert_eq!(offset_of!(FeaturesMsg, refined_mask), 248);
+    assert_eq!(offset_of!(FeaturesMsg, bits_corrected), 252);
+    assert_eq!(offset_of!(FeaturesMsg, tags_used_mask), 254);
     assert_eq!(offset_of!(FeaturesMsg, seal), 256);
     assert_eq!(offset_of!(FeaturesMsg, features_px), 40);
     assert_eq!(offset_of!(FeaturesMsg, mark_status), 104);
