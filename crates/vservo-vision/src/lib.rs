@@ -41,6 +41,7 @@ mod bundle;
 pub mod extract;
 pub mod noise;
 pub mod render;
+pub mod scan;
 pub mod source;
 pub mod tag;
 pub mod tag_refine;

@@ -4,7 +4,7 @@
 //! Steps: detect (the reference C library, AprilRobotics' apriltag 3.x, through the `apriltag` crate; quads
 //! searched on the image decimated by 2, then at full resolution, which finds the small and far tags the
 //! decimated search misses: first in a region around the previous detection, then in the whole image, the
-//! full-resolution search on at most [`FULL_RESOLUTION_MAX_PIXELS`]) → pick the configured id → check every corner is inside the image → refine each of the four edges of
+//! full-resolution search on at most [`FULL_RESOLUTION_MAX_PIXELS`], a larger image one scan tile a frame, [`crate::scan`]) → pick the configured id → check every corner is inside the image → refine each of the four edges of
 //! the black square on the pixels' area coverage ([`crate::tag_refine`]) and intersect them. A corner the
 //! refinement cannot measure is the decoder's own: a tag the decoder accepted is never dropped, and its
 //! [`TagQuality`] says which corners were refined.
@@ -15,13 +15,14 @@
 //! (−1, −1), i.e. bottom left, bottom right, top right, top left of the tag as printed; the order of
 //! `vservo_scene::AprilTag::corners_in_board`, so feature k is always the same physical corner.
 
-use std::cell::RefCell;
+use std::cell::{Cell, RefCell};
 
 use image::GrayImage;
 use nalgebra::Point2;
 use vservo_scene::{Board, CameraIntrinsics, FeatureVector, MARKS, TagBundle};
 
 use crate::extract::{Extraction, ImageProblem, MarkStatus};
+use crate::scan::scan_tiles;
 use crate::tag_refine::{Straight, refine_corners};
 
 /// Pixels added on every side of the previous detection's bounding box to make the search region, at least.
@@ -30,7 +31,8 @@ pub const SEARCH_MARGIN_PX: u32 = 24;
 /// The most pixels the extractor searches for quads at full resolution in one frame: 640 × 480. There the
 /// search took 53 ms with noise of σ = 5 gray levels (2.9 ms clean), within the 85 ms vision period with the
 /// decimated search before it; at 1280 × 1024 it took 287 ms (docs/BENCHMARKS.md). A larger image is searched
-/// at full resolution only in the region around the previous detection.
+/// at full resolution in the region around the previous detection, and, with none, one of its scan tiles a
+/// frame ([`crate::scan`]).
 pub const FULL_RESOLUTION_MAX_PIXELS: u32 = 640 * 480;
 
 /// A region of the image, (u0, v0, u1, v1) with exclusive ends.
@@ -39,7 +41,7 @@ type Region = (u32, u32, u32, u32);
 /// Whether `region` is small enough for a full-resolution search in a frame.
 /// The C library thresholds in tiles of 4 × 4 pixels of the image it searches for quads, 8 × 8 of the original
 /// at the decimation of 2; a search region starts on a multiple of this.
-const TILE_GRID_PX: u32 = 8;
+pub(crate) const TILE_GRID_PX: u32 = 8;
 
 fn affordable_at_full_resolution((u0, v0, u1, v1): Region) -> bool {
     (u1 - u0).saturating_mul(v1 - v0) <= FULL_RESOLUTION_MAX_PIXELS
@@ -200,6 +202,8 @@ pub struct TagExtractor {
     height_px: u32,
     /// The camera, when its lens distorts: the edges are fitted on its pinhole image.
     lens: Option<CameraIntrinsics>,
+    /// In an image too large for one full-resolution search: the scan tile the next acquisition searches.
+    next_tile: Cell<u32>,
 }
 
 /// What the extractor looks for.
@@ -221,7 +225,7 @@ thread_local! {
 impl TagExtractor {
     /// An extractor of tag `id` in images of `width_px` × `height_px`.
     pub fn new(id: u32, width_px: u32, height_px: u32) -> Self {
-        Self { target: TagTarget::One(id), width_px, height_px, lens: None }
+        Self { target: TagTarget::One(id), width_px, height_px, lens: None, next_tile: Cell::new(0) }
     }
 
     /// An extractor of tag `id` in `camera`'s images: through a lens that distorts, the corners are those
@@ -229,7 +233,8 @@ impl TagExtractor {
     /// the lens; the same as [`TagExtractor::new`] for a pinhole camera.
     pub fn for_camera(id: u32, camera: &CameraIntrinsics) -> Self {
         let lens = (!camera.distortion().is_none()).then_some(*camera);
-        Self { target: TagTarget::One(id), width_px: camera.width_px(), height_px: camera.height_px(), lens }
+        let (width_px, height_px) = (camera.width_px(), camera.height_px());
+        Self { target: TagTarget::One(id), width_px, height_px, lens, next_tile: Cell::new(0) }
     }
 
     /// The extractor of `board`'s target in `camera`'s images: its tag ([`TagExtractor::for_camera`]) or its
@@ -256,7 +261,10 @@ impl TagExtractor {
         self.lens.as_ref()
     }
 
-    /// The tag in `image`, looked for first near `previous` (the last frame's corners, if it had them).
+    /// The tag in `image`, looked for first near `previous` (the last frame's corners, if it had them); then in
+    /// the whole image, decimated, and where that misses it at full resolution: the whole image up to
+    /// [`FULL_RESOLUTION_MAX_PIXELS`], else the next of its [`crate::scan`] (each call the next one, so that a
+    /// small tag anywhere in a large image is acquired within as many frames as there are tiles).
     pub fn extract(&self, image: &GrayImage, previous: Option<&FeatureVector>) -> TagExtraction {
         if image.width() != self.width_px || image.height() != self.height_px {
             return TagExtraction::refused(TagVerdict::Unusable(ImageProblem::WrongSize {
@@ -279,10 +287,29 @@ impl TagExtractor {
         }
         let whole = (0, 0, self.width_px, self.height_px);
         let decimated = detect(image, whole, QuadSearch::Decimated);
-        if decimated.iter().any(|d| self.wants(d.id)) || !affordable_at_full_resolution(whole) {
+        if decimated.iter().any(|d| self.wants(d.id)) {
             return self.pick(image, &decimated, QuadSearch::Decimated);
         }
-        self.pick(image, &detect(image, whole, QuadSearch::FullResolution), QuadSearch::FullResolution)
+        if affordable_at_full_resolution(whole) {
+            return self.pick(
+                image,
+                &detect(image, whole, QuadSearch::FullResolution),
+                QuadSearch::FullResolution,
+            );
+        }
+        self.scan_next_tile(image).unwrap_or_else(|| self.pick(image, &decimated, QuadSearch::Decimated))
+    }
+
+    /// The next scan tile searched at full resolution: our tag (or bundle) if it is there.
+    fn scan_next_tile(&self, image: &GrayImage) -> Option<TagExtraction> {
+        let tiles = scan_tiles(self.width_px, self.height_px);
+        let k = self.next_tile.get() % tiles.count();
+        self.next_tile.set((k + 1) % tiles.count());
+        let in_tile = detect(image, tiles.tile(k), QuadSearch::FullResolution);
+        in_tile
+            .iter()
+            .any(|d| self.wants(d.id))
+            .then(|| self.pick(image, &in_tile, QuadSearch::FullResolution))
     }
 
     /// Our tag (or bundle) in the region around the previous detection, found and measured, if it is there.
