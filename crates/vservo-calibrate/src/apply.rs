@@ -15,43 +15,18 @@ use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
 use serde_json::{Value, json};
+use vservo_config::edit::{ConfigEdit, EditError};
 use vservo_config::{Config, LENS_KEYS};
 use vservo_protocol::DaemonState;
 
 use crate::{CalibrateError, Result};
-
-/// Refuses a configuration the user keeps read-only (no write permission for its owner: a 0444 file, which root
-/// too must not replace) or cannot open for writing, and one in a folder where the edited file cannot be made (a
-/// probe file is made there and removed).
-fn writable(config_path: &Path) -> Result<()> {
-    use std::os::unix::fs::PermissionsExt;
-    let metadata =
-        std::fs::metadata(config_path).map_err(CalibrateError::file("--apply: looking at", config_path))?;
-    let mode = metadata.permissions().mode() & 0o777;
-    let opens = std::fs::OpenOptions::new().write(true).open(config_path).is_ok();
-    if mode & 0o200 == 0 || !opens {
-        return Err(CalibrateError::Refused(format!(
-            "--apply: {} is read-only (mode {mode:04o}): nothing was moved; make it writable (chmod u+w), or leave \
-             --apply out and point [camera] calibration_file at the calibration yourself",
-            config_path.display()
-        )));
-    }
-    vservo_config::new_file::can_make_beside(config_path).map_err(|e| {
-        CalibrateError::Refused(format!(
-            "--apply: {e}, where the edited configuration is written: nothing was moved"
-        ))
-    })
-}
 
 /// The suffix of the configuration as it was before `--apply`.
 const BEFORE_SUFFIX: &str = "before-calibration";
 
 /// The configuration file as it was, checked to be editable (before anything moves, so that a configuration
 /// `--apply` cannot edit is refused first).
-pub struct Edit {
-    config_path: PathBuf,
-    before: String,
-}
+pub struct Edit(ConfigEdit);
 
 /// What `--apply` did.
 pub struct Applied {
@@ -73,22 +48,25 @@ pub enum Reload {
     NotTaken(String),
 }
 
+impl From<EditError> for CalibrateError {
+    fn from(error: EditError) -> Self {
+        match error {
+            EditError::Refused(why) if why.contains("is read-only") => CalibrateError::Refused(format!(
+                "{why}, or leave --apply out and point [camera] calibration_file at the calibration yourself"
+            )),
+            EditError::Refused(why) => CalibrateError::Refused(why),
+            EditError::File { what, path, source } => CalibrateError::File { what, path, source },
+            EditError::Invalid(e) => CalibrateError::Refused(e.to_string()),
+            EditError::NewFile(e) => CalibrateError::NewFile(e),
+        }
+    }
+}
+
 impl Edit {
     /// Checks that the configuration file can be edited: a TOML file of the user's own, readable and
     /// writable in its folder.
     pub fn check(config_path: &Path) -> Result<Self> {
-        let before = std::fs::read_to_string(config_path)
-            .map_err(CalibrateError::file("--apply: reading", config_path))?;
-        before.parse::<toml_edit::DocumentMut>().map_err(|e| {
-            CalibrateError::Refused(format!(
-                "--apply: {} cannot be edited as TOML: {e}",
-                config_path.display()
-            ))
-        })?;
-        vservo_config::new_file::check(&kept_path(config_path), true)?;
-        vservo_config::new_file::check(config_path, true)?;
-        writable(config_path)?;
-        Ok(Self { config_path: config_path.to_path_buf(), before })
+        Ok(Self(ConfigEdit::check(config_path, "--apply", BEFORE_SUFFIX)?))
     }
 
     /// Points `[camera] calibration_file` at `calibration`, checks the configuration loads so and that it
@@ -102,26 +80,23 @@ impl Edit {
             ))
         };
         let (text, replaced_keys) =
-            edited(&self.before, &self.relative(calibration)).map_err(left_calibration)?;
+            edited(self.0.document()?, &self.relative(calibration)).map_err(left_calibration)?;
         self.validate(&text, calibration).map_err(left_calibration)?;
-        let kept = kept_path(&self.config_path);
-        let mode = mode_of(&self.config_path);
-        vservo_config::new_file::write(&kept, self.before.as_bytes(), true, mode)
-            .map_err(|e| left_calibration(e.into()))?;
-        vservo_config::new_file::write(&self.config_path, text.as_bytes(), true, mode).map_err(|e| {
+        let kept = self.0.keep_copy().map_err(|e| left_calibration(e.into()))?.to_path_buf();
+        self.0.replace(&text).map_err(|e| {
             left_calibration(CalibrateError::from(e).left(format!(
                 "{} is as it was; a copy of it is at {}",
-                self.config_path.display(),
+                self.0.path().display(),
                 kept.display()
             )))
         })?;
-        Ok(Applied { config_path: self.config_path, kept, replaced_keys, reload: None })
+        Ok(Applied { config_path: self.0.path().to_path_buf(), kept, replaced_keys, reload: None })
     }
 
     /// `calibration` as the configuration writes it: relative to the configuration's folder where it lies
     /// beside or below it, else absolute.
     fn relative(&self, calibration: &Path) -> String {
-        let folder = self.config_path.parent().map(absolute).unwrap_or_default();
+        let folder = self.0.path().parent().map(absolute).unwrap_or_default();
         let calibration = absolute(calibration);
         calibration.strip_prefix(&folder).unwrap_or(&calibration).display().to_string()
     }
@@ -129,22 +104,19 @@ impl Edit {
     /// Loads the edited configuration from a file beside the real one (so that `extends` and relative
     /// paths resolve as they will) and checks it reads the calibration.
     fn validate(&self, text: &str, calibration: &Path) -> Result<()> {
-        let trial = self.config_path.with_extension("apply-check.toml");
-        vservo_config::new_file::write(&trial, text.as_bytes(), true, 0o600)?;
-        let loaded = Config::load(&trial);
-        let _ = std::fs::remove_file(&trial);
-        let config = loaded.map_err(|e| {
-            CalibrateError::Refused(format!(
+        let config = self.0.load_edited(text).map_err(|e| match e {
+            EditError::Invalid(e) => CalibrateError::Refused(format!(
                 "--apply: {} with calibration_file = {} does not load, so it was left as it was: {e}",
-                self.config_path.display(),
+                self.0.path().display(),
                 calibration.display()
-            ))
+            )),
+            other => other.into(),
         })?;
         if !reads(&config, calibration)? {
             return Err(CalibrateError::Refused(format!(
                 "--apply: {} would not read {}: a file it extends or its [camera] sets the lens otherwise; \
                  set calibration_file by hand",
-                self.config_path.display(),
+                self.0.path().display(),
                 calibration.display()
             )));
         }
@@ -172,10 +144,7 @@ fn reads(config: &Config, calibration: &Path) -> Result<bool> {
 
 /// The configuration's text with `[camera] calibration_file` set and the other lens keys of its `[camera]`
 /// removed (they are the file's now), and the keys removed.
-fn edited(before: &str, calibration: &str) -> Result<(String, Vec<String>)> {
-    let mut document: toml_edit::DocumentMut = before
-        .parse()
-        .map_err(|e| CalibrateError::Refused(format!("--apply: parsing the configuration as TOML: {e}")))?;
+fn edited(mut document: toml_edit::DocumentMut, calibration: &str) -> Result<(String, Vec<String>)> {
     let camera = document
         .entry("camera")
         .or_insert_with(|| toml_edit::Item::Table(toml_edit::Table::new()))
@@ -191,17 +160,6 @@ fn edited(before: &str, calibration: &str) -> Result<(String, Vec<String>)> {
     }
     camera.insert("calibration_file", toml_edit::value(calibration));
     Ok((document.to_string(), replaced))
-}
-
-fn kept_path(config_path: &Path) -> PathBuf {
-    let mut name = config_path.file_name().unwrap_or_default().to_os_string();
-    name.push(format!(".{BEFORE_SUFFIX}"));
-    config_path.with_file_name(name)
-}
-
-fn mode_of(path: &Path) -> u32 {
-    use std::os::unix::fs::PermissionsExt;
-    std::fs::metadata(path).map_or(0o644, |m| m.permissions().mode() & 0o777)
 }
 
 fn absolute(path: &Path) -> PathBuf {
@@ -342,7 +300,7 @@ mod tests {
     fn the_lens_keys_give_way_to_the_calibration_file_and_the_rest_stays() {
         let before = "# my cell\nextends = \"base.toml\"\n\n[camera]\n# the lens\nfx_px = 600.0 # measured\nfy_px = 600.0\n\
                       principal_point_px = [320.0, 240.0]\nwidth_px = 640\nheight_px = 480\n\n[timing]\nvision_period_s = 0.085\n";
-        let (after, replaced) = edited(before, "calibration.yaml").expect("edits");
+        let (after, replaced) = edited(before.parse().expect("TOML"), "calibration.yaml").expect("edits");
         assert_eq!(
             replaced,
             [
@@ -363,7 +321,8 @@ mod tests {
     #[test]
     fn a_configuration_without_a_camera_table_gets_one() {
         let (after, replaced) =
-            edited("extends = \"vservo.toml\"\n", "/abs/calibration.yaml").expect("edits");
+            edited("extends = \"vservo.toml\"\n".parse().expect("TOML"), "/abs/calibration.yaml")
+                .expect("edits");
         assert!(replaced.is_empty());
         let table: toml::Table = after.parse().expect("TOML");
         assert_eq!(table["camera"]["calibration_file"].as_str(), Some("/abs/calibration.yaml"));
@@ -371,6 +330,6 @@ mod tests {
 
     #[test]
     fn a_camera_that_is_not_a_table_is_refused() {
-        assert!(edited("camera = 3\n", "c.yaml").is_err());
+        assert!(edited("camera = 3\n".parse().expect("TOML"), "c.yaml").is_err());
     }
 }

@@ -58,6 +58,7 @@ pub const MAX_PIPELINE_BYTES: usize = 4096;
 
 pub mod calibration;
 mod cell;
+pub mod edit;
 mod error;
 mod layers;
 pub mod new_file;
