@@ -2,14 +2,14 @@
 //! (clients/python/pybullet_driver.py with config/arms/ur5e.urdf, its hand camera rendered by PyBullet) and a
 //! ros2_control arm over DDS (clients/python/ros2_control_arm.py). The right cell passes every check; each of a
 //! wrong period, a wrong joint name, a board out of view and an unreachable desired pose fails with a line that
-//! says so.
+//! says so. `vservoctl teach` makes a cell whose board stands elsewhere pass, and the servo goes back to the view taught.
 
 use std::path::{Path, PathBuf};
 use std::time::Duration;
 
 use serde_json::Value;
 use vservo_system_tests::{
-    Daemon, ScratchDir, TempConfig, config_from, exclusive, pybullet_driver, repository_root,
+    Daemon, ScratchDir, TempConfig, config_from, echo_lines, exclusive, pybullet_driver, repository_root,
     ros2_control_arm, run, unique, vservoctl, wait_until,
 };
 
@@ -213,4 +213,107 @@ fn a_wrong_joint_name_fails_the_joints_check() {
     assert!(text.contains("no joint \"wrist_3_joint\" (ros2.joint_names[6])"), "{text}");
     assert!(text.contains("joint6"), "the names the arm publishes: {text}");
     assert_eq!(verdict(&check, "joint_states").0["pass"], false, "{check}");
+}
+
+/// `vservoctl teach` on the held UR5e cell whose board really stands 60 mm and 10° away from where the
+/// configuration says (the driver's scene moved so): the check fails its kinematics; taught with the arm still,
+/// the configuration file holds the taught `[desired]` with its comments kept and the check passes 7 of 7; moved
+/// away out of the hold and held again, `resume` servos back below 1 px of the taught view.
+#[test]
+fn a_board_elsewhere_is_taught_and_the_cell_servos_back_to_the_taught_view() {
+    let _one = exclusive();
+    let instance = unique("teach");
+    let root = repository_root();
+    let config = TempConfig::written(&format!(
+        "# the user's UR5e cell: keep this comment\nextends = \"{}\"\n[instance]\nname = \"{instance}\"\n[timing]\n\
+         pipeline_delay_frames = 0\n[camera]\nsource = \"external\"\n[robot]\ndriver = \"external\"\n\
+         command = \"velocity\"\nperiod_s = 0.002\nstart = \"held\"  # held: teach first\n",
+        root.join("config/arms/ur5e.toml").display()
+    ));
+    let dir = ScratchDir::new(&instance);
+    let scene = scene(&config, &dir.0, |scene| {
+        // 60 mm along the board's x, and turned 10° about its normal
+        let (c, s) = (10f64.to_radians().cos(), 10f64.to_radians().sin());
+        let at = |scene: &Value, row: usize, column: usize| {
+            scene["base_from_board"][row][column].as_f64().expect("a pose")
+        };
+        for row in 0..3 {
+            let (x, y, t) = (at(scene, row, 0), at(scene, row, 1), at(scene, row, 3));
+            scene["base_from_board"][row][0] = (c * x + s * y).into();
+            scene["base_from_board"][row][1] = (-s * x + c * y).into();
+            scene["base_from_board"][row][3] = (t + 0.06 * x).into();
+        }
+    });
+    let daemon = Daemon::start(&config);
+    let _driver = pybullet_driver(&scene, &root.join("config/arms/ur5e.urdf"), &instance);
+    assert!(states_arrive(&instance), "{}", daemon.log());
+    std::thread::sleep(Duration::from_secs(1));
+    let (code, before) = check(&instance);
+    assert_eq!(code, Some(1), "{before}");
+    let (kinematics, _) = verdict(&before, "kinematics");
+    assert!(kinematics["board_offset_mm"].as_f64().is_some_and(|mm| mm > 50.0), "{before}");
+
+    let (code, out) = vservoctl(&["teach", "--config", &config.arg(), "--json"]);
+    assert_eq!(code, Some(0), "{out}\n{}", daemon.log());
+    let taught: Value = out.lines().find_map(|l| serde_json::from_str(l).ok()).expect("teach's JSON");
+    println!("taught: {taught}");
+    assert_eq!(taught["reload"]["accepted"], true, "{taught}");
+    assert!(taught["fit_px"].as_f64().is_some_and(|px| px < 1.0), "{taught}");
+    // the running goal is the taught view
+    let in_force = taught["reload"]["target_features_px"].as_array().expect("the goal in force");
+    let taught_view = taught["target_features_px"].as_array().expect("ξ_d");
+    for (a, b) in in_force.iter().zip(taught_view) {
+        assert!((a.as_f64().unwrap_or(f64::NAN) - b.as_f64().unwrap_or(f64::NAN)).abs() < 1e-3, "{taught}");
+    }
+    let text = std::fs::read_to_string(&config.path).expect("the configuration");
+    assert!(
+        text.contains("# the user's UR5e cell: keep this comment") && text.contains("# held: teach first"),
+        "{text}"
+    );
+    let written = vservo_config::Config::load(&config.path).expect("the taught file loads");
+    let joints: Vec<f64> =
+        taught["joints_rad"].as_array().expect("joints").iter().filter_map(Value::as_f64).collect();
+    for (file, now) in written.cell.desired.joints.iter().zip(&joints) {
+        assert!(
+            (file - now).abs() < 1e-8,
+            "the file's desired joints {:?}, taught {joints:?}",
+            written.cell.desired.joints
+        );
+    }
+    let (code, after) = check(&instance);
+    assert_eq!(code, Some(0), "{after}");
+    for name in ["held", "joint_states", "joints", "kinematics", "camera", "desired_pose", "first_twist"] {
+        assert_eq!(verdict(&after, name).0["pass"], true, "{name}: {after}");
+    }
+
+    // away from the taught pose, out of the hold; held again; resumed
+    let away: Vec<String> =
+        joints.iter().zip([0.02, -0.02, 0.02, 0.03, 0.02, 0.04]).map(|(q, d)| format!("{}", q + d)).collect();
+    let (code, out) =
+        vservoctl(&["move-joints", "--instance", &instance, "--out-of-hold", "--q", &away.join(",")]);
+    assert_eq!(code, Some(0), "{out}");
+    let arrived = wait_until(Duration::from_secs(30), || {
+        let state = echo_lines(&instance, "joint_state", "0.2").pop().unwrap_or_default();
+        let q: Vec<f64> = state["q_rad"]
+            .as_array()
+            .map(|a| a.iter().filter_map(Value::as_f64).collect())
+            .unwrap_or_default();
+        q.len() >= 6
+            && away.iter().zip(&q).all(|(goal, q)| (goal.parse::<f64>().unwrap_or(f64::NAN) - q).abs() < 2e-3)
+    });
+    assert!(arrived, "the arm never reached the pose away\n{}", daemon.log());
+    let error_now = || {
+        echo_lines(&instance, "camera_twist", "0.5").iter().rev().find_map(|t| t["feature_error_px"].as_f64())
+    };
+    let start_error = error_now().unwrap_or(f64::NAN);
+    for command in ["safe-stop", "servo", "resume"] {
+        let (code, out) = vservoctl(&[command, "--instance", &instance]);
+        println!("{command}: {out} ({:?} px)", error_now());
+        assert_eq!(code, Some(0), "{command}: {out}\n{}", daemon.log());
+    }
+    let converged = wait_until(Duration::from_secs(30), || error_now().is_some_and(|px| px < 1.0));
+    println!("resumed {start_error:.1} px from the taught view; converged: {converged}");
+    assert!(start_error > 5.0, "the premise: moved away from the taught view ({start_error} px)");
+    assert!(converged, "not below 1 px of the taught view\n{}", daemon.log());
+    daemon.stop();
 }

@@ -62,7 +62,7 @@ pub fn isometry(rows: &[Vec<f64>]) -> Option<IsometryMatrix3<f64>> {
 /// How far `other` is from `truth`: translation (mm) and rotation angle (°) of truth⁻¹ · other.
 fn pose_error(truth: &IsometryMatrix3<f64>, other: &IsometryMatrix3<f64>) -> (f64, f64) {
     let e = truth.inverse() * other;
-    (e.translation.vector.norm() * 1e3, e.rotation.angle().to_degrees())
+    (e.translation.vector.norm() * 1e3, vservo_scene::rotation_angle_rad(&e.rotation).to_degrees())
 }
 
 /// The solved camera pose in its mount, named, as an isometry (NaN-free or none).

@@ -61,9 +61,47 @@ pub use mount::CameraMount;
 pub use nalgebra::IsometryMatrix3;
 pub use tag_grid::{TagGrid, TagGridError};
 
+/// The angle of a rotation (rad, 0 to π), from its matrix's skew and symmetric parts (atan2): defined for a matrix
+/// a rounding off orthonormal, where nalgebra's `Rotation3::angle` (the arccosine of (trace − 1)/2) is NaN once
+/// rounding puts the cosine past 1, as it does for two poses the same to the last bits.
+pub fn rotation_angle_rad(rotation: &nalgebra::Rotation3<f64>) -> f64 {
+    let m = rotation.matrix();
+    let sine = nalgebra::Vector3::new(m[(2, 1)] - m[(1, 2)], m[(0, 2)] - m[(2, 0)], m[(1, 0)] - m[(0, 1)])
+        .norm()
+        / 2.0;
+    let cosine = (m.trace() - 1.0) / 2.0;
+    sine.atan2(cosine)
+}
+
 /// Number of image features: x and y of each mark.
 pub const FEATURES: usize = 2 * MARKS;
 /// The feature vector ξ (pixels).
 pub type FeatureVector = nalgebra::SVector<f64, FEATURES>;
 /// The depths of the four marks in the camera frame (m).
 pub type MarkDepths = nalgebra::SVector<f64, MARKS>;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use nalgebra::{Matrix3, Rotation3, Vector3};
+    use proptest::prelude::*;
+
+    proptest! {
+        #[test]
+        fn the_angle_of_a_rotation_is_its_axis_angle(x in -1.0f64..1.0, y in -1.0f64..1.0, z in -1.0f64..1.0, angle in 0.0f64..3.1) {
+            let axis = Vector3::new(x, y, z);
+            prop_assume!(axis.norm() > 1e-3);
+            let rotation = Rotation3::from_scaled_axis(axis.normalize() * angle);
+            prop_assert!((rotation_angle_rad(&rotation) - angle).abs() < 1e-12);
+        }
+    }
+
+    /// Two poses the same to the last bits: a matrix a rounding past orthonormal has trace 3 + 1e-15, whose
+    /// arccosine is NaN; its angle is 0.
+    #[test]
+    fn a_rotation_a_rounding_off_the_identity_has_angle_zero() {
+        let rounded = Rotation3::from_matrix_unchecked(Matrix3::<f64>::identity() * (1.0 + 1e-15));
+        assert!(rounded.angle().is_nan(), "the premise: nalgebra's arccosine");
+        assert!(rotation_angle_rad(&rounded).abs() < 1e-12);
+    }
+}

@@ -80,6 +80,7 @@ mod stability;
 mod status;
 mod tag;
 mod tags;
+mod teach;
 mod top;
 mod view;
 mod vision;
@@ -169,6 +170,10 @@ enum Command {
     /// Calibrate the camera (intrinsics, lens) and where it sits on the hand (`tool_from_camera`) from
     /// views of the calibration board at poses around it.
     Calibrate(calibrate::CalibrateArgs),
+    /// Teach the goal: with the arm still where the camera should be, the view now becomes `[desired]` (the
+    /// joints, and the board's pose as seen) in the configuration file, which the running instance reloads;
+    /// `--target-only` changes the running goal alone.
+    Teach(teach::TeachArgs),
 }
 
 fn main() -> ExitCode {
@@ -204,6 +209,7 @@ fn main() -> ExitCode {
         Command::Tag(args) => tag::run(&args),
         Command::Tags(args) => tags::run(&args),
         Command::Calibrate(args) => calibrate::run(&args),
+        Command::Teach(args) => teach::run(&args),
         Command::Check(args) => check::run(&args),
     };
     match result {

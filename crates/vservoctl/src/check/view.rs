@@ -70,7 +70,7 @@ pub fn kinematics(observed: &Observed, config: &Config) -> Line {
     let configured = configured_board(config);
     let offset = configured.inverse() * measured;
     let distance_m = offset.translation.vector.norm();
-    let angle_rad = offset.rotation.angle();
+    let angle_rad = vservo_scene::rotation_angle_rad(&offset.rotation);
     let pass = distance_m <= BOARD_POSITION_TOLERANCE_M && angle_rad <= BOARD_ROTATION_TOLERANCE_RAD;
     let text = format!(
         "the board seen from the measured joints is {:.1} mm and {:.2}° from where the configuration places it \
