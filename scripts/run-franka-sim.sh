@@ -6,7 +6,8 @@
 # rendering the board from the arm's measured joints.
 #
 #   scripts/run-franka-sim.sh [--config FILE] [--start default|medium] [--duration-s S] [--no-jerk-limit]
-#                             [--fault driver-stopped|daemon-killed|held-takeover|udp-spoof] [--reference] [--json]
+#                             [--fault driver-stopped|daemon-killed|server-restarted|held-takeover|udp-spoof]
+#                             [--reference] [--json]
 #
 # The run as a user's first motion would go: the cell starts held; `vservoctl resume`; `vservoctl move-joints` to
 # the start (the configuration's scenario start, or with --start medium one 8–10 cm and 8–12° away in each axis);
@@ -16,7 +17,11 @@
 # --fault, 1 s into servoing: driver-stopped SIGSTOPs the Franka driver for 100 ms (the robot stops itself, the cell
 # stops safely; the status then is `fault_status`), then `vservoctl resume` (the robot's error recovery, a new
 # motion) and the recording; daemon-killed SIGKILLs vservod while the arm moves (its driver brings the arm to rest
-# and finishes the motion; `driver_finished`), and nothing is recorded. held-takeover is issue 46's attack on the
+# and finishes the motion; `driver_finished`), and nothing is recorded. server-restarted SIGKILLs franka-sim itself
+# (the robot gone): the cell stops safely, a `vservoctl resume` while it is gone is refused (`refused_while_gone`: the
+# refusal), franka-sim starts again on the same port (its arm at its own start), and `vservoctl resume` (retried
+# until taken: the driver connects again every second) starts a new motion, servoed and recorded
+# (`resumed_after_restart`, `fault_status`). held-takeover is issue 46's attack on the
 # held cell, before any resume: a process of the same user SIGKILLs the rmrc, takes its joint_command slot and answers
 # each joint state with 0.3 rad/s on joint 1, unsealed, for 3 s (tests/python/takeover_attack.py); the summary's
 # `attack` says how far joint 1 moved (the robot's measured angle), and `rogue_named` whether vservod's log names the
@@ -59,8 +64,9 @@ while [ $# -gt 0 ]; do
     esac
 done
 case "$start" in default|medium) ;; *) echo "run-franka-sim: --start is default or medium" >&2; exit 2 ;; esac
-case "$fault" in ""|driver-stopped|daemon-killed|held-takeover|udp-spoof) ;;
-    *) echo "run-franka-sim: --fault is driver-stopped, daemon-killed, held-takeover or udp-spoof" >&2; exit 2 ;; esac
+case "$fault" in ""|driver-stopped|daemon-killed|server-restarted|held-takeover|udp-spoof) ;;
+    *) echo "run-franka-sim: --fault is driver-stopped, daemon-killed, server-restarted, held-takeover or udp-spoof" >&2
+       exit 2 ;; esac
 [ -f "$config" ] || { echo "run-franka-sim: $config: no such file" >&2; exit 2; }
 config="$(cd "$(dirname "$config")" && pwd)/$(basename "$config")"
 python=target/python-venv/bin/python
@@ -123,11 +129,17 @@ cleanup() {
 }
 trap cleanup EXIT
 
-FR3_MJCF="$(pwd)/$mjcf/fr3.xml" "$venv/bin/run-franka-sim-server" --no-gripper --port "$port" \
-    --enforce-motion-limits --enforce-comm-constraints > "$out/franka-sim.log" 2>&1 &
-pids+=($!)
-"$venv/bin/franka-sim-check" --host 127.0.0.1 --port "$port" --timeout 30 > "$out/franka-sim-check.log" 2>&1 ||
-    { echo "run-franka-sim: franka-sim did not come up (see $out/franka-sim.log)" >&2; exit 1; }
+# start_server: franka-sim on the run's port, its log appended to franka-sim.log, its pid in $server; waits until it
+# answers as an FCI server
+start_server() {
+    FR3_MJCF="$(pwd)/$mjcf/fr3.xml" "$venv/bin/run-franka-sim-server" --no-gripper --port "$port" \
+        --enforce-motion-limits --enforce-comm-constraints >> "$out/franka-sim.log" 2>&1 &
+    server=$!
+    pids+=("$server")
+    "$venv/bin/franka-sim-check" --host 127.0.0.1 --port "$port" --timeout 30 >> "$out/franka-sim-check.log" 2>&1 ||
+        { echo "run-franka-sim: franka-sim did not come up (see $out/franka-sim.log)" >&2; exit 1; }
+}
+start_server
 
 if [ "$reference" = 1 ]; then
     smoke="$bin/examples/fci_smoke"
@@ -251,6 +263,25 @@ case "$fault" in
             sleep 0.2
         done
         extra="$("$python" -c 'import json,sys; s=json.load(open(sys.argv[1])); print(json.dumps({"fault_status": s.get("fault"), "resumed_after_fault": sys.argv[2] == "true"}))' "$out/status-fault.json" "$resumed")"
+        ;;
+    server-restarted)
+        sleep 1
+        kill -KILL "$server"
+        wait "$server" 2>/dev/null || true
+        for _ in $(seq 50); do
+            "$vservoctl" status --instance "$instance" --json > "$out/status-fault.json" 2>/dev/null &&
+                grep -q '"active": true' "$out/status-fault.json" && break
+            sleep 0.1
+        done
+        sleep 1
+        "$vservoctl" resume --instance "$instance" > "$out/resume-gone.txt" 2>&1 || true
+        start_server
+        resumed=false
+        for _ in $(seq 100); do
+            "$vservoctl" resume --instance "$instance" > "$out/resume-fault.txt" 2>&1 && { resumed=true; break; }
+            sleep 0.2
+        done
+        extra="$("$python" -c 'import json,sys; s=json.load(open(sys.argv[1])); print(json.dumps({"fault_status": s.get("fault"), "refused_while_gone": open(sys.argv[2]).read().strip(), "resumed_after_restart": sys.argv[3] == "true"}))' "$out/status-fault.json" "$out/resume-gone.txt" "$resumed")"
         ;;
     udp-spoof)
         sleep 1

@@ -85,6 +85,24 @@ fn a_stopped_driver_is_a_named_safe_stop_and_resume_recovers_the_robot() {
     assert!(number(&summary, "max_joint_jerk_rad_s3") <= FR3_JERK_RAD_S3, "{summary}");
 }
 
+/// franka-sim itself killed mid-motion (the robot gone) and started again: the cell stops safely, a resume while
+/// the robot is gone is refused naming the lost connection, and once franka-sim is back `vservoctl resume` starts a
+/// new motion on the driver's new connection, which converges below 1 px.
+#[test]
+fn a_robot_server_killed_and_started_again_is_resumed_on_a_new_connection() {
+    let _one = exclusive();
+    let summary = run_script_to_convergence("run-franka-sim.sh", &["--fault", "server-restarted"]);
+    let refused = summary["refused_while_gone"].as_str().unwrap_or_default();
+    assert!(refused.contains("robot_connection_lost"), "the refusal names the cause: {summary}");
+    assert_eq!(summary["resumed_after_restart"], true, "{summary}");
+    assert_eq!(
+        (summary["connections_lost"].as_u64(), summary["reconnections"].as_u64()),
+        (Some(1), Some(1)),
+        "{summary}"
+    );
+    assert!(number(&summary, "max_joint_jerk_rad_s3") <= FR3_JERK_RAD_S3, "{summary}");
+}
+
 /// vservod SIGKILLed while the arm moves: its Franka driver brings the arm to rest within the limits and finishes
 /// the motion; the robot saw no violation of any kind.
 #[test]

@@ -14,6 +14,9 @@
 //! - a robot error (a reflex) is a driver fault, logged with the Franka's own error names (the cell's safe stop
 //!   `driver_fault`); once the cell is held, `vservoctl resume` runs the robot's automatic error recovery and a
 //!   new motion;
+//! - a robot that goes away (its connection closed: the robot or its server stopped) is a driver fault,
+//!   `robot_connection_lost`, reported while the driver connects again every second (a resume is refused with
+//!   it); once connected, `vservoctl resume` starts a new motion;
 //! - on SIGTERM or the daemon's death the arm is brought to rest within the limits and the motion finished
 //!   cleanly (`motion_generation_finished`).
 //!

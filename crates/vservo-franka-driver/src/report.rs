@@ -25,6 +25,9 @@ pub(crate) struct Report {
     pub(crate) period_said: bool,
     said: std::collections::BTreeSet<&'static str>,
     pub(crate) reflexes: Vec<String>,
+    /// How often the robot went away (its connection closed), and how often it was connected again.
+    pub(crate) connections_lost: u64,
+    pub(crate) reconnections: u64,
     /// The lowest `control_command_success_rate` the robot reported (after its first 100 cycles).
     min_success_rate: f64,
     last_success_rate: f64,
@@ -98,6 +101,8 @@ impl Report {
             period_said: false,
             said: Default::default(),
             reflexes: Vec::new(),
+            connections_lost: 0,
+            reconnections: 0,
             min_success_rate: 1.0,
             last_success_rate: 1.0,
             success_rate_sum: 0.0,
@@ -211,7 +216,7 @@ impl Report {
              \"reflex_errors\": [{}], \"state_to_command_p50_us\": {}, \
              \"state_to_command_p99_us\": {}, \"state_to_command_max_us\": {}, \"max_joint_jerk_rad_s3\": {}, \
              \"speed_at_stop_rad_s\": {}, \"datagrams_dropped\": {{\"foreign\": {}, \"malformed\": {}, \
-             \"id_jumps\": {}}}}}",
+             \"id_jumps\": {}}}, \"connections_lost\": {}, \"reconnections\": {}}}",
             self.cycles,
             self.late_answers,
             self.commands_refused,
@@ -226,6 +231,8 @@ impl Report {
             self.dropped.foreign,
             self.dropped.malformed,
             self.dropped.id_jumps,
+            self.connections_lost,
+            self.reconnections,
         );
     }
 }

@@ -20,11 +20,15 @@ const ROBOT_TIMEOUT: Duration = Duration::from_secs(2);
 /// No robot state for this long: the robot (or the network) is gone.
 const STATE_TIMEOUT: Duration = Duration::from_millis(500);
 
-/// With the motion stopped and no robot state for this long, the driver publishes the arm's last state again.
+/// With the motion stopped, the driver publishes the arm's state this often (the last one again where the robot
+/// sends none).
 const IDLE_PERIOD: Duration = Duration::from_millis(1);
 
 /// A fault is reported at least this long, so that the cell's fault monitor sees it (ns).
 const FAULT_SHOWN_NS: u64 = 200_000_000;
+
+/// With the robot gone, a new connection is tried this often.
+const RECONNECT_EVERY: Duration = Duration::from_secs(1);
 
 /// Runs until `stop` is set, then brings the arm to rest and ends the motion.
 pub fn run(
@@ -60,24 +64,54 @@ pub fn run(
     go_realtime(config);
     let mut driver = Driver::new(config, franka, monotonic_ns(), key);
     driver.start_motion(&mut robot, None)?;
+    // with the robot gone: the connection being made again, in a thread of its own (a robot that does not answer
+    // makes a connection wait its timeout, and the cell must keep hearing the driver meanwhile)
+    let mut reconnecting: Option<std::sync::mpsc::Receiver<Connection>> = None;
     loop {
         let stopping = vservo_protocol::signals::stopped(stop);
-        // a robot that stopped its motion may send no states (franka-sim does not): the driver goes on alone
-        let wait = if driver.moving() { STATE_TIMEOUT } else { IDLE_PERIOD };
-        let received = robot.recv_state(wait);
+        if let Some(connection) = reconnecting.as_ref().and_then(|r| r.try_recv().ok()) {
+            robot = connection;
+            reconnecting = None;
+            driver.reconnected(&robot);
+        }
+        // a robot that stopped its motion may send no states (franka-sim does not): the driver goes on alone, at
+        // its own period, slept (a socket's receive timeout counts in the kernel's ticks: a 1 ms one waited 8 ms
+        // here, and the period check took the driver's states for a robot at 125 Hz)
+        let moving = driver.moving();
+        if !moving {
+            std::thread::sleep(IDLE_PERIOD);
+        }
+        let received = robot.recv_state(if moving { STATE_TIMEOUT } else { Duration::ZERO });
         driver.report.datagrams(robot.dropped());
         let next = match received {
-            Ok(state) => driver.cycle(&mut robot, &mut cell, &state, stopping)?,
-            Err(vservo_franka::RecvStateError::Timeout { .. }) if !driver.moving() => {
-                driver.cycle_without_robot(&mut robot, &mut cell, stopping)?
+            // connected again, before the new motion: the robot's idle states (franka-sim sends them every 8 ms)
+            // update the arm's state, which the driver publishes at its own period, as while the robot was gone
+            Ok(state) if driver.connected_again() => {
+                driver.note_idle_state(&state);
+                driver.cycle_without_robot(&mut robot, &mut cell, stopping)
             }
-            // the robot stopped streaming mid-motion: it ended the motion (the driver was away, or the network)
-            Err(vservo_franka::RecvStateError::Timeout { waited, .. }) => {
+            Ok(state) if !driver.robot_gone() => driver.cycle(&mut robot, &mut cell, &state, stopping),
+            Err(vservo_franka::RecvStateError::Timeout { waited, .. }) if driver.moving() => {
+                // the robot stopped streaming mid-motion: it ended the motion (the driver or the network was away),
+                // or it went away altogether
                 driver.motion_lost(&mut robot, &mut cell, waited);
+                Ok(Next::Go)
+            }
+            // no state (a stopped motion; a robot gone, whose socket may say so by an error)
+            _ => driver.cycle_without_robot(&mut robot, &mut cell, stopping),
+        };
+        let next = match next {
+            Ok(next) => next,
+            // the robot closed the connection under a call: gone, as a silence with the connection closed is
+            Err(error) if !stopping && robot.closed() => {
+                driver.connection_lost(&mut cell, &format!("{error:#}"));
                 Next::Go
             }
-            Err(error) => return Err(error).context("the Franka's robot states stopped"),
+            Err(error) => return Err(error),
         };
+        if driver.robot_gone() && reconnecting.is_none() {
+            reconnecting = Some(reconnect(franka.address));
+        }
         if next == Next::End {
             break;
         }
@@ -85,6 +119,25 @@ pub fn run(
     driver.report.log("the motion ended; stopping");
     driver.report.summary_line();
     Ok(())
+}
+
+/// A thread that connects to the robot at `address` again, every [`RECONNECT_EVERY`], until it answers (or the
+/// driver no longer waits for it); the connection comes through the channel.
+fn reconnect(address: std::net::SocketAddr) -> std::sync::mpsc::Receiver<Connection> {
+    let (connected, receiver) = std::sync::mpsc::channel();
+    std::thread::spawn(move || {
+        loop {
+            std::thread::sleep(RECONNECT_EVERY);
+            match Connection::connect(address, ROBOT_TIMEOUT) {
+                Ok(connection) => {
+                    let _ = connected.send(connection);
+                    return;
+                }
+                Err(error) => tracing::debug!("the Franka at {address} does not answer yet: {error}"),
+            }
+        }
+    });
+    receiver
 }
 
 /// What a failed connection to the robot at `address` asks the user to check, by its cause.
@@ -145,10 +198,14 @@ enum Next {
 enum Phase {
     /// A joint-velocity motion runs: every state is answered.
     Moving,
-    /// The robot stopped the motion (a reflex): reported as a fault until the cell is held, then held until a
-    /// resume asks for the robot's recovery.
+    /// The robot stopped the motion (a reflex), or went away: reported as a fault until the cell is held (the
+    /// robot gone: until it is connected again), then held until a resume asks for the robot's recovery (a new
+    /// motion, on a new connection).
     Faulted {
+        /// The robot's errors (a reflex); none for a motion lost to silence.
         errors: RobotErrors,
+        /// The robot's connection closed: `Some(false)` while it is made again, `Some(true)` once it is.
+        reconnected: Option<bool>,
         since_ns: u64,
         /// The cell's mode sequence when it happened; `held_at`: the sequence of the safe stop that holds it.
         sequence: Option<u64>,
@@ -284,6 +341,8 @@ impl Driver {
     /// Publishes the joint state of `tick`: a fault while one is shown, else following or holding.
     fn publish(&mut self, cell: &CellPorts, tick: u64, stamp_ns: u64, measured: Measured) {
         let fault = match self.phase {
+            // the robot gone: reported until it is connected again, so that a resume is refused with the reason
+            Phase::Faulted { reconnected: Some(false), .. } => Some(DriverError::RobotConnectionLost),
             Phase::Faulted { errors, held_at: None, .. } => Some(driver_error(errors)),
             _ => None,
         };
@@ -339,13 +398,83 @@ impl Driver {
         self.look_after_fault(robot, cell, now_ns)
     }
 
-    /// No robot state for `waited` while moving: the motion is taken as ended by the robot, a fault.
+    /// No robot state for `waited` while moving: the motion is taken as ended by the robot, a fault; with the
+    /// robot's connection closed, the robot is gone ([`Driver::connection_lost`]).
     fn motion_lost(&mut self, robot: &mut Connection, cell: &mut CellPorts, waited: Duration) {
+        if robot.closed() {
+            self.connection_lost(cell, &format!("no robot state for {waited:?} and the connection closed"));
+            return;
+        }
         tracing::error!(
             "no robot state for {waited:?} while moving: the Franka ended the motion (the driver or the network \
              was away); the cell is stopped safely (driver_fault)"
         );
         self.motion_aborted(robot, cell, RobotErrors::default(), monotonic_ns());
+    }
+
+    /// The robot (or its server) went away: a fault, `robot_connection_lost`, reported until it is connected again
+    /// (the run's loop makes the connection again, every second); a resume then starts a new motion.
+    fn connection_lost(&mut self, cell: &mut CellPorts, why: &str) {
+        if self.robot_gone() {
+            return;
+        }
+        tracing::error!(
+            "the connection to the Franka is lost ({why}): the cell is stopped safely (driver_fault: \
+             robot_connection_lost); connecting again every {RECONNECT_EVERY:?}, then `vservoctl resume` starts a \
+             new motion"
+        );
+        self.report.connections_lost += 1;
+        self.side.hold();
+        self.shaper = None;
+        let sequence = self.cell_mode(cell).map(|(_, sequence)| sequence);
+        self.phase = Phase::Faulted {
+            errors: RobotErrors::default(),
+            reconnected: Some(false),
+            since_ns: monotonic_ns(),
+            sequence,
+            held_at: None,
+            recovering: None,
+        };
+    }
+
+    /// Whether the robot is gone and not connected again yet.
+    fn robot_gone(&self) -> bool {
+        matches!(self.phase, Phase::Faulted { reconnected: Some(false), .. })
+    }
+
+    /// Whether the robot is connected again and no new motion runs yet.
+    fn connected_again(&self) -> bool {
+        matches!(self.phase, Phase::Faulted { reconnected: Some(true), .. })
+    }
+
+    /// A state of the robot connected again, before its new motion: the arm's position and torques, at rest.
+    fn note_idle_state(&mut self, state: &RobotState) {
+        if let Some((tick, stamp_ns, _)) = self.last {
+            let measured = Measured {
+                q_rad: widen(&state.q),
+                qd_rad_s: [0.0; MAX_JOINTS],
+                torque_nm: widen(&state.tau_J),
+            };
+            self.last = Some((tick, stamp_ns, measured));
+        }
+    }
+
+    /// Connected again (the connection is `robot`'s): its states count from its own first, and the cell, held,
+    /// may resume into a new motion.
+    fn reconnected(&mut self, robot: &Connection) {
+        tracing::warn!(
+            protocol = robot.server_version(),
+            "connected to the Franka at {} again: `vservoctl resume` starts a new motion",
+            robot.robot_addr()
+        );
+        self.origin_id = None;
+        self.report.reconnections += 1;
+        if let Phase::Faulted { reconnected, .. } = &mut self.phase {
+            *reconnected = Some(true);
+        }
+        // the robot as it is now (a server started again puts its arm where it starts): published at rest until
+        // its motion streams states
+        self.note_idle_state(robot.first_state());
     }
 
     /// The robot ended the motion itself: a fault, named with the robot's errors.
@@ -367,7 +496,14 @@ impl Driver {
         self.side.hold();
         self.shaper = None;
         let sequence = self.cell_mode(cell).map(|(_, sequence)| sequence);
-        self.phase = Phase::Faulted { errors, since_ns: now_ns, sequence, held_at: None, recovering: None };
+        self.phase = Phase::Faulted {
+            errors,
+            reconnected: None,
+            since_ns: now_ns,
+            sequence,
+            held_at: None,
+            recovering: None,
+        };
     }
 
     /// Moving: the rmrc's answer to `tick` (waited for until `answer_within_s` after the state came), or the
@@ -454,7 +590,8 @@ impl Driver {
         cell: &mut CellPorts,
         now_ns: u64,
     ) -> anyhow::Result<Next> {
-        let Phase::Faulted { errors, since_ns, sequence, held_at, recovering } = self.phase else {
+        let Phase::Faulted { errors, reconnected, since_ns, sequence, held_at, recovering } = self.phase
+        else {
             return Ok(Next::Go);
         };
         if let Some(under_way) = recovering {
@@ -466,6 +603,7 @@ impl Driver {
                     let sequence = self.cell_mode(cell).map(|(_, at)| at);
                     self.phase = Phase::Faulted {
                         errors,
+                        reconnected: None,
                         since_ns: now_ns,
                         sequence,
                         held_at: None,
@@ -479,10 +617,21 @@ impl Driver {
         let shown = now_ns.saturating_sub(since_ns) >= FAULT_SHOWN_NS;
         match held_at {
             None if mode == CellMode::SafeStop && shown && sequence.is_none_or(|at| current >= at) => {
-                self.phase =
-                    Phase::Faulted { errors, since_ns, sequence, held_at: Some(current), recovering };
+                self.phase = Phase::Faulted {
+                    errors,
+                    reconnected,
+                    since_ns,
+                    sequence,
+                    held_at: Some(current),
+                    recovering,
+                };
             }
-            Some(held) if mode != CellMode::SafeStop && current > held => {
+            // on a new connection the robot has no error to recover from: a new motion
+            Some(held) if mode != CellMode::SafeStop && current > held && reconnected == Some(true) => {
+                tracing::warn!("a resume: a new motion on the Franka connected again");
+                self.start_motion(robot, held_at)?;
+            }
+            Some(held) if mode != CellMode::SafeStop && current > held && reconnected.is_none() => {
                 tracing::warn!("a resume: running the Franka's automatic error recovery after {errors}");
                 if robot.motion_active() {
                     // the stopped motion's answer, if it has not been read yet
@@ -491,8 +640,14 @@ impl Driver {
                 match robot.begin_automatic_error_recovery() {
                     Ok(under_way) => {
                         let recovering = Some(under_way);
-                        self.phase =
-                            Phase::Faulted { errors, since_ns, sequence, held_at: Some(current), recovering };
+                        self.phase = Phase::Faulted {
+                            errors,
+                            reconnected,
+                            since_ns,
+                            sequence,
+                            held_at: Some(current),
+                            recovering,
+                        };
                     }
                     Err(error) => {
                         tracing::error!("the Franka's error recovery could not be asked for: {error}")

@@ -157,6 +157,12 @@ impl Connection {
         self.server_version
     }
 
+    /// Whether the robot closed the command channel (it, or its server, went away): looked at without waiting. A
+    /// robot gone without a word (a cable pulled) is not seen here, only by its silence.
+    pub fn closed(&mut self) -> bool {
+        self.tcp.closed()
+    }
+
     /// The robot's TCP address.
     pub fn robot_addr(&self) -> SocketAddr {
         self.tcp.peer()

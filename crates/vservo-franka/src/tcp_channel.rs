@@ -109,6 +109,19 @@ impl TcpChannel {
         })
     }
 
+    /// Whether the robot closed the connection (or it broke): a look at the stream without taking from it, which
+    /// waits for nothing. A connection whose peer went away without a word (a cable pulled) still looks open.
+    pub(crate) fn closed(&mut self) -> bool {
+        if self.set_nonblocking(true).is_err() {
+            return true;
+        }
+        match self.stream.peek(&mut [0u8; 1]) {
+            Ok(0) => true,
+            Ok(_) => false,
+            Err(e) => !matches!(e.kind(), ErrorKind::WouldBlock | ErrorKind::Interrupted),
+        }
+    }
+
     /// The robot's address.
     pub(crate) fn peer(&self) -> SocketAddr {
         self.peer

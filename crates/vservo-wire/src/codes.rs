@@ -254,6 +254,10 @@ wire_code! {
         /// The contract's period check: the joint states come at another period than `[robot] period_s`
         /// (`vservo_driver::PeriodCheck`; the driver's log names both periods).
         PeriodMismatch = 1, "period_mismatch";
+        /// The driver lost its connection to the robot (the robot or its server went away, or the network): it
+        /// reports this while it reconnects, so that a resume is refused with it; once connected again the fault
+        /// is gone and a resume starts a new motion.
+        RobotConnectionLost = 2, "robot_connection_lost";
         /// The Franka's `joint_position_limits_violation`.
         FrankaJointPositionLimitsViolation = 1000, "joint_position_limits_violation";
         /// The Franka's `cartesian_position_limits_violation`.
