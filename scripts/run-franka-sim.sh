@@ -7,7 +7,7 @@
 #
 #   scripts/run-franka-sim.sh [--config FILE] [--start default|medium] [--duration-s S] [--no-jerk-limit]
 #                             [--fault driver-stopped|daemon-killed|server-restarted|held-takeover|udp-spoof]
-#                             [--reference] [--json]
+#                             [--address HOST[:PORT]] [--reference] [--json]
 #
 # The run as a user's first motion would go: the cell starts held; `vservoctl resume`; `vservoctl move-joints` to
 # the start (the configuration's scenario start, or with --start medium one 8–10 cm and 8–12° away in each axis);
@@ -28,6 +28,11 @@
 # attacker's pid; nothing is recorded. udp-spoof, 1 s into servoing: a local process finds the driver's UDP port and
 # sends it a 10-byte datagram and 200 states numbered ahead of the robot's (tests/python/udp_spoof.py, its JSON in
 # the summary's `spoof`); the run goes on and is recorded, and the driver's `datagrams_dropped` counts them.
+# --address HOST[:PORT] runs the same sequence against an FCI server or robot already running there (port 1337 if
+# none is given): no franka-sim is installed or started (nor is --fault server-restarted or --reference taken), and
+# the configuration's [franka] address and port are those given (its `simulator` stays the configuration's: true
+# in config/franka-sim.toml, whose simulated camera renders the board from the robot's joints; give your own
+# --config with your camera for a robot). tests/tests/franka_sim.rs runs it against franky-sim, a second FCI server.
 # --reference runs no vservo at all: a bare FCI client (crates/vservo-franka/examples/fci_smoke.rs, SCHED_FIFO 50
 # where permitted: a slow 0.02 rad/s bump on joint 1 for DURATION seconds) against the same franka-sim, the
 # reference for what the simulator's own timing on this machine leaves of the success rate (its JSON:
@@ -46,7 +51,8 @@ start=default
 jerk_limit=1
 fault=""
 reference=0
-usage="expected [--config FILE] [--start default|medium] [--duration-s S] [--no-jerk-limit] [--fault KIND] [--reference] [--json]"
+address=""
+usage="expected [--config FILE] [--start default|medium] [--duration-s S] [--no-jerk-limit] [--fault KIND] [--address HOST[:PORT]] [--reference] [--json]"
 while [ $# -gt 0 ]; do
     case "$1" in
         --duration-s) duration="$2"; shift 2 ;;
@@ -60,6 +66,8 @@ while [ $# -gt 0 ]; do
         --fault=*) fault="${1#*=}"; shift ;;
         --json) json=1; shift ;;
         --reference) reference=1; shift ;;
+        --address) address="$2"; shift 2 ;;
+        --address=*) address="${1#*=}"; shift ;;
         *) echo "run-franka-sim: unknown argument $1 ($usage)" >&2; exit 2 ;;
     esac
 done
@@ -67,6 +75,10 @@ case "$start" in default|medium) ;; *) echo "run-franka-sim: --start is default 
 case "$fault" in ""|driver-stopped|daemon-killed|server-restarted|held-takeover|udp-spoof) ;;
     *) echo "run-franka-sim: --fault is driver-stopped, daemon-killed, server-restarted, held-takeover or udp-spoof" >&2
        exit 2 ;; esac
+if [ -n "$address" ] && { [ "$fault" = server-restarted ] || [ "$reference" = 1 ]; }; then
+    echo "run-franka-sim: --address runs against a server of yours: --fault server-restarted and --reference need the script's own franka-sim" >&2
+    exit 2
+fi
 [ -f "$config" ] || { echo "run-franka-sim: $config: no such file" >&2; exit 2; }
 config="$(cd "$(dirname "$config")" && pwd)/$(basename "$config")"
 python=target/python-venv/bin/python
@@ -78,13 +90,22 @@ cell_binaries vservo-franka-driver
 run_folder franka-sim
 vservoctl="$bin/vservoctl"
 
-# franka-sim's FR3 from franky-sim: its fr3.xml wants its meshes in assets/ beside it, the wheel has them in meshes/
-site="$("$venv/bin/python" -c 'import franky_sim, os; print(os.path.dirname(franky_sim.__file__))')"
-mjcf="$out/fr3-mjcf"
-mkdir -p "$mjcf"
-ln -sf "$site/assets/fr3.xml" "$mjcf/fr3.xml"
-ln -sfn "$site/assets/meshes" "$mjcf/assets"
-port="$("$python" -c 'import socket; s = socket.socket(); s.bind(("127.0.0.1", 0)); print(s.getsockname()[1])')"
+if [ -n "$address" ]; then
+    host="${address%:*}"
+    port="${address##*:}"
+    [ "$host" != "$address" ] || port=1337
+    simulator_line=""
+else
+    # franka-sim's FR3 from franky-sim: its fr3.xml wants its meshes in assets/ beside it, the wheel has them in meshes/
+    site="$("$venv/bin/python" -c 'import franky_sim, os; print(os.path.dirname(franky_sim.__file__))')"
+    mjcf="$out/fr3-mjcf"
+    mkdir -p "$mjcf"
+    ln -sf "$site/assets/fr3.xml" "$mjcf/fr3.xml"
+    ln -sfn "$site/assets/meshes" "$mjcf/assets"
+    host=127.0.0.1
+    port="$("$python" -c 'import socket; s = socket.socket(); s.bind(("127.0.0.1", 0)); print(s.getsockname()[1])')"
+    simulator_line="simulator = true"
+fi
 
 instance="franka-sim-$$"
 case "$start" in
@@ -103,9 +124,9 @@ extends = "$config"
 name = "$instance"
 
 [franka]
-address = "127.0.0.1"
+address = "$host"
 port = $port
-simulator = true
+$simulator_line
 limit_rate = $([ "$jerk_limit" = 1 ] && echo true || echo false)
 
 [scenario]
@@ -139,7 +160,7 @@ start_server() {
     "$venv/bin/franka-sim-check" --host 127.0.0.1 --port "$port" --timeout 30 >> "$out/franka-sim-check.log" 2>&1 ||
         { echo "run-franka-sim: franka-sim did not come up (see $out/franka-sim.log)" >&2; exit 1; }
 }
-start_server
+[ -n "$address" ] || start_server
 
 if [ "$reference" = 1 ]; then
     smoke="$bin/examples/fci_smoke"

@@ -1,10 +1,15 @@
 //! The first motion on a real arm, proven on the Franka's own protocol against a robot side someone else wrote:
 //! franka-sim 1.1.7 (an FCI server, protocol version 10, on MuJoCo) with the FCI's motion-limit checker and its
 //! communication constraints both on, vservod with its Franka driver (vservo-franka), through
-//! `scripts/run-franka-sim.sh` (which starts the cell held, resumes it, moves to the start and servos).
+//! `scripts/run-franka-sim.sh` (which starts the cell held, resumes it, moves to the start and servos); and the same
+//! sequence against franky-sim 1.0.4, a second, independent FCI server (`--address`).
 
 use serde_json::Value;
-use vservo_system_tests::{exclusive, run_file, run_script, run_script_to_convergence};
+use std::time::Duration;
+
+use vservo_system_tests::{
+    Killed, exclusive, repository_root, run_file, run_script, run_script_to_convergence, wait_until,
+};
 
 /// The FR3's joint jerk limit (rad/s³), which franka-sim's checker enforces.
 const FR3_JERK_RAD_S3: f64 = 5000.0;
@@ -83,6 +88,35 @@ fn a_stopped_driver_is_a_named_safe_stop_and_resume_recovers_the_robot() {
     assert_eq!(summary["fault_status"]["driver_error"], "communication_constraints_violation", "{summary}");
     assert_eq!(summary["resumed_after_fault"], true, "{summary}");
     assert!(number(&summary, "max_joint_jerk_rad_s3") <= FR3_JERK_RAD_S3, "{summary}");
+}
+
+/// franky-sim 1.0.4 as shipped (its own venv, target/franky-sim-venv, with the pinocchio it starts with), a second
+/// FCI server written by others than franka-sim's authors: `run-franka-sim.sh --address` runs the held start, the
+/// move and the servo against it, and from both starts the loop converges below 1 px with every command accepted.
+/// franky-sim sends its states from 127.0.0.1 whatever address it is told to serve on (the driver takes states from
+/// the robot's host only), and its port is 1337: it serves on 127.0.0.1:1337, this binary's tests one at a time.
+#[test]
+fn the_loop_converges_on_franky_sim_a_second_fci_server() {
+    let _one = exclusive();
+    let server = repository_root().join("target/franky-sim-venv/bin/franky-sim");
+    let _franky = Killed(
+        std::process::Command::new(server)
+            .args(["-s", "mujoco", "--hostname", "127.0.0.1"])
+            .stdout(std::process::Stdio::null())
+            .stderr(std::process::Stdio::null())
+            .spawn()
+            .expect("franky-sim starts (scripts/setup-franka-sim.sh installs it)"),
+    );
+    let listening = || std::net::TcpStream::connect("127.0.0.1:1337").is_ok();
+    assert!(wait_until(Duration::from_secs(60), listening), "franky-sim never listened on 127.0.0.1:1337");
+    for start in ["default", "medium"] {
+        let summary = run_script_to_convergence(
+            "run-franka-sim.sh",
+            &["--address", "127.0.0.1:1337", "--start", start],
+        );
+        println!("franky-sim, {start} start: {summary}");
+        assert_the_robot_accepted_every_command(&summary);
+    }
 }
 
 /// franka-sim itself killed mid-motion (the robot gone) and started again: the cell stops safely, a resume while
