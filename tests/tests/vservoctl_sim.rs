@@ -43,11 +43,18 @@ fn sim_writes_summary_csvs_and_plots() {
     assert_eq!(features.lines().count(), 1 + 36);
     let joints = std::fs::read_to_string(out.join("joints.csv")).expect("joints.csv");
     assert_eq!(joints.lines().count(), 1 + 300, "every 10 ms");
-    // each plot with its axes' units and a legend of what it draws
-    for (plot, legend) in [("trajectory.svg", "point 1"), ("error.svg", "1 px")] {
+    // each plot with its axes' units, a legend of what it draws, and the law in its title
+    let plots = [
+        ("trajectory.svg", "[px]", "point 1"),
+        ("error.svg", "[px]", "point 4"),
+        ("joints.svg", "[rad]", "joint 6"),
+        ("twist.svg", "[m/s]", "ωz"),
+    ];
+    for (plot, units, legend) in plots {
         let svg = std::fs::read_to_string(out.join(plot)).expect("a plot");
         assert!(svg.starts_with("<svg") && svg.contains("polyline"), "{plot}");
-        assert!(svg.contains("[px]") && svg.contains(legend), "{plot}: units and legend");
+        assert!(svg.contains(units) && svg.contains(legend), "{plot}: units and legend");
+        assert!(svg.contains("law delay-aware, Q = "), "{plot}: the law and its weights in the title");
     }
     let _ = std::fs::remove_dir_all(out);
     // overrides are checked
