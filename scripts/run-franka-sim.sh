@@ -189,7 +189,7 @@ print(json.dumps({
 }))
 PY
 )"
-    say "run-franka-sim: $summary"
+    say_summary run-franka-sim "$summary"
     summary="$(with_run_folder "$summary")"
 [ "$json" = 1 ] && echo "$summary"
     exit 0
@@ -224,7 +224,7 @@ if [ "$fault" = held-takeover ]; then
     named=false
     grep "stream taken" "$out/vservod.log" | grep -q "pid=$attacker" && named=true
     summary="$(merge_json "$(driver_summary)" "{\"attack\": $attack, \"rogue_named\": $named}")"
-    say "run-franka-sim: $summary"
+    say_summary run-franka-sim "$summary"
     summary="$(with_run_folder "$summary")"
     [ "$json" = 1 ] && echo "$summary"
     exit 0
@@ -342,7 +342,7 @@ summary="$(merge_json "$(merge_json "$(merge_json "$summary" "$limits")" "$drive
 violations="$(grep -c 'communication_constraints_violation' "$out/franka-sim.log" || true)"
 summary="$(merge_json "$summary" "{\"sim_log_communication_violations\": ${violations:-0}, \"moved_to_start\": $([ "$moved" = 1 ] && echo true || echo false)}")"
 say "$(grep -h 'franka' "$out/vservod.log" | grep -E 'ERROR|WARN' | head -5 || true)"
-say "run-franka-sim: $summary"
+say_summary run-franka-sim "$summary"
 summary="$(with_run_folder "$summary")"
 [ "$json" = 1 ] && echo "$summary"
 exit 0

@@ -104,7 +104,7 @@ fi
 latency="$("$python" scripts/capture_to_command.py "$out/features.jsonl" "$out/commands.jsonl")"
 summary="$(merge_json "$summary" "$latency")"
 say "$(cat "$out/status.txt" 2>/dev/null | head -3)"
-say "run-mujoco: $summary"
+say_summary run-mujoco "$summary"
 summary="$(with_run_folder "$summary")"
 [ "$json" = 1 ] && echo "$summary"
 exit 0

@@ -133,7 +133,7 @@ summary="$(merge_json "$summary" "$limits")"
 [ -n "$held" ] && summary="$(merge_json "$summary" "$(cat "$out/held.json")")"
 say "$(cat "$out/status.txt" 2>/dev/null | head -3)"
 say "$(grep '^pybullet_driver: ' "$out/driver.log" 2>/dev/null | grep -v 'waiting for it' || true)"
-say "run-pybullet: $summary"
+say_summary run-pybullet "$summary"
 summary="$(with_run_folder "$summary")"
 [ "$json" = 1 ] && echo "$summary"
 exit 0

@@ -128,7 +128,7 @@ if [ "$fault" = held-takeover ]; then
     named=false
     grep "stream taken" "$out/vservod.log" | grep -q "pid=$attacker" && named=true
     summary="{\"attack\": $attack, \"rogue_named\": $named}"
-    say "run-ros2-cell: $summary"
+    say_summary run-ros2-cell "$summary"
     summary="$(with_run_folder "$summary")"
     [ "$json" = 1 ] && echo "$summary"
     exit 0
@@ -142,7 +142,7 @@ summary="$("$python" scripts/feature_summary.py "$out/features.jsonl" --desired 
 latency="$("$python" scripts/capture_to_command.py "$out/features.jsonl" "$out/commands.jsonl" --arm "$out/arm.json")"
 summary="$(merge_json "$summary" "$latency")"
 say "$(head -3 "$out/status.txt" 2>/dev/null)"
-say "run-ros2-cell: $summary"
+say_summary run-ros2-cell "$summary"
 summary="$(with_run_folder "$summary")"
 [ "$json" = 1 ] && echo "$summary"
 exit 0

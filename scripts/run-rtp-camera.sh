@@ -73,7 +73,7 @@ except (OSError, ValueError, KeyError, TypeError):
 print(json.dumps(summary))' "$summary" "$out/status.json")"
 say "$(head -3 "$out/status.txt" 2>/dev/null)"
 say "$(grep -h "frames .* lost" "$out/camera.log" | tail -1)"
-say "run-rtp-camera: $summary"
+say_summary run-rtp-camera "$summary"
 summary="$(with_run_folder "$summary")"
 [ "$json" = 1 ] && echo "$summary"
 exit 0

@@ -127,6 +127,38 @@ with_run_folder() {
     merge_json "$1" "{\"run_folder\": \"$(cd "$out" && pwd)\"}"
 }
 
+# say_summary NAME JSON: the run's summary for people, a row per figure ("  final_error_px  0.0481"; a nested
+# object's keys as a.b; a list joined, "none" when empty); with --json on stderr, the JSON line being stdout's last.
+say_summary() {
+    say "$("$python" - "$1" "$2" <<'PY'
+import json, sys
+name, summary = sys.argv[1], json.loads(sys.argv[2])
+rows = []
+def walk(prefix, value):
+    if isinstance(value, dict) and value:
+        for key, inner in value.items():
+            walk(f"{prefix}{key}.", inner)
+    else:
+        rows.append((prefix[:-1], value))
+walk("", summary)
+def shown(value):
+    if isinstance(value, bool) or value is None:
+        return {True: "yes", False: "no", None: "—"}[value]
+    if isinstance(value, float):
+        return f"{value:.4g}"
+    if isinstance(value, list):
+        return ", ".join(shown(v) for v in value) or "none"
+    if isinstance(value, dict):
+        return "—"
+    return str(value)
+width = max((len(key) for key, _ in rows), default=0)
+print(f"{name}: the run's summary")
+for key, value in rows:
+    print(f"  {key:<{width}}  {shown(value)}")
+PY
+)"
+}
+
 # merge_json A B: the JSON object A with B's keys added.
 merge_json() {
     "$python" -c 'import json,sys; a=json.loads(sys.argv[1]); a.update(json.loads(sys.argv[2])); print(json.dumps(a))' "$1" "$2"

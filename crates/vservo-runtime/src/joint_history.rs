@@ -92,7 +92,8 @@ impl JointHistory {
     }
 
     /// The joints at `stamp_ns`, interpolated between the two states around it (the newest within its reach
-    /// after it); none before the oldest state kept, further after the newest, or in a gap.
+    /// after it); none before the oldest state kept, further after the newest, or in a gap (but within a period of a
+    /// state around it: that state's).
     pub fn at(&self, stamp_ns: u64) -> Result<JointsAt, NoJoints> {
         let newest = self.newest().ok_or(NoJoints::Empty)?;
         if stamp_ns >= newest.stamp_ns {
@@ -109,7 +110,13 @@ impl JointHistory {
             if state.stamp_ns <= stamp_ns {
                 let span_ns = after.stamp_ns - state.stamp_ns;
                 if span_ns > LARGEST_GAP_PERIODS * self.period_ns {
-                    return Err(NoJoints::InGap);
+                    // an instant within a period of either state around the gap is that state's (a camera stamps
+                    // its frame with the joint state it shows; the next one may come late)
+                    return match (stamp_ns - state.stamp_ns, after.stamp_ns - stamp_ns) {
+                        (before, _) if before <= self.period_ns => Ok(JointsAt { tick: state.tick, q: state.q }),
+                        (_, until) if until <= self.period_ns => Ok(JointsAt { tick: after.tick, q: after.q }),
+                        _ => Err(NoJoints::InGap),
+                    };
                 }
                 let s = (stamp_ns - state.stamp_ns) as f64 / span_ns as f64;
                 return Ok(JointsAt { tick: state.tick, q: state.q + (after.q - state.q) * s });
@@ -196,6 +203,11 @@ mod tests {
         history.push(T0 + 59_000_000, 59, 7, &q(0.59));
         assert_eq!(history.at(T0 + 55_000_000), Err(NoJoints::InGap));
         assert!(history.at(T0 + 48_500_000).is_ok(), "before the stall");
+        // within a period of a state around the gap: that state's joints (a frame stamped with the state it shows)
+        assert_eq!(history.at(T0 + 49_000_000).map(|a| (a.tick, a.q)), Ok((49, q(0.49))));
+        assert_eq!(history.at(T0 + 49_900_000).map(|a| a.tick), Ok(49));
+        assert_eq!(history.at(T0 + 58_200_000).map(|a| (a.tick, a.q)), Ok((59, q(0.59))));
+        assert_eq!(history.at(T0 + 51_100_000), Err(NoJoints::InGap));
     }
 
     #[test]
