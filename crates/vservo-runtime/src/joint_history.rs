@@ -113,8 +113,12 @@ impl JointHistory {
                     // an instant within a period of either state around the gap is that state's (a camera stamps
                     // its frame with the joint state it shows; the next one may come late)
                     return match (stamp_ns - state.stamp_ns, after.stamp_ns - stamp_ns) {
-                        (before, _) if before <= self.period_ns => Ok(JointsAt { tick: state.tick, q: state.q }),
-                        (_, until) if until <= self.period_ns => Ok(JointsAt { tick: after.tick, q: after.q }),
+                        (before, _) if before <= self.period_ns => {
+                            Ok(JointsAt { tick: state.tick, q: state.q })
+                        }
+                        (_, until) if until <= self.period_ns => {
+                            Ok(JointsAt { tick: after.tick, q: after.q })
+                        }
                         _ => Err(NoJoints::InGap),
                     };
                 }

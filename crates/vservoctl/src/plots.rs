@@ -129,15 +129,19 @@ fn error(trace: &Trace, config: &Config, svg: &mut String) -> Result<()> {
         .build_cartesian_2d(0.0..t_end, 0.0..top)
         .map_err(plot_error)?;
     chart.configure_mesh().x_desc("time [s]").y_desc("|ξᵢ − ξᵢd| [px]").draw().map_err(plot_error)?;
-    for (mark, points) in series.into_iter().enumerate() {
+    for (mark, points) in series.iter().enumerate() {
         // point 1's as the paper draws it, the others beside it
         let style = COLOURS[mark].stroke_width(if mark == 0 { 2 } else { 1 });
         chart
-            .draw_series(LineSeries::new(points, style))
+            .draw_series(LineSeries::new(points.iter().copied(), style))
             .map_err(plot_error)?
             .label(format!("point {}", mark + 1))
             .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], style));
     }
+    // point 1's again, over the others
+    chart
+        .draw_series(LineSeries::new(series[0].iter().copied(), COLOURS[0].stroke_width(2)))
+        .map_err(plot_error)?;
     chart
         .draw_series(LineSeries::new([(0.0, 1.0), (t_end, 1.0)], BLACK.mix(0.4).stroke_width(1)))
         .map_err(plot_error)?
