@@ -266,42 +266,42 @@ done
 say "run-franka-sim: at the $start start; servoing, recording $duration s"
 extra='{}'
 driver_pid="$(pgrep -P "$vservod" -x vservo-franka || true)"
+# wait_for_fault: the status, once it shows an active fault (at most 5 s), in status-fault.json
+wait_for_fault() {
+    for _ in $(seq 50); do
+        "$vservoctl" status --instance "$instance" --json > "$out/status-fault.json" 2>/dev/null &&
+            grep -q '"active": true' "$out/status-fault.json" && break
+        sleep 0.1
+    done
+}
+# resume_until_taken TRIES: `vservoctl resume` every 0.2 s until taken; `resumed` says whether it was
+resume_until_taken() {
+    resumed=false
+    for _ in $(seq "$1"); do
+        "$vservoctl" resume --instance "$instance" > "$out/resume-fault.txt" 2>&1 && { resumed=true; break; }
+        sleep 0.2
+    done
+}
 case "$fault" in
     driver-stopped)
         sleep 1
         kill -STOP "$driver_pid"
         sleep 0.1
         kill -CONT "$driver_pid"
-        for _ in $(seq 50); do
-            "$vservoctl" status --instance "$instance" --json > "$out/status-fault.json" 2>/dev/null &&
-                grep -q '"active": true' "$out/status-fault.json" && break
-            sleep 0.1
-        done
+        wait_for_fault
         sleep 1
-        resumed=false
-        for _ in $(seq 50); do
-            "$vservoctl" resume --instance "$instance" > "$out/resume-fault.txt" 2>&1 && { resumed=true; break; }
-            sleep 0.2
-        done
+        resume_until_taken 50
         extra="$("$python" -c 'import json,sys; s=json.load(open(sys.argv[1])); print(json.dumps({"fault_status": s.get("fault"), "resumed_after_fault": sys.argv[2] == "true"}))' "$out/status-fault.json" "$resumed")"
         ;;
     server-restarted)
         sleep 1
         kill -KILL "$server"
         wait "$server" 2>/dev/null || true
-        for _ in $(seq 50); do
-            "$vservoctl" status --instance "$instance" --json > "$out/status-fault.json" 2>/dev/null &&
-                grep -q '"active": true' "$out/status-fault.json" && break
-            sleep 0.1
-        done
+        wait_for_fault
         sleep 1
         "$vservoctl" resume --instance "$instance" > "$out/resume-gone.txt" 2>&1 || true
         start_server
-        resumed=false
-        for _ in $(seq 100); do
-            "$vservoctl" resume --instance "$instance" > "$out/resume-fault.txt" 2>&1 && { resumed=true; break; }
-            sleep 0.2
-        done
+        resume_until_taken 100
         extra="$("$python" -c 'import json,sys; s=json.load(open(sys.argv[1])); print(json.dumps({"fault_status": s.get("fault"), "refused_while_gone": open(sys.argv[2]).read().strip(), "resumed_after_restart": sys.argv[3] == "true"}))' "$out/status-fault.json" "$out/resume-gone.txt" "$resumed")"
         ;;
     udp-spoof)
