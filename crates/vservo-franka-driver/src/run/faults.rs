@@ -80,13 +80,25 @@ impl Driver {
              new motion"
         );
         self.report.connections_lost += 1;
+        self.fault_now(cell, RobotErrors::default(), Some(false), monotonic_ns());
+    }
+
+    /// A new fault from `now_ns`: the arm held, the guard reset, the fault shown until the cell holds after the
+    /// cell's mode sequence now.
+    fn fault_now(
+        &mut self,
+        cell: &mut CellPorts,
+        errors: RobotErrors,
+        reconnected: Option<bool>,
+        now_ns: u64,
+    ) {
         self.side.hold();
         self.shaper = None;
         let sequence = self.cell_mode(cell).map(|(_, sequence)| sequence);
         self.phase = Phase::Faulted {
-            errors: RobotErrors::default(),
-            reconnected: Some(false),
-            since_ns: monotonic_ns(),
+            errors,
+            reconnected,
+            since_ns: now_ns,
             sequence,
             held_at: None,
             recovering: None,
@@ -149,17 +161,15 @@ impl Driver {
              `vservoctl resume` runs the robot's error recovery"
         );
         self.report.reflexes.extend(errors.names().into_iter().map(str::to_string));
-        self.side.hold();
-        self.shaper = None;
-        let sequence = self.cell_mode(cell).map(|(_, sequence)| sequence);
-        self.phase = Phase::Faulted {
-            errors,
-            reconnected: None,
-            since_ns: now_ns,
-            sequence,
-            held_at: None,
-            recovering: None,
-        };
+        self.fault_now(cell, errors, None, now_ns);
+    }
+
+    /// A fault's progress: the safe stop that holds it, and the robot's recovery under way.
+    fn set_fault_progress(&mut self, held: Option<u64>, under_way: Option<vservo_franka::RecoveryUnderWay>) {
+        if let Phase::Faulted { held_at, recovering, .. } = &mut self.phase {
+            *held_at = held;
+            *recovering = under_way;
+        }
     }
 
     /// Faulted: once the fault has been shown and the cell holds, the driver holds too; a resume (the cell
@@ -181,15 +191,7 @@ impl Driver {
                 Some(Ok(())) => self.start_motion(robot, held_at)?,
                 Some(Err(error)) => {
                     tracing::error!("the Franka's error recovery failed: {error}; the cell stays stopped");
-                    let sequence = self.cell_mode(cell).map(|(_, at)| at);
-                    self.phase = Phase::Faulted {
-                        errors,
-                        reconnected: None,
-                        since_ns: now_ns,
-                        sequence,
-                        held_at: None,
-                        recovering: None,
-                    };
+                    self.fault_now(cell, errors, None, now_ns);
                 }
             }
             return Ok(Next::Go);
@@ -198,14 +200,7 @@ impl Driver {
         let shown = now_ns.saturating_sub(since_ns) >= FAULT_SHOWN_NS;
         match held_at {
             None if mode == CellMode::SafeStop && shown && sequence.is_none_or(|at| current >= at) => {
-                self.phase = Phase::Faulted {
-                    errors,
-                    reconnected,
-                    since_ns,
-                    sequence,
-                    held_at: Some(current),
-                    recovering,
-                };
+                self.set_fault_progress(Some(current), None);
             }
             // on a new connection the robot has no error to recover from: a new motion
             Some(held) if mode != CellMode::SafeStop && current > held && reconnected == Some(true) => {
@@ -219,17 +214,7 @@ impl Driver {
                     let _ = robot.motion_result(Duration::from_millis(5));
                 }
                 match robot.begin_automatic_error_recovery() {
-                    Ok(under_way) => {
-                        let recovering = Some(under_way);
-                        self.phase = Phase::Faulted {
-                            errors,
-                            reconnected,
-                            since_ns,
-                            sequence,
-                            held_at: Some(current),
-                            recovering,
-                        };
-                    }
+                    Ok(under_way) => self.set_fault_progress(Some(current), Some(under_way)),
                     Err(error) => {
                         tracing::error!("the Franka's error recovery could not be asked for: {error}")
                     }
