@@ -5,7 +5,9 @@
 
 Per frame the error is the largest distance of a mark from its desired position (px; a missing mark counts
 as not settled). The settling time is the capture time, from the first frame's, of the frame after the last
-one whose error is 1 px or more. --compare takes a lockstep features.csv (`vservoctl sim --out DIR`:
+one whose error is 1 px or more. Mark 1's error along its initial direction gives the overshoot (how far it
+passes the target, % of its start, as the lockstep's summary.json measures a step) and the second swing (how
+far it then comes back past the target the other way, %). --compare takes a lockstep features.csv (`vservoctl sim --out DIR`:
 t_s, x1, y1, …) and adds the RMS difference of the two trajectories, frame by frame in time.
 Prints one JSON object.
 """
@@ -42,6 +44,22 @@ def frame_error(xi, desired):
     return worst
 
 
+def swing(frames, desired):
+    """Mark 1's error along its initial direction, as the lockstep's summary measures a step: how far it passes
+    the target (% of its start), and after that deepest point how far it comes back past the target the other
+    way (% of its start: a second swing). (None, None) when mark 1 is missing at the start."""
+    along = []
+    for _, xi in frames:
+        along.append((xi[0] - desired[0], xi[1] - desired[1]))
+    x0, y0 = along[0]
+    size = x0 * x0 + y0 * y0
+    if math.isnan(size) or size == 0.0:
+        return None, None
+    shares = [(x * x0 + y * y0) / size for x, y in along if not (math.isnan(x) or math.isnan(y))]
+    deepest = min(range(len(shares)), key=lambda i: shares[i])
+    return 100.0 * max(0.0, -shares[deepest]), 100.0 * max(0.0, max(shares[deepest:]))
+
+
 def main():
     parser = argparse.ArgumentParser()
     parser.add_argument("features")
@@ -72,6 +90,7 @@ def main():
         "final_error_px": None if math.isnan(errors[-1]) else errors[-1],
         "settling_time_s": settling,
     }
+    summary["overshoot_percent"], summary["second_swing_percent"] = swing(frames, desired)
     if args.compare:
         with open(args.compare) as f:
             rows = [[float(v) if v else math.nan for v in row] for row in list(csv.reader(f))[1:]]

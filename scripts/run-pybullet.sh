@@ -7,7 +7,8 @@
 # settling time; with --json the last line is one JSON object (final_error_px, settling_time_s, …). Logs, the
 # scene, the first camera image (first.pgm) and the recorded features are left in target/pybullet-run/NAME-PID/ (`latest` links the last; the summary's run_folder names it).
 #
-#   scripts/run-pybullet.sh --config FILE [--urdf FILE] [--instance NAME] [--duration-s S] [--held-s S] [--json]
+#   scripts/run-pybullet.sh --config FILE [--urdf FILE] [--instance NAME] [--duration-s S] [--held-s S]
+#                           [--velocity-lag-s S] [--json]
 #
 # --held-s S: the cell starts held, as a real arm's does (robot.start = "held"): S seconds of its twists, joint
 # commands and joint states are recorded while held, then `vservoctl resume` begins servoing; the summary adds what
@@ -16,6 +17,9 @@
 #
 # --urdf is the URDF PyBullet simulates: by default the configuration's own (robot.arm.urdf), the arm it models
 # (its meshes are found beside it and in pybullet_data); give it for a DH arm or another file of the same arm.
+# --velocity-lag-s S: the simulated arm's joint speeds follow vservo's velocity commands through a first-order lag
+# of S seconds (default 0: at once), as a real velocity-commanded arm's drives do (a UR e-Series' speedj: ~10 ms).
+#
 # --instance names the run's instance (default "pybullet"), so that runs of several cells can be told apart.
 # --config is any configuration of a cell (the lockstep's, e.g. config/arms/xarm6.toml): the run
 # uses it through an overlay (pybullet.toml in the run's folder) that only puts the driver in place of vservo's
@@ -31,8 +35,9 @@ json=0
 config=""
 urdf=""
 held=""
+velocity_lag="0"
 instance_name="pybullet"
-usage="expected --config FILE [--urdf FILE] [--instance NAME] [--duration-s S] [--period-s S] [--held-s S] [--json]"
+usage="expected --config FILE [--urdf FILE] [--instance NAME] [--duration-s S] [--period-s S] [--held-s S] [--velocity-lag-s S] [--json]"
 while [ $# -gt 0 ]; do
     case "$1" in
         --duration-s) duration="$2"; shift 2 ;;
@@ -46,6 +51,8 @@ while [ $# -gt 0 ]; do
         --urdf=*) urdf="${1#*=}"; shift ;;
         --held-s) held="$2"; shift 2 ;;
         --held-s=*) held="${1#*=}"; shift ;;
+        --velocity-lag-s) velocity_lag="$2"; shift 2 ;;
+        --velocity-lag-s=*) velocity_lag="${1#*=}"; shift ;;
         --instance) instance_name="$2"; shift 2 ;;
         --instance=*) instance_name="${1#*=}"; shift ;;
         *) echo "run-pybullet: unknown argument $1 ($usage)" >&2; exit 2 ;;
@@ -114,7 +121,7 @@ trap cleanup EXIT
 "$bin/vservod" --config "$config" > "$out/vservod.log" 2>&1 &
 pids+=($!)
 "$python" clients/python/pybullet_driver.py --scene "$out/scene.json" --urdf "$urdf" --instance "$instance" \
-    --fifo-priority 50 --save-image "$out/first.pgm" > "$out/driver.log" 2>&1 &
+    --fifo-priority 50 --velocity-lag-s "$velocity_lag" --save-image "$out/first.pgm" > "$out/driver.log" 2>&1 &
 driver=$!
 pids+=("$driver")
 say "run-pybullet: vservod and the PyBullet driver run; recording $duration s of features (logs in $out/)"

@@ -18,7 +18,8 @@ PyBullet's interfaces used. The arm: `loadURDF(useFixedBase=True)` (inertias com
 file inertias fail its check) in a DIRECT client, gravity on, `setTimeStep(robot.period_s)` and one
 `stepSimulation` per period (a late wake-up steps the periods that passed). Both command modes drive Bullet's
 joint motors in POSITION_CONTROL on a reference (`Arm`): in velocity mode the commanded q̇ integrated (as a
-real arm's drives servo velocity, without drift), in position mode q_ref; forces = the URDF's effort limits.
+real arm's drives servo velocity, without drift; with --velocity-lag-s through a first-order lag, as a UR's
+speedj follows), in position mode q_ref; forces = the URDF's effort limits.
 Measured: q, q̇ and the applied motor torque from `getJointStates`.
 The camera: PyBullet's software TinyRenderer (`getCameraImage(renderer=ER_TINY_RENDERER)`, no GUI, no OpenGL)
 with the view and projection matrices made from the scene's pinhole (fx, fy, principal point; TinyRenderer
@@ -31,7 +32,7 @@ same URDF and board), named `pybullet-camera`: it reads the newest joint state t
 renders and publishes on `camera_image` itself. It dies with the driver (PR_SET_PDEATHSIG).
 
     pybullet_driver.py --scene scene.json --urdf FILE [--instance NAME] [--duration-s S] [--save-image first.pgm]
-                       [--fifo-priority N]
+                       [--fifo-priority N] [--velocity-lag-s S]
 
 The scene comes from `vservoctl scene --config FILE`; --urdf is the URDF to simulate (meshes found through
 pybullet_data's path and the file's directory). SIGINT/SIGTERM stop it (exit code 0).
@@ -338,7 +339,7 @@ class Arm:
     """The arm in PyBullet's physics under joint velocity or position commands.
 
     Each joint follows a position reference q_ref: in velocity mode the commanded q̇ (clipped to the velocity
-    limits) integrated, as a real arm's drives servo a velocity command without drift; in position mode the
+    limits; through the first-order lag `velocity_lag_s` when one is given) integrated, as a real arm's drives servo a velocity command without drift; in position mode the
     commanded q_ref; holding, q_ref stays where it is. Both through `setJointMotorControl2(POSITION_CONTROL,
     targetPosition=q_ref (clipped to the joint limits), targetVelocity=0, positionGain=1, velocityGain=1,
     force=the URDF's effort limit, maxVelocity=the velocity limit)`: Bullet's joint motor is a constraint asking
@@ -348,8 +349,11 @@ class Arm:
     2 s (VELOCITY_CONTROL on q̇ alone drifted 1.7 mrad in that time, q̇ off by up to 1 %).
     """
 
-    def __init__(self, scene, urdf):
+    def __init__(self, scene, urdf, velocity_lag_s=0.0):
         self.cell = Cell(scene, urdf)
+        # a velocity-commanded arm's drives: the reference's speed follows the command through a first-order
+        # lag of this time constant (0: at once)
+        self.velocity_decay = math.exp(-scene["robot"]["period_s"] / velocity_lag_s) if velocity_lag_s > 0 else 0.0
         self.p = dict(physicsClientId=self.cell.client)
         pybullet.setGravity(0, 0, -9.81, **self.p)
         self.period_s = scene["robot"]["period_s"]
@@ -361,6 +365,7 @@ class Arm:
                                                forces=[DEFAULT_EFFORT] * len(c.others), **self.p)
         self.measure()
         self.q_ref = self.q.copy()
+        self.qd_ref = np.zeros(self.cell.n)
 
     def measure(self):
         states = pybullet.getJointStates(self.cell.body, self.cell.joints, **self.p)
@@ -372,8 +377,10 @@ class Arm:
         """One period: the reference moves by the command (velocity: q̇; position: q_ref; None: holding) and the
         physics steps."""
         c = self.cell
-        if mode == VELOCITY and command is not None:
-            self.q_ref = self.q_ref + np.clip(command, -c.velocity_limits, c.velocity_limits) * self.period_s
+        if mode == VELOCITY:
+            commanded = np.zeros(c.n) if command is None else np.clip(command, -c.velocity_limits, c.velocity_limits)
+            self.qd_ref = self.velocity_decay * self.qd_ref + (1.0 - self.velocity_decay) * commanded
+            self.q_ref = self.q_ref + self.qd_ref * self.period_s
         elif mode == POSITION and command is not None:
             self.q_ref = np.asarray(command, dtype=float)
         self.q_ref = np.clip(self.q_ref, c.limits[:, 0], c.limits[:, 1])
@@ -405,6 +412,9 @@ def main(argv=None) -> int:
     parser.add_argument("--duration-s", type=float, default=math.inf)
     parser.add_argument("--save-image", help="write the first camera image here (PGM)")
     parser.add_argument("--fifo-priority", type=int, default=0, help="SCHED_FIFO priority of the arm loop (0: none)")
+    parser.add_argument("--velocity-lag-s", type=float, default=0.0,
+                        help="velocity mode: the joints' speed follows the command through a first-order lag of "
+                             "this time constant (s; 0: at once), as a velocity-commanded arm's drives do")
     options = parser.parse_args(argv)
     with open(options.scene) as file:
         scene = json.load(file)
@@ -413,7 +423,9 @@ def main(argv=None) -> int:
         fail(f"the scene's robot.command is {scene['robot']['command']!r}: this driver takes velocity or position")
     mode = modes[scene["robot"]["command"]]
     check_camera(scene)
-    arm = Arm(scene, options.urdf)
+    if not 0.0 <= options.velocity_lag_s <= 1.0:
+        fail(f"--velocity-lag-s {options.velocity_lag_s}: expected 0 to 1 s")
+    arm = Arm(scene, options.urdf, options.velocity_lag_s)
     n, instance = arm.cell.n, options.instance
 
     context = multiprocessing.get_context("spawn")

@@ -64,6 +64,7 @@
 mod exposure;
 pub mod gains;
 mod plant_stage;
+mod rate_limit;
 mod rmrc_stage;
 mod servo_stage;
 pub mod target;
@@ -212,14 +213,30 @@ impl Cell {
         VisionStage::new(&self.config, self.arm.clone())
     }
 
-    /// The servo at rest.
+    /// The servo at rest; for an arm whose reference keeps jerk limits (which a twist's change cannot follow
+    /// within a frame as the law assumes), its twist shaped to what the arm follows ([`rate_limit`]).
     pub fn servo(&self) -> ServoStage {
-        ServoStage::new(
+        let mut servo = ServoStage::new(
             self.law_geometry(),
             &self.gains,
             self.config.reacquire,
             self.holder_from_desired_camera,
-        )
+        );
+        if self.keeps_limits() && self.config.interpolator.jerk_limit.is_some() {
+            servo.set_arm_response(rate_limit::arm_response(&self.config, &self.arm));
+        }
+        servo
+    }
+
+    /// Whether the arm's reference keeps its acceleration, jerk and tool limits: always, but for the
+    /// simulated kinematic plant that follows its position reference at once, the ideal robot of the paper's
+    /// check (docs/REPRODUCTION.md), which moves the camera exactly as commanded. A kinematic plant with drives
+    /// (a velocity or a lag: the arm files' simulated arms), the dynamic plant and any other driver, an
+    /// external one above all, keep the limits.
+    pub fn keeps_limits(&self) -> bool {
+        !(self.config.robot.driver == RobotDriver::Simulated
+            && self.config.plant.mode == PlantMode::Kinematic
+            && self.config.plant.kinematic.is_ideal())
     }
 
     /// What the law takes from the configuration and never changes.
@@ -237,13 +254,7 @@ impl Cell {
     pub fn rmrc(&self, q: &JointVector) -> RmrcStage {
         let mut settings = self.config.interpolator;
         settings.control_period_s = self.config.robot.period_s;
-        // the simulated kinematic plant is the ideal robot of the paper's check (docs/REPRODUCTION.md), which
-        // moves the camera exactly as commanded: no acceleration, jerk or tool speed limit between it and the
-        // twist. Any other
-        // driver, an external one above all, keeps the limits.
-        if self.config.robot.driver == RobotDriver::Simulated
-            && self.config.plant.mode == PlantMode::Kinematic
-        {
+        if !self.keeps_limits() {
             settings.acceleration_limit = JointVector::from_element(f64::INFINITY);
             settings.jerk_limit = None;
             settings.tool_speed_limit_m_s = f64::INFINITY;

@@ -12,7 +12,6 @@
 use vservo_arm::{JointVector, SerialArm};
 use vservo_config::{CellConfig, CommandInterface};
 use vservo_control::Twist;
-use vservo_scene::CameraMount;
 use vservo_sim::interpolator::{Interpolator, InterpolatorSettings, Reference};
 use vservo_sim::joint_servo::JointServo;
 
@@ -68,7 +67,6 @@ pub struct RmrcStage {
     command: CommandInterface,
     settings: InterpolatorSettings,
     arm: SerialArm,
-    mount: CameraMount,
     gap: Gap,
     /// The last state followed.
     followed: Option<DriverTick>,
@@ -127,7 +125,6 @@ impl RmrcStage {
             command: config.command_interface(),
             settings,
             arm,
-            mount: config.mount(),
             gap: Gap { periods, ns: period_ns * periods },
             followed: None,
             since_tick: 0,
@@ -155,7 +152,7 @@ impl RmrcStage {
 
     /// The reference at rest at `q` from `tick` on, no twist held.
     fn restart_at_rest(&mut self, q: &JointVector, tick: u64) {
-        self.interpolator = Interpolator::new(self.settings, self.arm.clone(), self.mount, *q);
+        self.interpolator.restart_at_rest(*q);
         self.since_tick = tick;
         self.next_tick = tick;
         self.planned_move = None;

@@ -14,7 +14,7 @@
 
 use nalgebra::Point2;
 use vservo_config::Reacquire;
-use vservo_control::{Gains, LawFlags, LawGains, LawGeometry, ServoLaw, Twist};
+use vservo_control::{ArmResponse, Gains, LawFlags, LawGains, LawGeometry, ServoLaw, Twist};
 use vservo_scene::{CameraIntrinsics, FeatureVector, IsometryMatrix3, MARKS};
 
 /// Why the servo sent the twist it sent.
@@ -61,6 +61,9 @@ pub struct ServoInput<'a> {
     /// The camera's pose at capture, if known, in the frame that holds the board still (the base for a hand
     /// camera, the tool for a fixed one: [`crate::DeliveredFrame::holder_from_camera`]).
     pub holder_from_camera: Option<&'a IsometryMatrix3<f64>>,
+    /// How long (s) since the capture beyond the pipeline's whole frames of delay: the camera's motion the
+    /// image cannot show (0 in the lockstep, whose pipeline is whole frames).
+    pub unseen_s: f64,
 }
 
 /// What the servo made of a frame.
@@ -104,6 +107,17 @@ impl ServoStage {
         }
     }
 
+    /// What the arm follows of the twist (`None`: all of it at once, the paper's ideal robot).
+    pub fn set_arm_response(&mut self, response: Option<ArmResponse>) {
+        self.law.set_arm_response(response);
+    }
+
+    /// The dynamics override in force: the rate limit follows the share of the arm's limits the reference
+    /// keeps.
+    pub fn set_speed_scale(&mut self, speed_scale: f64) {
+        self.law.set_speed_scale(speed_scale);
+    }
+
     /// The desired features ξ_d.
     pub fn desired_features(&self) -> &FeatureVector {
         self.law.desired_features()
@@ -136,6 +150,7 @@ impl ServoStage {
         };
         let (features, outside) = self.taken_inside_image(input.features);
         let error_px = feature_error_px(&features, self.desired_features());
+        self.law.set_unseen_s(input.unseen_s);
         let (twist, verdict) = self.law_on(input.frame, &features, input.holder_from_camera);
         ServoStep { twist, verdict, outside, error_px }
     }
@@ -290,14 +305,24 @@ mod tests {
         let mut servo = servo();
         let mut features = *servo.desired_features();
         features[2] = 600.0; // mark 2 beyond the right border of the 512 px image
-        let step = servo.step(Some(ServoInput { frame: 1, features: &features, holder_from_camera: None }));
+        let step = servo.step(Some(ServoInput {
+            frame: 1,
+            features: &features,
+            holder_from_camera: None,
+            unseen_s: 0.0,
+        }));
         assert_eq!(step.outside, 0b10);
         assert_eq!(step.verdict, ServoVerdict::ServoingOnThree(0b10));
         assert_eq!(step.error_px, 0.0, "the other three are at ξ_d; the refused mark is not counted");
         // a mark already missing is not refused again; one on the border is inside
         features[2] = f64::NAN;
         features[0] = 512.0;
-        let step = servo.step(Some(ServoInput { frame: 2, features: &features, holder_from_camera: None }));
+        let step = servo.step(Some(ServoInput {
+            frame: 2,
+            features: &features,
+            holder_from_camera: None,
+            unseen_s: 0.0,
+        }));
         assert_eq!((step.outside, step.verdict.missing_mask()), (0, 0b10));
     }
 
@@ -309,7 +334,8 @@ mod tests {
         assert!(waiting.error_px.is_nan());
         let mut features = *servo.desired_features();
         features[1] = -3.0;
-        let held = servo.held(ServoInput { frame: 1, features: &features, holder_from_camera: None });
+        let held =
+            servo.held(ServoInput { frame: 1, features: &features, holder_from_camera: None, unseen_s: 0.0 });
         assert_eq!((held.twist, held.verdict, held.outside), (Twist::zeros(), ServoVerdict::Held, 0b1));
         assert!(!held.verdict.moves() && !waiting.verdict.moves() && !ServoVerdict::MarksMissing(3).moves());
         assert!(ServoVerdict::Servoing.moves() && ServoVerdict::Reacquiring(3).moves());
@@ -325,7 +351,12 @@ mod tests {
             seen[2 * mark] = desired[2 * mark] + 60.0;
             seen[2 * mark + 1] = desired[2 * mark + 1] + 40.0;
         }
-        let step = servo.step(Some(ServoInput { frame: 1, features: &seen, holder_from_camera: None }));
+        let step = servo.step(Some(ServoInput {
+            frame: 1,
+            features: &seen,
+            holder_from_camera: None,
+            unseen_s: 0.0,
+        }));
         assert_eq!(step.verdict, ServoVerdict::Reacquiring(0b1100));
         // turning about +y moves image points left (ẋ = −(1 + x²) ω_y), about −x moves them up
         assert!(step.twist[4] > 0.0 && step.twist[3] < 0.0, "{}", step.twist);
@@ -351,7 +382,12 @@ mod tests {
         assert!(error_after(0.01) < error_after(0.0));
         // no mark seen and none ever: nothing to turn towards
         let none = FeatureVector::from_element(f64::NAN);
-        let step = servo.step(Some(ServoInput { frame: 2, features: &none, holder_from_camera: None }));
+        let step = servo.step(Some(ServoInput {
+            frame: 2,
+            features: &none,
+            holder_from_camera: None,
+            unseen_s: 0.0,
+        }));
         assert_eq!((step.twist, step.verdict), (Twist::zeros(), ServoVerdict::MarksMissing(0b1111)));
     }
 

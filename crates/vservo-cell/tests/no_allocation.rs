@@ -130,6 +130,7 @@ fn runs_without_allocating(config: vservo_config::Config) -> [LawFlags; COUNTED_
             frame: d.frame,
             features: &d.features,
             holder_from_camera: d.holder_from_camera.as_ref(),
+            unseen_s: 0.0,
         }));
         assert_eq!(step.outside != 0, k == 11, "frame {k}: {step:?}");
         (step.twist, servo.law_flags())

@@ -21,6 +21,7 @@ use crate::image_jacobian::{extended_image_jacobian, interaction_matrix};
 use crate::pose_features::PoseFeatures;
 use crate::pose_law::PoseLaw;
 use crate::target_motion::TargetMotion;
+use crate::twist_rate::{ArmResponse, TwistRateLimit};
 use crate::{
     ControlLaw, FeatureGain, Gains, Interaction, InteractionMatrix, LawOptions, MAX_DELAY_FRAMES, Twist,
 };
@@ -101,6 +102,8 @@ pub struct LawFlags {
     pub fixed_gain_fallback: bool,
     /// The target's estimated motion was fed forward.
     pub feedforward: bool,
+    /// The twist's change was cut to what the arm follows within the frame ([`TwistRateLimit`]).
+    pub rate_limited: bool,
 }
 
 /// The servo's state: its gains and the commands it sent in the last frames.
@@ -124,6 +127,17 @@ pub struct ServoLaw {
     target: TargetMotion,
     /// What the law did on the last frame it computed a twist for.
     flags: LawFlags,
+    /// The bound on the twist's change between frames, when the arm's limits are known.
+    rate_limit: Option<TwistRateLimit>,
+    /// The time constant (s) of the first-order lag through which the camera's velocity follows the twist
+    /// sent (0: at once, the paper's robot).
+    arm_lag_s: f64,
+    /// The camera's velocity as the lag gives it, estimated from the twists sent: at the start of the coming
+    /// frame first, then of the frames of `history`.
+    velocity: [Twist; MAX_DELAY_FRAMES + 1],
+    /// How long (s) the camera has moved since the frame's capture beyond the pipeline's whole frames: motion
+    /// the image cannot show.
+    unseen_s: f64,
 }
 
 impl ServoLaw {
@@ -142,6 +156,10 @@ impl ServoLaw {
             depths: gains.desired_depths,
             target: TargetMotion::default(),
             flags: LawFlags::default(),
+            rate_limit: None,
+            arm_lag_s: 0.0,
+            velocity: [Twist::zeros(); MAX_DELAY_FRAMES + 1],
+            unseen_s: 0.0,
         };
         law.set_law_gains(&law_gains);
         law
@@ -175,6 +193,29 @@ impl ServoLaw {
         }
     }
 
+    /// What the arm follows of the twist (`None`: all of it at once, the paper's ideal robot): every twist the
+    /// law computes is shaped to its rate limit, and the law's prediction of the motion still to come takes
+    /// its lag.
+    pub fn set_arm_response(&mut self, response: Option<ArmResponse>) {
+        self.rate_limit = response.map(|r| r.rate_limit);
+        self.arm_lag_s = response.map_or(0.0, |r| r.lag_s);
+        self.velocity = [Twist::zeros(); MAX_DELAY_FRAMES + 1];
+    }
+
+    /// The dynamics override in force (0–1]: the rate limit follows the share of the arm's limits the
+    /// reference keeps.
+    pub fn set_speed_scale(&mut self, speed_scale: f64) {
+        self.rate_limit = self.rate_limit.map(|limit| limit.at_speed_scale(speed_scale));
+    }
+
+    /// How long (s, 0 to one vision period) the camera has moved since the capture of the frame the law takes
+    /// next, beyond the pipeline's whole frames of delay: with an arm response set, the law predicts that
+    /// motion (the camera's estimated velocity over that time) too. The lockstep's pipeline is whole frames
+    /// (0); a real camera's frame reaches the servo some milliseconds after its capture.
+    pub fn set_unseen_s(&mut self, unseen_s: f64) {
+        self.unseen_s = if unseen_s.is_finite() { unseen_s.clamp(0.0, self.geometry.period_s) } else { 0.0 };
+    }
+
     /// The desired features ξ_d.
     pub fn desired_features(&self) -> &FeatureVector {
         &self.gains.desired_features
@@ -188,9 +229,33 @@ impl ServoLaw {
 
     /// The twist for a measured feature vector with all four marks: u = −K_ξ (ξ − ξ_d) − Σ K_j u(k − j).
     pub fn command(&mut self, measured: &FeatureVector) -> Twist {
-        let twist = self.designed_law(&(measured - self.gains.desired_features));
-        self.remember(twist);
-        twist
+        let delay = self.geometry.delay_frames.min(MAX_DELAY_FRAMES);
+        let error = measured - self.gains.desired_features + self.b_desired * self.lag_correction(delay);
+        let twist = self.designed_law(&error);
+        let to_go = self.rate_limit.and(self.full).map(|full| {
+            let in_pipeline: FeatureVector =
+                self.history.iter().take(delay).map(|past| self.b_desired * past).sum();
+            -(full.pseudo_inverse * (error + in_pipeline))
+        });
+        self.remember_shaped(twist, to_go.as_ref())
+    }
+
+    /// What the arm's lag changes in the motion still to come from the twists sent, as a twist held for one
+    /// frame: in each frame of the pipeline the camera moved (v − u)(τ/T)(1 − e^(−T/τ)) less or more than its
+    /// twist u asked, v its velocity at the frame's start; from now on it goes on by vτ before it comes to
+    /// rest; and since the capture it moved by v over the time the image cannot show. Zero without a lag.
+    fn lag_correction(&self, delay: usize) -> Twist {
+        let lag_s = self.arm_lag_s;
+        if lag_s <= 0.0 {
+            return Twist::zeros();
+        }
+        let period_s = self.geometry.period_s;
+        let spill = (lag_s / period_s) * (1.0 - (-period_s / lag_s).exp());
+        let mut correction = self.velocity[0] * ((lag_s + self.unseen_s) / period_s);
+        for (sent, at_start) in self.history.iter().zip(&self.velocity[1..]).take(delay) {
+            correction += (at_start - sent) * spill;
+        }
+        correction
     }
 
     /// The law as designed, on the error of all four marks: −K_ξ e − Σ K_j u(k − j).
@@ -234,8 +299,7 @@ impl ServoLaw {
         }
         if pose_based && marks == ALL_MARKS {
             if let Some(twist) = board_pose.and_then(|pose| self.pose_twist(measured, &pose)) {
-                self.remember(twist);
-                return Some(twist);
+                return Some(self.remember_shaped(twist, None));
             }
             // no pose or no pose error on this frame (a degenerate image): the image law
             self.flags.fixed_gain_fallback = true;
@@ -297,6 +361,7 @@ impl ServoLaw {
         for past in self.history.iter().take(delay) {
             in_pipeline += b * past;
         }
+        in_pipeline += b * self.lag_correction(delay);
         self.flags.feedforward = options.feedforward && self.target.settled();
         let drift_to_now = if self.flags.feedforward {
             masked_features(&self.target.motion_over(delay), marks)
@@ -313,7 +378,7 @@ impl ServoLaw {
         } else {
             // the delay-aware law is the paper's gain on the predicted features (K_j = K B)
             let mut predicted = error + drift_to_now;
-            if self.gains.used_past_gains > 0 {
+            if self.gains.used_past_gains > 0 || self.arm_lag_s > 0.0 {
                 predicted += in_pipeline;
             }
             -(design.gain * predicted)
@@ -327,8 +392,8 @@ impl ServoLaw {
             self.flags.barrier = corrections > 0;
             twist = kept;
         }
-        self.remember(twist);
-        Some(twist)
+        let to_go = -(design.pseudo_inverse * (error + in_pipeline + drift_to_now));
+        Some(self.remember_shaped(twist, Some(&to_go)))
     }
 
     /// The depths of the marks at the board's pose, where finite and in front of the camera.
@@ -381,9 +446,25 @@ impl ServoLaw {
         self.remember(twist);
     }
 
+    /// The law's twist shaped by the rate limit (when one is set; braking in time for `to_go`, the twist that
+    /// would close the predicted error within a frame), remembered as sent.
+    fn remember_shaped(&mut self, twist: Twist, to_go: Option<&Twist>) -> Twist {
+        let sent = match &self.rate_limit {
+            Some(limit) => limit.shape(&self.history[0], &twist, to_go),
+            None => twist,
+        };
+        self.flags.rate_limited = sent != twist;
+        self.remember(sent);
+        sent
+    }
+
     fn remember(&mut self, twist: Twist) {
         self.history.rotate_right(1);
         self.history[0] = twist;
+        let decay = if self.arm_lag_s > 0.0 { (-self.geometry.period_s / self.arm_lag_s).exp() } else { 0.0 };
+        let next = self.velocity[0] * decay + twist * (1.0 - decay);
+        self.velocity.rotate_right(1);
+        self.velocity[0] = next;
     }
 }
 

@@ -50,6 +50,14 @@
 //!   it to the prediction over the delay and cancels it over the coming frame with B⁺.
 //! - **Barrier.** [`border::Barrier`] changes a twist only when it would take a seen mark closer to the margin
 //!   than half the distance left ([`border::APPROACH_PER_FRAME`]), by the least R⁻¹-weighted correction.
+//! - **What the arm follows** ([`twist_rate`], for an arm whose reference keeps jerk limits: the servo stage
+//!   sets an [`ArmResponse`]). Every twist the law computes, the paper's included, is shaped: slowed so that the
+//!   arm can still stop before the goal, and its change from the last twist cut to what every joint's speed
+//!   follows within the frame; the law remembers the twist sent (anti-windup). The prediction then adds the
+//!   arm's lag: in each frame of the pipeline the camera moved (v − u)(τ/T)(1 − e^(−T/τ)) off its twist, it
+//!   goes on by vτ once the twist is zero, and it moved by v since the capture for the time the image cannot
+//!   show, v the camera's velocity estimated from the twists sent. The paper's ideal robot has no response
+//!   set, and the paper's scenarios are unchanged bit for bit.
 //!
 //! With fewer than three marks there is no law to run: the servo stage (`vservo-cell`) steers the camera back
 //! to where all four were last seen.
@@ -65,9 +73,11 @@ pub mod lq;
 pub mod pose_features;
 pub mod pose_law;
 pub mod target_motion;
+pub mod twist_rate;
 
 pub use design::{ControlLaw, Gains, GainsError, GainsSpec, Interaction, LawOptions};
 pub use law::{LawFlags, LawGains, LawGeometry, ServoLaw, pose_features_of};
+pub use twist_rate::{ArmResponse, JointDynamics, TwistRateLimit};
 pub use vservo_settings::control::MAX_DELAY_FRAMES;
 pub use vservo_settings::weights::{self, InputUnits, InputWeight, StateWeight, WeightError};
 

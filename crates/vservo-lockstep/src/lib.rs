@@ -289,6 +289,8 @@ impl Lockstep {
             frame: d.frame,
             features: &d.features,
             holder_from_camera: d.holder_from_camera.as_ref(),
+            // the pipeline is whole frames: the image shows the camera at the capture it is stamped with
+            unseen_s: 0.0,
         }));
         let at = pace.twist_taken_at(taken.delivered.as_ref().map(|d| d.capture_tick), tick);
         self.waiting = Some(Waiting { at, twist: step.twist, moves: step.verdict.moves() });

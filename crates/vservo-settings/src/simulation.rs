@@ -33,6 +33,14 @@ pub struct KinematicResponse {
     pub lag_s: f64,
 }
 
+impl KinematicResponse {
+    /// The paper's ideal robot: joints that are the position reference exactly (no lag). Any other response
+    /// models a real arm's drives.
+    pub fn is_ideal(&self) -> bool {
+        self.follows == KinematicFollows::Position && self.lag_s == 0.0
+    }
+}
+
 /// The command a kinematic arm's joints follow.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum KinematicFollows {

@@ -91,6 +91,28 @@ impl Interpolator {
         }
     }
 
+    /// Starts again at rest at `q`, no twist held and no joint move, the generator's state forgotten: what
+    /// [`Interpolator::new`] gives, with the speed scale in force kept. Allocates nothing (a new interpolator's
+    /// jerk-limited generator would).
+    pub fn restart_at_rest(&mut self, q: JointVector) {
+        self.latest = Twist::zeros();
+        self.previous = Twist::zeros();
+        self.latest_at_s = None;
+        self.reference = Reference {
+            q,
+            qd: JointVector::zeros(),
+            qdd: JointVector::zeros(),
+            stopping: false,
+            damped: false,
+            velocity_limited: false,
+        };
+        self.stop_scale = 1.0;
+        self.joint_goal = None;
+        if let Some(motion) = self.motion.as_mut() {
+            motion.reset();
+        }
+    }
+
     /// The dynamics override in force: every path of the reference keeps this share of the joints' speed,
     /// acceleration and jerk limits and of the tool's caps from the next tick on (a reference faster than the
     /// new limits is brought within them by the generator, within the new limits). `speed_scale` is taken as it

@@ -92,6 +92,11 @@ impl JointMotion {
         }
     }
 
+    /// Forgets the trajectory in progress: the next step plans anew from the state it is given.
+    pub fn reset(&mut self) {
+        self.otg.reset();
+    }
+
     /// How many ticks the generator refused and fell back to [`JointMotion::coast`].
     pub fn refusals(&self) -> u64 {
         self.refusals

@@ -252,8 +252,8 @@ wire_message! {
         /// bit m set when mark m was missing
         missing_mask: u32,
         /// what the law did beyond its design: 1 the border barrier changed the twist, 2 the frame's own
-        /// design failed and the fixed gain was used, 4 the target's motion was fed forward; 0 unless the
-        /// law computed the twist
+        /// design failed and the fixed gain was used, 4 the target's motion was fed forward, 8 the twist's
+        /// change was cut to what the arm follows within the frame; 0 unless the law computed the twist
         law_flags: u32,
         /// the servo's process id: its run, which the daemon announces in `cell_mode.writers` (sealed: a twist
         /// of an earlier run of the servo is refused)
@@ -275,6 +275,9 @@ pub mod law_flag {
     /// The target's estimated image motion was fed forward (`controller.feedforward`, once the estimate has
     /// settled).
     pub const FEEDFORWARD: u32 = 4;
+    /// The twist's change was cut to what the arm's reference follows within the frame (an arm with jerk
+    /// limits), or the twist slowed so that the arm can still stop before the goal.
+    pub const RATE_LIMITED: u32 = 8;
 }
 
 /// The nodes, as numbered in [`TelemetryMsg::node`] and [`DaemonStatusMsg::nodes`].

@@ -386,6 +386,7 @@ pub fn run(args: &BasinArgs) -> Result<()> {
         "border_margin_px": config.cell.controller.options.border_margin_px,
         "feedforward": config.cell.controller.options.feedforward,
         "plant": config.cell.plant.mode.name(),
+        "limits": limits_kept(&config.cell),
         "starts": args.starts,
         "seed": args.seed,
         "duration_s": args.duration,
@@ -426,15 +427,37 @@ pub fn run(args: &BasinArgs) -> Result<()> {
     Ok(())
 }
 
+/// The limits the runs' reference keeps, in words: the arm's (its file's acceleration and jerk, the tool's
+/// caps), or none for the paper's ideal robot.
+fn limits_kept(cell: &vservo_config::CellConfig) -> String {
+    let kept = vservo_cell::Cell::new(cell).map(|c| c.keeps_limits()).unwrap_or(true);
+    if !kept {
+        return "none (the ideal robot)".to_string();
+    }
+    let i = &cell.interpolator;
+    let joints = cell.arm.joint_count();
+    let most = |v: &vservo_arm::JointVector| v.rows(0, joints).max();
+    let jerk = i.jerk_limit.map_or("no jerk limit".to_string(), |j| format!("{} rad/s³", most(&j)));
+    format!(
+        "up to {} rad/s², {jerk}, tool {} m/s and {} rad/s, at speed scale {}",
+        most(&i.acceleration_limit),
+        i.tool_speed_limit_m_s,
+        i.tool_rotation_limit_rad_s,
+        i.speed_scale
+    )
+}
+
 fn print_table(result: &Value) {
     println!(
-        "{} — law {}, interaction {}, margin {} px, feed-forward {}, {} plant; {} starts (seed {}) in {:.1} s on {} threads",
+        "{} — law {}, interaction {}, margin {} px, feed-forward {}, {} plant, limits kept: {}; {} starts (seed {}) \
+         in {:.1} s on {} threads",
         result["config"].as_str().unwrap_or(""),
         result["law"].as_str().unwrap_or(""),
         result["interaction"].as_str().unwrap_or(""),
         result["border_margin_px"],
         result["feedforward"],
         result["plant"].as_str().unwrap_or(""),
+        result["limits"].as_str().unwrap_or(""),
         result["starts"],
         result["seed"],
         result["wall_s"].as_f64().unwrap_or(f64::NAN),

@@ -31,6 +31,7 @@ fn law_flags_on_wire(flags: LawFlags) -> u32 {
         (flags.barrier, law_flag::BARRIER),
         (flags.fixed_gain_fallback, law_flag::FIXED_GAIN_FALLBACK),
         (flags.feedforward, law_flag::FEEDFORWARD),
+        (flags.rate_limited, law_flag::RATE_LIMITED),
     ]
     .into_iter()
     .filter(|(set, _)| *set)
@@ -89,6 +90,8 @@ struct Servo {
     /// What the gains in use came with; none taken yet.
     gains_issue: Option<Issue>,
     period_ns: u64,
+    /// The pipeline's delay the law predicts through (whole vision periods).
+    delay_frames: u64,
     /// The last frame answered: its number and capture tick.
     last: (u64, u64),
     /// (verdict, missing marks) of the last frame, for one log line per change of what the servo does.
@@ -110,6 +113,7 @@ impl Servo {
             gains_version: 0,
             gains_issue: None,
             period_ns: (context.cell.config().timing.vision_period_s * 1e9).round() as u64,
+            delay_frames: context.cell.config().timing.pipeline_delay_frames as u64,
             last: (0, 0),
             doing: (Verdict::Waiting, 0),
             moving: false,
@@ -155,8 +159,18 @@ impl Servo {
             frame: message.frame,
             features: &features,
             holder_from_camera: base_from_camera.as_ref(),
+            unseen_s: self.unseen_s(message.capture_stamp_ns),
         };
         if held { self.stage.held(input) } else { self.stage.step(Some(input)) }
+    }
+
+    /// How long since the capture at `capture_stamp_ns` beyond the pipeline's whole frames of delay (s): the
+    /// camera's motion its image cannot show, which the law predicts for an arm that lags its twist. Capture
+    /// stamps are on this machine's monotonic clock (docs/PROTOCOL.md).
+    fn unseen_s(&self, capture_stamp_ns: u64) -> f64 {
+        let since_capture_ns = monotonic_ns().saturating_sub(capture_stamp_ns);
+        let pipeline_ns = self.period_ns * self.delay_frames;
+        since_capture_ns.saturating_sub(pipeline_ns) as f64 * 1e-9
     }
 
     /// The twist message for a step of the stage on `message`'s frame.
@@ -243,6 +257,8 @@ pub fn run(context: &NodeContext) -> Result<(), RuntimeError> {
             };
             // the mode first: it announces the vision node's process, whose features alone are taken
             let mode = ports.cell_mode.mode(key, counters);
+            // the twist shaped to the share of the arm's limits the reference keeps now
+            servo.stage.set_speed_scale(ports.cell_mode.speed_scale());
             let origin = Origin {
                 announced: ports.cell_mode.writer(NodeRole::Vision),
                 carried: message.writer_pid,
@@ -324,10 +340,15 @@ mod tests {
         assert_eq!(law_flags_on_wire(none), 0);
         assert_eq!(law_flags_on_wire(LawFlags { barrier: true, ..none }), law_flag::BARRIER);
         assert_eq!(law_flags_on_wire(LawFlags { feedforward: true, ..none }), law_flag::FEEDFORWARD);
-        let all = LawFlags { barrier: true, fixed_gain_fallback: true, feedforward: true };
+        assert_eq!(law_flags_on_wire(LawFlags { rate_limited: true, ..none }), law_flag::RATE_LIMITED);
+        let all =
+            LawFlags { barrier: true, fixed_gain_fallback: true, feedforward: true, rate_limited: true };
         assert_eq!(
             law_flags_on_wire(all),
-            law_flag::BARRIER | law_flag::FIXED_GAIN_FALLBACK | law_flag::FEEDFORWARD
+            law_flag::BARRIER
+                | law_flag::FIXED_GAIN_FALLBACK
+                | law_flag::FEEDFORWARD
+                | law_flag::RATE_LIMITED
         );
     }
 }

@@ -45,6 +45,7 @@ pub fn first_motion(observed: &Observed, cell: &Cell) -> Option<FirstMotion> {
         frame: 1,
         features: &frame.features,
         holder_from_camera: Some(&base_from_camera),
+        unseen_s: 0.0,
     }));
     let twist = step.twist;
     let period_s = config.robot.period_s;
