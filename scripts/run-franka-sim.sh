@@ -6,7 +6,8 @@
 # rendering the board from the arm's measured joints.
 #
 #   scripts/run-franka-sim.sh [--config FILE] [--start default|medium] [--duration-s S] [--no-jerk-limit]
-#                             [--fault driver-stopped|daemon-killed|server-restarted|held-takeover|udp-spoof]
+#                             [--fault driver-stopped|daemon-killed|server-restarted|server-silent|held-takeover|
+#                                      udp-spoof]
 #                             [--address HOST[:PORT]] [--reference] [--json]
 #
 # The run as a user's first motion would go: the cell starts held; `vservoctl resume`; `vservoctl move-joints` to
@@ -21,7 +22,12 @@
 # (the robot gone): the cell stops safely, a `vservoctl resume` while it is gone is refused (`refused_while_gone`: the
 # refusal), franka-sim starts again on the same port (its arm at its own start), and `vservoctl resume` (retried
 # until taken: the driver connects again every second) starts a new motion, servoed and recorded
-# (`resumed_after_restart`, `fault_status`). held-takeover is issue 46's attack on the
+# (`resumed_after_restart`, `fault_status`). server-silent SIGSTOPs franka-sim (a robot gone without a word, its
+# connection still open, as when a cable is pulled): the cell stops safely (`fault_status`); a resume is taken and
+# the driver asks the robot for its error recovery, which no one answers, so after 2 s it gives the connection up
+# (`silent_status`: robot_connection_lost) and a resume is refused naming it (`refused_while_silent`); franka-sim
+# is SIGCONTed (the cable back), and `vservoctl resume` (retried until taken) starts a new motion on a new
+# connection, servoed and recorded (`resumed_after_return`). held-takeover is issue 46's attack on the
 # held cell, before any resume: a process of the same user SIGKILLs the rmrc, takes its joint_command slot and answers
 # each joint state with 0.3 rad/s on joint 1, unsealed, for 3 s (tests/python/takeover_attack.py); the summary's
 # `attack` says how far joint 1 moved (the robot's measured angle), and `rogue_named` whether vservod's log names the
@@ -72,11 +78,11 @@ while [ $# -gt 0 ]; do
     esac
 done
 case "$start" in default|medium) ;; *) echo "run-franka-sim: --start is default or medium" >&2; exit 2 ;; esac
-case "$fault" in ""|driver-stopped|daemon-killed|server-restarted|held-takeover|udp-spoof) ;;
-    *) echo "run-franka-sim: --fault is driver-stopped, daemon-killed, server-restarted, held-takeover or udp-spoof" >&2
+case "$fault" in ""|driver-stopped|daemon-killed|server-restarted|server-silent|held-takeover|udp-spoof) ;;
+    *) echo "run-franka-sim: --fault is driver-stopped, daemon-killed, server-restarted, server-silent, held-takeover or udp-spoof" >&2
        exit 2 ;; esac
-if [ -n "$address" ] && { [ "$fault" = server-restarted ] || [ "$reference" = 1 ]; }; then
-    echo "run-franka-sim: --address runs against a server of yours: --fault server-restarted and --reference need the script's own franka-sim" >&2
+if [ -n "$address" ] && { [ "$fault" = server-restarted ] || [ "$fault" = server-silent ] || [ "$reference" = 1 ]; }; then
+    echo "run-franka-sim: --address runs against a server of yours: --fault server-restarted, server-silent and --reference need the script's own franka-sim" >&2
     exit 2
 fi
 [ -f "$config" ] || { echo "run-franka-sim: $config: no such file" >&2; exit 2; }
@@ -274,6 +280,13 @@ wait_for_fault() {
         sleep 0.1
     done
 }
+# wait_for_status TEXT FILE: the status, once its JSON holds TEXT (at most 8 s), in FILE
+wait_for_status() {
+    for _ in $(seq 80); do
+        "$vservoctl" status --instance "$instance" --json > "$2" 2>/dev/null && grep -q "$1" "$2" && break
+        sleep 0.1
+    done
+}
 # resume_until_taken TRIES: `vservoctl resume` every 0.2 s until taken; `resumed` says whether it was
 resume_until_taken() {
     resumed=false
@@ -303,6 +316,18 @@ case "$fault" in
         start_server
         resume_until_taken 100
         extra="$("$python" -c 'import json,sys; s=json.load(open(sys.argv[1])); print(json.dumps({"fault_status": s.get("fault"), "refused_while_gone": open(sys.argv[2]).read().strip(), "resumed_after_restart": sys.argv[3] == "true"}))' "$out/status-fault.json" "$out/resume-gone.txt" "$resumed")"
+        ;;
+    server-silent)
+        sleep 1
+        kill -STOP "$server"
+        wait_for_fault
+        sleep 1
+        resume_until_taken 50
+        wait_for_status robot_connection_lost "$out/status-silent.json"
+        "$vservoctl" resume --instance "$instance" > "$out/resume-silent.txt" 2>&1 || true
+        kill -CONT "$server"
+        resume_until_taken 100
+        extra="$("$python" -c 'import json,sys; f=lambda p: json.load(open(p)).get("fault"); print(json.dumps({"fault_status": f(sys.argv[1]), "silent_status": f(sys.argv[2]), "refused_while_silent": open(sys.argv[3]).read().strip(), "resumed_after_return": sys.argv[4] == "true"}))' "$out/status-fault.json" "$out/status-silent.json" "$out/resume-silent.txt" "$resumed")"
         ;;
     udp-spoof)
         sleep 1

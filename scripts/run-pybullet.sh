@@ -82,6 +82,9 @@ fi
 [ -f "$urdf" ] || { echo "run-pybullet: $urdf: no such file" >&2; exit 2; }
 urdf="$(cd "$(dirname "$urdf")" && pwd)/$(basename "$urdf")"
 
+# the configuration's own dynamics override: its simulated arm's full limits unless it gives one (the overlay
+# below makes the driver external, whose default is a real arm's 0.25)
+speed_scale="$("$vservoctl" scene --config "$config" | "$python" -c 'import json,sys; print(json.load(sys.stdin)["robot"]["speed_scale"])')"
 if [ -z "$period" ]; then
     # the arm's own period as the configuration gives it
     period="$("$vservoctl" scene --config "$config" | "$python" -c 'import json,sys; print(json.load(sys.stdin)["robot"]["period_s"])')"
@@ -107,6 +110,7 @@ period_s = $period
 # a simulated arm servos at once unless --held-s: then it starts held, as a real arm's cell does, until
 # \`vservoctl resume\`
 start = "$([ -n "$held" ] && echo held || echo servoing)"
+speed_scale = $speed_scale
 TOML
 config="$out/pybullet.toml"
 "$vservoctl" scene --config "$config" > "$out/scene.json"

@@ -137,6 +137,27 @@ fn a_robot_server_killed_and_started_again_is_resumed_on_a_new_connection() {
     assert!(number(&summary, "max_joint_jerk_rad_s3") <= FR3_JERK_RAD_S3, "{summary}");
 }
 
+/// A robot gone without a word (franka-sim SIGSTOPped: silent, its connection still open, as when a cable is
+/// pulled): the cell stops safely; a resume asks the robot for its error recovery, which no one answers, so the
+/// driver gives the connection up (`robot_connection_lost`, which a resume's refusal names); once the server runs
+/// again, a resume starts a new motion on a new connection and the loop converges.
+#[test]
+fn a_silent_robot_is_given_up_after_its_recovery_and_resumed_once_it_is_back() {
+    let _one = exclusive();
+    let summary = run_script_to_convergence("run-franka-sim.sh", &["--fault", "server-silent"]);
+    let silent = summary["silent_status"].to_string();
+    assert!(silent.contains("robot_connection_lost"), "given up while silent: {summary}");
+    let refused = summary["refused_while_silent"].as_str().unwrap_or_default();
+    assert!(refused.contains("robot_connection_lost"), "the refusal names the cause: {summary}");
+    assert_eq!(summary["resumed_after_return"], true, "{summary}");
+    assert_eq!(
+        (summary["connections_lost"].as_u64(), summary["reconnections"].as_u64()),
+        (Some(1), Some(1)),
+        "{summary}"
+    );
+    assert!(number(&summary, "max_joint_jerk_rad_s3") <= FR3_JERK_RAD_S3, "{summary}");
+}
+
 /// vservod SIGKILLed while the arm moves: its Franka driver brings the arm to rest within the limits and finishes
 /// the motion; the robot saw no violation of any kind.
 #[test]

@@ -77,7 +77,7 @@ fn a_recording_of_a_custom_dh_arm_draws_that_arm() {
         &[
             ("name = \"default\"", &format!("name = \"{instance}\"")),
             ("source = \"simulated\"", "source = \"external\""),
-            ("driver = \"simulated\"", "driver = \"external\"\ncommand = \"velocity\""),
+            ("driver = \"simulated\"", "driver = \"external\"\ncommand = \"velocity\"\nspeed_scale = 1.0"),
             ("preset = \"puma560\"", &custom_arm),
             (
                 "joints_rad = [0.0, 0.7853981633974483, -3.141592653589793, 0.0, 0.7853981633974483, 0.0]",
@@ -134,7 +134,7 @@ fn draws_the_urdf_arm(
         &[
             (&format!("name = \"{arm}\""), &format!("name = \"{instance}\"")),
             ("source = \"simulated\"", "source = \"external\""),
-            ("driver = \"simulated\"", "driver = \"external\"\ncommand = \"velocity\""),
+            ("driver = \"simulated\"", "driver = \"external\"\ncommand = \"velocity\"\nspeed_scale = 1.0"),
         ],
     );
     let file = record_swept_arm(&config, &instance, start);

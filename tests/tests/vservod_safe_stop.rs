@@ -210,7 +210,10 @@ fn cell_with_fake_driver(name: &str) -> (String, Daemon, FakeDriver, impl Sized)
         &[
             ("name = \"default\"", &format!("name = \"{instance}\"")),
             ("source = \"simulated\"", "source = \"external\""),
-            ("driver = \"simulated\"", "driver = \"external\"\ncommand = \"velocity\"\nstart = \"servoing\""),
+            (
+                "driver = \"simulated\"",
+                "driver = \"external\"\ncommand = \"velocity\"\nstart = \"servoing\"\nspeed_scale = 1.0",
+            ),
         ],
     );
     let daemon = Daemon::start(&config);
@@ -486,7 +489,7 @@ fn a_robot_driver_and_a_camera_that_never_appear_are_said_within_five_seconds() 
         &[
             ("name = \"default\"", &format!("name = \"{instance}\"")),
             ("source = \"simulated\"", "source = \"external\""),
-            ("driver = \"simulated\"", "driver = \"external\"\ncommand = \"velocity\""),
+            ("driver = \"simulated\"", "driver = \"external\"\ncommand = \"velocity\"\nspeed_scale = 1.0"),
         ],
     );
     let daemon = Daemon::start(&config);

@@ -29,6 +29,16 @@ fn the_drivers_are_typed_choices_and_the_gstreamer_camera_needs_its_pipeline() {
     assert!(ros2_camera_only.runs_ros2_driver() && ros2_camera_only.cell.vision.source.name() == "external");
     let error = with("ros2", "gstreamer", "").expect_err("no pipeline").to_string();
     assert!(error.contains("camera.source") && error.contains("[camera.gstreamer]"), "{error}");
+    // a real arm's first motion at a quarter of its limits unless the file says otherwise; the simulated arm at
+    // its full limits
+    let speed = |config: &Config| config.cell.interpolator.speed_scale;
+    assert_eq!(speed(&ros2), 0.25);
+    assert_eq!(speed(&Config::from_toml(DEFAULT, "t.toml").expect("the default")), 1.0);
+    let given = DEFAULT
+        .replacen("driver = \"simulated\"", "driver = \"ros2\"", 1)
+        .replacen("source = \"simulated\"", "source = \"external\"", 1)
+        .replacen("# speed_scale = 1.0", "speed_scale = 0.6", 1);
+    assert_eq!(speed(&Config::from_toml(&given, "t.toml").expect("a ROS 2 arm at 0.6")), 0.6);
 }
 
 /// The sections config/vservo.toml documents commented out ([camera.truth], [camera.gstreamer], [target],

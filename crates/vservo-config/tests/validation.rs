@@ -106,8 +106,8 @@ fn bad_values_name_their_key_and_value() {
         (with("mark_gray = 20", "mark_gray = 225"), "vision.render.mark_gray", "225"),
         (with("supersampling = 8", "supersampling = 0"), "vision.render.supersampling", "0"),
         (with("stop_ramp_s = 0.2", "stop_ramp_s = 0.0"), "interpolator.stop_ramp_s", "0"),
-        (with("speed_scale = 1.0", "speed_scale = 0.0"), "robot.speed_scale", "0"),
-        (with("speed_scale = 1.0", "speed_scale = 1.5"), "robot.speed_scale", "1.5"),
+        (with("# speed_scale = 1.0", "speed_scale = 0.0"), "robot.speed_scale", "0"),
+        (with("# speed_scale = 1.0", "speed_scale = 1.5"), "robot.speed_scale", "1.5"),
         (with("kp = [3600.0, 3600.0", "kp = [-1.0, 3600.0"), "joint_servo.kp", "-1.0"),
         (with("duration_s = 30.0", "duration_s = 0.0"), "scenario.duration_s", "0"),
     ];

@@ -163,6 +163,12 @@ impl Connection {
         self.tcp.closed()
     }
 
+    /// Gives the connection up (a robot gone without a word): its TCP connection shut both ways, so that the
+    /// robot, back, takes a new one. Every call on it fails from then on.
+    pub fn give_up(&mut self) {
+        self.tcp.shut_down();
+    }
+
     /// The robot's TCP address.
     pub fn robot_addr(&self) -> SocketAddr {
         self.tcp.peer()

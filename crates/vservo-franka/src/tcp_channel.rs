@@ -122,6 +122,11 @@ impl TcpChannel {
         }
     }
 
+    /// Gives the connection up: both directions shut, so that a robot that comes back sees it closed.
+    pub(crate) fn shut_down(&mut self) {
+        let _ = self.stream.shutdown(std::net::Shutdown::Both);
+    }
+
     /// The robot's address.
     pub(crate) fn peer(&self) -> SocketAddr {
         self.peer

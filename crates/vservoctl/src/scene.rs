@@ -124,6 +124,7 @@ pub fn run(args: &SceneArgs) -> Result<()> {
             "command": config.cell.command_interface().name(),
             "period_s": config.cell.robot.period_s,
             "state_timeout_periods": config.cell.robot.state_timeout_periods,
+            "speed_scale": config.cell.interpolator.speed_scale,
         },
     });
     print_stdout(&format!("{}\n", serde_json::to_string_pretty(&scene)?))?;

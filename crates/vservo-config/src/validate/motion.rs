@@ -20,6 +20,11 @@ pub const EXTERNAL_TOOL_SPEED_M_S: f64 = 0.25;
 /// The tool's angular speed (rad/s) an arm on an external driver is held to when the configuration caps none.
 pub const EXTERNAL_TOOL_ROTATION_RAD_S: f64 = 0.75;
 
+/// The dynamics override an arm on any driver but the simulated one starts at when the configuration gives
+/// none (`robot.speed_scale`): a real arm's first motion at a quarter of its limits, as a pendant's slider
+/// would start it.
+pub const EXTERNAL_SPEED_SCALE: f64 = 0.25;
+
 /// The limits the interpolator keeps.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct MotionLimitsInForce {

@@ -70,7 +70,11 @@ pub fn interpolator(
                 )
             })
             .transpose()?
-            .unwrap_or(1.0),
+            .unwrap_or(if driver == RawRobotDriver::Simulated {
+                1.0
+            } else {
+                super::motion::EXTERNAL_SPEED_SCALE
+            }),
     })
 }
 

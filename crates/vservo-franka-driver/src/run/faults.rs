@@ -1,7 +1,7 @@
 //! The robot's faults and its going away, as the driver looks after them: a motion the robot ended (a reflex, or
 //! silence) reported until the cell holds, then the robot's error recovery and a new motion on a resume; a robot
-//! gone (its connection closed) reported as `robot_connection_lost` while a thread connects again, then a new
-//! motion on a resume.
+//! gone (its connection closed, or silent through its error recovery: a cable pulled) reported as
+//! `robot_connection_lost` while a thread connects again, then a new motion on a resume.
 
 use std::time::Duration;
 
@@ -29,8 +29,8 @@ pub(super) enum Phase {
         /// The cell's mode sequence when it happened; `held_at`: the sequence of the safe stop that holds it.
         sequence: Option<u64>,
         held_at: Option<u64>,
-        /// The robot's recovery, asked for on a resume and not answered yet.
-        recovering: Option<vservo_franka::RecoveryUnderWay>,
+        /// The robot's recovery, asked for on a resume (when, ns) and not answered yet.
+        recovering: Option<(vservo_franka::RecoveryUnderWay, u64)>,
     },
 }
 
@@ -154,18 +154,26 @@ impl Driver {
         now_ns: u64,
     ) {
         let outcome = robot.motion_result(Duration::from_millis(5));
+        let why = if errors.iter().next().is_some() {
+            format!("the Franka stopped the motion (a reflex): {errors}")
+        } else {
+            "the Franka's motion ended, no error named (no answer yet to why)".to_string()
+        };
         tracing::error!(
             errors = %errors,
             outcome = ?outcome.ok(),
-            "the Franka stopped the motion (a reflex): {errors}; the cell is stopped safely (driver_fault), \
-             `vservoctl resume` runs the robot's error recovery"
+            "{why}; the cell is stopped safely (driver_fault), `vservoctl resume` runs the robot's error recovery"
         );
         self.report.reflexes.extend(errors.names().into_iter().map(str::to_string));
         self.fault_now(cell, errors, None, now_ns);
     }
 
     /// A fault's progress: the safe stop that holds it, and the robot's recovery under way.
-    fn set_fault_progress(&mut self, held: Option<u64>, under_way: Option<vservo_franka::RecoveryUnderWay>) {
+    fn set_fault_progress(
+        &mut self,
+        held: Option<u64>,
+        under_way: Option<(vservo_franka::RecoveryUnderWay, u64)>,
+    ) {
         if let Phase::Faulted { held_at, recovering, .. } = &mut self.phase {
             *held_at = held;
             *recovering = under_way;
@@ -185,8 +193,20 @@ impl Driver {
         else {
             return Ok(Next::Go);
         };
-        if let Some(under_way) = recovering {
+        if let Some((under_way, asked_ns)) = recovering {
             match robot.recovery_done(&under_way) {
+                // a robot gone without a word (a cable pulled, the robot switched off: its connection still looks
+                // open): given up, and connected again as a robot whose connection closed
+                None if now_ns.saturating_sub(asked_ns) > ROBOT_TIMEOUT.as_nanos() as u64 => {
+                    robot.give_up();
+                    self.connection_lost(
+                        cell,
+                        &format!(
+                            "no answer to its error recovery within {ROBOT_TIMEOUT:?}: the robot is silent (a cable \
+                             pulled, the robot switched off or FCI deactivated)"
+                        ),
+                    );
+                }
                 None => {}
                 Some(Ok(())) => self.start_motion(robot, held_at)?,
                 Some(Err(error)) => {
@@ -213,10 +233,23 @@ impl Driver {
                     // the stopped motion's answer, if it has not been read yet
                     let _ = robot.motion_result(Duration::from_millis(5));
                 }
+                if robot.motion_active() {
+                    // a robot that ends a motion answers it: this one has said nothing since its states stopped
+                    robot.give_up();
+                    self.connection_lost(
+                        cell,
+                        "no answer to the motion it stopped: the robot is silent (a cable pulled, the robot \
+                         switched off or FCI deactivated)",
+                    );
+                    return Ok(Next::Go);
+                }
                 match robot.begin_automatic_error_recovery() {
-                    Ok(under_way) => self.set_fault_progress(Some(current), Some(under_way)),
+                    Ok(under_way) => self.set_fault_progress(Some(current), Some((under_way, now_ns))),
                     Err(error) => {
-                        tracing::error!("the Franka's error recovery could not be asked for: {error}")
+                        tracing::error!(
+                            "the Franka's error recovery could not be asked for: {error}; the cell stays stopped"
+                        );
+                        self.fault_now(cell, errors, None, now_ns);
                     }
                 }
             }
