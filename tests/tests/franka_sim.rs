@@ -62,6 +62,26 @@ fn the_loop_converges_on_franka_sim_with_its_motion_limits_and_communication_con
     }
 }
 
+/// The dynamics override at a quarter on the FR3 over its own protocol (config/franka-sim.toml with `[robot]
+/// speed_scale = 0.25`): the loop converges, and the rmrc's commands keep a quarter of the FR3's acceleration and
+/// jerk limits as its controller would measure them, and use them; the robot accepted every command.
+#[test]
+fn at_a_quarter_speed_the_fr3_keeps_a_quarter_of_its_limits() {
+    let _one = exclusive();
+    let dir = vservo_system_tests::ScratchDir::new(&vservo_system_tests::unique("franka-quarter"));
+    let file = repository_root().join("config/franka-sim.toml");
+    let quarter = dir
+        .write("quarter.toml", &format!("extends = \"{}\"\n[robot]\nspeed_scale = 0.25\n", file.display()));
+    let summary =
+        run_script_to_convergence("run-franka-sim.sh", &["--config", &quarter.display().to_string()]);
+    assert!(reflexes(&summary).is_empty(), "{summary}");
+    for key in ["rmrc_max_acceleration_ratio", "rmrc_max_jerk_ratio"] {
+        assert!(number(&summary, key) <= 0.25 * (1.0 + 1e-9), "{key} over a quarter: {summary}");
+    }
+    assert!(number(&summary, "rmrc_max_jerk_ratio") > 0.2, "the quarter's limits were used: {summary}");
+    assert!(number(&summary, "max_joint_jerk_rad_s3") <= 0.25 * FR3_JERK_RAD_S3 * (1.0 + 1e-9), "{summary}");
+}
+
 /// The premise: the same run with vservo's jerk limiting off (the arm's jerk limit raised out of reach, the driver's
 /// guard off) is stopped by the robot's checker with the FCI's own discontinuity error.
 #[test]
