@@ -117,9 +117,16 @@ config="$out/pybullet.toml"
 instance="$("$python" -c 'import json,sys; print(json.load(sys.stdin)["instance"])' < "$out/scene.json")"
 desired="$("$python" -c 'import json,sys; print(",".join(str(v) for v in json.load(sys.stdin)["desired_features_px"]))' < "$out/scene.json")"
 
+# this run's runtime directory (removed at the end, shared memory included); short: iceoryx2's socket paths must
+# fit in 107 bytes
+export VSERVO_RUNTIME_DIR="/tmp/vpb-$$"
 pids=()
 # the driver ends its camera process itself (on SIGTERM, and on its own death: PR_SET_PDEATHSIG)
-cleanup() { stop_processes ${pids[@]+"${pids[@]}"}; }
+cleanup() {
+    stop_processes ${pids[@]+"${pids[@]}"}
+    pids=()
+    remove_runtime_dir "$instance"
+}
 trap cleanup EXIT
 
 "$bin/vservod" --config "$config" > "$out/vservod.log" 2>&1 &

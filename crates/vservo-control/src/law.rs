@@ -132,6 +132,8 @@ pub struct ServoLaw {
     /// The time constant (s) of the first-order lag through which the camera's velocity follows the twist
     /// sent (0: at once, the paper's robot).
     arm_lag_s: f64,
+    /// e^(−T/τ) of that lag: how much of the camera's velocity is left after a frame (0 without a lag).
+    velocity_decay: f64,
     /// The camera's velocity as the lag gives it, estimated from the twists sent: at the start of the coming
     /// frame first, then of the frames of `history`.
     velocity: [Twist; MAX_DELAY_FRAMES + 1],
@@ -158,6 +160,7 @@ impl ServoLaw {
             flags: LawFlags::default(),
             rate_limit: None,
             arm_lag_s: 0.0,
+            velocity_decay: 0.0,
             velocity: [Twist::zeros(); MAX_DELAY_FRAMES + 1],
             unseen_s: 0.0,
         };
@@ -198,7 +201,9 @@ impl ServoLaw {
     /// its lag.
     pub fn set_arm_response(&mut self, response: Option<ArmResponse>) {
         self.rate_limit = response.map(|r| r.rate_limit);
-        self.arm_lag_s = response.map_or(0.0, |r| r.lag_s);
+        self.arm_lag_s = response.map_or(0.0, |r| r.lag_s).max(0.0);
+        self.velocity_decay =
+            if self.arm_lag_s > 0.0 { (-self.geometry.period_s / self.arm_lag_s).exp() } else { 0.0 };
         self.velocity = [Twist::zeros(); MAX_DELAY_FRAMES + 1];
     }
 
@@ -232,11 +237,10 @@ impl ServoLaw {
         let delay = self.geometry.delay_frames.min(MAX_DELAY_FRAMES);
         let error = measured - self.gains.desired_features + self.b_desired * self.lag_correction(delay);
         let twist = self.designed_law(&error);
-        let to_go = self.rate_limit.and(self.full).map(|full| {
-            let in_pipeline: FeatureVector =
-                self.history.iter().take(delay).map(|past| self.b_desired * past).sum();
-            -(full.pseudo_inverse * (error + in_pipeline))
-        });
+        let to_go = self
+            .rate_limit
+            .and(self.full)
+            .map(|full| -(full.pseudo_inverse * (error + self.in_pipeline(&self.b_desired, delay))));
         self.remember_shaped(twist, to_go.as_ref())
     }
 
@@ -250,12 +254,22 @@ impl ServoLaw {
             return Twist::zeros();
         }
         let period_s = self.geometry.period_s;
-        let spill = (lag_s / period_s) * (1.0 - (-period_s / lag_s).exp());
+        let spill = (lag_s / period_s) * (1.0 - self.velocity_decay);
         let mut correction = self.velocity[0] * ((lag_s + self.unseen_s) / period_s);
         for (sent, at_start) in self.history.iter().zip(&self.velocity[1..]).take(delay) {
             correction += (at_start - sent) * spill;
         }
         correction
+    }
+
+    /// What the commands still in the pipeline (the last `delay`) do to the features through `b`, with what the
+    /// arm's lag changes in the motion still to come ([`ServoLaw::lag_correction`]).
+    fn in_pipeline(&self, b: &InteractionMatrix, delay: usize) -> FeatureVector {
+        let mut in_pipeline = FeatureVector::zeros();
+        for past in self.history.iter().take(delay) {
+            in_pipeline += b * past;
+        }
+        in_pipeline + b * self.lag_correction(delay)
     }
 
     /// The law as designed, on the error of all four marks: −K_ξ e − Σ K_j u(k − j).
@@ -357,11 +371,7 @@ impl ServoLaw {
         let use_fixed_full = marks == ALL_MARKS && options.interaction == Interaction::Desired;
         let delay = self.geometry.delay_frames.min(MAX_DELAY_FRAMES);
         // the features as they are now: the delayed error plus what the commands in the pipeline did
-        let mut in_pipeline = FeatureVector::zeros();
-        for past in self.history.iter().take(delay) {
-            in_pipeline += b * past;
-        }
-        in_pipeline += b * self.lag_correction(delay);
+        let in_pipeline = self.in_pipeline(&b, delay);
         self.flags.feedforward = options.feedforward && self.target.settled();
         let drift_to_now = if self.flags.feedforward {
             masked_features(&self.target.motion_over(delay), marks)
@@ -461,7 +471,7 @@ impl ServoLaw {
     fn remember(&mut self, twist: Twist) {
         self.history.rotate_right(1);
         self.history[0] = twist;
-        let decay = if self.arm_lag_s > 0.0 { (-self.geometry.period_s / self.arm_lag_s).exp() } else { 0.0 };
+        let decay = self.velocity_decay;
         let next = self.velocity[0] * decay + twist * (1.0 - decay);
         self.velocity.rotate_right(1);
         self.velocity[0] = next;

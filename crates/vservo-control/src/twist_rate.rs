@@ -101,10 +101,11 @@ impl TwistRateLimit {
         let mut load_per_change = JointRatesPerTwist::zeros();
         for (j, limits) in dynamics.iter().enumerate() {
             let (a, jerk) = (limits.acceleration_rad_s2, limits.jerk_rad_s3);
-            let refused = |v: f64| v.is_nan() || v <= 0.0;
-            if let Some(value) = [a, jerk].into_iter().find(|v| refused(*v)).or((!a.is_finite()).then_some(a))
-            {
-                return Err(TwistRateError::NotPositive { joint: j + 1, value });
+            // a finite acceleration; a jerk that may be infinite (none), NaN refused by both comparisons
+            for (value, ok) in [(a, a.is_finite() && a > 0.0), (jerk, jerk > 0.0)] {
+                if !ok {
+                    return Err(TwistRateError::NotPositive { joint: j + 1, value });
+                }
             }
             let most = limits.speed_change_within(within_s);
             load_per_change.set_row(j, &(joint_rates.row(j) / most));
