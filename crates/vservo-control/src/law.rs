@@ -329,39 +329,7 @@ impl ServoLaw {
                 *value = 0.0;
             }
         }
-        let fixed = if marks == ALL_MARKS {
-            self.full
-        } else {
-            let missing = (0..MARKS).find(|m| marks & (1 << m) == 0).unwrap_or(0);
-            self.without[missing]
-        };
-        // a frame whose own design fails (a degenerate image) takes the fixed gain for its marks
-        let (b, design) = match options.interaction {
-            Interaction::Desired => (frame_design::masked(&self.b_desired, marks), fixed),
-            Interaction::Mean | Interaction::Current => {
-                let g = &self.geometry;
-                let filled = filled_with(measured, &self.gains.desired_features);
-                let seen = extended_image_jacobian(&g.camera, &filled, &self.depths);
-                let jacobian = if options.interaction == Interaction::Mean {
-                    let desired = extended_image_jacobian(
-                        &g.camera,
-                        &self.gains.desired_features,
-                        &self.gains.desired_depths,
-                    );
-                    (seen + desired) * 0.5
-                } else {
-                    seen
-                };
-                let b = frame_design::masked(&(jacobian * g.period_s), marks);
-                match frame_design::design(&b, &self.gains.q, &self.gains.r_si) {
-                    Ok(design) => (b, Some(design)),
-                    Err(_) => {
-                        self.flags.fixed_gain_fallback = true;
-                        (frame_design::masked(&self.b_desired, marks), fixed)
-                    }
-                }
-            }
-        };
+        let (b, design) = self.design_on_frame(measured, marks);
         // the marks seen with no design for them (a degenerate ξ_d): hold
         let Some(design) = design else {
             self.flags = LawFlags::default();
@@ -373,16 +341,7 @@ impl ServoLaw {
         // the features as they are now: the delayed error plus what the commands in the pipeline did
         let in_pipeline = self.in_pipeline(&b, delay);
         self.flags.feedforward = options.feedforward && self.target.settled();
-        let drift_to_now = if self.flags.feedforward {
-            masked_features(&self.target.motion_over(delay), marks)
-        } else {
-            FeatureVector::zeros()
-        };
-        let drift_next = if self.flags.feedforward {
-            masked_features(&self.target.motion_in_frame(delay), marks)
-        } else {
-            FeatureVector::zeros()
-        };
+        let (drift_to_now, drift_next) = self.target_drift(delay, marks);
         let mut twist = if use_fixed_full {
             self.designed_law(&error) - self.gains.feature_gain * drift_to_now
         } else {
@@ -404,6 +363,60 @@ impl ServoLaw {
         }
         let to_go = -(design.pseudo_inverse * (error + in_pipeline + drift_to_now));
         Some(self.remember_shaped(twist, Some(&to_go)))
+    }
+
+    /// B and the design for the marks seen on this frame: at ξ_d, or scheduled on the frame (the fixed gain for
+    /// its marks when the frame's own design fails); no design for marks whose desired images are degenerate.
+    fn design_on_frame(
+        &mut self,
+        measured: &FeatureVector,
+        marks: MarkSet,
+    ) -> (InteractionMatrix, Option<FrameDesign>) {
+        let fixed = if marks == ALL_MARKS {
+            self.full
+        } else {
+            let missing = (0..MARKS).find(|m| marks & (1 << m) == 0).unwrap_or(0);
+            self.without[missing]
+        };
+        // a frame whose own design fails (a degenerate image) takes the fixed gain for its marks
+        match self.gains.options.interaction {
+            Interaction::Desired => (frame_design::masked(&self.b_desired, marks), fixed),
+            Interaction::Mean | Interaction::Current => {
+                let g = &self.geometry;
+                let filled = filled_with(measured, &self.gains.desired_features);
+                let seen = extended_image_jacobian(&g.camera, &filled, &self.depths);
+                let jacobian = if self.gains.options.interaction == Interaction::Mean {
+                    let desired = extended_image_jacobian(
+                        &g.camera,
+                        &self.gains.desired_features,
+                        &self.gains.desired_depths,
+                    );
+                    (seen + desired) * 0.5
+                } else {
+                    seen
+                };
+                let b = frame_design::masked(&(jacobian * g.period_s), marks);
+                match frame_design::design(&b, &self.gains.q, &self.gains.r_si) {
+                    Ok(design) => (b, Some(design)),
+                    Err(_) => {
+                        self.flags.fixed_gain_fallback = true;
+                        (frame_design::masked(&self.b_desired, marks), fixed)
+                    }
+                }
+            }
+        }
+    }
+
+    /// The target's own image motion over the pipeline's delay and over the coming frame, on the marks seen;
+    /// zero unless it is fed forward.
+    fn target_drift(&self, delay: usize, marks: MarkSet) -> (FeatureVector, FeatureVector) {
+        if !self.flags.feedforward {
+            return (FeatureVector::zeros(), FeatureVector::zeros());
+        }
+        (
+            masked_features(&self.target.motion_over(delay), marks),
+            masked_features(&self.target.motion_in_frame(delay), marks),
+        )
     }
 
     /// The depths of the marks at the board's pose, where finite and in front of the camera.
