@@ -73,6 +73,17 @@ if ! "${venv}/bin/python" -c 'import pybullet' >/dev/null 2>&1; then
 fi
 ln -sfn "$("${venv}/bin/python" -c 'import pybullet_data; print(pybullet_data.getDataPath())')" target/pybullet_data
 
+# The collision model's reference (crates/vservo-collision's tests, scripts/collision-reference.py): PyPI coal 3.x,
+# FCL's successor from the Pinocchio team. The UR5e's collision meshes (config/arms/ur5e.urdf reads them through
+# target/airo_models): airo-models, MIT (its only dependency, xmltodict, is not needed for the files)
+if ! "${venv}/bin/python" -c 'import coal' >/dev/null 2>&1; then
+    "${venv}/bin/python" -m pip install -q coal==3.0.3
+fi
+if ! "${venv}/bin/python" -c 'import importlib.util as u; assert u.find_spec("airo_models")' >/dev/null 2>&1; then
+    "${venv}/bin/python" -m pip install -q --no-deps airo-models==0.0.12
+fi
+ln -sfn "$("${venv}/bin/python" -c 'import importlib.util as u, os; print(os.path.dirname(u.find_spec("airo_models").origin))')" target/airo_models
+
 # `vservoctl top`'s test runs it in a terminal: tmux, from Debian
 if ! command -v tmux >/dev/null 2>&1; then
     sudo_if_needed=""

@@ -17,6 +17,19 @@ pub(crate) struct LinkFrames {
     tool_origin: Vector3<f64>,
 }
 
+/// Every link of an arm at one joint vector, and each joint's axis.
+#[derive(Debug, Clone, Copy)]
+pub struct Placement {
+    /// How many joints the arm has.
+    pub joint_count: usize,
+    /// `carriers[0]` is the base (the identity); `carriers[k]`, for `k` from 1 to `joint_count`, is the link
+    /// joint `k − 1` moves, in the base frame (a DH arm's frame `k`; the last is the tool's for a DH arm, the
+    /// last link's for a chain). Entries past `joint_count` are the identity.
+    pub carriers: [Transform; MAX_JOINTS + 1],
+    /// Joint `j`'s axis (unit, base frame) and a point on it.
+    pub joint_axes: [(Vector3<f64>, Vector3<f64>); MAX_JOINTS],
+}
+
 impl LinkFrames {
     /// Joint `j`'s axis (unit, base frame) and a point on it (for a DH arm: z and origin of frame j-1, the
     /// base for j = 0).
@@ -112,6 +125,34 @@ impl SerialArm {
                 )
             }
         })
+    }
+
+    /// Where every link is and what each joint turns about, at `q`: what a collision model places its bodies by
+    /// and measures their speeds with.
+    pub fn placement(&self, q: &JointVector) -> Placement {
+        let frames = self.frames(q);
+        let joints = frames.joint_count;
+        Placement {
+            joint_count: joints,
+            carriers: std::array::from_fn(|k| match k {
+                0 => Transform::identity(),
+                k if k <= joints => Transform::from_parts(
+                    Translation3::from(frames.origins[k - 1]),
+                    Rotation3::from_matrix_unchecked(frames.rotations[k - 1]),
+                ),
+                _ => Transform::identity(),
+            }),
+            joint_axes: frames.joint_axes,
+        }
+    }
+
+    /// The tool in the frame of the last joint's link ([`Placement::carriers`]'s last): a chain's fixed
+    /// joints after its last moving one; the identity for a DH arm, whose last frame is the tool.
+    pub fn last_from_tool(&self) -> Transform {
+        match &self.geometry {
+            Geometry::Dh => Transform::identity(),
+            Geometry::Chain(chain) => chain.last_from_tip,
+        }
     }
 
     /// The tool (DH frame 6, or a chain's tip link) in the base frame.

@@ -59,6 +59,7 @@ pub use chain::{Chain, ChainJoint};
 pub use drive::Drive;
 pub use dynamics::DynamicsError;
 pub use ik::{ArmConfig, IkSolution, IkSolutions};
+pub use kinematics::Placement;
 pub use limits::{GOAL_MARGIN_RAD, JointLimits, LimitViolation, LimitedQuantity};
 pub use link::{DhParameters, Link, LinkInertia};
 

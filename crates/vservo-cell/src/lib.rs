@@ -61,6 +61,7 @@
 //! [`target::TargetRefused`] naming why (outside the image or inside the barrier's margin, degenerate, out of
 //! reach). [`Cell::simulated`] is the wholly simulated cell, the only one the lockstep runs.
 
+mod collision_guard;
 mod exposure;
 pub mod gains;
 mod plant_stage;
@@ -102,6 +103,9 @@ pub enum CellError {
         "robot.driver = \"external\": the lockstep simulator runs the simulated arm only (robot.driver = \"simulated\")"
     )]
     NotSimulatedRobot,
+    /// The collision geometry could not be built (`[collision]`, the arm's URDF shapes).
+    #[error("collision: {0}")]
+    Collision(#[from] vservo_collision::GeometryError),
 }
 
 /// A configuration made ready to build the stages: the arm, the gains, the desired and starting poses.
@@ -115,6 +119,8 @@ pub struct Cell {
     base_from_board_desired: IsometryMatrix3<f64>,
     /// The camera at the desired joints in the frame that holds the board still (the base for a hand camera).
     holder_from_desired_camera: IsometryMatrix3<f64>,
+    /// The collision guard (`[collision]`), built once; each rmrc stage takes a copy.
+    guard: Option<vservo_collision::Guard>,
 }
 
 impl Cell {
@@ -155,6 +161,7 @@ impl Cell {
         };
         let start_joints =
             arm.reach(&base_from_tool_start, &config.desired.joints).ok_or(CellError::Unreachable)?;
+        let guard = collision_guard::guard(config, &arm)?;
         Ok(Self {
             config: config.clone(),
             arm,
@@ -163,7 +170,13 @@ impl Cell {
             base_from_desired_camera,
             base_from_board_desired,
             holder_from_desired_camera,
+            guard,
         })
+    }
+
+    /// The collision guard, as built from `[collision]` (each rmrc stage runs a copy).
+    pub fn guard(&self) -> Option<&vservo_collision::Guard> {
+        self.guard.as_ref()
     }
 
     /// The configuration.
@@ -260,6 +273,6 @@ impl Cell {
             settings.tool_speed_limit_m_s = f64::INFINITY;
             settings.tool_rotation_limit_rad_s = f64::INFINITY;
         }
-        RmrcStage::new(&self.config, settings, self.arm.clone(), *q)
+        RmrcStage::new(&self.config, settings, self.arm.clone(), *q, self.guard.clone())
     }
 }

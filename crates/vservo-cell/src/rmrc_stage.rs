@@ -10,6 +10,7 @@
 //! tick (or, replaying a real-time run, on the states that run answered).
 
 use vservo_arm::{JointVector, SerialArm};
+use vservo_collision::{Assessment, BrakingLimits, Guard, Nearness};
 use vservo_config::{CellConfig, CommandInterface};
 use vservo_control::Twist;
 use vservo_sim::interpolator::{Interpolator, InterpolatorSettings, Reference};
@@ -76,6 +77,11 @@ pub struct RmrcStage {
     next_tick: u64,
     /// The joint move in force as planned: its goal, the share asked for and the share it runs at.
     planned_move: Option<PlannedMove>,
+    /// The collision guard (`[collision]`), what it made of the last tick, and the distance it stopped the arm
+    /// for, held until [`RmrcStage::release_guard`].
+    guard: Option<Guard>,
+    assessed: Option<Assessment>,
+    guard_stop: Option<Nearness>,
 }
 
 /// A joint move as planned, once, when it is asked for: at the share asked for or, for a torque-driven arm,
@@ -111,6 +117,7 @@ impl RmrcStage {
         settings: InterpolatorSettings,
         arm: SerialArm,
         q: JointVector,
+        guard: Option<Guard>,
     ) -> Self {
         let period_ns = (settings.control_period_s * 1e9).round() as u64;
         let periods = u64::from(config.robot.state_timeout_periods);
@@ -130,6 +137,9 @@ impl RmrcStage {
             since_tick: 0,
             next_tick: 0,
             planned_move: None,
+            guard,
+            assessed: None,
+            guard_stop: None,
         }
     }
 
@@ -189,8 +199,10 @@ impl RmrcStage {
         within
     }
 
-    /// A twist set as it is, at `tick` (a zero twist: the interpolator ramps to rest and holds).
+    /// A twist set as it is, at `tick` (a zero twist: the interpolator ramps to rest and holds), or a zero one
+    /// while the guard holds the arm.
     pub fn set_twist(&mut self, twist: Twist, tick: u64) {
+        let twist = if self.guard_stop.is_some() { Twist::zeros() } else { twist };
         self.interpolator.set_twist(twist, tick as f64 * self.settings.control_period_s);
     }
 
@@ -203,7 +215,8 @@ impl RmrcStage {
     /// the arm to rest.
     pub fn move_joints_to(&mut self, goal: JointVector, speed_fraction: f64, tick: u64) -> bool {
         let within = self.arm.limits().zip(goal.iter()).all(|(limits, q)| limits.holds_goal(*q))
-            && vservo_sim::joint_move::speed_fraction_ok(speed_fraction);
+            && vservo_sim::joint_move::speed_fraction_ok(speed_fraction)
+            && self.guard_stop.is_none();
         if within {
             let share = self.planned_share(goal, speed_fraction);
             self.interpolator.move_joints_to(goal, share);
@@ -257,7 +270,7 @@ impl RmrcStage {
     /// The command for the period from `tick` to the next, given the measured joints at its start.
     pub fn step(&mut self, tick: u64, q: &JointVector, qd: &JointVector) -> ActuatorCommand {
         let dt = self.settings.control_period_s;
-        let reference = *self.interpolator.step(tick as f64 * dt + dt);
+        let reference = self.guarded_step(tick as f64 * dt + dt);
         self.next_tick = tick + 1;
         match self.command {
             CommandInterface::Velocity | CommandInterface::Position => {
@@ -265,6 +278,67 @@ impl RmrcStage {
             }
             CommandInterface::Torque => ActuatorCommand::Torque(self.joint_servo.torque(q, qd, &reference)),
         }
+    }
+}
+
+impl RmrcStage {
+    /// One tick of the interpolator, through the guard where there is one: the asked joint speeds slowed by its
+    /// share (nothing while it holds the arm), and the arm braked at once when it finds a distance the reference
+    /// cannot brake for before the stop distance. Allocates nothing.
+    fn guarded_step(&mut self, now_s: f64) -> vservo_sim::interpolator::Reference {
+        let Self { interpolator, guard, arm, settings, guard_stop, assessed, .. } = self;
+        let Some(guard) = guard.as_mut() else { return *interpolator.step(now_s) };
+        let (acceleration, jerk) = interpolator.braking_limits();
+        let tool_speed_m_s = interpolator.tool_speed_limit_m_s();
+        let holding = guard_stop.is_some();
+        let mut judged = None;
+        let reference = *interpolator.step_guarded(now_s, &mut |reference, asked| {
+            let limits = BrakingLimits {
+                acceleration: acceleration.as_slice(),
+                jerk: jerk.as_ref().map(|j| j.as_slice()),
+                period_s: settings.control_period_s,
+                tool_speed_m_s,
+            };
+            let placement = arm.placement(&reference.q);
+            let assessment = guard.assess(&placement, (&reference.qd, &reference.qdd), asked, &limits);
+            judged = Some(assessment);
+            if holding { 0.0 } else { assessment.speed_share }
+        });
+        *assessed = judged;
+        if let Some(stop) = judged.and_then(|a| a.stop)
+            && guard_stop.is_none()
+        {
+            *guard_stop = Some(stop);
+            interpolator.brake();
+            self.planned_move = None;
+        }
+        reference
+    }
+
+    /// The arm it drives.
+    pub fn arm(&self) -> &SerialArm {
+        &self.arm
+    }
+
+    /// The collision guard, if `[collision]` gives one.
+    pub fn guard(&self) -> Option<&Guard> {
+        self.guard.as_ref()
+    }
+
+    /// What the guard made of the last tick.
+    pub fn assessed(&self) -> Option<&Assessment> {
+        self.assessed.as_ref()
+    }
+
+    /// The distance the guard stopped the arm for, while it holds it: twists are zeroed and joint moves refused.
+    pub fn guard_stop(&self) -> Option<&Nearness> {
+        self.guard_stop.as_ref()
+    }
+
+    /// Lets the guard's stop go (a resume): twists are followed again, slowed or held where they close a
+    /// distance within the slowdown distance, so that a motion away is taken and one towards is not.
+    pub fn release_guard(&mut self) {
+        self.guard_stop = None;
     }
 }
 

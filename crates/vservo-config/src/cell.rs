@@ -12,8 +12,8 @@ use vservo_scene::{Board, CameraIntrinsics, CameraMount, IsometryMatrix3};
 use vservo_settings::control::GainsSpec;
 
 use crate::{
-    CameraTruth, CommandInterface, Controller, Desired, FixedCamera, JointServoSettings, PlantSettings,
-    Reacquire, Robot, RobotDriver, Scenario, Timing, Vision,
+    CameraTruth, Collision, CommandInterface, Controller, Desired, FixedCamera, JointServoSettings,
+    PlantSettings, Reacquire, Robot, RobotDriver, Scenario, Timing, Vision,
 };
 
 /// The configuration's part the core cell runs by (the field `cell` of [`crate::Config`]).
@@ -55,6 +55,8 @@ pub struct CellConfig {
     pub arm: vservo_arm::SerialArm,
     /// `[reacquire]`: how the servo steers back to lost marks.
     pub reacquire: Reacquire,
+    /// `[collision]` and `[[scene.obstacles]]`: the guard, if the section is given.
+    pub collision: Option<Collision>,
 }
 
 impl CellConfig {

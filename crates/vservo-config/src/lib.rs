@@ -58,6 +58,7 @@ pub const MAX_PIPELINE_BYTES: usize = 4096;
 
 pub mod calibration;
 mod cell;
+mod collision;
 pub mod edit;
 mod error;
 mod layers;
@@ -70,6 +71,7 @@ pub use vservo_settings::simulation::MIN_SPEED_SCALE;
 use std::path::Path;
 
 pub use cell::CellConfig;
+pub use collision::{CameraBox, Collision, Obstacle};
 pub use error::ConfigError;
 use layers::Layers;
 pub use layers::{LENS_KEYS, did_you_mean};

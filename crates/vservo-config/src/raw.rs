@@ -6,8 +6,10 @@ use serde::Deserialize;
 
 use crate::{CommandInterface, ResumePolicy};
 
+mod collision;
 mod names;
 
+pub use collision::*;
 pub use names::*;
 
 #[derive(Debug, Deserialize)]
@@ -42,6 +44,10 @@ pub struct RawConfig {
     pub target: RawTarget,
     #[serde(default)]
     pub calibration: Option<RawCalibration>,
+    #[serde(default)]
+    pub collision: Option<RawCollision>,
+    #[serde(default)]
+    pub scene: RawScene,
 }
 
 /// `[calibration]`: the board `vservoctl calibrate` looks at and the poses it takes.

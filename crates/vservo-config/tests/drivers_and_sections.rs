@@ -42,13 +42,20 @@ fn the_drivers_are_typed_choices_and_the_gstreamer_camera_needs_its_pipeline() {
 }
 
 /// The sections config/vservo.toml documents commented out ([camera.truth], [camera.gstreamer], [target],
-/// [calibration], [ros2.qos.image]) are valid as written there: uncommented (each `# key = value` after its `# [section]` line, up
+/// [calibration], [ros2.qos.image], [collision], [[scene.obstacles]]) are valid as written there: uncommented (each `# key = value` after its `# [section]` line, up
 /// to the next blank line), the file loads, with each section's values. ([franka] needs a Franka arm and driver:
 /// config/franka-sim.toml is that section in use.)
 #[test]
 fn the_commented_sections_of_the_default_are_valid_as_documented() {
-    const SECTIONS: [&str; 5] =
-        ["[camera.truth]", "[camera.gstreamer]", "[target]", "[calibration]", "[ros2.qos.image]"];
+    const SECTIONS: [&str; 7] = [
+        "[camera.truth]",
+        "[camera.gstreamer]",
+        "[target]",
+        "[calibration]",
+        "[ros2.qos.image]",
+        "[collision]",
+        "[[scene.obstacles]]",
+    ];
     let is_key_line = |line: &str| {
         line.strip_prefix("# ").and_then(|rest| rest.split_once(" = ")).is_some_and(|(key, _)| {
             !key.is_empty() && key.chars().all(|c| c.is_ascii_lowercase() || c.is_ascii_digit() || c == '_')
@@ -84,4 +91,9 @@ fn the_commented_sections_of_the_default_are_valid_as_documented() {
     assert!(config.cell.camera_truth.is_some(), "[camera.truth]");
     let image = config.ros2.qos_of(vservo_config::Ros2Topic::Image);
     assert_eq!(image.reliability, Some(vservo_config::QosReliability::BestEffort), "[ros2.qos.image]");
+    let collision = config.cell.collision.as_ref().expect("[collision]");
+    assert_eq!((collision.slowdown_distance_m, collision.stop_distance_m), (0.10, 0.03), "[collision]");
+    assert!(collision.workspace.is_some() && collision.camera_box.is_some(), "[collision]");
+    assert_eq!(collision.obstacles.len(), 1, "[[scene.obstacles]]");
+    assert_eq!(collision.obstacles[0].name, "table", "[[scene.obstacles]]");
 }

@@ -90,6 +90,34 @@ pub struct Trace {
     pub faults: Faults,
     /// ξ_d.
     pub desired_features: FeatureVector,
+    /// What the collision guard saw and did, where `[collision]` gives one.
+    pub clearance: Option<Clearance>,
+}
+
+/// What the collision guard saw and did over a run.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Clearance {
+    /// The smallest distance it found within its slowdown distance, and between what (m).
+    pub nearest: Option<(f64, String, String)>,
+    /// The ticks on which it slowed the asked motion.
+    pub slowed_ticks: u64,
+    /// Where it stopped the arm: the time (s), the pair, the distance and the braking distance it kept (m).
+    pub stop: Option<GuardStop>,
+}
+
+/// A stop of the collision guard.
+#[derive(Debug, Clone, PartialEq)]
+pub struct GuardStop {
+    /// When (s).
+    pub t_s: f64,
+    /// Between what.
+    pub between: (String, String),
+    /// The distance (m).
+    pub distance_m: f64,
+    /// How far the reference could still close it while braking, at most (m).
+    pub braking_m: f64,
+    /// The smallest it came to from the stop on, the reference at rest (m).
+    pub closest_after_m: f64,
 }
 
 /// How many of the latest commands' references [`Lockstep::run_replaying`] keeps for a late answer: as many as
@@ -256,6 +284,7 @@ impl Lockstep {
         let mut joints = Vec::with_capacity((ticks / 10 + 1) as usize);
         let mut faults = Faults::default();
         let joints_every = (0.01 / dt).round().max(1.0) as u64;
+        let mut clearance = Some(Clearance::default());
         (self.resyncs, self.waiting) = (Vec::new(), None);
         self.computed.fill(None);
         for tick in 0..ticks {
@@ -267,6 +296,9 @@ impl Lockstep {
                 }
             }
             let command = self.rmrc_tick(tick, pace);
+            if let Some(clearance) = clearance.as_mut() {
+                self.watch_guard(clearance, tick as f64 * dt + dt);
+            }
             let state = self.plant_tick(tick, command, pace);
             faults.position_limit |= state.faults.position_limit;
             faults.velocity_limit |= state.faults.velocity_limit;
@@ -277,7 +309,8 @@ impl Lockstep {
                 joints.push(JointRecord { t_s, q: state.q, qd: state.qd, torque: state.applied_torque });
             }
         }
-        Trace { frames, joints, faults, desired_features: self.gains.desired_features }
+        let clearance = clearance.filter(|_| self.rmrc.guard().is_some());
+        Trace { frames, joints, faults, desired_features: self.gains.desired_features, clearance }
     }
 
     /// The camera captures the current state; the servo acts on the frame that leaves the pipeline now, its
@@ -335,6 +368,37 @@ impl Lockstep {
         self.computed[(tick % kept) as usize] =
             Some((tick, CommandReference { q: reference.q, qd: reference.qd }));
         command
+    }
+
+    /// What the guard made of the tick that ended at `t_s`, taken into the run's record.
+    fn watch_guard(&self, clearance: &mut Clearance, t_s: f64) {
+        let (Some(guard), Some(assessed)) = (self.rmrc.guard(), self.rmrc.assessed()) else { return };
+        let named = |between| {
+            let (first, second) = guard.names(between);
+            (first.to_string(), second.to_string())
+        };
+        if let Some(near) = assessed.nearest
+            && clearance.nearest.as_ref().is_none_or(|(d, _, _)| near.distance_m < *d)
+        {
+            let (first, second) = named(near.between);
+            clearance.nearest = Some((near.distance_m, first, second));
+        }
+        clearance.slowed_ticks += u64::from(assessed.speed_share < 1.0);
+        if let (None, Some(stop)) = (&clearance.stop, self.rmrc.guard_stop()) {
+            clearance.stop = Some(GuardStop {
+                t_s,
+                between: named(stop.between),
+                distance_m: stop.distance_m,
+                braking_m: stop.braking_m,
+                closest_after_m: stop.distance_m,
+            });
+        }
+        if let (Some(record), Some(stop)) = (clearance.stop.as_mut(), self.rmrc.guard_stop()) {
+            let placement = self.rmrc.arm().placement(&self.rmrc.reference().q);
+            if let Some(now_m) = guard.distance_of(stop.between, &placement) {
+                record.closest_after_m = record.closest_after_m.min(now_m);
+            }
+        }
     }
 
     /// The plant over the period from `tick`, on the command the pace says the arm followed.

@@ -193,9 +193,48 @@ impl Interpolator {
         }
     }
 
+    /// Stops following the twist at once: the reference brakes to rest from the next tick within the limits in
+    /// force, without the linear hold's blend to zero over a frame that a new zero twist gets (what a guard that
+    /// finds the arm too near something needs). A joint move ends. Allocates nothing.
+    pub fn brake(&mut self) {
+        self.latest = Twist::zeros();
+        self.previous = Twist::zeros();
+        self.joint_goal = None;
+    }
+
+    /// The limits the reference brakes within now: each joint's acceleration and, where the arm has them, jerk
+    /// (rad/s², rad/s³), as the generator keeps them.
+    pub fn braking_limits(&self) -> (JointVector, Option<JointVector>) {
+        match self.settings.jerk_limit {
+            Some(jerk) => {
+                let limits = self.motion_limits(&jerk, 1.0);
+                (limits.acceleration, Some(limits.jerk))
+            }
+            None => (self.settings.acceleration_limit, None),
+        }
+    }
+
+    /// The tool's speed limit in force (m/s), the speed scale applied.
+    pub fn tool_speed_limit_m_s(&self) -> f64 {
+        self.settings.tool_speed_limit_m_s
+    }
+
     /// Advances the reference by one tick ending at `now_s`.
     pub fn step(&mut self, now_s: f64) -> &Reference {
+        self.step_guarded(now_s, &mut |_, _| 1.0)
+    }
+
+    /// Advances the reference by one tick ending at `now_s`, the joint speeds the twist asks for scaled by what
+    /// `guard` answers (from 0 to 1; given the reference before the tick and those speeds). During a joint move
+    /// `guard` is asked with the move's speeds as they are and its answer is not applied: the move is stopped
+    /// or not by its caller.
+    pub fn step_guarded(
+        &mut self,
+        now_s: f64,
+        guard: &mut dyn FnMut(&Reference, &JointVector) -> f64,
+    ) -> &Reference {
         if let Some((goal, speed_fraction)) = self.joint_goal {
+            guard(&self.reference, &self.reference.qd);
             return self.step_joint_move(&goal, speed_fraction);
         }
         let s = &self.settings;
@@ -247,6 +286,10 @@ impl Interpolator {
         }
         if !qd.iter().all(|v| v.is_finite()) {
             qd = JointVector::zeros();
+        }
+        let share = guard(&self.reference, &qd);
+        if share.is_nan() || share < 1.0 {
+            qd *= if share > 0.0 { share } else { 0.0 };
         }
         if let (Some(motion), Some(limits)) = (self.motion.as_mut(), motion_limits) {
             let next = motion.velocity_step(&self.reference.state(), &qd, &limits);

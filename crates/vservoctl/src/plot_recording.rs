@@ -66,6 +66,7 @@ pub fn trace_of(bytes: &[u8], config: &vservo_config::Config) -> anyhow::Result<
         joints: joints_every_10_ms(&recorded.states, config.cell.timing.control_period_s, first_tick),
         faults: faults_seen(&recorded.states),
         desired_features: recorded.desired,
+        clearance: None,
     })
 }
 

@@ -92,7 +92,7 @@ pub fn run(args: &SimArgs) -> Result<()> {
     }
     vservo_config::new_file::folder(&args.out)?;
     let summary = summarize(&trace, &config.cell.scenario.object);
-    let summary_json = json!({
+    let mut summary_json = json!({
         "config": config.origin,
         "law": config.cell.controller.law.name(),
         "plant": config.cell.plant.mode.name(),
@@ -111,6 +111,10 @@ pub fn run(args: &SimArgs) -> Result<()> {
             "integration_failed": trace.faults.integration_failed,
         },
     });
+    if let (Some(clearance), Some(object)) = (&trace.clearance, summary_json.as_object_mut()) {
+        object
+            .insert("collision".to_string(), clearance_json(clearance, config.cell.timing.control_period_s));
+    }
     let out = &args.out;
     crate::output::write_in(out, "summary.json", format!("{summary_json:#}\n").as_bytes())?;
     crate::output::write_in(out, "features.csv", features_csv(&trace).as_bytes())?;
@@ -161,4 +165,20 @@ fn joints_csv(trace: &Trace, joint_count: usize) -> String {
         out.push('\n');
     }
     out
+}
+
+/// What the collision guard saw and did (summary.json's `collision`, written only where `[collision]` is given).
+fn clearance_json(clearance: &vservo_lockstep::Clearance, period_s: f64) -> serde_json::Value {
+    json!({
+        "nearest_m": clearance.nearest.as_ref().map(|(d, _, _)| d),
+        "nearest_between": clearance.nearest.as_ref().map(|(_, a, b)| [a, b]),
+        "slowed_s": clearance.slowed_ticks as f64 * period_s,
+        "stop": clearance.stop.as_ref().map(|stop| json!({
+            "t_s": stop.t_s,
+            "between": [&stop.between.0, &stop.between.1],
+            "distance_m": stop.distance_m,
+            "braking_m": stop.braking_m,
+            "closest_after_m": stop.closest_after_m,
+        })),
+    })
 }

@@ -6,6 +6,7 @@ mod arm;
 mod calibration_board;
 mod camera;
 mod checker;
+mod collision;
 mod controller;
 mod desired;
 mod franka;
@@ -80,6 +81,9 @@ pub fn validate(raw: RawConfig, file: &str) -> Result<Config, ConfigError> {
     let reacquire = operation::reacquire(&check, &raw.reacquire, &robot, timing.vision_period_s)?;
     let franka_simulator = raw.franka.as_ref().is_some_and(|f| f.simulator);
     robot::driver_and_camera_agree(&check, &raw.robot, &robot, (&vision.source, franka_simulator))?;
+    let arm_urdf_file = (raw.robot.arm.preset == crate::raw::RawArmPreset::Urdf)
+        .then(|| raw.robot.arm.urdf.clone())
+        .flatten();
     Ok(Config {
         origin: file.to_string(),
         instance,
@@ -100,11 +104,15 @@ pub fn validate(raw: RawConfig, file: &str) -> Result<Config, ConfigError> {
             robot,
             arm,
             reacquire,
+            collision: collision::collision(
+                &check,
+                raw.collision.as_ref(),
+                &raw.scene,
+                arm_urdf_file.as_deref(),
+            )?,
         },
         runtime: runtime::runtime(&check, &raw.runtime)?,
-        arm_urdf_file: (raw.robot.arm.preset == crate::raw::RawArmPreset::Urdf)
-            .then(|| raw.robot.arm.urdf.clone())
-            .flatten(),
+        arm_urdf_file,
         faults: operation::faults(&check, &raw.faults)?,
         viewer: operation::viewer(&check, &raw.viewer)?,
         ros2,

@@ -139,6 +139,7 @@ pub fn diff(old: &Config, new: &Config) -> ConfigDiff {
                 robot,
                 arm,
                 reacquire,
+                collision,
             },
         runtime,
         arm_urdf_file,
@@ -208,6 +209,7 @@ pub fn diff(old: &Config, new: &Config) -> ConfigDiff {
     ];
     section(r, "faults", faults != &new.faults, &fault_keys);
     section(r, "reacquire", reacquire != &new.cell.reacquire, &[]);
+    section(r, "collision", collision != &new.cell.collision, &[]);
     section(
         r,
         "viewer",
