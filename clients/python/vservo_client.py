@@ -27,13 +27,14 @@ import time
 
 import iceoryx2 as iox2
 
-SCHEMA_VERSION = 13
+SCHEMA_VERSION = 14
 (TARGET_FEATURES, TARGET_POSE, TARGET_TEACH, OBJECT_HOLD, OBJECT_STEP, OBJECT_CIRCLE, RELOAD, RESUME,
  SAFE_STOP, MOVE_JOINTS, SERVO, SPEED) = range(1, 13)
 STATES = ["starting", "running", "degraded", "stopping", "safe-stop", "moving"]
 MAX_JOINTS = 7
 FAULTS = ["none", "position_limit", "velocity_limit", "torque_saturated", "driver_fault", "target_lost",
-          "robot_stalled", "requested", "stream_taken", "camera_stalled", "start_held", "supervision_stalled"]
+          "robot_stalled", "requested", "stream_taken", "camera_stalled", "start_held", "supervision_stalled",
+          "collision"]
 
 
 class Command(ctypes.Structure):
@@ -118,7 +119,7 @@ class NodeStatus(ctypes.Structure):
 
 
 class DaemonStatus(ctypes.Structure):
-    """vservo::DaemonStatus, 224 bytes."""
+    """vservo::DaemonStatus, 296 bytes."""
 
     _fields_ = [
         ("schema", ctypes.c_uint32),
@@ -138,6 +139,8 @@ class DaemonStatus(ctypes.Structure):
         ("driver_error", ctypes.c_uint32),
         ("reserved", ctypes.c_uint32),
         ("speed_scale", ctypes.c_double),
+        ("clearance_m", ctypes.c_double),
+        ("clearance_between", ctypes.c_char * 64),
     ]
 
     @staticmethod

@@ -42,7 +42,7 @@ class JointCommand(ctypes.Structure):
     ignores it)."""
 
     _fields_ = [("schema", ctypes.c_uint32), ("mode", ctypes.c_uint32), ("joint_count", ctypes.c_uint32),
-                ("reserved", ctypes.c_uint32), ("answers_tick", ctypes.c_uint64),
+                ("guard", ctypes.c_uint32), ("answers_tick", ctypes.c_uint64),
                 ("driver_epoch", ctypes.c_uint64), ("state_stamp_ns", ctypes.c_uint64), ("stamp_ns", ctypes.c_uint64),
                 ("torque_nm", ctypes.c_double * MAX_JOINTS), ("q_ref_rad", ctypes.c_double * MAX_JOINTS),
                 ("qd_ref_rad_s", ctypes.c_double * MAX_JOINTS), ("twist_capture_tick", ctypes.c_uint64),

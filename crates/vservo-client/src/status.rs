@@ -120,6 +120,18 @@ pub struct StatusView {
     /// The dynamics override in force: the share of the arm's speed, acceleration and jerk limits (and of the
     /// tool's caps) the reference keeps (`vservoctl speed`).
     pub speed_scale: f64,
+    /// The collision guard's nearest distance, the rmrc's reference as it stands; null without a guard or with
+    /// nothing within 1 m.
+    pub clearance: Option<ClearanceView>,
+}
+
+/// The collision guard's nearest distance.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct ClearanceView {
+    /// The distance (m; negative: an overlap).
+    pub distance_m: f64,
+    /// Between what: "camera – table".
+    pub between: String,
 }
 
 /// The name of a code another process wrote: its enum's, or "unknown".
@@ -193,7 +205,18 @@ impl StatusView {
             gains_version: daemon.gains_version,
             overruns,
             speed_scale: daemon.speed_scale,
+            clearance: daemon.clearance_m.is_finite().then(|| ClearanceView {
+                distance_m: daemon.clearance_m,
+                between: String::from_utf8_lossy(&daemon.clearance_between)
+                    .trim_end_matches('\0')
+                    .to_string(),
+            }),
         }
+    }
+
+    /// The collision guard's nearest distance as a phrase ("clearance 31 mm (camera – table)"), if there is one.
+    pub fn clearance_text(&self) -> Option<String> {
+        self.clearance.as_ref().map(|c| format!("clearance {:.0} mm ({})", c.distance_m * 1e3, c.between))
     }
 
     /// One line: state, nodes up, robot, tick rate, plant lateness and round trip, frame period and
@@ -219,8 +242,9 @@ impl StatusView {
             }
             _ => self.state.to_string(),
         };
+        let clearance = self.clearance_text().map_or(String::new(), |text| format!(" {text}"));
         format!(
-            "{state} nodes {up}/{} robot {} ticks {:.0}/s late(p50/p99 µs) {} round-trip {} frame(p50/max ms) {} capture→twist {} overruns {} restarts {restarts} error {error} px gains v{}",
+            "{state} nodes {up}/{} robot {} ticks {:.0}/s late(p50/p99 µs) {} round-trip {} frame(p50/max ms) {} capture→twist {} overruns {} restarts {restarts} error {error} px gains v{}{clearance}",
             self.supervised_nodes,
             self.robot,
             self.tick_rate_hz,
@@ -257,6 +281,18 @@ mod tests {
         assert_eq!((fault.name, fault.joints, fault.active), ("robot_stalled", vec![3], true));
         daemon.state = 99;
         assert_eq!(StatusView::new("cell", &daemon, &[None; 4]).state, "unknown");
+    }
+
+    #[test]
+    fn the_clearance_is_shown_with_its_names_and_left_out_without_a_guard() {
+        let mut daemon = DaemonStatusMsg::default();
+        assert_eq!(StatusView::new("cell", &daemon, &[None; 4]).clearance, None, "NaN: no guard");
+        daemon.clearance_m = 0.0314;
+        daemon.clearance_between[..16].copy_from_slice("camera – table".as_bytes());
+        let view = StatusView::new("cell", &daemon, &[None; 4]);
+        let clearance = view.clearance.as_ref().expect("a clearance");
+        assert_eq!((clearance.distance_m, clearance.between.as_str()), (0.0314, "camera – table"));
+        assert!(view.one_line().ends_with(" clearance 31 mm (camera – table)"), "{}", view.one_line());
     }
 
     #[test]

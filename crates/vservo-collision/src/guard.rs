@@ -122,6 +122,23 @@ impl Guard {
         }
     }
 
+    /// Places the cell at `placement` and finds the nearest checked distance within `cutoff_m`: the model's
+    /// pairs and, with a workspace, the tool's and the camera's points from its faces. For a status or a check,
+    /// not for a tick (every pair is measured).
+    pub fn nearest(&mut self, placement: &Placement, cutoff_m: f64) -> Option<(Between, f64)> {
+        let joints = placement.joint_count;
+        self.model.place(&placement.carriers[..=joints]);
+        let pair = self.model.nearest(cutoff_m).map(|found| (Between::Pair(found.pair), found.distance_m));
+        let point = (0..self.points.len())
+            .filter_map(|point| {
+                let between = Between::Workspace { point };
+                self.distance_of(between, placement).map(|d| (between, d))
+            })
+            .filter(|(_, d)| *d <= cutoff_m)
+            .min_by(|a, b| a.1.total_cmp(&b.1));
+        [pair, point].into_iter().flatten().min_by(|a, b| a.1.total_cmp(&b.1))
+    }
+
     /// Places the cell at `placement` (the reference's joints) and judges the motion: `qd`, `qdd` the
     /// reference's speeds and accelerations now, `asked` the joint speeds the next tick asks for, `limits` what
     /// the reference brakes within.

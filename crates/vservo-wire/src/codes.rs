@@ -240,6 +240,10 @@ wire_code! {
         /// wait for its word (`vservo_protocol::supervision`): they held the arm on their own; never resumed
         /// automatically.
         SupervisionStalled = 11, "supervision_stalled";
+        /// The collision guard stopped the arm (`[collision]`): a motion kept closing a distance at the stop
+        /// distance, or the reference could not brake before it. A resume is taken at once; the guard then takes
+        /// only motions that do not close a distance within the slowdown distance.
+        Collision = 12, "collision";
     }
 }
 

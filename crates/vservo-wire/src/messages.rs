@@ -21,7 +21,9 @@ use iceoryx2::prelude::ZeroCopySend;
 /// the dynamics override (`speed_scale`), which the command `speed` sets.
 /// 13: `features` says which tags of the target gave the marks (`tags_used_mask`, where `bits_corrected` was a u32:
 /// both are u16 now), for a target of several tags (a bundle).
-pub const SCHEMA_VERSION: u32 = 13;
+/// 14: the collision guard: `joint_command.guard` (where `reserved` was), the fault `collision` (12), and
+/// `status.clearance_m` and `clearance_between` at the end.
+pub const SCHEMA_VERSION: u32 = 14;
 
 /// Joints `joint_state` and `joint_command` have room for: the arm's joints come first, the slots past
 /// `joint_count` are zero.
@@ -108,8 +110,9 @@ wire_message! {
         mode: u32 as CommandMode,
         /// the arm's joints (the configured arm's, as in the joint state answered)
         joint_count: u32 = 6,
-        /// zero
-        reserved: u32,
+        /// the collision guard (`[collision]`; 0 without one): bit 0 it slows the motion, bit 1 it holds the arm
+        /// (a `collision` stop, until the cell resumes); bits 2–31 which distance (`guard_bits`)
+        guard: u32,
         /// the `tick` of the joint state this answers
         answers_tick: u64,
         /// that joint state's `driver_epoch`
@@ -443,6 +446,59 @@ wire_message! {
         /// the dynamics override in force (0–1]: the share of the joints' speed, acceleration and jerk limits
         /// and of the tool's caps the reference keeps
         speed_scale: f64 = 1.0,
+        /// the collision guard: the nearest checked distance, the rmrc's reference as it stands (m; negative:
+        /// an overlap); NaN without a guard or with nothing within 1 m
+        clearance_m: f64 = f64::NAN,
+        /// between what: the two names (a link, `camera`, an obstacle, `workspace`) joined by " – ", UTF-8,
+        /// zero-padded
+        clearance_between: [u8; CLEARANCE_NAME_BYTES],
+    }
+}
+
+/// How long `status.clearance_between` is (bytes).
+pub const CLEARANCE_NAME_BYTES: usize = 64;
+
+/// The bits of `joint_command.guard`.
+pub mod guard_bits {
+    /// The guard slows the asked motion (it closes a distance within the slowdown distance).
+    pub const SLOWING: u32 = 1;
+    /// The guard holds the arm: it stopped it (a `collision` stop) and takes no motion until the cell resumes.
+    pub const HOLDING: u32 = 2;
+    /// Where the distance's code starts: 1 + the pair's index in the guard's model, or
+    /// [`WORKSPACE`] + 1 + a workspace point's; 0: none.
+    pub const DISTANCE_SHIFT: u32 = 2;
+    /// The codes of workspace points start here.
+    pub const WORKSPACE: u32 = 1 << 28;
+
+    /// Which distance a guard word names.
+    #[derive(Debug, Clone, Copy, PartialEq, Eq)]
+    pub enum Distance {
+        /// The guard model's pair of this index.
+        Pair(u32),
+        /// The workspace point of this index and its nearest face.
+        WorkspacePoint(u32),
+    }
+
+    /// The guard word of `slowing`, `holding` and the distance named (one out of range is named as none).
+    pub fn word(slowing: bool, holding: bool, distance: Option<Distance>) -> u32 {
+        let code = match distance {
+            Some(Distance::Pair(pair)) if pair < WORKSPACE - 1 => pair + 1,
+            Some(Distance::WorkspacePoint(point)) if point < (u32::MAX >> DISTANCE_SHIFT) - WORKSPACE => {
+                WORKSPACE + point + 1
+            }
+            _ => 0,
+        };
+        (u32::from(slowing) * SLOWING) | (u32::from(holding) * HOLDING) | (code << DISTANCE_SHIFT)
+    }
+
+    /// The distance a guard word names.
+    pub fn distance(word: u32) -> Option<Distance> {
+        match word >> DISTANCE_SHIFT {
+            0 => None,
+            code if code < WORKSPACE => Some(Distance::Pair(code - 1)),
+            code if code > WORKSPACE => Some(Distance::WorkspacePoint(code - WORKSPACE - 1)),
+            _ => None,
+        }
     }
 }
 

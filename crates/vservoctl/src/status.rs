@@ -101,6 +101,9 @@ fn text(view: &StatusView) -> String {
             if fault.active { "; `vservoctl resume` once its cause is gone" } else { "" }
         ));
     }
+    if let Some(clearance) = view.clearance_text() {
+        out.push_str(&format!("  {clearance}\n"));
+    }
     out.push_str(
         "  node     up  restarts  pid       overruns  skipped  late   wake µs p50/p99/p99.9/max   exec µs p50/p99/p99.9/max   round trip µs\n",
     );

@@ -88,6 +88,9 @@ fn draw_instance(frame: &mut ratatui::Frame, header: ratatui::layout::Rect, view
         view.feature_error_px.map_or("-".into(), |e| format!("{e:.3}")),
         view.speed_scale
     )));
+    if let Some(clearance) = view.clearance_text() {
+        lines.push(Line::from(clearance));
+    }
     if let Some(fault) = &view.fault {
         let joints = fault.joints.iter().map(u32::to_string).collect::<Vec<_>>().join(",");
         lines.push(Line::styled(

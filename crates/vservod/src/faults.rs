@@ -13,8 +13,8 @@
 
 use vservo_config::{Faults, ResumePolicy};
 use vservo_protocol::{
-    CameraTwistMsg, DriverError, DriverStatus, Fault, FeaturesMsg, JointStateMsg, RobotState, Verdict,
-    fault_bits,
+    CameraTwistMsg, DriverError, DriverStatus, Fault, FeaturesMsg, JointCommandMsg, JointStateMsg,
+    RobotState, Verdict, fault_bits, guard_bits,
 };
 
 /// Four bits, one per mark.
@@ -87,6 +87,11 @@ pub enum Cause {
         "vservod stopped supervising for {0} ms (SIGSTOP, a debugger, a frozen machine); the nodes held the arm"
     )]
     SupervisionStalled(u64),
+    /// The collision guard stopped the arm (the rmrc's `joint_command.guard` word, which names the distance).
+    #[error(
+        "the collision guard stopped the arm: a motion closed a distance it watches to its stop distance"
+    )]
+    Collision(u32),
     /// A process that is not a stream's writer holds its writer slot, or a node's port was refused because
     /// its slots are held (the log names the stream and the process).
     #[error("a stream's writer slot is held by a process that is not its writer")]
@@ -109,6 +114,7 @@ impl Cause {
             Cause::StartHeld => Some(Fault::StartHeld),
             Cause::SupervisionStalled(_) => Some(Fault::SupervisionStalled),
             Cause::StreamTaken => Some(Fault::StreamTaken),
+            Cause::Collision(_) => Some(Fault::Collision),
         }
     }
 
@@ -145,13 +151,16 @@ pub struct Evidence {
     pub stream_taken: bool,
     /// The camera has sent no frame for its timeout while the vision node ran.
     pub camera_stalled: bool,
+    /// The collision guard stopped the arm (its word), seen since the last cycle; never a cause that stays: the
+    /// guard itself takes only motions away once the cell resumes.
+    pub guard_stop: Option<u32>,
 }
 
 /// A condition: the cause it finds in the evidence, if any.
 pub type Condition = fn(&Evidence) -> Option<Cause>;
 
 /// Every condition, in the order a fault is chosen when several are found at once.
-pub const CONDITIONS: [Condition; 11] = [
+pub const CONDITIONS: [Condition; 12] = [
     |e| e.stream_taken.then_some(Cause::StreamTaken),
     |e| (!e.motion_nodes_healthy).then_some(Cause::MotionNodesDown),
     |e| (e.robot == RobotState::Waiting).then_some(Cause::RobotWaiting),
@@ -166,6 +175,7 @@ pub const CONDITIONS: [Condition; 11] = [
     |e| e.camera_stalled.then_some(Cause::CameraStalled),
     |e| nonzero(e.saturated_joints).map(Cause::TorqueSaturated),
     |e| nonzero(e.missing_marks).map(Cause::MarksMissing),
+    |e| e.guard_stop.map(Cause::Collision),
 ];
 
 impl Evidence {
@@ -180,9 +190,9 @@ impl Evidence {
     }
 }
 
-/// The stops a joint move may end (nothing else keeping them): lost marks, which a joint move does not need,
-/// and a cell held by the user.
-const JOINT_MOVE_ENDS: [Fault; 3] = [Fault::TargetLost, Fault::StartHeld, Fault::Requested];
+/// The stops a joint move may end (nothing else keeping them): lost marks, which a joint move does not need, a
+/// cell held by the user, and the collision guard's stop (the guard still stops a move towards what it is near).
+const JOINT_MOVE_ENDS: [Fault; 4] = [Fault::TargetLost, Fault::StartHeld, Fault::Requested, Fault::Collision];
 
 /// What the supervisor knows besides the messages.
 #[derive(Debug, Clone, Copy)]
@@ -263,6 +273,10 @@ pub struct FaultMonitor {
     seen_bits: u32,
     /// A driver fault seen since the last cycle, with the first reason given.
     driver_fault_seen: Option<DriverError>,
+    /// A stop of the collision guard seen since the last cycle (the rmrc's guard word as it began to hold).
+    guard_stop_seen: Option<u32>,
+    /// The latest command's guard held the arm (a stop is where that begins).
+    guard_holding: bool,
     /// A joint count not the configured arm's, seen in a state since the last cycle.
     foreign_joint_count_seen: Option<u32>,
     /// The current run of saturated states.
@@ -334,6 +348,8 @@ impl FaultMonitor {
             latest_state: None,
             seen_bits: 0,
             driver_fault_seen: None,
+            guard_stop_seen: None,
+            guard_holding: false,
             foreign_joint_count_seen: None,
             saturated: None,
             missing: None,
@@ -365,6 +381,16 @@ impl FaultMonitor {
             (None, now) => Some(Run { first_ns: state.stamp_ns, last_ns: state.stamp_ns, bits: now }),
         };
         self.latest_state = Some(*state);
+    }
+
+    /// Takes one joint command of the rmrc (every one the supervisor drains, in order): a collision guard that
+    /// begins to hold the arm is a stop.
+    pub fn on_joint_command(&mut self, command: &JointCommandMsg) {
+        let holding = command.guard & guard_bits::HOLDING != 0;
+        if holding && !self.guard_holding && self.guard_stop_seen.is_none() {
+            self.guard_stop_seen = Some(command.guard);
+        }
+        self.guard_holding = holding;
     }
 
     /// Takes one twist of the servo.
@@ -419,6 +445,7 @@ impl FaultMonitor {
             motion_nodes_healthy: c.motion_nodes_healthy,
             stream_taken: c.stream_taken,
             camera_stalled: c.camera_stalled,
+            guard_stop: self.guard_stop_seen,
         }
     }
 
@@ -444,6 +471,7 @@ impl FaultMonitor {
             motion_nodes_healthy: c.motion_nodes_healthy,
             stream_taken: c.stream_taken,
             camera_stalled: c.camera_stalled,
+            guard_stop: None,
         }
     }
 
@@ -457,6 +485,7 @@ impl FaultMonitor {
         let found = self.seen_since_last_cycle(c).first_fault();
         self.seen_bits = 0;
         self.driver_fault_seen = None;
+        self.guard_stop_seen = None;
         self.foreign_joint_count_seen = None;
         if self.latched.is_none() {
             return match found {

@@ -269,7 +269,8 @@ impl Safety {
     /// A client's joint move: the rmrc takes the joints to the goal instead of following the servo's twists.
     /// Refused while the cell is held, except in a `target_lost` stop that only the lost marks keep (a joint
     /// move needs none), and, `out_of_hold`, in a cell held by the user (`start_held`, `requested`: the move is
-    /// the user's own motion): the move ends that stop, and the resume is returned.
+    /// the user's own motion) or by the collision guard (`collision`: the guard stops a move towards what it is
+    /// near, so that a move away is the way out): the move ends that stop, and the resume is returned.
     pub fn move_joints(
         &mut self,
         joint_move: JointMove,
@@ -292,6 +293,10 @@ impl Safety {
             Some(Fault::TargetLost) => out(self, "by a joint move (it needs no marks)"),
             Some(Fault::StartHeld | Fault::Requested) if out_of_hold => {
                 out(self, "by the user's joint move out of the held cell")
+            }
+            // the guard stops a move towards what it is near as it stopped the servo: a move away is the way out
+            Some(Fault::Collision) if out_of_hold => {
+                out(self, "by the user's joint move out of the collision stop")
             }
             Some(code) => Err(SafetyRefused::Held(code)),
         };

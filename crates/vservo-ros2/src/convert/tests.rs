@@ -237,6 +237,7 @@ fn view(state: &'static str) -> StatusView {
         gains_version: 1,
         overruns: std::collections::BTreeMap::new(),
         speed_scale: 1.0,
+        clearance: None,
     }
 }
 

@@ -106,6 +106,8 @@ struct Rmrc {
     /// A vision period (ns): how old a twist may be when it is taken.
     twist_max_age_ns: u64,
     orphaned: Orphaned,
+    /// The mode in force was a safe stop (a resume releases the collision guard's stop).
+    held: bool,
 }
 
 impl Rmrc {
@@ -126,6 +128,7 @@ impl Rmrc {
                 timeout_ns: (context.runtime.stop_timeout + std::time::Duration::from_secs(1)).as_nanos()
                     as u64,
             },
+            held: false,
         }
     }
 
@@ -214,6 +217,12 @@ impl Rmrc {
     fn apply_mode(&mut self, mode: ModeInForce, tick: u64, counters: &Counters) {
         // no daemon and so no servo to trust: as a safe stop
         let mode = if self.orphaned.is_orphaned() { ModeInForce::SafeStop } else { mode };
+        // the cell resumed (the daemon left a safe stop): the guard's own stop goes with it
+        let resumed = self.held && !matches!(mode, ModeInForce::SafeStop);
+        self.held = matches!(mode, ModeInForce::SafeStop);
+        if resumed {
+            self.stage.release_guard();
+        }
         match mode {
             ModeInForce::Servoing => self.stage.end_joint_move(),
             // a zero twist, which the interpolator ramps to at its acceleration limits and then holds
@@ -241,7 +250,7 @@ impl Rmrc {
             schema: SCHEMA_VERSION,
             mode: self.mode.into(),
             joint_count: self.joint_count,
-            reserved: 0,
+            guard: guard_word(&self.stage),
             answers_tick: state.tick,
             driver_epoch: state.driver_epoch,
             state_stamp_ns: state.stamp_ns,
@@ -255,6 +264,21 @@ impl Rmrc {
             seal: 0,
         }
     }
+}
+
+/// The collision guard's word for `joint_command.guard`: slowing, holding, and the distance it holds the arm for
+/// (else the nearest within the slowdown distance).
+fn guard_word(stage: &vservo_cell::RmrcStage) -> u32 {
+    use vservo_protocol::guard_bits::{Distance, word};
+    let named = |between: vservo_collision::Between| match between {
+        vservo_collision::Between::Pair(pair) => Distance::Pair(pair as u32),
+        vservo_collision::Between::Workspace { point } => Distance::WorkspacePoint(point as u32),
+    };
+    let assessed = stage.assessed();
+    let slowing = assessed.is_some_and(|a| a.speed_share < 1.0);
+    let holding = stage.guard_stop();
+    let distance = holding.map(|stop| stop.between).or(assessed.and_then(|a| a.nearest).map(|n| n.between));
+    word(slowing, holding.is_some(), distance.map(named))
 }
 
 /// Runs the rmrc until the stop flag is set.

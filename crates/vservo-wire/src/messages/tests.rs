@@ -50,7 +50,9 @@ fn layouts_are_the_documented_ones() {
     assert_eq!(size_of::<NodeStatusMsg>(), 32);
     assert_eq!(offset_of!(DaemonStatusMsg, nodes), 32);
     assert_eq!(offset_of!(DaemonStatusMsg, tick_rate_hz), 160);
-    assert_eq!(size_of::<DaemonStatusMsg>(), 32 + 4 * 32 + 16 + 8 + 24 + 8 + 8);
+    assert_eq!(size_of::<DaemonStatusMsg>(), 32 + 4 * 32 + 16 + 8 + 24 + 8 + 8 + 8 + 64);
+    assert_eq!(offset_of!(DaemonStatusMsg, clearance_m), 224);
+    assert_eq!(offset_of!(JointCommandMsg, guard), 12);
     assert_eq!(offset_of!(DaemonStatusMsg, driver_error), 208);
     assert_eq!(offset_of!(DaemonStatusMsg, speed_scale), 216);
     assert_eq!(size_of::<CellModeMsg>(), 32 + 8 + 56 + 16 + 16);

@@ -283,6 +283,7 @@ fn each_condition_finds_its_cause_and_only_faults_stop_the_cell() {
         motion_nodes_healthy: true,
         stream_taken: false,
         camera_stalled: false,
+        guard_stop: None,
     };
     assert_eq!(calm.causes(), vec![]);
     let cases = [
@@ -322,6 +323,7 @@ fn each_condition_finds_its_cause_and_only_faults_stop_the_cell() {
             Some(Fault::TorqueSaturated),
         ),
         (Evidence { missing_marks: 0b1000, ..calm }, Cause::MarksMissing(0b1000), Some(Fault::TargetLost)),
+        (Evidence { guard_stop: Some(0b1110), ..calm }, Cause::Collision(0b1110), Some(Fault::Collision)),
     ];
     for (evidence, cause, fault) in cases {
         assert_eq!(evidence.causes(), vec![cause], "{evidence:?}");
@@ -369,4 +371,35 @@ fn the_nodes_that_move_the_arm_keep_a_resume_back_until_they_run() {
     let waiting = Conditions { robot: RobotState::Waiting, ..running(MS) };
     assert!(monitor.resume(&waiting).expect_err("no state yet").to_string().contains("no joint state"));
     assert!(monitor.resume(&running(MS)).is_ok());
+}
+
+/// The collision guard's stop: the first command whose guard holds the arm stops the cell, naming the distance;
+/// the commands that still hold it before the rmrc hears the resume do not stop it again, nor keep it from
+/// resuming (the guard itself refuses motions towards); a new hold after a release is a new stop.
+#[test]
+fn the_guard_beginning_to_hold_the_arm_is_a_collision_stop_that_a_resume_clears() {
+    let mut monitor = FaultMonitor::new(settings(ResumePolicy::Command), 6);
+    let command = |guard: u32| JointCommandMsg { guard, ..Default::default() };
+    let holding = guard_bits::word(false, true, Some(guard_bits::Distance::Pair(3)));
+    monitor.on_joint_state(&state(MS, 0));
+    monitor.on_joint_command(&command(guard_bits::SLOWING));
+    assert_eq!(monitor.cycle(&running(2 * MS)), Decision::Same, "slowing is no stop");
+    monitor.on_joint_command(&command(holding));
+    match monitor.cycle(&running(3 * MS)) {
+        Decision::SafeStop(fault) => {
+            assert_eq!((fault.code, fault.cause), (Fault::Collision, Cause::Collision(holding)));
+            assert_eq!(guard_bits::distance(holding), Some(guard_bits::Distance::Pair(3)));
+        }
+        other => panic!("{other:?}"),
+    }
+    monitor.on_joint_command(&command(holding));
+    assert_eq!(monitor.causes(&running(4 * MS)), vec![], "nothing keeps the cell from resuming");
+    assert_eq!(monitor.resume(&running(4 * MS)).map(|f| f.code), Ok(Fault::Collision));
+    // the rmrc has not heard the resume yet: still holding, no new stop
+    monitor.on_joint_command(&command(holding));
+    assert_eq!(monitor.cycle(&running(5 * MS)), Decision::Same);
+    // released, then holding again: a new stop
+    monitor.on_joint_command(&command(0));
+    monitor.on_joint_command(&command(holding));
+    assert!(matches!(monitor.cycle(&running(6 * MS)), Decision::SafeStop(_)));
 }

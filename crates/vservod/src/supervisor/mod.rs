@@ -7,12 +7,14 @@
 //! [`launch`] starts processes and [`observe`] drains what the loop published.
 
 mod cleanup;
+mod clearance;
 mod health;
 mod launch;
 mod node;
 mod observe;
 mod restart;
 mod shutdown;
+mod startup;
 mod status;
 mod stop_path_watch;
 pub mod streams;
@@ -27,7 +29,6 @@ use iceoryx2::prelude::{Node, ipc};
 use nix::sys::signal::Signal;
 use vservo_client::StatusView;
 use vservo_config::Config;
-use vservo_control::Gains;
 use vservo_protocol::stop_path::SafeStopReader;
 use vservo_protocol::{InstanceClaim, NodeRole, NodeState, RobotState};
 use vservo_runtime::clock::{PeriodicTimer, monotonic_ns};
@@ -39,6 +40,7 @@ use crate::safety::Safety;
 use crate::stop_path::Bursts;
 use crate::systemd::Systemd;
 use cleanup::{Cleanup, CleanupClock};
+use clearance::ClearanceWatch;
 use health::{CameraSeen, CameraWatch, Readiness, RobotChange};
 use launch::{Launcher, Resume, Supervised, telemetry_of, writers_of};
 use node::NodeRecord;
@@ -68,19 +70,6 @@ pub fn run(
     }
     daemon.stop();
     Ok(())
-}
-
-/// Says that an external driver (`what`) has not appeared after `waited`, and what to check; the drivers vservod
-/// starts itself (`started`) say why in their own lines.
-fn say_absent(instance: &str, what: &str, started: &str, waited: Duration) {
-    tracing::warn!(
-        waited_s = waited.as_secs_f64(),
-        instance,
-        schema = vservo_protocol::SCHEMA_VERSION,
-        "no {what} has appeared: is it running, for this instance (and this user's runtime directory), on the same \
-         schema (docs/PROTOCOL.md)? One vservod starts ({started}) says why above; a writer of another schema or a \
-         stream taken is named above by its pid"
-    );
 }
 
 /// The configuration's settings the supervisor runs by.
@@ -157,41 +146,8 @@ struct Daemon {
     driver_absence_said: bool,
     /// Whether the absent camera driver was said.
     camera_absence_said: bool,
-}
-
-/// Reads and checks the configuration: the text the nodes are handed is the text validated here; the gains
-/// are designed and the arm placed now, so that a configuration that cannot run is refused before any node
-/// starts.
-fn load_config(config_path: &Path) -> anyhow::Result<(Config, String, Gains)> {
-    // the file with the bases it extends merged in: the nodes are handed that text
-    let (config, config_text) = Config::load_with_text(config_path)?;
-    let cell = vservo_cell::Cell::new(&config.cell).with_context(|| format!("{}", config_path.display()))?;
-    if let vservo_config::VisionSource::Directory(directory) = &config.cell.vision.source {
-        anyhow::bail!(
-            "{}: camera.source = \"directory\" ({}): recorded images cannot close the loop; check them open-loop with `vservoctl vision extract`, or set camera.source = \"simulated\" or \"external\"",
-            config_path.display(),
-            directory.display()
-        );
-    }
-    Ok((config, config_text, cell.gains().clone()))
-}
-
-/// The instance's runtime directory, lock and shared-memory prefix, out of other users' reach, and the
-/// daemon's iceoryx2 node in it (the leftovers of an earlier run's dead nodes removed); the configuration
-/// in force is written there for clients.
-fn claim_instance(instance: &str, config_text: &str) -> anyhow::Result<(InstanceClaim, Node<ipc::Service>)> {
-    let claim = InstanceClaim::claim(instance)?;
-    if let Some(reason) = &claim.renewed_because {
-        tracing::warn!(instance, reason, "the instance's shared-memory prefix was replaced by a new one");
-    }
-    // clients that find the instance by its name read its arm and camera from here
-    claim.write_configuration(config_text)?;
-    let node = vservo_protocol::create_node_in(claim.dir(), "daemon")?;
-    let cleaned = vservo_protocol::cleanup_dead_nodes(&node);
-    if cleaned > 0 {
-        tracing::info!(instance, cleaned, "removed the leftovers of dead nodes of an earlier run");
-    }
-    Ok((claim, node))
+    /// The collision guard's nearest distance for the status, and its names for the log.
+    clearance: ClearanceWatch,
 }
 
 impl Daemon {
@@ -199,12 +155,12 @@ impl Daemon {
     /// the nodes and the viewer.
     /// `None` when `stop` came while the configuration was read (nothing is started then).
     fn start(config_path: &Path, status_every_s: f64, stop: &AtomicBool) -> anyhow::Result<Option<Self>> {
-        let (config, config_text, gains) = load_config(config_path)?;
+        let (config, config_text, gains, clearance) = startup::load_config(config_path)?;
         if stop.load(Ordering::Relaxed) {
             return Ok(None);
         }
         let settings = Settings::of(&config, status_every_s);
-        let (claim, node) = claim_instance(&settings.instance, &config_text)?;
+        let (claim, node) = startup::claim_instance(&settings.instance, &config_text)?;
         let launcher = Launcher {
             executable: std::env::current_exe().context("finding the vservod executable")?,
             config_path: config_path
@@ -293,7 +249,18 @@ impl Daemon {
             last_report: now,
             driver_absence_said: false,
             camera_absence_said: false,
+            clearance,
         }))
+    }
+
+    /// Names what the collision guard stopped the arm for, where this cycle's new safe stop is its.
+    fn name_collision(&mut self, stops_before: u64) {
+        let monitor = self.safety.monitor();
+        let Some(crate::faults::Cause::Collision(word)) = monitor.latched().map(|f| f.cause) else { return };
+        if monitor.safe_stops() > stops_before {
+            let named = self.clearance.named(word).unwrap_or_else(|| "a distance it watches".to_string());
+            tracing::error!(fault = "collision", "the collision guard stopped the arm: {named} too near");
+        }
     }
 
     /// One supervisor cycle.
@@ -315,7 +282,9 @@ impl Daemon {
         self.hear_stop_path(now);
         let mut conditions = self.judge_robot_and_conditions(now);
         conditions.stream_taken = self.stream_taken(now);
+        let stops_before = self.safety.monitor().safe_stops();
         self.safety.cycle(&conditions);
+        self.name_collision(stops_before);
         let loop_state = LoopState {
             arm_joints: self.settings.arm_joints,
             joint_state: self.heard.joint_state.as_ref(),
@@ -440,12 +409,12 @@ impl Daemon {
             self.driver_absence_said,
         ) {
             self.driver_absence_said = true;
-            say_absent(&self.settings.instance, "robot driver", "ros2, franka", waited);
+            startup::say_absent(&self.settings.instance, "robot driver", "ros2, franka", waited);
         }
         let heard_camera = self.heard.features_at.is_some();
         if health::driver_absent(external_camera, heard_camera, waited, self.camera_absence_said) {
             self.camera_absence_said = true;
-            say_absent(&self.settings.instance, "camera driver", "ros2", waited);
+            startup::say_absent(&self.settings.instance, "camera driver", "ros2", waited);
         }
         let vision = self.nodes.iter().find(|n| n.record.role == NodeRole::Vision);
         let seen = CameraSeen {
@@ -515,6 +484,7 @@ impl Daemon {
         };
         let mut message = status::status_message(self.nodes.iter().map(|n| &n.record), &facts, now);
         self.safety.fill(&mut message);
+        self.clearance.fill(self.heard.command.as_ref(), &mut message);
         self.ports.publish_status(message);
         let telemetry = telemetry_of(&self.nodes);
         let view = StatusView::new(&self.settings.instance, &message, &telemetry);

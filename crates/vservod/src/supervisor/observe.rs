@@ -125,7 +125,10 @@ impl LoopHeard {
             self.joint_state_at = Some(now);
             self.tick_rate.on_state();
         }
-        ports.command.each_message(|command| self.command = Some(command));
+        ports.command.each_message(|command| {
+            monitor.on_joint_command(&command);
+            self.command = Some(command);
+        });
         // what does not carry the vision node's or the servo's seal is not theirs, and shows nothing
         let key = &ports.key;
         ports.features.each_message(|features| {

@@ -117,6 +117,9 @@ pub fn status_message<'a>(
         reserved: 0,
         // the dynamics override in force (`Safety::fill`)
         speed_scale: 1.0,
+        // the collision guard's nearest distance (`ClearanceWatch::fill`)
+        clearance_m: f64::NAN,
+        clearance_between: [0; vservo_protocol::CLEARANCE_NAME_BYTES],
     }
 }
 
