@@ -217,7 +217,7 @@ fn a_wrong_joint_name_fails_the_joints_check() {
 
 /// `vservoctl teach` on the held UR5e cell whose board really stands 60 mm and 10° away from where the
 /// configuration says (the driver's scene moved so): the check fails its kinematics; taught with the arm still,
-/// the configuration file holds the taught `[desired]` with its comments kept and the check passes 7 of 7; moved
+/// the configuration file holds the taught `[desired]` with its comments kept and the check passes 8 of 8; moved
 /// away out of the hold and held again, `resume` servos back below 1 px of the taught view.
 #[test]
 fn a_board_elsewhere_is_taught_and_the_cell_servos_back_to_the_taught_view() {

@@ -1,7 +1,7 @@
 //! `[collision]` and `[[scene.obstacles]]`, validated: what the guard keeps the arm off and at what distances.
 
 use nalgebra::IsometryMatrix3;
-use vservo_settings::collision::{Solid, Workspace};
+pub use vservo_settings::collision::{Solid, Workspace};
 
 /// The guard's settings (`[collision]` given).
 #[derive(Debug, Clone, PartialEq)]

@@ -126,9 +126,45 @@ pub fn run(args: &SceneArgs) -> Result<()> {
             "state_timeout_periods": config.cell.robot.state_timeout_periods,
             "speed_scale": config.cell.interpolator.speed_scale,
         },
+        // the collision guard's settings and what stands around the arm (null without [collision])
+        "collision": config.cell.collision.as_ref().map(collision_json),
     });
     print_stdout(&format!("{}\n", serde_json::to_string_pretty(&scene)?))?;
     Ok(())
+}
+
+/// `[collision]` and `[[scene.obstacles]]`: the distances, and each obstacle's shape (as configured: a box's full
+/// edges, a cylinder's or capsule's radius and length along its z, a plane's solid side below its xy plane) and
+/// pose in the base frame.
+fn collision_json(collision: &vservo_config::Collision) -> Value {
+    use vservo_config::Solid;
+    let obstacles: Vec<Value> = collision
+        .obstacles
+        .iter()
+        .map(|o| {
+            let shape = match o.solid {
+                Solid::Box { size_m } => json!({"shape": "box", "size_m": size_m}),
+                Solid::Cylinder { radius_m, length_m } => {
+                    json!({"shape": "cylinder", "radius_m": radius_m, "length_m": length_m})
+                }
+                Solid::Capsule { radius_m, length_m } => {
+                    json!({"shape": "capsule", "radius_m": radius_m, "length_m": length_m})
+                }
+                Solid::Sphere { radius_m } => json!({"shape": "sphere", "radius_m": radius_m}),
+                Solid::HalfSpace => json!({"shape": "plane"}),
+            };
+            json!({"name": o.name, "solid": shape, "base_from_obstacle": matrix4(&o.base_from_obstacle)})
+        })
+        .collect();
+    json!({
+        "slowdown_distance_m": collision.slowdown_distance_m,
+        "stop_distance_m": collision.stop_distance_m,
+        "camera_box_m": collision.camera_box.map(|b| b.size_m),
+        "camera_box_centre_m": collision.camera_box.map(|b| b.centre_in_camera_m),
+        "workspace": collision.workspace.map(|w| json!({"min_m": w.min_m, "max_m": w.max_m})),
+        "board": collision.board,
+        "obstacles": obstacles,
+    })
 }
 
 /// A camera's intrinsics and lens, and the noise of its images (gray levels).

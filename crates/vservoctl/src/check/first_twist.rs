@@ -17,7 +17,7 @@ const SATURATED: f64 = 0.95;
 
 /// The motion the first twist makes over one frame, run through the cell's own interpolator from the joints
 /// now: the largest share of each limit it reaches.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct FirstMotion {
     /// The twist (camera frame: m/s, rad/s).
     pub twist: Twist,
@@ -33,6 +33,8 @@ pub struct FirstMotion {
     pub tool_speed_ratio: f64,
     /// The dynamics override it ran at.
     pub speed_scale: f64,
+    /// The joint reference at each tick of the frame, the joints now first.
+    pub path: Vec<JointVector>,
 }
 
 /// Runs the first twist (the law's on the newest whole frame) through the rmrc for one frame.
@@ -68,6 +70,7 @@ pub fn first_motion(observed: &Observed, cell: &Cell) -> Option<FirstMotion> {
         jerk_ratio: settings.jerk_limit.map(|_| 0.0),
         tool_speed_ratio: 0.0,
         speed_scale: rmrc.speed_scale(),
+        path: vec![q_now],
     };
     for tick in 0..=ticks {
         let at = DriverTick { epoch: 1, tick, stamp_ns: tick * period_ns, holding: false };
@@ -92,6 +95,7 @@ pub fn first_motion(observed: &Observed, cell: &Cell) -> Option<FirstMotion> {
             worst.tool_speed_ratio = worst.tool_speed_ratio.max(tool_speed / settings.tool_speed_limit_m_s);
         }
         (q, qd, qdd) = (reference.q, reference.qd, qdd_now);
+        worst.path.push(q);
     }
     worst.admitted = admitted;
     Some(worst)
@@ -223,6 +227,7 @@ mod tests {
             jerk_ratio,
             tool_speed_ratio: 0.2,
             speed_scale: 1.0,
+            path: Vec::new(),
         };
         let both = saturation_warning(&motion(0.99, Some(0.985))).expect("a warning");
         assert!(both.contains("0.99 of its acceleration and 0.98 of its jerk limits"), "{both}");

@@ -10,11 +10,14 @@
 //! - `desired_pose`: joints inside the limits reach the desired camera pose (before the board as seen), away
 //!   from a singularity;
 //! - `first_twist`: the law's twist on the frame now is one the rmrc takes, and over its frame the cell's own
-//!   interpolator keeps every joint's speed, acceleration and jerk limit and the tool's speed cap.
+//!   interpolator keeps every joint's speed, acceleration and jerk limit and the tool's speed cap;
+//! - `clearance`: with the collision guard, every checked distance is above its stop distance where the arm is
+//!   and along the first twist's frame.
 //!
 //! Each check prints a line, PASS or FAIL with what it measured; `--json` prints one object. Exit code 0 when
 //! every check passes, 1 when one fails.
 
+mod clearance;
 mod first_twist;
 mod observe;
 mod ros_names;
@@ -71,6 +74,7 @@ pub fn run(args: &CheckArgs) -> anyhow::Result<()> {
         view::camera(&observed, &config),
         view::desired_pose(&observed, &config),
         first_twist::first_twist(&observed, &cell),
+        clearance::clearance(&observed, &cell),
     ];
     if args.json {
         print_stdout(&format!("{}\n", as_json(&connection.instance, &config.origin, &lines)))?;
