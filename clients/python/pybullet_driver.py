@@ -32,10 +32,12 @@ same URDF and board), named `pybullet-camera`: it reads the newest joint state t
 renders and publishes on `camera_image` itself. It dies with the driver (PR_SET_PDEATHSIG).
 
     pybullet_driver.py --scene scene.json --urdf FILE [--instance NAME] [--duration-s S] [--save-image first.pgm]
-                       [--fifo-priority N] [--velocity-lag-s S]
+                       [--fifo-priority N] [--velocity-lag-s S] [--collision-log FILE]
 
 The scene comes from `vservoctl scene --config FILE`; --urdf is the URDF to simulate (meshes found through
-pybullet_data's path and the file's directory). SIGINT/SIGTERM stop it (exit code 0).
+pybullet_data's path and the file's directory). The scene's obstacles (`[[scene.obstacles]]`) stand in the arm's
+physics and the camera's box rides on the tool (`pybullet_obstacles.py`); --collision-log writes PyBullet's own
+contacts and closest points to them every 10 ms. SIGINT/SIGTERM stop it (exit code 0).
 """
 
 import argparse
@@ -59,6 +61,7 @@ from vservo_driver import (COMMAND_TIMEOUT_NS, FOLLOWING, HOLDING, MAX_COMMAND_A
                            open_notifier, open_topic, periods_passed, camera_image_publisher, refusal, sleep_until,
                            spread_ms, MOST_PERIODS_CAUGHT_UP)
 from vservo_driver import MAX_JOINTS as PROTOCOL_JOINTS
+from pybullet_obstacles import Obstacles
 DEFAULT_EFFORT = 1000.0  # N·m (N) for a joint whose URDF gives no effort limit
 BOARD_GRAY, MARK_GRAY = 230, 20  # as vservo's simulated camera and the MuJoCo driver draw them
 NEAR_M, FAR_M = 0.01, 10.0
@@ -412,6 +415,8 @@ def main(argv=None) -> int:
     parser.add_argument("--duration-s", type=float, default=math.inf)
     parser.add_argument("--save-image", help="write the first camera image here (PGM)")
     parser.add_argument("--fifo-priority", type=int, default=0, help="SCHED_FIFO priority of the arm loop (0: none)")
+    parser.add_argument("--collision-log", help="every 10 ms a JSON line of PyBullet's contacts and closest points "
+                                                "between the arm (and the camera's box) and the scene's obstacles")
     parser.add_argument("--velocity-lag-s", type=float, default=0.0,
                         help="velocity mode: the joints' speed follows the command through a first-order lag of "
                              "this time constant (s; 0: at once), as a velocity-commanded arm's drives do")
@@ -427,6 +432,8 @@ def main(argv=None) -> int:
         fail(f"--velocity-lag-s {options.velocity_lag_s}: expected 0 to 1 s")
     arm = Arm(scene, options.urdf, options.velocity_lag_s)
     n, instance = arm.cell.n, options.instance
+    obstacles = Obstacles(scene, arm.cell)
+    collision_log = open(options.collision_log, "w") if options.collision_log else None
 
     context = multiprocessing.get_context("spawn")
     stop = context.Event()  # the driver's stop, for the camera
@@ -502,8 +509,16 @@ def main(argv=None) -> int:
         periods = periods_passed(start, tick, period_ns, woke)
         for _ in range(min(periods, MOST_PERIODS_CAUGHT_UP)):
             arm.step(mode, command)
+            obstacles.follow()
         tick += periods
+        if collision_log is not None and tick % max(1, round(0.01 / scene["robot"]["period_s"])) < periods:
+            contacts, distance_m, link, obstacle = obstacles.watch()
+            collision_log.write(json.dumps({"t_s": (monotonic_ns() - start) / 1e9, "contacts": contacts,
+                                            "closest_m": distance_m, "link": link, "obstacle": obstacle,
+                                            "q_rad": list(arm.q)}) + "\n")
 
+    if collision_log is not None:
+        collision_log.close()
     stop.set()
     camera.join(5)
     if camera.is_alive():

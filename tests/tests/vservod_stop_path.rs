@@ -452,7 +452,11 @@ fn a_replaced_safe_stop_path_is_a_safe_stop_and_is_made_again() {
 fn vservod_answers_sigterm_within_a_second_while_it_parses_the_longest_files_the_bounds_allow() {
     let _one = exclusive();
     let root = repository_root();
-    let ur5e = std::fs::read_to_string(root.join("config/arms/ur5e.urdf")).expect("the UR5e");
+    // its collision meshes named from where the copy is (the file names them relative to config/arms/)
+    let meshes = root.join("target/airo_models").display().to_string();
+    let ur5e = std::fs::read_to_string(root.join("config/arms/ur5e.urdf"))
+        .expect("the UR5e")
+        .replace("../../target/airo_models", &meshes);
     let extra: String = (0..4_900)
         .map(|i| {
             format!(

@@ -105,7 +105,13 @@ pub enum CellError {
     NotSimulatedRobot,
     /// The collision geometry could not be built (`[collision]`, the arm's URDF shapes).
     #[error("collision: {0}")]
-    Collision(#[from] vservo_collision::GeometryError),
+    Collision(vservo_collision::GeometryError),
+}
+
+impl From<vservo_collision::GeometryError> for CellError {
+    fn from(error: vservo_collision::GeometryError) -> Self {
+        Self::Collision(error)
+    }
 }
 
 /// A configuration made ready to build the stages: the arm, the gains, the desired and starting poses.
