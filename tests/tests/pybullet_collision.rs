@@ -10,17 +10,12 @@ use std::time::Duration;
 
 use serde_json::Value;
 use vservo_system_tests::{
-    Daemon, ScratchDir, TempConfig, exclusive, python_process, repository_root, run, safe_stopped_by, status,
-    unique, vservoctl, wait_until,
+    Daemon, ScratchDir, TempConfig, clearance, exclusive, python_process, refused_towards_then_moved_away,
+    repository_root, run, safe_stopped_by, status, unique, wait_until,
 };
 
 /// Agreement of PyBullet's closest points with vservo's distance, at rest (m).
 const AGREEMENT_M: f64 = 0.002;
-
-fn clearance(instance: &str) -> Option<(f64, String)> {
-    let now = status(instance)?;
-    Some((now["clearance"]["distance_m"].as_f64()?, now["clearance"]["between"].as_str()?.to_string()))
-}
 
 /// The collision log's lines (contacts, closest distance, link, obstacle), every 10 ms.
 fn collision_log(path: &Path) -> Vec<Value> {
@@ -87,51 +82,13 @@ fn a_table_in_the_way(arm: &str, urdf: &Path, period_s: f64, nearest: &str) {
         "{arm}: PyBullet {pybullet_m} m, vservo {stopped_m} m"
     );
 
-    let (code, out) = vservoctl(&["resume", "--instance", &instance]);
-    assert_eq!(code, Some(0), "{out}");
-    assert!(
-        wait_until(Duration::from_secs(10), || status(&instance)
-            .is_some_and(|s| s["safe_stops"].as_u64() == Some(2))),
-        "{arm}: a move towards the table is refused: {:?}\n{}",
-        status(&instance),
-        daemon.log()
-    );
-    let start: Vec<String> =
-        serde_json::from_slice::<Value>(&out_of(&config)).expect("the scene")["start_joints_rad"]
-            .as_array()
-            .expect("start joints")
-            .iter()
-            .map(Value::to_string)
-            .collect();
-    let (code, out) = vservoctl(&[
-        "move-joints",
-        "--instance",
-        &instance,
-        "--out-of-hold",
-        "--q",
-        &start.join(","),
-        "--speed-fraction",
-        "0.3",
-    ]);
-    assert_eq!(code, Some(0), "{out}");
-    assert!(
-        wait_until(Duration::from_secs(20), || clearance(&instance)
-            .is_some_and(|(d, between)| between != "camera – table" || d > 0.09)),
-        "{arm}: the move away was taken: {:?}\n{}",
-        status(&instance),
-        daemon.log()
-    );
+    refused_towards_then_moved_away(&instance, &config, (&between, stopped_m), || daemon.log());
     let lines = collision_log(&log);
     let touching: Vec<&Value> = lines.iter().filter(|l| l["contacts"].as_u64() != Some(0)).collect();
     println!("{arm}: {} samples of PyBullet's contacts, {} with any", lines.len(), touching.len());
     assert!(lines.len() > 100, "{arm}: the log covers the run");
     assert!(touching.is_empty(), "{arm}: PyBullet saw contact: {:?}", touching.first());
-    assert_eq!(status(&instance).expect("status")["safe_stops"], 2, "{arm}: no stop on the way out");
     daemon.stop();
-}
-
-fn out_of(config: &TempConfig) -> Vec<u8> {
-    run("vservoctl", &["scene", "--config", &config.arg()]).stdout
 }
 
 #[test]

@@ -6,9 +6,9 @@
 
 use std::time::Duration;
 
-use serde_json::Value;
 use vservo_system_tests::{
-    Daemon, config_from, exclusive, safe_stopped_by, status, unique, vservoctl, wait_until,
+    Daemon, clearance, config_from, exclusive, refused_towards_then_moved_away, safe_stopped_by, status,
+    unique, vservoctl, wait_until,
 };
 
 /// The UR5e's stop distance (config/arms/ur5e.toml's guard: the default).
@@ -19,21 +19,6 @@ const STOP_M: f64 = 0.03;
 /// 5 cm out along it), the camera starting 25 cm above the desired pose and coming down to it.
 const TABLE: &str = "name = \"floor\"\nshape = \"plane\"\n\n[[scene.obstacles]]\nname = \"table\"\nshape = \"box\"\n\
     size_m = [0.3, 0.3, 0.05]\ntranslation_m = [-0.337, -0.133, 0.556]\n";
-
-fn clearance(instance: &str) -> Option<(f64, String)> {
-    let now = status(instance)?;
-    let clearance = &now["clearance"];
-    Some((clearance["distance_m"].as_f64()?, clearance["between"].as_str()?.to_string()))
-}
-
-fn start_joints(config: &str) -> String {
-    let (code, out) = vservoctl(&["scene", "--config", config]);
-    assert_eq!(code, Some(0), "{out}");
-    let scene: Value = serde_json::from_str(&out).expect("the scene is JSON");
-    let q: Vec<String> =
-        scene["start_joints_rad"].as_array().expect("start joints").iter().map(|v| v.to_string()).collect();
-    q.join(",")
-}
 
 #[test]
 fn the_ur5e_stops_short_of_a_table_and_after_a_resume_moves_away_but_not_towards_it() {
@@ -74,44 +59,8 @@ fn the_ur5e_stops_short_of_a_table_and_after_a_resume_moves_away_but_not_towards
     assert_eq!(code, Some(0), "{text}");
     assert!(text.contains("collision") && text.contains("camera – table"), "{text}");
 
-    // resumed: the servo still asks for the table, the guard refuses it: a new stop, no nearer
-    let (code, out) = vservoctl(&["resume", "--instance", &instance]);
-    assert_eq!(code, Some(0), "a collision stop resumes at once: {out}");
-    assert!(
-        wait_until(Duration::from_secs(5), || status(&instance)
-            .is_some_and(|s| s["safe_stops"].as_u64() == Some(2))),
-        "a move towards the table is refused: {:?}\n{}",
-        status(&instance),
-        daemon.log()
-    );
-    std::thread::sleep(Duration::from_millis(300));
-    let (refused_m, _) = clearance(&instance).expect("the status's clearance");
-    println!("after the resume, towards: {refused_m:.4} m");
-    assert!(refused_m >= STOP_M && refused_m > stopped_m - 0.002, "{refused_m} m after {stopped_m} m");
-
-    // a joint move away, out of the stop: taken
-    let (code, out) = vservoctl(&[
-        "move-joints",
-        "--instance",
-        &instance,
-        "--out-of-hold",
-        "--q",
-        &start_joints(&config.arg()),
-        "--speed-fraction",
-        "0.3",
-    ]);
-    assert_eq!(code, Some(0), "{out}");
-    assert!(
-        // the camera rises from the table: the nearest pair is another (the forearm over the table at the start
-        // joints) or the camera well clear
-        wait_until(Duration::from_secs(15), || clearance(&instance)
-            .is_some_and(|(d, between)| between != "camera – table" || d > 0.09)),
-        "the move away was taken: {:?}\n{}",
-        status(&instance),
-        daemon.log()
-    );
-    let now = status(&instance).expect("status");
-    assert_eq!(now["state"], "moving", "{now}");
-    assert_eq!(now["safe_stops"], 2, "no stop on the way out: {now}");
+    // resumed: the servo still asks for the table, the guard refuses it; a joint move away is taken
+    refused_towards_then_moved_away(&instance, &config, ("camera – table", stopped_m), || daemon.log());
+    assert!(clearance(&instance).is_some_and(|(d, _)| d >= STOP_M));
     daemon.stop();
 }
