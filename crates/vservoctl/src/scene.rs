@@ -119,18 +119,23 @@ pub fn run(args: &SceneArgs) -> Result<()> {
             })),
         },
         "timing": {"vision_period_s": config.cell.timing.vision_period_s},
-        "robot": {
-            "driver": config.cell.robot.driver.name(),
-            "command": config.cell.command_interface().name(),
-            "period_s": config.cell.robot.period_s,
-            "state_timeout_periods": config.cell.robot.state_timeout_periods,
-            "speed_scale": config.cell.interpolator.speed_scale,
-        },
+        "robot": robot_json(&config),
         // the collision guard's settings and what stands around the arm (null without [collision])
         "collision": config.cell.collision.as_ref().map(collision_json),
     });
     print_stdout(&format!("{}\n", serde_json::to_string_pretty(&scene)?))?;
     Ok(())
+}
+
+/// The robot driver, the command it takes, its period and the dynamics override.
+fn robot_json(config: &vservo_config::Config) -> Value {
+    json!({
+        "driver": config.cell.robot.driver.name(),
+        "command": config.cell.command_interface().name(),
+        "period_s": config.cell.robot.period_s,
+        "state_timeout_periods": config.cell.robot.state_timeout_periods,
+        "speed_scale": config.cell.interpolator.speed_scale,
+    })
 }
 
 /// `[collision]` and `[[scene.obstacles]]`: the distances, and each obstacle's shape (as configured: a box's full
