@@ -1,13 +1,14 @@
 //! The guard: each tick, the checked pairs within the slowdown distance and the workspace's faces near the tool
-//! and the camera, how fast the reference closes each, and what follows — the asked motion slowed linearly from
-//! the slowdown distance to the stop distance where it closes a distance (a motion away is left alone), and a
-//! stop where the reference closes one faster than it can brake before the stop distance, or where the asked
-//! motion still closes one that has slowed it to [`HALT_SHARE`].
+//! and the camera, how fast the reference closes each, and what follows — the asked motion slowed, its direction
+//! kept, so that it closes no distance faster than the tool's speed limit scaled linearly from the slowdown
+//! distance to nothing at the stop distance (a motion away or along is left alone); and a stop where the reference
+//! closes one faster than it can brake before the stop distance, or where the asked motion still closes one that
+//! has slowed it to [`HALT_SHARE`].
 //!
 //! Allocates nothing: the model's queries are parry3d's distance queries on shapes built once.
 
 use nalgebra::Vector3;
-use vservo_arm::{JointVector, MAX_JOINTS, Placement, Transform};
+use vservo_arm::{JointVector, MAX_JOINTS, Placement};
 pub use vservo_settings::collision::Workspace;
 
 use crate::braking::{BrakingLimits, stop_angles};
@@ -353,9 +354,4 @@ fn faces(workspace: &Workspace, at: &Vector3<f64>) -> [(f64, Vector3<f64>); 6] {
             (workspace.max_m[i] - at[i], -axis(i))
         }
     })
-}
-
-/// A point in the last link's frame from one in the tool's (`last_from_tool`).
-pub fn in_last_link(last_from_tool: &Transform, in_tool: &Vector3<f64>) -> Vector3<f64> {
-    last_from_tool.transform_point(&(*in_tool).into()).coords
 }

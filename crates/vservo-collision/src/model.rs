@@ -119,14 +119,6 @@ impl CollisionModel {
         (self.bodies[a].carrier, self.bodies[b].carrier)
     }
 
-    /// The bounding radii of pair `pair`'s two bodies, about their shapes' own centres (m; infinite for a
-    /// half-space): how far a body reaches from any of its points is at most twice this.
-    pub fn pair_extents(&self, pair: usize) -> (f64, f64) {
-        let (a, b) = self.pairs[pair];
-        let extent = |body: &Body| body.shapes.iter().map(|s| s.radius_m).fold(0.0, f64::max);
-        (extent(&self.bodies[a]), extent(&self.bodies[b]))
-    }
-
     /// How far pair `pair`'s first body (`second`: its second) reaches along `direction`, as placed: the
     /// largest `x · direction` over its points (m per unit of `direction`); `None` for a body with a shape that
     /// has no end in some direction (a half-space).
@@ -144,11 +136,6 @@ impl CollisionModel {
     pub fn pair_names(&self, pair: usize) -> (&str, &str) {
         let (a, b) = self.pairs[pair];
         (&self.bodies[a].name, &self.bodies[b].name)
-    }
-
-    /// The bodies' names, in the order they were given.
-    pub fn body_names(&self) -> impl Iterator<Item = &str> {
-        self.bodies.iter().map(|b| b.name.as_str())
     }
 
     /// Places every body: `base_from_carrier[k]` is carrier `k`'s frame in the base frame (element 0 the base
