@@ -11,7 +11,7 @@ import types
 from dataclasses import dataclass, field
 
 from cyclonedds.idl import IdlStruct
-from cyclonedds.idl.types import array, float64, int32, int64, sequence, uint8, uint32, uint64  # noqa: F401
+from cyclonedds.idl.types import array, float32, float64, int32, int64, sequence, uint8, uint32, uint64  # noqa: F401
 
 
 def _typed(class_name, typename, fields):
@@ -135,6 +135,46 @@ DiagnosticArray = message("diagnostic_msgs", "DiagnosticArray", [
 Point = message("geometry_msgs", "Point", [("x", float64, 0.0), ("y", float64, 0.0), ("z", float64, 0.0)])
 
 Pose = message("geometry_msgs", "Pose", [("position", Point, Point), ("orientation", Quaternion, Quaternion)])
+
+# visualization_msgs (the same fields in Humble and Jazzy): the collision guard's obstacles on vservo/obstacles
+Duration = message("builtin_interfaces", "Duration", [("sec", int32, 0), ("nanosec", uint32, 0)])
+
+ColorRGBA = message("std_msgs", "ColorRGBA", [("r", float32, 0.0), ("g", float32, 0.0), ("b", float32, 0.0),
+                                              ("a", float32, 0.0)])
+
+CompressedImage = message("sensor_msgs", "CompressedImage", [
+    ("header", Header, Header),
+    ("format", str, ""),
+    ("data", sequence[uint8], list),
+])
+
+UVCoordinate = message("visualization_msgs", "UVCoordinate", [("u", float32, 0.0), ("v", float32, 0.0)])
+
+MeshFile = message("visualization_msgs", "MeshFile", [("filename", str, ""), ("data", sequence[uint8], list)])
+
+Marker = message("visualization_msgs", "Marker", [
+    ("header", Header, Header),
+    ("ns", str, ""),
+    ("id", int32, 0),
+    ("type", int32, 0),
+    ("action", int32, 0),
+    ("pose", Pose, Pose),
+    ("scale", Vector3, Vector3),
+    ("color", ColorRGBA, ColorRGBA),
+    ("lifetime", Duration, Duration),
+    ("frame_locked", bool, False),
+    ("points", sequence[Point], list),
+    ("colors", sequence[ColorRGBA], list),
+    ("texture_resource", str, ""),
+    ("texture", CompressedImage, CompressedImage),
+    ("uv_coordinates", sequence[UVCoordinate], list),
+    ("text", str, ""),
+    ("mesh_resource", str, ""),
+    ("mesh_file", MeshFile, MeshFile),
+    ("mesh_use_embedded_materials", bool, False),
+])
+
+MarkerArray = message("visualization_msgs", "MarkerArray", [("markers", sequence[Marker], list)])
 
 # rmw_dds_common (Jazzy: a 16-byte Gid): which ROS 2 nodes a participant holds, on `ros_discovery_info` (no `rt/`),
 # what `ros2 node list` reads

@@ -1,7 +1,8 @@
 """Reads a `vservoctl record` file with the `mcap` package from PyPI (and `mcap-protobuf-support` to decode
 Foxglove's protobuf messages), as a user's own tooling would, and checks what Foxglove needs to show it as
 pictures: compressed chunks; camera images, image annotations and transforms under Foxglove's schema names;
-each annotation's marks exactly at the features the servo used in that frame. Prints one JSON line of
+each annotation's marks exactly at the features the servo used in that frame; the collision guard's obstacles
+as scene entities (each one's frame, cubes, texts) where the cell has any. Prints one JSON line of
 figures; exits 1 with the reason on the first failure. Usage: check_recording.py FILE INSTANCE"""
 
 import json
@@ -34,12 +35,13 @@ def main() -> int:
         features = {}  # capture stamp → (valid mask, ξ)
         annotations = {}  # capture stamp → measured circle centres
         images, image_stamps, frames_seen = 0, set(), set()
+        obstacles = {}  # entity id → what it draws (the newest update)
         # vservo's own services are JSON: read as bytes
         for schema, channel, message in reader.iter_messages(topics=[f"vservo/{instance}/features"]):
             data = json.loads(message.data)
             features[data["capture_stamp_ns"]] = (data["valid_mask"], data["features_px"])
         for schema, channel, message, decoded in reader.iter_decoded_messages(
-                topics=["/camera/image", "/camera/annotations", "/tf"]):
+                topics=["/camera/image", "/camera/annotations", "/tf", "/scene/obstacles"]):
             if channel.topic == "/camera/image":
                 images += 1
                 if decoded.encoding != "mono8" or len(decoded.data) != decoded.step * decoded.height:
@@ -48,6 +50,14 @@ def main() -> int:
             elif channel.topic == "/camera/annotations":
                 stamp = decoded.timestamp.seconds * 10**9 + decoded.timestamp.nanos
                 annotations[stamp] = [(c.position.x, c.position.y) for c in decoded.circles if c.diameter == 14.0]
+            elif channel.topic == "/scene/obstacles":
+                for entity in decoded.entities:
+                    obstacles[entity.id] = {
+                        "frame_id": entity.frame_id,
+                        "cube_sizes": [[c.size.x, c.size.y, c.size.z] for c in entity.cubes],
+                        "cube_centres": [[c.pose.position.x, c.pose.position.y, c.pose.position.z]
+                                         for c in entity.cubes],
+                        "texts": [t.text for t in entity.texts]}
             else:
                 frames_seen.update(t.child_frame_id for t in decoded.transforms)
     if images == 0:
@@ -65,7 +75,8 @@ def main() -> int:
         if frame not in frames_seen:
             fail(f"no transform to {frame} (saw {sorted(frames_seen)})")
     print(json.dumps({"images": images, "annotated_frames": checked, "images_with_annotations": paired,
-                      "compression": sorted(compressions), "frames": sorted(frames_seen)}))
+                      "compression": sorted(compressions), "frames": sorted(frames_seen),
+                      "obstacles": obstacles}))
     return 0
 
 

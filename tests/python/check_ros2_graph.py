@@ -149,6 +149,15 @@ def call(participant, namespace, spec, qos, timeout_s=5.0):
     return {"answered": False, "foreign": foreign}
 
 
+def marker_json(marker):
+    """A marker as a test reads it: its frame, namespace, id, type, action, where, how large, its text and points."""
+    p = marker.pose.position
+    return {"frame_id": marker.header.frame_id, "ns": marker.ns, "id": marker.id, "type": marker.type,
+            "action": marker.action, "position": [p.x, p.y, p.z],
+            "scale": [marker.scale.x, marker.scale.y, marker.scale.z], "text": marker.text,
+            "points": len(marker.points), "alpha": marker.color.a}
+
+
 def main():
     parser = argparse.ArgumentParser()
     parser.add_argument("--domain", type=int, required=True)
@@ -178,6 +187,12 @@ def main():
                                qos=Qos(Policy.Reliability.Reliable(duration(milliseconds=100)),
                                        Policy.Durability.TransientLocal, Policy.History.KeepLast(1)))
     static_frames = {}
+    # /vservo/obstacles as RViz's marker display reads a latched topic: reliable, transient local
+    obstacles_reader = DataReader(participant, Topic(participant, ros.topic_name(args.namespace, "vservo/obstacles"),
+                                                     ros.MarkerArray),
+                                  qos=Qos(Policy.Reliability.Reliable(duration(milliseconds=100)),
+                                          Policy.Durability.TransientLocal, Policy.History.KeepLast(1)))
+    obstacles = []
 
     # the ROS 2 nodes the graph announces (what `ros2 node list` shows), kept for late joiners
     discovery = DataReader(participant, Topic(participant, "ros_discovery_info", ros.ParticipantEntitiesInfo),
@@ -223,6 +238,8 @@ def main():
         for sample in static_reader.take(10):
             for t in sample.transforms:
                 static_frames[f"{t.header.frame_id}->{t.child_frame_id}"] = transform_json(t)
+        for sample in obstacles_reader.take(10):
+            obstacles = [marker_json(m) for m in sample.markers]
         for info in discovery.take(10):
             for node in info.node_entities_info_seq:
                 nodes.add(f"{node.node_namespace.rstrip('/')}/{node.node_name}")
@@ -237,6 +254,7 @@ def main():
         "newest": {name: summary(name, sample) for name, sample in newest.items() if name != "tf"},
         "tf": frames,
         "tf_static": static_frames,
+        "obstacles": obstacles,
         "calls": calls,
         "age_ms": {name: percentiles(values) for name, values in ages.items() if values},
         "ros_nodes": sorted(nodes),

@@ -430,7 +430,8 @@ fn the_bridge_is_not_the_driver_and_says_where_the_driver_is() {
 /// and `tf` the URDF's links (panda_link0 → … → panda_link7), `/tf_static` the flange on the last link and the
 /// camera's optical frame on the flange (read as tf2's static listener reads it, after it was sent); composed,
 /// the camera's pose vservo reports. A reliable and a best-effort reader each hear the joint states, the image and
-/// the camera info.
+/// the camera info. The collision guard's floor is on `vservo/obstacles` (read after it was sent, as RViz reads a
+/// latched marker topic): a thin square under the base link, with its name.
 #[test]
 fn a_urdf_arm_is_in_ros_under_its_urdfs_names() {
     let _one = exclusive();
@@ -473,7 +474,26 @@ fn a_urdf_arm_is_in_ros_under_its_urdfs_names() {
     assert!((base_from_camera.translation.vector - reported.translation.vector).norm() < 1e-6, "{heard}");
     assert!(base_from_camera.rotation.angle_to(&reported.rotation) < 1e-6);
     assert_eq!(heard["newest"]["camera/image_raw"]["frame_id"], "camera_optical_frame");
+    assert_the_floor_is_a_marker(&heard["obstacles"]);
     daemon.stop();
+}
+
+/// config/arms/panda.toml's floor (a plane at z = 0) among the markers: cleared first, then a 3 m square 2 mm thick
+/// whose top face is the plane, and its name, in the base link's frame.
+fn assert_the_floor_is_a_marker(markers: &Value) {
+    let markers = markers.as_array().unwrap_or_else(|| panic!("no markers heard: {markers}"));
+    assert_eq!(
+        markers.first().map(|m| m["action"].clone()),
+        Some(Value::from(3)),
+        "DELETEALL first: {markers:?}"
+    );
+    let floor: Vec<&Value> = markers.iter().filter(|m| m["ns"] == "floor").collect();
+    assert_eq!(floor.len(), 2, "a square and a name: {markers:?}");
+    let (square, name) = (floor[0], floor[1]);
+    assert_eq!((square["type"].as_i64(), square["frame_id"].as_str()), (Some(1), Some("panda_link0")));
+    assert_eq!(numbers(&square["scale"]), [3.0, 3.0, 0.002]);
+    assert!((numbers(&square["position"])[2] + 0.001).abs() < 1e-12, "{square}");
+    assert_eq!((name["type"].as_i64(), name["text"].as_str()), (Some(9), Some("floor")));
 }
 
 /// `[ros2.qos.<topic>]` is what the bridge offers: the image written best effort is heard by a best-effort reader

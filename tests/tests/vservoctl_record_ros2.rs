@@ -1,21 +1,26 @@
 //! `vservoctl record --ros2`: a recording of the running cell with ROS 2's message schemas and CDR, read by
 //! the Python `rosbags` library (tests/python/check_ros2_recording.py) both with the types the file defines
 //! and with rosbags' own ROS 2 Jazzy types: every topic of the bridge, the joint states the cell's own, the
-//! camera's images whole.
+//! camera's images whole, the collision guard's obstacle as markers.
 
 use std::process::Command;
 use std::time::Duration;
 
 use serde_json::Value;
 use vservo_system_tests::{
-    echo_lines, exclusive, numbers, repository_root, run, running_daemon, safe_stopped_by, unique, wait_until,
+    echo_lines, exclusive, numbers, repository_root, run, running_daemon_with, safe_stopped_by, unique,
+    wait_until,
 };
+
+/// The default cell with a table in its scene (the built-in PUMA has no collision shapes: the guard never acts).
+const TABLE: &str = "[collision]\n\n[[scene.obstacles]]\nname = \"table\"\nshape = \"box\"\n\
+                     size_m = [0.6, 0.6, 0.04]\ntranslation_m = [0.8, 0.0, 0.2]\n\n[ros2]\n";
 
 #[test]
 fn rosbags_reads_the_joint_states_and_images_of_a_ros2_recording() {
     let _one = exclusive();
     let instance = unique("record-ros2");
-    let (_config, daemon) = running_daemon(&instance);
+    let (_config, daemon) = running_daemon_with("config/vservo.toml", &instance, &[("[ros2]\n", TABLE)]);
     // held at rest, the arm's joints are known: what vservo's own joint state says
     let out = run("vservoctl", &["safe-stop", "--instance", &instance]);
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
@@ -59,6 +64,7 @@ fn rosbags_reads_the_joint_states_and_images_of_a_ros2_recording() {
         ("/camera/camera_info", "sensor_msgs/msg/CameraInfo"),
         ("/vservo/features", "std_msgs/msg/Float64MultiArray"),
         ("/vservo/camera_twist", "geometry_msgs/msg/TwistStamped"),
+        ("/vservo/obstacles", "visualization_msgs/msg/MarkerArray"),
     ] {
         assert_eq!(topics[topic]["type"], message_type, "{topics}");
         assert!(topics[topic]["count"].as_u64().unwrap_or(0) > 0, "nothing on {topic}: {topics}");
@@ -83,4 +89,15 @@ fn rosbags_reads_the_joint_states_and_images_of_a_ros2_recording() {
     assert_eq!(image["encoding"], "mono8");
     assert_eq!(image["bytes"], 512 * 512);
     assert!(image["distinct_values"].as_u64().unwrap_or(0) > 16, "{image}");
+    // the table, once: cleared first, then its box and its name
+    let markers = &read["obstacles"];
+    assert_eq!(
+        markers,
+        &serde_json::json!([
+            {"ns": "", "type": 0, "action": 3, "scale": [0.0, 0.0, 0.0]},
+            {"ns": "table", "type": 1, "action": 0, "scale": [0.6, 0.6, 0.04]},
+            {"ns": "table", "type": 9, "action": 0, "scale": [0.0, 0.0, 0.05]},
+        ]),
+        "{read}"
+    );
 }

@@ -209,11 +209,31 @@ fn targets_move_the_servo_target_and_bad_ones_are_refused_while_the_loop_runs() 
 fn a_recording_holds_every_service_in_order_and_plots() {
     let _one = exclusive();
     let instance = unique("record");
-    let config = config_with("name = \"default\"", &format!("name = \"{instance}\""));
+    // with a table in the scene (the built-in PUMA has no collision shapes: the guard never acts)
+    let config = vservo_system_tests::config_from(
+        "config/vservo.toml",
+        &[
+            ("name = \"default\"", &format!("name = \"{instance}\"")),
+            (
+                "[ros2]\n",
+                "[collision]\n\n[[scene.obstacles]]\nname = \"table\"\nshape = \"box\"\nsize_m = [0.6, 0.6, 0.04]\n\
+                 translation_m = [0.8, 0.0, 0.2]\n\n[ros2]\n",
+            ),
+        ],
+    );
     let file = config.path.with_extension("mcap");
-    // the recorder starts first, so it hears everything from the first message on
+    // the recorder starts first, so it hears everything from the first message on (and reads the cell, the
+    // arm and its scene, from the file the daemon will run)
     let recorder = Command::new(binary("vservoctl"))
-        .args(["record", "--out", &file.display().to_string(), "--duration-s", "6", "--instance", &instance])
+        .args([
+            "record",
+            "--out",
+            &file.display().to_string(),
+            "--duration-s",
+            "6",
+            "--config",
+            &config.arg(),
+        ])
         .stderr(Stdio::piped())
         .spawn()
         .expect("vservoctl record starts");
@@ -300,6 +320,12 @@ fn a_recording_holds_every_service_in_order_and_plots() {
     assert!(figures["images"].as_u64() >= Some(40), "{figures}");
     assert!(figures["annotated_frames"].as_u64() >= Some(40), "{figures}");
     assert!(figures["images_with_annotations"].as_u64() >= Some(40), "{figures}");
+    // the table under Foxglove's scene schema, as configured, named, in the base frame
+    let table = &figures["obstacles"]["obstacle/table"];
+    assert_eq!(table["frame_id"], "base", "{figures}");
+    assert_eq!(table["cube_sizes"], serde_json::json!([[0.6, 0.6, 0.04]]), "{figures}");
+    assert_eq!(table["cube_centres"], serde_json::json!([[0.8, 0.0, 0.2]]), "{figures}");
+    assert_eq!(table["texts"], serde_json::json!(["table"]), "{figures}");
 
     let out_dir = config.path.with_extension("plots");
     let out = run(

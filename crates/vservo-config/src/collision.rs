@@ -1,7 +1,6 @@
 //! `[collision]` and `[[scene.obstacles]]`, validated: what the guard keeps the arm off and at what distances.
 
-use nalgebra::IsometryMatrix3;
-pub use vservo_settings::collision::{Solid, Workspace};
+pub use vservo_settings::collision::{Obstacle, Primitive, PrimitiveKind, Solid, Workspace};
 
 /// The guard's settings (`[collision]` given).
 #[derive(Debug, Clone, PartialEq)]
@@ -32,15 +31,4 @@ pub struct CameraBox {
     pub size_m: [f64; 3],
     /// Its centre in the camera frame (m).
     pub centre_in_camera_m: [f64; 3],
-}
-
-/// One obstacle of the scene.
-#[derive(Debug, Clone, PartialEq)]
-pub struct Obstacle {
-    /// Its name (messages, the status, markers).
-    pub name: String,
-    /// Its shape, centred on its frame (a plane: everything below its frame's xy plane).
-    pub solid: Solid,
-    /// Its frame in the base frame.
-    pub base_from_obstacle: IsometryMatrix3<f64>,
 }

@@ -71,7 +71,7 @@ pub use vservo_settings::simulation::MIN_SPEED_SCALE;
 use std::path::Path;
 
 pub use cell::CellConfig;
-pub use collision::{CameraBox, Collision, Obstacle, Solid, Workspace};
+pub use collision::{CameraBox, Collision, Obstacle, Primitive, PrimitiveKind, Solid, Workspace};
 pub use error::ConfigError;
 use layers::Layers;
 pub use layers::{LENS_KEYS, did_you_mean};

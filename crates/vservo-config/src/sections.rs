@@ -106,6 +106,9 @@ pub enum Ros2Topic {
     CameraTwist,
     /// `diagnostics` (`diagnostic_msgs/DiagnosticArray`).
     Diagnostics,
+    /// `vservo/obstacles` (`visualization_msgs/MarkerArray`, transient local): the collision guard's obstacles
+    /// and workspace box, once.
+    Obstacles,
 }
 
 /// A topic's reliability (`[ros2.qos.<topic>] reliability`).
@@ -152,11 +155,12 @@ impl Ros2Topic {
             Ros2Topic::Features => "features",
             Ros2Topic::CameraTwist => "camera_twist",
             Ros2Topic::Diagnostics => "diagnostics",
+            Ros2Topic::Obstacles => "obstacles",
         }
     }
 
     /// Every topic, the default.
-    pub const ALL: [Ros2Topic; 8] = [
+    pub const ALL: [Ros2Topic; 9] = [
         Ros2Topic::JointStates,
         Ros2Topic::Tf,
         Ros2Topic::TfStatic,
@@ -165,6 +169,7 @@ impl Ros2Topic {
         Ros2Topic::Features,
         Ros2Topic::CameraTwist,
         Ros2Topic::Diagnostics,
+        Ros2Topic::Obstacles,
     ];
 }
 

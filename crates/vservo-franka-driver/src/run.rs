@@ -253,11 +253,12 @@ impl Driver {
     }
 
     /// Starts a joint-velocity motion (at the start, and after a recovery): the guard starts from the robot's
-    /// own desired velocity.
+    /// own desired velocity and acceleration.
     fn start_motion(&mut self, robot: &mut Connection, sequence: Option<u64>) -> anyhow::Result<()> {
         let first =
             robot.start_joint_velocity_motion(ROBOT_TIMEOUT).context("starting a joint-velocity motion")?;
-        self.shaper = Some(CommandShaper::new(self.limits, self.side.settings().joint_count, first.dq_d));
+        let joints = self.side.settings().joint_count;
+        self.shaper = Some(CommandShaper::new(self.limits, joints, widen(&first.dq_d), widen(&first.ddq_d)));
         self.report.motion_started();
         self.phase = Phase::Moving;
         tracing::info!(after = ?sequence, "the Franka's joint-velocity motion runs");

@@ -39,10 +39,18 @@ pub struct CommandShaper {
 }
 
 impl CommandShaper {
-    /// A guard for `joints` joints whose motion starts at `velocity` with no acceleration (a robot's motion
-    /// starts from its own desired velocity).
-    pub fn new(limits: ShaperLimits, joints: usize, velocity: [f64; MAX_JOINTS]) -> Self {
-        Self { limits, joints: joints.min(MAX_JOINTS), velocity, acceleration: [0.0; MAX_JOINTS] }
+    /// A guard for `joints` joints whose motion starts at `velocity` and `acceleration`: a robot's motion starts
+    /// from its own desired velocity and acceleration (`dq_d`, `ddq_d`), which its checker differences the first
+    /// command against, as libfranka's rate limiter starts from them. A motion started after a recovery that
+    /// left the arm still slowing down starts from that deceleration, not from none.
+    pub fn new(
+        limits: ShaperLimits,
+        joints: usize,
+        velocity: [f64; MAX_JOINTS],
+        acceleration: [f64; MAX_JOINTS],
+    ) -> Self {
+        let acceleration = acceleration.map(|a| if a.is_finite() { a } else { 0.0 });
+        Self { limits, joints: joints.min(MAX_JOINTS), velocity, acceleration }
     }
 
     /// The velocity to send this period towards `target` (a non-finite target is taken as zero: rest).
@@ -91,10 +99,15 @@ mod tests {
         ShaperLimits { acceleration: [10.0; MAX_JOINTS], jerk: [5000.0; MAX_JOINTS], dt_s: 0.001 }
     }
 
-    /// The largest acceleration and jerk, per the robot's differences, of `sent` after `start`.
-    fn measured(start: [f64; MAX_JOINTS], sent: &[[f64; MAX_JOINTS]], dt: f64) -> (f64, f64) {
+    /// The largest acceleration and jerk, per the robot's differences, of `sent` after a start at `start`
+    /// (velocity, acceleration).
+    fn measured(
+        start: ([f64; MAX_JOINTS], [f64; MAX_JOINTS]),
+        sent: &[[f64; MAX_JOINTS]],
+        dt: f64,
+    ) -> (f64, f64) {
         let (mut a_max, mut j_max) = (0.0f64, 0.0f64);
-        let (mut last_v, mut last_a) = (start, [0.0; MAX_JOINTS]);
+        let (mut last_v, mut last_a) = start;
         for v in sent {
             for j in 0..MAX_JOINTS {
                 let a = (v[j] - last_v[j]) / dt;
@@ -113,7 +126,7 @@ mod tests {
             targets in prop::collection::vec((prop::array::uniform7(-2.0..2.0f64), 1usize..200), 1..20),
         ) {
             let limits = fr3();
-            let mut shaper = CommandShaper::new(limits, 7, [0.0; MAX_JOINTS]);
+            let mut shaper = CommandShaper::new(limits, 7, [0.0; MAX_JOINTS], [0.0; MAX_JOINTS]);
             let mut sent = Vec::new();
             for (target, periods) in &targets {
                 for _ in 0..*periods {
@@ -123,7 +136,7 @@ mod tests {
             for _ in 0..2000 {
                 sent.push(shaper.next(&[0.0; MAX_JOINTS]));
             }
-            let (a, j) = measured([0.0; MAX_JOINTS], &sent, limits.dt_s);
+            let (a, j) = measured(([0.0; MAX_JOINTS], [0.0; MAX_JOINTS]), &sent, limits.dt_s);
             prop_assert!(a <= 10.0 * (1.0 + 1e-9), "acceleration {}", a);
             prop_assert!(j <= 5000.0 * (1.0 + 1e-9), "jerk {}", j);
             prop_assert!(shaper.at_rest(), "{:?}", shaper.velocity());
@@ -133,7 +146,7 @@ mod tests {
     #[test]
     fn a_reference_within_the_limits_passes_unchanged() {
         let limits = fr3();
-        let mut shaper = CommandShaper::new(limits, 7, [0.0; MAX_JOINTS]);
+        let mut shaper = CommandShaper::new(limits, 7, [0.0; MAX_JOINTS], [0.0; MAX_JOINTS]);
         // a smooth rise to 0.5 rad/s and back (1 − cos), one sample per period: within the limits
         for k in 1..=800 {
             let v = 0.25 * (1.0 - (std::f64::consts::PI * k as f64 * 0.001 / 0.4).cos());
@@ -145,7 +158,7 @@ mod tests {
     #[test]
     fn a_repeated_sample_is_smoothed_and_a_non_finite_target_is_rest() {
         let limits = fr3();
-        let mut shaper = CommandShaper::new(limits, 7, [0.0; MAX_JOINTS]);
+        let mut shaper = CommandShaper::new(limits, 7, [0.0; MAX_JOINTS], [0.0; MAX_JOINTS]);
         let ramp: Vec<f64> = (1..=50).map(|k| 0.5 * 10.0 * (k as f64 * 0.001).powi(2) * 100.0).collect();
         let mut sent = Vec::new();
         for (k, v) in ramp.iter().enumerate() {
@@ -153,11 +166,33 @@ mod tests {
             let target = if k % 5 == 4 { ramp[k - 1] } else { *v };
             sent.push(shaper.next(&[target; MAX_JOINTS]));
         }
-        let (a, j) = measured([0.0; MAX_JOINTS], &sent, 0.001);
+        let (a, j) = measured(([0.0; MAX_JOINTS], [0.0; MAX_JOINTS]), &sent, 0.001);
         assert!(a <= 10.0 + 1e-9 && j <= 5000.0 + 1e-6, "{a} {j}");
         for _ in 0..1000 {
             shaper.next(&[f64::NAN; MAX_JOINTS]);
         }
         assert!(shaper.at_rest());
+    }
+
+    /// A motion started while the arm still slows down (franka-sim's recovery replies before the arm settles):
+    /// `dq_d` 0.3 rad/s, `ddq_d` −7 rad/s², and a reference that wants 0.6 rad/s, then rest. The commands go
+    /// from that deceleration within the jerk limit as the robot differences them from its own `ddq_d`, and bring
+    /// the arm to rest. Started from no acceleration instead, the first command's jerk is 11,900 rad/s³: the
+    /// robot's `joint_motion_generator_acceleration_discontinuity` reflex, which a run on franka-sim met.
+    #[test]
+    fn a_motion_started_while_the_arm_slows_down_continues_from_its_deceleration_within_the_jerk_limit() {
+        let limits = fr3();
+        let start = ([0.3; MAX_JOINTS], [-7.0; MAX_JOINTS]);
+        let targets = (0..2000).map(|k| if k < 200 { 0.6 } else { 0.0 });
+        let mut shaper = CommandShaper::new(limits, 7, start.0, start.1);
+        let sent: Vec<[f64; MAX_JOINTS]> = targets.map(|v| shaper.next(&[v; MAX_JOINTS])).collect();
+        let (a, j) = measured(start, &sent, limits.dt_s);
+        assert!(a <= 10.0 + 1e-9 && j <= 5000.0 + 1e-6, "acceleration {a}, jerk {j}");
+        assert!(shaper.at_rest());
+        // the premise: from no acceleration, one period takes the robot's −7 rad/s² to +4.9
+        let mut unaware = CommandShaper::new(limits, 7, start.0, [0.0; MAX_JOINTS]);
+        let first = unaware.next(&[0.6; MAX_JOINTS]);
+        let (_, j) = measured(start, &[first], limits.dt_s);
+        assert!(j > 5000.0, "{j}");
     }
 }

@@ -7,8 +7,9 @@ use ros2_client::{
 };
 use vservo_config::{Ros2, Ros2Topic};
 use vservo_ros2::msg::{
-    CameraInfo, DiagnosticArray, Float64MultiArray, Image, JointState, RosType, SetTargetFeaturesRequest,
-    SetTargetPoseRequest, SetTargetResponse, TfMessage, TriggerRequest, TriggerResponse, TwistStamped,
+    CameraInfo, DiagnosticArray, Float64MultiArray, Image, JointState, MarkerArray, RosType,
+    SetTargetFeaturesRequest, SetTargetPoseRequest, SetTargetResponse, TfMessage, TriggerRequest,
+    TriggerResponse, TwistStamped,
 };
 use vservo_ros2::translate::RosMessage;
 use vservo_ros2::{names, qos};
@@ -26,6 +27,7 @@ pub struct Graph {
     pub features: Option<Publisher<Float64MultiArray>>,
     pub camera_twist: Option<Publisher<TwistStamped>>,
     pub diagnostics: Option<Publisher<DiagnosticArray>>,
+    pub obstacles: Option<Publisher<MarkerArray>>,
     pub safe_stop: TriggerServer,
     pub resume: TriggerServer,
     pub set_target_features: Server<SetTargetFeaturesRequest, SetTargetResponse>,
@@ -49,6 +51,7 @@ impl Graph {
             features: maker.publisher(Ros2Topic::Features, qos::STREAMS)?,
             camera_twist: maker.publisher(Ros2Topic::CameraTwist, qos::STREAMS)?,
             diagnostics: maker.publisher(Ros2Topic::Diagnostics, qos::RELIABLE)?,
+            obstacles: maker.publisher(Ros2Topic::Obstacles, qos::TF_STATIC)?,
             safe_stop: maker.server(names::SAFE_STOP, "std_srvs", "Trigger")?,
             resume: maker.server(names::RESUME, "std_srvs", "Trigger")?,
             set_target_features: maker.server(
@@ -81,6 +84,7 @@ impl Graph {
             RosMessage::Features(m) => on(&self.features, m),
             RosMessage::CameraTwist(m) => on(&self.camera_twist, m),
             RosMessage::Diagnostics(m) => on(&self.diagnostics, m),
+            RosMessage::Obstacles(m) => on(&self.obstacles, m),
         }
     }
 }

@@ -26,6 +26,7 @@
 //! - [`schema`]: the messages' ROS 2 definitions as MCAP `ros2msg` schemas, their CDR with the encapsulation
 //!   header; [`qos`]: ROS 2's profiles; [`names`]: topics and services in the namespace, their `rt/`, `rq/`,
 //!   `rr/` DDS names;
+//! - [`obstacles`] (pure): the collision guard's obstacles and workspace box as markers;
 //! - [`target`]: a ROS target as the client's command (ROS's pixels to vservo's, a pose's unit quaternion to
 //!   roll–pitch–yaw, the reply back);
 //! - [`arm_driver`] (pure, time passed in): a ros2_control arm's `JointState` as the contract's `joint_state`
@@ -44,6 +45,7 @@ pub mod frames;
 pub mod image_in;
 pub mod msg;
 pub mod names;
+pub mod obstacles;
 pub mod probe;
 pub mod qos;
 pub mod schema;

@@ -32,7 +32,7 @@ macro_rules! ros_message {
     (
         $(#[$meta:meta])*
         pub struct $type:ident = $package:literal / $name:literal {
-            $( $(#[$field_meta:meta])* $field:ident : $field_type:ty = $ros_type:literal, )*
+            $( $(#[$field_meta:meta])* $field:ident $(as $ros_field:literal)? : $field_type:ty = $ros_type:literal, )*
         }
         $(constants $constants:literal;)?
     ) => {
@@ -46,8 +46,19 @@ macro_rules! ros_message {
             const PACKAGE: &'static str = $package;
             const NAME: &'static str = $name;
             const DEFINITION: &'static str =
-                concat!($($constants,)? $( $ros_type, " ", stringify!($field), "\n", )*);
+                concat!($($constants,)? $( $ros_type, " ", ros_field_name!($field $(, $ros_field)?), "\n", )*);
         }
+    };
+}
+
+/// A field's name in the `.msg` file: the Rust field's, or the one given with `as` (a ROS name that is a Rust
+/// keyword, such as a marker's `type`).
+macro_rules! ros_field_name {
+    ($field:ident) => {
+        stringify!($field)
+    };
+    ($field:ident, $ros_field:literal) => {
+        $ros_field
     };
 }
 
@@ -417,6 +428,9 @@ ros_message! {
     }
 }
 impl ros2_client::Message for SetTargetResponse {}
+
+mod markers;
+pub use markers::{ColorRgba, CompressedImage, Duration, Marker, MarkerArray, MeshFile, UvCoordinate};
 
 #[cfg(test)]
 mod tests {

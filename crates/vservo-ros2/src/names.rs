@@ -27,6 +27,7 @@ pub fn topic(topic: Ros2Topic) -> &'static str {
         Ros2Topic::Features => "vservo/features",
         Ros2Topic::CameraTwist => "vservo/camera_twist",
         Ros2Topic::Diagnostics => "diagnostics",
+        Ros2Topic::Obstacles => "vservo/obstacles",
     }
 }
 

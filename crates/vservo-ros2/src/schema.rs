@@ -12,7 +12,7 @@ macro_rules! declared {
         [$((<$type as Definition>::PACKAGE, <$type as Definition>::NAME, <$type as Definition>::DEFINITION)),*]
     };
 }
-const DECLARED: [(&str, &str, &str); 19] = {
+const DECLARED: [(&str, &str, &str); 28] = {
     use crate::msg::*;
     declared![
         Time,
@@ -34,6 +34,15 @@ const DECLARED: [(&str, &str, &str); 19] = {
         KeyValue,
         DiagnosticStatus,
         DiagnosticArray,
+        Point,
+        Pose,
+        Duration,
+        ColorRgba,
+        CompressedImage,
+        UvCoordinate,
+        MeshFile,
+        Marker,
+        MarkerArray,
     ]
 };
 
@@ -78,7 +87,8 @@ pub fn schema_text<T: RosType>() -> String {
 /// A topic's message type: its MCAP schema name and `ros2msg` text.
 pub fn of_topic(topic: vservo_config::Ros2Topic) -> (String, String) {
     use crate::msg::{
-        CameraInfo, DiagnosticArray, Float64MultiArray, Image, JointState, TfMessage, TwistStamped,
+        CameraInfo, DiagnosticArray, Float64MultiArray, Image, JointState, MarkerArray, TfMessage,
+        TwistStamped,
     };
     use vservo_config::Ros2Topic;
     fn both<T: RosType>() -> (String, String) {
@@ -92,6 +102,7 @@ pub fn of_topic(topic: vservo_config::Ros2Topic) -> (String, String) {
         Ros2Topic::Features => both::<Float64MultiArray>(),
         Ros2Topic::CameraTwist => both::<TwistStamped>(),
         Ros2Topic::Diagnostics => both::<DiagnosticArray>(),
+        Ros2Topic::Obstacles => both::<MarkerArray>(),
     }
 }
 
@@ -108,8 +119,8 @@ pub fn cdr<T: RosType>(message: &T) -> Result<Vec<u8>, cdr_encoding::Error> {
 mod tests {
     use super::*;
     use crate::msg::{
-        CameraInfo, DiagnosticArray, Float64MultiArray, Header, Image, JointState, TfMessage, Time,
-        TwistStamped,
+        CameraInfo, DiagnosticArray, Float64MultiArray, Header, Image, JointState, MarkerArray, TfMessage,
+        Time, TwistStamped,
     };
 
     /// Whether every type a message's schema uses is defined here.
@@ -129,6 +140,41 @@ mod tests {
         assert!(fully_defined::<Float64MultiArray>());
         assert!(fully_defined::<TwistStamped>());
         assert!(fully_defined::<DiagnosticArray>());
+        assert!(fully_defined::<MarkerArray>());
+    }
+
+    /// A marker's `.msg` text as ROS 2 Jazzy's visualization_msgs/msg/Marker.msg has it (comments left out;
+    /// Jazzy's `ARROW_STRIP=12`, which Humble lacks, left out too: constants are not on the wire), the Rust
+    /// field `kind` written as `type`.
+    #[test]
+    fn a_markers_definition_is_the_msg_files() {
+        let text = <crate::msg::Marker as crate::msg::Definition>::DEFINITION;
+        let fields: Vec<&str> = text.lines().filter(|line| !line.contains('=')).collect();
+        assert_eq!(
+            fields,
+            [
+                "std_msgs/Header header",
+                "string ns",
+                "int32 id",
+                "int32 type",
+                "int32 action",
+                "geometry_msgs/Pose pose",
+                "geometry_msgs/Vector3 scale",
+                "std_msgs/ColorRGBA color",
+                "builtin_interfaces/Duration lifetime",
+                "bool frame_locked",
+                "geometry_msgs/Point[] points",
+                "std_msgs/ColorRGBA[] colors",
+                "string texture_resource",
+                "sensor_msgs/CompressedImage texture",
+                "visualization_msgs/UVCoordinate[] uv_coordinates",
+                "string text",
+                "string mesh_resource",
+                "visualization_msgs/MeshFile mesh_file",
+                "bool mesh_use_embedded_materials",
+            ]
+        );
+        assert!(text.starts_with("int32 ARROW=0\nint32 CUBE=1\n"));
     }
 
     #[test]

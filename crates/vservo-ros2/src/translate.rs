@@ -16,8 +16,8 @@ use crate::cell::{Arrived, Cell};
 use crate::convert::{self, StampClock};
 use crate::frames::ArmFrames;
 use crate::msg::{
-    CameraInfo, DiagnosticArray, DiagnosticStatus, Float64MultiArray, Image, JointState, TfMessage, Time,
-    TwistStamped,
+    CameraInfo, DiagnosticArray, DiagnosticStatus, Float64MultiArray, Image, JointState, MarkerArray,
+    TfMessage, Time, TwistStamped,
 };
 
 /// A ROS 2 message of one of the bridge's topics.
@@ -39,6 +39,8 @@ pub enum RosMessage {
     CameraTwist(TwistStamped),
     /// `diagnostics`.
     Diagnostics(DiagnosticArray),
+    /// `vservo/obstacles`.
+    Obstacles(MarkerArray),
 }
 
 impl RosMessage {
@@ -53,6 +55,7 @@ impl RosMessage {
             RosMessage::Features(m) => cdr(m),
             RosMessage::CameraTwist(m) => cdr(m),
             RosMessage::Diagnostics(m) => cdr(m),
+            RosMessage::Obstacles(m) => cdr(m),
         }
     }
 
@@ -66,6 +69,7 @@ impl RosMessage {
             RosMessage::Features(_) => None,
             RosMessage::CameraTwist(m) => Some(m.header.stamp),
             RosMessage::Diagnostics(m) => Some(m.header.stamp),
+            RosMessage::Obstacles(m) => m.markers.first().map(|marker| marker.header.stamp),
         }
     }
 
@@ -80,6 +84,7 @@ impl RosMessage {
             RosMessage::Features(_) => Ros2Topic::Features,
             RosMessage::CameraTwist(_) => Ros2Topic::CameraTwist,
             RosMessage::Diagnostics(_) => Ros2Topic::Diagnostics,
+            RosMessage::Obstacles(_) => Ros2Topic::Obstacles,
         }
     }
 }
@@ -143,8 +148,10 @@ pub struct Translator {
     arm: vservo_arm::SerialArm,
     /// The arm's frames by its robot description's names.
     frames: ArmFrames,
-    /// Whether `tf_static` was made (once: it is transient local).
+    /// Whether `tf_static` and `vservo/obstacles` were made (once: they are transient local).
     fixed_made: bool,
+    /// The collision guard's scene (`[collision]` given).
+    collision: Option<vservo_config::Collision>,
     mount: vservo_scene::CameraMount,
     camera: vservo_scene::CameraIntrinsics,
     board: vservo_scene::Board,
@@ -173,6 +180,7 @@ impl Translator {
             arm: config.cell.arm.clone(),
             frames: ArmFrames::of(&config.cell.arm),
             fixed_made: false,
+            collision: config.cell.collision.clone(),
             mount: config.cell.mount(),
             camera: config.cell.camera,
             board: config.cell.board,
@@ -198,10 +206,8 @@ impl Translator {
             self.clock = StampClock::now();
             cell.open();
         }
-        if !self.fixed_made && self.wants(Ros2Topic::TfStatic) {
-            let stamp = self.clock.ros_time(vservo_protocol::clock::monotonic_ns());
-            out(RosMessage::TfStatic(TfMessage { transforms: self.frames.fixed(&self.mount, stamp) }));
-            self.fixed_made = true;
+        if !self.fixed_made {
+            self.fixed(out);
         }
         let mut arrived = Arrived::default();
         cell.take(&mut arrived);
@@ -211,6 +217,18 @@ impl Translator {
             self.diagnostics(extra(cell.refused + self.refused), out);
         }
         Ok(())
+    }
+
+    /// What does not move, once: `tf_static`, and the guard's obstacles (a cell with `[collision]`).
+    fn fixed(&mut self, out: &mut impl FnMut(RosMessage)) {
+        let stamp = self.clock.ros_time(vservo_protocol::clock::monotonic_ns());
+        if self.wants(Ros2Topic::TfStatic) {
+            out(RosMessage::TfStatic(TfMessage { transforms: self.frames.fixed(&self.mount, stamp) }));
+        }
+        if let Some(collision) = self.collision.as_ref().filter(|_| self.wants(Ros2Topic::Obstacles)) {
+            out(RosMessage::Obstacles(crate::obstacles::markers(collision, &self.frames.base, stamp)));
+        }
+        self.fixed_made = true;
     }
 
     fn wants(&self, topic: Ros2Topic) -> bool {

@@ -11,6 +11,7 @@
 //! streams to a [`server::Hub`]; nothing here reads iceoryx2 or a configuration.
 
 pub mod drawing;
+pub mod obstacles;
 pub mod server;
 pub mod token;
 

@@ -13,6 +13,8 @@ pub const FOUND: Rgb<u8> = Rgb([0, 220, 0]);
 pub const DESIRED: Rgb<u8> = Rgb([230, 0, 0]);
 /// From a mark to where it is wanted.
 pub const ERROR: Rgb<u8> = Rgb([240, 220, 0]);
+/// The collision guard's obstacles, as wireframes.
+pub const OBSTACLE: Rgb<u8> = Rgb([0, 200, 255]);
 /// Half the cross's arm (px).
 const CROSS_PX: i64 = 7;
 /// The desired ring's radius (px): outside a mark's image at the paper's distance.
@@ -149,4 +151,36 @@ fn number(picture: &mut RgbImage, at: Point2<f64>, value: u32, scale: f64, colou
             }
         }
     }
+}
+
+/// Pieces a segment of a wireframe is cut into before it goes through the lens (its image bends with distortion).
+const WIREFRAME_PIECES: u32 = 32;
+/// Nearer to the camera than this (m), a wireframe is not drawn.
+const WIREFRAME_NEAR_M: f64 = 0.02;
+
+/// A wireframe seen by `camera`: each segment (in the camera frame) cut short where it comes nearer than a few
+/// centimetres, through the lens piece by piece, each piece drawn where both its ends image within the lens's
+/// valid region. Whether any piece fell in the picture.
+pub fn draw_wireframe(
+    picture: &mut RgbImage,
+    segments_in_camera: &[[nalgebra::Point3<f64>; 2]],
+    camera: &vservo_scene::CameraIntrinsics,
+    colour: Rgb<u8>,
+) -> bool {
+    let valid_radius = camera.distortion().valid_radius();
+    let image = |p: &nalgebra::Point3<f64>| {
+        let within = p.z >= WIREFRAME_NEAR_M && (p.x / p.z).hypot(p.y / p.z) <= valid_radius;
+        within.then(|| camera.project_observed(p)).flatten()
+    };
+    let mut seen = false;
+    for [from, to] in segments_in_camera {
+        for k in 0..WIREFRAME_PIECES {
+            let at = |t: u32| from + (to - from) * (f64::from(t) / f64::from(WIREFRAME_PIECES));
+            if let (Some(a), Some(b)) = (image(&at(k)), image(&at(k + 1))) {
+                seen |= [a, b].iter().any(|p| camera.contains(p));
+                line(picture, a, b, colour);
+            }
+        }
+    }
+    seen
 }

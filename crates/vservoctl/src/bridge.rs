@@ -1,7 +1,8 @@
 //! From an instance's services to a sink of channels (an MCAP file for `vservoctl record`, the live
 //! view's WebSocket server for `vservoctl view`): every service as JSON with a JSON schema, and the cell as
 //! Foxglove shows it ([`vservo_view::drawing`]): the camera's images, the marks on them, the frames of the arm,
-//! the camera and the board. A bridge only opens services (it never creates them) and reads them with
+//! the camera and the board, and the collision guard's obstacles coloured by the status's nearest pair
+//! ([`vservo_view::obstacles`]). A bridge only opens services (it never creates them) and reads them with
 //! iceoryx2's safe overflow: a slow bridge loses its oldest samples, it never slows the loop.
 
 use std::collections::BTreeMap;
@@ -19,6 +20,7 @@ use vservo_protocol::{
 use crate::instance::{Connection, InstanceArg};
 pub use vservo_view::ChannelSpec;
 use vservo_view::drawing;
+use vservo_view::obstacles::{GuardedScene, Nearest, OBSTACLES_TOPIC};
 
 /// Where the bridge's messages go.
 pub trait Sink {
@@ -30,6 +32,8 @@ pub trait Sink {
 
 /// Transforms of the arm at most this often (the joint states come every ms).
 const TRANSFORMS_EVERY_NS: u64 = 20_000_000;
+/// The obstacles again at least this often (for a viewer that joins late), and whenever their colours change.
+const OBSTACLES_EVERY_NS: u64 = 1_000_000_000;
 
 fn wall_ns() -> u64 {
     SystemTime::now().duration_since(UNIX_EPOCH).map_or(0, |d| d.as_nanos() as u64)
@@ -46,6 +50,8 @@ pub struct Bridge<S: Sink> {
     drawing: Option<CellDrawing>,
     last_transforms_ns: u64,
     last_state_stamp_ns: u64,
+    /// When the obstacles were last written (status stamp, ns) and the nearest pair they were coloured by.
+    last_obstacles: Option<(u64, String)>,
     image_every: u64,
 }
 
@@ -85,11 +91,17 @@ impl<S: Sink> Bridge<S> {
                 .ok(),
             last_transforms_ns: 0,
             last_state_stamp_ns: 0,
+            last_obstacles: None,
             image_every,
         };
         bridge.add_foxglove_channel::<foxglove::messages::RawImage>(drawing::IMAGE_TOPIC)?;
         bridge.add_foxglove_channel::<foxglove::messages::ImageAnnotations>(drawing::ANNOTATIONS_TOPIC)?;
         bridge.add_foxglove_channel::<foxglove::messages::FrameTransforms>(drawing::TRANSFORMS_TOPIC)?;
+        if let Some(scene) = bridge.drawing.as_ref().and_then(|d| d.scene.as_ref()) {
+            let update = scene.update(None, 0);
+            bridge.add_foxglove_channel::<foxglove::messages::SceneUpdate>(OBSTACLES_TOPIC)?;
+            bridge.write_foxglove(OBSTACLES_TOPIC, &update, 0)?;
+        }
         Ok(bridge)
     }
 
@@ -204,10 +216,37 @@ impl Viewed for SimWorldMsg {
     }
 }
 
+impl Viewed for DaemonStatusMsg {
+    /// The obstacles, coloured by the nearest pair the status names: when that changes, and every second.
+    fn view<S: Sink>(&self, bridge: &mut Bridge<S>) -> anyhow::Result<()> {
+        let Some(scene) = bridge.drawing.as_ref().and_then(|d| d.scene.as_ref()) else { return Ok(()) };
+        let between = String::from_utf8_lossy(&self.clearance_between).trim_end_matches('\0').to_string();
+        let nearest = self
+            .clearance_m
+            .is_finite()
+            .then_some(Nearest { between: &between, distance_m: self.clearance_m });
+        let colours = scene.update(nearest, self.stamp_ns);
+        let key = format!(
+            "{between} {:?}",
+            colours.entities.iter().map(|e| e.texts.first().map(|t| t.color)).collect::<Vec<_>>()
+        );
+        let due = match &bridge.last_obstacles {
+            Some((at_ns, last_key)) => {
+                *last_key != key || self.stamp_ns.saturating_sub(*at_ns) >= OBSTACLES_EVERY_NS
+            }
+            None => true,
+        };
+        if !due {
+            return Ok(());
+        }
+        bridge.last_obstacles = Some((self.stamp_ns, key));
+        bridge.write_foxglove(OBSTACLES_TOPIC, &colours, self.stamp_ns)
+    }
+}
+
 impl Viewed for JointCommandMsg {}
 impl Viewed for CameraTwistMsg {}
 impl Viewed for TelemetryMsg {}
-impl Viewed for DaemonStatusMsg {}
 impl Viewed for ObjectMsg {}
 impl Viewed for CellModeMsg {}
 
@@ -232,6 +271,8 @@ struct CellDrawing {
     arm: vservo_arm::SerialArm,
     /// Where the camera is: on the hand, or fixed in the world.
     mount: vservo_scene::CameraMount,
+    /// What the collision guard keeps the arm off (`[collision]` given).
+    scene: Option<GuardedScene>,
 }
 
 /// The arm and camera mount of the instance: from the configuration its daemon runs, else from
@@ -239,7 +280,13 @@ struct CellDrawing {
 fn cell_drawing(instance: &InstanceArg, name: &str) -> anyhow::Result<CellDrawing> {
     let config = instance.configuration_in_force(name)?;
     let mount = config.cell.mount();
-    Ok(CellDrawing { arm: config.cell.arm, mount })
+    let scene = config.cell.collision.as_ref().map(|collision| GuardedScene {
+        obstacles: collision.obstacles.clone(),
+        workspace: collision.workspace,
+        slowdown_distance_m: collision.slowdown_distance_m,
+        stop_distance_m: collision.stop_distance_m,
+    });
+    Ok(CellDrawing { arm: config.cell.arm, mount, scene })
 }
 
 /// One service: its subscriber once the service exists.

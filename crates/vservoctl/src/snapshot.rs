@@ -1,8 +1,9 @@
 //! `vservoctl snapshot`: what the camera of a running instance sees now, as a PNG a person can look at without
 //! Foxglove: the newest camera image with its marks drawn on it (`crate::annotate`: found, wanted by the gains
 //! in force, the error), and every tag36h11 tag in view outlined with its id (the target's green, the others
-//! yellow; found as `vservoctl tags` finds them). The frame's numbers (its features, ξ_d, the error, the tags)
-//! are printed as one JSON object.
+//! yellow; found as `vservoctl tags` finds them), and the collision guard's obstacles (`[[scene.obstacles]]`) as
+//! wireframes where the camera saw them from at that frame. The frame's numbers (its features, ξ_d, the error,
+//! the tags, the obstacles in view) are printed as one JSON object.
 //!
 //! The image and the features are of the same frame (the features message names its frame).
 
@@ -65,6 +66,7 @@ pub fn run(args: &SnapshotArgs) -> anyhow::Result<()> {
         if config.cell.vision.undistort { config.cell.camera.observed_of_pinhole(&point) } else { point }
     };
     let mut picture = annotate::gray_to_rgb(frame.width, frame.height, frame.width, &frame.pixels);
+    let obstacles = draw_obstacles(&mut picture, &config.cell, &frame.features);
     let tags = tags_in_view(&frame, &config.cell.camera);
     let target_ids: Vec<u32> = config.cell.board.target_tags().iter().map(|tag| tag.id()).collect();
     for tag in &tags {
@@ -106,9 +108,41 @@ pub fn run(args: &SnapshotArgs) -> anyhow::Result<()> {
             "refined": tag.quality.refined,
             "target": target_ids.contains(&tag.id),
         })).collect::<Vec<_>>(),
+        "obstacles": obstacles,
     });
     print_stdout(&format!("{summary}\n"))?;
     Ok(())
+}
+
+/// The guard's obstacles as wireframes, seen from where the camera was at the frame (a hand camera: the pose its
+/// features give; a fixed one: where it is mounted); each obstacle's name and whether it is in view.
+fn draw_obstacles(
+    picture: &mut image::RgbImage,
+    cell: &vservo_config::CellConfig,
+    features: &FeaturesMsg,
+) -> Vec<serde_json::Value> {
+    let Some(collision) = &cell.collision else { return Vec::new() };
+    let base_from_camera = match cell.mount() {
+        vservo_scene::CameraMount::Hand { .. } => {
+            vservo_scene::pose_rows::pose_from_rows(&features.base_from_camera)
+        }
+        vservo_scene::CameraMount::World { base_from_camera, .. } => Some(base_from_camera),
+    };
+    let Some(camera_from_base) = base_from_camera.map(|pose| pose.inverse()) else { return Vec::new() };
+    collision
+        .obstacles
+        .iter()
+        .map(|obstacle| {
+            let segments: Vec<_> = obstacle
+                .primitives()
+                .iter()
+                .flat_map(|primitive| primitive.edges())
+                .map(|[a, b]| [camera_from_base * a, camera_from_base * b])
+                .collect();
+            let in_view = annotate::draw_wireframe(picture, &segments, &cell.camera, annotate::OBSTACLE);
+            json!({"name": obstacle.name, "in_view": in_view})
+        })
+        .collect()
 }
 
 /// Every tag36h11 tag in the frame (as `vservoctl tags` finds them), its edges straight through the camera's lens.
