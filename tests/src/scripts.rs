@@ -35,9 +35,23 @@ pub fn run_script_to_convergence(script: &str, extra: &[&str]) -> Value {
     args.extend_from_slice(extra);
     let summary = run_script(script, &args);
     let final_error = summary["final_error_px"].as_f64().expect("final_error_px");
-    assert!(final_error < 1.0, "{summary}");
-    assert!(summary["settling_time_s"].as_f64().is_some(), "{summary}");
+    let converged = final_error < 1.0 && summary["settling_time_s"].as_f64().is_some();
+    assert!(converged, "{summary}\nwhat the run's logs said went wrong:\n{}", errors_logged(&summary));
     summary
+}
+
+/// The ERROR and WARN lines of the logs in a run's folder (vservod's, a simulator's), for a failure's message.
+fn errors_logged(summary: &Value) -> String {
+    let Some(folder) = summary["run_folder"].as_str() else { return "(no run folder)".to_string() };
+    let Ok(entries) = std::fs::read_dir(folder) else { return format!("({folder} unreadable)") };
+    let mut said = String::new();
+    for path in entries.flatten().map(|e| e.path()).filter(|p| p.extension().is_some_and(|e| e == "log")) {
+        let text = std::fs::read_to_string(&path).unwrap_or_default();
+        for line in text.lines().filter(|l| l.contains("ERROR") || l.contains("WARN")) {
+            said.push_str(&format!("{}: {line}\n", path.file_name().unwrap_or_default().to_string_lossy()));
+        }
+    }
+    said
 }
 
 /// The file `name` in the folder of the run a script's summary describes (its `run_folder`).

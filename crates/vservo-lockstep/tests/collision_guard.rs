@@ -1,7 +1,8 @@
 //! The collision guard in the loop (issue 47), in the lockstep: the UR5e of config/arms/ur5e.toml servoing
 //! towards a target whose desired pose puts the camera 5 cm into a table slows and stops short of it; a table
-//! 20 cm below the start changes nothing, bit for bit; the Panda's joint move that folds its hand into its own
-//! link 2 stops before contact, braking from speed, where the guard computed it would.
+//! 20 cm below the start changes nothing, bit for bit; a workspace box whose floor is 5 cm above that desired pose
+//! stops it the same way, inside the box; the Panda's joint move that folds its hand into its own link 2 stops
+//! before contact, braking from speed, where the guard computed it would.
 
 use nalgebra::{Rotation3, Translation3, Vector3};
 use vservo_arm::JointVector;
@@ -79,6 +80,39 @@ fn the_ur5e_slows_and_stops_short_of_a_table_its_target_is_inside() {
     let final_error_px =
         vservo_lockstep::summary::summarize(&trace, &config.cell.scenario.object).final_error_px;
     assert!(final_error_px > 5.0, "the target inside the table was not reached: {final_error_px} px");
+}
+
+/// The workspace works as an obstacle does: the same descent, with no table but a workspace box whose floor is
+/// 5 cm above where the desired pose puts the camera, slows and stops the arm with the camera (or the tool) at
+/// least the stop distance inside the box, naming the workspace.
+#[test]
+fn the_ur5e_slows_and_stops_inside_a_workspace_its_target_is_outside() {
+    let (mut config, stop_m) = ur5e_above_a_table();
+    let cell = Cell::new(&config.cell).expect("the cell");
+    let floor_z = cell.base_from_desired_camera().translation.z + 0.05;
+    let collision = config.cell.collision.as_mut().expect("the UR5e file's guard");
+    collision.obstacles.retain(|o| o.name != "table");
+    collision.workspace =
+        Some(vservo_config::Workspace { min_m: [-2.0, -2.0, floor_z], max_m: [2.0, 2.0, 2.0] });
+    let trace = run(&config);
+    let clearance = trace.clearance.as_ref().expect("the guard ran");
+    let stop = clearance.stop.as_ref().expect("the guard stopped the arm");
+    assert_eq!(stop.between.1, "workspace", "{stop:?}");
+    assert!(stop.between.0.starts_with("camera corner") || stop.between.0 == "tool", "{stop:?}");
+    assert!(clearance.slowed_ticks > 100, "it slowed before it stopped: {} ticks", clearance.slowed_ticks);
+    assert!(stop.distance_m >= stop_m && stop.closest_after_m >= stop_m, "{stop:?}");
+    // where the arm came to rest, every guarded point (the tool, the camera box's corners) is inside the box by
+    // at least the stop distance
+    let guard = Cell::new(&config.cell).expect("the cell").guard().expect("a guard").clone();
+    let placement = cell.arm().placement(&trace.joints.last().expect("joints").q);
+    let inside: Vec<(String, f64)> = (0..9)
+        .map_while(|point| {
+            let distance = guard.distance_of(Between::Workspace { point }, &placement)?;
+            Some((guard.point_name(point).to_string(), distance))
+        })
+        .collect();
+    assert_eq!(inside.len(), 9, "the tool and the camera's 8 corners: {inside:?}");
+    assert!(inside.iter().all(|(_, d)| *d >= stop_m), "at rest: {inside:?}");
 }
 
 fn limits() -> vservo_collision::BrakingLimits<'static> {
