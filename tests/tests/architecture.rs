@@ -230,3 +230,78 @@ fn source_files(dir: &std::path::Path) -> Vec<std::path::PathBuf> {
     }
     files
 }
+
+/// Issue 48: seconds become nanoseconds and back in one place, `vservo-time` (rounded, never truncated); no other
+/// code of the workspace (its sources, examples and benches; tests left out: a file under `tests/`, and a source
+/// file from its `#[cfg(test)]` on) writes 10⁹ as a number.
+#[test]
+fn no_code_outside_vservo_time_converts_seconds_and_nanoseconds() {
+    let mut found: Vec<String> = Vec::new();
+    for (name, code) in code_before_its_tests() {
+        if name.starts_with("crates/vservo-time/") || name.contains("/tests/") {
+            continue;
+        }
+        for (number, line) in code.lines().enumerate() {
+            let before_comment = line.split("//").next().unwrap_or(line);
+            if writes_a_billion(before_comment) {
+                found.push(format!("{name}:{}: {}", number + 1, line.trim()));
+            }
+        }
+    }
+    assert!(found.is_empty(), "seconds and nanoseconds converted outside vservo-time: {found:#?}");
+    // the premise: the pattern finds the conversions it is there to keep out, and not a hexadecimal table's digits
+    assert!(writes_a_billion("let period_ns = (period_s * 1e9).round() as u64;"));
+    assert!(writes_a_billion("t.tv_sec() as u64 * 1_000_000_000"));
+    assert!(!writes_a_billion("0x0000_0004_a1e9_3a9d,") && !writes_a_billion("x < 1e-9"));
+}
+
+/// Whether `code` writes 10⁹ (`1e9`, `1_000_000_000`, `1000000000`) as a number of its own.
+fn writes_a_billion(code: &str) -> bool {
+    code.split(|c: char| !(c.is_ascii_alphanumeric() || c == '_' || c == '.'))
+        .map(|token| token.trim_end_matches('.'))
+        .any(|token| {
+            let digits = token.trim_end_matches("u64").trim_end_matches("f64").trim_end_matches("i128");
+            digits == "1e9" || digits == "1.0e9" || digits.replace('_', "") == "1000000000"
+        })
+}
+
+/// Issue 48: a sealed stream's sample (the servo's features, the rmrc's twists) is admitted in one call,
+/// `vservo_wire::stream::SealedStream::admit` (schema, seal, announced writer and freshness): no other source
+/// asks for a stream's standing itself.
+#[test]
+fn a_sealed_streams_admission_is_written_once() {
+    let mut found: Vec<String> = code_before_its_tests()
+        .into_iter()
+        .filter(|(_, code)| code.contains("stream_standing("))
+        .map(|(name, _)| name)
+        .collect();
+    found.sort();
+    assert_eq!(
+        found,
+        ["crates/vservo-wire/src/freshness.rs", "crates/vservo-wire/src/stream.rs"],
+        "a stream's standing asked outside the one admission"
+    );
+    let admitting: Vec<String> = rust_files(&repository_root().join("crates/vservo-runtime/src/nodes"))
+        .iter()
+        .filter(|file| std::fs::read_to_string(file).expect("a source file").contains(".admit(taken"))
+        .map(|file| file.file_name().expect("a name").to_string_lossy().to_string())
+        .collect::<BTreeSet<_>>()
+        .into_iter()
+        .collect();
+    assert_eq!(admitting, ["rmrc.rs", "servo.rs"], "the servo and the rmrc admit through it");
+}
+
+/// Every Rust file under `crates/` (its path from the repository's root) with its text up to its `#[cfg(test)]`
+/// line: the code that is not a unit test.
+fn code_before_its_tests() -> Vec<(String, String)> {
+    let root = repository_root();
+    rust_files(&root.join("crates"))
+        .into_iter()
+        .map(|file| {
+            let name = file.strip_prefix(&root).expect("in the tree").display().to_string();
+            let text = std::fs::read_to_string(&file).expect("a source file");
+            let code: Vec<&str> = text.lines().take_while(|line| line.trim() != "#[cfg(test)]").collect();
+            (name, code.join("\n"))
+        })
+        .collect()
+}

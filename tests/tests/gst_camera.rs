@@ -98,7 +98,7 @@ fn read_frames(instance: &str, seconds: f64) -> Vec<Received> {
     let mut frames = Vec::new();
     while Instant::now() < until {
         while let Ok(Some(sample)) = subscriber.receive() {
-            let received_ns = vservo_runtime::clock::monotonic_ns();
+            let received_ns = vservo_time::monotonic_ns();
             let header = *sample.user_header();
             frames.push(Received {
                 frame: header.frame,
@@ -177,11 +177,11 @@ fn videotestsrc_frames_reach_camera_image_counted_stamped_at_capture_and_the_slo
     // the driver's thread takes before they are dropped depends on the scheduling. What holds whatever it
     // is: the counter counts the source's frames, published or lost (its steps are the stamps' steps in
     // periods), and every frame the source made is either published or counted lost.
-    let stopped_ns = vservo_runtime::clock::monotonic_ns();
+    let stopped_ns = vservo_time::monotonic_ns();
     driver.signal(Signal::SIGSTOP);
     std::thread::sleep(Duration::from_secs(1));
     driver.signal(Signal::SIGCONT);
-    let resumed_ns = vservo_runtime::clock::monotonic_ns();
+    let resumed_ns = vservo_time::monotonic_ns();
     let after = read(1.0);
     let last_before = frames.last().expect("frames before the stop");
     let first_fresh = after
@@ -209,7 +209,7 @@ fn videotestsrc_frames_reach_camera_image_counted_stamped_at_capture_and_the_slo
 
     // SIGTERM: a clean stop (exit 0) with the totals; every stamp came from the buffers
     let last_read = after.last().expect("frames after the stop");
-    let terminated_ns = vservo_runtime::clock::monotonic_ns();
+    let terminated_ns = vservo_time::monotonic_ns();
     driver.signal(Signal::SIGTERM);
     assert_eq!(exit_code(&mut driver, Duration::from_secs(5)), Some(0), "{}", log_text());
     let totals = log_text().lines().rev().find(|l| l.contains("stopped")).unwrap_or_default().to_string();

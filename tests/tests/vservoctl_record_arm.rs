@@ -46,7 +46,7 @@ fn sweeping_driver(instance: &str, start: &[f64]) -> LoopThread {
             let q_rad = std::array::from_fn(|j| start.get(j).map_or(0.0, |q| q + 0.2 * (t + j as f64).sin()));
             let _ = states.send_copy(JointStateMsg {
                 tick,
-                stamp_ns: vservo_runtime::clock::monotonic_ns(),
+                stamp_ns: vservo_time::monotonic_ns(),
                 driver_epoch: u64::from(std::process::id()),
                 period_ns: 1_000_000,
                 command_mode: CommandMode::Velocity.into(),

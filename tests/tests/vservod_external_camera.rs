@@ -35,7 +35,7 @@ fn start_camera(
         let period = Duration::from_secs_f64(config.cell.timing.vision_period_s);
         let mut frame = 0;
         while !stop.load(Ordering::Relaxed) {
-            let exposed_ns = vservo_runtime::clock::monotonic_ns().saturating_sub(LATENCY_NS);
+            let exposed_ns = vservo_time::monotonic_ns().saturating_sub(LATENCY_NS);
             vservo_runtime::nodes::vision::publish_image(
                 &publisher,
                 &image,

@@ -120,7 +120,7 @@ impl FakeDriver {
                 if q.load(Ordering::Relaxed) {
                     continue;
                 }
-                let stamp_ns = vservo_runtime::clock::monotonic_ns();
+                let stamp_ns = vservo_time::monotonic_ns();
                 let _ = states.send_copy(JointStateMsg {
                     faults: f.load(Ordering::Relaxed),
                     tick,

@@ -243,7 +243,7 @@ fn start_camera(
         let mut frame = 0;
         while !stop.load(Ordering::Relaxed) {
             if sending.load(Ordering::Relaxed) {
-                let now_ns = vservo_runtime::clock::monotonic_ns();
+                let now_ns = vservo_time::monotonic_ns();
                 vservo_runtime::nodes::vision::publish_image(
                     &publisher,
                     &image,

@@ -60,7 +60,7 @@ pub use drive::Drive;
 pub use dynamics::DynamicsError;
 pub use ik::{ArmConfig, IkSolution, IkSolutions};
 pub use kinematics::Placement;
-pub use limits::{GOAL_MARGIN_RAD, JointLimits, LimitViolation, LimitedQuantity};
+pub use limits::{GOAL_MARGIN_RAD, JointLimits, LIMIT_MARGIN, LimitViolation, LimitedQuantity};
 pub use link::{DhParameters, Link, LinkInertia};
 
 use nalgebra::{IsometryMatrix3, Matrix6, SMatrix, SVector, Vector3};

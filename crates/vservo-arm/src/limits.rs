@@ -15,6 +15,13 @@ pub struct JointLimits {
     pub torque_max: f64,
 }
 
+/// The share of an arm's speed, acceleration and jerk limits a jerk-limited reference uses at most (the rmrc's,
+/// vservo-sim's interpolator), and a driver's last guard on what the robot is sent (the Franka driver's): a
+/// controller that checks the discrete derivatives of the commands against the published numbers (libfranka checks
+/// each minus 1e-3; franka-sim flags a jerk of 5000.000000000005 rad/s³ against 5000) sees every command inside
+/// them, rounding included.
+pub const LIMIT_MARGIN: f64 = 0.995;
+
 /// How far inside its limits a joint's goal must be (rad): a goal on a limit would leave the arm's position check
 /// a rounding error from a fault.
 pub const GOAL_MARGIN_RAD: f64 = 0.01;

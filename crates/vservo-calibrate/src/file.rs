@@ -7,7 +7,7 @@
 use std::path::Path;
 
 use vservo_config::Config;
-use vservo_config::calibration::OPENCV_TO_VSERVO_PX;
+use vservo_scene::OPENCV_TO_VSERVO_PX;
 
 use crate::solver::Solved;
 use crate::{CalibrateError, Result};

@@ -224,7 +224,7 @@ pub fn caps_frame_period_ns(sample: &gst::Sample) -> u64 {
     if rate.numer() <= 0 || rate.denom() <= 0 {
         return 0;
     }
-    (1_000_000_000u64 * rate.denom() as u64) / rate.numer() as u64
+    vservo_time::Nanos::from_seconds(f64::from(rate.denom()) / f64::from(rate.numer())).get()
 }
 
 /// Writes the luma of a frame's rows into `out` (width bytes each, no padding), by the frame's own format
@@ -287,9 +287,9 @@ fn use_monotonic_clock(pipeline: &gst::Pipeline) -> i64 {
         return 0;
     }
     // another clock: its reading bracketed by two CLOCK_MONOTONIC readings
-    let before = vservo_protocol::clock::monotonic_ns();
+    let before = vservo_time::monotonic_ns();
     let clock_ns = clock.time().nseconds();
-    let after = vservo_protocol::clock::monotonic_ns();
+    let after = vservo_time::monotonic_ns();
     (i128::from(clock_ns) - i128::from(before / 2 + after / 2)) as i64
 }
 

@@ -10,7 +10,7 @@ use iceoryx2::prelude::ipc;
 use vservo_camera_gst::frames::FrameCounter;
 use vservo_camera_gst::stamp::{self, StampSource};
 use vservo_protocol::CameraImageHeader;
-use vservo_protocol::clock::monotonic_ns;
+use vservo_time::monotonic_ns;
 
 use crate::pipeline::{self, Camera, Frame, PipelineError};
 
@@ -39,7 +39,7 @@ pub fn run(config_path: &Path, stats_every_s: f64, stop: &AtomicBool) -> anyhow:
     tracing::info!("frames: {}", negotiated.caps);
     let Some(out) = Output::connect(&config.instance, stop)? else { return Ok(()) };
     let period_ns = match pipeline::caps_frame_period_ns(&first.sample) {
-        0 => (config.cell.timing.vision_period_s * 1e9) as u64,
+        0 => vservo_time::nanos(config.cell.timing.vision_period_s),
         caps_period => caps_period,
     };
     let mut publishing = Publishing {
@@ -156,8 +156,8 @@ impl Watch {
     fn new(vision_period_s: f64, stall_periods: u32, stats_every_s: f64) -> Watch {
         let now = monotonic_ns();
         Watch {
-            stall_after_ns: (vision_period_s * 1e9 * f64::from(stall_periods)) as u64,
-            stats_every_ns: if stats_every_s > 0.0 { (stats_every_s * 1e9) as u64 } else { u64::MAX },
+            stall_after_ns: vservo_time::Nanos::from_periods(f64::from(stall_periods), vision_period_s).get(),
+            stats_every_ns: if stats_every_s > 0.0 { vservo_time::nanos(stats_every_s) } else { u64::MAX },
             last_frame_ns: now,
             last_stats_ns: now,
             stalled: false,
@@ -173,7 +173,10 @@ impl Watch {
 
     fn frame(&mut self, now_ns: u64, source: StampSource, age_ns: u64) {
         if self.stalled {
-            tracing::info!("frames again after {:.2} s", (now_ns - self.last_frame_ns) as f64 / 1e9);
+            tracing::info!(
+                "frames again after {:.2} s",
+                vservo_time::seconds_between(now_ns, self.last_frame_ns)
+            );
             self.stalled = false;
         }
         self.last_frame_ns = now_ns;
@@ -194,11 +197,11 @@ impl Watch {
             self.stalled = true;
             tracing::warn!(
                 "no frame for {:.2} s (camera.gstreamer.stall_periods): the pipeline {pipeline:?} is stalled",
-                silent_ns as f64 / 1e9
+                vservo_time::Nanos(silent_ns).seconds()
             );
         }
         if now_ns.saturating_sub(self.last_stats_ns) >= self.stats_every_ns {
-            let window_s = (now_ns - self.last_stats_ns) as f64 / 1e9;
+            let window_s = vservo_time::seconds_between(now_ns, self.last_stats_ns);
             self.report(counter, &format!("{:.1} frames/s", self.window_frames as f64 / window_s));
             self.last_stats_ns = now_ns;
             (self.window_frames, self.window_age_sum_ns, self.window_age_max_ns) = (0, 0, 0);

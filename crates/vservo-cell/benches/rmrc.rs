@@ -22,7 +22,7 @@ fn rmrc_ticks(c: &mut Criterion) {
             let q = *cell.start_joints();
             let mut rmrc = cell.rmrc(&q);
             let qd = vservo_arm::JointVector::zeros();
-            let period_ns = (config.cell.robot.period_s * 1e9).round() as u64;
+            let period_ns = vservo_time::nanos(config.cell.robot.period_s);
             let twist = Twist::new(0.02, -0.01, 0.01, 0.02, 0.0, -0.02);
             let mut tick = 0u64;
             let name =

@@ -119,7 +119,7 @@ impl RmrcStage {
         q: JointVector,
         guard: Option<Guard>,
     ) -> Self {
-        let period_ns = (settings.control_period_s * 1e9).round() as u64;
+        let period_ns = vservo_time::nanos(settings.control_period_s);
         let periods = u64::from(config.robot.state_timeout_periods);
         Self {
             interpolator: Interpolator::new(settings, arm.clone(), config.mount(), q),
@@ -381,7 +381,7 @@ mod tests {
                 .cell;
         let cell = Cell::new(&config).expect("the default cell");
         let q = *cell.start_joints();
-        let period_ns = (config.robot.period_s * 1e9).round() as u64;
+        let period_ns = vservo_time::nanos(config.robot.period_s);
         (cell.rmrc(&q), q, period_ns)
     }
 

@@ -4,9 +4,9 @@
 
 use std::time::{Duration, Instant};
 
-use vservo_protocol::clock::monotonic_ns;
 use vservo_protocol::stop_path::{Asked, SafeStopPathError, ask_for_safe_stop};
 use vservo_protocol::{DaemonState, DaemonStatusMsg, Fault, InstanceDir};
+use vservo_time::monotonic_ns;
 
 use crate::{Client, ClientError};
 

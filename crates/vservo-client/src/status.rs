@@ -183,19 +183,18 @@ impl StatusView {
                 .map(|j| j + 1)
                 .collect(),
             active: daemon.state == u32::from(DaemonState::SafeStop),
-            since_s: daemon.stamp_ns.saturating_sub(daemon.fault_since_ns) as f64 / 1e9,
-            at_uptime_s: daemon
-                .uptime_ns
-                .saturating_sub(daemon.stamp_ns.saturating_sub(daemon.fault_since_ns))
-                as f64
-                / 1e9,
+            since_s: vservo_time::seconds_between(daemon.stamp_ns, daemon.fault_since_ns),
+            at_uptime_s: vservo_time::seconds_between(
+                daemon.uptime_ns,
+                daemon.stamp_ns.saturating_sub(daemon.fault_since_ns),
+            ),
         });
         Self {
             instance: instance.to_string(),
             state: name_of(daemon.state, DaemonState::name),
             fault,
             safe_stops: daemon.safe_stops,
-            uptime_s: daemon.uptime_ns as f64 / 1e9,
+            uptime_s: vservo_time::Nanos(daemon.uptime_ns).seconds(),
             daemon_pid: daemon.pid,
             robot: name_of(daemon.robot, RobotState::name),
             nodes,

@@ -13,10 +13,8 @@
 //! (YAML writes `%YAML 1.0`): it is taken out before parsing; the `!!opencv-matrix` tag is a YAML tag the
 //! parser reads and this module ignores.
 
+use vservo_scene::OPENCV_TO_VSERVO_PX;
 use yaml_rust2::{Yaml, YamlLoader};
-
-/// What is added to an OpenCV or ROS pixel coordinate to make it vservo's (the same point).
-pub const OPENCV_TO_VSERVO_PX: f64 = 0.5;
 
 /// What a calibration file gives.
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -24,7 +24,8 @@
 //! in force — through the guard, one command back within the robot's cycle; the robot's recovery on a resume,
 //! polled cycle by cycle), [`shaper`] (the guard), [`cell`] (the instance's side: the robot driver's streams and
 //! the cell's mode), [`report`] (what it counts and logs: the JSON line scripts/run-franka-sim.sh reads). It
-//! depends on `vservo-driver`, `vservo-franka`, `vservo-protocol` and `vservo-config`, not on the runtime.
+//! depends on `vservo-driver`, `vservo-franka`, `vservo-protocol`, `vservo-config`, `vservo-arm` (its limit margin)
+//! and `vservo-time`, not on the runtime.
 //!
 //! Exit codes: 0 after the motion ended on SIGINT/SIGTERM, 1 on an error, 2 on a configuration it cannot run.
 

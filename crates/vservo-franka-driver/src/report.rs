@@ -7,7 +7,7 @@ use std::time::Duration;
 use vservo_franka::{DroppedCounts, MotionPhase, RobotState};
 use vservo_protocol::MAX_JOINTS;
 
-use crate::run::monotonic_ns;
+use vservo_time::monotonic_ns;
 
 /// How often the counts are logged (ns).
 const REPORT_EVERY_NS: u64 = 10_000_000_000;

@@ -175,7 +175,7 @@ fn go_realtime(config: &Config) {
     }
 }
 
-pub(crate) use vservo_protocol::clock::monotonic_ns;
+use vservo_time::monotonic_ns;
 
 /// Whether the loop goes on.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -212,8 +212,8 @@ impl Driver {
         let mut settings = DriverSettings {
             mode: CommandMode::Velocity,
             joint_count: joints,
-            period_ns: (config.cell.robot.period_s * 1e9).round() as u64,
-            hold_after_ns: (franka.hold_after_s * 1e9).round() as u64,
+            period_ns: vservo_time::nanos(config.cell.robot.period_s),
+            hold_after_ns: vservo_time::nanos(franka.hold_after_s),
             position_min_rad: [f64::NEG_INFINITY; MAX_JOINTS],
             position_max_rad: [f64::INFINITY; MAX_JOINTS],
             velocity_max_rad_s: [f64::INFINITY; MAX_JOINTS],
@@ -228,9 +228,10 @@ impl Driver {
         // no jerk limits (the configuration then refuses limit_rate): the guard is off
         let jerk =
             interpolator.jerk_limit.map_or([f64::INFINITY; MAX_JOINTS], |j| std::array::from_fn(|i| j[i]));
-        // kept inside the arm's as the rmrc's reference is (vservo-sim's LIMIT_MARGIN): a reference that keeps
-        // them passes unchanged, and the robot's check of the discrete derivatives never meets a limit exactly
-        let margin = crate::shaper::LIMIT_MARGIN;
+        // kept inside the arm's as the rmrc's reference is (the acceleration limit times the margin's square, the
+        // jerk limit times its cube): a reference that keeps them passes unchanged, and the robot's check of the
+        // discrete derivatives never meets a limit exactly
+        let margin = vservo_arm::LIMIT_MARGIN;
         let limits = ShaperLimits {
             acceleration: std::array::from_fn(|j| interpolator.acceleration_limit[j] * margin * margin),
             jerk: std::array::from_fn(|j| jerk[j] * margin * margin * margin),
@@ -243,7 +244,7 @@ impl Driver {
             limits,
             shaper: None,
             limit_rate: franka.limit_rate,
-            answer_within_ns: (franka.answer_within_s * 1e9).round() as u64,
+            answer_within_ns: vservo_time::nanos(franka.answer_within_s),
             origin_id: None,
             last: None,
             tick_offset: 0,
@@ -394,7 +395,11 @@ impl Driver {
             _ => [0.0; MAX_JOINTS],
         };
         let velocity = match (&mut self.shaper, self.limit_rate) {
-            (Some(shaper), true) => shaper.next(&target),
+            (Some(shaper), true) => {
+                // the dynamics override in force, as the reference keeps it: a late answer smoothed within it too
+                shaper.set_speed_scale(self.side.speed_scale());
+                shaper.next(&target)
+            }
             _ => target,
         };
         let at_rest = self.shaper.as_ref().is_none_or(|s| !self.limit_rate || s.at_rest());

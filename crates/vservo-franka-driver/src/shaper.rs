@@ -11,11 +11,6 @@
 
 use vservo_protocol::MAX_JOINTS;
 
-/// The share of the arm's limits the guard keeps (its acceleration limit times its square, its jerk limit times
-/// its cube), as the rmrc's reference does (vservo-sim's interpolator): libfranka checks each limit minus 1e-3,
-/// and franka-sim flags a jerk of 5000.000000000005 rad/s³ against 5000.
-pub const LIMIT_MARGIN: f64 = 0.995;
-
 /// Each joint's acceleration (rad/s²) and jerk (rad/s³) limits, and the period (s).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ShaperLimits {
@@ -31,6 +26,8 @@ pub struct ShaperLimits {
 #[derive(Debug, Clone)]
 pub struct CommandShaper {
     limits: ShaperLimits,
+    /// The dynamics override in force (0–1]: the share of the acceleration and jerk limits kept.
+    speed_scale: f64,
     joints: usize,
     /// The last velocity sent (rad/s).
     velocity: [f64; MAX_JOINTS],
@@ -50,7 +47,16 @@ impl CommandShaper {
         acceleration: [f64; MAX_JOINTS],
     ) -> Self {
         let acceleration = acceleration.map(|a| if a.is_finite() { a } else { 0.0 });
-        Self { limits, joints: joints.min(MAX_JOINTS), velocity, acceleration }
+        Self { limits, speed_scale: 1.0, joints: joints.min(MAX_JOINTS), velocity, acceleration }
+    }
+
+    /// Keeps `speed_scale` (0–1] of the acceleration and jerk limits from the next command on, as the rmrc's
+    /// reference does (another value is ignored). An acceleration above the new limit comes down within the jerk
+    /// limit, never in one step.
+    pub fn set_speed_scale(&mut self, speed_scale: f64) {
+        if speed_scale > 0.0 && speed_scale <= 1.0 {
+            self.speed_scale = speed_scale;
+        }
     }
 
     /// The velocity to send this period towards `target` (a non-finite target is taken as zero: rest).
@@ -59,7 +65,8 @@ impl CommandShaper {
         let joints = self.joints;
         for (j, goal) in target.iter().enumerate().take(joints) {
             let (v, a) = (self.velocity[j], self.acceleration[j]);
-            let (a_max, jerk) = (self.limits.acceleration[j], self.limits.jerk[j]);
+            let scale = self.speed_scale;
+            let (a_max, jerk) = (self.limits.acceleration[j] * scale, self.limits.jerk[j] * scale);
             let goal = if goal.is_finite() { *goal } else { 0.0 };
             let error = goal - v;
             let step = jerk * dt;
@@ -69,7 +76,9 @@ impl CommandShaper {
             } else {
                 let wanted =
                     (error.abs() / dt).min((2.0 * jerk * error.abs()).sqrt()).min(a_max).copysign(error);
-                wanted.clamp(a - step, a + step).clamp(-a_max, a_max)
+                // the jerk limit last: an acceleration above the limit (a lower override, or the robot's own
+                // at the start) comes down within it
+                wanted.clamp(-a_max, a_max).clamp(a - step, a + step)
             };
             self.acceleration[j] = next_a;
             self.velocity[j] = v + next_a * dt;
@@ -194,5 +203,39 @@ mod tests {
         let first = unaware.next(&[0.6; MAX_JOINTS]);
         let (_, j) = measured(start, &[first], limits.dt_s);
         assert!(j > 5000.0, "{j}");
+    }
+
+    /// At a quarter of the limits (the cell's dynamics override), answers late every fifth period (the last
+    /// one again) are smoothed within a quarter of the jerk limit; and when the override drops from 1 to a
+    /// quarter while the arm accelerates at its limit, the acceleration comes down within the new jerk limit,
+    /// never in one step.
+    #[test]
+    fn the_guard_keeps_the_dynamics_override_late_answers_and_a_lower_override_included() {
+        let limits = fr3();
+        let mut shaper = CommandShaper::new(limits, 7, [0.0; MAX_JOINTS], [0.0; MAX_JOINTS]);
+        shaper.set_speed_scale(0.25);
+        // a reference within a quarter of the limits: 0.25 · 0.99 · 10 rad/s² at most
+        let ramp: Vec<f64> = (1..=400).map(|k| 0.5 * 2.47 * (k as f64 * 0.001).powi(2)).collect();
+        let sent: Vec<[f64; MAX_JOINTS]> = ramp
+            .iter()
+            .enumerate()
+            .map(|(k, v)| {
+                let target = if k % 5 == 4 { ramp[k - 1] } else { *v };
+                shaper.next(&[target; MAX_JOINTS])
+            })
+            .collect();
+        let (a, j) = measured(([0.0; MAX_JOINTS], [0.0; MAX_JOINTS]), &sent, 0.001);
+        assert!(a <= 2.5 + 1e-9 && j <= 1250.0 + 1e-6, "acceleration {a}, jerk {j}");
+        // full speed, full acceleration, then a quarter
+        let mut shaper = CommandShaper::new(limits, 7, [0.0; MAX_JOINTS], [0.0; MAX_JOINTS]);
+        let before: Vec<[f64; MAX_JOINTS]> = (0..10).map(|_| shaper.next(&[2.0; MAX_JOINTS])).collect();
+        let start = (before[9], std::array::from_fn(|j| (before[9][j] - before[8][j]) / 0.001));
+        assert!(start.1[0] > 9.0, "accelerating at the limit: {}", start.1[0]);
+        shaper.set_speed_scale(0.25);
+        let sent: Vec<[f64; MAX_JOINTS]> = (0..2000).map(|_| shaper.next(&[2.0; MAX_JOINTS])).collect();
+        let (_, j) = measured(start, &sent, 0.001);
+        assert!(j <= 1250.0 + 1e-6, "jerk {j} after the override dropped");
+        let (a_end, _) = measured((sent[1500], [0.0; MAX_JOINTS]), &sent[1501..], 0.001);
+        assert!(a_end <= 2.5 + 1e-9, "within a quarter's acceleration once it has come down: {a_end}");
     }
 }

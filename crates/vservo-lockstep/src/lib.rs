@@ -267,7 +267,7 @@ impl Lockstep {
     }
 
     fn own_pace(&self) -> Pace<'static> {
-        Pace::Own { period_ns: (self.config.cell.timing.control_period_s * 1e9).round() as u64 }
+        Pace::Own { period_ns: vservo_time::nanos(self.config.cell.timing.control_period_s) }
     }
 
     /// Every tick of the scenario: a frame every vision period, then the rmrc and the plant.

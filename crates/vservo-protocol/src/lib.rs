@@ -43,7 +43,7 @@ pub mod signals;
 pub mod stop_path;
 pub mod writers;
 
-pub use vservo_wire::{clock, codes, declare, freshness, inbox, layout, messages, seal, supervision};
+pub use vservo_wire::{clock, codes, declare, freshness, inbox, layout, messages, seal, stream, supervision};
 
 pub use camera_image::{
     CAMERA_IMAGE_SERVICE, Exposure, camera_image_listener, camera_image_notifier, camera_image_publisher,

@@ -53,8 +53,8 @@ impl ArmSettings {
                 vservo_config::CommandInterface::Position => CommandMode::Position,
                 _ => CommandMode::Velocity,
             },
-            period_ns: (config.cell.robot.period_s * 1e9).round() as u64,
-            hold_after_ns: (config.ros2.driver.hold_after_s * 1e9).round() as u64,
+            period_ns: vservo_time::nanos(config.cell.robot.period_s),
+            hold_after_ns: vservo_time::nanos(config.ros2.driver.hold_after_s),
             position_min_rad: [f64::NEG_INFINITY; MAX_JOINTS],
             position_max_rad: [f64::INFINITY; MAX_JOINTS],
             velocity_max_rad_s: [f64::INFINITY; MAX_JOINTS],
@@ -342,7 +342,7 @@ impl ArmFollower {
     fn velocity_from_positions(&self, stamp_ns: u64, q_rad: &[f64; MAX_JOINTS]) -> [f64; MAX_JOINTS] {
         match self.last {
             Some((last_ns, last_q)) if stamp_ns > last_ns => {
-                let dt_s = (stamp_ns - last_ns) as f64 * 1e-9;
+                let dt_s = vservo_time::seconds_between(stamp_ns, last_ns);
                 std::array::from_fn(|j| (q_rad[j] - last_q[j]) / dt_s)
             }
             _ => [0.0; MAX_JOINTS],

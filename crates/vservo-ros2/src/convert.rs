@@ -12,8 +12,8 @@
 
 use nalgebra::{IsometryMatrix3, UnitQuaternion};
 use vservo_client::StatusView;
-use vservo_config::calibration::OPENCV_TO_VSERVO_PX;
 use vservo_protocol::{CameraImageHeader, CameraTwistMsg, FeaturesMsg, JointStateMsg, MARKS, PixelFormat};
+use vservo_scene::OPENCV_TO_VSERVO_PX;
 use vservo_scene::{Board, CameraIntrinsics};
 
 use crate::msg::{
@@ -41,7 +41,7 @@ impl StampClock {
         use nix::time::{ClockId, clock_gettime};
         let ns = |clock| {
             clock_gettime(clock)
-                .map_or(0, |t| i128::from(t.tv_sec()) * 1_000_000_000 + i128::from(t.tv_nsec()))
+                .map_or(0, |t| vservo_time::join_signed(i128::from(t.tv_sec()), t.tv_nsec() as u32))
         };
         let monotonic = ns(ClockId::CLOCK_MONOTONIC);
         let realtime = ns(ClockId::CLOCK_REALTIME);
@@ -79,7 +79,7 @@ impl StampClock {
     /// The stamp of a message whose header says `stamp` and which arrived at `arrival_ns` (CLOCK_MONOTONIC),
     /// judged with `tolerance_ns` ([`Arrival`]).
     pub fn arrival(&self, stamp: &Time, arrival_ns: u64, tolerance_ns: u64) -> Arrival {
-        let unix_ns = i128::from(stamp.sec) * 1_000_000_000 + i128::from(stamp.nanosec);
+        let unix_ns = vservo_time::join_signed(i128::from(stamp.sec), stamp.nanosec);
         let monotonic_ns = unix_ns - self.realtime_minus_monotonic_ns;
         let age_ns = i128::from(arrival_ns) - monotonic_ns;
         let tolerance = i128::from(tolerance_ns);
@@ -95,9 +95,8 @@ impl StampClock {
 
 /// A time in ns since 1970 as seconds and nanoseconds (clamped to what `builtin_interfaces/Time` holds).
 pub fn time_of_unix_ns(unix_ns: i128) -> Time {
-    let sec = unix_ns.div_euclid(1_000_000_000).clamp(i128::from(i32::MIN), i128::from(i32::MAX));
-    let nanosec = unix_ns.rem_euclid(1_000_000_000);
-    Time { sec: sec as i32, nanosec: nanosec as u32 }
+    let (sec, nanosec) = vservo_time::split_signed(unix_ns);
+    Time { sec: sec.clamp(i128::from(i32::MIN), i128::from(i32::MAX)) as i32, nanosec }
 }
 
 fn header(stamp: Time, frame_id: &str) -> Header {

@@ -19,7 +19,6 @@ use iceoryx2::prelude::ipc;
 use ros2_client::{MessageTypeName, Name, Node, Publisher, QosProfile, Subscription};
 use rustdds::mio1::{Events, Interest, Poll, Token};
 use vservo_config::Config;
-use vservo_protocol::clock::monotonic_ns;
 use vservo_protocol::inbox::TakeMessages;
 use vservo_protocol::seal::SealKey;
 use vservo_protocol::{CameraImageHeader, CellModeMsg, JointCommandMsg, JointStateMsg, Topic};
@@ -27,6 +26,7 @@ use vservo_ros2::arm_driver::{ArmFollower, ArmSettings};
 use vservo_ros2::convert::StampClock;
 use vservo_ros2::msg::{Float64MultiArray, Image, JointState, RosType};
 use vservo_ros2::{image_in, qos};
+use vservo_time::monotonic_ns;
 
 const ARM: Token = Token(0);
 const CAMERA: Token = Token(1);
@@ -267,7 +267,7 @@ impl Report {
             Stream::JointStates => self.state_age.add(arrival.age_ns),
             Stream::Images => self.image_age.add(arrival.age_ns),
         }
-        let age_s = arrival.age_ns as f64 / 1e9;
+        let age_s = vservo_time::signed_seconds(arrival.age_ns);
         if arrival.restamped {
             self.restamped += 1;
             self.once(&format!("restamped {topic}"), || {
@@ -326,8 +326,8 @@ impl Driver {
             arm: drives_arm(config).then(|| ArmFollower::new(ArmSettings::of(config), now, key)),
             last_state_ns: now,
             last_silent_hold_ns: 0,
-            hold_after_ns: (driver.hold_after_s * 1e9) as u64,
-            tolerance_ns: (driver.clock_tolerance_s * 1e9) as u64,
+            hold_after_ns: vservo_time::nanos(driver.hold_after_s),
+            tolerance_ns: vservo_time::nanos(driver.clock_tolerance_s),
             image_topic: driver.image_topic.clone(),
             width,
             height,
@@ -348,7 +348,7 @@ impl Driver {
             self.images(images, ports);
         }
         let now = monotonic_ns();
-        if now - self.clock_read_ns > 1_000_000_000 {
+        if now - self.clock_read_ns > vservo_time::NANOS_PER_SECOND {
             (self.clock, self.clock_read_ns) = (StampClock::now(), now);
         }
         if now - self.report.last_ns > REPORT_EVERY_NS {

@@ -3,7 +3,7 @@
 //! quaternion to the roll–pitch–yaw vservo takes (R = Rz·Ry·Rx), the daemon's reply back in ROS's pixels.
 
 use nalgebra::{Quaternion, UnitQuaternion};
-use vservo_config::calibration::OPENCV_TO_VSERVO_PX;
+use vservo_scene::OPENCV_TO_VSERVO_PX;
 
 use crate::msg::{Pose, SetTargetResponse};
 

@@ -173,7 +173,7 @@ impl Translator {
     /// For the cell `config` describes.
     pub fn new(config: &Config, selection: Selection) -> Self {
         Self {
-            joint_state_every_ns: (1e9 / selection.joint_state_rate_hz) as u64,
+            joint_state_every_ns: vservo_time::Nanos::period_of_hz(selection.joint_state_rate_hz).get(),
             selection,
             instance: config.instance.clone(),
             joint_names: convert::joint_names(&config.ros2.joint_names, &config.cell.arm),
@@ -221,7 +221,7 @@ impl Translator {
 
     /// What does not move, once: `tf_static`, and the guard's obstacles (a cell with `[collision]`).
     fn fixed(&mut self, out: &mut impl FnMut(RosMessage)) {
-        let stamp = self.clock.ros_time(vservo_protocol::clock::monotonic_ns());
+        let stamp = self.clock.ros_time(vservo_time::monotonic_ns());
         if self.wants(Ros2Topic::TfStatic) {
             out(RosMessage::TfStatic(TfMessage { transforms: self.frames.fixed(&self.mount, stamp) }));
         }

@@ -30,8 +30,8 @@ fn main() -> ExitCode {
     let Some(mut lateness) = new_histogram() else {
         return ExitCode::FAILURE;
     };
-    let period_ns = (config.cell.timing.control_period_s * 1e9).round() as u64;
-    let ticks = (seconds * 1e9 / period_ns as f64) as u64;
+    let period_ns = vservo_time::nanos(config.cell.timing.control_period_s);
+    let ticks = vservo_time::nanos(seconds) / period_ns.max(1);
     let mut skipped = 0;
     let mut timer = PeriodicTimer::start(period_ns);
     for _ in 0..ticks {

@@ -3,11 +3,12 @@
 use nix::sys::time::TimeSpec;
 use nix::time::{ClockId, ClockNanosleepFlags, clock_nanosleep};
 
-pub use vservo_protocol::clock::monotonic_ns;
+use vservo_time::monotonic_ns;
 
 /// Sleeps until CLOCK_MONOTONIC reaches `deadline_ns` (absolute, so a late wake-up never shifts the next).
 pub fn sleep_until_ns(deadline_ns: u64) {
-    let request = TimeSpec::new((deadline_ns / 1_000_000_000) as i64, (deadline_ns % 1_000_000_000) as i64);
+    let (seconds, nanos) = vservo_time::Nanos(deadline_ns).split();
+    let request = TimeSpec::new(seconds as i64, i64::from(nanos));
     // EINTR (a signal) returns early: sleep again unless the deadline has passed
     while clock_nanosleep(ClockId::CLOCK_MONOTONIC, ClockNanosleepFlags::TIMER_ABSTIME, &request).is_err() {
         if monotonic_ns() >= deadline_ns {

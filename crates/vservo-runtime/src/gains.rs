@@ -61,7 +61,7 @@ pub fn gains_message(gains: &LawGains, version: u64, key: &vservo_protocol::seal
         pose_gain_per_s: gains.options.pose_gain_per_s,
         pose_max_speed_m_s: gains.options.pose_max_speed_m_s,
         pose_max_rotation_rad_s: gains.options.pose_max_rotation_rad_s,
-        stamp_ns: crate::clock::monotonic_ns(),
+        stamp_ns: vservo_time::monotonic_ns(),
         seal: 0,
     };
     key.sign(&mut message);

@@ -62,7 +62,7 @@ impl JointHistory {
     /// An empty history for a driver with this period, keeping at least `span_s` of states (and at least
     /// [`LEAST_KEPT_STATES`]).
     pub fn new(period_s: f64, span_s: f64) -> Self {
-        let period_ns = ((period_s * 1e9).round() as u64).max(1);
+        let period_ns = vservo_time::nanos(period_s).max(1);
         let states =
             ((span_s / period_s).ceil() as usize).saturating_add(2).clamp(LEAST_KEPT_STATES, 1 << 20);
         let empty = PastState { stamp_ns: 0, tick: 0, epoch: 0, q: JointVector::zeros() };

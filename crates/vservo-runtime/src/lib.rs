@@ -4,9 +4,10 @@
 //! [`vservo_cell`] in its own process and talks to the others over iceoryx2 ([`vservo_protocol`]).
 //!
 //! - [`nodes::plant`], the simulated robot driver, paces the 1 ms tick on absolute CLOCK_MONOTONIC deadlines,
-//!   publishes `joint_state` and waits (on an iceoryx2 event) for the rmrc's answer; a late answer is counted
-//!   and the previous command's reference followed by the drive's own servo (never its torque again), and after
-//!   `hold_after_missed_ticks` the plant brakes the arm to rest itself.
+//!   publishes `joint_state`, wakes the rmrc with an iceoryx2 event and reads its answer at the next deadline
+//!   (never waiting for it: a timed wait on a listener overshoots by milliseconds); an answer not there then is
+//!   counted late and the previous command's reference followed by the drive's own servo (never its torque
+//!   again), and after `hold_after_missed_ticks` the plant brakes the arm to rest itself.
 //! - [`nodes::rmrc`] wakes on the `joint_state` event and answers with `joint_command` in the driver's
 //!   interface, saying which twist each command follows and, in `reference_since_tick`, where its reference
 //!   restarted. The catch-up over ticks it woke too late for and the restart at rest on a new driver epoch,

@@ -11,9 +11,10 @@ use hdrhistogram::Histogram;
 use vservo_protocol::{NodeRole, SCHEMA_VERSION, TelemetryMsg, TimingMsg, Topic};
 
 use crate::RuntimeError;
-use crate::clock::{PeriodicTimer, monotonic_ns};
+use crate::clock::PeriodicTimer;
 use crate::notes::NOTES_PER_PERIOD;
 pub use crate::notes::Note;
+use vservo_time::monotonic_ns;
 
 /// Counters a node keeps since it started, shared with its telemetry thread.
 #[derive(Debug, Default)]
@@ -156,7 +157,7 @@ impl TelemetryThread {
         let stop = Arc::new(AtomicBool::new(false));
         let (ready_tx, ready_rx) = crossbeam_channel::bounded::<Result<(), RuntimeError>>(1);
         let (instance, thread_counters, thread_stop) = (instance.to_string(), counters.clone(), stop.clone());
-        let period_ns = (period_s * 1e9) as u64;
+        let period_ns = vservo_time::nanos(period_s);
         let handle = std::thread::Builder::new()
             .name(format!("{}-telemetry", role.name()))
             .spawn(move || {

@@ -4,6 +4,10 @@ use nalgebra::{Point2, Point3};
 
 use crate::{Board, Distortion, FeatureVector, IsometryMatrix3, MARKS, MarkDepths};
 
+/// What is added to an OpenCV or ROS pixel coordinate to make it vservo's (the same point): OpenCV and ROS put a
+/// pixel's centre at integer coordinates, vservo at + ½ (its pixel (u, v) covers [u, u+1) × [v, v+1)).
+pub const OPENCV_TO_VSERVO_PX: f64 = 0.5;
+
 /// Whether a pixel position lies inside a `width_px` × `height_px` image by at least `margin_px` from every
 /// border ([m, width − m] × [m, height − m]); a position that is not finite never does. The one answer to
 /// "is this point inside the image" ([`CameraIntrinsics::contains_with_margin`] for a camera; the extractor,

@@ -54,7 +54,7 @@ mod tag_grid;
 
 pub use board::{AprilTag, Board, MARKS, SHEET_MARGIN_CELLS, Target, UnknownTagId};
 pub use bundle::{BundleError, MAX_BUNDLE_TAGS, TagBundle};
-pub use camera::{CameraIntrinsics, IntrinsicsError, ProjectionError, image_contains};
+pub use camera::{CameraIntrinsics, IntrinsicsError, OPENCV_TO_VSERVO_PX, ProjectionError, image_contains};
 pub use homography::{apply_homography, fit_homography};
 pub use lens::{Distortion, DistortionError};
 pub use mount::CameraMount;

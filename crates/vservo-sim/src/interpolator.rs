@@ -10,10 +10,7 @@ use crate::motion_limits::{JointMotion, MotionLimits, MotionState, velocity_head
 use crate::redundancy::{self, Damping, NullSpaceTask};
 pub use vservo_settings::simulation::{InterpolatorSettings, TwistHold};
 
-/// The share of an arm's speed, acceleration and jerk limits a jerk-limited reference uses at most: a controller
-/// that checks the discrete derivatives of the commands against the published numbers (libfranka checks each
-/// minus 1e-3) sees every command inside them, rounding included.
-pub const LIMIT_MARGIN: f64 = 0.995;
+pub use vservo_arm::LIMIT_MARGIN;
 
 /// The joint reference for one tick.
 #[derive(Debug, Clone, Copy, PartialEq)]

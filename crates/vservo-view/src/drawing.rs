@@ -22,8 +22,9 @@ pub const TRANSFORMS_TOPIC: &str = "/tf";
 pub const CAMERA_FRAME: &str = "camera";
 
 /// A stamp in ns as Foxglove's timestamp.
-fn timestamp(stamp_ns: u64) -> Timestamp {
-    Timestamp::new((stamp_ns / 1_000_000_000) as u32, (stamp_ns % 1_000_000_000) as u32)
+pub(crate) fn timestamp(stamp_ns: u64) -> Timestamp {
+    let (seconds, nanos) = vservo_time::Nanos(stamp_ns).split();
+    Timestamp::new(seconds as u32, nanos)
 }
 
 fn color(r: f64, g: f64, b: f64) -> Option<Color> {

@@ -99,7 +99,7 @@ impl GuardedScene {
 }
 
 fn timestamp(stamp_ns: u64) -> Option<Timestamp> {
-    Some(Timestamp::new((stamp_ns / 1_000_000_000) as u32, (stamp_ns % 1_000_000_000) as u32))
+    Some(crate::drawing::timestamp(stamp_ns))
 }
 
 fn pose(base_from: &IsometryMatrix3<f64>) -> Option<Pose> {

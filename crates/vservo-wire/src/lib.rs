@@ -30,7 +30,9 @@
 //!   process the daemon announces, of its run now ([`freshness::Origin`]), and fresh (within a vision period,
 //!   later than the last taken): a recording of sealed samples played again is refused. [`supervision`]: the
 //!   daemon's heartbeat on `cell_mode`, and how long the nodes wait for it before they hold the arm.
-//! - [`clock`]: the clock every stamp of the protocol is on (CLOCK_MONOTONIC, ns).
+//! - [`stream`]: [`stream::SealedStream::admit`], the one admission of a sealed stream's sample (schema, seal,
+//!   announced writer, freshness in one call) the servo and the rmrc take their inputs through.
+//! - [`clock`]: the clock every stamp of the protocol is on (CLOCK_MONOTONIC, ns; `vservo-time`'s).
 
 pub mod clock;
 pub mod codes;
@@ -40,6 +42,7 @@ pub mod inbox;
 pub mod layout;
 pub mod messages;
 pub mod seal;
+pub mod stream;
 pub mod supervision;
 
 pub use codes::{

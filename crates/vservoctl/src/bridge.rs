@@ -33,7 +33,7 @@ pub trait Sink {
 /// Transforms of the arm at most this often (the joint states come every ms).
 const TRANSFORMS_EVERY_NS: u64 = 20_000_000;
 /// The obstacles again at least this often (for a viewer that joins late), and whenever their colours change.
-const OBSTACLES_EVERY_NS: u64 = 1_000_000_000;
+const OBSTACLES_EVERY_NS: u64 = vservo_time::NANOS_PER_SECOND;
 
 fn wall_ns() -> u64 {
     SystemTime::now().duration_since(UNIX_EPOCH).map_or(0, |d| d.as_nanos() as u64)

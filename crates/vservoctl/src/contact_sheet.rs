@@ -58,7 +58,7 @@ pub fn write(bytes: &[u8], config: &Config, count: usize, out: &Path) -> Result<
         .iter()
         .map(|&i| {
             let (image, features, stamp) = paired[i];
-            cell(image, features, &desired, config, (stamp - first_stamp) as f64 * 1e-9)
+            cell(image, features, &desired, config, vservo_time::seconds_between(stamp, first_stamp))
         })
         .collect::<Result<_>>()?;
     crate::output::write_in(out, "frames.svg", sheet(&cells).as_bytes())?;
@@ -90,8 +90,9 @@ fn read(bytes: &[u8], config: &Config) -> Result<Read> {
         if message.channel.topic == vservo_view::drawing::IMAGE_TOPIC {
             let image =
                 RawImage::decode(&message.data[..]).context("a camera image that is not a RawImage")?;
-            let stamp =
-                image.timestamp.map_or(0, |t| u64::from(t.sec()) * 1_000_000_000 + u64::from(t.nsec()));
+            let stamp = image
+                .timestamp
+                .map_or(0, |t| vservo_time::Nanos::from_parts(u64::from(t.sec()), t.nsec()).get());
             images.push((stamp, image));
             continue;
         }

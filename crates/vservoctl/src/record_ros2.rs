@@ -87,7 +87,7 @@ impl Recording {
         let publish_time = message
             .stamp()
             .filter(|t| t.sec >= 0)
-            .map_or(log_time, |t| t.sec as u64 * 1_000_000_000 + u64::from(t.nanosec));
+            .map_or(log_time, |t| vservo_time::Nanos::from_parts(t.sec as u64, t.nanosec).get());
         let header =
             mcap::records::MessageHeader { channel_id: *id, sequence: *sequence, log_time, publish_time };
         let bytes = message.cdr().with_context(|| format!("encoding {topic:?}"))?;

@@ -20,7 +20,7 @@ use vservo_protocol::{
 /// Four bits, one per mark.
 const ALL_MARKS: u32 = 0b1111;
 /// Features older than this do not show that the marks are seen (ns).
-const FRESH_FEATURES_NS: u64 = 1_000_000_000;
+const FRESH_FEATURES_NS: u64 = vservo_time::NANOS_PER_SECOND;
 
 /// A latched fault.
 #[derive(Debug, Clone, PartialEq)]
@@ -256,7 +256,8 @@ struct Run {
 impl Run {
     /// The bits, once the run has lasted `at_least_s`; 0 before.
     fn lasting(run: Option<Run>, at_least_s: f64) -> u32 {
-        run.filter(|r| r.last_ns.saturating_sub(r.first_ns) as f64 / 1e9 >= at_least_s).map_or(0, |r| r.bits)
+        run.filter(|r| vservo_time::seconds_between(r.last_ns, r.first_ns) >= at_least_s)
+            .map_or(0, |r| r.bits)
     }
 }
 
@@ -508,7 +509,7 @@ impl FaultMonitor {
             return Decision::Same;
         }
         let since = *self.clear_since_ns.get_or_insert(c.now_ns);
-        if c.now_ns.saturating_sub(since) as f64 / 1e9 >= self.settings.resume_after.as_secs_f64() {
+        if vservo_time::seconds_between(c.now_ns, since) >= self.settings.resume_after.as_secs_f64() {
             Decision::ResumeAutomatically
         } else {
             Decision::Same

@@ -10,6 +10,9 @@
 //! the camera silent) and the cell stops safely, as with any driver. The robot drivers are handed the run's seal
 //! key on their stdin, as the nodes are (`--seal-key-stdin`): they take only the rmrc's sealed commands and the
 //! daemon's sealed cell modes (`vservo_driver::DriverSide`).
+//!
+//! Each helper is a row of [`HELPERS`] (its program, when the configuration asks for it, its arguments, whether
+//! it gets the key, when it stops); the supervisor starts, polls and stops the list, naming none of them.
 
 use std::path::Path;
 use std::process::{Child, Command, Stdio};
@@ -26,7 +29,8 @@ const RESTART_AFTER: Duration = Duration::from_secs(5);
 pub struct Helper {
     /// What it is, for the log.
     what: &'static str,
-    command: Option<Command>,
+    stops: Stops,
+    command: Command,
     /// The run's key, written on its stdin at each start (a robot driver's).
     key: Option<SealKey>,
     child: Option<Child>,
@@ -47,79 +51,133 @@ pub struct Launch<'a> {
 }
 
 impl Launch<'_> {
-    /// `program` (next to vservod) with `--config` and `args`, run as vservod's own processes are; `None`
-    /// when not `enabled`.
-    fn command(&self, enabled: bool, program: &str, args: &[String]) -> Option<Command> {
-        enabled.then(|| {
-            let mut command = Command::new(self.vservod.with_file_name(program));
-            command
-                .args(args)
-                .arg("--config")
-                .arg(self.config_path)
-                .env(vservo_protocol::instance_dir::RUNTIME_DIR_ENV, self.runtime_base)
-                .env_remove("NOTIFY_SOCKET")
-                .env_remove("WATCHDOG_USEC")
-                .env_remove("WATCHDOG_PID")
-                .stdin(Stdio::null());
-            command
-        })
+    /// `program` (next to vservod) with `args` and `--config`, run as vservod's own processes are.
+    fn command(&self, program: &str, args: &[String]) -> Command {
+        let mut command = Command::new(self.vservod.with_file_name(program));
+        command
+            .args(args)
+            .arg("--config")
+            .arg(self.config_path)
+            .env(vservo_protocol::instance_dir::RUNTIME_DIR_ENV, self.runtime_base)
+            .env_remove("NOTIFY_SOCKET")
+            .env_remove("WATCHDOG_USEC")
+            .env_remove("WATCHDOG_PID")
+            .stdin(Stdio::null());
+        command
     }
 }
 
+/// When a helper stops: an observer before the arm is brought to rest, a driver after (it carries the ramp to rest
+/// to the arm, then commands rest as it ends).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Stops {
+    /// With the observers, first.
+    First,
+    /// With the arm's drivers, last.
+    Last,
+}
+
+/// One helper vservod may start: a row of [`HELPERS`]. A new in-tree helper is its program and one row.
+pub struct HelperRow {
+    /// What it is, for the log.
+    pub what: &'static str,
+    /// Its program, installed next to vservod.
+    pub program: &'static str,
+    /// Whether the configuration asks for it.
+    pub runs: fn(&vservo_config::Config) -> bool,
+    /// Its arguments before `--config` (none but `--daemon-pid` for most).
+    pub args: fn(&vservo_config::Config) -> Vec<String>,
+    /// Whether it is handed the run's seal key on its stdin (a robot driver's, `--seal-key-stdin`).
+    pub keyed: bool,
+    /// When it stops.
+    pub stops: Stops,
+}
+
+/// `--daemon-pid` and this daemon's process id: a helper that ends with the daemon.
+fn ends_with_the_daemon(_: &vservo_config::Config) -> Vec<String> {
+    vec!["--daemon-pid".to_string(), std::process::id().to_string()]
+}
+
+/// The live view's arguments: the configured address, port and viewers.
+fn viewer_args(config: &vservo_config::Config) -> Vec<String> {
+    let viewer = &config.viewer;
+    let args = ["view", "--address", &viewer.address, "--port", &viewer.port.to_string()];
+    args.into_iter()
+        .map(String::from)
+        .chain(["--max-clients".to_string(), viewer.max_clients.to_string()])
+        .collect()
+}
+
+/// Every helper vservod may start, in the order it starts them.
+pub const HELPERS: [HelperRow; 5] = [
+    HelperRow {
+        what: "the Foxglove viewer",
+        program: "vservoctl",
+        runs: |config| config.viewer.enabled,
+        args: viewer_args,
+        keyed: false,
+        stops: Stops::First,
+    },
+    HelperRow {
+        what: "the ROS 2 bridge",
+        program: "vservo-ros2",
+        runs: |config| config.ros2.enabled,
+        args: ends_with_the_daemon,
+        keyed: false,
+        stops: Stops::First,
+    },
+    HelperRow {
+        what: "the ROS 2 driver",
+        program: "vservo-ros2-driver",
+        runs: vservo_config::Config::runs_ros2_driver,
+        args: ends_with_the_daemon,
+        keyed: true,
+        stops: Stops::Last,
+    },
+    HelperRow {
+        what: "the Franka driver",
+        program: "vservo-franka",
+        runs: |config| config.cell.robot.driver == vservo_config::RobotDriver::Franka,
+        args: ends_with_the_daemon,
+        keyed: true,
+        stops: Stops::Last,
+    },
+    HelperRow {
+        what: "the GStreamer camera",
+        program: "vservo-gst-camera",
+        runs: |config| config.cell.vision.source == vservo_config::VisionSource::Gstreamer,
+        args: ends_with_the_daemon,
+        keyed: false,
+        stops: Stops::Last,
+    },
+];
+
+/// The helpers of [`HELPERS`] the configuration asks for, each started now.
+pub fn start_helpers(config: &vservo_config::Config, launch: &Launch) -> Vec<Helper> {
+    HELPERS
+        .iter()
+        .filter(|row| (row.runs)(config))
+        .map(|row| {
+            let command = launch.command(row.program, &(row.args)(config));
+            let key = row.keyed.then_some(launch.seal_key);
+            Helper::start(row.what, row.stops, command, key)
+        })
+        .collect()
+}
+
 impl Helper {
-    /// The Foxglove viewer (`vservoctl view`), started when `settings.enabled`.
-    pub fn viewer(settings: &vservo_config::Viewer, launch: &Launch) -> Self {
-        let args = ["view", "--address", &settings.address, "--port", &settings.port.to_string()]
-            .into_iter()
-            .map(String::from)
-            .chain(["--max-clients".to_string(), settings.max_clients.to_string()])
-            .collect::<Vec<_>>();
-        Self::start("the Foxglove viewer", launch.command(settings.enabled, "vservoctl", &args))
+    /// When it stops.
+    pub fn stops(&self) -> Stops {
+        self.stops
     }
 
-    /// The ROS 2 bridge (`vservo-ros2`), started when `settings.enabled`; it ends with this daemon.
-    pub fn ros2_bridge(settings: &vservo_config::Ros2, launch: &Launch) -> Self {
-        let args = ["--daemon-pid".to_string(), std::process::id().to_string()];
-        Self::start("the ROS 2 bridge", launch.command(settings.enabled, "vservo-ros2", &args))
-    }
-
-    /// The ROS 2 driver (`vservo-ros2-driver`), started when `[robot] driver` or `[camera] source` is
-    /// `"ros2"`; it ends with this daemon.
-    pub fn ros2_driver(config: &vservo_config::Config, launch: &Launch) -> Self {
-        let args = ["--daemon-pid".to_string(), std::process::id().to_string()];
-        let command = launch.command(config.runs_ros2_driver(), "vservo-ros2-driver", &args);
-        Self::start_keyed("the ROS 2 driver", command, launch.seal_key)
-    }
-
-    /// The Franka driver (`vservo-franka`), started with `[robot] driver = "franka"`; it ends with this daemon
-    /// (bringing the arm to rest and ending its motion).
-    pub fn franka_driver(config: &vservo_config::Config, launch: &Launch) -> Self {
-        let runs = config.cell.robot.driver == vservo_config::RobotDriver::Franka;
-        let args = ["--daemon-pid".to_string(), std::process::id().to_string()];
-        Self::start_keyed("the Franka driver", launch.command(runs, "vservo-franka", &args), launch.seal_key)
-    }
-
-    /// The GStreamer camera (`vservo-gst-camera`), started with `[camera] source = "gstreamer"` on the
-    /// pipeline of `[camera.gstreamer]`; it ends with this daemon.
-    pub fn gst_camera(config: &vservo_config::Config, launch: &Launch) -> Self {
-        let runs = config.cell.vision.source == vservo_config::VisionSource::Gstreamer;
-        let args = ["--daemon-pid".to_string(), std::process::id().to_string()];
-        Self::start("the GStreamer camera", launch.command(runs, "vservo-gst-camera", &args))
-    }
-
-    fn start(what: &'static str, command: Option<Command>) -> Self {
-        let mut helper = Self { what, command, key: None, child: None, restart_at: Some(Instant::now()) };
-        helper.poll();
-        helper
-    }
-
-    /// A robot driver: handed the run's key on its stdin at each start.
-    fn start_keyed(what: &'static str, mut command: Option<Command>, key: &SealKey) -> Self {
-        if let Some(command) = command.as_mut() {
+    /// Starts `command`; a robot driver (`key` given) is handed the run's key on its stdin at each start.
+    fn start(what: &'static str, stops: Stops, mut command: Command, key: Option<&SealKey>) -> Self {
+        if key.is_some() {
             command.arg("--seal-key-stdin").stdin(Stdio::piped());
         }
-        let key = Some(key.clone());
-        let mut helper = Self { what, command, key, child: None, restart_at: Some(Instant::now()) };
+        let key = key.cloned();
+        let mut helper = Self { what, stops, command, key, child: None, restart_at: Some(Instant::now()) };
         helper.poll();
         helper
     }
@@ -132,7 +190,6 @@ impl Helper {
 
     /// Starts the helper again once it has been gone for [`RESTART_AFTER`]; call every supervisor cycle.
     pub fn poll(&mut self) {
-        let Some(command) = self.command.as_mut() else { return };
         if let Some(child) = &mut self.child
             && let Ok(Some(status)) = child.try_wait()
         {
@@ -142,7 +199,7 @@ impl Helper {
         }
         if self.child.is_none() && self.restart_at.is_some_and(|at| Instant::now() >= at) {
             self.restart_at = None;
-            match command.spawn() {
+            match self.command.spawn() {
                 Ok(mut child) => {
                     if let Err(error) = self.hand_key(&mut child) {
                         tracing::warn!(%error, "{} could not be handed the run's key: ended", self.what);
@@ -172,5 +229,34 @@ impl Helper {
         }
         let _ = child.kill();
         let _ = child.wait();
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn each_helper_is_one_row_the_robot_drivers_keyed_and_stopped_after_the_arm_is_at_rest() {
+        let programs: std::collections::BTreeSet<&str> = HELPERS.iter().map(|row| row.program).collect();
+        assert_eq!(programs.len(), HELPERS.len(), "a program per row");
+        for row in &HELPERS {
+            let drives_the_arm = row.keyed;
+            assert_eq!(
+                drives_the_arm,
+                ["vservo-ros2-driver", "vservo-franka"].contains(&row.program),
+                "{}",
+                row.what
+            );
+            // the drivers (the arm's and the camera's) stop last, the observers first
+            let observer = ["vservoctl", "vservo-ros2"].contains(&row.program);
+            assert_eq!(row.stops == Stops::First, observer, "{}", row.what);
+        }
+        // the default configuration (the simulated cell, no viewer, no bridge) starts none
+        let config =
+            vservo_config::Config::load(concat!(env!("CARGO_MANIFEST_DIR"), "/../../config/vservo.toml"))
+                .expect("the default configuration");
+        assert!(HELPERS.iter().all(|row| !(row.runs)(&config)));
+        assert_eq!((HELPERS[0].args)(&config)[..3], ["view", "--address", config.viewer.address.as_str()]);
     }
 }

@@ -7,7 +7,7 @@ use iceoryx2::port::publisher::Publisher;
 use iceoryx2::port::update_connections::UpdateConnections;
 use iceoryx2::prelude::{Node, ipc};
 use vservo_protocol::{CellMode, CellModeMsg, DaemonStatusMsg, Fault, SCHEMA_VERSION, Topic};
-use vservo_runtime::clock::monotonic_ns;
+use vservo_time::monotonic_ns;
 
 use crate::commands::JointMove;
 use crate::faults::{AlreadyHeld, Cause, Conditions, Decision, FaultMonitor, LatchedFault, ResumeRefused};
@@ -192,7 +192,7 @@ impl Safety {
     fn leave(&mut self, fault: &LatchedFault, how: &str) -> Result<Resumed, SafetyRefused> {
         let mode = self.running_mode();
         self.publish(mode, None).map_err(|e| SafetyRefused::Publish(e.to_string()))?;
-        let held_s = monotonic_ns().saturating_sub(fault.since_ns) as f64 / 1e9;
+        let held_s = vservo_time::seconds_between(monotonic_ns(), fault.since_ns);
         let resumed = Resumed { how: how.to_string(), fault: fault.code, held_s, mode };
         tracing::warn!("{resumed}");
         Ok(resumed)

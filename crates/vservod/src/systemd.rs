@@ -50,7 +50,7 @@ impl Systemd {
 
     /// RELOADING=1 with MONOTONIC_USEC (systemd's reload protocol, for `Type=notify-reload` too).
     pub fn reloading(&mut self) {
-        let usec = i128::from(vservo_runtime::clock::monotonic_ns() / 1000);
+        let usec = i128::from(vservo_time::monotonic_ns() / 1000);
         self.send(&[NotifyState::Reloading, NotifyState::MonotonicUsec(usec)]);
     }
 

@@ -14,8 +14,8 @@ pub fn runtime(check: &Checker, r: &RawRuntime) -> Result<Runtime, ConfigError> 
         "runtime.timer_slack_ns",
         r.timer_slack_ns,
         1u64,
-        1_000_000_000,
-        "must be from 1 to 1000000000 ns",
+        vservo_time::NANOS_PER_SECOND,
+        "must be from 1 ns to 1 s",
     )?;
     let hold_after_missed_ticks = check.whole(
         "runtime.hold_after_missed_ticks",

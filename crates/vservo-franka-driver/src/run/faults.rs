@@ -9,8 +9,9 @@ use vservo_driver::Measured;
 use vservo_franka::{Connection, RobotErrors, RobotState};
 use vservo_protocol::{CellMode, DriverError, MAX_JOINTS};
 
-use super::{Driver, FAULT_SHOWN_NS, Next, RECONNECT_EVERY, ROBOT_TIMEOUT, monotonic_ns, widen};
+use super::{Driver, FAULT_SHOWN_NS, Next, RECONNECT_EVERY, ROBOT_TIMEOUT, widen};
 use crate::cell::CellPorts;
+use vservo_time::monotonic_ns;
 
 /// Where the robot's motion is.
 #[derive(Debug, Clone, Copy)]

@@ -126,7 +126,7 @@ impl CellModeFollower {
             issue: None,
             writers: [0; 4],
             speed_scale: 1.0,
-            heard_at_ns: crate::clock::monotonic_ns(),
+            heard_at_ns: vservo_time::monotonic_ns(),
             daemon_silent: false,
             role,
         })
@@ -142,7 +142,7 @@ impl CellModeFollower {
             let message = *sample;
             let sealed = vservo_protocol::seal::sealed_by(key, &message);
             let issue = Issue { stamp_ns: message.stamp_ns, counter: message.sequence };
-            let standing = freshness::standing(self.issue, issue, crate::clock::monotonic_ns());
+            let standing = freshness::standing(self.issue, issue, vservo_time::monotonic_ns());
             let scale_ok = message.speed_scale > 0.0 && message.speed_scale <= 1.0;
             match ModeInForce::of(&message) {
                 Some(mode)
@@ -155,13 +155,13 @@ impl CellModeFollower {
                     self.issue = Some(issue);
                     self.writers = message.writers;
                     self.speed_scale = message.speed_scale;
-                    self.heard_at_ns = crate::clock::monotonic_ns();
+                    self.heard_at_ns = vservo_time::monotonic_ns();
                 }
                 _ if standing != Standing::Same || !sealed => counters.rejected(),
                 _ => {}
             }
         }
-        let silent = daemon_silent(self.heard_at_ns, crate::clock::monotonic_ns());
+        let silent = daemon_silent(self.heard_at_ns, vservo_time::monotonic_ns());
         if silent != self.daemon_silent {
             self.daemon_silent = silent;
             self.say_silence();

@@ -21,10 +21,11 @@ use vservo_sim::plant::JointState;
 use vservo_sim::world::ObjectMotion;
 
 use super::{NodeBase, go_realtime, start};
-use crate::clock::{PeriodicTimer, monotonic_ns};
+use crate::clock::PeriodicTimer;
 use crate::telemetry::{Counters, CycleSample};
 use crate::wire::{joints_from_wire, joints_to_wire, pose_to_wire, wire_joint_count};
 use crate::{NodeContext, RuntimeError};
+use vservo_time::monotonic_ns;
 
 /// The simulated driver's identity in each joint state: its epoch, period and command interface.
 #[derive(Debug, Clone, Copy)]
@@ -239,7 +240,7 @@ impl Plant {
         let declared = Declared {
             // an epoch no earlier plant of this host has used: consumers re-synchronise when it changes
             epoch: monotonic_ns(),
-            period_ns: (config.timing.control_period_s * 1e9).round() as u64,
+            period_ns: vservo_time::nanos(config.timing.control_period_s),
             command_mode: crate::wire::command_mode(config.command_interface()),
         };
         let hold_after = u64::from(context.runtime.hold_after_missed_ticks);

@@ -16,19 +16,18 @@ use vservo_arm::JointVector;
 use vservo_cell::{ActuatorCommand, DriverTick, Following, RmrcStage, TwistLimits};
 use vservo_control::Twist;
 use vservo_protocol::TakeMessages;
-use vservo_protocol::freshness::{self, Origin, Standing};
-use vservo_protocol::seal::SealKey;
-use vservo_protocol::seal::{sealed_by, sign_with};
+use vservo_protocol::seal::{SealKey, sign_with};
+use vservo_protocol::stream::SealedStream;
 use vservo_protocol::{
     CameraTwistMsg, CommandMode, DriverStatus, JointCommandMsg, JointStateMsg, MAX_JOINTS, NodeRole,
     SCHEMA_VERSION, Topic, Verdict,
 };
 
 use super::{CellModeFollower, IDLE_WAIT, ModeInForce, NodeBase, go_realtime, latest, start};
-use crate::clock::monotonic_ns;
 use crate::telemetry::{Counters, CycleSample};
 use crate::wire::{command_mode, joints_from_wire, joints_to_wire, wire_joint_count};
 use crate::{NodeContext, RuntimeError};
+use vservo_time::monotonic_ns;
 
 /// The rmrc's ports.
 struct Ports {
@@ -101,10 +100,9 @@ struct Rmrc {
     limits: TwistLimits,
     /// The twist in force: its frame's capture tick and the tick it was taken in (reported in each command).
     twist_in_force: (u64, u64),
-    /// The stamp of the last twist taken (a twist must be later, and fresh: within a vision period).
-    twist_taken_ns: Option<u64>,
-    /// A vision period (ns): how old a twist may be when it is taken.
-    twist_max_age_ns: u64,
+    /// The servo's twists, admitted (sealed, its run's, later than the last taken, and fresh: within a vision
+    /// period).
+    twists: SealedStream,
     orphaned: Orphaned,
     /// The mode in force was a safe stop (a resume releases the collision guard's stop).
     held: bool,
@@ -117,12 +115,11 @@ impl Rmrc {
             // at rest at the starting joints until the first joint state says where the arm is
             stage: context.cell.rmrc(context.cell.start_joints()),
             mode: command_mode(config.command_interface()),
-            period_ns: (config.robot.period_s * 1e9).round() as u64,
+            period_ns: vservo_time::nanos(config.robot.period_s),
             joint_count: wire_joint_count(context.cell.arm()),
             limits: TwistLimits::of(config),
             twist_in_force: (u64::MAX, u64::MAX),
-            twist_taken_ns: None,
-            twist_max_age_ns: (config.timing.vision_period_s * 1e9).round() as u64,
+            twists: SealedStream::new(vservo_time::nanos(config.timing.vision_period_s)),
             orphaned: Orphaned {
                 since_ns: None,
                 timeout_ns: (context.runtime.stop_timeout + std::time::Duration::from_secs(1)).as_nanos()
@@ -164,35 +161,17 @@ impl Rmrc {
     fn take_twists(&mut self, ports: &mut Ports, tick: u64, context: &NodeContext, counters: &Counters) {
         let key = context.seal_key.as_ref();
         let servo = ports.cell_mode.writer(NodeRole::Servo);
-        while let Some((taken, sender)) = ports.twists.next_sent() {
-            let taken = match taken {
-                // a twist without the servo's seal is not the servo's: refused, and the twist in force stays
-                Ok(sample) if !sealed_by(key, &sample) => None,
-                Ok(sample) => {
-                    let origin = Origin { announced: servo, carried: sample.writer_pid, sender };
-                    let standing = freshness::stream_standing(
-                        origin,
-                        self.twist_taken_ns,
-                        sample.stamp_ns,
-                        monotonic_ns(),
-                        self.twist_max_age_ns,
-                    );
-                    match standing {
-                        Standing::Newer => self.take_fresh(&sample, tick),
-                        // not the servo's now: the stream is taken; the arm brought to rest, not left moving
-                        Standing::Foreign => {
-                            self.stage.set_twist(Twist::zeros(), tick);
-                            None
-                        }
-                        // a recording played again, a repeat: refused, the twist in force stays
-                        _ => None,
-                    }
-                }
-                Err(_) => {
-                    // another schema is refused like a twist out of range: the arm brought to rest
+        while let Some(taken) = ports.twists.next_sent() {
+            let taken = match self.twists.admit(taken, key, servo, monotonic_ns()) {
+                Ok(sample) => self.take_fresh(&sample, tick),
+                // another schema, or not the servo's now (the stream is taken): the arm brought to rest, as for a
+                // twist out of range, not left moving
+                Err(not_taken) if not_taken.stream_taken() => {
                     self.stage.set_twist(Twist::zeros(), tick);
                     None
                 }
+                // unsealed, a recording played again, a repeat: refused, the twist in force stays
+                Err(_) => None,
             };
             match taken {
                 Some(capture_tick) => self.twist_in_force = (capture_tick, tick),
@@ -204,7 +183,6 @@ impl Rmrc {
     /// Takes a fresh twist of the servo's (a verdict that does not move the arm, or a twist out of range, brings
     /// it to rest): its frame's capture tick, if the twist is taken.
     fn take_fresh(&mut self, sample: &CameraTwistMsg, tick: u64) -> Option<u64> {
-        self.twist_taken_ns = Some(sample.stamp_ns);
         let moves = Verdict::try_from(sample.verdict).is_ok_and(Verdict::moves);
         let twist = Twist::from(sample.twist);
         let taken = self.stage.take_twist(&twist, moves, &self.limits, tick);

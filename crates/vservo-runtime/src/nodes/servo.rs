@@ -11,19 +11,20 @@ use iceoryx2::prelude::{Node, ipc};
 use vservo_cell::{ServoInput, ServoStage, ServoStep, ServoVerdict};
 use vservo_control::{LawFlags, Twist};
 use vservo_protocol::TakeMessages;
-use vservo_protocol::freshness::{self, Issue, Origin, Standing};
+use vservo_protocol::freshness::{self, Issue, Standing};
 use vservo_protocol::seal::{sealed_by, sign_with};
+use vservo_protocol::stream::{NotTaken, SealedStream};
 use vservo_protocol::{
     CameraTwistMsg, FeaturesMsg, GainsMsg, MarkStatus, NodeRole, SCHEMA_VERSION, Topic, Verdict, law_flag,
 };
 use vservo_scene::FeatureVector;
 
 use super::{CellModeFollower, IDLE_WAIT, ModeInForce, NodeBase, go_realtime, start};
-use crate::clock::monotonic_ns;
 use crate::telemetry::{Counters, CycleSample, LoopMonitor, Note};
 use crate::wire::to_array;
 use crate::wire::{law_gains, pose_from_wire};
 use crate::{NodeContext, RuntimeError};
+use vservo_time::monotonic_ns;
 
 /// The law's flags as `camera_twist.law_flags` bits.
 fn law_flags_on_wire(flags: LawFlags) -> u32 {
@@ -98,8 +99,8 @@ struct Servo {
     doing: (Verdict, u8),
     /// The cell moves its joints (`cell_mode` moving): held, and saying so.
     moving: bool,
-    /// The stamp of the last features taken (a sample must be later, and fresh).
-    features_taken_ns: Option<u64>,
+    /// The vision node's features, admitted (sealed, its run's, fresh and later than the last taken).
+    features: SealedStream,
     /// A foreign feature vector held the arm (one zero twist sent) since the last one taken.
     held_for_foreign: bool,
 }
@@ -112,12 +113,12 @@ impl Servo {
             // design in force to a servo that starts or restarts), never assumed
             gains_version: 0,
             gains_issue: None,
-            period_ns: (context.cell.config().timing.vision_period_s * 1e9).round() as u64,
+            period_ns: vservo_time::nanos(context.cell.config().timing.vision_period_s),
             delay_frames: context.cell.config().timing.pipeline_delay_frames as u64,
             last: (0, 0),
             doing: (Verdict::Waiting, 0),
             moving: false,
-            features_taken_ns: None,
+            features: SealedStream::new(vservo_time::nanos(context.cell.config().timing.vision_period_s)),
             held_for_foreign: false,
         }
     }
@@ -170,7 +171,7 @@ impl Servo {
     fn unseen_s(&self, capture_stamp_ns: u64) -> f64 {
         let since_capture_ns = monotonic_ns().saturating_sub(capture_stamp_ns);
         let pipeline_ns = self.period_ns * self.delay_frames;
-        since_capture_ns.saturating_sub(pipeline_ns) as f64 * 1e-9
+        vservo_time::Nanos(since_capture_ns.saturating_sub(pipeline_ns)).seconds()
     }
 
     /// The twist message for a step of the stage on `message`'s frame.
@@ -248,42 +249,29 @@ pub fn run(context: &NodeContext) -> Result<(), RuntimeError> {
         let _ = ports.features_listener.timed_wait(|_| {}, IDLE_WAIT);
         let woke_at = monotonic_ns();
         servo.take_gains(&ports, context, counters);
-        while let Some((taken, sender)) = ports.features.next_sent() {
-            // features without the vision node's seal are not the vision node's: refused
+        while let Some(taken) = ports.features.next_sent() {
             let key = context.seal_key.as_ref();
-            let Some(message) = taken.ok().filter(|m| sealed_by(key, m)) else {
-                counters.rejected();
-                continue;
-            };
             // the mode first: it announces the vision node's process, whose features alone are taken
             let mode = ports.cell_mode.mode(key, counters);
             // the twist shaped to the share of the arm's limits the reference keeps now
             servo.stage.set_speed_scale(ports.cell_mode.speed_scale());
-            let origin = Origin {
-                announced: ports.cell_mode.writer(NodeRole::Vision),
-                carried: message.writer_pid,
-                sender,
-            };
             // sealed, the vision node's of its run now, and fresh: a recording of sealed features played again
             // (from the vision node's slot taken while it restarts) is not the vision node's now
-            let standing = freshness::stream_standing(
-                origin,
-                servo.features_taken_ns,
-                message.stamp_ns,
-                monotonic_ns(),
-                servo.period_ns,
-            );
-            if !standing.is_newer() {
-                counters.rejected();
-                // the stream taken: the arm held at once (a zero twist), before the daemon's safe stop
-                if standing == Standing::Foreign && !servo.held_for_foreign {
-                    servo.held_for_foreign = true;
-                    ports.send(servo.zero_twist(Verdict::SafeStop), key);
+            let announced = ports.cell_mode.writer(NodeRole::Vision);
+            let message = match servo.features.admit(taken, key, announced, monotonic_ns()) {
+                Ok(message) => message,
+                Err(not_taken) => {
+                    counters.rejected();
+                    // another process's features in the vision node's slot: the arm held at once (a zero
+                    // twist), before the daemon's safe stop
+                    if not_taken == NotTaken::Standing(Standing::Foreign) && !servo.held_for_foreign {
+                        servo.held_for_foreign = true;
+                        ports.send(servo.zero_twist(Verdict::SafeStop), key);
+                    }
+                    continue;
                 }
-                continue;
-            }
+            };
             servo.held_for_foreign = false;
-            servo.features_taken_ns = Some(message.stamp_ns);
             let step = servo.answer(&message, mode);
             // a mark outside the image is no measurement: taken as missing, the message counted refused
             if step.outside != 0 {

@@ -21,11 +21,11 @@ use vservo_vision::GrayImage;
 use vservo_vision::{Extraction, MarkStatus};
 
 use super::{IDLE_WAIT, NodeBase, go_realtime, latest, start};
-use crate::clock::monotonic_ns;
 use crate::joint_history::{JointHistory, NoJoints};
 use crate::telemetry::{Counters, CycleSample, LoopMonitor, Note};
 use crate::wire::{joints_from_wire, pose_from_wire, pose_to_wire, to_array};
 use crate::{NodeContext, RuntimeError};
+use vservo_time::monotonic_ns;
 
 /// How often, at the least, an external camera's vision node takes in the joint states heard: 32 driver
 /// periods (the joint_state queue holds 64 states), and at most this.
@@ -222,7 +222,7 @@ impl ExternalCamera {
         Self {
             image: GrayImage::new(config.camera.width_px(), config.camera.height_px()),
             joints: JointHistory::new(config.robot.period_s, 2.0 * config.timing.vision_period_s),
-            stale_after_ns: (config.timing.vision_period_s * 1e9).round() as u64,
+            stale_after_ns: vservo_time::nanos(config.timing.vision_period_s),
             said_unplaced: false,
             previous_capture_ns: 0,
         }

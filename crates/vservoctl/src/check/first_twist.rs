@@ -51,7 +51,7 @@ pub fn first_motion(observed: &Observed, cell: &Cell) -> Option<FirstMotion> {
     }));
     let twist = step.twist;
     let period_s = config.robot.period_s;
-    let period_ns = (period_s * 1e9).round() as u64;
+    let period_ns = vservo_time::nanos(period_s);
     let ticks = (config.timing.vision_period_s / period_s).round().max(1.0) as u64;
     let mut rmrc = cell.rmrc(&q_now);
     // the dynamics override in force (`vservoctl speed`), else the configuration's

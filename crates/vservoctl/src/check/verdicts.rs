@@ -134,7 +134,7 @@ pub fn held(observed: &Observed) -> Line {
 /// Joint states arrive at the declared period: the driver declares the configured period, and the median
 /// gap between consecutive ticks is within [`PERIOD_TOLERANCE`] of it.
 pub fn joint_states(observed: &Observed, config: &Config) -> Line {
-    let configured_ns = config.cell.robot.period_s * 1e9;
+    let configured_ns = vservo_time::nanos(config.cell.robot.period_s) as f64;
     let name = "joint_states";
     let Some(newest) = observed.newest_state() else {
         return Line::new(

@@ -318,7 +318,7 @@ impl Commander {
             translation_m: command.translation_m,
             radius_m: command.radius_m,
             rev_per_min: command.rev_per_min,
-            stamp_ns: vservo_runtime::clock::monotonic_ns(),
+            stamp_ns: vservo_time::monotonic_ns(),
             seal: 0,
         };
         self.seal_key.sign(&mut message);

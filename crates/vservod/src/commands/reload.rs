@@ -117,30 +117,13 @@ fn fixed_camera_keys(
 
 /// The keys that differ between the configuration in force and a new one.
 pub fn diff(old: &Config, new: &Config) -> ConfigDiff {
-    // every section is named here: a new one does not compile until it is sorted into live or restart-only
+    // every section is named here or in `cell_sections`: a new one does not compile until it is sorted into live
+    // or restart-only
     let Config {
         origin: _,
         instance,
-        cell:
-            CellConfig {
-                timing,
-                camera,
-                tool_from_camera,
-                fixed_camera,
-                camera_truth,
-                board,
-                desired,
-                controller,
-                vision,
-                plant,
-                interpolator,
-                joint_servo,
-                scenario,
-                robot,
-                arm,
-                reacquire,
-                collision,
-            },
+        // the cell's sections
+        cell: _,
         runtime,
         arm_urdf_file,
         faults,
@@ -152,54 +135,13 @@ pub fn diff(old: &Config, new: &Config) -> ConfigDiff {
         // read by `vservoctl calibrate`; a board printed on the simulated object is in `board`
         calibration: _,
     } = old;
-    let mut live = Vec::new();
-    let (o, n) = (&controller.options, &new.cell.controller.options);
-    let controller_keys = fields!("controller", controller, new.cell.controller; law, q, r);
-    let option_keys = fields!(
-        "controller", o, n;
-        interaction, border_margin_px, feedforward, pose_gain_per_s, pose_max_speed_m_s, pose_max_rotation_rad_s
-    );
-    section(
-        &mut live,
-        "controller",
-        controller != &new.cell.controller,
-        &[&controller_keys[..], &option_keys[..]].concat(),
-    );
-    let desired_keys = [("desired.joints_rad", desired.joints != new.cell.desired.joints)];
-    section(&mut live, "desired", desired != &new.cell.desired, &desired_keys);
     let mut restart = Vec::new();
     let r = &mut restart;
     section(r, "instance.name", instance != &new.instance, &[]);
-    let timing_keys =
-        fields!("timing", timing, new.cell.timing; vision_period_s, pipeline_delay_frames, control_period_s);
-    section(r, "timing", timing != &new.cell.timing, &timing_keys);
-    section(r, "camera", camera != &new.cell.camera, &[]);
-    section(r, "camera.tool_from_camera", tool_from_camera != &new.cell.tool_from_camera, &[]);
-    let fixed_keys = fixed_camera_keys(fixed_camera, &new.cell.fixed_camera);
-    section(r, "camera.mount", fixed_camera != &new.cell.fixed_camera, &fixed_keys);
-    section(r, "camera.truth", camera_truth != &new.cell.camera_truth, &[]);
-    section(r, "object", board != &new.cell.board, &[]);
-    section(
-        r,
-        "vision",
-        vision != &new.cell.vision,
-        &[("camera.source", vision.source != new.cell.vision.source)],
-    );
-    section(
-        r,
-        "plant",
-        plant != &new.cell.plant,
-        &fields!("plant", plant, new.cell.plant; mode, rk4_substeps),
-    );
-    section(r, "interpolator", interpolator != &new.cell.interpolator, &[]);
-    let servo_keys = fields!("joint_servo", joint_servo, new.cell.joint_servo; law, kp, kv);
-    section(r, "joint_servo", joint_servo != &new.cell.joint_servo, &servo_keys);
-    section(r, "scenario", scenario != &new.cell.scenario, &[]);
+    let live = cell_sections(&old.cell, &new.cell, r);
     section(r, "runtime", runtime != &new.runtime, &runtime_keys(runtime, &new.runtime));
-    let robot_keys =
-        fields!("robot", robot, new.cell.robot; driver, command, period_s, state_timeout_periods);
-    section(r, "robot", robot != &new.cell.robot, &robot_keys);
-    section(r, "robot.arm", arm != &new.cell.arm || arm_urdf_file != &new.arm_urdf_file, &[]);
+    let arm_changed = old.cell.arm != new.cell.arm || arm_urdf_file != &new.arm_urdf_file;
+    section(r, "robot.arm", arm_changed, &[]);
     // the times are durations in Config, named by their keys in the file
     let fault_keys = [
         ("faults.target_lost_s", faults.target_lost != new.faults.target_lost),
@@ -208,8 +150,6 @@ pub fn diff(old: &Config, new: &Config) -> ConfigDiff {
         ("faults.resume_after_s", faults.resume_after != new.faults.resume_after),
     ];
     section(r, "faults", faults != &new.faults, &fault_keys);
-    section(r, "reacquire", reacquire != &new.cell.reacquire, &[]);
-    section(r, "collision", collision != &new.cell.collision, &[]);
     section(
         r,
         "viewer",
@@ -221,6 +161,63 @@ pub fn diff(old: &Config, new: &Config) -> ConfigDiff {
     section(r, "ros2", ros2 != &new.ros2, &ros2_keys);
     section(r, "franka", franka != &new.franka, &[]);
     ConfigDiff { live, restart_only: restart }
+}
+
+/// The cell's sections that differ: the live ones returned, the restart-only ones added to `restart`.
+fn cell_sections(old: &CellConfig, new: &CellConfig, restart: &mut Vec<&'static str>) -> Vec<&'static str> {
+    let CellConfig {
+        timing,
+        camera,
+        tool_from_camera,
+        fixed_camera,
+        camera_truth,
+        board,
+        desired,
+        controller,
+        vision,
+        plant,
+        interpolator,
+        joint_servo,
+        scenario,
+        robot,
+        // with the URDF file it came from, in `diff`
+        arm: _,
+        reacquire,
+        collision,
+    } = old;
+    let mut live = Vec::new();
+    let (o, n) = (&controller.options, &new.controller.options);
+    let controller_keys = fields!("controller", controller, new.controller; law, q, r);
+    let option_keys = fields!(
+        "controller", o, n;
+        interaction, border_margin_px, feedforward, pose_gain_per_s, pose_max_speed_m_s, pose_max_rotation_rad_s
+    );
+    let changed_keys = [&controller_keys[..], &option_keys[..]].concat();
+    section(&mut live, "controller", controller != &new.controller, &changed_keys);
+    let desired_keys = [("desired.joints_rad", desired.joints != new.desired.joints)];
+    section(&mut live, "desired", desired != &new.desired, &desired_keys);
+    let r = restart;
+    let timing_keys =
+        fields!("timing", timing, new.timing; vision_period_s, pipeline_delay_frames, control_period_s);
+    section(r, "timing", timing != &new.timing, &timing_keys);
+    section(r, "camera", camera != &new.camera, &[]);
+    section(r, "camera.tool_from_camera", tool_from_camera != &new.tool_from_camera, &[]);
+    let fixed_keys = fixed_camera_keys(fixed_camera, &new.fixed_camera);
+    section(r, "camera.mount", fixed_camera != &new.fixed_camera, &fixed_keys);
+    section(r, "camera.truth", camera_truth != &new.camera_truth, &[]);
+    section(r, "object", board != &new.board, &[]);
+    let source_keys = [("camera.source", vision.source != new.vision.source)];
+    section(r, "vision", vision != &new.vision, &source_keys);
+    section(r, "plant", plant != &new.plant, &fields!("plant", plant, new.plant; mode, rk4_substeps));
+    section(r, "interpolator", interpolator != &new.interpolator, &[]);
+    let servo_keys = fields!("joint_servo", joint_servo, new.joint_servo; law, kp, kv);
+    section(r, "joint_servo", joint_servo != &new.joint_servo, &servo_keys);
+    section(r, "scenario", scenario != &new.scenario, &[]);
+    let robot_keys = fields!("robot", robot, new.robot; driver, command, period_s, state_timeout_periods);
+    section(r, "robot", robot != &new.robot, &robot_keys);
+    section(r, "reacquire", reacquire != &new.reacquire, &[]);
+    section(r, "collision", collision != &new.collision, &[]);
+    live
 }
 
 /// The `[runtime]` keys, each compared.

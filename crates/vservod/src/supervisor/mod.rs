@@ -31,11 +31,12 @@ use vservo_client::StatusView;
 use vservo_config::Config;
 use vservo_protocol::stop_path::SafeStopReader;
 use vservo_protocol::{InstanceClaim, NodeRole, NodeState, RobotState};
-use vservo_runtime::clock::{PeriodicTimer, monotonic_ns};
+use vservo_runtime::clock::PeriodicTimer;
+use vservo_time::monotonic_ns;
 
 use crate::commands::{Commander, LoopState};
 use crate::faults::Conditions;
-use crate::helpers::{Helper, Launch};
+use crate::helpers::{Helper, Launch, Stops, start_helpers};
 use crate::safety::Safety;
 use crate::stop_path::Bursts;
 use crate::systemd::Systemd;
@@ -127,11 +128,8 @@ struct Daemon {
     safety: Safety,
     commander: Commander,
     systemd: Systemd,
-    viewer: Helper,
-    ros2_bridge: Helper,
-    ros2_driver: Helper,
-    franka_driver: Helper,
-    gst_camera: Helper,
+    /// The helper processes the configuration asks for (`crate::helpers::HELPERS`).
+    helpers: Vec<Helper>,
     nodes: Vec<Supervised>,
     /// Who holds each stream's writer slot.
     streams: StreamWatch,
@@ -216,11 +214,7 @@ impl Daemon {
             runtime_base: claim.base(),
             seal_key: &launcher.seal_key,
         };
-        let viewer = Helper::viewer(&config.viewer, &launch);
-        let ros2_bridge = Helper::ros2_bridge(&config.ros2, &launch);
-        let ros2_driver = Helper::ros2_driver(&config, &launch);
-        let franka_driver = Helper::franka_driver(&config, &launch);
-        let gst_camera = Helper::gst_camera(&config, &launch);
+        let helpers = start_helpers(&config, &launch);
         let now = Instant::now();
         Ok(Some(Self {
             settings,
@@ -233,11 +227,7 @@ impl Daemon {
             safety,
             commander,
             systemd: Systemd::new(),
-            viewer,
-            ros2_bridge,
-            ros2_driver,
-            franka_driver,
-            gst_camera,
+            helpers,
             nodes,
             streams,
             heard: LoopHeard::default(),
@@ -266,11 +256,7 @@ impl Daemon {
     /// One supervisor cycle.
     fn cycle(&mut self, reload_requested: bool) {
         let now = Instant::now();
-        self.viewer.poll();
-        self.ros2_bridge.poll();
-        self.ros2_driver.poll();
-        self.franka_driver.poll();
-        self.gst_camera.poll();
+        self.helpers.iter_mut().for_each(Helper::poll);
         if reload_requested {
             self.reload();
         }
@@ -503,10 +489,14 @@ impl Daemon {
         }
     }
 
+    /// Stops the helpers that stop `when`.
+    fn stop_helpers(&mut self, when: Stops) {
+        self.helpers.iter_mut().filter(|helper| helper.stops() == when).for_each(Helper::stop);
+    }
+
     /// Stops the helpers and the nodes in order, the arm brought to rest first.
     fn stop(mut self) {
-        self.viewer.stop();
-        self.ros2_bridge.stop();
+        self.stop_helpers(Stops::First);
         self.systemd.stopping();
         tracing::info!("stopping: zero twist, ramping the arm to rest");
         shutdown::stop_safely(
@@ -517,9 +507,7 @@ impl Daemon {
             self.safety.monitor(),
         );
         // the arm's drivers last: they carry the ramp to rest to the arm, then command rest as they end
-        self.ros2_driver.stop();
-        self.franka_driver.stop();
-        self.gst_camera.stop();
+        self.stop_helpers(Stops::Last);
         let cleaned = vservo_protocol::cleanup_dead_nodes(&self.node);
         if cleaned > 0 {
             tracing::info!(cleaned, "removed the leftovers of nodes that did not stop cleanly");

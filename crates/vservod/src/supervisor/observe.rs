@@ -12,7 +12,7 @@ use vservo_protocol::{
     CameraTwistMsg, DaemonStatusMsg, FeaturesMsg, JointCommandMsg, JointStateMsg, NodeRole, Refused,
     RobotState, TakeMessages, TelemetryMsg, Topic,
 };
-use vservo_runtime::clock::monotonic_ns;
+use vservo_time::monotonic_ns;
 
 use super::launch::Supervised;
 use super::node::NodeRecord;
