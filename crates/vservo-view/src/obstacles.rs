@@ -80,6 +80,13 @@ impl GuardedScene {
         }
     }
 
+    /// How near each obstacle is, then the workspace (if there is one): what the colours of an update are.
+    pub fn nearnesses(&self, nearest: Option<Nearest<'_>>) -> Vec<Nearness> {
+        let obstacles = self.obstacles.iter().map(|obstacle| self.nearness(&obstacle.name, nearest));
+        let workspace = self.workspace.map(|_| self.nearness(WORKSPACE_NAME, nearest));
+        obstacles.chain(workspace).collect()
+    }
+
     /// The scene as one update: an entity per obstacle (`obstacle/<name>`, its solids and its name) and the
     /// workspace's edges (`workspace`), each replacing the one of the same id drawn before.
     pub fn update(&self, nearest: Option<Nearest<'_>>, stamp_ns: u64) -> SceneUpdate {
@@ -243,7 +250,10 @@ mod tests {
         // the other obstacle stays grey; a name is matched whole ("table" is not "tablet")
         assert_eq!(color(Some(Nearest { between: "camera – table", distance_m: 0.02 }), 1).r, 0.62);
         assert_eq!(color(Some(Nearest { between: "camera – tablet", distance_m: 0.02 }), 0).r, 0.62);
-        let workspace = scene.update(Some(Nearest { between: "camera – workspace", distance_m: 0.05 }), 0);
+        let near_the_floor = Some(Nearest { between: "camera – workspace", distance_m: 0.05 });
+        let workspace = scene.update(near_the_floor, 0);
         assert_eq!(workspace.entities[2].lines[0].color.expect("color").r, 1.0);
+        // what the colours are, the workspace's included (it has no name drawn)
+        assert_eq!(scene.nearnesses(near_the_floor), [Nearness::Clear, Nearness::Clear, Nearness::Slowing]);
     }
 }

@@ -50,8 +50,8 @@ pub struct Bridge<S: Sink> {
     drawing: Option<CellDrawing>,
     last_transforms_ns: u64,
     last_state_stamp_ns: u64,
-    /// When the obstacles were last written (status stamp, ns) and the nearest pair they were coloured by.
-    last_obstacles: Option<(u64, String)>,
+    /// When the obstacles were last written (status stamp, ns) and how near each was then.
+    last_obstacles: Option<(u64, Vec<vservo_view::obstacles::Nearness>)>,
     image_every: u64,
 }
 
@@ -225,11 +225,8 @@ impl Viewed for DaemonStatusMsg {
             .clearance_m
             .is_finite()
             .then_some(Nearest { between: &between, distance_m: self.clearance_m });
-        let colours = scene.update(nearest, self.stamp_ns);
-        let key = format!(
-            "{between} {:?}",
-            colours.entities.iter().map(|e| e.texts.first().map(|t| t.color)).collect::<Vec<_>>()
-        );
+        // the workspace's colour too (it has no name drawn)
+        let key = scene.nearnesses(nearest);
         let due = match &bridge.last_obstacles {
             Some((at_ns, last_key)) => {
                 *last_key != key || self.stamp_ns.saturating_sub(*at_ns) >= OBSTACLES_EVERY_NS
@@ -240,7 +237,8 @@ impl Viewed for DaemonStatusMsg {
             return Ok(());
         }
         bridge.last_obstacles = Some((self.stamp_ns, key));
-        bridge.write_foxglove(OBSTACLES_TOPIC, &colours, self.stamp_ns)
+        let update = scene.update(nearest, self.stamp_ns);
+        bridge.write_foxglove(OBSTACLES_TOPIC, &update, self.stamp_ns)
     }
 }
 
